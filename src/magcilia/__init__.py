@@ -1,0 +1,39 @@
+"""magcilia: magnetic cilia force and flow sensors.
+
+Field models (the paper's distributed dipoles and an exact reference), the AMR sensor, calibration,
+sensitivity analysis, firmware approximations, large-deflection bending and read-out. SI units in
+the whole API (m, rad, T, V, A/m, A·m², N, Pa).
+"""
+
+from __future__ import annotations
+
+from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia.centreline import Centreline
+from magcilia.config import load_setup, save_setup
+from magcilia.geometry import Cilium
+from magcilia.material import Material
+from magcilia.reference import exact_field
+from magcilia.sensor import Sensor
+from magcilia.setup import Setup
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Centreline",
+    "Cilium",
+    "MagciliaError",
+    "Material",
+    "MissingDependencyError",
+    "Sensor",
+    "Setup",
+    "__version__",
+    "exact_field",
+    "load_setup",
+    "save_setup",
+]
+
+# --- issue 3: calibration (helper-owned block) ---
+
+# --- issue 4: sensitivity and approximations (helper-owned block) ---
+
+# --- issue 5: mechanics and read-out (helper-owned block) ---

@@ -1,0 +1,104 @@
+"""The thin checking layer: turn user input into clean arrays or raise one-line errors.
+
+The physics kernels do no checking; the public functions call these helpers first.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia._errors import MagciliaError
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def fail(name: str, value: object, allowed: str) -> MagciliaError:
+    """The package's single error template: ``NAME must be ALLOWED; got VALUE``."""
+    return MagciliaError(f"{name} must be {allowed}; got {_fmt(value)}")
+
+
+def real(name: str, value: object, unit: str = "") -> float:
+    """A finite real number (``unit`` is only used in the message)."""
+    what = f"a finite number in {unit}" if unit else "a finite number"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise fail(name, value, what)
+    out = float(value)
+    if not math.isfinite(out):
+        raise fail(name, value, what)
+    return out
+
+
+def positive(name: str, value: object, unit: str = "m", what: str = "length") -> float:
+    """A finite number > 0."""
+    allowed = f"a positive {what} in {unit}" if unit else f"a positive {what}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise fail(name, value, allowed)
+    out = float(value)
+    if not (math.isfinite(out) and out > 0.0):
+        raise fail(name, value, allowed)
+    return out
+
+
+def non_negative(name: str, value: object, unit: str = "m", what: str = "length") -> float:
+    """A finite number >= 0."""
+    allowed = f"a non-negative {what} in {unit}" if unit else f"a non-negative {what}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise fail(name, value, allowed)
+    out = float(value)
+    if not (math.isfinite(out) and out >= 0.0):
+        raise fail(name, value, allowed)
+    return out
+
+
+def integer(name: str, value: object, minimum: int = 1) -> int:
+    """An integer >= ``minimum`` (floats with an integral value, like 3.0, are accepted)."""
+    allowed = f"an integer >= {minimum}"
+    if isinstance(value, bool):
+        raise fail(name, value, allowed)
+    if isinstance(value, numbers.Integral):
+        out = int(value)
+    elif isinstance(value, numbers.Real) and math.isfinite(float(value)) and float(value).is_integer():
+        out = int(value)
+    else:
+        raise fail(name, value, allowed)
+    if out < minimum:
+        raise fail(name, value, allowed)
+    return out
+
+
+def finite_array(name: str, value: ArrayLike, ndim: int | None = None, unit: str = "") -> NDArray[np.float64]:
+    """A float64 array with only finite entries (and, if given, exactly ``ndim`` dimensions)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, f"numeric{' in ' + unit if unit else ''}") from None
+    if ndim is not None and arr.ndim != ndim:
+        raise fail(name, f"an array of shape {arr.shape}", f"an array with {ndim} dimension(s)")
+    if not np.all(np.isfinite(arr)):
+        bad = arr[~np.isfinite(arr)].ravel()[0]
+        raise fail(name, f"an array containing {bad}", "finite (no NaN or inf)")
+    return arr
+
+
+def vector3(name: str, value: Sequence[float] | ArrayLike, unit: str = "m") -> NDArray[np.float64]:
+    """A finite 3-vector."""
+    arr = finite_array(name, value, unit=unit)
+    if arr.shape != (3,):
+        raise fail(name, f"an array of shape {arr.shape}", f"three numbers (x, y, z) in {unit}")
+    return arr
+
+
+def choice(name: str, value: object, options: Sequence[str]) -> str:
+    """One of a fixed set of strings."""
+    if value not in options:
+        raise fail(name, value, "one of " + ", ".join(repr(o) for o in options))
+    return str(value)

@@ -1,0 +1,65 @@
+"""The ``magcilia`` command line: a thin layer over the library (parse, load, call, write)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+import click
+
+from magcilia import __version__
+from magcilia._errors import MagciliaError, MissingDependencyError
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="magcilia")
+def cli() -> None:
+    """Magnetic cilia force and flow sensors: field, calibration, sensitivity, bending, read-out.
+
+    Lengths in mm, angles in degrees and fields in gauss on the command line; setup files carry
+    their units ("3.0 mm"). Run `magcilia COMMAND --help` for each command.
+    """
+
+
+# one line per subcommand module: (module name under magcilia.cli, command name)
+_COMMANDS: tuple[tuple[str, str], ...] = (
+)
+
+
+def _register() -> None:
+    import importlib
+
+    for module_name, command_name in _COMMANDS:
+        module = importlib.import_module(f"magcilia.cli.{module_name}")
+        cli.add_command(getattr(module, "command"), name=command_name)
+
+
+_register()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI in-process and return the exit code (0 ok, 1 usage, 2 error)."""
+    try:
+        cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
+                 standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return int(exc.exit_code)
+    except click.exceptions.Abort:
+        click.echo("magcilia: aborted", err=True)
+        return 1
+    except click.ClickException as exc:
+        exc.show()
+        return 1 if isinstance(exc, click.UsageError) else 2
+    except (MagciliaError, MissingDependencyError) as exc:
+        click.echo(f"magcilia: error: {exc}", err=True)
+        return 2
+    except OSError as exc:
+        name = f" {exc.filename}" if exc.filename else ""
+        click.echo(f"magcilia: error: cannot access{name}: {exc.strerror or exc}", err=True)
+        return 2
+    return 0
+
+
+def run() -> None:
+    """Console-script entry point."""
+    sys.exit(main())
