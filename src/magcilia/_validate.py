@@ -66,8 +66,8 @@ def integer(name: str, value: object, minimum: int = 1) -> int:
         raise fail(name, value, allowed)
     if isinstance(value, numbers.Integral):
         out = int(value)
-    elif isinstance(value, numbers.Real) and math.isfinite(float(value)) and float(value).is_integer():
-        out = int(value)
+    elif isinstance(value, numbers.Real) and float(value).is_integer():
+        out = int(float(value))
     else:
         raise fail(name, value, allowed)
     if out < minimum:

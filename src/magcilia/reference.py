@@ -68,12 +68,8 @@ def exact_field(
     dims = np.broadcast_to(
         np.stack([2.0 * r_eq, np.full(n, c.height / n)], axis=-1)[None, :, None, :], (a, n, o, 2)
     ).reshape(-1, 2)
-    rot = Rotation.from_rotvec(
-        np.broadcast_to(
-            np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)[:, :, None],
-            (a, n, o, 3),
-        ).reshape(-1, 3)
-    )
+    rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
+    rot = Rotation.from_rotvec(np.repeat(rotvec.reshape(-1, 3), o, axis=0))
     b = magpy.func.cylinder_field(
         field="B", observers=obs, dimensions=dims, polarizations=(0.0, 0.0, j),
         positions=pos, orientations=rot, squeeze=False,

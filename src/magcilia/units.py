@@ -97,7 +97,7 @@ def parse_range(text: str, key: str, unit: str = "deg") -> tuple[float, float, f
         raise fail(key, text, allowed) from None
     if len(nums) not in (2, 3) or not all(math.isfinite(v) for v in nums):
         raise fail(key, text, allowed)
-    factor = UNITS["angle"][unit] if unit in UNITS["angle"] else 1.0
+    factor = UNITS["angle"].get(unit, 1.0)
     start, stop = nums[0] * factor, nums[1] * factor
     step = nums[2] * factor if len(nums) == 3 else None
     if step is not None and step <= 0:

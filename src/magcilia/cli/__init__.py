@@ -23,6 +23,7 @@ def cli() -> None:
 
 # one line per subcommand module: (module name under magcilia.cli, command name)
 _COMMANDS: tuple[tuple[str, str], ...] = (
+    ("field", "field"),
 )
 
 
@@ -31,7 +32,7 @@ def _register() -> None:
 
     for module_name, command_name in _COMMANDS:
         module = importlib.import_module(f"magcilia.cli.{module_name}")
-        cli.add_command(getattr(module, "command"), name=command_name)
+        cli.add_command(module.command, name=command_name)
 
 
 _register()

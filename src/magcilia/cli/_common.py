@@ -1,0 +1,72 @@
+"""Shared helpers of the CLI subcommands: loading setups, unit options, output files."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia._atomic import atomic_path, write_text
+from magcilia.config import load_setup
+from magcilia.setup import Setup
+from magcilia.units import parse_range
+
+#: built-in setups usable wherever a SETUP file is expected
+PRESETS = {"paper": Setup.paper, "paper-initial": Setup.paper_initial}
+
+
+def load_setup_arg(value: str) -> Setup:
+    """A SETUP argument: a TOML file path or a built-in preset name (paper, paper-initial)."""
+    if value in PRESETS and not Path(value).exists():
+        return PRESETS[value]()
+    return load_setup(value)
+
+
+def setup_label(value: str) -> str:
+    """Short label for a SETUP argument (file stem or preset name)."""
+    return value if value in PRESETS else Path(value).stem
+
+
+def angle_grid(text: str, key: str = "--angles") -> NDArray[np.float64]:
+    """Angles in rad from ``start:stop[:step]`` in degrees (stop included when on the grid)."""
+    start, stop, step = parse_range(text, key, "deg")
+    if step is None:
+        step = math.radians(1.0)
+    n = math.floor((stop - start) / step + 1e-9) + 1
+    return np.asarray(start + step * np.arange(n), dtype=np.float64)
+
+
+def write_json(path: str | Path, data: Any) -> None:
+    """Write JSON atomically (NaN becomes null)."""
+    write_text(path, json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
+
+
+def echo_json(data: Any) -> None:
+    """Print JSON to stdout."""
+    click.echo(json.dumps(_jsonable(data), indent=2, allow_nan=False))
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def save_figure(fig: Any, path: str | Path, dpi: int = 150) -> None:
+    """Save a matplotlib figure atomically (format from the suffix)."""
+    suffix = Path(path).suffix.lstrip(".") or "png"
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=suffix)
