@@ -18,8 +18,9 @@ from magcilia.constants import MU0_OVER_4PI
 
 F64 = NDArray[np.float64]
 
-#: target number of dipole·observer pairs per chunk (keeps ~10 work arrays in L2 cache)
-CHUNK_PAIRS = 4096
+#: dipole·observer pairs per block (the block's work arrays stay in L2 cache while Python
+#: call overhead stays small)
+CHUNK_PAIRS = 16384
 
 
 def dipole_field(observers: F64, positions: F64, moments: F64) -> F64:
@@ -41,57 +42,51 @@ def dipole_field(observers: F64, positions: F64, moments: F64) -> F64:
 
     Notes
     -----
-    Component-wise arithmetic on cache-sized blocks of observers, with in-place ufuncs and the
-    moment sums done as matrix–vector products. Single-threaded apart from BLAS.
+    Coordinates are first centred on the dipoles' mean position. Per block of observers, |r|²
+    is formed component-wise, while m·r = o·m − p·m and Σ_d q r = o Σ_d q − q P are matrix
+    products (BLAS). The split products cost a relative error of about 3 ε (1 + R/|r|), with R
+    the radius of the dipole cloud: ~1e-15 in ordinary use, 5e-13 one micrometre from a dipole of
+    a millimetre-sized cloud.
     """
-    observers = np.ascontiguousarray(observers, dtype=np.float64)
-    n_obs = observers.shape[0]
-    n_dip = positions.shape[0]
-    out = np.empty((n_obs, 3))
-    if n_obs == 0:
+    centre = positions.mean(axis=0) if positions.shape[0] else np.zeros(3)
+    pos = np.ascontiguousarray(positions - centre, dtype=np.float64)
+    obs_all = np.ascontiguousarray(observers - centre, dtype=np.float64)
+    mom = np.ascontiguousarray(moments, dtype=np.float64)
+    n_obs, n_dip = obs_all.shape[0], pos.shape[0]
+    out = np.zeros((n_obs, 3))
+    if n_obs == 0 or n_dip == 0:
         return out
-    if n_dip == 0:
-        out.fill(0.0)
-        return out
-    px, py, pz = (np.ascontiguousarray(positions[:, i]) for i in range(3))
-    mx, my, mz = (np.ascontiguousarray(moments[:, i]) for i in range(3))
-    m_mat = np.ascontiguousarray(moments)  # (d, 3)
+    px, py, pz = (np.ascontiguousarray(pos[:, i]) for i in range(3))
+    mom_t = np.ascontiguousarray(mom.T)
+    p_dot_m = np.einsum("di,di->d", pos, mom)
     block = max(1, CHUNK_PAIRS // n_dip)
     shape = (min(block, n_obs), n_dip)
-    rx, ry, rz = np.empty(shape), np.empty(shape), np.empty(shape)
-    r2, ir3, q, tmp = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
+    work = [np.empty(shape) for _ in range(4)]
     for start in range(0, n_obs, block):
         stop = min(start + block, n_obs)
         c = stop - start
-        bx, by, bz = rx[:c], ry[:c], rz[:c]
-        b_r2, b_ir3, b_q, b_tmp = r2[:c], ir3[:c], q[:c], tmp[:c]
-        obs = observers[start:stop]
-        np.subtract(obs[:, 0:1], px, out=bx)
-        np.subtract(obs[:, 1:2], py, out=by)
-        np.subtract(obs[:, 2:3], pz, out=bz)
-        np.multiply(bx, bx, out=b_r2)
-        np.multiply(by, by, out=b_tmp)
-        b_r2 += b_tmp
-        np.multiply(bz, bz, out=b_tmp)
-        b_r2 += b_tmp
-        # ir3 = r^-3, q = 3 (m.r) r^-5
-        np.sqrt(b_r2, out=b_tmp)
-        b_tmp *= b_r2
-        np.divide(1.0, b_tmp, out=b_ir3)
-        np.multiply(bx, mx, out=b_q)
-        np.multiply(by, my, out=b_tmp)
-        b_q += b_tmp
-        np.multiply(bz, mz, out=b_tmp)
-        b_q += b_tmp
-        b_q *= b_ir3
-        np.divide(b_q, b_r2, out=b_q)
+        comp, ir2, ir3, q = (w[:c] for w in work)
+        obs = obs_all[start:stop]
+        np.subtract(obs[:, 0:1], px, out=comp)
+        np.multiply(comp, comp, out=ir2)
+        np.subtract(obs[:, 1:2], py, out=comp)
+        np.multiply(comp, comp, out=q)
+        ir2 += q
+        np.subtract(obs[:, 2:3], pz, out=comp)
+        np.multiply(comp, comp, out=q)
+        ir2 += q
+        np.reciprocal(ir2, out=ir2)  # 1/r²
+        np.sqrt(ir2, out=ir3)
+        ir3 *= ir2  # 1/r³
+        np.matmul(obs, mom_t, out=q)
+        q -= p_dot_m  # m·r
+        q *= ir3
+        q *= ir2  # (m·r)/r⁵
         res = out[start:stop]
-        # sum_d q r - sum_d ir3 m  (the factor 3 applied once at the end)
-        res[:, 0] = np.einsum("ij,ij->i", b_q, bx)
-        res[:, 1] = np.einsum("ij,ij->i", b_q, by)
-        res[:, 2] = np.einsum("ij,ij->i", b_q, bz)
+        np.multiply(obs, q.sum(axis=1)[:, None], out=res)
+        res -= q @ pos  # Σ q r
         res *= 3.0
-        res -= b_ir3 @ m_mat
+        res -= ir3 @ mom  # Σ m / r³
     out *= MU0_OVER_4PI
     return out
 
