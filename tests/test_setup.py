@@ -79,6 +79,19 @@ def test_tilt_path_equals_centreline_path() -> None:
                                rtol=1e-11, atol=1e-18)
 
 
+def test_field_map_on_many_points_matches_the_element_field() -> None:
+    # a grid large enough to take the blocked-kernel path; its first point is the element
+    s = mc.Setup.paper(n_loops=8, dipoles_per_loop=4)
+    grid = np.stack(np.meshgrid(np.linspace(-1e-3, 1e-3, 20), np.linspace(-1e-3, 1e-3, 20),
+                                [0.0], indexing="ij"), axis=-1).reshape(-1, 3)
+    grid = np.vstack([[0.0, 0.0, 0.0], grid])
+    b = s.field_at(grid, ANGLES[:3])
+    assert b.shape == (3, grid.shape[0], 3)
+    np.testing.assert_allclose(b[:, 0, :], s.field(ANGLES[:3]), rtol=1e-12)
+    small = s.field_at(grid[:5], ANGLES[:3])
+    np.testing.assert_allclose(b[:, :5, :], small, rtol=1e-12)
+
+
 def test_batch_evaluation_matches_setups() -> None:
     base = mc.Setup.paper()
     params = {"height": np.array([3e-3, 3.3e-3, 2.5e-3]), "base_radius": np.array([2e-4, 1.5e-4, 3e-4]),

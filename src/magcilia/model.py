@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from magcilia._kernels import dipole_field_batch, tilt_field
+from magcilia._kernels import dipole_field, dipole_field_batch, tilt_field
 
 if TYPE_CHECKING:
     from magcilia.centreline import Centreline
@@ -136,10 +136,21 @@ def pose_dipoles(
     return pos.reshape(a, n * k, 3), mom.reshape(a, n * k, 3)
 
 
-def pose_field(observers: F64, positions: F64, moments: F64, chunk: int = 256) -> F64:
-    """B (T), shape (a, o, 3), of ``a`` dipole sets (a, d, 3) at observers (o, 3), chunked over a."""
-    out = np.empty((positions.shape[0], observers.shape[0], 3))
-    for start in range(0, positions.shape[0], chunk):
+def pose_field(observers: F64, positions: F64, moments: F64) -> F64:
+    """B (T), shape (a, o, 3), of ``a`` dipole sets (a, d, 3) at observers (o, 3).
+
+    Few observers (read-out at the element): vectorised over poses in chunks. Many observers
+    (field maps): the blocked kernel :func:`~magcilia._kernels.dipole_field`, pose by pose.
+    """
+    n_pose, n_dip = positions.shape[:2]
+    n_obs = observers.shape[0]
+    out = np.empty((n_pose, n_obs, 3))
+    if n_obs * n_dip > 4096:
+        for i in range(n_pose):
+            out[i] = dipole_field(observers, positions[i], moments[i])
+        return out
+    chunk = max(1, 65536 // max(1, n_obs * n_dip))
+    for start in range(0, n_pose, chunk):
         stop = start + chunk
         out[start:stop] = dipole_field_batch(observers, positions[start:stop], moments[start:stop])
     return out
