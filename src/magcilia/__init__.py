@@ -32,7 +32,11 @@ __all__ = [
     "save_setup",
 ]
 
-# --- issue 3: calibration (helper-owned block) ---
+# --- issue 3: calibration ---
+from magcilia.calibration import CalibrationResult, calibrate  # noqa: E402
+from magcilia.measurements import Measurement, read_measurements  # noqa: E402
+
+__all__ += ["CalibrationResult", "Measurement", "calibrate", "read_measurements"]
 
 # --- issue 4: sensitivity and approximations (helper-owned block) ---
 

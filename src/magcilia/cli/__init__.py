@@ -24,6 +24,8 @@ def cli() -> None:
 # one line per subcommand module: (module name under magcilia.cli, command name)
 _COMMANDS: tuple[tuple[str, str], ...] = (
     ("field", "field"),
+    ("calibrate", "calibrate"),
+    ("demo", "demo"),
 )
 
 

@@ -1,0 +1,115 @@
+"""``magcilia calibrate``: fit the model to a recording and write setup, result and report."""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import sys
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import click
+from tqdm import tqdm
+
+from magcilia._validate import fail
+from magcilia.calibration import DEFAULT_BOUNDS, INTEGER, CalibrationResult, calibrate
+from magcilia.calibration_report import write_report
+from magcilia.cli._common import echo_json, load_setup_arg, write_json
+from magcilia.config import save_setup
+from magcilia.measurements import Measurement, read_measurements
+from magcilia.setup import Setup
+
+
+def parse_bounds(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """``name=lo:hi`` items (lengths in mm; n_loops and dipoles_per_loop plain) → SI bounds."""
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        name = name.strip()
+        if name not in DEFAULT_BOUNDS:
+            raise fail("--bound", item, "NAME=LOW:HIGH with NAME one of " + ", ".join(DEFAULT_BOUNDS))
+        try:
+            lo, hi = (float(x) for x in rng.split(":"))
+        except ValueError:
+            raise fail("--bound", item, "NAME=LOW:HIGH, e.g. height=2:4 (mm)") from None
+        factor = 1.0 if name in INTEGER else 1e-3
+        out[name] = (lo * factor, hi * factor)
+    return out
+
+
+@contextlib.contextmanager
+def staged_directory(out: Path) -> Iterator[Path]:
+    """A temporary directory beside ``out``; its files move into ``out`` only on success."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists() and not out.is_dir():
+            raise fail("--out", str(out), "a directory (a file of that name exists)")
+        out.mkdir(exist_ok=True)
+        for item in tmp.iterdir():
+            item.replace(out / item.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, restarts: int,
+                    bias: str, bias_degree: int, fit_scale: bool,
+                    bounds: dict[str, tuple[float, float]], quiet: bool) -> CalibrationResult:
+    """Calibrate with a progress bar and write fitted setup, result JSON and report into ``out``."""
+    show = not quiet and sys.stderr.isatty()
+    with tqdm(total=restarts, desc="calibrating (restarts)", unit="run", disable=not show,
+              file=sys.stderr) as bar:
+        result = calibrate(data, initial=initial, bounds=bounds, rng=seed, bias=bias,
+                           bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts,
+                           progress=lambda done, total: bar.update(done - bar.n))
+    with staged_directory(out) as tmp:
+        save_setup(result.setup, tmp / "fitted_setup.toml")
+        write_json(tmp / "result.json", result.to_dict())
+        write_report(result, tmp)
+    return result
+
+
+@click.command()
+@click.argument("data", type=click.Path(dir_okay=False))
+@click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
+              help="Initial setup: a TOML file or a preset (paper, paper-initial).")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+              help="Output directory (fitted_setup.toml, result.json, report.md, figures).")
+@click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
+              help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
+                   "repeatable. Defaults: height 2:4, base_radius 0.1:0.4, x -3:3, y -3:3, z 0:1, "
+                   "n_loops 1:10, dipoles_per_loop 1:10.")
+@click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
+@click.option("--restarts", default=3, show_default=True, help="Independent global searches.")
+@click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
+              show_default=True, help="DC bias model, fitted jointly.")
+@click.option("--bias-degree", default=0, show_default=True,
+              help="Degree of the polynomial bias in the angle (with --bias polynomial).")
+@click.option("--fit-scale", is_flag=True, help="Also fit the magnetization scale.")
+@click.option("--nan-policy", type=click.Choice(["raise", "omit"]), default="raise",
+              show_default=True, help="NaN/inf samples: error or drop.")
+@click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]), default="raise",
+              show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
+            restarts: int, bias: str, bias_degree: int, fit_scale: bool, nan_policy: str,
+            saturation: str, as_json: bool, quiet: bool) -> None:
+    """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
+
+    Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
+    and residuals.png into --out; nothing is written if anything fails.
+    """
+    initial = load_setup_arg(setup_arg)
+    measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
+                                    saturation=saturation)
+    result = run_calibration(measurement, initial, Path(out_dir), seed=seed, restarts=restarts,
+                             bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
+                             bounds=parse_bounds(bound_items), quiet=quiet)
+    if as_json:
+        echo_json(result.to_dict())
+    else:
+        click.echo(result.report())
+        click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, residuals.png")
