@@ -33,8 +33,8 @@ __all__ = [
 ]
 
 # --- issue 3: calibration ---
-from magcilia.calibration import CalibrationResult, calibrate  # noqa: E402
-from magcilia.measurements import Measurement, read_measurements  # noqa: E402
+from magcilia.calibration import CalibrationResult, calibrate
+from magcilia.measurements import Measurement, read_measurements
 
 __all__ += ["CalibrationResult", "Measurement", "calibrate", "read_measurements"]
 

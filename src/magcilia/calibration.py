@@ -26,11 +26,11 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import differential_evolution, least_squares
+from scipy.optimize import Bounds, differential_evolution, least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
@@ -238,7 +238,8 @@ def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
     init = initial.params()
     for name in PARAMETERS:
         lo, hi = merged[name]
-        if not lo <= init[name] <= hi:
+        tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)  # unit conversions (mm -> m) round off
+        if not lo - tol <= init[name] <= hi + tol:
             raise v.fail(f"initial {name}", init[name],
                          f"inside its bounds [{lo:.6g}, {hi:.6g}] (move the initial value or widen the bounds)")
     return merged
@@ -309,30 +310,41 @@ def calibrate(
     lower = np.array([box[n][0] for n in PARAMETERS])
     upper = np.array([box[n][1] for n in PARAMETERS])
     integrality = np.array([n in INTEGER for n in PARAMETERS])
-    fixed = lower == upper
+    free = lower < upper  # fixed parameters (low == high) are left out of the search
+    x_init = np.clip([initial.params()[n] for n in PARAMETERS], lower, upper)
+
+    def full(x_free: F64) -> F64:
+        """Complete parameter columns (7, S) from the free ones (f, S)."""
+        x2 = np.repeat(x_init[:, None], x_free.shape[1], axis=1)
+        x2[free] = x_free
+        return x2
 
     def objective(x: F64) -> F64:
-        # vectorized: x has shape (7, S), one column per population member
-        x2 = x.reshape(len(PARAMETERS), -1)
+        # vectorized: x has shape (f, S), one column per population member
+        x2 = full(x.reshape(int(free.sum()), -1))
         return problem.cost({name: x2[i] for i, name in enumerate(PARAMETERS)})
 
     seeds = np.random.default_rng(rng).integers(0, 2**32 - 1, size=restarts)
     candidates: list[tuple[float, F64]] = []
     restart_costs = []
     for i, seed in enumerate(seeds):
-        x0 = np.array([initial.params()[n] for n in PARAMETERS])
-        res = differential_evolution(
-            objective, bounds=list(zip(lower, upper + fixed * 1e-12, strict=True)),
-            integrality=integrality, vectorized=True, updating="deferred", seed=int(seed),
-            maxiter=maxiter, popsize=popsize, tol=tol, polish=False, init="sobol",
-            x0=x0 if i == 0 else None, mutation=(0.5, 1.0), recombination=0.7,
-        )
-        best = _polish(problem, res.x, lower, upper, integrality)
+        if free.any():
+            res = differential_evolution(
+                cast(Any, objective), bounds=Bounds(lower[free], upper[free]),
+                integrality=integrality[free], vectorized=True, updating="deferred",
+                seed=int(seed), maxiter=maxiter, popsize=popsize, tol=tol, polish=False,
+                init="sobol", x0=x_init[free] if i == 0 else None, mutation=(0.5, 1.0),
+                recombination=0.7,
+            )
+            x_start = full(np.asarray(res.x)[:, None])[:, 0]
+        else:
+            x_start = x_init
+        best = _polish(problem, x_start, lower, upper, integrality)
         candidates.append(best)
         restart_costs.append(best[0])
         if progress is not None:
             progress(i + 1, restarts)
-    cost, x_best = min(candidates, key=lambda c: c[0])
+    _, x_best = min(candidates, key=lambda c: c[0])
     return _result(problem, initial, data, box, x_best, bias, t0, tuple(restart_costs))
 
 
@@ -366,13 +378,13 @@ def _result(problem: _Problem, initial: Setup, data: Measurement,
             restart_costs: tuple[float, ...]) -> CalibrationResult:
     params = {n: x[i:i + 1] for i, n in enumerate(PARAMETERS)}
     u = problem.model(params)
-    r, a = problem.residuals(u)
+    _, a = problem.residuals(u)
     scale = float(a[0])
     coef = problem.bias_coefficients(u[0], scale)
     offset = float(coef[0]) if coef.size else 0.0
     fitted_setup = initial.replace(
         height=float(x[0]), base_radius=float(x[1]), x=float(x[2]), y=float(x[3]), z=float(x[4]),
-        n_loops=int(round(x[5])), dipoles_per_loop=int(round(x[6])),
+        n_loops=round(x[5]), dipoles_per_loop=round(x[6]),
         magnetization_scale=initial.material.magnetization_scale * scale, offset=offset,
     )
     model_full = scale * u[0] + (problem.basis @ coef if coef.size else 0.0)
@@ -382,7 +394,7 @@ def _result(problem: _Problem, initial: Setup, data: Measurement,
     values["n_loops"], values["dipoles_per_loop"] = float(round(x[5])), float(round(x[6]))
     values["magnetization_scale"] = fitted_setup.material.magnetization_scale
     values["offset"] = offset
-    names, stderr, corr, warns = _uncertainty(problem, x, scale, coef, cost, box, bias)
+    names, stderr, corr, warns = _uncertainty(problem, x, scale, cost, box)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
         residuals=residuals, data=data, values=values, stderr=stderr, correlation=corr,
@@ -392,8 +404,8 @@ def _result(problem: _Problem, initial: Setup, data: Measurement,
     )
 
 
-def _uncertainty(problem: _Problem, x: F64, scale: float, coef: F64, cost: float,
-                 box: dict[str, tuple[float, float]], bias: str
+def _uncertainty(problem: _Problem, x: F64, scale: float, cost: float,
+                 box: dict[str, tuple[float, float]]
                  ) -> tuple[tuple[str, ...], dict[str, float], F64, tuple[str, ...]]:
     """Standard errors and correlations from the Jacobian of the full model at the optimum."""
     columns: list[F64] = []

@@ -262,7 +262,7 @@ def _read_mat(path: Path) -> dict[str, Any]:
 
     try:
         mat = loadmat(path, squeeze_me=True)
-    except Exception as exc:  # scipy raises several types for corrupt files
+    except (ValueError, TypeError, OSError, KeyError, IndexError) as exc:  # not a MAT file
         raise MagciliaError(f"{path}: cannot read as a MATLAB .mat file ({exc})") from None
     missing = [k for k in ("angle_deg", "voltage_V") if k not in mat]
     if missing:
@@ -285,7 +285,7 @@ def _read_tdms(path: Path) -> dict[str, Any]:
     nptdms: Any = require("nptdms", package="npTDMS", extra="tdms", purpose="Reading TDMS files")
     try:
         tdms = nptdms.TdmsFile.read(path)
-    except Exception as exc:  # npTDMS raises several types for corrupt files
+    except (ValueError, TypeError, OSError, KeyError, IndexError) as exc:  # corrupt files
         raise MagciliaError(f"{path}: cannot read as a TDMS file ({exc})") from None
     channels = {ch.name: ch for group in tdms.groups() for ch in group.channels()}
     missing = [k for k in ("angle_deg", "voltage_V") if k not in channels]

@@ -83,7 +83,7 @@ def synthetic_recording(
     t = (np.arange(ang.size)[:, None] * block + np.arange(n)[None, :] / rate).ravel()
     total = max(float(t[-1]), 1.0 / rate)
     # the sensor's 1/f noise is one continuous record over the run (it does not restart)
-    n_total = int(math.ceil(total * rate)) + 1
+    n_total = math.ceil(total * rate) + 1
     sensor_noise = setup.sensor.noise(n_total, rate, rng=gen)
     idx = np.minimum(np.rint(t * rate).astype(np.int64), n_total - 1)
     volts = (np.repeat(clean, n) + sensor_noise[idx] + readout_noise * gen.standard_normal(t.size)

@@ -61,9 +61,12 @@ def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, 
     show = not quiet and sys.stderr.isatty()
     with tqdm(total=restarts, desc="calibrating (restarts)", unit="run", disable=not show,
               file=sys.stderr) as bar:
+        def advance(done: int, _total: int) -> None:
+            bar.update(done - bar.n)
+
         result = calibrate(data, initial=initial, bounds=bounds, rng=seed, bias=bias,
                            bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts,
-                           progress=lambda done, total: bar.update(done - bar.n))
+                           progress=advance)
     with staged_directory(out) as tmp:
         save_setup(result.setup, tmp / "fitted_setup.toml")
         write_json(tmp / "result.json", result.to_dict())
