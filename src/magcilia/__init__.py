@@ -39,5 +39,40 @@ from magcilia.measurements import Measurement, read_measurements
 __all__ += ["CalibrationResult", "Measurement", "calibrate", "read_measurements"]
 
 # --- issue 4: sensitivity and approximations (helper-owned block) ---
+from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
+from magcilia.firmware import to_c_header
+from magcilia.sensitivity import (
+    OATResult,
+    SensitivityStudy,
+    SobolResult,
+    oat_sweep,
+    placement_map,
+    sensitivity_study,
+    sobol_indices,
+)
+from magcilia.tolerance import PlacementTolerance, placement_tolerance
+
+__all__ += [
+    "LookupTable", "OATResult", "PiecewiseLinear", "PlacementTolerance", "SensitivityStudy",
+    "SobolResult", "lookup_table", "oat_sweep", "piecewise_linear", "placement_map",
+    "placement_tolerance", "sensitivity_study", "sobol_indices", "to_c_header",
+]
 
 # --- issue 5: mechanics and read-out (helper-owned block) ---
+from magcilia.design import DesignMetrics, design_metrics
+from magcilia.mechanics import (
+    AIR,
+    WATER,
+    BentShape,
+    Flow,
+    Fluid,
+    bend,
+    bend_sweep,
+    drag_coefficient,
+)
+from magcilia.readout import Readout, ReadoutFlag, ReadoutResult
+
+__all__ += [
+    "AIR", "WATER", "BentShape", "DesignMetrics", "Flow", "Fluid", "Readout", "ReadoutFlag",
+    "ReadoutResult", "bend", "bend_sweep", "design_metrics", "drag_coefficient",
+]

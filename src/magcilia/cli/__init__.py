@@ -25,7 +25,12 @@ def cli() -> None:
 _COMMANDS: tuple[tuple[str, str], ...] = (
     ("field", "field"),
     ("calibrate", "calibrate"),
+    ("bend", "bend"),
+    ("readout", "readout"),
+    ("design", "design"),
     ("demo", "demo"),
+    ("sensitivity", "sensitivity"),
+    ("approximate", "approximate"),
 )
 
 

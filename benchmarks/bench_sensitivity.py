@@ -1,0 +1,165 @@
+"""Sensitivity and firmware benchmarks (issue 4), single thread, anchors side by side.
+
+Measures, in one run:
+  * a Sobol analysis over the calibration bounds (7 inputs, N = 2^14 -> 147 456 model evaluations,
+    33 angles each) through magcilia's batch path (target: <= 30 s on one core), side by side
+    with the same evaluations made one sample at a time through ``setup.replace(...).output``
+    (timed on a subset of 2000 samples and extrapolated; the Sobol analysis itself is shared);
+  * the C approximation's evaluation cost per sample (piecewise-linear, 2 corners; float and
+    fixed-point, forward and inverse), compiled with ``cc -O2``, beside the Python evaluation.
+
+Run: python benchmarks/bench_sensitivity.py [--quick]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"  # single thread, before NumPy loads BLAS
+
+import argparse
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from SALib.sample import sobol as salib_sample
+
+import magcilia as mc
+from magcilia.calibration import DEFAULT_BOUNDS, INTEGER
+from magcilia.model import tilt_output_batch
+from magcilia.sensitivity import DEFAULT_ANGLES, rms_change
+
+HARNESS = r"""#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <stdint.h>
+#include <time.h>
+#include "approx.h"
+#include "approxq.h"
+#define N %(n)d
+static double now(void) { struct timespec t; clock_gettime(CLOCK_MONOTONIC, &t);
+                          return t.tv_sec + 1e-9 * t.tv_nsec; }
+int main(void)
+{
+    static float tf[N], vf[N]; static int32_t tq[N], vq[N];
+    volatile float sf = 0.0f; volatile int32_t sq = 0; double t0, t1;
+    for (int i = 0; i < N; ++i) {
+        float t = %(lo).9ef + (%(hi).9ef - %(lo).9ef) * (float)((int)(((long long)i * 7919) %% N)) / (float)N;
+        tf[i] = t; vf[i] = a_output(t);
+        tq[i] = (int32_t)(t * (float)(1L << AQ_ANGLE_FRAC_BITS));
+        vq[i] = aq_output_q(tq[i]);
+    }
+    t0 = now(); for (int i = 0; i < N; ++i) sf += a_output(tf[i]); t1 = now();
+    printf("float_output %%.3f\n", 1e9 * (t1 - t0) / N);
+    t0 = now(); for (int i = 0; i < N; ++i) sf += a_angle(vf[i]); t1 = now();
+    printf("float_angle %%.3f\n", 1e9 * (t1 - t0) / N);
+    t0 = now(); for (int i = 0; i < N; ++i) sq += aq_output_q(tq[i]); t1 = now();
+    printf("fixed_output %%.3f\n", 1e9 * (t1 - t0) / N);
+    t0 = now(); for (int i = 0; i < N; ++i) sq += aq_angle_q(vq[i]); t1 = now();
+    printf("fixed_angle %%.3f\n", 1e9 * (t1 - t0) / N);
+    return (int)(sf != sf) + (int)(sq == 12345);
+}
+"""
+
+
+def sobol_bench(n_base: int, subset: int) -> None:
+    setup = mc.Setup.paper()
+    angles = DEFAULT_ANGLES
+    t0 = time.perf_counter()
+    res = mc.sobol_indices(setup, n_base=n_base, rng=0)
+    t_full = time.perf_counter() - t0
+    # the same sample matrix as sobol_indices draws (integers rounded), to time evaluation alone
+    names = list(DEFAULT_BOUNDS)
+    problem = {"num_vars": len(names), "names": names,
+               "bounds": [[lo - 0.5, hi + 0.5] if n in INTEGER else [lo, hi]
+                          for n, (lo, hi) in DEFAULT_BOUNDS.items()]}
+    X = salib_sample.sample(problem, n_base, calc_second_order=False, seed=1)
+    for j, n in enumerate(names):
+        if n in INTEGER:
+            X[:, j] = np.clip(np.rint(X[:, j]), *DEFAULT_BOUNDS[n])
+    ref = setup.output(angles)
+    t0 = time.perf_counter()
+    y_batch = np.concatenate([
+        rms_change(tilt_output_batch(setup, {n: X[s:s + 32768, j] for j, n in enumerate(names)},
+                                     angles), ref)
+        for s in range(0, X.shape[0], 32768)])
+    t_batch = time.perf_counter() - t0
+    sub = X[:subset]
+    t0 = time.perf_counter()
+    y_single = np.array([
+        rms_change(setup.replace(**{n: float(row[j]) for j, n in enumerate(names)}).output(angles), ref)
+        for row in sub])
+    t_sub = time.perf_counter() - t0
+    t_single = t_sub * X.shape[0] / subset
+    agree = float(np.abs(y_single - y_batch[:subset]).max() / np.abs(y_batch).max())
+    print(f"Sobol over the calibration bounds: N = {n_base}, {res.n_evaluations} evaluations x "
+          f"{angles.size} angles")
+    print(f"  batch path, whole analysis (sample + evaluate + SALib, 100 bootstraps): {t_full:8.2f} s"
+          f"   (target <= 30 s)")
+    print(f"  batch evaluation only:                         {t_batch:8.2f} s  "
+          f"({1e6 * t_batch / X.shape[0]:.2f} us/sample)")
+    print(f"  one sample at a time (setup.replace().output): {t_single:8.2f} s  "
+          f"({1e6 * t_sub / subset:.1f} us/sample; {subset} samples timed, extrapolated)")
+    print(f"  ratio one-at-a-time / batch evaluation: {t_single / t_batch:.1f}x; "
+          f"max relative difference of the outputs {agree:.1e}")
+    print("  " + res.report().replace("\n", "\n  "))
+
+
+def c_bench(n: int) -> None:
+    cc = shutil.which("cc") or shutil.which("gcc")
+    setup = mc.Setup.paper()
+    approx = mc.piecewise_linear(setup, corners=2)
+    t = np.linspace(*approx.angle_range, 100_000)
+    t0 = time.perf_counter()
+    for _ in range(10):
+        approx(t)
+    t_py = (time.perf_counter() - t0) / 10 / t.size
+    t0 = time.perf_counter()
+    for _ in range(10):
+        setup.output(t[:1000])
+    t_model = (time.perf_counter() - t0) / 10 / 1000
+    t0 = time.perf_counter()
+    for i in range(200):
+        setup.output(t[i:i + 1])
+    t_model1 = (time.perf_counter() - t0) / 200
+    print("Read-out evaluation cost per sample (piecewise-linear, 2 corners)")
+    print(f"  Python PiecewiseLinear, vectorised 1e5:  {1e9 * t_py:9.1f} ns")
+    print(f"  full model setup.output, vectorised 1e3: {1e9 * t_model:9.1f} ns")
+    print(f"  full model setup.output, one angle/call: {1e9 * t_model1:9.1f} ns")
+    if cc is None:
+        print("  C: no compiler found (cc/gcc); skipped")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        (d / "approx.h").write_text(mc.to_c_header(approx, name="a"))
+        (d / "approxq.h").write_text(mc.to_c_header(approx, name="aq", fixed_point=True))
+        lo, hi = approx.angle_range
+        (d / "h.c").write_text(HARNESS % {"n": n, "lo": lo, "hi": hi})
+        subprocess.run([cc, "-std=c99", "-O2", "-o", str(d / "h"), str(d / "h.c")], check=True)
+        best: dict[str, float] = {}
+        for _ in range(3):
+            out = subprocess.run([str(d / "h")], capture_output=True, text=True, check=False).stdout
+            for line in out.splitlines():
+                key, val = line.split()
+                best[key] = min(best.get(key, np.inf), float(val))
+    for key, val in best.items():
+        print(f"  C (cc -O2) {key:<13}                 {val:9.2f} ns")
+    print(f"  ratio full model (one angle/call) / C float output: "
+          f"{1e9 * t_model1 / best['float_output']:.0f}x")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="N = 2^11 and fewer C samples")
+    args = ap.parse_args()
+    n_base = 2**11 if args.quick else 2**14
+    sobol_bench(n_base, subset=500 if args.quick else 2000)
+    print()
+    c_bench(1_000_000 if args.quick else 10_000_000)
+
+
+if __name__ == "__main__":
+    main()

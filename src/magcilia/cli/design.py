@@ -1,0 +1,49 @@
+"""``magcilia design``: sensitivity, minimum detectable signal and range of a design."""
+
+from __future__ import annotations
+
+import click
+
+from magcilia.cli._common import echo_json, save_figure, setup_label, write_json
+from magcilia.cli.bend import MODULUS_HELP, TIP_RADIUS_HELP, load_mechanics_setup
+from magcilia.design import design_metrics
+from magcilia.mechanics import FLUIDS
+from magcilia.readout import DEFAULT_BANDWIDTH
+from magcilia.units import parse_range
+
+
+@click.command()
+@click.argument("setup_arg", metavar="SETUP")
+@click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
+              help="Fluid of the flow metrics (20 °C, uniform flow).")
+@click.option("--bandwidth", default=f"{DEFAULT_BANDWIDTH[0]:g}:{DEFAULT_BANDWIDTH[1]:g}",
+              show_default=True, help="Noise bandwidth LOW:HIGH in Hz.")
+@click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
+@click.option("--modulus", default=None, help=MODULUS_HELP)
+@click.option("--json", "as_json", is_flag=True, help="Print JSON (SI units) instead of the table.")
+@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+              help="Write the figure (PNG/PDF/SVG by suffix).")
+def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
+            modulus: str | None, as_json: bool, json_file: str | None,
+            plot_path: str | None) -> None:
+    """Design metrics: dV/dF, dV/dU, dV/dθ, minimum detectable force (mN), flow speed (m/s) and
+    angle (deg) from the sensor noise, and the range before ±6 gauss or a fold.
+
+    SETUP is a setup TOML file or a preset. Force and flow metrics need a tip radius (the paper's
+    cone has none: add --tip-radius, e.g. 0.05mm).
+    """
+    setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    f_lo, f_hi, _ = parse_range(bandwidth, "--bandwidth", "Hz")
+    metrics = design_metrics(setup, fluid=FLUIDS[fluid], bandwidth=(f_lo, f_hi))
+    doc = {"setup": setup_label(setup_arg), **metrics.to_dict()}
+    if json_file:
+        write_json(json_file, doc)
+    if plot_path:
+        from magcilia.design_report import plot_design
+
+        save_figure(plot_design(metrics), plot_path)
+    if as_json:
+        echo_json(doc)
+        return
+    click.echo(metrics.table())

@@ -1,0 +1,127 @@
+"""``magcilia readout``: estimate angle, force or flow speed from a voltage recording."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import click
+import numpy as np
+
+from magcilia._atomic import write_text
+from magcilia._validate import fail
+from magcilia.cli._common import echo_json
+from magcilia.cli.bend import (
+    MODULUS_HELP,
+    TIP_RADIUS_HELP,
+    load_mechanics_setup,
+    require_tip_radius,
+)
+from magcilia.mechanics import FLUIDS, Flow
+from magcilia.readout import DEFAULT_BANDWIDTH, Readout, ReadoutFlag
+from magcilia.units import UNITS, parse_quantity, parse_range
+
+#: display unit, its SI factor, the dimension for unit-bearing span values
+DISPLAY = {"angle": ("deg", math.pi / 180.0, "angle"), "force": ("mN", 1e-3, "force"),
+           "flow": ("m/s", 1.0, "speed")}
+
+
+def parse_span(text: str, quantity: str) -> tuple[float, float]:
+    """``LO:HI`` in the display unit (deg, mN, m/s), or with units on each end -> SI."""
+    unit, factor, dim = DISPLAY[quantity]
+    parts = text.split(":")
+    allowed = f"LO:HI in {unit} (or with units, e.g. 0{unit}:1{unit})"
+    if len(parts) != 2:
+        raise fail("--span", text, allowed)
+    out = []
+    for part in parts:
+        try:
+            out.append(float(part) * factor)
+        except ValueError:
+            if not any(part.strip().endswith(u) for u in UNITS[dim]):
+                raise fail("--span", text, allowed) from None
+            out.append(parse_quantity(part, dim, "--span"))
+    if not all(math.isfinite(x) for x in out) or out[1] <= out[0]:
+        raise fail("--span", text, "LO:HI with HI > LO")
+    return out[0], out[1]
+
+
+def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """Voltages (V) and optional times (s) from a CSV with a ``voltage_V`` column."""
+    text = Path(path).read_text(encoding="utf-8")
+    reader = csv.DictReader(io.StringIO(text))
+    fields = reader.fieldnames or []
+    if "voltage_V" not in fields:
+        raise fail("RECORDING", path, f"a CSV with a 'voltage_V' column (found {fields})")
+    volts, times = [], []
+    for line, row in enumerate(reader, start=2):
+        try:
+            volts.append(float(row["voltage_V"]))
+            if "time_s" in fields:
+                times.append(float(row["time_s"]))
+        except (TypeError, ValueError):
+            raise fail(f"{path} line {line}", row.get("voltage_V"), "numbers") from None
+    if not volts:
+        raise fail("RECORDING", path, "a CSV with at least one reading")
+    return np.array(volts), (np.array(times) if "time_s" in fields else None)
+
+
+@click.command()
+@click.argument("setup_arg", metavar="SETUP")
+@click.argument("recording", type=click.Path(dir_okay=False))
+@click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), required=True,
+              help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s).")
+@click.option("--span", "span_text", required=True,
+              help="Range LO:HI in deg (angle), mN (force) or m/s (flow); units allowed.")
+@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
+              help="Output CSV (estimates, 1-sigma, flags), written atomically.")
+@click.option("--bandwidth", default=f"{DEFAULT_BANDWIDTH[0]:g}:{DEFAULT_BANDWIDTH[1]:g}",
+              show_default=True, help="Noise bandwidth LOW:HIGH in Hz of each reading.")
+@click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
+              help="Fluid for --quantity flow (uniform flow along +x).")
+@click.option("--table-size", default=257, show_default=True, help="Read-out table points.")
+@click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
+@click.option("--modulus", default=None, help=MODULUS_HELP)
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
+def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
+            bandwidth: str, fluid: str, table_size: int, tip_radius: str | None,
+            modulus: str | None, as_json: bool) -> None:
+    """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (a CSV with
+    a `voltage_V` column and optional `time_s`).
+
+    Writes one row per reading with the estimate, its 1-sigma uncertainty (sensor noise over the
+    bandwidth) and flags (outside_span, fold, saturated); flagged rows have empty estimates.
+    """
+    setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    span = parse_span(span_text, quantity)
+    f_lo, f_hi, _ = parse_range(bandwidth, "--bandwidth", "Hz")
+    if quantity != "angle":
+        require_tip_radius(setup, setup_arg, "a force" if quantity == "force" else "a flow load")
+    volts, times = read_recording(recording)
+    flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
+    readout = Readout(setup, quantity=quantity, span=span, flow=flow, table_size=table_size)
+    result = readout.read(volts, bandwidth=(f_lo, f_hi))
+    unit, factor, _ = DISPLAY[quantity]
+    col = f"{quantity}_{unit.replace('/', '_per_')}"
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow([*(["time_s"] if times is not None else []), "voltage_V", col,
+                     f"sigma_{col}", "flags", "flag_names"])
+    for i, volt in enumerate(volts):
+        flag = int(result.flags[i])
+        names = "|".join(f.name.lower() for f in ReadoutFlag if f and flag & f)  # type: ignore[union-attr]
+        value = result.value[i]
+        writer.writerow([
+            *([repr(float(times[i]))] if times is not None else []), repr(float(volt)),
+            "" if math.isnan(value) else f"{value / factor:.10g}",
+            "" if math.isnan(value) else f"{result.sigma[i] / factor:.4g}", flag, names,
+        ])
+    write_text(out_path, buf.getvalue())
+    if as_json:
+        echo_json({**readout.to_dict(), "readings": int(volts.size),
+                   "estimated": int(result.ok.sum()), "out": out_path})
+        return
+    click.echo(f"{Path(out_path).name}: {result.summary()}; table error ≤ "
+               f"{readout.table_error:.2g} {readout.unit}")

@@ -1,0 +1,127 @@
+"""``magcilia sensitivity``: one-at-a-time sweeps (figs. 9–12), Sobol indices and placement tolerance."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import click
+from tqdm import tqdm
+
+from magcilia._validate import fail
+from magcilia.cli._common import echo_json, load_setup_arg
+from magcilia.cli.calibrate import staged_directory
+from magcilia.measurements import read_measurements
+from magcilia.sensitivity import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
+from magcilia.sensitivity_report import report_dict, write_sensitivity_report
+from magcilia.tolerance import placement_tolerance
+
+
+def parse_spans(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """``name=lo:hi`` items (lengths in mm; n_loops, dipoles_per_loop whole numbers) → SI spans."""
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        name = name.strip()
+        if name not in STUDY_PARAMETERS:
+            raise fail("--span", item, "NAME=LOW:HIGH with NAME one of " + ", ".join(STUDY_PARAMETERS))
+        try:
+            lo, hi = (float(x) for x in rng.split(":"))
+        except ValueError:
+            raise fail("--span", item, "NAME=LOW:HIGH, e.g. z=0:1 (mm)") from None
+        factor = 1.0 if name in SWEEP_INTEGER else 1e-3
+        out[name] = (lo * factor, hi * factor)
+    return out
+
+
+def parse_band(text: str) -> tuple[float, float]:
+    """``f_low:f_high`` in Hz."""
+    try:
+        lo, hi = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise fail("--bandwidth", text, "F_LOW:F_HIGH in Hz, e.g. 0.1:10") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
+        raise fail("--bandwidth", text, "0 < F_LOW < F_HIGH in Hz, e.g. 0.1:10")
+    return lo, hi
+
+
+@click.command()
+@click.argument("setup_arg", metavar="SETUP")
+@click.option("--data", type=click.Path(dir_okay=False),
+              help="Recording (CSV/.mat/.tdms): adds the calibration cost (offset solved) to every sweep.")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+              help="Output directory (figures, sensitivity.json, summary.md).")
+@click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
+              help="Sweep span, lengths in mm (n_loops, dipoles_per_loop whole numbers); "
+                   "repeatable. Defaults: x, y ±1 mm, z 0:1 mm, n and k 1:10, height and base "
+                   "radius ±20 %.")
+@click.option("--points", default=21, show_default=True, help="Values per continuous sweep.")
+@click.option("--map-points", default=41, show_default=True, help="Grid points per axis of the x-y map.")
+@click.option("--sobol-base", default=1024, show_default=True,
+              help="Sobol base sample N (power of 2; N*(p+2) evaluations over the calibration "
+                   "bounds); 0 skips the global analysis.")
+@click.option("--sobol-measure", type=click.Choice(["rms", "shape", "cost"]), default="rms",
+              show_default=True,
+              help="Sobol output per sample: RMS change of the curve, the offset-free change, or "
+                   "the calibration cost (needs --data).")
+@click.option("--seed", default=0, show_default=True, help="Random seed of the Sobol sampling.")
+@click.option("--accuracy", default=1.0, show_default=True,
+              help="Target angle accuracy for the placement tolerance, degrees.")
+@click.option("--bandwidth", default="0.1:10", show_default=True,
+              help="Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
+@click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
+            points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
+            accuracy: float,
+            bandwidth: str, as_json: bool, quiet: bool) -> None:
+    """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
+
+    Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
+    (xy_map.png), Sobol bars (sobol.png), sensitivity.json (SI units) and summary.md into --out;
+    nothing is written if anything fails.
+    """
+    setup = load_setup_arg(setup_arg)
+    spans = parse_spans(span_items)
+    band = parse_band(bandwidth)
+    if not (math.isfinite(accuracy) and accuracy > 0):
+        raise fail("--accuracy", accuracy, "a positive angle in degrees")
+    if sobol_base < 0:
+        raise fail("--sobol-base", sobol_base, "0 (skip) or a power of 2")
+    if sobol_measure == "cost" and data is None and sobol_base:
+        raise fail("--sobol-measure", "cost", "used with --data (the cost needs measurements)")
+    measurement = None if data is None else read_measurements(data, sensor=setup.sensor)
+    show = not quiet and sys.stderr.isatty()
+    with tqdm(total=3, desc="sensitivity", unit="step", disable=not show, file=sys.stderr) as bar:
+        study = sensitivity_study(setup, measurement, spans=spans, points=points,
+                                  map_points=map_points)
+        bar.update()
+        sobol = (sobol_indices(setup, n_base=sobol_base, measure=sobol_measure,
+                               data=measurement, rng=seed) if sobol_base else None)
+        bar.update()
+        tolerance = placement_tolerance(setup, math.radians(accuracy), bandwidth=band)
+        bar.update()
+    out = Path(out_dir)
+    with staged_directory(out) as tmp:
+        written = write_sensitivity_report(study, tmp, sobol, tolerance)
+    if as_json:
+        echo_json(report_dict(study, sobol, tolerance))
+        return
+    click.echo(f"{'parameter':<18} {'span':>22} {'max RMS change/mV':>18} {'offset-free/mV':>15}"
+               + (f" {'min cost/V^2':>13}" if measurement is not None else ""))
+    for r in study.summary():
+        f = 1.0 if r["parameter"] in SWEEP_INTEGER else 1e3
+        unit = "" if r["parameter"] in SWEEP_INTEGER else " mm"
+        span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g}{unit}"
+        line = (f"{r['parameter']:<18} {span:>22} {r['max_rms_change_V'] * 1e3:18.4g} "
+                f"{r['max_shape_change_V'] * 1e3:15.4g}")
+        if "min_cost_V2" in r:
+            line += f" {r['min_cost_V2']:13.4g}"
+        click.echo(line)
+    for note in study.notes:
+        click.echo(f"note: {note}")
+    if sobol is not None:
+        click.echo(sobol.report())
+    click.echo(tolerance.report())
+    click.echo(f"wrote {', '.join(sorted(written))} to {out}")

@@ -1,0 +1,31 @@
+"""Large-deflection mechanics of the cilium: static elastica under point loads and fluid flow.
+
+* :func:`bend` / :func:`bend_sweep`: static shapes (:class:`BentShape`, a Centreline);
+* :class:`Flow` (uniform, wall shear, custom profiles) and :class:`Fluid` with :data:`AIR`,
+  :data:`WATER`; :func:`drag_coefficient` (Lamb–Oseen / White cylinder drag);
+* :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference.
+"""
+
+from __future__ import annotations
+
+from magcilia.mechanics.bend import bend, bend_sweep, tip_compliance
+from magcilia.mechanics.drag import AIR, FLUIDS, WATER, Fluid, drag_coefficient, drag_per_length
+from magcilia.mechanics.exact import cantilever_tip
+from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.shape import BentShape, Load
+
+__all__ = [
+    "AIR",
+    "FLUIDS",
+    "WATER",
+    "BentShape",
+    "Flow",
+    "Fluid",
+    "Load",
+    "bend",
+    "bend_sweep",
+    "cantilever_tip",
+    "drag_coefficient",
+    "drag_per_length",
+    "tip_compliance",
+]

@@ -1,0 +1,281 @@
+"""The public bending functions: :func:`bend` (one equilibrium) and :func:`bend_sweep` (a batch).
+
+All SI: forces in N, arc lengths in m, angles in rad, flow speeds in m/s.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia._errors import MagciliaError
+from magcilia.centreline import Centreline
+from magcilia.mechanics.drag import check_reynolds, drag_per_length
+from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
+from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.shape import BentShape, Load
+from magcilia.setup import Setup
+
+F64 = NDArray[np.float64]
+
+#: points of the uniform arc-length grid of returned shapes
+OUTPUT_POINTS = 129
+
+
+def _nodes(setup: Setup, bounds: F64) -> tuple[int, ...]:
+    """Nodes per piece for ~1e-12 accuracy: from the Bernstein ellipse through the zero of r(s)
+    (where 1/EI has its pole). A piece that reaches a cone's tip converges only algebraically."""
+    c = setup.cilium
+    sizes = []
+    for b0, b1 in itertools.pairwise(bounds):
+        if c.tip_radius >= c.base_radius:
+            n = 24
+        else:
+            s_pole = c.height * c.base_radius / (c.base_radius - c.tip_radius)
+            t = (2.0 * s_pole - b0 - b1) / (b1 - b0)
+            if t <= 1.0 + 1e-9:
+                n = 64
+            else:
+                rho = t + math.sqrt(t * t - 1.0)
+                n = int(np.clip(math.ceil(30.0 / math.log(rho)) + 6, 24, 96))
+        sizes.append(n)
+    return tuple(sizes)
+
+
+class _Case:
+    """Grid, stiffness and load builders shared by the solves of one bend / sweep."""
+
+    def __init__(self, setup: Setup, at: float, direction: float, point_load: bool,
+                 flow: Flow | None, nodes: int | None) -> None:
+        c = setup.cilium
+        length = c.height
+        split = point_load and at < length * (1.0 - 1e-12)
+        bounds = np.array([0.0, at, length]) if split else np.array([0.0, length])
+        sizes = _nodes(setup, bounds) if nodes is None else \
+            (nodes,) * (bounds.size - 1)
+        self.grid = Grid.build(bounds, sizes)
+        s = self.grid.s
+        self.ei = setup.youngs_modulus * c.second_moment(s)
+        self.diameter = 2.0 * c.radius(s)
+        self.loaded = (s < at).astype(np.float64) if point_load else np.zeros(s.size)
+        self.unit = np.array([math.sin(direction), math.cos(direction)])
+        self.flow = flow
+        self.length = length
+
+    def problem(self, force: float, speed: float) -> Problem:
+        drag = None
+        if self.flow is not None and speed != 0.0:
+            flow = self.flow.with_speed(speed)
+            d = self.diameter
+
+            def drag(cos_t: F64, z: F64) -> F64:
+                return drag_per_length(flow.velocity(z) * cos_t, d, flow.fluid)
+
+        return Problem(self.grid, self.ei, self.diameter, force * self.unit, self.loaded, drag)
+
+    def solve(self, start: tuple[float, float], end: tuple[float, float], guess: F64) -> Solution:
+        (f0, u0), (f1, u1) = start, end
+
+        def at(lam: float) -> tuple[Problem, float]:
+            return self.problem(f0 + lam * (f1 - f0), u0 + lam * (u1 - u0)), 1.0
+
+        return solve(at, 0.0, 1.0, guess)[0]
+
+    def shape_data(self, sol: Solution, force: float, speed: float) -> tuple[F64, F64, F64]:
+        """Arc lengths (m,), angles (m,) and points (m, 3) on the output grid."""
+        s_out, cum = self.grid.uniform_output(OUTPUT_POINTS)
+        kappa = self.problem(force, speed).curvature(sol.theta)
+        th = cum @ kappa
+        pts = np.zeros((s_out.size, 3))
+        pts[:, 0] = cum @ np.sin(sol.theta)
+        pts[:, 2] = cum @ np.cos(sol.theta)
+        th[0] = 0.0  # clamped base, exactly (the quadrature gives ~1e-17)
+        pts[0] = 0.0
+        return s_out, th, pts
+
+
+def _check(setup: Setup, force: float, at: float | None, direction: float,
+           flow: Flow | None) -> tuple[float, float, float]:
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+    force = v.real("force", force, "N")
+    direction = v.real("direction", direction, "rad")
+    c = setup.cilium
+    length = c.height
+    if at is None:
+        at = length
+    else:
+        at = v.positive("at", at)
+        if at > length * (1.0 + 1e-12):
+            raise v.fail("at", at, f"an arc length in (0, {length:.6g}] m (the cilium's length)")
+        at = min(at, length)
+    if force != 0.0 and c.tip_radius == 0.0 and at >= length * (1.0 - 1e-9):
+        raise v.fail(
+            "tip_radius", 0.0,
+            "positive for a point load at the tip: a sharp cone's tip compliance is infinite "
+            "(I ∝ r⁴ → 0 at the tip); set tip_radius > 0 or apply the load below the tip with at=",
+        )
+    if flow is not None:
+        if c.tip_radius == 0.0 and flow.speed != 0.0:
+            raise v.fail(
+                "tip_radius", 0.0,
+                "positive for a flow load: on a sharp cone the drag on the vanishing tip section "
+                "(EI ∝ r⁴ → 0 while the drag per length stays finite) makes the tip rotation "
+                "singular; set tip_radius > 0",
+            )
+        if not isinstance(flow, Flow):
+            raise v.fail("flow", type(flow).__name__, "a magcilia.Flow (Flow.uniform, …)")
+        z = np.linspace(0.0, length, 65)
+        fastest = float(np.max(np.abs(flow.velocity(z))))
+        check_reynolds(fastest, 2.0 * c.base_radius, flow.fluid)
+    return force, at, direction
+
+
+def bend(setup: Setup, force: float = 0.0, *, at: float | None = None,
+         direction: float = 0.5 * math.pi, flow: Flow | None = None,
+         nodes: int | None = None) -> BentShape:
+    """Static large-deflection shape of the cilium under a dead point force and/or fluid flow.
+
+    Inextensible, unshearable planar elastica of the real frustum (``setup.cilium``; E from
+    ``setup.youngs_modulus``), clamped at the base along +z, free at the tip; solved as a
+    boundary-value problem by Chebyshev collocation and Newton's method with load continuation
+    (relative tip accuracy ~1e-10 for smooth cases).
+
+    Parameters
+    ----------
+    setup : Setup
+        The sensor setup (geometry and modulus).
+    force : float
+        Dead point force, N (default 0: no point load).
+    at : float, optional
+        Arc length of the point of application, m, in (0, L]; default the tip.
+    direction : float
+        Direction of the force in the x–z plane, rad from +z toward +x; default π/2 (+x,
+        perpendicular to the unloaded axis).
+    flow : Flow, optional
+        Fluid flow along x (drag from the normal velocity component; see
+        :mod:`magcilia.mechanics.drag`).
+    nodes : int, optional
+        Collocation nodes per piece (default: chosen from the taper for ~1e-12 accuracy).
+
+    Returns
+    -------
+    BentShape
+        The shape (a :class:`~magcilia.Centreline` of one shape; ``.tip`` has shape (3,), m).
+
+    Raises
+    ------
+    MagciliaError
+        A tip point load on a sharp cone (tip_radius 0), ``at`` outside the cilium, a flow faster
+        than the drag law allows, or a load beyond what the solver converges for (the message
+        gives the largest converged load).
+
+    Examples
+    --------
+    >>> import magcilia as mc
+    >>> s = mc.Setup.paper(height=3e-3, base_radius=2e-4, tip_radius=5e-5, youngs_modulus=2e6)
+    >>> shape = mc.bend(s, force=1e-4)
+    >>> shape.tip.shape
+    (3,)
+    """
+    force, at_s, direction = _check(setup, force, at, direction, flow)
+    if nodes is not None:
+        nodes = v.integer("nodes", nodes, 4)
+    speed = 0.0 if flow is None else flow.speed
+    load = Load(force, direction, at_s, flow)
+    length = setup.cilium.height
+    if force == 0.0 and speed == 0.0:
+        s = np.linspace(0.0, length, OUTPUT_POINTS)
+        pts = np.zeros((1, s.size, 3))
+        pts[0, :, 2] = s
+        return BentShape(s, np.zeros((1, s.size)), pts, load=load)
+    case = _Case(setup, at_s, direction, force != 0.0, flow, nodes)
+    try:
+        sol = case.solve((0.0, 0.0), (force, speed), np.zeros(case.grid.s.size))
+    except ContinuationError as exc:
+        by_force = force != 0.0
+        value = force if by_force else speed
+        raise MagciliaError(_message(by_force, value, exc.reached * value)) from None
+    s, th, pts = case.shape_data(sol, force, speed)
+    return BentShape(s, th[None], pts[None], load=load, residual=sol.residual,
+                     iterations=sol.iterations, nodes=int(case.grid.s.size))
+
+
+def bend_sweep(setup: Setup, forces: ArrayLike | None = None, *,
+               speeds: ArrayLike | None = None, flow: Flow | None = None,
+               at: float | None = None, direction: float = 0.5 * math.pi,
+               nodes: int | None = None) -> Centreline:
+    """Shapes for a sequence of loads, each solve continued from the previous one.
+
+    Give ``forces`` (N, shape (a,)) for point loads, or ``speeds`` (m/s, shape (a,)) together
+    with ``flow`` (whose profile is scaled to each speed). Ordered sweeps (e.g. increasing) are
+    cheapest. For building read-out tables.
+
+    Returns
+    -------
+    Centreline
+        a shapes on the common grid of :data:`OUTPUT_POINTS` arc lengths.
+    """
+    if (forces is None) == (speeds is None):
+        raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
+    if speeds is not None and flow is None:
+        raise v.fail("flow", None, "a Flow when sweeping speeds")
+    given = forces if forces is not None else speeds
+    assert given is not None  # for mypy: exactly one of them is set (checked above)
+    values = v.finite_array("forces" if forces is not None else "speeds", given, ndim=1)
+    if values.size == 0:
+        raise v.fail("forces", "an empty array", "at least one load")
+    is_force = forces is not None
+    biggest = float(values[np.argmax(np.abs(values))])
+    test_flow = flow.with_speed(biggest) if (flow is not None and not is_force) else flow
+    _, at_s, direction = _check(setup, biggest if is_force else 0.0, at, direction, test_flow)
+    case = _Case(setup, at_s, direction, is_force, flow if not is_force else None, nodes)
+    theta = np.zeros(case.grid.s.size)
+    prev = (0.0, 0.0)
+    rows_th: list[F64] = []
+    rows_pts: list[F64] = []
+    s_out = np.linspace(0.0, setup.cilium.height, OUTPUT_POINTS)
+    for value in values:
+        load = (float(value), 0.0) if is_force else (0.0, float(value))
+        if load == (0.0, 0.0):
+            sol = Solution(np.zeros_like(theta), 0.0, 0)
+        else:
+            try:
+                sol = case.solve(prev, load, theta)
+            except ContinuationError as exc:
+                i = 0 if is_force else 1
+                reached = prev[i] + exc.reached * (load[i] - prev[i])
+                raise MagciliaError(_message(is_force, float(value), reached)) from None
+        s_out, th, pts = case.shape_data(sol, *load)
+        rows_th.append(th)
+        rows_pts.append(pts)
+        theta, prev = sol.theta, load
+    return Centreline(s_out, np.stack(rows_th), np.stack(rows_pts))
+
+
+def _message(is_force: bool, value: float, reached: float) -> str:
+    if is_force:
+        return (f"force must be a load the elastica solver converges for; it did not converge "
+                f"beyond F = {reached:.6g} N (the largest converged load); got {value:.6g} N")
+    return (f"flow speed must be a load the elastica solver converges for; it did not converge "
+            f"beyond {reached:.6g} m/s (the largest converged load); got {value:.6g} m/s")
+
+
+def tip_compliance(setup: Setup) -> float:
+    """Small-load tip compliance of the frustum, m/N: ``L³ / (3 E I₀ λ)`` (λ = tip/base radius).
+
+    Infinite for a sharp cone (λ = 0).
+    """
+    c = setup.cilium
+    lam = c.taper
+    if lam == 0.0:
+        return math.inf
+    i0 = float(c.second_moment(0.0))
+    return c.height**3 / (3.0 * setup.youngs_modulus * i0 * lam)
+
+
+

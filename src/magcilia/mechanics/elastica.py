@@ -1,0 +1,237 @@
+"""Static planar elastica by spectral collocation (pure arrays; :func:`magcilia.bend` checks).
+
+Inextensible, unshearable rod, clamped at s = 0 along +z, free at s = L; tangent angle θ(s) from +z
+toward +x, position ``r(s) = ∫₀ˢ (sin θ, cos θ)``. With the internal force carried across a section
+``N(s) = ∫ₛᴸ f dσ + F H(a − s)`` (distributed load f, dead point force F at arc length a), the
+moment balance is ``E I(s) θ'(s) = M(s)`` with ``M(s) = ∫ₛᴸ (cos θ N_x − sin θ N_z) dσ``.
+
+Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − sin θ N_z`` and
+``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip. θ(0) = 0
+and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on each piece
+θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the integrals are
+spectrally accurate and nodes never sit where EI may vanish (a cone's tip). Newton's method with an
+analytic Jacobian for the point load (batched central differences for the shape-dependent drag),
+load continuation with step halving when Newton fails.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+from numpy.polynomial import chebyshev as cheb
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+
+@lru_cache(maxsize=64)
+def _reference(n: int) -> tuple[F64, F64, F64]:
+    """Chebyshev nodes on [-1, 1] (ascending), coefficient map V⁻¹ and integration map K."""
+    t = np.cos(np.pi * (2.0 * np.arange(n) + 1.0) / (2.0 * n))[::-1].copy()
+    vinv = np.linalg.inv(cheb.chebvander(t, n - 1))
+    k = cheb.chebint(np.eye(n), lbnd=-1.0, axis=0)  # (n+1, n): coefficients of ∫_{-1}^t
+    return t, vinv, k @ vinv
+
+
+def _cumulative(n: int, t_query: F64) -> F64:
+    """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values."""
+    _, _, kv = _reference(n)
+    return np.asarray(cheb.chebvander(t_query, n) @ kv, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Collocation grid on pieces [b_k, b_k+1] of [0, L] (m), n_k nodes each."""
+
+    bounds: F64  # (p+1,)
+    sizes: tuple[int, ...]
+    s: F64  # (N,) nodes, m
+    C: F64  # (N, N) ∫_0^s
+    R: F64  # (N, N) ∫_s^L
+    w: F64  # (N,) ∫_0^L quadrature weights
+    piece: NDArray[np.int64]  # (N,) piece index of each node
+    _memo: dict[int, F64] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def build(cls, bounds: F64, sizes: tuple[int, ...]) -> Grid:
+        """Assemble the global integration matrices (cached: grids are reused across solves)."""
+        return _grid(tuple(float(b) for b in bounds), tuple(sizes))
+
+    def uniform_output(self, m: int) -> tuple[F64, F64]:
+        """Uniform arc lengths (m,) from 0 to L and their :meth:`cumulative_at` matrix (cached)."""
+        s_out = np.linspace(0.0, float(self.bounds[-1]), m)
+        if m not in self._memo:
+            self._memo[m] = self.cumulative_at(s_out)
+        return s_out, self._memo[m]
+
+    @classmethod
+    def _assemble(cls, bounds: F64, sizes: tuple[int, ...]) -> Grid:
+        total = sum(sizes)
+        C = np.zeros((total, total))
+        s = np.empty(total)
+        piece = np.empty(total, dtype=np.int64)
+        w = np.empty(total)
+        start = 0
+        for k, n in enumerate(sizes):
+            t, _, _ = _reference(n)
+            h = 0.5 * (bounds[k + 1] - bounds[k])
+            sl = slice(start, start + n)
+            s[sl] = bounds[k] + h * (t + 1.0)
+            piece[sl] = k
+            C[sl, sl] = h * _cumulative(n, t)
+            w[sl] = h * _cumulative(n, np.array([1.0]))[0]
+            C[start + n:, sl] = w[sl]  # later pieces see the whole of this one
+            start += n
+        R = w[None, :] - C
+        for arr in (s, C, R, w, piece):
+            arr.setflags(write=False)
+        return cls(bounds, sizes, s, C, R, w, piece)
+
+    def cumulative_at(self, s_query: F64) -> F64:
+        """Matrix (q, N): ∫_0^{s_query} of the piecewise interpolant of nodal values."""
+        out = np.zeros((s_query.size, self.s.size))
+        which = np.clip(np.searchsorted(self.bounds, s_query, side="right") - 1,
+                        0, len(self.sizes) - 1)
+        start = 0
+        for k, n in enumerate(self.sizes):
+            cols = slice(start, start + n)
+            out[which > k, cols] = self.w[cols]
+            rows = np.nonzero(which == k)[0]
+            if rows.size:
+                b0, b1 = self.bounds[k], self.bounds[k + 1]
+                h = 0.5 * (b1 - b0)
+                out[rows, cols] = h * _cumulative(n, (s_query[rows] - b0) / h - 1.0)
+            start += n
+        return out
+
+
+@lru_cache(maxsize=128)
+def _grid(bounds: tuple[float, ...], sizes: tuple[int, ...]) -> Grid:
+    return Grid._assemble(np.array(bounds), sizes)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A static load case on a collocation grid (all SI)."""
+
+    grid: Grid
+    ei: F64  # (N,) bending stiffness at the nodes, N·m²
+    diameter: F64  # (N,) m
+    force: F64  # (2,) dead point force (F_x, F_z), N
+    loaded: F64  # (N,) 1 where s < a (the point force is carried across the section)
+    #: (cos θ, z) at the nodes, shape (b, N) each -> drag per length along the normal, N/m
+    drag: Callable[[F64, F64], F64] | None = None
+
+    def residual(self, theta: F64, scale: float) -> F64:
+        """θ − C[(R g)/EI] for nodal angles (N,) or a batch (b, N); ``scale`` multiplies the
+        point force (the drag is that of the problem's flow)."""
+        return np.asarray(theta - self.curvature(theta, scale) @ self.grid.C.T, dtype=np.float64)
+
+    def curvature(self, theta: F64, scale: float = 1.0) -> F64:
+        """Curvature θ' = M / EI at the nodes, 1/m, same shape as ``theta``."""
+        c, s = np.cos(theta), np.sin(theta)
+        fx, fz = scale * self.force
+        g = (fx * c - fz * s) * self.loaded
+        if self.drag is not None:
+            z = c @ self.grid.C.T
+            q = self.drag(c, z)
+            nx = (q * c) @ self.grid.R.T
+            nz = (-q * s) @ self.grid.R.T
+            g = g + c * nx - s * nz
+        return np.asarray((g @ self.grid.R.T) / self.ei, dtype=np.float64)
+
+    def jacobian(self, theta: F64, scale: float) -> F64:
+        """d residual / d θ, (N, N)."""
+        if self.drag is None:
+            fx, fz = scale * self.force
+            dg = (-fx * np.sin(theta) - fz * np.cos(theta)) * self.loaded
+            inner = (self.grid.R * dg[None, :]) / self.ei[:, None]
+            return np.asarray(np.eye(theta.size) - self.grid.C @ inner, dtype=np.float64)
+        n = theta.size
+        step = 1e-7
+        eye = np.eye(n) * step
+        pert = np.concatenate([theta[None, :] + eye, theta[None, :] - eye])
+        res = self.residual(pert, scale)
+        return np.asarray((res[:n] - res[n:]).T / (2.0 * step), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Converged nodal angles and Newton statistics."""
+
+    theta: F64
+    residual: float
+    iterations: int
+
+
+def newton(problem: Problem, scale: float, guess: F64, tol: float = 1e-12,
+           max_iter: int = 40) -> Solution | None:
+    """Newton's method at one load factor; None if it does not converge."""
+    theta = guess.copy()
+    prev = math.inf
+    worse = 0
+    for it in range(1, max_iter + 1):
+        r = problem.residual(theta, scale)
+        err = float(np.max(np.abs(r)))
+        if not math.isfinite(err):
+            return None
+        if err < tol:
+            return Solution(theta, err, it - 1)
+        worse = worse + 1 if err > prev else 0
+        if worse >= 3:
+            return None
+        prev = err
+        try:
+            step = np.linalg.solve(problem.jacobian(theta, scale), -r)
+        except np.linalg.LinAlgError:
+            return None
+        if float(np.max(np.abs(step))) > 1.0:  # damp steps of more than a radian
+            step *= 1.0 / float(np.max(np.abs(step)))
+        theta = theta + step
+        if float(np.max(np.abs(step))) < 1e-14:
+            r = problem.residual(theta, scale)
+            err = float(np.max(np.abs(r)))
+            return Solution(theta, err, it) if err < 1e3 * tol else None
+    return None
+
+
+class ContinuationError(RuntimeError):
+    """Newton failed even with small load steps; ``reached`` is the largest converged factor."""
+
+    def __init__(self, reached: float) -> None:
+        super().__init__(f"converged up to load factor {reached:.6g}")
+        self.reached = reached
+
+
+def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, target: float,
+          guess: F64, min_step: float = 1e-3) -> tuple[Solution, int]:
+    """Continue the solution from load parameter ``start`` (solved: ``guess``) to ``target``.
+
+    ``problem_at(p)`` returns the problem and load factor at parameter p (the same problem object
+    can serve several p). Returns the solution at ``target`` and the number of solves.
+    Raises :class:`ContinuationError` with the last converged parameter on failure.
+    """
+    p, theta = start, guess
+    span = target - start
+    step = 1.0  # fraction of the remaining span
+    solves = 0
+    total_iter = 0
+    while True:
+        trial = target if step >= 1.0 else p + step * (target - p)
+        prob, scale = problem_at(trial)
+        sol = newton(prob, scale, theta)
+        solves += 1
+        if sol is not None:
+            total_iter += sol.iterations
+            p, theta = trial, sol.theta
+            if trial == target:
+                return Solution(sol.theta, sol.residual, total_iter), solves
+            step = min(1.0, 2.0 * step)
+        else:
+            step *= 0.5
+            if step * abs(target - p) < min_step * abs(span):
+                raise ContinuationError(p)

@@ -1,0 +1,82 @@
+"""BentShape: one static equilibrium shape of the cilium, usable wherever a Centreline is."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia.centreline import Centreline
+from magcilia.mechanics.flow import Flow
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Load:
+    """The load of a bent shape (SI).
+
+    Parameters
+    ----------
+    force : float
+        Dead point force magnitude, N (signed: negative pushes the other way).
+    direction : float
+        Direction of the force in the x–z plane, rad from +z toward +x (π/2 = +x).
+    at : float
+        Arc length of the point of application, m.
+    flow : Flow or None
+        Fluid flow past the cilium.
+    """
+
+    force: float = 0.0
+    direction: float = 0.5 * np.pi
+    at: float = 0.0
+    flow: Flow | None = None
+
+    @property
+    def vector(self) -> F64:
+        """The point force (F_x, F_z), N, shape (2,)."""
+        return self.force * np.array([np.sin(self.direction), np.cos(self.direction)])
+
+
+@dataclass(frozen=True, eq=False)
+class BentShape(Centreline):
+    """One static shape of the cilium (a :class:`~magcilia.Centreline` with a = 1).
+
+    ``setup.output(shape)`` and ``setup.field(shape)`` evaluate the bent field (slices follow the
+    centreline, each magnetized along its local tangent). ``s`` (m,), ``angles`` (1, m) and
+    ``points`` (1, m, 3) are as for any Centreline, on a uniform arc-length grid.
+
+    Attributes
+    ----------
+    load : Load
+        The load that made it.
+    residual : float
+        Largest collocation residual at convergence, rad.
+    iterations : int
+        Newton iterations in total (over all continuation steps).
+    nodes : int
+        Collocation nodes used.
+    """
+
+    load: Load = Load()
+    residual: float = 0.0
+    iterations: int = 0
+    nodes: int = 0
+
+    @property
+    def tip(self) -> F64:  # one shape: (3,) rather than (1, 3)
+        """Tip position relative to the base centre, m, shape (3,): x along +x (the default
+        force direction), z along the unloaded axis."""
+        return np.asarray(self.points[0, -1, :], dtype=np.float64)
+
+    @property
+    def tip_angle(self) -> float:  # type: ignore[override]
+        """Tangent angle at the tip, rad (from +z toward +x)."""
+        return float(self.angles[0, -1])
+
+    @property
+    def deflection(self) -> float:
+        """Tip displacement along x, m."""
+        return float(self.points[0, -1, 0])
