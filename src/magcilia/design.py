@@ -26,7 +26,7 @@ from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import RE_MAX
-from magcilia.readout import DEFAULT_BANDWIDTH
+from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
 F64 = NDArray[np.float64]

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.mechanics import Flow, bend_sweep
+from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
 if TYPE_CHECKING:
@@ -34,8 +35,6 @@ F64 = NDArray[np.float64]
 
 QUANTITIES = ("angle", "force", "flow")
 UNITS = {"angle": "rad", "force": "N", "flow": "m/s"}
-#: default noise bandwidth, Hz: the paper's records (2000 samples at 1 kHz)
-DEFAULT_BANDWIDTH = (0.5, 500.0)
 
 
 class ReadoutFlag(enum.IntFlag):

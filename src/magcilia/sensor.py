@@ -33,6 +33,9 @@ _HMC1021Z: dict[str, Any] = {
     "flicker_corner": 10.0,
 }
 
+#: default noise band of a read-out, Hz: one raw sample at the paper's 1 kHz DAQ rate
+DEFAULT_BANDWIDTH = (0.5, 500.0)
+
 
 @dataclass(frozen=True)
 class Sensor:

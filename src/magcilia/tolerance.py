@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.model import tilt_output_batch
+from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
 F64 = NDArray[np.float64]
@@ -116,7 +117,7 @@ def placement_tolerance(
     setup: Setup,
     angle_accuracy: float = math.radians(1.0),
     angles: ArrayLike | None = None,
-    bandwidth: tuple[float, float] = (0.1, 10.0),
+    bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
     coordinates: tuple[str, ...] = ("x", "y", "z"),
     step: float = 1e-6,
 ) -> PlacementTolerance:

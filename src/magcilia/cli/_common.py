@@ -12,7 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._atomic import atomic_path, write_text
+from magcilia._validate import fail
 from magcilia.config import load_setup
+from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 from magcilia.units import parse_range
 
@@ -70,3 +72,17 @@ def save_figure(fig: Any, path: str | Path, dpi: int = 150) -> None:
     suffix = Path(path).suffix.lstrip(".") or "png"
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format=suffix)
+
+
+def bandwidth_option(help_text: str = "Noise band of each reading, F_LOW:F_HIGH in Hz.") -> Any:
+    """The shared ``--bandwidth`` option (default: one raw sample at 1 kHz)."""
+    default = f"{DEFAULT_BANDWIDTH[0]:g}:{DEFAULT_BANDWIDTH[1]:g}"
+    return click.option("--bandwidth", default=default, show_default=True, help=help_text)
+
+
+def parse_bandwidth(text: str) -> tuple[float, float]:
+    """``F_LOW:F_HIGH`` in Hz -> (f_low, f_high)."""
+    f_lo, f_hi, step = parse_range(text, "--bandwidth", "Hz")
+    if step is not None or f_lo <= 0.0:
+        raise fail("--bandwidth", text, "F_LOW:F_HIGH in Hz with 0 < F_LOW < F_HIGH, e.g. 0.5:500")
+    return f_lo, f_hi

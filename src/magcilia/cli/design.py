@@ -4,20 +4,24 @@ from __future__ import annotations
 
 import click
 
-from magcilia.cli._common import echo_json, save_figure, setup_label, write_json
+from magcilia.cli._common import (
+    bandwidth_option,
+    echo_json,
+    parse_bandwidth,
+    save_figure,
+    setup_label,
+    write_json,
+)
 from magcilia.cli.bend import MODULUS_HELP, TIP_RADIUS_HELP, load_mechanics_setup
 from magcilia.design import design_metrics
 from magcilia.mechanics import FLUIDS
-from magcilia.readout import DEFAULT_BANDWIDTH
-from magcilia.units import parse_range
 
 
 @click.command()
 @click.argument("setup_arg", metavar="SETUP")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow metrics (20 °C, uniform flow).")
-@click.option("--bandwidth", default=f"{DEFAULT_BANDWIDTH[0]:g}:{DEFAULT_BANDWIDTH[1]:g}",
-              show_default=True, help="Noise bandwidth LOW:HIGH in Hz.")
+@bandwidth_option()
 @click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
 @click.option("--modulus", default=None, help=MODULUS_HELP)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (SI units) instead of the table.")
@@ -34,8 +38,7 @@ def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
     cone has none: add --tip-radius, e.g. 0.05mm).
     """
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
-    f_lo, f_hi, _ = parse_range(bandwidth, "--bandwidth", "Hz")
-    metrics = design_metrics(setup, fluid=FLUIDS[fluid], bandwidth=(f_lo, f_hi))
+    metrics = design_metrics(setup, fluid=FLUIDS[fluid], bandwidth=parse_bandwidth(bandwidth))
     doc = {"setup": setup_label(setup_arg), **metrics.to_dict()}
     if json_file:
         write_json(json_file, doc)

@@ -12,7 +12,7 @@ import numpy as np
 
 from magcilia._atomic import write_text
 from magcilia._validate import fail
-from magcilia.cli._common import echo_json
+from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth
 from magcilia.cli.bend import (
     MODULUS_HELP,
     TIP_RADIUS_HELP,
@@ -20,8 +20,8 @@ from magcilia.cli.bend import (
     require_tip_radius,
 )
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout import DEFAULT_BANDWIDTH, Readout, ReadoutFlag
-from magcilia.units import UNITS, parse_quantity, parse_range
+from magcilia.readout import Readout, ReadoutFlag
+from magcilia.units import UNITS, parse_quantity
 
 #: display unit, its SI factor, the dimension for unit-bearing span values
 DISPLAY = {"angle": ("deg", math.pi / 180.0, "angle"), "force": ("mN", 1e-3, "force"),
@@ -77,8 +77,7 @@ def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
               help="Range LO:HI in deg (angle), mN (force) or m/s (flow); units allowed.")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="Output CSV (estimates, 1-sigma, flags), written atomically.")
-@click.option("--bandwidth", default=f"{DEFAULT_BANDWIDTH[0]:g}:{DEFAULT_BANDWIDTH[1]:g}",
-              show_default=True, help="Noise bandwidth LOW:HIGH in Hz of each reading.")
+@bandwidth_option()
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid for --quantity flow (uniform flow along +x).")
 @click.option("--table-size", default=257, show_default=True, help="Read-out table points.")
@@ -96,13 +95,12 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     """
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     span = parse_span(span_text, quantity)
-    f_lo, f_hi, _ = parse_range(bandwidth, "--bandwidth", "Hz")
     if quantity != "angle":
         require_tip_radius(setup, setup_arg, "a force" if quantity == "force" else "a flow load")
     volts, times = read_recording(recording)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     readout = Readout(setup, quantity=quantity, span=span, flow=flow, table_size=table_size)
-    result = readout.read(volts, bandwidth=(f_lo, f_hi))
+    result = readout.read(volts, bandwidth=parse_bandwidth(bandwidth))
     unit, factor, _ = DISPLAY[quantity]
     col = f"{quantity}_{unit.replace('/', '_per_')}"
     buf = io.StringIO()

@@ -10,7 +10,7 @@ import click
 from tqdm import tqdm
 
 from magcilia._validate import fail
-from magcilia.cli._common import echo_json, load_setup_arg
+from magcilia.cli._common import bandwidth_option, echo_json, load_setup_arg, parse_bandwidth
 from magcilia.cli.calibrate import staged_directory
 from magcilia.measurements import read_measurements
 from magcilia.sensitivity import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
@@ -35,17 +35,6 @@ def parse_spans(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
     return out
 
 
-def parse_band(text: str) -> tuple[float, float]:
-    """``f_low:f_high`` in Hz."""
-    try:
-        lo, hi = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise fail("--bandwidth", text, "F_LOW:F_HIGH in Hz, e.g. 0.1:10") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
-        raise fail("--bandwidth", text, "0 < F_LOW < F_HIGH in Hz, e.g. 0.1:10")
-    return lo, hi
-
-
 @click.command()
 @click.argument("setup_arg", metavar="SETUP")
 @click.option("--data", type=click.Path(dir_okay=False),
@@ -68,8 +57,7 @@ def parse_band(text: str) -> tuple[float, float]:
 @click.option("--seed", default=0, show_default=True, help="Random seed of the Sobol sampling.")
 @click.option("--accuracy", default=1.0, show_default=True,
               help="Target angle accuracy for the placement tolerance, degrees.")
-@click.option("--bandwidth", default="0.1:10", show_default=True,
-              help="Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
+@bandwidth_option("Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
 @click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
@@ -84,7 +72,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
     """
     setup = load_setup_arg(setup_arg)
     spans = parse_spans(span_items)
-    band = parse_band(bandwidth)
+    band = parse_bandwidth(bandwidth)
     if not (math.isfinite(accuracy) and accuracy > 0):
         raise fail("--accuracy", accuracy, "a positive angle in degrees")
     if sobol_base < 0:
