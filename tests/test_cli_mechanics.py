@@ -58,7 +58,7 @@ def test_bend_flow_and_load_below_tip(capsys: pytest.CaptureFixture[str]) -> Non
         (["bend", "paper", "--flow", "1e6m/s", *TIP], "drag law ends"),
         (["bend", "paper", "--force", "0.1mN", "--at", "9mm"], "at must be an arc length"),
         (["readout", "paper", "missing.csv", "--quantity", "angle", "--span", "0:40",
-          "--out", "x.csv"], "cannot access missing.csv"),
+          "--out", "x.csv"], "missing.csv: no such file"),
         (["design", "paper", "--bandwidth", "10:1"], "--bandwidth must be a range"),
     ],
     ids=["cone-tip", "no-unit", "too-fast", "at-beyond", "missing-recording", "bandwidth"],

@@ -44,6 +44,7 @@ def plot_design(metrics: DesignMetrics) -> Any:
         if m.quantity == "flow":
             ax.set_xscale("symlog", linthresh=max(m.minimum * factor, 1e-6)
                           if math.isfinite(m.minimum) and m.minimum > 0 else 1e-3)
+            ax.set_xlim(left=0.0)
         ax.set_title(f"{m.quantity}: {abs(m.sensitivity) / factor:.3g} V/{unit} at zero load"
                      if math.isfinite(m.sensitivity) else m.quantity, fontsize="small")
         ax.legend(fontsize="x-small")
@@ -63,6 +64,9 @@ def plot_shapes(shapes: Any, ax: Any, labels: Any = None) -> Any:
         label = labels[i] if labels is not None else None
         ax.plot(pts[:, 0], pts[:, 2], lw=2, label=label)
         ax.plot(pts[-1, 0], pts[-1, 2], "o", color="k", ms=3)
+    x = shapes.points[..., 0] * 1e3
+    half = max(0.3 * length, float(np.abs(x).max()) * 1.1)  # keep the panel readable
+    ax.set_xlim(-half if x.min() < 0 else -0.1 * half, half)
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm), along the sensitive axis")
     ax.set_ylabel("z (mm), from the base")

@@ -214,21 +214,21 @@ def _parse_setreset(values: list[str], source: str) -> F64:
     return out
 
 
-def _read_csv(path: Path) -> dict[str, Any]:
+def _read_csv(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise MagciliaError(f"{path}: not a UTF-8 text file; export the recording as CSV") from None
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
-        raise MagciliaError(f"{path}: the file is empty; expected a header with angle_deg,voltage_V")
+        raise MagciliaError(f"{path}: the file is empty; expected a header with {','.join(required)}")
     reader = csv.reader(lines)
     header = [h.strip() for h in next(reader)]
-    for col in ("angle_deg", "voltage_V"):
+    for col in required:
         if col not in header:
             raise MagciliaError(
                 f"{path}: missing column {col!r} (header: {', '.join(header)}); the CSV needs "
-                "columns angle_deg and voltage_V"
+                f"columns {' and '.join(required)}"
             )
     idx = {name: header.index(name) for name in header}
     data: dict[str, list[str]] = {name: [] for name in header}
@@ -257,19 +257,19 @@ def _read_csv(path: Path) -> dict[str, Any]:
     return out
 
 
-def _read_mat(path: Path) -> dict[str, Any]:
+def _read_mat(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     from scipy.io import loadmat
 
     try:
         mat = loadmat(path, squeeze_me=True)
     except (ValueError, TypeError, OSError, KeyError, IndexError) as exc:  # not a MAT file
         raise MagciliaError(f"{path}: cannot read as a MATLAB .mat file ({exc})") from None
-    missing = [k for k in ("angle_deg", "voltage_V") if k not in mat]
+    missing = [k for k in required if k not in mat]
     if missing:
         found = ", ".join(k for k in mat if not k.startswith("__")) or "none"
         raise MagciliaError(
             f"{path}: missing variable(s) {', '.join(missing)} (found: {found}); save vectors "
-            "named angle_deg and voltage_V"
+            f"named {' and '.join(required)}"
         )
     out: dict[str, Any] = {}
     for key in ("angle_deg", "voltage_V", "time_s", "setreset"):
@@ -281,24 +281,51 @@ def _read_mat(path: Path) -> dict[str, Any]:
     return out
 
 
-def _read_tdms(path: Path) -> dict[str, Any]:
+def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     nptdms: Any = require("nptdms", package="npTDMS", extra="tdms", purpose="Reading TDMS files")
     try:
         tdms = nptdms.TdmsFile.read(path)
     except (ValueError, TypeError, OSError, KeyError, IndexError) as exc:  # corrupt files
         raise MagciliaError(f"{path}: cannot read as a TDMS file ({exc})") from None
     channels = {ch.name: ch for group in tdms.groups() for ch in group.channels()}
-    missing = [k for k in ("angle_deg", "voltage_V") if k not in channels]
+    missing = [k for k in required if k not in channels]
     if missing:
         raise MagciliaError(
             f"{path}: missing channel(s) {', '.join(missing)} (found: "
-            f"{', '.join(channels) or 'none'}); name the channels angle_deg and voltage_V"
+            f"{', '.join(channels) or 'none'}); name the channels {' and '.join(required)}"
         )
     return {k: np.asarray(channels[k][:], dtype=np.float64) for k in
             ("angle_deg", "voltage_V", "time_s", "setreset") if k in channels}
 
 
 READERS = {".csv": _read_csv, ".txt": _read_csv, ".mat": _read_mat, ".tdms": _read_tdms}
+
+
+def read_samples(
+    path: str | Path, required: tuple[str, ...] = ("angle_deg", "voltage_V")
+) -> dict[str, F64]:
+    """Raw sample columns of a recording (CSV, MATLAB .mat or TDMS), without any reduction.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; its suffix selects the reader (see the module docstring for the formats).
+    required : tuple of str
+        Columns that must be present (a one-line error names the file and the missing column).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (samples,)
+        The columns found among ``angle_deg`` (deg), ``voltage_V`` (V), ``time_s`` (s) and
+        ``setreset`` (+1 set, −1 reset).
+    """
+    p = Path(path)
+    reader = READERS.get(p.suffix.lower())
+    if reader is None:
+        raise v.fail(f"{p}: file type", p.suffix or "(none)", "one of " + ", ".join(READERS))
+    if not p.is_file():
+        raise MagciliaError(f"{p}: no such file")
+    return reader(p, required)
 
 
 def read_measurements(
@@ -326,12 +353,7 @@ def read_measurements(
     Measurement
     """
     p = Path(path)
-    reader = READERS.get(p.suffix.lower())
-    if reader is None:
-        raise v.fail(f"{p}: file type", p.suffix or "(none)", "one of " + ", ".join(READERS))
-    if not p.is_file():
-        raise MagciliaError(f"{p}: no such file")
-    cols = reader(p)
+    cols = read_samples(p)
     return measurement_from_samples(
         cols["angle_deg"], cols["voltage_V"], setreset=cols.get("setreset"), sensor=sensor,
         nan_policy=nan_policy, saturation=saturation, source=str(p),

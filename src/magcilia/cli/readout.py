@@ -19,6 +19,7 @@ from magcilia.cli.bend import (
     load_mechanics_setup,
     require_tip_radius,
 )
+from magcilia.measurements import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout import Readout, ReadoutFlag
 from magcilia.units import UNITS, parse_quantity
@@ -49,23 +50,11 @@ def parse_span(text: str, quantity: str) -> tuple[float, float]:
 
 
 def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """Voltages (V) and optional times (s) from a CSV with a ``voltage_V`` column."""
-    text = Path(path).read_text(encoding="utf-8")
-    reader = csv.DictReader(io.StringIO(text))
-    fields = reader.fieldnames or []
-    if "voltage_V" not in fields:
-        raise fail("RECORDING", path, f"a CSV with a 'voltage_V' column (found {fields})")
-    volts, times = [], []
-    for line, row in enumerate(reader, start=2):
-        try:
-            volts.append(float(row["voltage_V"]))
-            if "time_s" in fields:
-                times.append(float(row["time_s"]))
-        except (TypeError, ValueError):
-            raise fail(f"{path} line {line}", row.get("voltage_V"), "numbers") from None
-    if not volts:
-        raise fail("RECORDING", path, "a CSV with at least one reading")
-    return np.array(volts), (np.array(times) if "time_s" in fields else None)
+    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms with ``voltage_V``)."""
+    cols = read_samples(path, required=("voltage_V",))
+    if cols["voltage_V"].size == 0:
+        raise fail("RECORDING", path, "a recording with at least one reading")
+    return cols["voltage_V"], cols.get("time_s")
 
 
 @click.command()
