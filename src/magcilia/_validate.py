@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -102,3 +102,24 @@ def choice(name: str, value: object, options: Sequence[str]) -> str:
     if value not in options:
         raise fail(name, value, "one of " + ", ".join(repr(o) for o in options))
     return str(value)
+
+
+def intervals(
+    name: str,
+    given: Mapping[str, Sequence[float]] | None,
+    defaults: Mapping[str, tuple[float, float]],
+) -> dict[str, tuple[float, float]]:
+    """``defaults`` updated with ``given`` (low, high) pairs; each key known, each pair finite with
+    low <= high. ``name`` ("bounds", "spans") is used in the messages."""
+    merged = dict(defaults)
+    for key, pair in (given or {}).items():
+        if key not in defaults:
+            raise fail(f"{name} key", key, "one of " + ", ".join(defaults))
+        try:
+            lo, hi = (float(b) for b in pair)
+        except (TypeError, ValueError):
+            raise fail(f"{name}[{key!r}]", pair, "a (low, high) pair of numbers") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise fail(f"{name}[{key!r}]", (lo, hi), "a finite (low, high) pair with low <= high")
+        merged[key] = (lo, hi)
+    return merged

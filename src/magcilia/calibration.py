@@ -217,17 +217,7 @@ class _Problem:
 
 def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
                   initial: Setup) -> dict[str, tuple[float, float]]:
-    merged = dict(DEFAULT_BOUNDS)
-    for name, pair in (bounds or {}).items():
-        if name not in DEFAULT_BOUNDS:
-            raise v.fail("bounds key", name, "one of " + ", ".join(PARAMETERS))
-        try:
-            lo, hi = (float(b) for b in pair)
-        except (TypeError, ValueError):
-            raise v.fail(f"bounds[{name!r}]", pair, "a (low, high) pair of numbers") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise v.fail(f"bounds[{name!r}]", (lo, hi), "a finite (low, high) pair with low <= high")
-        merged[name] = (lo, hi)
+    merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
     for name in INTEGER:
         lo, hi = merged[name]
         if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():

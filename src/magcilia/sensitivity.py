@@ -450,17 +450,7 @@ def sensitivity_study(
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
     points = v.integer("points", points, 2)
     map_points = v.integer("map_points", map_points, 2)
-    merged = default_spans(setup)
-    for name, pair in (spans or {}).items():
-        if name not in merged:
-            raise v.fail("spans key", name, "one of " + ", ".join(STUDY_PARAMETERS))
-        try:
-            lo, hi = (float(b) for b in pair)
-        except (TypeError, ValueError):
-            raise v.fail(f"spans[{name!r}]", pair, "a (low, high) pair of numbers") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise v.fail(f"spans[{name!r}]", (lo, hi), "a finite (low, high) pair with low <= high")
-        merged[name] = (lo, hi)
+    merged = v.intervals("spans", spans, default_spans(setup))
     nominal = setup.params()
     sweeps: dict[str, OATResult] = {}
     notes: list[str] = []

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import shutil
+import tempfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -86,3 +90,38 @@ def parse_bandwidth(text: str) -> tuple[float, float]:
     if step is not None or f_lo <= 0.0:
         raise fail("--bandwidth", text, "F_LOW:F_HIGH in Hz with 0 < F_LOW < F_HIGH, e.g. 0.5:500")
     return f_lo, f_hi
+
+
+def parse_named_ranges(option: str, items: tuple[str, ...], names: Sequence[str],
+                       plain: Sequence[str] = ()) -> dict[str, tuple[float, float]]:
+    """``NAME=LOW:HIGH`` items of a repeatable option -> SI pairs: lengths given in mm, the
+    ``plain`` names (whole numbers such as n_loops) as they are."""
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        name = name.strip()
+        if name not in names:
+            raise fail(option, item, "NAME=LOW:HIGH with NAME one of " + ", ".join(names))
+        try:
+            lo, hi = (float(x) for x in text.split(":"))
+        except ValueError:
+            raise fail(option, item, f"NAME=LOW:HIGH, e.g. {names[0]}=2:4 (mm)") from None
+        factor = 1.0 if name in plain else 1e-3
+        out[name] = (lo * factor, hi * factor)
+    return out
+
+
+@contextlib.contextmanager
+def staged_directory(out: Path) -> Iterator[Path]:
+    """A temporary directory beside ``out``; its files move into ``out`` only on success."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists() and not out.is_dir():
+            raise fail("--out", str(out), "a directory (a file of that name exists)")
+        out.mkdir(exist_ok=True)
+        for item in tmp.iterdir():
+            item.replace(out / item.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

@@ -2,56 +2,24 @@
 
 from __future__ import annotations
 
-import contextlib
-import shutil
 import sys
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 
 import click
 from tqdm import tqdm
 
-from magcilia._validate import fail
-from magcilia.calibration import DEFAULT_BOUNDS, INTEGER, CalibrationResult, calibrate
+from magcilia.calibration import INTEGER, PARAMETERS, CalibrationResult, calibrate
 from magcilia.calibration_report import write_report
-from magcilia.cli._common import echo_json, load_setup_arg, write_json
+from magcilia.cli._common import (
+    echo_json,
+    load_setup_arg,
+    parse_named_ranges,
+    staged_directory,
+    write_json,
+)
 from magcilia.config import save_setup
 from magcilia.measurements import Measurement, read_measurements
 from magcilia.setup import Setup
-
-
-def parse_bounds(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """``name=lo:hi`` items (lengths in mm; n_loops and dipoles_per_loop plain) → SI bounds."""
-    out: dict[str, tuple[float, float]] = {}
-    for item in items:
-        name, _, rng = item.partition("=")
-        name = name.strip()
-        if name not in DEFAULT_BOUNDS:
-            raise fail("--bound", item, "NAME=LOW:HIGH with NAME one of " + ", ".join(DEFAULT_BOUNDS))
-        try:
-            lo, hi = (float(x) for x in rng.split(":"))
-        except ValueError:
-            raise fail("--bound", item, "NAME=LOW:HIGH, e.g. height=2:4 (mm)") from None
-        factor = 1.0 if name in INTEGER else 1e-3
-        out[name] = (lo * factor, hi * factor)
-    return out
-
-
-@contextlib.contextmanager
-def staged_directory(out: Path) -> Iterator[Path]:
-    """A temporary directory beside ``out``; its files move into ``out`` only on success."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
-    try:
-        yield tmp
-        if out.exists() and not out.is_dir():
-            raise fail("--out", str(out), "a directory (a file of that name exists)")
-        out.mkdir(exist_ok=True)
-        for item in tmp.iterdir():
-            item.replace(out / item.name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, restarts: int,
@@ -108,9 +76,10 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     initial = load_setup_arg(setup_arg)
     measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
                                     saturation=saturation)
+    bounds = parse_named_ranges("--bound", bound_items, PARAMETERS, INTEGER)
     result = run_calibration(measurement, initial, Path(out_dir), seed=seed, restarts=restarts,
                              bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
-                             bounds=parse_bounds(bound_items), quiet=quiet)
+                             bounds=bounds, quiet=quiet)
     if as_json:
         echo_json(result.to_dict())
     else:

@@ -10,29 +10,18 @@ import click
 from tqdm import tqdm
 
 from magcilia._validate import fail
-from magcilia.cli._common import bandwidth_option, echo_json, load_setup_arg, parse_bandwidth
-from magcilia.cli.calibrate import staged_directory
+from magcilia.cli._common import (
+    bandwidth_option,
+    echo_json,
+    load_setup_arg,
+    parse_bandwidth,
+    parse_named_ranges,
+    staged_directory,
+)
 from magcilia.measurements import read_measurements
 from magcilia.sensitivity import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
 from magcilia.sensitivity_report import report_dict, write_sensitivity_report
 from magcilia.tolerance import placement_tolerance
-
-
-def parse_spans(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """``name=lo:hi`` items (lengths in mm; n_loops, dipoles_per_loop whole numbers) → SI spans."""
-    out: dict[str, tuple[float, float]] = {}
-    for item in items:
-        name, _, rng = item.partition("=")
-        name = name.strip()
-        if name not in STUDY_PARAMETERS:
-            raise fail("--span", item, "NAME=LOW:HIGH with NAME one of " + ", ".join(STUDY_PARAMETERS))
-        try:
-            lo, hi = (float(x) for x in rng.split(":"))
-        except ValueError:
-            raise fail("--span", item, "NAME=LOW:HIGH, e.g. z=0:1 (mm)") from None
-        factor = 1.0 if name in SWEEP_INTEGER else 1e-3
-        out[name] = (lo * factor, hi * factor)
-    return out
 
 
 @click.command()
@@ -71,7 +60,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
     nothing is written if anything fails.
     """
     setup = load_setup_arg(setup_arg)
-    spans = parse_spans(span_items)
+    spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS, SWEEP_INTEGER)
     band = parse_bandwidth(bandwidth)
     if not (math.isfinite(accuracy) and accuracy > 0):
         raise fail("--accuracy", accuracy, "a positive angle in degrees")
