@@ -76,8 +76,8 @@ def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
 def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
             bandwidth: str, fluid: str, table_size: int, tip_radius: str | None,
             modulus: str | None, as_json: bool) -> None:
-    """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (a CSV with
-    a `voltage_V` column and optional `time_s`).
+    """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
+    or .tdms with a `voltage_V` column and optional `time_s`; see `magcilia calibrate`).
 
     Writes one row per reading with the estimate, its 1-sigma uncertainty (sensor noise over the
     bandwidth) and flags (outside_span, fold, saturated); flagged rows have empty estimates.
