@@ -124,3 +124,18 @@ def test_design_table_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture[st
     doc = json.loads(capsys.readouterr().out)
     assert doc["metrics"]["force"]["sensitivity_V_per_unit"] is None  # sharp cone
     assert doc["metrics"]["angle"]["unit"] == "rad"
+
+
+def test_bundled_force_sensor_example_bends_and_reads_back(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """examples/force-sensor.toml needs no overrides: bend, then read the force back."""
+    example = str(Path(__file__).resolve().parents[1] / "examples" / "force-sensor.toml")
+    assert main(["bend", example, "--force", "0.1mN", "--json"]) == 0
+    volts = json.loads(capsys.readouterr().out)["output_V"]
+    rec = tmp_path / "rec.csv"
+    rec.write_text(f"voltage_V\n{volts!r}\n")
+    out = tmp_path / "f.csv"
+    assert main(["readout", example, str(rec), "--quantity", "force", "--span", "0:0.2",
+                 "--out", str(out)]) == 0
+    row = out.read_text().splitlines()[1].split(",")
+    assert float(row[1]) == pytest.approx(0.1, rel=1e-5)  # mN
