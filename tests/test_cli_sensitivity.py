@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -141,3 +142,16 @@ def test_approximate_errors(args: list[str], match: str, tmp_path: Path,
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: ") and match in err
     assert not (tmp_path / "x.h").exists()
+
+
+def test_sensitivity_without_salib_says_how(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setitem(sys.modules, "SALib", None)  # as if the extra were not installed
+    out = tmp_path / "o"
+    assert main(["sensitivity", "paper", "--out", str(out), "--points", "3",
+                 "--map-points", "3"]) == 2
+    err = capsys.readouterr().err
+    assert "magcilia[sensitivity]" in err and "--sobol-base 0" in err and not out.exists()
+    assert main(["sensitivity", "paper", "--out", str(out), "--points", "3", "--map-points", "3",
+                 "--sobol-base", "0"]) == 0
+    assert (out / "sensitivity.json").is_file()

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
+from magcilia._errors import MissingDependencyError, require
 from magcilia._validate import fail
 from magcilia.cli._common import (
     bandwidth_option,
@@ -68,6 +69,11 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         raise fail("--sobol-base", sobol_base, "0 (skip) or a power of 2")
     if sobol_measure == "cost" and data is None and sobol_base:
         raise fail("--sobol-measure", "cost", "used with --data (the cost needs measurements)")
+    if sobol_base:  # fail before the sweeps, and say how to do without
+        try:
+            require("SALib", package="SALib", extra="sensitivity", purpose="Sobol indices")
+        except MissingDependencyError as exc:
+            raise MissingDependencyError(f"{exc} (or skip them with --sobol-base 0)") from None
     measurement = None if data is None else read_measurements(data, sensor=setup.sensor)
     show = not quiet and sys.stderr.isatty()
     with tqdm(total=3, desc="sensitivity", unit="step", disable=not show, file=sys.stderr) as bar:
