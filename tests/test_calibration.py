@@ -136,3 +136,17 @@ def test_too_few_angles() -> None:
     data = measurement_from_samples([0.0, 10.0], [1e-3, 2e-3])
     with pytest.raises(mc.MagciliaError, match="record more angles"):
         mc.calibrate(data)
+
+
+def test_sign_of_y_follows_the_initial_setup(full_fit: mc.CalibrationResult) -> None:
+    # paper_initial has y = 0: the fit reports y >= 0; the mirrored placement fits exactly as well
+    assert full_fit.values["y"] > 0.0
+    data = full_fit.data
+    mirrored = full_fit.setup.replace(y=-full_fit.values["y"])
+    np.testing.assert_allclose(mirrored.output(data.angles), full_fit.setup.output(data.angles),
+                               rtol=1e-12, atol=1e-15)
+    p = TRUTH.params()
+    fixed = {n: (p[n], p[n]) for n in ("height", "base_radius", "z", "n_loops", "dipoles_per_loop")}
+    negative = mc.calibrate(data, initial=TRUTH.replace(y=-1e-3), bounds=fixed, rng=0, restarts=1)
+    assert negative.values["y"] < 0.0
+    assert negative.values["y"] == pytest.approx(-p["y"], rel=0.05)

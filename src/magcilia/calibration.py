@@ -335,7 +335,19 @@ def calibrate(
         if progress is not None:
             progress(i + 1, restarts)
     _, x_best = min(candidates, key=lambda c: c[0])
+    x_best = _y_sign_of(x_best, initial.position[1], box["y"])
     return _result(problem, initial, data, box, x_best, bias, t0, tuple(restart_costs))
+
+
+def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
+    """B_x is even in y (mirror symmetry about the x-z plane), so y and -y fit exactly equally
+    well: keep the sign of the initial y (positive for 0) when -y is within the bounds."""
+    y = float(x[3])
+    wanted = -1.0 if y_initial < 0.0 else 1.0
+    if y * wanted < 0.0 and y_bounds[0] <= -y <= y_bounds[1]:
+        x = x.copy()
+        x[3] = -y
+    return x
 
 
 def _polish(problem: _Problem, x: F64, lower: F64, upper: F64,
@@ -465,7 +477,7 @@ def _uncertainty(problem: _Problem, x: F64, scale: float, cost: float,
                              "not each one")
     if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[3] < box["y"][1]:
         warns.append("B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
-                     "equally well)")
+                     "equally well; the sign of the initial y is kept, + for 0)")
     warns.append("n_loops and dipoles_per_loop are modelling parameters chosen by the search; "
                  "they have no standard error")
     return tuple(names), stderr, corr, tuple(warns)
