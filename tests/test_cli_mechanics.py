@@ -139,3 +139,24 @@ def test_bundled_force_sensor_example_bends_and_reads_back(tmp_path: Path,
                  "--out", str(out)]) == 0
     row = out.read_text().splitlines()[1].split(",")
     assert float(row[1]) == pytest.approx(0.1, rel=1e-5)  # mN
+
+
+def test_readout_with_calibration_covariance(tmp_path: Path) -> None:
+    from magcilia.cli.demo import example_path
+
+    fit = tmp_path / "fit"
+    assert main(["calibrate", str(example_path()), "--out", str(fit), "--restarts", "1",
+                 "--quiet"]) == 0
+    setup = mc.load_setup(fit / "fitted_setup.toml")
+    rec = tmp_path / "rec.csv"
+    rec.write_text("voltage_V\n" + "".join(f"{float(v)!r}\n" for v in
+                                           setup.output(np.radians([20.0, 40.0, 60.0]))))
+    sigmas = []
+    for extra in ([], ["--calibration", str(fit)]):
+        out = tmp_path / f"out{len(extra)}.csv"
+        assert main(["readout", str(fit / "fitted_setup.toml"), str(rec), "--quantity", "angle",
+                     "--span", "0:85", "--out", str(out), *extra]) == 0
+        rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
+        np.testing.assert_allclose([float(r[1]) for r in rows], [20.0, 40.0, 60.0], atol=1e-3)
+        sigmas.append(np.array([float(r[2]) for r in rows]))
+    assert np.all(sigmas[1] > sigmas[0])

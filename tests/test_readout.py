@@ -4,12 +4,15 @@ flags (span, fold, saturation), and 1-σ uncertainties against Monte Carlo."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import magcilia as mc
 from magcilia.calibration import CalibrationResult
+from magcilia.cli._common import write_json
+from magcilia.cli.demo import example_path
 from magcilia.mechanics import Flow
 from magcilia.readout import ReadoutFlag
 
@@ -162,3 +165,31 @@ def test_bad_arguments(setup: mc.Setup) -> None:
         mc.Readout(mc.Setup.paper(), quantity="force", span=(0.0, 1e-4))
     with pytest.raises(mc.MagciliaError, match="f_high must be greater"):
         mc.Readout(setup, quantity="angle", span=(0, 1)).read([0.0], bandwidth=(10.0, 1.0))
+
+
+def test_calibration_uncertainty_from_a_real_fit_obeys_the_hat_matrix_trace(tmp_path: Path) -> None:
+    """Least squares: the fitted curve's variances at the m fitted angles sum to σ² · rank(J).
+    Propagated through the read-out table (and a result.json round trip) the same must hold."""
+    data = mc.read_measurements(example_path())
+    fit = mc.calibrate(data, rng=0)
+    write_json(tmp_path / "result.json", fit.to_dict())  # as magcilia calibrate writes it
+    covariance = mc.ParameterCovariance.load(tmp_path)  # a folder holding result.json works too
+    assert covariance.correlation_names == fit.correlation_names
+    null = 1 if any("along 1 combination" in w for w in fit.warnings) else 0
+    setup = fit.setup
+    for cal in (fit, covariance):
+        r = mc.Readout(setup, quantity="angle", span=(0.0, math.radians(85.0)), calibration=cal)
+        res = r.read(setup.output(data.angles))
+        slope = np.gradient(setup.output(data.angles), data.angles)
+        var_v = (res.sigma_calibration * slope) ** 2
+        m, p = len(data), len(fit.correlation_names)
+        assert var_v.sum() == pytest.approx(fit.cost / (m - p) * (p - null), rel=0.05)
+
+
+def test_parameter_covariance_load_errors(tmp_path: Path) -> None:
+    with pytest.raises(mc.MagciliaError, match="no such file"):
+        mc.ParameterCovariance.load(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"stderr": {}}')
+    with pytest.raises(mc.MagciliaError, match="not a calibration result"):
+        mc.ParameterCovariance.load(bad)

@@ -33,10 +33,10 @@ __all__ = [
 ]
 
 # --- issue 3: calibration ---
-from magcilia.calibration import CalibrationResult, calibrate
+from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 from magcilia.measurements import Measurement, read_measurements
 
-__all__ += ["CalibrationResult", "Measurement", "calibrate", "read_measurements"]
+__all__ += ["CalibrationResult", "Measurement", "ParameterCovariance", "calibrate", "read_measurements"]
 
 # --- issue 4: sensitivity and approximations (helper-owned block) ---
 from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear

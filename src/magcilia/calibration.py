@@ -22,10 +22,12 @@ degrees absorb real signal shape and weaken the fit, so use them only for a know
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -50,6 +52,59 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
     "y": (-3e-3, 3e-3), "z": (0.0, 1e-3), "n_loops": (1, 10), "dipoles_per_loop": (1, 10),
 }
 BIASES = ("offset", "polynomial", "none")
+
+
+@dataclass(frozen=True, eq=False)
+class ParameterCovariance:
+    """Standard errors and correlations of calibrated parameters: what read-out needs of a
+    calibration (a :class:`CalibrationResult` carries the same three attributes).
+
+    Attributes
+    ----------
+    correlation_names : tuple of str
+        Parameter names (continuous ones, ``magnetization_scale``, ``offset``, ``bias_<d>``).
+    stderr : dict of str to float
+        1-σ standard errors, SI (inf where undetermined).
+    correlation : ndarray, shape (p, p)
+        Correlation matrix of ``correlation_names`` (NaN where undefined).
+    covariance : ndarray, shape (p, p), or None
+        The covariance itself (SI), finite along undetermined combinations (see
+        :class:`CalibrationResult`); None if only standard errors and correlations are known.
+    """
+
+    correlation_names: tuple[str, ...]
+    stderr: dict[str, float]
+    correlation: F64
+    covariance: F64 | None = None
+
+    @classmethod
+    def load(cls, path: str | Path) -> ParameterCovariance:
+        """Read ``result.json`` written by ``magcilia calibrate`` (or a folder holding one);
+        null standard errors (undetermined) become inf."""
+        p = Path(path)
+        if p.is_dir():
+            p = p / "result.json"
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+            names = tuple(str(n) for n in doc["correlation"]["names"])
+            matrix = np.array(doc["correlation"]["matrix"], dtype=np.float64)  # null -> nan
+            stderr = {str(k): math.inf if val is None else float(val)
+                      for k, val in doc["stderr"].items()}
+            stored = (doc.get("covariance") or {}).get("matrix")
+            covariance = None if stored is None else np.array(stored, dtype=np.float64)
+        except FileNotFoundError:
+            raise MagciliaError(f"{p}: no such file; give the result.json (or the --out folder) "
+                                "of magcilia calibrate") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise MagciliaError(f"{p}: not a calibration result ({type(exc).__name__}: {exc}); "
+                                "give the result.json of magcilia calibrate") from None
+        shape = (len(names), len(names))
+        if (matrix.shape != shape or not set(names) <= set(stderr)
+                or (covariance is not None and covariance.shape != shape)):
+            raise MagciliaError(f"{p}: correlation matrix and standard errors do not match the "
+                                "parameter names; give an unedited result.json")
+        return cls(correlation_names=names, stderr=stderr, correlation=matrix,
+                   covariance=covariance)
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,6 +142,11 @@ class CalibrationResult:
         Model evaluations (parameter sets × angles counted once per set).
     elapsed : float
         Wall time, s.
+    restart_costs : tuple of float
+        Final cost of each restart, V².
+    covariance : ndarray, shape (p, p), or None
+        Parameter covariance of ``correlation_names`` (SI): σ² (JᵀJ)⁺, finite also along
+        undetermined combinations, so that J C Jᵀ gives the fitted curve's uncertainty.
     """
 
     setup: Setup
@@ -106,6 +166,7 @@ class CalibrationResult:
     evaluations: int
     elapsed: float
     restart_costs: tuple[float, ...] = field(default=())
+    covariance: F64 | None = None
 
     @property
     def fitted(self) -> F64:
@@ -151,6 +212,8 @@ class CalibrationResult:
         return {
             "source": self.data.source, "cost_V2": self.cost, "rms_V": self.rms,
             "values": self.values, "stderr": self.stderr,
+            "covariance": {"names": list(self.correlation_names),
+                           "matrix": None if self.covariance is None else self.covariance.tolist()},
             "correlation": {"names": list(self.correlation_names),
                             "matrix": self.correlation.tolist()},
             "bias": self.bias, "bias_coefficients": self.bias_coefficients.tolist(),
@@ -396,19 +459,19 @@ def _result(problem: _Problem, initial: Setup, data: Measurement,
     values["n_loops"], values["dipoles_per_loop"] = float(round(x[5])), float(round(x[6]))
     values["magnetization_scale"] = fitted_setup.material.magnetization_scale
     values["offset"] = offset
-    names, stderr, corr, warns = _uncertainty(problem, x, scale, cost, box)
+    names, stderr, corr, cov, warns = _uncertainty(problem, x, scale, cost, box)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
         residuals=residuals, data=data, values=values, stderr=stderr, correlation=corr,
         correlation_names=names, bias_coefficients=coef, bias=bias, warnings=warns, bounds=box,
         evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
-        restart_costs=restart_costs,
+        restart_costs=restart_costs, covariance=cov,
     )
 
 
 def _uncertainty(problem: _Problem, x: F64, scale: float, cost: float,
                  box: dict[str, tuple[float, float]]
-                 ) -> tuple[tuple[str, ...], dict[str, float], F64, tuple[str, ...]]:
+                 ) -> tuple[tuple[str, ...], dict[str, float], F64, F64, tuple[str, ...]]:
     """Standard errors and correlations from the Jacobian of the full model at the optimum."""
     columns: list[F64] = []
     names: list[str] = []
@@ -448,12 +511,11 @@ def _uncertainty(problem: _Problem, x: F64, scale: float, cost: float,
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se, se)
     corr = np.where(np.isfinite(corr), corr, np.nan)
-    stderr: dict[str, float] = {}
-    for k, name in enumerate(names):
-        value = se[k]
-        if name == "magnetization_scale":
-            value *= problem.base.material.magnetization_scale
-        stderr[name] = float(value)
+    # in the parameters' own SI units (the scale column is relative to the base scale)
+    units = np.array([problem.base.material.magnetization_scale if n == "magnetization_scale"
+                      else 1.0 for n in names])
+    cov_si = np.asarray(cov * np.outer(units, units), dtype=np.float64)
+    stderr = {name: float(se[k] * units[k]) for k, name in enumerate(names)}
     if dof <= 0:
         warns.append(f"{m} angles for {p} continuous parameters: no degrees of freedom left, so "
                      "no standard errors; record more angles")
@@ -480,4 +542,4 @@ def _uncertainty(problem: _Problem, x: F64, scale: float, cost: float,
                      "equally well; the sign of the initial y is kept, + for 0)")
     warns.append("n_loops and dipoles_per_loop are modelling parameters chosen by the search; "
                  "they have no standard error")
-    return tuple(names), stderr, corr, tuple(warns)
+    return tuple(names), stderr, corr, cov_si, tuple(warns)

@@ -29,7 +29,7 @@ from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
 if TYPE_CHECKING:
-    from magcilia.calibration import CalibrationResult
+    from magcilia.calibration import CalibrationResult, ParameterCovariance
 
 F64 = NDArray[np.float64]
 
@@ -114,7 +114,7 @@ class Readout:
         speed of ``flow`` (m/s).
     span : (float, float)
         Range of the quantity, SI (rad, N or m/s), low < high; the table starts at ``low``.
-    calibration : CalibrationResult, optional
+    calibration : CalibrationResult or ParameterCovariance, optional
         Its parameter covariance (standard errors and correlations) is propagated to the
         estimates through the table's parameter Jacobian.
     flow : Flow, optional
@@ -144,7 +144,8 @@ class Readout:
 
     def __init__(self, setup: Setup, quantity: str = "angle",
                  span: tuple[float, float] | None = None,
-                 calibration: CalibrationResult | None = None, flow: Flow | None = None,
+                 calibration: CalibrationResult | ParameterCovariance | None = None,
+                 flow: Flow | None = None,
                  table_size: int = 257) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
@@ -214,24 +215,14 @@ class Readout:
 
     def _calibration_table(self) -> F64:
         """1-σ output uncertainty (V) from the calibration covariance at the table nodes."""
-        cal = self.calibration
-        if cal is None:
-            return np.zeros(self.table_quantity.size)
-        params = self.setup.params()
-        names = [n for n in cal.correlation_names
-                 if n in params and n not in ("n_loops", "dipoles_per_loop")
-                 and math.isfinite(cal.stderr.get(n, math.nan)) and cal.stderr[n] > 0.0]
+        names, cov = _parameter_covariance(self.calibration, self.setup.params())
         if not names:
             return np.zeros(self.table_quantity.size)
-        idx = [cal.correlation_names.index(n) for n in names]
-        se = np.array([cal.stderr[n] for n in names])
-        corr = np.nan_to_num(cal.correlation[np.ix_(idx, idx)])
-        np.fill_diagonal(corr, 1.0)
-        cov = corr * np.outer(se, se)
+        params = self.setup.params()
         q = np.linspace(self.table_quantity[0], self.table_quantity[-1], 33)
         jac = np.empty((q.size, len(names)))
-        for j, name in enumerate(names):
-            h = 1e-3 * max(abs(params[name]), se[j]) if name != "offset" else 1.0
+        for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact
+            h = 1.0 if name == "offset" else 1e-3 * max(abs(params[name]), math.sqrt(cov[j, j]))
             up = self._outputs(self.setup.replace(**{name: params[name] + h}), q)
             down = self._outputs(self.setup.replace(**{name: params[name] - h}), q)
             jac[:, j] = (up - down) / (2.0 * h)
@@ -322,3 +313,26 @@ class Readout:
         return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
                 "fold": self.fold, "output_range_V": list(self.output_range),
                 "table_error": self.table_error, "table_size": int(self.table_quantity.size)}
+
+
+def _parameter_covariance(cal: CalibrationResult | ParameterCovariance | None,
+                          params: dict[str, float]) -> tuple[list[str], F64]:
+    """Names of the continuous setup parameters with a finite covariance, and that covariance
+    (SI). Uses the stored covariance when there is one (it keeps the cancellations along
+    combinations the data do not determine), else standard errors × correlations."""
+    if cal is None:
+        return [], np.zeros((0, 0))
+    all_names = list(cal.correlation_names)
+    if cal.covariance is not None:
+        full = np.asarray(cal.covariance, dtype=np.float64)
+    else:
+        se = np.array([cal.stderr.get(n, math.nan) for n in all_names])
+        corr = np.array(cal.correlation, dtype=np.float64)
+        np.fill_diagonal(corr, 1.0)
+        with np.errstate(invalid="ignore"):
+            full = np.nan_to_num(corr) * np.outer(se, se)
+    keep = [i for i, n in enumerate(all_names)
+            if n in params and n not in ("n_loops", "dipoles_per_loop")
+            and math.isfinite(full[i, i]) and full[i, i] > 0.0]
+    sub = full[np.ix_(keep, keep)]
+    return [all_names[i] for i in keep], np.where(np.isfinite(sub), sub, 0.0)

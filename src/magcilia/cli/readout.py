@@ -12,6 +12,7 @@ import numpy as np
 
 from magcilia._atomic import write_text
 from magcilia._validate import fail
+from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth
 from magcilia.cli.bend import (
     MODULUS_HELP,
@@ -70,12 +71,15 @@ def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid for --quantity flow (uniform flow along +x).")
 @click.option("--table-size", default=257, show_default=True, help="Read-out table points.")
+@click.option("--calibration", "calibration_path", type=click.Path(),
+              help="result.json (or the --out folder) of `magcilia calibrate`: its parameter "
+                   "covariance adds to each reading's 1-sigma.")
 @click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
 @click.option("--modulus", default=None, help=MODULUS_HELP)
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
 def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
             bandwidth: str, fluid: str, table_size: int, tip_radius: str | None,
-            modulus: str | None, as_json: bool) -> None:
+            modulus: str | None, calibration_path: str | None, as_json: bool) -> None:
     """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
     or .tdms with a `voltage_V` column and optional `time_s`; see `magcilia calibrate`).
 
@@ -88,7 +92,9 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
         require_tip_radius(setup, setup_arg, "a force" if quantity == "force" else "a flow load")
     volts, times = read_recording(recording)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
-    readout = Readout(setup, quantity=quantity, span=span, flow=flow, table_size=table_size)
+    covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
+    readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
+                      table_size=table_size)
     result = readout.read(volts, bandwidth=parse_bandwidth(bandwidth))
     unit, factor, _ = DISPLAY[quantity]
     col = f"{quantity}_{unit.replace('/', '_per_')}"
