@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import click
 import numpy as np
@@ -46,8 +47,12 @@ def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow |
     return Flow.uniform(u, FLUIDS[fluid])
 
 
-TIP_RADIUS_HELP = "Override the setup's tip radius, with a unit (e.g. 0.05mm)."
-MODULUS_HELP = "Override Young's modulus, with a unit (e.g. 2MPa)."
+def mechanics_options(command: Any) -> Any:
+    """``--tip-radius`` and ``--modulus``: override the setup's mechanics on the command line."""
+    command = click.option("--modulus", default=None,
+                           help="Override Young's modulus, with a unit (e.g. 2MPa).")(command)
+    return click.option("--tip-radius", default=None,
+                        help="Override the setup's tip radius, with a unit (e.g. 0.05mm).")(command)
 
 
 @click.command()
@@ -63,8 +68,7 @@ MODULUS_HELP = "Override Young's modulus, with a unit (e.g. 2MPa)."
               help="Linear wall shear: --flow is the speed at this height (e.g. 3mm).")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow (20 °C).")
-@click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
-@click.option("--modulus", default=None, help=MODULUS_HELP)
+@mechanics_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (lengths in mm).")
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),

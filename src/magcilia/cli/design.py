@@ -12,7 +12,7 @@ from magcilia.cli._common import (
     setup_label,
     write_json,
 )
-from magcilia.cli.bend import MODULUS_HELP, TIP_RADIUS_HELP, load_mechanics_setup
+from magcilia.cli.bend import load_mechanics_setup, mechanics_options
 from magcilia.design import design_metrics
 from magcilia.mechanics import FLUIDS
 
@@ -22,8 +22,7 @@ from magcilia.mechanics import FLUIDS
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow metrics (20 °C, uniform flow).")
 @bandwidth_option()
-@click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
-@click.option("--modulus", default=None, help=MODULUS_HELP)
+@mechanics_options
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (SI units) instead of the table.")
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),

@@ -15,9 +15,8 @@ from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth
 from magcilia.cli.bend import (
-    MODULUS_HELP,
-    TIP_RADIUS_HELP,
     load_mechanics_setup,
+    mechanics_options,
     require_tip_radius,
 )
 from magcilia.measurements import read_samples
@@ -74,8 +73,7 @@ def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
 @click.option("--calibration", "calibration_path", type=click.Path(),
               help="result.json (or the --out folder) of `magcilia calibrate`: its parameter "
                    "covariance adds to each reading's 1-sigma.")
-@click.option("--tip-radius", default=None, help=TIP_RADIUS_HELP)
-@click.option("--modulus", default=None, help=MODULUS_HELP)
+@mechanics_options
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
 def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
             bandwidth: str, fluid: str, table_size: int, tip_radius: str | None,
