@@ -29,6 +29,10 @@ Example (the paper's setup, shipped as ``examples/paper.toml``)::
     dipoles_per_loop = 5
     ring = "mean"
 
+A measured shape replaces ``height``, ``base_radius`` and ``tip_radius`` by two lists, linear in
+between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "0.15 mm",
+"0.03 mm"]``).
+
 Every quantity needs its unit; a missing table takes the paper's defaults. Unknown keys and values
 without units are errors that name the key.
 """
@@ -44,6 +48,7 @@ import tomli_w
 
 from magcilia import _validate as v
 from magcilia._atomic import write_text
+from magcilia.geometry import Cilium
 from magcilia.setup import PAPER_OPTIMIZED, Setup
 from magcilia.units import format_quantity, parse_quantity
 
@@ -54,6 +59,8 @@ SCHEMA: dict[str, dict[str, tuple[str | None, str, str]]] = {
         "base_radius": ("length", "base_radius", "mm"),
         "tip_radius": ("length", "tip_radius", "mm"),
         "youngs_modulus": ("pressure", "youngs_modulus", "MPa"),
+        "profile_s": ("length", "profile_s", "mm"),
+        "profile_r": ("length", "profile_r", "mm"),
     },
     "material": {
         "cobalt_mass": ("mass", "cobalt_mass", "mg"),
@@ -90,6 +97,7 @@ SCHEMA: dict[str, dict[str, tuple[str | None, str, str]]] = {
     },
 }
 _PRESETS = ("HMC1021Z",)
+_PROFILE_KEYS = ("profile_s", "profile_r")
 
 
 def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
@@ -108,6 +116,11 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
             dimension, target, _ = SCHEMA[table][key]
             if key == "preset":
                 v.choice(name, value, _PRESETS)
+            elif key in _PROFILE_KEYS:
+                if not isinstance(value, list) or not value:
+                    raise v.fail(name, value, 'a list of lengths, e.g. ["0 mm", "1.5 mm", "3 mm"]')
+                kwargs[target] = [parse_quantity(x, "length", f"{name}[{i}]")
+                                  for i, x in enumerate(value)]
             elif dimension is not None:
                 kwargs[target] = parse_quantity(value, dimension, name)
             elif key == "ring":
@@ -117,9 +130,27 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
             else:
                 kwargs[target] = v.real(name, value)
     try:
-        return Setup.paper(**{**_unpack_position(PAPER_OPTIMIZED), **kwargs})
+        overrides = {**_unpack_position(PAPER_OPTIMIZED), **kwargs}
+        if any(key in kwargs for key in _PROFILE_KEYS):
+            overrides = _with_profile(overrides, kwargs, source)
+        return Setup.paper(**overrides)
     except v.MagciliaError as exc:
         raise v.MagciliaError(f"{source}: {exc}") from None
+
+
+def _with_profile(overrides: dict[str, Any], given: dict[str, Any], source: str) -> dict[str, Any]:
+    """Replace height/base_radius/tip_radius by a Cilium built from profile_s and profile_r."""
+    if not all(key in given for key in _PROFILE_KEYS):
+        raise v.fail(f"{source}: cilium.profile_s / profile_r", "only one of them",
+                     "both lists (arc lengths from the base and radii, same count)")
+    clash = [key for key in ("height", "base_radius", "tip_radius") if key in given]
+    if clash:
+        raise v.fail(f"{source}: cilium.{clash[0]}", given[clash[0]],
+                     "left out when a profile is given (the profile sets the shape)")
+    cilium = Cilium.from_profile(given["profile_s"], given["profile_r"],
+                                 youngs_modulus=given.get("youngs_modulus"))
+    dropped = ("height", "base_radius", "tip_radius", "youngs_modulus", *_PROFILE_KEYS)
+    return {**{k: val for k, val in overrides.items() if k not in dropped}, "cilium": cilium}
 
 
 def _unpack_position(d: dict[str, Any]) -> dict[str, Any]:
@@ -156,7 +187,13 @@ def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
                                                   "field_range", "noise_density", "flicker_corner",
                                                   "gain", "offset")},
         "n_loops": setup.n_loops, "dipoles_per_loop": setup.dipoles_per_loop, "ring": setup.ring,
+        "profile_s": None, "profile_r": None,
     }
+    c = setup.cilium
+    if c.profile is not None:  # the measured shape replaces height and radii
+        values["profile_s"] = [u * c.height for u in c.profile[0]]
+        values["profile_r"] = [rho * c.base_radius for rho in c.profile[1]]
+        values["height"] = values["base_radius"] = values["tip_radius"] = None
     doc: dict[str, dict[str, Any]] = {}
     for table, entries in SCHEMA.items():
         out: dict[str, Any] = {}
@@ -167,7 +204,10 @@ def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
             value = values[target]
             if value is None:
                 continue
-            out[key] = format_quantity(value, unit, 12) if dimension is not None else value
+            if isinstance(value, list):
+                out[key] = [format_quantity(x, unit, 12) for x in value]
+            else:
+                out[key] = format_quantity(value, unit, 12) if dimension is not None else value
         doc[table] = out
     return doc
 

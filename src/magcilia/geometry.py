@@ -1,7 +1,10 @@
-"""The cilium's body: a cone or frustum of revolution, and its slicing into n equal-length slices.
+"""The cilium's body: a body of revolution (cone, frustum or a measured radius profile) and its
+slicing into n equal-length slices.
 
 Arc length ``s`` runs from the base (s = 0) to the tip (s = height). The radius varies linearly
-from ``base_radius`` to ``tip_radius``.
+from ``base_radius`` to ``tip_radius``, or piecewise linearly through a measured profile that is
+stored normalised (``u = s/height``, ``rho = r/base_radius``), so that ``height`` and
+``base_radius`` keep scaling the measured shape (calibration and sensitivity vary them).
 """
 
 from __future__ import annotations
@@ -17,9 +20,36 @@ from magcilia import _validate as v
 RINGS = ("mean", "rms")
 
 
+def profile_integrals(u: NDArray[np.float64], rho: NDArray[np.float64],
+                      n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Slice means of rho² and rho⁴ for a piecewise-linear normalised profile, exact.
+
+    Parameters
+    ----------
+    u, rho : ndarray, shape (q,)
+        Knots (0 = base … 1 = tip) and normalised radii of the profile.
+    n : int
+        Equal-length slices.
+
+    Returns
+    -------
+    mean2, mean4 : ndarray, shape (n,)
+        n ∫ rho² du and n ∫ rho⁴ du over each slice (dimensionless).
+    """
+    edges = np.linspace(0.0, 1.0, n + 1)
+    grid = np.union1d(edges, u)
+    p = np.interp(grid, u, rho)
+    a, b, w = p[:-1], p[1:], np.diff(grid)
+    part2 = w * (a * a + a * b + b * b) / 3.0
+    part4 = w * (a**4 + a**3 * b + a * a * b * b + a * b**3 + b**4) / 5.0
+    starts = np.searchsorted(grid, edges[:-1])
+    return n * np.add.reduceat(part2, starts), n * np.add.reduceat(part4, starts)
+
+
 @dataclass(frozen=True)
 class Cilium:
-    """A frustum-shaped cilium (a cone when ``tip_radius`` is 0, the paper's case).
+    """A cilium of revolution: a frustum (a cone when ``tip_radius`` is 0, the paper's case) or
+    a measured radius profile (:meth:`from_profile`).
 
     Parameters
     ----------
@@ -32,18 +62,28 @@ class Cilium:
     youngs_modulus : float or None
         Young's modulus, Pa, for mechanics; None means "derive it from the material" (see
         :attr:`magcilia.Setup.youngs_modulus`).
+    profile : (tuple of float, tuple of float) or None
+        A measured shape, normalised: knots ``u`` (0 … 1 along the length, increasing) and radii
+        ``rho`` relative to ``base_radius`` (``rho[0]`` = 1), linear in between. With a profile,
+        ``tip_radius`` follows from it (``base_radius · rho[-1]``). Build it with
+        :meth:`from_profile`.
     """
 
     height: float
     base_radius: float
     tip_radius: float = 0.0
     youngs_modulus: float | None = None
+    profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "height", v.positive("height", self.height))
         object.__setattr__(self, "base_radius", v.positive("base_radius", self.base_radius))
+        if self.profile is not None:
+            u, rho = _check_profile(self.profile)
+            object.__setattr__(self, "profile", (tuple(u.tolist()), tuple(rho.tolist())))
+            object.__setattr__(self, "tip_radius", self.base_radius * float(rho[-1]))
         tip = v.non_negative("tip_radius", self.tip_radius)
-        if tip > self.base_radius:
+        if tip > self.base_radius and self.profile is None:
             raise v.fail("tip_radius", tip, f"at most base_radius ({self.base_radius:.6g} m)")
         object.__setattr__(self, "tip_radius", tip)
         if self.youngs_modulus is not None:
@@ -53,6 +93,47 @@ class Cilium:
                 v.positive("youngs_modulus", self.youngs_modulus, "Pa", "modulus"),
             )
 
+    @classmethod
+    def from_profile(cls, s: ArrayLike, radius: ArrayLike,
+                     youngs_modulus: float | None = None) -> Cilium:
+        """A cilium with a measured radius profile, linear between the points.
+
+        Parameters
+        ----------
+        s : array-like, shape (q,)
+            Arc lengths from the base, m, increasing from 0; the last one is the height.
+        radius : array-like, shape (q,)
+            Radii at ``s``, m (≥ 0; the base radius ``radius[0]`` must be positive).
+        youngs_modulus : float, optional
+            Pa (None: from the material).
+        """
+        s_arr = v.finite_array("profile s", s, ndim=1, unit="m")
+        r_arr = v.finite_array("profile radius", radius, ndim=1, unit="m")
+        if s_arr.size < 2 or s_arr.size != r_arr.size:
+            raise v.fail("profile", f"{s_arr.size} arc lengths and {r_arr.size} radii",
+                         "at least two (s, radius) pairs of equal count")
+        if s_arr[0] != 0.0 or np.any(np.diff(s_arr) <= 0.0):
+            raise v.fail("profile s", s_arr.tolist(), "arc lengths increasing from 0 (m)")
+        height = float(s_arr[-1])
+        base = v.positive("profile radius at the base", float(r_arr[0]))
+        if np.any(r_arr[:-1] <= 0.0) or r_arr[-1] < 0.0:
+            raise v.fail("profile radius", r_arr.tolist(),
+                         "positive radii in m (only the tip may be 0)")
+        return cls(height=height, base_radius=base, youngs_modulus=youngs_modulus,
+                   profile=(tuple((s_arr / height).tolist()), tuple((r_arr / base).tolist())))
+
+    @property
+    def _shape(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Normalised knots and radii (a frustum is the two-knot profile)."""
+        if self.profile is None:
+            return np.array([0.0, 1.0]), np.array([1.0, self.tip_radius / self.base_radius])
+        return np.asarray(self.profile[0]), np.asarray(self.profile[1])
+
+    @property
+    def max_radius(self) -> float:
+        """Largest radius of the body, m."""
+        return self.base_radius * float(self._shape[1].max())
+
     @property
     def taper(self) -> float:
         """lambda = tip_radius / base_radius (0 for a cone, 1 for a cylinder)."""
@@ -60,14 +141,17 @@ class Cilium:
 
     @property
     def volume(self) -> float:
-        """Volume, m³: pi h/3 (r_b² + r_b r_t + r_t²)."""
-        rb, rt = self.base_radius, self.tip_radius
-        return math.pi * self.height / 3.0 * (rb * rb + rb * rt + rt * rt)
+        """Volume, m³ (a frustum: pi h/3 (r_b² + r_b r_t + r_t²))."""
+        mean2, _ = profile_integrals(*self._shape, 1)
+        return math.pi * self.height * self.base_radius**2 * float(mean2[0])
 
     def radius(self, s: ArrayLike) -> NDArray[np.float64]:
         """Radius at arc length ``s`` (m, any shape) -> same shape, m."""
         s = np.asarray(s, dtype=np.float64)
-        return self.base_radius + (self.tip_radius - self.base_radius) * (s / self.height)
+        if self.profile is None:
+            return self.base_radius + (self.tip_radius - self.base_radius) * (s / self.height)
+        u, rho = self._shape
+        return self.base_radius * np.interp(s / self.height, u, rho)
 
     def second_moment(self, s: ArrayLike) -> NDArray[np.float64]:
         """Second moment of area of the cross-section, I(s) = pi r(s)⁴ / 4, m⁴."""
@@ -78,10 +162,9 @@ class Cilium:
         return np.linspace(0.0, self.height, n + 1)
 
     def slice_volumes(self, n: int) -> NDArray[np.float64]:
-        """Volumes of the n equal-length frustum slices, m³, shape (n,); they sum to the volume."""
-        r = self.radius(self.slice_edges(n))
-        r1, r2 = r[:-1], r[1:]
-        return math.pi * (self.height / n) / 3.0 * (r1 * r1 + r1 * r2 + r2 * r2)
+        """Volumes of the n equal-length slices, m³, shape (n,); they sum to the volume."""
+        mean2, _ = profile_integrals(*self._shape, n)
+        return math.pi * (self.height / n) * self.base_radius**2 * mean2
 
     def ring_radii(self, n: int, ring: str = "mean") -> NDArray[np.float64]:
         """Radius of each slice's dipole ring, m, shape (n,).
@@ -90,14 +173,11 @@ class Cilium:
         volume-averaged rho², i.e. sqrt(∫ r⁴/2 dz / ∫ r² dz), which for a disc is r/√2 and makes
         the ring reproduce the slice's second radial moment.
         """
-        r = self.radius(self.slice_edges(n))
-        r1, r2 = r[:-1], r[1:]
         if ring == "mean":
-            return 0.5 * (r1 + r2)
-        # ∫0^1 (r1 + (r2-r1)u)^p du in closed form for p = 2 and 4
-        int2 = (r1 * r1 + r1 * r2 + r2 * r2) / 3.0
-        int4 = (r1**4 + r1**3 * r2 + r1**2 * r2**2 + r1 * r2**3 + r2**4) / 5.0
-        return np.sqrt(0.5 * int4 / int2)
+            r = self.radius(self.slice_edges(n))
+            return 0.5 * (r[:-1] + r[1:])
+        mean2, mean4 = profile_integrals(*self._shape, n)
+        return self.base_radius * np.sqrt(0.5 * mean4 / np.where(mean2 > 0.0, mean2, 1.0))
 
     def contains(self, axial: ArrayLike, radial: ArrayLike) -> NDArray[np.bool_]:
         """Whether points given in the body frame (axial coordinate from the base, m; distance
@@ -106,3 +186,22 @@ class Cilium:
         radial = np.asarray(radial, dtype=np.float64)
         inside_len = (axial >= 0.0) & (axial <= self.height)
         return inside_len & (radial <= self.radius(np.clip(axial, 0.0, self.height)))
+
+
+def _check_profile(profile: object) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Validate a normalised profile (u, rho): u from 0 to 1 increasing, rho ≥ 0, rho[0] = 1."""
+    if not isinstance(profile, tuple | list) or len(profile) != 2:
+        raise v.fail("profile", profile, "a pair (u, rho) of equal-length sequences")
+    u_raw, rho_raw = profile
+    u = v.finite_array("profile u", u_raw, ndim=1)
+    rho = v.finite_array("profile rho", rho_raw, ndim=1)
+    if u.size < 2 or u.size != rho.size:
+        raise v.fail("profile", f"{u.size} knots and {rho.size} radii",
+                     "at least two knots with one radius each")
+    if u[0] != 0.0 or abs(u[-1] - 1.0) > 1e-12 or np.any(np.diff(u) <= 0.0):
+        raise v.fail("profile u", u.tolist(), "knots increasing from 0 to 1 (s / height)")
+    if np.any(rho[:-1] <= 0.0) or rho[-1] < 0.0 or abs(rho[0] - 1.0) > 1e-12:
+        raise v.fail("profile rho", rho.tolist(),
+                     "radii / base_radius starting at 1, positive (only the tip may be 0)")
+    u[-1], rho[0] = 1.0, 1.0
+    return u, rho

@@ -10,13 +10,14 @@ from the bending direction, and each carries ``m_s / k`` (eq. 5's ``m_i / n`` is
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia._kernels import dipole_field, dipole_field_batch, tilt_field
+from magcilia.geometry import profile_integrals
 
 if TYPE_CHECKING:
     from magcilia.centreline import Centreline
@@ -26,7 +27,8 @@ F64 = NDArray[np.float64]
 
 
 def ring_layout(
-    height: F64, base_radius: F64, tip_radius: F64, n: int, k: int, ring: str = "mean"
+    height: F64, base_radius: F64, tip_radius: F64, n: int, k: int, ring: str = "mean",
+    profile: tuple[Sequence[float], Sequence[float]] | None = None,
 ) -> tuple[F64, F64]:
     """Dipole positions and moment weights of straight cilia in the body frame.
 
@@ -38,6 +40,9 @@ def ring_layout(
         Slices and dipoles per slice.
     ring : {"mean", "rms"}
         Ring radius rule.
+    profile : (u, rho) or None
+        A measured normalised shape shared by all N cilia (:attr:`magcilia.Cilium.profile`),
+        scaled by each height and base radius; ``tip_radius`` is then unused.
 
     Returns
     -------
@@ -50,14 +55,21 @@ def ring_layout(
     rb = np.asarray(base_radius, dtype=np.float64)[:, None]
     rt = np.asarray(tip_radius, dtype=np.float64)[:, None]
     u = np.linspace(0.0, 1.0, n + 1)[None, :]
-    r = rb + (rt - rb) * u  # (N, n+1)
-    r1, r2 = r[:, :-1], r[:, 1:]
-    int2 = (r1 * r1 + r1 * r2 + r2 * r2) / 3.0  # slice volume / (pi dh)
+    if profile is None:
+        r = rb + (rt - rb) * u  # (N, n+1)
+        r1, r2 = r[:, :-1], r[:, 1:]
+        int2 = (r1 * r1 + r1 * r2 + r2 * r2) / 3.0  # slice volume / (pi dh)
+        int4 = (r1**4 + r1**3 * r2 + r1**2 * r2**2 + r1 * r2**3 + r2**4) / 5.0
+    else:
+        knots, shape = np.asarray(profile[0]), np.asarray(profile[1])
+        r = rb * np.interp(u, knots, shape)
+        r1, r2 = r[:, :-1], r[:, 1:]
+        mean2, mean4 = profile_integrals(knots, shape, n)
+        int2, int4 = rb**2 * mean2, rb**4 * mean4
     if ring == "mean":
         rho = 0.5 * (r1 + r2)
     else:
-        int4 = (r1**4 + r1**3 * r2 + r1**2 * r2**2 + r1 * r2**3 + r2**4) / 5.0
-        rho = np.sqrt(0.5 * int4 / int2)
+        rho = np.sqrt(0.5 * int4 / np.where(int2 > 0.0, int2, 1.0))
     frac = int2 / int2.sum(axis=1, keepdims=True)  # V_s / V_c  (N, n)
     z_mid = h * (np.arange(n) + 0.5)[None, :] / n  # (N, n)
     alpha = 2.0 * math.pi * np.arange(k) / k
@@ -197,7 +209,12 @@ def tilt_field_batch(
     kd = np.rint(get("dipoles_per_loop")).astype(np.int64)
     mat = setup.material
     magnetization = get("magnetization_scale") * mat.volume_fraction * mat.cobalt_magnetization
-    volume = math.pi * h / 3.0 * (rb * rb + rb * rt + rt * rt)
+    profile = setup.cilium.profile
+    if profile is None:
+        volume = math.pi * h / 3.0 * (rb * rb + rb * rt + rt * rt)
+    else:  # the measured shape, scaled by each height and base radius
+        mean2 = profile_integrals(np.asarray(profile[0]), np.asarray(profile[1]), 1)[0][0]
+        volume = math.pi * h * rb * rb * mean2
     moment = magnetization * volume
     out = np.zeros((n_set, ang.size, 3))
     cos_t, sin_t = np.cos(ang), np.sin(ang)
@@ -205,7 +222,7 @@ def tilt_field_batch(
     for key in np.unique(keys):
         sel = np.nonzero(keys == key)[0]
         n, k = int(nl[sel[0]]), int(kd[sel[0]])
-        pos, w = ring_layout(h[sel], rb[sel], rt[sel], n, k, setup.ring)
+        pos, w = ring_layout(h[sel], rb[sel], rt[sel], n, k, setup.ring, profile)
         bx, by, bz = tilt_field(cos_t, sin_t, -base[sel], pos, w * moment[sel, None], x_only)
         out[sel, :, 0] = bx
         if not x_only:

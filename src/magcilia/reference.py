@@ -2,9 +2,9 @@
 
 magpylib has no cone (its issue #290), but its ``Cylinder`` field is exact. Each of ``n_slices``
 equal-length slices of the (possibly bent) cilium becomes a cylinder of the same length and volume
-(radius sqrt((r1² + r1 r2 + r2²)/3)), centred on the centreline at the slice's mid-arc-length,
+(for a frustum slice: radius sqrt((r1² + r1 r2 + r2²)/3)), centred on the centreline at the slice's mid-arc-length,
 with its axis along the local tangent and polarization J = μ0 M along that axis. The stack
-converges to the true frustum as O(1/n²) everywhere outside the body, near field included
+converges to the true body (frustum or measured profile) as O(1/n²) everywhere outside the body, near field included
 (NOTES.md §3), so it measures the error of the dipole model.
 """
 
@@ -55,8 +55,7 @@ def exact_field(
     setup._check_outside(pts, centreline)
     c = setup.cilium
     edges = c.slice_edges(n)
-    r = c.radius(edges)
-    r_eq = np.sqrt((r[:-1] ** 2 + r[:-1] * r[1:] + r[1:] ** 2) / 3.0)
+    r_eq = np.sqrt(c.slice_volumes(n) / (np.pi * c.height / n))  # same volume as each slice
     s_mid = 0.5 * (edges[:-1] + edges[1:])
     centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
     centres = centres + setup.base_centre

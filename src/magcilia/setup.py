@@ -103,13 +103,15 @@ class Setup:
         ``tip_radius``, ``youngs_modulus``), the material (``cobalt_mass``, …,
         ``magnetization_scale``, ``polymer_modulus``) or the sensor (``bridge_voltage``, ``gain``,
         ``offset``, ``depth``, …), or a position component ``x``, ``y``, ``z``. SI units.
+        A whole ``cilium=`` (e.g. :meth:`Cilium.from_profile`), ``material=`` or ``sensor=`` is
+        taken as given, without the paper's values for its fields.
         """
-        return _build({**PAPER_OPTIMIZED, **overrides})
+        return _build(_defaults(PAPER_OPTIMIZED, overrides))
 
     @classmethod
     def paper_initial(cls, **overrides: Any) -> Setup:
         """As :meth:`paper` but with Table I's *initial* values (3 mm, 0.25 mm, origin, n=6, k=3)."""
-        return _build({**PAPER_INITIAL, **overrides})
+        return _build(_defaults(PAPER_INITIAL, overrides))
 
     def replace(self, **changes: Any) -> Setup:
         """A copy with some parameters changed (same keywords as :meth:`paper`)."""
@@ -155,7 +157,7 @@ class Setup:
         c = self.cilium
         pos, w = ring_layout(
             np.array([c.height]), np.array([c.base_radius]), np.array([c.tip_radius]),
-            self.n_loops, self.dipoles_per_loop, self.ring,
+            self.n_loops, self.dipoles_per_loop, self.ring, c.profile,
         )
         return pos[0], w[0] * self.moment
 
@@ -235,8 +237,8 @@ class Setup:
         the base centre exceeds the farthest point of the body."""
         c = self.cilium
         rel = self.base_centre
-        reach = max(c.base_radius, math.hypot(c.height, c.tip_radius))
-        return abs(rel[1]) > c.base_radius or float(np.linalg.norm(rel)) > reach
+        reach = math.hypot(c.height, c.max_radius)
+        return abs(rel[1]) > c.max_radius or float(np.linalg.norm(rel)) > reach
 
     def _centreline(self, pose: Pose) -> Centreline:
         if isinstance(pose, Centreline):
@@ -281,6 +283,12 @@ class Setup:
             o_idx = int(np.nonzero(inside.any(axis=(1, 2)))[0][0])
             raise v.fail("points", tuple(float(x) for x in points[o_idx]),
                          "observer positions outside the cilium")
+
+
+def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """Table I values under the overrides, leaving out those of a part given as a whole."""
+    given = {f for name in _PARTS if name in overrides for f in _PART_FIELDS[name]}
+    return {**{k: val for k, val in table.items() if k not in given}, **overrides}
 
 
 def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import quad
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
@@ -27,16 +28,18 @@ OUTPUT_POINTS = 129
 
 
 def _nodes(setup: Setup, bounds: F64) -> tuple[int, ...]:
-    """Nodes per piece for ~1e-12 accuracy: from the Bernstein ellipse through the zero of r(s)
-    (where 1/EI has its pole). A piece that reaches a cone's tip converges only algebraically."""
+    """Nodes per piece for ~1e-12 accuracy: from the Bernstein ellipse through the zero of the
+    piece's linear r(s) (where 1/EI has its pole). A piece that reaches a cone's tip converges
+    only algebraically."""
     c = setup.cilium
     sizes = []
     for b0, b1 in itertools.pairwise(bounds):
-        if c.tip_radius >= c.base_radius:
+        r0, r1 = (float(r) for r in c.radius(np.array([b0, b1])))
+        if r0 == r1:
             n = 24
         else:
-            s_pole = c.height * c.base_radius / (c.base_radius - c.tip_radius)
-            t = (2.0 * s_pole - b0 - b1) / (b1 - b0)
+            s_pole = b0 + r0 * (b1 - b0) / (r0 - r1)  # beyond either end of the piece
+            t = abs(2.0 * s_pole - b0 - b1) / (b1 - b0)
             if t <= 1.0 + 1e-9:
                 n = 64
             else:
@@ -55,6 +58,10 @@ class _Case:
         length = c.height
         split = point_load and at < length * (1.0 - 1e-12)
         bounds = np.array([0.0, at, length]) if split else np.array([0.0, length])
+        if c.profile is not None:  # r(s) has kinks at the profile's knots: pieces end there
+            knots = np.asarray(c.profile[0][1:-1]) * length
+            bounds = np.union1d(bounds, knots[np.abs(knots[:, None] - bounds).min(axis=1)
+                                              > 1e-9 * length])
         sizes = _nodes(setup, bounds) if nodes is None else \
             (nodes,) * (bounds.size - 1)
         self.grid = Grid.build(bounds, sizes)
@@ -266,16 +273,23 @@ def _message(is_force: bool, value: float, reached: float) -> str:
 
 
 def tip_compliance(setup: Setup) -> float:
-    """Small-load tip compliance of the frustum, m/N: ``L³ / (3 E I₀ λ)`` (λ = tip/base radius).
+    """Small-load tip compliance, m/N: ``L³ / (3 E I₀ λ)`` for a frustum (λ = tip/base radius),
+    ``∫ (L − s)² / (E I(s)) ds`` for a measured profile.
 
     Infinite for a sharp cone (λ = 0).
     """
     c = setup.cilium
-    lam = c.taper
-    if lam == 0.0:
+    if c.tip_radius == 0.0:
         return math.inf
+    if c.profile is not None:  # ∫ (L − s)² / (E I(s)) ds, exact for a piecewise-linear r(s)
+        knots = np.asarray(c.profile[0]) * c.height
+        total = 0.0
+        for a, b in itertools.pairwise(knots):
+            total += quad(lambda s: (c.height - s) ** 2 / float(c.second_moment(s)), a, b,
+                          epsabs=0.0, epsrel=1e-12, limit=200)[0]
+        return total / setup.youngs_modulus
     i0 = float(c.second_moment(0.0))
-    return c.height**3 / (3.0 * setup.youngs_modulus * i0 * lam)
+    return c.height**3 / (3.0 * setup.youngs_modulus * i0 * c.taper)
 
 
 
