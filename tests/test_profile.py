@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -43,7 +44,7 @@ def test_profile_of_a_frustum_is_the_frustum() -> None:
 def test_profile_volumes_are_exact_integrals() -> None:
     c = mc.Cilium.from_profile(S_BULGE, R_BULGE)
     exact = sum(quad(lambda s: math.pi * float(c.radius(s)) ** 2, a, b)[0]
-                for a, b in zip(S_BULGE[:-1], S_BULGE[1:], strict=True))
+                for a, b in itertools.pairwise(S_BULGE))
     assert c.volume == pytest.approx(exact, rel=1e-12)
     vols = c.slice_volumes(5)
     edges = c.slice_edges(5)
@@ -51,7 +52,7 @@ def test_profile_volumes_are_exact_integrals() -> None:
     for i in range(5):
         inner = knots[(knots >= edges[i]) & (knots <= edges[i + 1])]
         ref = sum(quad(lambda s: math.pi * float(c.radius(s)) ** 2, a, b)[0]
-                  for a, b in zip(inner[:-1], inner[1:], strict=True))
+                  for a, b in itertools.pairwise(inner))
         assert vols[i] == pytest.approx(ref, rel=1e-12)
     assert c.max_radius == pytest.approx(2.3e-4)
     assert c.tip_radius == pytest.approx(0.4e-4)
@@ -112,11 +113,11 @@ def test_profile_in_setup_files(tmp_path: Path) -> None:
     np.testing.assert_allclose(back.output(ANGLES), setup.output(ANGLES), rtol=1e-12)
     only_s = text.replace("profile_r", "# profile_r", 1).split("# profile_r")[0] + "\n"
     path.write_text(only_s)
-    with pytest.raises(mc.MagciliaError, match="profile_s / profile_r must be both lists"):
+    with pytest.raises(mc.MagciliaError, match=r"profile_s / profile_r must be both lists"):
         mc.load_setup(path)
     path.write_text('[cilium]\nheight = "3 mm"\nprofile_s = ["0 mm", "3 mm"]\n'
                     'profile_r = ["0.2 mm", "0.05 mm"]\n')
-    with pytest.raises(mc.MagciliaError, match="cilium.height must be left out"):
+    with pytest.raises(mc.MagciliaError, match=r"cilium\.height must be left out"):
         mc.load_setup(path)
     path.write_text('[cilium]\nprofile_s = ["0 mm", "3"]\nprofile_r = ["0.2 mm", "0.05 mm"]\n')
     with pytest.raises(mc.MagciliaError, match=r"profile_s\[1\]"):
