@@ -145,3 +145,10 @@ def test_sharp_profile_tip_needs_a_tip_radius_for_a_tip_load() -> None:
     sharp = mc.Setup.paper(cilium=mc.Cilium.from_profile([0.0, 1e-3, 3e-3], [2e-4, 1.5e-4, 0.0]))
     with pytest.raises(mc.MagciliaError, match="tip_radius"):
         mc.bend(sharp, force=1e-5)
+
+
+def test_tip_radius_of_a_profile_comes_from_the_profile() -> None:
+    setup = mc.Setup.paper(cilium=mc.Cilium.from_profile(S_BULGE, R_BULGE))
+    with pytest.raises(mc.MagciliaError, match="tip_radius must be left out for a cilium with a"):
+        setup.replace(tip_radius=1e-5)
+    assert setup.replace(base_radius=1e-4).cilium.tip_radius == pytest.approx(0.2e-4)

@@ -313,6 +313,11 @@ def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:
     built: dict[str, Any] = {}
     for name, cls in _PARTS.items():
         current = top.pop(name, None) or (getattr(base, name) if base is not None else None)
+        if name == "cilium" and "tip_radius" in parts[name] and (
+                getattr(current, "profile", None) is not None or "profile" in parts[name]):
+            raise v.fail("tip_radius", parts[name]["tip_radius"],
+                         "left out for a cilium with a measured profile (its last radius is the "
+                         "tip radius: change the profile instead)")
         if current is None:
             built[name] = cls(**parts[name])
         else:
