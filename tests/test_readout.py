@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import magcilia as mc
+from magcilia._atomic import write_json
 from magcilia.calibration import CalibrationResult
-from magcilia.cli._common import write_json
 from magcilia.cli.demo import example_path
 from magcilia.mechanics import Flow
 from magcilia.readout import ReadoutFlag

@@ -1,16 +1,21 @@
 """Write output files atomically: to a temporary file beside the target, then rename.
 
-A crash or an error half-way never leaves a half-written file under the target's name.
+A crash or an error half-way never leaves a half-written file under the target's name. Also the
+one JSON encoding of results (NumPy values as plain numbers, NaN/inf as null) and figure saving.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
+
+import numpy as np
 
 
 def _umask() -> int:
@@ -51,3 +56,36 @@ def write_text(path: str | os.PathLike[str], text: str) -> None:
     """Atomically write ``text`` (UTF-8) to ``path``."""
     with atomic_open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(text)
+
+
+def jsonable(obj: Any) -> Any:
+    """``obj`` with NumPy arrays and scalars as plain lists and numbers, NaN/inf as None (JSON
+    null) and dict keys as strings, recursively."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def json_text(data: Any) -> str:
+    """Indented JSON of ``data`` (see :func:`jsonable`), ending in a newline."""
+    return json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n"
+
+
+def write_json(path: str | os.PathLike[str], data: Any) -> None:
+    """Atomically write ``data`` as JSON (NaN becomes null)."""
+    write_text(path, json_text(data))
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], dpi: int = 150) -> None:
+    """Atomically save a matplotlib figure (format from the suffix, PNG without one)."""
+    suffix = Path(path).suffix.lstrip(".") or "png"
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=suffix)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from magcilia._atomic import atomic_path, write_text
+from magcilia._atomic import save_figure, write_text
 from magcilia.calibration import CalibrationResult
 from magcilia.plotting import new_figure
 
@@ -90,12 +90,10 @@ def write_report(result: CalibrationResult, directory: str | Path) -> dict[str, 
     paths = {"fit": out / "fit.png", "residuals": out / "residuals.png"}
     fig, axes = new_figure()
     plot_fit(result, axes[0, 0])
-    with atomic_path(paths["fit"]) as tmp:
-        fig.savefig(tmp, dpi=130, format="png")
+    save_figure(fig, paths["fit"], dpi=130)
     fig, axes = new_figure(size=(6.4, 3.0))
     plot_residuals(result, axes[0, 0])
-    with atomic_path(paths["residuals"]) as tmp:
-        fig.savefig(tmp, dpi=130, format="png")
+    save_figure(fig, paths["residuals"], dpi=130)
     paths["report"] = out / "report.md"
     write_text(paths["report"], markdown_summary(
         result, {"data and models (Fig. 8)": "fit.png", "residuals": "residuals.png"}))

@@ -20,15 +20,14 @@ caller (or a test) can compare the integer results with.
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from magcilia import _validate as v
+from magcilia._atomic import json_text
 from magcilia.approximation import PiecewiseLinear
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -112,18 +111,7 @@ def fixed_point_format(
 
 def to_json(approx: PiecewiseLinear) -> str:
     """The approximation as a JSON document (:meth:`PiecewiseLinear.to_dict`, SI units)."""
-    return json.dumps(_finite(approx.to_dict()), indent=2, allow_nan=False) + "\n"
-
-
-def _finite(obj: Any) -> Any:
-    """Replace NaN/inf by None (JSON null), recursively."""
-    if isinstance(obj, dict):
-        return {k: _finite(x) for k, x in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_finite(x) for x in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+    return json_text(approx.to_dict())
 
 
 def _flt(x: float) -> str:

@@ -7,14 +7,12 @@ summary into a directory (each file atomically).
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from magcilia._atomic import atomic_path, write_text
+from magcilia._atomic import jsonable, save_figure, write_json, write_text
 from magcilia.sensitivity import OATResult, PlacementMap, SensitivityStudy, SobolResult
 from magcilia.tolerance import PlacementTolerance
 
@@ -167,23 +165,13 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
     return "\n".join(lines) + "\n"
 
 
-def _finite(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _finite(x) for k, x in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_finite(x) for x in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
 def report_dict(study: SensitivityStudy, sobol: SobolResult | None = None,
                 tolerance: PlacementTolerance | None = None) -> dict[str, Any]:
     """The content of ``sensitivity.json`` (SI units; NaN/inf as null)."""
     doc = study.to_dict()
     doc["sobol"] = None if sobol is None else sobol.to_dict()
     doc["tolerance"] = None if tolerance is None else tolerance.to_dict()
-    return dict(_finite(doc))
+    return dict(jsonable(doc))
 
 
 def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
@@ -196,27 +184,21 @@ def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
-    for fname, params in FIGURES.items():
-        fig = sweep_figure(study, params)
-        with atomic_path(out / fname) as tmp:
-            fig.savefig(tmp, dpi=120, format="png")
-        written[fname] = out / fname
+    figures = {fname: sweep_figure(study, params) for fname, params in FIGURES.items()}
     ncols = 2 if study.xy_map.cost is not None else 1
     fig, axes = new_figure(ncols=ncols, size=(6.0, 4.8))
     plot_xy_map(study.xy_map, axes[0, 0])
     if ncols == 2:
         plot_xy_map(study.xy_map, axes[0, 1], quantity="cost")
-    with atomic_path(out / "xy_map.png") as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    written["xy_map.png"] = out / "xy_map.png"
+    figures["xy_map.png"] = fig
     if sobol is not None:
         fig, axes = new_figure()
         plot_sobol(sobol, axes[0, 0])
-        with atomic_path(out / "sobol.png") as tmp:
-            fig.savefig(tmp, dpi=120, format="png")
-        written["sobol.png"] = out / "sobol.png"
-    write_text(out / "sensitivity.json",
-               json.dumps(report_dict(study, sobol, tolerance), indent=2, allow_nan=False) + "\n")
+        figures["sobol.png"] = fig
+    for fname, fig in figures.items():
+        save_figure(fig, out / fname, dpi=120)
+        written[fname] = out / fname
+    write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance))
     written["sensitivity.json"] = out / "sensitivity.json"
     figs = {k: k for k in written if k.endswith(".png")}
     write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import shutil
 import tempfile
@@ -15,7 +14,7 @@ import click
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia._atomic import atomic_path, write_text
+from magcilia._atomic import json_text
 from magcilia._validate import fail
 from magcilia.config import load_setup
 from magcilia.sensor import DEFAULT_BANDWIDTH
@@ -47,35 +46,9 @@ def angle_grid(text: str, key: str = "--angles") -> NDArray[np.float64]:
     return np.asarray(start + step * np.arange(n), dtype=np.float64)
 
 
-def write_json(path: str | Path, data: Any) -> None:
-    """Write JSON atomically (NaN becomes null)."""
-    write_text(path, json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
-
-
 def echo_json(data: Any) -> None:
     """Print JSON to stdout."""
-    click.echo(json.dumps(_jsonable(data), indent=2, allow_nan=False))
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
-        return _jsonable(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def save_figure(fig: Any, path: str | Path, dpi: int = 150) -> None:
-    """Save a matplotlib figure atomically (format from the suffix)."""
-    suffix = Path(path).suffix.lstrip(".") or "png"
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=suffix)
+    click.echo(json_text(data), nl=False)
 
 
 def bandwidth_option(help_text: str = "Noise band of each reading, F_LOW:F_HIGH in Hz.") -> Any:

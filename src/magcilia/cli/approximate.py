@@ -6,10 +6,10 @@ import math
 
 import click
 
-from magcilia._atomic import write_text
+from magcilia._atomic import write_json, write_text
 from magcilia._validate import fail
 from magcilia.approximation import lookup_table, piecewise_linear
-from magcilia.cli._common import echo_json, load_setup_arg, write_json
+from magcilia.cli._common import echo_json, load_setup_arg
 from magcilia.firmware import to_c_header
 from magcilia.units import parse_range
 

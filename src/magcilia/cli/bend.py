@@ -8,8 +8,9 @@ from typing import Any
 import click
 import numpy as np
 
+from magcilia._atomic import save_figure, write_json
 from magcilia._errors import MagciliaError
-from magcilia.cli._common import echo_json, load_setup_arg, save_figure, setup_label, write_json
+from magcilia.cli._common import echo_json, load_setup_arg, setup_label
 from magcilia.mechanics import FLUIDS, Flow, bend
 from magcilia.setup import Setup
 from magcilia.units import parse_quantity

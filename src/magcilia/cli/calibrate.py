@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
+from magcilia._atomic import write_json
 from magcilia.calibration import INTEGER, PARAMETERS, CalibrationResult, calibrate
 from magcilia.calibration_report import write_report
 from magcilia.cli._common import (
@@ -15,7 +16,6 @@ from magcilia.cli._common import (
     load_setup_arg,
     parse_named_ranges,
     staged_directory,
-    write_json,
 )
 from magcilia.config import save_setup
 from magcilia.measurements import Measurement, read_measurements

@@ -4,14 +4,8 @@ from __future__ import annotations
 
 import click
 
-from magcilia.cli._common import (
-    bandwidth_option,
-    echo_json,
-    parse_bandwidth,
-    save_figure,
-    setup_label,
-    write_json,
-)
+from magcilia._atomic import save_figure, write_json
+from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth, setup_label
 from magcilia.cli.bend import load_mechanics_setup, mechanics_options
 from magcilia.design import design_metrics
 from magcilia.mechanics import FLUIDS

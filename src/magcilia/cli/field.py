@@ -8,15 +8,8 @@ import io
 import click
 import numpy as np
 
-from magcilia._atomic import write_text
-from magcilia.cli._common import (
-    angle_grid,
-    echo_json,
-    load_setup_arg,
-    save_figure,
-    setup_label,
-    write_json,
-)
+from magcilia._atomic import save_figure, write_json, write_text
+from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
 from magcilia.constants import GAUSS
 
 
