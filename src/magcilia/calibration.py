@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -278,16 +278,23 @@ class _Problem:
         return np.asarray(coef)
 
 
+def check_bound_values(bounds: Mapping[str, Sequence[float]]) -> None:
+    """Raise unless the (low, high) bounds present keep n and k whole numbers >= 1 and the height
+    and base radius positive."""
+    for name in INTEGER:
+        if name in bounds:
+            lo, hi = bounds[name]
+            if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():
+                raise v.fail(f"bounds[{name!r}]", (lo, hi), "whole numbers >= 1")
+    for name in ("height", "base_radius"):
+        if name in bounds and float(bounds[name][0]) <= 0:
+            raise v.fail(f"bounds[{name!r}]", tuple(bounds[name]), "positive lengths in m")
+
+
 def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
                   initial: Setup) -> dict[str, tuple[float, float]]:
     merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
-    for name in INTEGER:
-        lo, hi = merged[name]
-        if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():
-            raise v.fail(f"bounds[{name!r}]", (lo, hi), "whole numbers >= 1")
-    for name in ("height", "base_radius"):
-        if merged[name][0] <= 0:
-            raise v.fail(f"bounds[{name!r}]", merged[name], "positive lengths in m")
+    check_bound_values(merged)
     init = initial.params()
     for name in PARAMETERS:
         lo, hi = merged[name]

@@ -253,7 +253,7 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     if not isinstance(fluid, Fluid):
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
     points = v.integer("points", points, 11)
-    noise = abs(setup.sensor.scale) * setup.sensor.noise_rms(*bandwidth)
+    noise = setup.sensor.output_noise_rms(*bandwidth)
     return DesignMetrics(
         force=_force_metric(setup, noise, points),
         flow=_flow_metric(setup, fluid, noise, points),

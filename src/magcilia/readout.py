@@ -287,7 +287,7 @@ class Readout:
         """
         x = np.asarray(volts, dtype=np.float64)
         sensor = self.setup.sensor
-        noise_v = abs(sensor.scale) * sensor.noise_rms(*bandwidth)
+        noise_v = sensor.output_noise_rms(*bandwidth)
         inside = (x >= self._xp[0]) & (x <= self._xp[-1])
         flags = np.where(inside, 0, int(ReadoutFlag.OUTSIDE_SPAN)).astype(np.uint8)
         if self._ambiguous is not None:

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
-from magcilia.calibration import DEFAULT_BOUNDS, INTEGER
+from magcilia.calibration import DEFAULT_BOUNDS, INTEGER, check_bound_values
 from magcilia.measurements import Measurement
 from magcilia.model import tilt_output_batch
 from magcilia.setup import Setup
@@ -176,7 +176,8 @@ def _data_angles(data: Measurement | None) -> F64 | None:
     return np.asarray(data.angles, dtype=np.float64)
 
 
-def _check_angles(angles: ArrayLike | None) -> F64:
+def check_angles(angles: ArrayLike | None) -> F64:
+    """Tilt angles, rad, shape (a,): finite, non-empty; None gives :data:`DEFAULT_ANGLES`."""
     if angles is None:
         return DEFAULT_ANGLES.copy()
     ang = v.finite_array("angles", angles, ndim=1, unit="rad")
@@ -223,7 +224,7 @@ def oat_sweep(
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
     parameter = _check_parameter(parameter)
     vals = _check_values(parameter, values)
-    ang = _check_angles(angles)
+    ang = check_angles(angles)
     d_ang = _data_angles(data)
     check = ang if d_ang is None else np.concatenate([ang, d_ang])
     keep, skipped = [], []
@@ -315,7 +316,7 @@ def placement_map(
     ys = v.finite_array("y values", y_values, ndim=1, unit="m")
     if xs.size == 0 or ys.size == 0:
         raise v.fail("x/y values", f"{xs.size} x {ys.size}", "non-empty grids")
-    ang = _check_angles(angles)
+    ang = check_angles(angles)
     d_ang = _data_angles(data)
     check = ang if d_ang is None else np.concatenate([ang, d_ang])
     gx, gy = np.meshgrid(xs, ys)
@@ -703,14 +704,7 @@ def sobol_indices(
     for name in box:
         if name not in SWEEP_PARAMETERS:
             raise v.fail("bounds key", name, "one of " + ", ".join(SWEEP_PARAMETERS))
-    for name in ("height", "base_radius"):
-        if name in box and float(box[name][0]) <= 0:
-            raise v.fail(f"bounds[{name!r}]", tuple(box[name]), "positive lengths in m")
-    for name in INTEGER:
-        if name in box:
-            lo, hi = box[name]
-            if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():
-                raise v.fail(f"bounds[{name!r}]", (lo, hi), "whole numbers >= 1")
+    check_bound_values(box)
     names = list(box)
     if measure == "cost":
         d_ang = _data_angles(data)
@@ -718,7 +712,8 @@ def sobol_indices(
             raise v.fail("data", None, "a Measurement when measure='cost'")
         ang, target = d_ang, np.asarray(data.volts)
     else:
-        ang, target = _check_angles(angles), setup.output(_check_angles(angles))
+        ang = check_angles(angles)
+        target = setup.output(ang)
 
     def evaluate(X: F64) -> F64:
         curves = tilt_output_batch(setup, {n: X[:, j] for j, n in enumerate(names)}, ang)
@@ -739,6 +734,7 @@ __all__ = [
     "PlacementMap",
     "SensitivityStudy",
     "SobolResult",
+    "check_angles",
     "default_spans",
     "oat_sweep",
     "offset_cost",

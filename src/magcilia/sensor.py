@@ -133,6 +133,10 @@ class Sensor:
         )
         return math.sqrt(var)
 
+    def output_noise_rms(self, f_low: float, f_high: float) -> float:
+        """RMS output noise in the band [f_low, f_high] Hz, V (:meth:`noise_rms` times the scale)."""
+        return abs(self.scale) * self.noise_rms(f_low, f_high)
+
     def noise(
         self,
         n_samples: int,

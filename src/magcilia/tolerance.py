@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.model import tilt_output_batch
+from magcilia.sensitivity import check_angles
 from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
@@ -145,10 +146,7 @@ def placement_tolerance(
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
     dtheta = v.positive("angle_accuracy", angle_accuracy, "rad", "angle")
-    ang = (np.radians(np.linspace(0.0, 85.0, 33)) if angles is None
-           else v.finite_array("angles", angles, ndim=1, unit="rad"))
-    if ang.size < 1:
-        raise v.fail("angles", "an empty array", "at least one tilt angle in rad")
+    ang = check_angles(angles)
     step = v.positive("step", step, "m", "step")
     coords = tuple(v.choice("coordinate", c, COORDINATES) for c in coordinates)
     if not coords:
@@ -158,7 +156,7 @@ def placement_tolerance(
     except (TypeError, ValueError):
         raise v.fail("bandwidth", bandwidth, "a (f_low, f_high) pair in Hz") from None
     sensor = setup.sensor
-    noise_v = abs(sensor.scale) * sensor.noise_rms(f_lo, f_hi)
+    noise_v = sensor.output_noise_rms(f_lo, f_hi)
     h_t = step / 1e-3  # rad: the same relative step as step/1 mm of position
     slope = (setup.output(ang + h_t) - setup.output(ang - h_t)) / (2.0 * h_t)
     nominal = setup.params()
