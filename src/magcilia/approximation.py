@@ -19,6 +19,7 @@ angles in rad, outputs in V. :mod:`magcilia.firmware` exports them as C.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Callable, Mapping
@@ -424,9 +425,7 @@ def _finish(knots: F64, values: F64, x: F64, y: F64, grid: int) -> PiecewiseLine
         with np.errstate(divide="ignore", invalid="ignore"):
             local = np.where(slope > 0, np.abs(err) / slope, np.inf)
         angle_err = float(local.max())
-    return PiecewiseLinear(knots=approx.knots, values=approx.values, max_error=approx.max_error,
-                           rms_error=approx.rms_error, max_angle_error=angle_err, folds=folds,
-                           grid=grid)
+    return dataclasses.replace(approx, max_angle_error=angle_err)
 
 
 # -- lookup table --------------------------------------------------------------------------------

@@ -215,10 +215,10 @@ class Readout:
 
     def _calibration_table(self) -> F64:
         """1-σ output uncertainty (V) from the calibration covariance at the table nodes."""
-        names, cov = _parameter_covariance(self.calibration, self.setup.params())
+        params = self.setup.params()
+        names, cov = _parameter_covariance(self.calibration, params)
         if not names:
             return np.zeros(self.table_quantity.size)
-        params = self.setup.params()
         q = np.linspace(self.table_quantity[0], self.table_quantity[-1], 33)
         jac = np.empty((q.size, len(names)))
         for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact

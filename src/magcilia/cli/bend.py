@@ -93,8 +93,8 @@ def command(setup_arg: str, force: str | None, at_text: str | None, direction: f
     if flow is not None and flow.speed != 0.0:
         require_tip_radius(setup, setup_arg, "a flow load")
     shape = bend(setup, force=f, at=at, direction=math.radians(direction), flow=flow)
-    volts = float(setup.output(shape)[0])
     b = setup.field(shape)[0]
+    volts = float(setup.sensor.voltage(b[0]))
     tip = shape.tip * 1e3
     doc = {
         "setup": setup_label(setup_arg),
