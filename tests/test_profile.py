@@ -152,3 +152,14 @@ def test_tip_radius_of_a_profile_comes_from_the_profile() -> None:
     with pytest.raises(mc.MagciliaError, match="tip_radius must be left out for a cilium with a"):
         setup.replace(tip_radius=1e-5)
     assert setup.replace(base_radius=1e-4).cilium.tip_radius == pytest.approx(0.2e-4)
+
+
+def test_reynolds_limit_uses_the_widest_section() -> None:
+    """A bulge wider than the base reaches the drag law's Re limit at a lower speed."""
+    bulge = mc.Setup.paper(cilium=mc.Cilium.from_profile(S_BULGE, R_BULGE, youngs_modulus=E))
+    water = mc.WATER
+    u_base = 2e5 * water.viscosity / (water.density * 2 * RB)
+    u_widest = 2e5 * water.viscosity / (water.density * 2 * R_BULGE.max())
+    assert u_widest < 0.95 * u_base
+    with pytest.raises(mc.MagciliaError, match="drag law"):
+        mc.bend(bulge, flow=mc.Flow.uniform(0.5 * (u_base + u_widest), water))

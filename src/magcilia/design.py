@@ -186,7 +186,7 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
     if c.tip_radius == 0.0:
         return _unavailable("flow", "m/s", "not available: sharp cone (tip_radius 0) makes the "
                             "drag-loaded tip singular; give the setup a tip radius")
-    d = 2.0 * c.base_radius
+    d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
     f_max = 3.0 * c.height / tip_compliance(setup)
     u_drag = 2.0 * math.sqrt(f_max / (0.5 * fluid.density * d * c.height))
     u_re = RE_MAX * fluid.viscosity / (fluid.density * d)

@@ -138,7 +138,7 @@ def _check(setup: Setup, force: float, at: float | None, direction: float,
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow (Flow.uniform, …)")
         z = np.linspace(0.0, length, 65)
         fastest = float(np.max(np.abs(flow.velocity(z))))
-        check_reynolds(fastest, 2.0 * c.base_radius, flow.fluid)
+        check_reynolds(fastest, 2.0 * c.max_radius, flow.fluid)  # the widest section
     return force, at, direction
 
 
