@@ -25,7 +25,7 @@ from scipy.optimize import brentq
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
-from magcilia.mechanics.drag import RE_MAX
+from magcilia.mechanics.drag import max_speed
 from magcilia.sensor import DEFAULT_BANDWIDTH
 from magcilia.setup import Setup
 
@@ -189,7 +189,7 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
     d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
     f_max = 3.0 * c.height / tip_compliance(setup)
     u_drag = 2.0 * math.sqrt(f_max / (0.5 * fluid.density * d * c.height))
-    u_re = RE_MAX * fluid.viscosity / (fluid.density * d)
+    u_re = max_speed(d, fluid)
     u_max = min(u_drag, u_re)
     flow = Flow.uniform(1.0, fluid)
     speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, points - 1)])

@@ -131,10 +131,15 @@ def drag_per_length(normal_speed: F64, diameter: F64, fluid: Fluid) -> F64:
     return 0.5 * fluid.viscosity * normal_speed * _re_cd(re)
 
 
+def max_speed(diameter: float, fluid: Fluid) -> float:
+    """Fastest flow (m/s) past a cylinder of ``diameter`` (m) within the drag law (Re ≤ RE_MAX)."""
+    return RE_MAX * fluid.viscosity / (fluid.density * diameter)
+
+
 def check_reynolds(speed: float, diameter: float, fluid: Fluid, name: str = "flow speed") -> None:
     """Raise a one-line error if ``speed`` (m/s) past ``diameter`` (m) exceeds the drag law."""
     re = float(fluid.reynolds(speed, diameter))
     if re > RE_MAX:
-        limit = RE_MAX * fluid.viscosity / (fluid.density * diameter)
+        limit = max_speed(diameter, fluid)
         raise v.fail(name, f"{speed:.6g} m/s (Re = {re:.3g} in {fluid.name})",
                      f"at most {limit:.4g} m/s, where the cylinder drag law ends (Re ≤ {RE_MAX:g})")

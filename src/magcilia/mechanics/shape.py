@@ -34,11 +34,6 @@ class Load:
     at: float = 0.0
     flow: Flow | None = None
 
-    @property
-    def vector(self) -> F64:
-        """The point force (F_x, F_z), N, shape (2,)."""
-        return self.force * np.array([np.sin(self.direction), np.cos(self.direction)])
-
 
 @dataclass(frozen=True, eq=False)
 class BentShape(Centreline):
