@@ -2,10 +2,11 @@
 
 magpylib has no cone (its issue #290), but its ``Cylinder`` field is exact. Each of ``n_slices``
 equal-length slices of the (possibly bent) cilium becomes a cylinder of the same length and volume
-(for a frustum slice: radius sqrt((r1² + r1 r2 + r2²)/3)), centred on the centreline at the slice's mid-arc-length,
-with its axis along the local tangent and polarization J = μ0 M along that axis. The stack
-converges to the true body (frustum or measured profile) as O(1/n²) everywhere outside the body, near field included
-(NOTES.md §3), so it measures the error of the dipole model.
+(for a frustum slice: radius sqrt((r1² + r1 r2 + r2²)/3)), centred on the centreline at the
+slice's mid-arc-length, with its axis along the local tangent and polarization J = μ0 M along
+that axis. The stack converges to the true body (frustum or measured profile) as O(1/n²)
+everywhere outside the body, near field included (NOTES.md §3), so it measures the error of the
+dipole model.
 """
 
 from __future__ import annotations
