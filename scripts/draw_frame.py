@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 import magcilia as mc
-from magcilia.cli._common import save_figure
+from magcilia._atomic import save_figure
 from magcilia.plotting import new_figure
 
 
