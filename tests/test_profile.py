@@ -113,8 +113,9 @@ def test_profile_in_setup_files(tmp_path: Path) -> None:
     np.testing.assert_allclose(back.output(ANGLES), setup.output(ANGLES), rtol=1e-12)
     only_s = text.replace("profile_r", "# profile_r", 1).split("# profile_r")[0] + "\n"
     path.write_text(only_s)
-    with pytest.raises(mc.MagciliaError, match=r"profile_s / profile_r must be both lists"):
+    with pytest.raises(mc.MagciliaError, match=r"profile_s / profile_r must be both lists") as err:
         mc.load_setup(path)
+    assert str(err.value).count(str(path)) == 1  # the file is named once
     path.write_text('[cilium]\nheight = "3 mm"\nprofile_s = ["0 mm", "3 mm"]\n'
                     'profile_r = ["0.2 mm", "0.05 mm"]\n')
     with pytest.raises(mc.MagciliaError, match=r"cilium\.height must be left out"):

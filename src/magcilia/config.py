@@ -132,20 +132,21 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
     try:
         overrides = {**_unpack_position(PAPER_OPTIMIZED), **kwargs}
         if any(key in kwargs for key in _PROFILE_KEYS):
-            overrides = _with_profile(overrides, kwargs, source)
+            overrides = _with_profile(overrides, kwargs)
         return Setup.paper(**overrides)
     except v.MagciliaError as exc:
         raise v.MagciliaError(f"{source}: {exc}") from None
 
 
-def _with_profile(overrides: dict[str, Any], given: dict[str, Any], source: str) -> dict[str, Any]:
-    """Replace height/base_radius/tip_radius by a Cilium built from profile_s and profile_r."""
+def _with_profile(overrides: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
+    """Replace height/base_radius/tip_radius by a Cilium built from profile_s and profile_r (the
+    caller prefixes errors with the file name)."""
     if not all(key in given for key in _PROFILE_KEYS):
-        raise v.fail(f"{source}: cilium.profile_s / profile_r", "only one of them",
+        raise v.fail("cilium.profile_s / profile_r", "only one of them",
                      "both lists (arc lengths from the base and radii, same count)")
     clash = [key for key in ("height", "base_radius", "tip_radius") if key in given]
     if clash:
-        raise v.fail(f"{source}: cilium.{clash[0]}", given[clash[0]],
+        raise v.fail(f"cilium.{clash[0]}", given[clash[0]],
                      "left out when a profile is given (the profile sets the shape)")
     cilium = Cilium.from_profile(given["profile_s"], given["profile_r"],
                                  youngs_modulus=given.get("youngs_modulus"))
