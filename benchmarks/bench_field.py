@@ -24,7 +24,7 @@ import magpylib as magpy
 import numpy as np
 
 import magcilia as mc
-from magcilia._kernels import dipole_field
+from magcilia.model.kernels import dipole_field
 
 
 def best_time(fn: Callable[[], object], repeat: int, number: int = 1) -> float:

@@ -29,9 +29,9 @@ import numpy as np
 from SALib.sample import sobol as salib_sample
 
 import magcilia as mc
+from magcilia.analysis import DEFAULT_ANGLES, rms_change
 from magcilia.calibration import DEFAULT_BOUNDS, INTEGER
-from magcilia.model import tilt_output_batch
-from magcilia.sensitivity import DEFAULT_ANGLES, rms_change
+from magcilia.model.layout import tilt_output_batch
 
 HARNESS = r"""#define _POSIX_C_SOURCE 199309L
 #include <stdio.h>

@@ -9,7 +9,7 @@ import numpy as np
 
 import magcilia as mc
 from magcilia._atomic import save_figure
-from magcilia.plotting import new_figure
+from magcilia.report.figures import new_figure
 
 
 def main() -> None:

@@ -17,7 +17,7 @@ import numpy as np
 
 import magcilia as mc
 from magcilia._atomic import write_text
-from magcilia.synthetic import synthetic_recording
+from magcilia.acquire.synthetic import synthetic_recording
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "magcilia" / "data"
 SEED = 20261122

@@ -16,9 +16,9 @@ from numpy.typing import NDArray
 
 from magcilia._atomic import json_text
 from magcilia._validate import fail
-from magcilia.config import load_setup
-from magcilia.sensor import DEFAULT_BANDWIDTH
-from magcilia.setup import Setup
+from magcilia.device.sensor import DEFAULT_BANDWIDTH
+from magcilia.device.setup import Setup
+from magcilia.io.setup_files import load_setup
 from magcilia.units import parse_range
 
 #: built-in setups usable wherever a SETUP file is expected

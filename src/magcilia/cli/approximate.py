@@ -10,7 +10,7 @@ from magcilia._atomic import write_json, write_text
 from magcilia._validate import fail
 from magcilia.approximation import lookup_table, piecewise_linear
 from magcilia.cli._common import echo_json, load_setup_arg
-from magcilia.firmware import to_c_header
+from magcilia.io.firmware import to_c_header
 from magcilia.units import parse_range
 
 

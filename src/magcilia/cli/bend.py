@@ -11,8 +11,8 @@ import numpy as np
 from magcilia._atomic import save_figure, write_json
 from magcilia._errors import MagciliaError
 from magcilia.cli._common import echo_json, load_setup_arg, setup_label
+from magcilia.device.setup import Setup
 from magcilia.mechanics import FLUIDS, Flow, bend
-from magcilia.setup import Setup
 from magcilia.units import parse_quantity
 
 
@@ -112,8 +112,8 @@ def command(setup_arg: str, force: str | None, at_text: str | None, direction: f
     if json_file:
         write_json(json_file, doc)
     if plot_path:
-        from magcilia.design_report import plot_shapes
-        from magcilia.plotting import new_figure
+        from magcilia.report.design import plot_shapes
+        from magcilia.report.figures import new_figure
 
         fig, axes = new_figure(size=(4.5, 5.0))
         load = f"{f * 1e3:.4g} mN" if f else ""

@@ -10,16 +10,16 @@ from tqdm import tqdm
 
 from magcilia._atomic import write_json
 from magcilia.calibration import INTEGER, PARAMETERS, CalibrationResult, calibrate
-from magcilia.calibration_report import write_report
 from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     parse_named_ranges,
     staged_directory,
 )
-from magcilia.config import save_setup
-from magcilia.measurements import Measurement, read_measurements
-from magcilia.setup import Setup
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement, read_measurements
+from magcilia.io.setup_files import save_setup
+from magcilia.report.calibration import write_report
 
 
 def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, restarts: int,

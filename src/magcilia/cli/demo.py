@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 
 from magcilia.cli.calibrate import run_calibration
-from magcilia.measurements import read_measurements
-from magcilia.setup import Setup
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import read_measurements
 
 
 def example_path() -> Path:

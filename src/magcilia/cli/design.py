@@ -7,8 +7,8 @@ import click
 from magcilia._atomic import save_figure, write_json
 from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth, setup_label
 from magcilia.cli.bend import load_mechanics_setup, mechanics_options
-from magcilia.design import design_metrics
 from magcilia.mechanics import FLUIDS
+from magcilia.readout.design import design_metrics
 
 
 @click.command()
@@ -36,7 +36,7 @@ def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
     if json_file:
         write_json(json_file, doc)
     if plot_path:
-        from magcilia.design_report import plot_design
+        from magcilia.report.design import plot_design
 
         save_figure(plot_design(metrics), plot_path)
     if as_json:

@@ -58,7 +58,7 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     if json_file:
         write_json(json_file, doc)
     if plot_path:
-        from magcilia.plotting import new_figure, plot_field_vs_tilt, plot_output_vs_tilt
+        from magcilia.report.figures import new_figure, plot_field_vs_tilt, plot_output_vs_tilt
 
         fig, axes = new_figure(ncols=2)
         labels = [r[0] for r in results]

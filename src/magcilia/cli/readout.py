@@ -19,9 +19,9 @@ from magcilia.cli.bend import (
     mechanics_options,
     require_tip_radius,
 )
-from magcilia.measurements import read_samples
+from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout import Readout, ReadoutFlag
+from magcilia.readout.inverse import Readout, ReadoutFlag
 from magcilia.units import UNITS, parse_quantity
 
 #: display unit, its SI factor, the dimension for unit-bearing span values

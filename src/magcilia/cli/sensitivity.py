@@ -11,6 +11,8 @@ from tqdm import tqdm
 
 from magcilia._errors import MissingDependencyError, require
 from magcilia._validate import fail
+from magcilia.analysis import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
+from magcilia.analysis.tolerance import placement_tolerance
 from magcilia.cli._common import (
     bandwidth_option,
     echo_json,
@@ -19,10 +21,8 @@ from magcilia.cli._common import (
     parse_named_ranges,
     staged_directory,
 )
-from magcilia.measurements import read_measurements
-from magcilia.sensitivity import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
-from magcilia.sensitivity_report import report_dict, write_sensitivity_report
-from magcilia.tolerance import placement_tolerance
+from magcilia.io.recordings import read_measurements
+from magcilia.report.sensitivity import report_dict, write_sensitivity_report
 
 
 @click.command()

@@ -14,12 +14,12 @@ from scipy.integrate import quad
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.centreline import Centreline
+from magcilia.device.setup import Setup
 from magcilia.mechanics.drag import check_reynolds, drag_per_length
 from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.shape import BentShape, Load
-from magcilia.setup import Setup
+from magcilia.model.centreline import Centreline
 
 F64 = NDArray[np.float64]
 

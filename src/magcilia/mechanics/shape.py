@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.centreline import Centreline
 from magcilia.mechanics.flow import Flow
+from magcilia.model.centreline import Centreline
 
 F64 = NDArray[np.float64]
 

@@ -1,0 +1,56 @@
+"""Sensitivity analysis of the model (the paper's Sec. IV.C and beyond).
+
+* :mod:`.measures`: RMS change, offset-free change and calibration cost of output curves;
+* :mod:`.oat`: one parameter at a time (figs. 9–12), the x–y placement map, the whole study;
+* :mod:`.sobol`: global Sobol indices (SALib) over the calibration bounds;
+* :mod:`.tolerance`: how precisely the placement must be known for a target angle accuracy.
+"""
+
+from __future__ import annotations
+
+from magcilia.analysis.measures import (
+    DEFAULT_ANGLES,
+    MEASURES,
+    check_angles,
+    offset_cost,
+    rms_change,
+    shape_change,
+)
+from magcilia.analysis.oat import (
+    STUDY_PARAMETERS,
+    SWEEP_INTEGER,
+    SWEEP_PARAMETERS,
+    OATResult,
+    PlacementMap,
+    SensitivityStudy,
+    default_spans,
+    oat_sweep,
+    placement_map,
+    sensitivity_study,
+)
+from magcilia.analysis.sobol import SobolResult, sobol_analysis, sobol_indices
+from magcilia.analysis.tolerance import PlacementTolerance, placement_tolerance
+
+__all__ = [
+    "DEFAULT_ANGLES",
+    "MEASURES",
+    "STUDY_PARAMETERS",
+    "SWEEP_INTEGER",
+    "SWEEP_PARAMETERS",
+    "OATResult",
+    "PlacementMap",
+    "PlacementTolerance",
+    "SensitivityStudy",
+    "SobolResult",
+    "check_angles",
+    "default_spans",
+    "oat_sweep",
+    "offset_cost",
+    "placement_map",
+    "placement_tolerance",
+    "rms_change",
+    "sensitivity_study",
+    "shape_change",
+    "sobol_analysis",
+    "sobol_indices",
+]

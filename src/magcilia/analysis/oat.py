@@ -1,0 +1,416 @@
+"""One parameter at a time (the paper's Sec. IV.C, figs. 9–12).
+
+* :func:`oat_sweep` — one parameter at a time around a setup: for each value, the RMS change of
+  the output curve over an angle range (V), the same with the mean difference removed (the *shape*
+  change a fitted offset cannot absorb) and, with measurements, the calibration cost (V², sum over
+  the measured angles of squared residuals with the output offset solved in closed form).
+  :func:`placement_map` does x and y together on a grid (fig. 9 as a map).
+* :func:`sensitivity_study` — all of figs. 9–12 with sensible default spans.
+
+Values that leave the physical domain (the sensing element inside the cilium at some angle) are
+skipped with a note; a span that is invalid in itself (a negative height, n < 1, no valid value at
+all) is a one-line :class:`~magcilia.MagciliaError`. SI units throughout.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia._errors import MagciliaError
+from magcilia.analysis.measures import (
+    check_angles,
+    data_angles,
+    offset_cost,
+    rms_change,
+    shape_change,
+)
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
+from magcilia.model.layout import tilt_output_batch
+
+F64 = NDArray[np.float64]
+
+#: parameters that one-at-a-time sweeps accept (keys of ``Setup.params()`` except the offset)
+SWEEP_PARAMETERS = ("x", "y", "z", "height", "base_radius", "tip_radius", "n_loops",
+                    "dipoles_per_loop", "magnetization_scale")
+SWEEP_INTEGER = ("n_loops", "dipoles_per_loop")
+#: the sweeps of :func:`sensitivity_study` in figure order (figs. 9, 10, 11, 12)
+STUDY_PARAMETERS = ("x", "y", "z", "n_loops", "dipoles_per_loop", "height", "base_radius")
+
+
+# -- one at a time -------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class OATResult:
+    """A one-at-a-time sweep of one parameter (immutable).
+
+    Attributes
+    ----------
+    parameter : str
+        Swept parameter (a key of ``Setup.params()``).
+    nominal : float
+        Its value in the reference setup (SI).
+    values : ndarray, shape (v,)
+        Valid swept values (SI; skipped ones removed).
+    angles : ndarray, shape (a,)
+        Tilt angles of the curves, rad.
+    reference : ndarray, shape (a,)
+        The reference setup's output, V.
+    curves : ndarray, shape (v, a)
+        Output for each value, V.
+    rms_change : ndarray, shape (v,)
+        RMS over the angles of (curve − reference), V.
+    shape_change : ndarray, shape (v,)
+        The same with the mean difference removed (what a fitted offset cannot absorb), V.
+    cost : ndarray, shape (v,) or None
+        Calibration cost against the measurements (offset solved), V²; None without data.
+    skipped : tuple of (float, str)
+        Values left out (outside the physical domain) and why.
+    """
+
+    parameter: str
+    nominal: float
+    values: F64
+    angles: F64
+    reference: F64
+    curves: F64
+    rms_change: F64
+    shape_change: F64
+    cost: F64 | None = None
+    skipped: tuple[tuple[float, str], ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        return {
+            "parameter": self.parameter, "nominal": self.nominal, "values": self.values.tolist(),
+            "angles_rad": self.angles.tolist(), "reference_V": self.reference.tolist(),
+            "curves_V": self.curves.tolist(), "rms_change_V": self.rms_change.tolist(),
+            "shape_change_V": self.shape_change.tolist(),
+            "cost_V2": None if self.cost is None else self.cost.tolist(),
+            "skipped": [{"value": val, "reason": why} for val, why in self.skipped],
+        }
+
+
+def _check_parameter(parameter: str) -> str:
+    return v.choice("parameter", parameter, SWEEP_PARAMETERS)
+
+
+def _check_values(parameter: str, values: ArrayLike) -> F64:
+    """Swept values: finite, non-empty, inside the parameter's basic domain."""
+    vals = v.finite_array(f"{parameter} values", values).ravel()
+    if vals.size == 0:
+        raise v.fail(f"{parameter} values", "an empty array", "at least one value")
+    if parameter in SWEEP_INTEGER:
+        if np.any(vals < 1) or np.any(vals != np.round(vals)):
+            bad = float(vals[(vals < 1) | (vals != np.round(vals))][0])
+            raise v.fail(f"{parameter} values", bad, "whole numbers >= 1")
+    elif parameter in ("height", "base_radius") and np.any(vals <= 0):
+        raise v.fail(f"{parameter} values", float(vals[vals <= 0][0]), "positive lengths in m")
+    elif parameter in ("tip_radius", "magnetization_scale") and np.any(vals < 0):
+        raise v.fail(f"{parameter} values", float(vals[vals < 0][0]), "non-negative numbers")
+    return vals
+
+
+def _valid(setup: Setup, changes: Mapping[str, float], angles: F64) -> str | None:
+    """None if the changed setup is physical at all angles, else the reason."""
+    try:
+        setup.replace(**changes).output(angles)
+    except MagciliaError as exc:
+        return str(exc)
+    return None
+
+
+
+
+def _batch(setup: Setup, parameter: str, values: F64, angles: F64) -> F64:
+    return tilt_output_batch(setup, {parameter: values}, angles)
+
+
+def oat_sweep(
+    setup: Setup,
+    parameter: str,
+    values: ArrayLike,
+    angles: ArrayLike | None = None,
+    data: Measurement | None = None,
+) -> OATResult:
+    """Vary one parameter of ``setup`` over ``values``, all others fixed (figs. 9–12).
+
+    Parameters
+    ----------
+    setup : Setup
+        Reference setup (e.g. a calibration result's ``.setup``).
+    parameter : str
+        One of :data:`SWEEP_PARAMETERS` (``x``, ``y``, ``z``, ``height``, ``base_radius``,
+        ``tip_radius`` in m; ``n_loops``, ``dipoles_per_loop`` whole numbers;
+        ``magnetization_scale``).
+    values : array-like, shape (v,)
+        Values to try, SI. Values where the sensing element would lie inside the cilium at some
+        angle are skipped (listed in ``skipped``); a value outside the parameter's own domain
+        (height ≤ 0, n < 1, …) is an error.
+    angles : array-like, shape (a,), optional
+        Tilt angles of the curves and the RMS change, rad; default the paper's 33 over 0..85°.
+    data : Measurement, optional
+        With measurements the calibration cost (offset solved) is computed at their angles.
+
+    Returns
+    -------
+    OATResult
+    """
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
+    parameter = _check_parameter(parameter)
+    vals = _check_values(parameter, values)
+    ang = check_angles(angles)
+    d_ang = data_angles(data)
+    check = ang if d_ang is None else np.concatenate([ang, d_ang])
+    keep, skipped = [], []
+    for val in vals:
+        reason = _valid(setup, {parameter: float(val)}, check)
+        if reason is None:
+            keep.append(float(val))
+        else:
+            skipped.append((float(val), reason))
+    if not keep:
+        raise MagciliaError(
+            f"{parameter} values must include at least one physical setup; every value was "
+            f"rejected, e.g. {skipped[0][0]:.6g}: {skipped[0][1]}"
+        )
+    good = np.asarray(keep)
+    curves = _batch(setup, parameter, good, ang)
+    reference = setup.output(ang)
+    cost = None
+    if data is not None and d_ang is not None:
+        cost = offset_cost(_batch(setup, parameter, good, d_ang), data.volts)
+    return OATResult(
+        parameter=parameter, nominal=float(setup.params()[parameter]), values=good, angles=ang,
+        reference=reference, curves=curves, rms_change=rms_change(curves, reference),
+        shape_change=shape_change(curves, reference), cost=cost,
+        skipped=tuple(skipped),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class PlacementMap:
+    """RMS output change (and cost) over a grid of x, y placements (fig. 9 as a map).
+
+    Attributes
+    ----------
+    x : ndarray, shape (nx,)
+        x positions, m.
+    y : ndarray, shape (ny,)
+        y positions, m.
+    nominal : (float, float)
+        The reference setup's (x, y), m.
+    rms_change : ndarray, shape (ny, nx)
+        V; NaN where the placement is not physical.
+    cost : ndarray, shape (ny, nx) or None
+        Calibration cost (offset solved), V²; NaN where not physical; None without data.
+    """
+
+    x: F64
+    y: F64
+    nominal: tuple[float, float]
+    rms_change: F64
+    cost: F64 | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        return {
+            "x_m": self.x.tolist(), "y_m": self.y.tolist(), "nominal_m": list(self.nominal),
+            "rms_change_V": self.rms_change.tolist(),
+            "cost_V2": None if self.cost is None else self.cost.tolist(),
+        }
+
+
+def placement_map(
+    setup: Setup,
+    x_values: ArrayLike,
+    y_values: ArrayLike,
+    angles: ArrayLike | None = None,
+    data: Measurement | None = None,
+) -> PlacementMap:
+    """RMS change of the output curve (and cost) for each (x, y) placement on a grid.
+
+    Parameters
+    ----------
+    setup : Setup
+        Reference setup.
+    x_values, y_values : array-like, shapes (nx,), (ny,)
+        Grid of the paper's x_f, y_f, m.
+    angles : array-like, shape (a,), optional
+        Tilt angles, rad (default the paper's 33).
+    data : Measurement, optional
+        Measurements for the calibration cost.
+
+    Returns
+    -------
+    PlacementMap
+    """
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
+    xs = v.finite_array("x values", x_values, ndim=1, unit="m")
+    ys = v.finite_array("y values", y_values, ndim=1, unit="m")
+    if xs.size == 0 or ys.size == 0:
+        raise v.fail("x/y values", f"{xs.size} x {ys.size}", "non-empty grids")
+    ang = check_angles(angles)
+    d_ang = data_angles(data)
+    check = ang if d_ang is None else np.concatenate([ang, d_ang])
+    gx, gy = np.meshgrid(xs, ys)
+    valid = np.array([_valid(setup, {"x": float(a), "y": float(b)}, check) is None
+                      for a, b in zip(gx.ravel(), gy.ravel(), strict=True)])
+    if not valid.any():
+        raise MagciliaError("x/y values must include at least one placement with the sensing "
+                            "element outside the cilium; none of the grid does")
+    params = {"x": gx.ravel()[valid], "y": gy.ravel()[valid]}
+    rms = np.full(gx.size, np.nan)
+    rms[valid] = rms_change(tilt_output_batch(setup, params, ang), setup.output(ang))
+    cost: F64 | None = None
+    if data is not None and d_ang is not None:
+        flat = np.full(gx.size, np.nan)
+        flat[valid] = offset_cost(tilt_output_batch(setup, params, d_ang), data.volts)
+        cost = flat.reshape(gx.shape)
+    return PlacementMap(x=xs, y=ys, nominal=(setup.position[0], setup.position[1]),
+                        rms_change=rms.reshape(gx.shape), cost=cost)
+
+
+# -- the study of figs. 9–12 ---------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class SensitivityStudy:
+    """All one-at-a-time sweeps of figs. 9–12 around one setup (immutable).
+
+    Attributes
+    ----------
+    setup : Setup
+        The reference setup.
+    sweeps : dict of str to OATResult
+        One sweep per parameter, in :data:`STUDY_PARAMETERS` order.
+    xy_map : PlacementMap
+        x–y map of the RMS change (and cost).
+    spans : dict of str to (float, float)
+        The spans used (SI; n, k whole numbers).
+    notes : tuple of str
+        Plain-language notes (skipped values).
+    data_source : str or None
+        The measurements' source, if any.
+    """
+
+    setup: Setup
+    sweeps: dict[str, OATResult]
+    xy_map: PlacementMap
+    spans: dict[str, tuple[float, float]]
+    notes: tuple[str, ...] = ()
+    data_source: str | None = None
+
+    def summary(self) -> list[dict[str, Any]]:
+        """Per sweep: span, largest RMS and offset-free change (V) and, with data, the best cost
+        and the value where it is reached."""
+        rows = []
+        for name, res in self.sweeps.items():
+            row: dict[str, Any] = {
+                "parameter": name, "nominal": res.nominal,
+                "span": list(self.spans[name]), "max_rms_change_V": float(res.rms_change.max()),
+                "max_shape_change_V": float(res.shape_change.max()),
+                "skipped": len(res.skipped),
+            }
+            if res.cost is not None:
+                i = int(np.argmin(res.cost))
+                row["min_cost_V2"] = float(res.cost[i])
+                row["argmin"] = float(res.values[i])
+            rows.append(row)
+        return rows
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        return {
+            "setup": self.setup.params(), "data": self.data_source,
+            "spans": {k: list(s) for k, s in self.spans.items()},
+            "summary": self.summary(), "notes": list(self.notes),
+            "sweeps": {k: r.to_dict() for k, r in self.sweeps.items()},
+            "xy_map": self.xy_map.to_dict(),
+        }
+
+
+def default_spans(setup: Setup) -> dict[str, tuple[float, float]]:
+    """The default sweep spans around ``setup`` (SI): x, y ±1 mm, z 0..1 mm, n and k 1..10,
+    height and base radius ±20 %."""
+    p = setup.params()
+    return {
+        "x": (p["x"] - 1e-3, p["x"] + 1e-3), "y": (p["y"] - 1e-3, p["y"] + 1e-3),
+        "z": (0.0, 1e-3), "n_loops": (1.0, 10.0), "dipoles_per_loop": (1.0, 10.0),
+        "height": (0.8 * p["height"], 1.2 * p["height"]),
+        "base_radius": (0.8 * p["base_radius"], 1.2 * p["base_radius"]),
+    }
+
+
+def _span_values(name: str, span: tuple[float, float], nominal: float, points: int) -> F64:
+    lo, hi = span
+    if name in SWEEP_INTEGER:
+        return np.arange(round(lo), round(hi) + 1, dtype=np.float64)
+    vals = np.linspace(lo, hi, points)
+    if lo <= nominal <= hi:
+        vals = np.unique(np.append(vals, nominal))
+    return vals
+
+
+def sensitivity_study(
+    setup: Setup,
+    data: Measurement | None = None,
+    *,
+    spans: Mapping[str, tuple[float, float]] | None = None,
+    angles: ArrayLike | None = None,
+    points: int = 21,
+    map_points: int = 41,
+) -> SensitivityStudy:
+    """One-at-a-time sensitivity of figs. 9–12 around ``setup``.
+
+    Parameters
+    ----------
+    setup : Setup
+        Reference setup (typically a calibration result's ``.setup``).
+    data : Measurement, optional
+        Measurements: adds the calibration cost (offset solved) to every sweep and the map.
+    spans : mapping of str to (low, high), optional
+        Override spans (SI; ``n_loops``/``dipoles_per_loop`` as whole numbers) of any of
+        :data:`STUDY_PARAMETERS`; others take :func:`default_spans`.
+    angles : array-like, shape (a,), optional
+        Tilt angles of the curves, rad (default the paper's 33 over 0..85°).
+    points : int
+        Values per continuous sweep (the nominal value is added).
+    map_points : int
+        Grid points per axis of the x–y map.
+
+    Returns
+    -------
+    SensitivityStudy
+    """
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
+    points = v.integer("points", points, 2)
+    map_points = v.integer("map_points", map_points, 2)
+    merged = v.intervals("spans", spans, default_spans(setup))
+    nominal = setup.params()
+    sweeps: dict[str, OATResult] = {}
+    notes: list[str] = []
+    for name in STUDY_PARAMETERS:
+        vals = _span_values(name, merged[name], float(nominal[name]), points)
+        res = oat_sweep(setup, name, vals, angles=angles, data=data)
+        sweeps[name] = res
+        if res.skipped:
+            shown = ", ".join(f"{s:.4g}" for s, _ in res.skipped[:5])
+            more = ", …" if len(res.skipped) > 5 else ""
+            notes.append(f"{name}: {len(res.skipped)} of {vals.size} values skipped (outside the "
+                         f"physical domain: {res.skipped[0][1]}): {shown}{more}")
+    xs = np.linspace(*merged["x"], map_points)
+    ys = np.linspace(*merged["y"], map_points)
+    xy = placement_map(setup, xs, ys, angles=angles, data=data)
+    n_bad = int(np.isnan(xy.rms_change).sum())
+    if n_bad:
+        notes.append(f"x-y map: {n_bad} of {xy.rms_change.size} placements skipped (sensing "
+                     "element inside the cilium)")
+    return SensitivityStudy(setup=setup, sweeps=sweeps, xy_map=xy, spans=merged,
+                            notes=tuple(notes), data_source=None if data is None else data.source)

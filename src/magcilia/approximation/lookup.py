@@ -1,0 +1,144 @@
+"""Lookup tables of the output-vs-tilt curve: a uniform table with linear interpolation, either
+V→θ (``"inverse"``, what firmware needs) or θ→V (``"output"``), with the classic interpolation
+error bound ``h² / 8 · max|g''|`` from the tabulated function's curvature. Linear extrapolation
+beyond the table. SI units: angles in rad, outputs in V."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia.approximation.curve import (
+    DEFAULT_RANGE,
+    Curve,
+    check_range,
+    evaluate,
+    fold_error,
+    folds_of,
+    interp_extrap,
+)
+
+F64 = NDArray[np.float64]
+QUANTITIES = ("inverse", "output")
+
+
+# -- lookup table --------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LookupTable:
+    """A uniform lookup table with linear interpolation (immutable).
+
+    Attributes
+    ----------
+    quantity : {"inverse", "output"}
+        ``"inverse"``: input volts (V), output tilt (rad); ``"output"``: input tilt (rad), output V.
+    x : ndarray, shape (size,)
+        Uniform, increasing table inputs.
+    y : ndarray, shape (size,)
+        Table outputs.
+    error_bound : float
+        Bound on the interpolation error inside the table's span, in the output's unit:
+        ``h² / 8 · max|g''|`` (h the spacing, g the tabulated function; g'' from the model on the
+        dense grid, so the bound is as good as that grid resolves the curvature).
+    angle_range : (float, float)
+        The tilt range covered, rad.
+    """
+
+    quantity: str
+    x: F64
+    y: F64
+    error_bound: float
+    angle_range: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y"):
+            arr = np.array(getattr(self, name), dtype=np.float64)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def __call__(self, value: ArrayLike) -> F64:
+        """Interpolate (linear extrapolation beyond the ends), same shape as ``value``."""
+        q = v.finite_array("value", value)
+        return interp_extrap(q.ravel(), self.x, self.y).reshape(q.shape)
+
+    @property
+    def size(self) -> int:
+        """Table entries."""
+        return int(self.x.size)
+
+    @property
+    def step(self) -> float:
+        """Spacing of the table inputs (V or rad)."""
+        return float(self.x[1] - self.x[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (SI)."""
+        unit_in, unit_out = ("V", "rad") if self.quantity == "inverse" else ("rad", "V")
+        return {
+            "kind": "lookup_table", "quantity": self.quantity, "size": self.size,
+            "x_start": float(self.x[0]), "x_step": self.step, "x_unit": unit_in,
+            "y": self.y.tolist(), "y_unit": unit_out, "error_bound": self.error_bound,
+            "angle_range_rad": list(self.angle_range),
+        }
+
+
+def lookup_table(
+    curve: Curve,
+    size: int,
+    angle_range: tuple[float, float] = DEFAULT_RANGE,
+    quantity: str = "inverse",
+    grid: int = 4001,
+) -> LookupTable:
+    """Tabulate the curve (or its inverse) on a uniform grid of ``size`` entries.
+
+    Parameters
+    ----------
+    curve : Setup or callable
+        As in :func:`piecewise_linear`.
+    size : int
+        Table entries (≥ 2).
+    angle_range : (float, float)
+        Tilt range, rad.
+    quantity : {"inverse", "output"}
+        ``"inverse"`` (default): tilt (rad) as a function of output (V), uniform in V over the
+        curve's output span — needs a strictly monotonic curve. ``"output"``: V of tilt.
+    grid : int
+        Dense grid used to invert the curve and to bound its curvature.
+
+    Returns
+    -------
+    LookupTable
+        With ``error_bound = h²/8 · max|g''|`` (rad for ``"inverse"``, V for ``"output"``).
+    """
+    lo, hi = check_range(angle_range)
+    size = v.integer("size", size, 2)
+    v.choice("quantity", quantity, QUANTITIES)
+    grid = v.integer("grid", grid, 5)
+    t = np.linspace(lo, hi, grid)
+    y = evaluate(curve, t)
+    d1 = np.gradient(y, t, edge_order=2)
+    d2 = np.gradient(d1, t, edge_order=2)
+    if quantity == "output":
+        x = np.linspace(lo, hi, size)
+        h = (hi - lo) / (size - 1)
+        return LookupTable(quantity, x, evaluate(curve, x), h * h / 8.0 * float(np.abs(d2).max()),
+                           (lo, hi))
+    folds = folds_of(t, y)
+    if folds:
+        raise fold_error("an inverse lookup table", lo, hi, folds)
+    # g(V) = θ(V): g'' = −f'' / f'³
+    g2 = np.abs(d2 / d1**3)
+    vmin, vmax = float(y.min()), float(y.max())
+    x = np.linspace(vmin, vmax, size)
+    order = np.argsort(y)
+    theta = np.interp(x, y[order], t[order])
+    # refine the inverse by Newton steps on the model itself (the dense grid is only a start)
+    for _ in range(3):
+        f = evaluate(curve, theta)
+        slope = np.interp(theta, t, d1)
+        theta = np.clip(theta - (f - x) / slope, lo, hi)
+    h = (vmax - vmin) / (size - 1)
+    return LookupTable(quantity, x, theta, h * h / 8.0 * float(g2.max()), (lo, hi))

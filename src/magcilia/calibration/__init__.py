@@ -1,0 +1,25 @@
+"""Calibration: fit the model's parameters to a field-vs-tilt recording (the paper's Sec. III.B).
+
+* :func:`calibrate` (:mod:`.search`): global search + polish;
+* :class:`CalibrationResult`, :class:`ParameterCovariance` (:mod:`.result`);
+* the least-squares problem with its linear parameters solved in closed form (:mod:`.problem`)
+  and the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`).
+"""
+
+from __future__ import annotations
+
+from magcilia.calibration.problem import BIASES, CONTINUOUS, DEFAULT_BOUNDS, INTEGER, PARAMETERS
+from magcilia.calibration.result import CalibrationResult, ParameterCovariance
+from magcilia.calibration.search import calibrate, check_bound_values
+
+__all__ = [
+    "BIASES",
+    "CONTINUOUS",
+    "DEFAULT_BOUNDS",
+    "INTEGER",
+    "PARAMETERS",
+    "CalibrationResult",
+    "ParameterCovariance",
+    "calibrate",
+    "check_bound_values",
+]

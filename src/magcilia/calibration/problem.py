@@ -1,0 +1,78 @@
+"""The calibration's least-squares problem: the model at the measured angles with the parameters
+that enter linearly (bias polynomial, magnetization scale) projected out in closed form."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
+from magcilia.model.layout import tilt_output_batch
+
+F64 = NDArray[np.float64]
+
+CONTINUOUS = ("height", "base_radius", "x", "y", "z")
+INTEGER = ("n_loops", "dipoles_per_loop")
+PARAMETERS = CONTINUOUS + INTEGER
+
+#: the bounds of the paper's search space used by default (SI; n and k as integers)
+DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
+    "height": (2e-3, 4e-3), "base_radius": (1e-4, 4e-4), "x": (-3e-3, 3e-3),
+    "y": (-3e-3, 3e-3), "z": (0.0, 1e-3), "n_loops": (1, 10), "dipoles_per_loop": (1, 10),
+}
+BIASES = ("offset", "polynomial", "none")
+
+class Problem:
+    """The least-squares problem with the linear parameters projected out."""
+
+    def __init__(self, data: Measurement, initial: Setup, bias: str, bias_degree: int,
+                 fit_scale: bool) -> None:
+        self.data = data
+        self.y = np.asarray(data.volts)
+        self.angles = np.asarray(data.angles)
+        self.base = initial.replace(offset=0.0)
+        self.fit_scale = fit_scale
+        degree = -1 if bias == "none" else (0 if bias == "offset" else bias_degree)
+        self.basis = np.vander(self.angles, degree + 1, increasing=True) if degree >= 0 else (
+            np.zeros((self.angles.size, 0)))
+        if self.basis.shape[1]:
+            q, _ = np.linalg.qr(self.basis)
+            self.q = q
+        else:
+            self.q = np.zeros((self.angles.size, 0))
+        self.ry = self._project(self.y)
+        self.evaluations = 0
+
+    def _project(self, arr: F64) -> F64:
+        """Remove the bias subspace from the last axis."""
+        return arr - (arr @ self.q) @ self.q.T
+
+    def model(self, params: Mapping[str, F64]) -> F64:
+        """Unbiased model output, V, shape (N, a)."""
+        self.evaluations += int(np.size(next(iter(params.values()))))
+        return tilt_output_batch(self.base, params, self.angles)
+
+    def residuals(self, u: F64) -> tuple[F64, F64]:
+        """Projected residuals (N, a) and the fitted scale factors (N,) for model outputs u."""
+        ru = self._project(u)
+        if self.fit_scale:
+            denom = np.einsum("na,na->n", ru, ru)
+            a = np.where(denom > 0, np.einsum("na,a->n", ru, self.ry) / np.where(denom > 0, denom, 1.0), 0.0)
+            a = np.maximum(a, 0.0)
+        else:
+            a = np.ones(u.shape[0])
+        return self.ry - a[:, None] * ru, a
+
+    def cost(self, params: Mapping[str, F64]) -> F64:
+        r, _ = self.residuals(self.model(params))
+        return np.einsum("na,na->n", r, r)
+
+    def bias_coefficients(self, u: F64, a: float) -> F64:
+        """Least-squares bias polynomial for the scaled model a·u (constant first)."""
+        if not self.basis.shape[1]:
+            return np.zeros(0)
+        coef, *_ = np.linalg.lstsq(self.basis, self.y - a * u, rcond=None)
+        return np.asarray(coef)

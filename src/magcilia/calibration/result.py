@@ -1,0 +1,190 @@
+"""Results of a calibration: :class:`CalibrationResult` and the :class:`ParameterCovariance` that
+read-out needs of it."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia._errors import MagciliaError
+from magcilia.calibration.problem import PARAMETERS
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class ParameterCovariance:
+    """Standard errors and correlations of calibrated parameters: what read-out needs of a
+    calibration (a :class:`CalibrationResult` carries the same three attributes).
+
+    Attributes
+    ----------
+    correlation_names : tuple of str
+        Parameter names (continuous ones, ``magnetization_scale``, ``offset``, ``bias_<d>``).
+    stderr : dict of str to float
+        1-σ standard errors, SI (inf where undetermined).
+    correlation : ndarray, shape (p, p)
+        Correlation matrix of ``correlation_names`` (NaN where undefined).
+    covariance : ndarray, shape (p, p), or None
+        The covariance itself (SI), finite along undetermined combinations (see
+        :class:`CalibrationResult`); None if only standard errors and correlations are known.
+    """
+
+    correlation_names: tuple[str, ...]
+    stderr: dict[str, float]
+    correlation: F64
+    covariance: F64 | None = None
+
+    @classmethod
+    def load(cls, path: str | Path) -> ParameterCovariance:
+        """Read ``result.json`` written by ``magcilia calibrate`` (or a folder holding one);
+        null standard errors (undetermined) become inf."""
+        p = Path(path)
+        if p.is_dir():
+            p = p / "result.json"
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+            names = tuple(str(n) for n in doc["correlation"]["names"])
+            matrix = np.array(doc["correlation"]["matrix"], dtype=np.float64)  # null -> nan
+            stderr = {str(k): math.inf if val is None else float(val)
+                      for k, val in doc["stderr"].items()}
+            stored = (doc.get("covariance") or {}).get("matrix")
+            covariance = None if stored is None else np.array(stored, dtype=np.float64)
+        except FileNotFoundError:
+            raise MagciliaError(f"{p}: no such file; give the result.json (or the --out folder) "
+                                "of magcilia calibrate") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise MagciliaError(f"{p}: not a calibration result ({type(exc).__name__}: {exc}); "
+                                "give the result.json of magcilia calibrate") from None
+        shape = (len(names), len(names))
+        if (matrix.shape != shape or not set(names) <= set(stderr)
+                or (covariance is not None and covariance.shape != shape)):
+            raise MagciliaError(f"{p}: correlation matrix and standard errors do not match the "
+                                "parameter names; give an unedited result.json")
+        return cls(correlation_names=names, stderr=stderr, correlation=matrix,
+                   covariance=covariance)
+
+@dataclass(frozen=True, eq=False)
+class CalibrationResult:
+    """The outcome of :func:`calibrate` (immutable).
+
+    Attributes
+    ----------
+    setup : Setup
+        The fitted setup (same interface as ``Setup.paper(...)``); its ``output`` includes the
+        fitted offset and magnetization scale.
+    initial : Setup
+        The starting setup.
+    cost : float
+        Sum over angles of (mean measured − model)², V² (the paper's cost).
+    rms : float
+        sqrt(cost / number of angles), V.
+    residuals : ndarray, shape (a,)
+        Measured − fitted model, V.
+    data : Measurement
+        The data that were fitted.
+    values, stderr : dict of str to float
+        Fitted parameters (SI) and their 1-σ standard errors from the Jacobian (NaN where not
+        defined: integer parameters, or parameters the data do not determine).
+    correlation : ndarray, shape (p, p)
+        Correlation matrix of ``correlation_names``.
+    correlation_names : tuple of str
+    bias_coefficients : ndarray
+        Polynomial bias coefficients (constant first; V, V/rad, …); the constant is the offset.
+    warnings : tuple of str
+        Plain-language identifiability warnings.
+    bounds : dict
+        The search bounds (SI).
+    evaluations : int
+        Model evaluations (parameter sets × angles counted once per set).
+    elapsed : float
+        Wall time, s.
+    restart_costs : tuple of float
+        Final cost of each restart, V².
+    covariance : ndarray, shape (p, p), or None
+        Parameter covariance of ``correlation_names`` (SI): σ² (JᵀJ)⁺, finite also along
+        undetermined combinations, so that J C Jᵀ gives the fitted curve's uncertainty.
+    """
+
+    setup: Setup
+    initial: Setup
+    cost: float
+    rms: float
+    residuals: F64
+    data: Measurement
+    values: dict[str, float]
+    stderr: dict[str, float]
+    correlation: F64
+    correlation_names: tuple[str, ...]
+    bias_coefficients: F64
+    bias: str
+    warnings: tuple[str, ...]
+    bounds: dict[str, tuple[float, float]]
+    evaluations: int
+    elapsed: float
+    restart_costs: tuple[float, ...] = field(default=())
+    covariance: F64 | None = None
+
+    @property
+    def fitted(self) -> F64:
+        """Fitted model at the measured angles, V, shape (a,) (bias included)."""
+        return self.data.volts - self.residuals
+
+    def table(self) -> list[dict[str, Any]]:
+        """Table-I-style rows: parameter, unit, initial, fitted, standard error (display units)."""
+        scale = {"height": 1e3, "base_radius": 1e3, "x": 1e3, "y": 1e3, "z": 1e3,
+                 "n_loops": 1.0, "dipoles_per_loop": 1.0, "magnetization_scale": 1.0,
+                 "offset": 1e3}
+        unit = {"height": "mm", "base_radius": "mm", "x": "mm", "y": "mm", "z": "mm",
+                "n_loops": "", "dipoles_per_loop": "", "magnetization_scale": "", "offset": "mV"}
+        init = self.initial.params()
+        rows = []
+        for name in (*PARAMETERS, "magnetization_scale", "offset"):
+            if name not in self.values:
+                continue
+            f = scale[name]
+            rows.append({
+                "parameter": name, "unit": unit[name], "initial": init[name] * f,
+                "fitted": self.values[name] * f, "stderr": self.stderr.get(name, math.nan) * f,
+            })
+        return rows
+
+    def report(self) -> str:
+        """A plain-text summary: cost, RMS, the parameter table and the warnings."""
+        lines = [
+            f"calibration of {self.data.source}: {len(self.data)} angles",
+            f"cost {self.cost:.6g} V^2 (sum of squared residuals), RMS {self.rms * 1e3:.4g} mV",
+            f"{'parameter':<20} {'unit':<4} {'initial':>12} {'fitted':>12} {'std. error':>12}",
+        ]
+        for r in self.table():
+            se = (f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
+                  else "undetermined" if r["stderr"] == math.inf else "-")
+            lines.append(f"{r['parameter']:<20} {r['unit']:<4} {r['initial']:12.6g} "
+                         f"{r['fitted']:12.6g} {se:>12}")
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI units, plus the display table)."""
+        return {
+            "source": self.data.source, "cost_V2": self.cost, "rms_V": self.rms,
+            "values": self.values, "stderr": self.stderr,
+            "covariance": {"names": list(self.correlation_names),
+                           "matrix": None if self.covariance is None else self.covariance.tolist()},
+            "correlation": {"names": list(self.correlation_names),
+                            "matrix": self.correlation.tolist()},
+            "bias": self.bias, "bias_coefficients": self.bias_coefficients.tolist(),
+            "warnings": list(self.warnings), "bounds": {k: list(b) for k, b in self.bounds.items()},
+            "angle_deg": self.data.angles_deg.tolist(), "measured_V": self.data.volts.tolist(),
+            "fitted_V": self.fitted.tolist(), "residual_V": self.residuals.tolist(),
+            "table": self.table(), "evaluations": self.evaluations, "elapsed_s": self.elapsed,
+            "restart_costs_V2": list(self.restart_costs),
+        }

@@ -1,0 +1,244 @@
+"""Calibration: fit the model's parameters to a field-vs-tilt recording (the paper's Sec. III.B).
+
+The paper fits height, base radius, position (x, y, z), n and k with MATLAB's genetic algorithm,
+minimising the sum of squared errors (its eq. 6, with the square the text describes). magcilia:
+
+1. searches globally with SciPy's ``differential_evolution`` (integer n and k through
+   ``integrality``), evaluating the whole population in one vectorised call
+   (:func:`magcilia.model.tilt_output_batch`);
+2. solves the parameters that enter the output *linearly* in closed form inside the objective:
+   the output offset (or a polynomial bias in the angle) and, optionally, the magnetization scale;
+3. polishes the best candidates with ``least_squares`` and repeats from several seeds;
+4. reports standard errors and correlations from the Jacobian, and says plainly which parameters
+   the data do not determine (one field component along one tilt path cannot pin seven
+   parameters).
+
+Bias removal: ``bias="offset"`` (default) fits a constant output offset jointly with the model.
+``bias="polynomial"`` fits a polynomial of degree ``bias_degree`` in the angle jointly — the
+consistent form of the paper's "a polynomial was fit into the measurement data set to remove the
+DC bias" (removing it beforehand would also remove signal). Degree 0 equals ``"offset"``; higher
+degrees absorb real signal shape and weaken the fit, so use them only for a known drift.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, cast
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import Bounds, differential_evolution, least_squares
+
+from magcilia import _validate as v
+from magcilia._errors import MagciliaError
+from magcilia.calibration.problem import (
+    BIASES,
+    DEFAULT_BOUNDS,
+    INTEGER,
+    PARAMETERS,
+    Problem,
+)
+from magcilia.calibration.result import CalibrationResult
+from magcilia.calibration.uncertainty import uncertainty
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
+
+F64 = NDArray[np.float64]
+
+
+def check_bound_values(bounds: Mapping[str, Sequence[float]]) -> None:
+    """Raise unless the (low, high) bounds present keep n and k whole numbers >= 1 and the height
+    and base radius positive."""
+    for name in INTEGER:
+        if name in bounds:
+            lo, hi = bounds[name]
+            if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():
+                raise v.fail(f"bounds[{name!r}]", (lo, hi), "whole numbers >= 1")
+    for name in ("height", "base_radius"):
+        if name in bounds and float(bounds[name][0]) <= 0:
+            raise v.fail(f"bounds[{name!r}]", tuple(bounds[name]), "positive lengths in m")
+
+
+def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
+                  initial: Setup) -> dict[str, tuple[float, float]]:
+    merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
+    check_bound_values(merged)
+    init = initial.params()
+    for name in PARAMETERS:
+        lo, hi = merged[name]
+        tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)  # unit conversions (mm -> m) round off
+        if not lo - tol <= init[name] <= hi + tol:
+            raise v.fail(f"initial {name}", init[name],
+                         f"inside its bounds [{lo:.6g}, {hi:.6g}] (move the initial value or widen the bounds)")
+    return merged
+
+def calibrate(
+    data: Measurement,
+    initial: Setup | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    rng: int | np.random.Generator | None = None,
+    bias: str = "offset",
+    bias_degree: int = 0,
+    fit_scale: bool = False,
+    restarts: int = 3,
+    maxiter: int = 300,
+    popsize: int = 12,
+    tol: float = 1e-8,
+    progress: Callable[[int, int], None] | None = None,
+) -> CalibrationResult:
+    """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
+    scale) to a recording.
+
+    Parameters
+    ----------
+    data : Measurement
+        Per-angle mean outputs (see :func:`magcilia.read_measurements`).
+    initial : Setup, optional
+        Starting setup; supplies everything that is not fitted (material, sensor, ring rule).
+        Default: Table I's initial values (``Setup.paper_initial()``).
+    bounds : mapping of str to (low, high), optional
+        Search bounds in SI (m; n and k as whole numbers); missing keys take
+        :data:`DEFAULT_BOUNDS`. The initial values must lie inside.
+    rng : int, Generator or None
+        Seed for the global search; the same seed gives the same result.
+    bias : {"offset", "polynomial", "none"}
+        How the DC bias is removed (see the module docstring).
+    bias_degree : int
+        Degree of the polynomial bias (with ``bias="polynomial"``).
+    fit_scale : bool
+        Also fit the magnetization scale (solved in closed form; ≥ 0).
+    restarts : int
+        Independent global searches; the best polished result is kept.
+    maxiter, popsize, tol : int, int, float
+        ``differential_evolution`` settings per restart.
+    progress : callable(done, total), optional
+        Called after each restart (the CLI draws a progress bar with it).
+
+    Returns
+    -------
+    CalibrationResult
+    """
+    t0 = time.perf_counter()
+    if not isinstance(data, Measurement):
+        raise v.fail("data", type(data).__name__, "a magcilia Measurement (use read_measurements)")
+    initial = initial if initial is not None else Setup.paper_initial()
+    v.choice("bias", bias, BIASES)
+    degree = v.integer("bias_degree", bias_degree, 0)
+    restarts = v.integer("restarts", restarts, 1)
+    n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
+    if len(data) <= n_lin + 1:
+        raise MagciliaError(
+            f"{data.source}: {len(data)} angles cannot determine {n_lin} linear parameters and the "
+            "geometry; record more angles"
+        )
+    box = _check_bounds(bounds, initial)
+    problem = Problem(data, initial, bias, degree, fit_scale)
+    lower = np.array([box[n][0] for n in PARAMETERS])
+    upper = np.array([box[n][1] for n in PARAMETERS])
+    integrality = np.array([n in INTEGER for n in PARAMETERS])
+    free = lower < upper  # fixed parameters (low == high) are left out of the search
+    x_init = np.clip([initial.params()[n] for n in PARAMETERS], lower, upper)
+
+    def full(x_free: F64) -> F64:
+        """Complete parameter columns (7, S) from the free ones (f, S)."""
+        x2 = np.repeat(x_init[:, None], x_free.shape[1], axis=1)
+        x2[free] = x_free
+        return x2
+
+    def objective(x: F64) -> F64:
+        # vectorized: x has shape (f, S), one column per population member
+        x2 = full(x.reshape(int(free.sum()), -1))
+        return problem.cost({name: x2[i] for i, name in enumerate(PARAMETERS)})
+
+    seeds = np.random.default_rng(rng).integers(0, 2**32 - 1, size=restarts)
+    candidates: list[tuple[float, F64]] = []
+    restart_costs = []
+    for i, seed in enumerate(seeds):
+        if free.any():
+            res = differential_evolution(
+                cast(Any, objective), bounds=Bounds(lower[free], upper[free]),
+                integrality=integrality[free], vectorized=True, updating="deferred",
+                seed=int(seed), maxiter=maxiter, popsize=popsize, tol=tol, polish=False,
+                init="sobol", x0=x_init[free] if i == 0 else None, mutation=(0.5, 1.0),
+                recombination=0.7,
+            )
+            x_start = full(np.asarray(res.x)[:, None])[:, 0]
+        else:
+            x_start = x_init
+        best = _polish(problem, x_start, lower, upper, integrality)
+        candidates.append(best)
+        restart_costs.append(best[0])
+        if progress is not None:
+            progress(i + 1, restarts)
+    _, x_best = min(candidates, key=lambda c: c[0])
+    x_best = _y_sign_of(x_best, initial.position[1], box["y"])
+    return _result(problem, initial, data, box, x_best, bias, t0, tuple(restart_costs))
+
+def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
+    """B_x is even in y (mirror symmetry about the x-z plane), so y and -y fit exactly equally
+    well: keep the sign of the initial y (positive for 0) when -y is within the bounds."""
+    y = float(x[3])
+    wanted = -1.0 if y_initial < 0.0 else 1.0
+    if y * wanted < 0.0 and y_bounds[0] <= -y <= y_bounds[1]:
+        x = x.copy()
+        x[3] = -y
+    return x
+
+
+def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
+            integrality: NDArray[np.bool_]) -> tuple[float, F64]:
+    """Local least-squares polish of the continuous parameters (n, k fixed)."""
+    cont = ~integrality & (lower < upper)
+    x = np.array(x, dtype=np.float64)
+    x[integrality] = np.rint(x[integrality])
+    width = upper - lower
+
+    def resid(xc: F64) -> F64:
+        full = x.copy()
+        full[cont] = xc
+        r, _ = problem.residuals(problem.model({n: full[i:i + 1] for i, n in enumerate(PARAMETERS)}))
+        return r[0]
+
+    start = np.clip(x[cont], lower[cont], upper[cont])
+    try:
+        sol = least_squares(resid, start, bounds=(lower[cont], upper[cont]), x_scale=width[cont],
+                            method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=400)
+        x[cont] = sol.x
+    except ValueError:
+        pass  # start on a bound face with zero width: keep the global optimum
+    r = resid(x[cont])
+    return float(r @ r), x
+
+
+def _result(problem: Problem, initial: Setup, data: Measurement,
+            box: dict[str, tuple[float, float]], x: F64, bias: str, t0: float,
+            restart_costs: tuple[float, ...]) -> CalibrationResult:
+    params = {n: x[i:i + 1] for i, n in enumerate(PARAMETERS)}
+    u = problem.model(params)
+    _, a = problem.residuals(u)
+    scale = float(a[0])
+    coef = problem.bias_coefficients(u[0], scale)
+    offset = float(coef[0]) if coef.size else 0.0
+    fitted_setup = initial.replace(
+        height=float(x[0]), base_radius=float(x[1]), x=float(x[2]), y=float(x[3]), z=float(x[4]),
+        n_loops=round(x[5]), dipoles_per_loop=round(x[6]),
+        magnetization_scale=initial.material.magnetization_scale * scale, offset=offset,
+    )
+    model_full = scale * u[0] + (problem.basis @ coef if coef.size else 0.0)
+    residuals = problem.y - model_full
+    cost = float(residuals @ residuals)
+    values: dict[str, float] = {n: float(x[i]) for i, n in enumerate(PARAMETERS)}
+    values["n_loops"], values["dipoles_per_loop"] = float(round(x[5])), float(round(x[6]))
+    values["magnetization_scale"] = fitted_setup.material.magnetization_scale
+    values["offset"] = offset
+    names, stderr, corr, cov, warns = uncertainty(problem, x, scale, cost, box)
+    return CalibrationResult(
+        setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
+        residuals=residuals, data=data, values=values, stderr=stderr, correlation=corr,
+        correlation_names=names, bias_coefficients=coef, bias=bias, warnings=warns, bounds=box,
+        evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
+        restart_costs=restart_costs, covariance=cov,
+    )

@@ -1,0 +1,89 @@
+"""Uncertainty of a calibration: standard errors, correlations and the covariance from the
+Jacobian at the optimum, and plain-language warnings about what the data do not determine."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia.calibration.problem import CONTINUOUS, PARAMETERS, Problem
+
+F64 = NDArray[np.float64]
+
+
+def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
+                 box: dict[str, tuple[float, float]]
+                 ) -> tuple[tuple[str, ...], dict[str, float], F64, F64, tuple[str, ...]]:
+    """Standard errors and correlations from the Jacobian of the full model at the optimum."""
+    columns: list[F64] = []
+    names: list[str] = []
+    free = [i for i, n in enumerate(CONTINUOUS) if box[n][0] < box[n][1]]
+    for i in free:
+        name = CONTINUOUS[i]
+        width = box[name][1] - box[name][0]
+        step = 1e-5 * width
+        xp, xm = x.copy(), x.copy()
+        xp[i] += step
+        xm[i] -= step
+        up = problem.model({n: xp[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
+        um = problem.model({n: xm[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
+        columns.append(scale * (up - um) / (2 * step))
+        names.append(name)
+    u = problem.model({n: x[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
+    if problem.fit_scale:
+        columns.append(u)  # d model / d scale factor (relative scale)
+        names.append("magnetization_scale")
+    for d in range(problem.basis.shape[1]):
+        columns.append(problem.basis[:, d])
+        names.append("offset" if d == 0 else f"bias_{d}")
+    jac = np.stack(columns, axis=1)
+    m, p = jac.shape
+    warns: list[str] = []
+    dof = m - p
+    sigma2 = cost / dof if dof > 0 else math.nan
+    # rank and null space on the column-equilibrated Jacobian (columns have different units)
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    null = vt[sv < sv[0] * 1e-7]
+    undetermined = np.any(np.abs(null) > 0.1, axis=0) if null.size else np.zeros(p, dtype=bool)
+    cov = sigma2 * np.linalg.pinv(jac.T @ jac, rcond=1e-14)
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    se[undetermined] = np.inf
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se, se)
+    corr = np.where(np.isfinite(corr), corr, np.nan)
+    # in the parameters' own SI units (the scale column is relative to the base scale)
+    units = np.array([problem.base.material.magnetization_scale if n == "magnetization_scale"
+                      else 1.0 for n in names])
+    cov_si = np.asarray(cov * np.outer(units, units), dtype=np.float64)
+    stderr = {name: float(se[k] * units[k]) for k, name in enumerate(names)}
+    if dof <= 0:
+        warns.append(f"{m} angles for {p} continuous parameters: no degrees of freedom left, so "
+                     "no standard errors; record more angles")
+    if null.size:
+        involved = ", ".join(n for n, u in zip(names, undetermined, strict=True) if u)
+        warns.append(f"the output is (numerically) unchanged along {len(null)} combination(s) of "
+                     f"{involved}: these parameters are not determined by this tilt path and "
+                     "their standard errors are infinite")
+    for k, name in enumerate(names):
+        if name in box:
+            width = box[name][1] - box[name][0]
+            if math.isfinite(se[k]) and se[k] > 0.25 * width:
+                warns.append(f"{name} is not determined by the data (standard error "
+                             f"{se[k]:.3g} vs a bound width of {width:.3g}); treat its value as "
+                             "arbitrary")
+    for i in range(p):
+        for j in range(i + 1, p):
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
+                warns.append(f"{names[i]} and {names[j]} are strongly correlated "
+                             f"({corr[i, j]:+.3f}): the data determine a combination of them, "
+                             "not each one")
+    if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[3] < box["y"][1]:
+        warns.append("B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
+                     "equally well; the sign of the initial y is kept, + for 0)")
+    warns.append("n_loops and dipoles_per_loop are modelling parameters chosen by the search; "
+                 "they have no standard error")
+    return tuple(names), stderr, corr, cov_si, tuple(warns)

@@ -1,0 +1,329 @@
+"""A complete sensor setup: cilium, material, sensor, placement and model options.
+
+:class:`Setup` is the object the rest of magcilia works with. ``setup.field(pose)`` and
+``setup.output(pose)`` evaluate the distributed-dipole model at the sensing element for a batch of
+poses: rigid tilt angles (the paper's experiment) or a :class:`~magcilia.Centreline` (bent shapes).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia.device.cilium import RINGS, Cilium
+from magcilia.device.material import Material
+from magcilia.device.sensor import Sensor
+from magcilia.model.centreline import Centreline
+from magcilia.model.layout import pose_dipoles, pose_field, ring_layout, tilt_fields
+
+F64 = NDArray[np.float64]
+Pose = ArrayLike | Centreline
+
+#: Table I of the paper: initial and optimized parameters (SI)
+PAPER_INITIAL: dict[str, Any] = {
+    "height": 3.0e-3, "base_radius": 0.25e-3, "position": (0.0, 0.0, 0.0),
+    "n_loops": 6, "dipoles_per_loop": 3,
+}
+PAPER_OPTIMIZED: dict[str, Any] = {
+    "height": 3.2613e-3, "base_radius": 0.1801e-3, "position": (1.4727e-3, 1.9891e-3, 0.3804e-3),
+    "n_loops": 2, "dipoles_per_loop": 5,
+}
+
+_PARTS = {"cilium": Cilium, "material": Material, "sensor": Sensor}
+_PART_FIELDS = {name: {f.name for f in fields(cls)} for name, cls in _PARTS.items()}
+
+
+@dataclass(frozen=True, eq=False)
+class Setup:
+    """A cilium standing on a single-axis sensor (all SI; see NOTES.md §2 for the frame).
+
+    Parameters
+    ----------
+    cilium : Cilium
+        Geometry (and optional Young's modulus).
+    material : Material
+        Composite recipe and magnetization scale.
+    sensor : Sensor
+        AMR sensor and amplifier; its depth places the element below the case top.
+    position : tuple of 3 float
+        (x_f, y_f, z_f), m: the base centre relative to the case-top point above the element;
+        the base centre sits at (x_f, y_f, depth + z_f).
+    n_loops, dipoles_per_loop : int
+        The model's n slices and k dipoles per slice (≥ 1).
+    ring : {"mean", "rms"}
+        Ring radius rule: the paper's mean radius or sqrt<rho²> (converges to the exact body).
+
+    Examples
+    --------
+    >>> s = Setup.paper()
+    >>> s.sensor.scale
+    75.0
+    >>> s.output([0.0, 0.5]).shape
+    (2,)
+    """
+
+    cilium: Cilium
+    material: Material = field(default_factory=Material)
+    sensor: Sensor = field(default_factory=Sensor)
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    n_loops: int = 6
+    dipoles_per_loop: int = 3
+    ring: str = "mean"
+
+    def __post_init__(self) -> None:
+        for name, cls in _PARTS.items():
+            if not isinstance(getattr(self, name), cls):
+                raise v.fail(name, type(getattr(self, name)).__name__, f"a magcilia.{cls.__name__}")
+        pos = v.vector3("position", self.position)
+        object.__setattr__(self, "position", tuple(float(p) for p in pos))
+        object.__setattr__(self, "n_loops", v.integer("n_loops", self.n_loops, 1))
+        object.__setattr__(
+            self, "dipoles_per_loop", v.integer("dipoles_per_loop", self.dipoles_per_loop, 1)
+        )
+        v.choice("ring", self.ring, RINGS)
+        # the sensing element must lie outside the unloaded (upright) cilium
+        self._check_element_outside(np.array([0.0]))
+
+    # -- construction -------------------------------------------------------------------------
+    @classmethod
+    def paper(cls, **overrides: Any) -> Setup:
+        """The paper's sensor: Table I optimized geometry and placement, n = 2, k = 5, 30 mg Co +
+        30 mg polymer, textbook cobalt, HMC1021Z at 7.5 V bridge, gain 1, element 0.71 mm below the
+        case top, zero offset.
+
+        Any keyword overrides a field of the setup (``position``, ``n_loops``,
+        ``dipoles_per_loop``, ``ring``), of the cilium (``height``, ``base_radius``,
+        ``tip_radius``, ``youngs_modulus``), the material (``cobalt_mass``, …,
+        ``magnetization_scale``, ``polymer_modulus``) or the sensor (``bridge_voltage``, ``gain``,
+        ``offset``, ``depth``, …), or a position component ``x``, ``y``, ``z``. SI units.
+        A whole ``cilium=`` (e.g. :meth:`Cilium.from_profile`), ``material=`` or ``sensor=`` is
+        taken as given, without the paper's values for its fields.
+        """
+        return _build(_defaults(PAPER_OPTIMIZED, overrides))
+
+    @classmethod
+    def paper_initial(cls, **overrides: Any) -> Setup:
+        """As :meth:`paper` but with Table I's *initial* values (3 mm, 0.25 mm, origin, n=6, k=3)."""
+        return _build(_defaults(PAPER_INITIAL, overrides))
+
+    def replace(self, **changes: Any) -> Setup:
+        """A copy with some parameters changed (same keywords as :meth:`paper`)."""
+        return _build(changes, base=self)
+
+    # -- derived quantities ---------------------------------------------------------------------
+    @property
+    def base_centre(self) -> F64:
+        """Base centre in the sensor frame, m, shape (3,): (x_f, y_f, depth + z_f)."""
+        x, y, z = self.position
+        return np.array([x, y, self.sensor.depth + z])
+
+    @property
+    def moment(self) -> float:
+        """Total moment m_c = M · V_c (eq. 1, times the magnetization scale), A·m²."""
+        return self.material.magnetization * self.cilium.volume
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Young's modulus for mechanics, Pa: the cilium's, else Guth–Gold from the material."""
+        e = self.cilium.youngs_modulus
+        return self.material.composite_modulus if e is None else e
+
+    def params(self) -> dict[str, float]:
+        """The calibration parameters in SI: the paper's seven plus tip radius, scale and offset."""
+        x, y, z = self.position
+        return {
+            "height": self.cilium.height, "base_radius": self.cilium.base_radius,
+            "tip_radius": self.cilium.tip_radius, "x": x, "y": y, "z": z,
+            "n_loops": self.n_loops, "dipoles_per_loop": self.dipoles_per_loop,
+            "magnetization_scale": self.material.magnetization_scale,
+            "offset": self.sensor.offset,
+        }
+
+    @cached_property
+    def _rel(self) -> F64:
+        """Sensing element (origin) minus base centre, m, shape (3,)."""
+        return -self.base_centre
+
+    @cached_property
+    def _body(self) -> tuple[F64, F64]:
+        """Body-frame dipole positions (d, 3), m, and moments along the axis (d,), A·m²."""
+        c = self.cilium
+        pos, w = ring_layout(
+            np.array([c.height]), np.array([c.base_radius]), np.array([c.tip_radius]),
+            self.n_loops, self.dipoles_per_loop, self.ring, c.profile,
+        )
+        return pos[0], w[0] * self.moment
+
+    def dipoles(self, pose: Pose) -> tuple[F64, F64]:
+        """Lab-frame dipoles of the model for each pose: positions (a, d, 3) m, moments (a, d, 3)
+        A·m², d = n_loops · dipoles_per_loop."""
+        centreline = self._centreline(pose)
+        c = self.cilium
+        n = self.n_loops
+        rho = c.ring_radii(n, self.ring)
+        vols = c.slice_volumes(n)
+        return pose_dipoles(centreline, self.base_centre, rho, vols / vols.sum(), self.moment,
+                            self.dipoles_per_loop)
+
+    # -- evaluation ---------------------------------------------------------------------------
+    def field(self, pose: Pose) -> F64:
+        """Flux density at the sensing element (origin), T, shape (a, 3).
+
+        Parameters
+        ----------
+        pose : array-like, shape (a,), or Centreline
+            Rigid tilt angles in rad (the paper's experiment), or a batch of ``a`` centrelines
+            (e.g. bent shapes from :func:`magcilia.bend`).
+        """
+        if isinstance(pose, Centreline):
+            return self.field_at(np.zeros((1, 3)), pose)[:, 0, :]
+        angles = self._angles(pose)
+        pos, mom = self._body
+        bx, by, bz = tilt_fields(angles, self._rel, pos, mom)
+        return np.stack([bx, by, bz], axis=-1)
+
+    def output(self, pose: Pose) -> F64:
+        """Sensor output, V, shape (a,): ``scale · B_x + offset`` (75 V/T for the paper).
+
+        Parameters
+        ----------
+        pose : array-like, shape (a,), or Centreline
+            Tilt angles in rad, or a batch of centrelines.
+        """
+        sensor = self.sensor
+        if isinstance(pose, Centreline):
+            return sensor.scale * self.field(pose)[:, 0] + sensor.offset
+        angles = self._angles(pose)
+        pos, mom = self._body
+        bx = tilt_fields(angles, self._rel, pos, mom, x_only=True)[0]
+        return sensor.scale * bx + sensor.offset
+
+    def field_at(self, points: ArrayLike, pose: Pose) -> F64:
+        """Flux density at arbitrary points, T, shape (a, o, 3).
+
+        Parameters
+        ----------
+        points : array-like, shape (o, 3) or (3,)
+            Observer positions in the sensor frame, m; they must lie outside the cilium.
+        pose : array-like, shape (a,), or Centreline
+            Tilt angles in rad, or centrelines.
+        """
+        pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
+        centreline = self._centreline(pose)
+        self._check_outside(pts, centreline)
+        pos, mom = self.dipoles(centreline)
+        return pose_field(pts, pos, mom)
+
+    # -- checks -------------------------------------------------------------------------------
+    def _angles(self, pose: ArrayLike) -> F64:
+        angles = np.atleast_1d(np.asarray(pose, dtype=np.float64))
+        if angles.ndim != 1 or not np.isfinite(angles).all():
+            angles = v.finite_array("tilt", angles, ndim=1, unit="rad")
+        if not self._element_always_clear:
+            self._check_element_outside(angles)
+        return angles
+
+    @cached_property
+    def _element_always_clear(self) -> bool:
+        """True if no tilt about y can bring the cilium onto the sensing element: the element's
+        distance from the tilt axis plane (|y|) exceeds the largest radius, or its distance from
+        the base centre exceeds the farthest point of the body."""
+        c = self.cilium
+        rel = self.base_centre
+        reach = math.hypot(c.height, c.max_radius)
+        return abs(rel[1]) > c.max_radius or float(np.linalg.norm(rel)) > reach
+
+    def _centreline(self, pose: Pose) -> Centreline:
+        if isinstance(pose, Centreline):
+            if not math.isclose(pose.length, self.cilium.height, rel_tol=1e-9):
+                raise v.fail("centreline length", pose.length,
+                             f"the cilium height ({self.cilium.height:.6g} m)")
+            return pose
+        return Centreline.straight(self.cilium.height, self._angles(pose))
+
+    def _check_element_outside(self, angles: F64) -> None:
+        rel = -self.base_centre
+        c, s = np.cos(angles), np.sin(angles)
+        axial = s * rel[0] + c * rel[2]
+        radial = np.hypot(c * rel[0] - s * rel[2], rel[1])
+        inside = self.cilium.contains(axial, radial)
+        if inside.any():
+            bad = float(angles[np.argmax(inside)])
+            raise v.fail(
+                "position", self.position,
+                f"a placement that keeps the sensing element outside the cilium (it is inside at "
+                f"tilt {math.degrees(bad):.4g} deg); move the base up (z) or sideways (x, y)",
+            )
+
+    def _check_outside(self, points: F64, centreline: Centreline) -> None:
+        """Raise if any observer lies inside any posed cilium (checked on a fine polyline)."""
+        m = max(64, 8 * self.n_loops)
+        s = np.linspace(0.0, centreline.length, m + 1)
+        pts, _ = centreline.frames(s)  # (a, m+1, 3)
+        p0 = pts[:, :-1, :] + self.base_centre
+        seg = pts[:, 1:, :] - pts[:, :-1, :]
+        seg_len2 = np.einsum("ami,ami->am", seg, seg)
+        rel = points[:, None, None, :] - p0[None]  # (o, a, m, 3)
+        t = np.clip(np.einsum("oami,ami->oam", rel, seg) / seg_len2, 0.0, 1.0)
+        closest = rel - t[..., None] * seg[None]
+        dist = np.sqrt(np.einsum("oami,oami->oam", closest, closest))
+        s_at = s[:-1][None, None, :] + t * np.diff(s)[None, None, :]
+        inside = dist <= self.cilium.radius(s_at)
+        # points beyond the flat base (below it along the axis at s = 0) are outside
+        axial0 = np.einsum("oai,ai->oa", rel[:, :, 0, :], seg[:, 0, :]) / np.sqrt(seg_len2[:, 0])
+        inside[:, :, 0] &= axial0 >= 0.0
+        if inside.any():
+            o_idx = int(np.nonzero(inside.any(axis=(1, 2)))[0][0])
+            raise v.fail("points", tuple(float(x) for x in points[o_idx]),
+                         "observer positions outside the cilium")
+
+
+def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """Table I values under the overrides, leaving out those of a part given as a whole."""
+    given = {f for name in _PARTS if name in overrides for f in _PART_FIELDS[name]}
+    return {**{k: val for k, val in table.items() if k not in given}, **overrides}
+
+
+def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:
+    """Create a Setup from keyword overrides routed to the setup or its parts."""
+    top: dict[str, Any] = {}
+    parts: dict[str, dict[str, Any]] = {name: {} for name in _PARTS}
+    pos = list(base.position) if base is not None else [0.0, 0.0, 0.0]
+    setup_fields = {f.name for f in fields(Setup)}
+    for key, value in overrides.items():
+        if key in ("x", "y", "z"):
+            pos["xyz".index(key)] = value
+        elif key == "position":
+            pos = list(v.vector3("position", value))
+        elif key in setup_fields:
+            top[key] = value
+        else:
+            owner = next((n for n, names in _PART_FIELDS.items() if key in names), None)
+            if owner is None:
+                known = sorted(setup_fields | {"x", "y", "z"} | set().union(*_PART_FIELDS.values()))
+                raise v.fail("keyword", key, "a setup parameter (" + ", ".join(known) + ")")
+            parts[owner][key] = value
+    built: dict[str, Any] = {}
+    for name, cls in _PARTS.items():
+        current = top.pop(name, None) or (getattr(base, name) if base is not None else None)
+        if name == "cilium" and "tip_radius" in parts[name] and (
+                getattr(current, "profile", None) is not None or "profile" in parts[name]):
+            raise v.fail("tip_radius", parts[name]["tip_radius"],
+                         "left out for a cilium with a measured profile (its last radius is the "
+                         "tip radius: change the profile instead)")
+        if current is None:
+            built[name] = cls(**parts[name])
+        else:
+            built[name] = dataclasses.replace(current, **parts[name]) if parts[name] else current
+    if base is not None:
+        kept = {f.name: getattr(base, f.name) for f in fields(Setup) if f.name not in _PARTS}
+        top = {**kept, **top}
+    top["position"] = tuple(pos)
+    return Setup(**built, **top)

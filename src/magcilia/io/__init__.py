@@ -1,0 +1,31 @@
+"""Files in and out: setup files, recordings, firmware headers.
+
+* :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
+* :mod:`.recordings`: recordings (CSV, MATLAB, TDMS) reduced to a :class:`Measurement`;
+* :mod:`.firmware`: C headers and JSON of read-out approximations.
+"""
+
+from __future__ import annotations
+
+from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
+from magcilia.io.recordings import (
+    Measurement,
+    measurement_from_samples,
+    read_measurements,
+    read_samples,
+)
+from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, setup_to_dict
+
+__all__ = [
+    "Measurement",
+    "fixed_point_format",
+    "load_setup",
+    "measurement_from_samples",
+    "read_measurements",
+    "read_samples",
+    "save_setup",
+    "setup_from_dict",
+    "setup_to_dict",
+    "to_c_header",
+    "to_json",
+]

@@ -1,0 +1,263 @@
+"""Design metrics of a cilium sensor: sensitivity, minimum detectable signal and range.
+
+For each measurand (tip force, flow speed, rigid tilt angle) :func:`design_metrics` sweeps the
+quantity, evaluates the sensor output and reports
+
+* the sensitivity at zero load (dV/dF in V/N, dV/dθ in V/rad; for flow the secant slope from 0 to
+  the speed where the base Reynolds number is 1e-3, because the Oseen drag makes the slope at
+  U → 0 vanish logarithmically);
+* the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
+  for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
+* the range: up to the first of the sensor's ±field_range limit (±6 gauss) or a fold of the output
+  (non-monotonic: readings become ambiguous), else the end of the sweep.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import brentq
+
+from magcilia import _validate as v
+from magcilia._errors import MagciliaError
+from magcilia.device.sensor import DEFAULT_BANDWIDTH
+from magcilia.device.setup import Setup
+from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
+from magcilia.mechanics.drag import max_speed
+
+F64 = NDArray[np.float64]
+
+#: display unit and factor from SI per measurand (tables and figures)
+DISPLAY = {"force": ("mN", 1e3), "flow": ("m/s", 1.0), "angle": ("deg", 180.0 / math.pi)}
+
+
+@dataclass(frozen=True, eq=False)
+class Metric:
+    """Metrics of one measurand (SI units in ``unit``).
+
+    Attributes
+    ----------
+    quantity : str
+        ``"force"``, ``"flow"`` or ``"angle"``.
+    unit : str
+        N, m/s or rad.
+    sensitivity : float
+        dV/dquantity at zero load, V per unit (NaN if not available).
+    minimum : float
+        Minimum detectable value, unit (NaN if not available).
+    range : float
+        Usable range from zero, unit (a lower bound when ``limited_by`` is "end of sweep").
+    limited_by : str
+        What ends the range (or why the metric is not available).
+    curve : ndarray, shape (c, 2)
+        The swept (quantity, output V) pairs.
+    """
+
+    quantity: str
+    unit: str
+    sensitivity: float
+    minimum: float
+    range: float
+    limited_by: str
+    curve: F64 = field(repr=False)
+
+
+@dataclass(frozen=True, eq=False)
+class DesignMetrics:
+    """Result of :func:`design_metrics`: one :class:`Metric` per measurand.
+
+    Attributes
+    ----------
+    force, flow, angle : Metric
+    noise : float
+        Output noise RMS over the bandwidth, V.
+    bandwidth : (float, float)
+        Hz.
+    fluid : Fluid
+    setup : Setup
+    """
+
+    force: Metric
+    flow: Metric
+    angle: Metric
+    noise: float
+    bandwidth: tuple[float, float]
+    fluid: Fluid
+    setup: Setup
+
+    @property
+    def metrics(self) -> tuple[Metric, Metric, Metric]:
+        """(force, flow, angle)."""
+        return self.force, self.flow, self.angle
+
+    def table(self) -> str:
+        """Plain-text table in display units (mN, m/s, deg; V)."""
+        lo, hi = self.bandwidth
+        lines = [
+            f"noise {self.noise * 1e6:.4g} µV RMS over {lo:g}–{hi:g} Hz; flow in {self.fluid.name}",
+            f"{'quantity':<8} {'sensitivity':>22} {'min. detectable':>18} {'range':>14}  limited by",
+        ]
+        for m in self.metrics:
+            unit, f = DISPLAY[m.quantity]
+            sens = f"{m.sensitivity / f:.4g} V/{unit}" if math.isfinite(m.sensitivity) else "-"
+            mini = f"{m.minimum * f:.4g} {unit}" if math.isfinite(m.minimum) else "-"
+            rng = f"{m.range * f:.4g} {unit}" if math.isfinite(m.range) else "-"
+            lines.append(f"{m.quantity:<8} {sens:>22} {mini:>18} {rng:>14}  {m.limited_by}")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI units)."""
+        return {
+            "noise_V": self.noise, "bandwidth_Hz": list(self.bandwidth),
+            "fluid": self.fluid.name,
+            "metrics": {m.quantity: {"unit": m.unit, "sensitivity_V_per_unit": m.sensitivity,
+                                     "minimum": m.minimum, "range": m.range,
+                                     "limited_by": m.limited_by} for m in self.metrics},
+        }
+
+
+def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]:
+    """Range from q[0]: first saturation (interpolated) or fold, else the end of the sweep."""
+    sensor = setup.sensor
+    bx = sensor.field(volts)
+    sat = np.nonzero(np.abs(bx) > sensor.field_range)[0]
+    dv = np.diff(volts)
+    sign = np.sign(dv[np.nonzero(dv)[0][0]]) if np.any(dv) else 0.0
+    turns = np.nonzero(np.sign(dv) * sign < 0.0)[0]
+    i_fold = int(turns[0]) if turns.size else None
+    i_sat = int(sat[0]) if sat.size else None
+    if i_sat is not None and (i_fold is None or i_sat <= i_fold):
+        if i_sat == 0:
+            return 0.0, "sensor range (saturated at zero load)"
+        b0, b1 = abs(bx[i_sat - 1]), abs(bx[i_sat])
+        t = (sensor.field_range - b0) / (b1 - b0)
+        gauss = sensor.field_range / 1e-4
+        return float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), f"sensor range (±{gauss:g} gauss)"
+    if i_fold is not None:
+        return float(q[i_fold]), "fold (output turns back)"
+    return float(q[-1]), end_note
+
+
+def _sweep(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
+    """Outputs along an increasing sweep of forces (flow None) or speeds, in chunks; stops at the
+    first load the solver does not converge for."""
+    done_q: list[F64] = []
+    done_v: list[F64] = []
+    note = ""
+    for chunk in np.array_split(values, max(1, values.size // 25)):
+        try:
+            shapes = bend_sweep(setup, forces=chunk) if flow is None else \
+                bend_sweep(setup, speeds=chunk, flow=flow)
+        except MagciliaError as exc:
+            note = f"solver limit ({exc})"
+            break
+        done_q.append(chunk)
+        done_v.append(setup.output(shapes))
+    if not done_q:
+        return np.zeros(0), np.zeros(0), note
+    return np.concatenate(done_q), np.concatenate(done_v), note
+
+
+def _unavailable(quantity: str, unit: str, why: str) -> Metric:
+    return Metric(quantity, unit, math.nan, math.nan, math.nan, why, np.zeros((0, 2)))
+
+
+def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
+    c = setup.cilium
+    if c.tip_radius == 0.0:
+        return _unavailable("force", "N", "not available: sharp cone (tip_radius 0) has infinite "
+                            "tip compliance; give the setup a tip radius")
+    f_max = 3.0 * c.height / tip_compliance(setup)  # linear deflection of 3 L: strongly bent
+    delta = 1e-6 * f_max
+    v_pm = setup.output(bend_sweep(setup, forces=[-delta, delta]))
+    slope = float(v_pm[1] - v_pm[0]) / (2.0 * delta)
+    q, volts, note = _sweep(setup, np.linspace(0.0, f_max, points), None)
+    rng, why = _range(q, volts, setup, note or "end of sweep (tip deflection ≈ L)")
+    return Metric("force", "N", slope, noise / abs(slope) if slope else math.inf, rng, why,
+                  np.stack([q, volts], axis=1))
+
+
+def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metric:
+    c = setup.cilium
+    if c.tip_radius == 0.0:
+        return _unavailable("flow", "m/s", "not available: sharp cone (tip_radius 0) makes the "
+                            "drag-loaded tip singular; give the setup a tip radius")
+    d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
+    f_max = 3.0 * c.height / tip_compliance(setup)
+    u_drag = 2.0 * math.sqrt(f_max / (0.5 * fluid.density * d * c.height))
+    u_re = max_speed(d, fluid)
+    u_max = min(u_drag, u_re)
+    flow = Flow.uniform(1.0, fluid)
+    speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, points - 1)])
+    q, volts, note = _sweep(setup, speeds, flow)
+    end = "drag law (Re 2e5)" if u_re <= u_drag else "end of sweep (strongly bent)"
+    rng, why = _range(q, volts, setup, note or end)
+    u_ref = 1e-3 * fluid.viscosity / (fluid.density * d)
+    v0 = float(volts[0])
+    slope = (float(setup.output(bend(setup, flow=flow.with_speed(u_ref)))[0]) - v0) / u_ref
+    # minimum detectable speed: |V(U) - V(0)| = noise, bracketed on the sweep, refined by solves
+    dev = np.abs(volts - v0) - noise
+    above = np.nonzero(dev >= 0.0)[0]
+    if above.size == 0:
+        minimum = math.inf
+    else:
+        i = int(above[0])
+
+        def gap(u: float) -> float:
+            return abs(float(setup.output(bend(setup, flow=flow.with_speed(u)))[0]) - v0) - noise
+
+        minimum = float(brentq(gap, float(q[i - 1]), float(q[i]), xtol=1e-12, rtol=1e-8)) \
+            if i > 0 else 0.0
+    return Metric("flow", "m/s", slope, minimum, rng, why, np.stack([q, volts], axis=1))
+
+
+def _angle_metric(setup: Setup, noise: float, points: int) -> Metric:
+    h = 1e-6
+    v_pm = setup.output([-h, h])
+    slope = float(v_pm[1] - v_pm[0]) / (2.0 * h)
+    q = np.linspace(0.0, 0.5 * math.pi, 4 * points)
+    volts = setup.output(q)
+    rng, why = _range(q, volts, setup, "end of sweep (90 deg)")
+    return Metric("angle", "rad", slope, noise / abs(slope) if slope else math.inf, rng, why,
+                  np.stack([q, volts], axis=1))
+
+
+def design_metrics(setup: Setup, fluid: Fluid = WATER,
+                   bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
+                   points: int = 151) -> DesignMetrics:
+    """Sensitivity, minimum detectable force/speed/angle and range of a sensor design.
+
+    Parameters
+    ----------
+    setup : Setup
+        The design. Force and flow metrics need ``tip_radius > 0`` (else they are reported as
+        not available).
+    fluid : Fluid
+        Fluid for the flow metrics (default water at 20 °C; uniform flow along +x).
+    bandwidth : (float, float)
+        Noise bandwidth (f_low, f_high), Hz.
+    points : int
+        Sweep points per measurand (≥ 11).
+
+    Returns
+    -------
+    DesignMetrics
+        With ``.table()`` and ``.to_dict()``; see :mod:`magcilia.report.design` for a figure.
+    """
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+    if not isinstance(fluid, Fluid):
+        raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
+    points = v.integer("points", points, 11)
+    noise = setup.sensor.output_noise_rms(*bandwidth)
+    return DesignMetrics(
+        force=_force_metric(setup, noise, points),
+        flow=_flow_metric(setup, fluid, noise, points),
+        angle=_angle_metric(setup, noise, points),
+        noise=noise, bandwidth=(float(bandwidth[0]), float(bandwidth[1])), fluid=fluid,
+        setup=setup,
+    )

@@ -1,0 +1,206 @@
+"""Figures and files of a sensitivity study: figs. 9–12 equivalents, the x–y map, Sobol bars.
+
+Plot functions take and return matplotlib axes (imported lazily); display units (mm, deg, mV) only
+here. :func:`write_sensitivity_report` writes the figures, ``sensitivity.json`` and a markdown
+summary into a directory (each file atomically).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from magcilia._atomic import jsonable, save_figure, write_json, write_text
+from magcilia.analysis import OATResult, PlacementMap, SensitivityStudy, SobolResult
+from magcilia.analysis.tolerance import PlacementTolerance
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+#: display label, unit and factor from SI (base radius is shown as the base diameter, as fig. 12)
+DISPLAY: dict[str, tuple[str, str, float]] = {
+    "x": ("x", "mm", 1e3), "y": ("y", "mm", 1e3), "z": ("z", "mm", 1e3),
+    "height": ("height", "mm", 1e3), "base_radius": ("base diameter d", "mm", 2e3),
+    "tip_radius": ("tip radius", "mm", 1e3), "n_loops": ("loops n", "", 1.0),
+    "dipoles_per_loop": ("dipoles per loop k", "", 1.0),
+    "magnetization_scale": ("magnetization scale", "", 1.0),
+}
+#: figure file name -> the sweeps it shows (the paper's figs. 9–12)
+FIGURES = {
+    "fig09_xy.png": ("x", "y"), "fig10_z.png": ("z",), "fig11_nk.png": ("n_loops", "dipoles_per_loop"),
+    "fig12_geometry.png": ("height", "base_radius"),
+}
+
+
+def _label(parameter: str) -> str:
+    name, unit, _ = DISPLAY[parameter]
+    return f"{name} ({unit})" if unit else name
+
+
+def plot_sweep_curves(result: OATResult, ax: Axes, max_curves: int = 7) -> Axes:
+    """Output (mV) vs tilt (deg) for up to ``max_curves`` values of the sweep, reference dashed."""
+    from matplotlib import colormaps
+
+    name, unit, factor = DISPLAY[result.parameter]
+    deg = np.degrees(result.angles)
+    idx = np.unique(np.linspace(0, result.values.size - 1, min(max_curves, result.values.size))
+                    .round().astype(int))
+    cmap = colormaps["viridis"]
+    for j, i in enumerate(idx):
+        color = cmap(j / max(1, idx.size - 1))
+        val = result.values[i] * factor
+        ax.plot(deg, result.curves[i] * 1e3, color=color, label=f"{name} = {val:.4g} {unit}".strip())
+    ax.plot(deg, result.reference * 1e3, "k--", lw=1.5, label="reference")
+    ax.set_xlabel("tilt angle θ (deg)")
+    ax.set_ylabel("sensor output (mV)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="x-small")
+    return ax
+
+
+def plot_sweep_measure(result: OATResult, ax: Axes) -> Axes:
+    """RMS output change (mV) vs the swept value, and the calibration cost on a twin axis."""
+    _, _, factor = DISPLAY[result.parameter]
+    x = result.values * factor
+    marker = "o" if result.parameter in ("n_loops", "dipoles_per_loop") else ""
+    ax.plot(x, result.rms_change * 1e3, marker=marker, color="C0", label="RMS change")
+    ax.plot(x, result.shape_change * 1e3, marker=marker, color="C0", ls="--", label="offset-free")
+    ax.legend(fontsize="x-small", loc="upper center")
+    ax.axvline(result.nominal * factor, color="k", ls=":", lw=1)
+    ax.set_xlabel(_label(result.parameter))
+    ax.set_ylabel("RMS change of the output (mV)", color="C0")
+    ax.grid(alpha=0.3)
+    if result.cost is not None:
+        twin = ax.twinx()
+        twin.plot(x, result.cost, marker=marker, color="C3", label="cost")
+        twin.set_ylabel("calibration cost (V²)", color="C3")
+        twin.set_yscale("log")
+    return ax
+
+
+def plot_xy_map(xy: PlacementMap, ax: Axes, quantity: str = "rms") -> Axes:
+    """Map of the RMS change (mV) or the cost (V², log) over x, y (mm); the reference marked."""
+    from matplotlib.colors import LogNorm
+
+    z = xy.cost if quantity == "cost" and xy.cost is not None else xy.rms_change * 1e3
+    extent = (xy.x[0] * 1e3, xy.x[-1] * 1e3, xy.y[0] * 1e3, xy.y[-1] * 1e3)
+    if quantity == "cost" and xy.cost is not None:
+        pos = z[np.isfinite(z) & (z > 0)]
+        norm = LogNorm(vmin=float(pos.min()), vmax=float(pos.max())) if pos.size else None
+        label = "calibration cost (V²)"
+    else:
+        norm, label = None, "RMS change of the output (mV)"
+    im = ax.imshow(z, origin="lower", extent=extent, aspect="auto", cmap="magma", norm=norm)
+    if np.isfinite(z).sum() > 4 and norm is None:
+        ax.contour(xy.x * 1e3, xy.y * 1e3, z, colors="w", linewidths=0.6, levels=6)
+    ax.plot(xy.nominal[0] * 1e3, xy.nominal[1] * 1e3, "c+", ms=12, mew=2, label="reference")
+    ax.figure.colorbar(im, ax=ax, label=label)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def plot_sobol(result: SobolResult, ax: Axes) -> Axes:
+    """Bars of first-order and total Sobol indices with confidence intervals."""
+    names = [DISPLAY[n][0] if n in DISPLAY else n for n in result.names]
+    pos = np.arange(len(names))
+    ax.bar(pos - 0.2, result.S1, 0.4, yerr=result.S1_conf, capsize=3, label="first order S1")
+    ax.bar(pos + 0.2, result.ST, 0.4, yerr=result.ST_conf, capsize=3, label="total ST")
+    ax.set_xticks(pos, names, rotation=30, ha="right")
+    ax.set_ylabel("Sobol index")
+    ax.set_title(f"global sensitivity ({result.measure}, {result.n_evaluations} evaluations)")
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def sweep_figure(study: SensitivityStudy, parameters: tuple[str, ...]) -> Any:
+    """One figure: for each parameter, its curves (top) and measure (bottom)."""
+    from magcilia.report.figures import new_figure
+
+    fig, axes = new_figure(ncols=len(parameters), nrows=2, size=(5.5, 3.8))
+    for j, name in enumerate(parameters):
+        plot_sweep_curves(study.sweeps[name], axes[0, j])
+        plot_sweep_measure(study.sweeps[name], axes[1, j])
+        axes[0, j].set_title(f"sensitivity to {DISPLAY[name][0]}")
+    return fig
+
+
+def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
+                     tolerance: PlacementTolerance | None = None,
+                     figures: dict[str, str] | None = None) -> str:
+    """Short markdown summary: the sweep table, notes, Sobol and tolerance tables, figure links."""
+    lines = ["# Sensitivity of the cilium model", ""]
+    if study.data_source:
+        lines += [(f"Measurements: `{study.data_source}` (cost = sum of squared residuals, offset "
+                  "solved in closed form)."), ""]
+    lines += [("Changes are RMS over the tilt angles vs the reference curve; *offset-free* removes the "
+              "mean difference (what a fitted output offset absorbs)."), "",
+              "| parameter | span | max RMS change (mV) | max offset-free change (mV) |"
+              + (" min cost (V²) |" if study.data_source else ""),
+              "|---|---|---|---|" + ("---|" if study.data_source else "")]
+    for r in study.summary():
+        name, unit, f = DISPLAY[r["parameter"]]
+        span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
+        row = (f"| {name} | {span} | {r['max_rms_change_V'] * 1e3:.4g} | "
+               f"{r['max_shape_change_V'] * 1e3:.4g} |")
+        if "min_cost_V2" in r:
+            row += f" {r['min_cost_V2']:.4g} |"
+        lines.append(row)
+    if study.notes:
+        lines += ["", *[f"- note: {n}" for n in study.notes]]
+    if sobol is not None:
+        lines += ["", (f"## Sobol indices ({sobol.measure}, N = {sobol.n_base}, "
+                  f"{sobol.n_evaluations} evaluations)"), "", "| parameter | S1 | ST |", "|---|---|---|"]
+        lines += [f"| {r['parameter']} | {r['S1']:.3f} ± {r['S1_conf']:.3f} | "
+                  f"{r['ST']:.3f} ± {r['ST_conf']:.3f} |" for r in sobol.table()]
+    if tolerance is not None:
+        lines += ["", "## Placement tolerance", "", "```", tolerance.report(), "```"]
+    if figures:
+        lines += ["", "## Figures", ""]
+        lines += [f"![{k}]({p})" for k, p in figures.items()]
+    return "\n".join(lines) + "\n"
+
+
+def report_dict(study: SensitivityStudy, sobol: SobolResult | None = None,
+                tolerance: PlacementTolerance | None = None) -> dict[str, Any]:
+    """The content of ``sensitivity.json`` (SI units; NaN/inf as null)."""
+    doc = study.to_dict()
+    doc["sobol"] = None if sobol is None else sobol.to_dict()
+    doc["tolerance"] = None if tolerance is None else tolerance.to_dict()
+    return dict(jsonable(doc))
+
+
+def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
+                             sobol: SobolResult | None = None,
+                             tolerance: PlacementTolerance | None = None) -> dict[str, Path]:
+    """Write figs. 9–12 equivalents, the x–y map, Sobol bars, ``sensitivity.json`` and
+    ``summary.md`` into ``directory``; returns the written paths by name."""
+    from magcilia.report.figures import new_figure
+
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    written: dict[str, Path] = {}
+    figures = {fname: sweep_figure(study, params) for fname, params in FIGURES.items()}
+    ncols = 2 if study.xy_map.cost is not None else 1
+    fig, axes = new_figure(ncols=ncols, size=(6.0, 4.8))
+    plot_xy_map(study.xy_map, axes[0, 0])
+    if ncols == 2:
+        plot_xy_map(study.xy_map, axes[0, 1], quantity="cost")
+    figures["xy_map.png"] = fig
+    if sobol is not None:
+        fig, axes = new_figure()
+        plot_sobol(sobol, axes[0, 0])
+        figures["sobol.png"] = fig
+    for fname, fig in figures.items():
+        save_figure(fig, out / fname, dpi=120)
+        written[fname] = out / fname
+    write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance))
+    written["sensitivity.json"] = out / "sensitivity.json"
+    figs = {k: k for k in written if k.endswith(".png")}
+    write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs))
+    written["summary.md"] = out / "summary.md"
+    return written

@@ -1,0 +1,162 @@
+"""The bend, readout and design commands, run in-process."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import magcilia as mc
+from magcilia.cli import main
+
+TIP = ["--tip-radius", "0.05mm"]
+
+
+def test_help_mentions_units(capsys: pytest.CaptureFixture[str]) -> None:
+    for name, unit in (("bend", "0.2mN"), ("readout", "mN"), ("design", "Hz")):
+        assert main([name, "--help"]) == 0
+        assert unit in capsys.readouterr().out
+
+
+def test_bend_table_json_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    png = tmp_path / "shape.png"
+    assert main(["bend", "paper", "--force", "0.2mN", *TIP, "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "tip position" in out and "tip angle" in out and "output" in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(["bend", "paper", "--force", "0.2mN", *TIP, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    shape = mc.bend(setup, force=2e-4)
+    np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12)
+    assert doc["tip_angle_deg"] == pytest.approx(math.degrees(shape.tip_angle), rel=1e-12)
+    assert doc["output_V"] == pytest.approx(setup.output(shape)[0], rel=1e-12)
+    assert len(doc["centreline_mm"]["x"]) == shape.s.size
+    assert doc["centreline_mm"]["z"][0] == 0.0
+    assert not list(tmp_path.glob(".*"))
+
+
+def test_bend_flow_and_load_below_tip(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bend", "paper", "--flow", "0.2m/s", "--fluid", "water", *TIP, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    expected = mc.bend(mc.Setup.paper(tip_radius=5e-5), flow=mc.Flow.uniform(0.2))
+    np.testing.assert_allclose(doc["tip_mm"], expected.tip * 1e3, rtol=1e-10)
+    # a sharp cone accepts a load below the tip
+    assert main(["bend", "paper", "--force", "0.01mN", "--at", "2.5mm", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["load"]["at_mm"] == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["bend", "paper", "--force", "0.2mN"], "--tip-radius"),
+        (["bend", "paper", "--force", "0.2"], "--force must be a force with a unit"),
+        (["bend", "paper", "--flow", "1e6m/s", *TIP], "drag law ends"),
+        (["bend", "paper", "--force", "0.1mN", "--at", "9mm"], "at must be an arc length"),
+        (["readout", "paper", "missing.csv", "--quantity", "angle", "--span", "0:40",
+          "--out", "x.csv"], "missing.csv: no such file"),
+        (["design", "paper", "--bandwidth", "10:1"], "--bandwidth must be a range"),
+    ],
+    ids=["cone-tip", "no-unit", "too-fast", "at-beyond", "missing-recording", "bandwidth"],
+)
+def test_errors_are_one_line(args: list[str], match: str,
+                             capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert match in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_readout_writes_estimates_and_flags(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    forces = np.array([2e-5, 1e-4, 1.5e-4, 3e-4])  # the last one is beyond the span
+    volts = setup.output(mc.bend_sweep(setup, forces=forces))
+    rec = tmp_path / "rec.csv"
+    rec.write_text("time_s,voltage_V\n" + "".join(
+        f"{0.1 * i},{float(v)!r}\n" for i, v in enumerate(volts)))
+    out = tmp_path / "est.csv"
+    code = main(["readout", "paper", str(rec), "--quantity", "force", "--span", "0:0.2",
+                 "--out", str(out), *TIP])
+    assert code == 0
+    assert "3/4 readings estimated" in capsys.readouterr().out
+    rows = list(csv.DictReader(out.read_text().splitlines()))
+    assert [r["flags"] for r in rows] == ["0", "0", "0", "1"]
+    assert rows[3]["flag_names"] == "outside_span" and rows[3]["force_mN"] == ""
+    np.testing.assert_allclose([float(r["force_mN"]) for r in rows[:3]], forces[:3] * 1e3,
+                               atol=1e-5)  # table error ~1e-7 mN
+    assert all(float(r["sigma_force_mN"]) > 0 for r in rows[:3])
+    assert float(rows[2]["time_s"]) == pytest.approx(0.2)
+
+
+def test_readout_angle_with_units_and_bad_recording(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    setup = mc.Setup.paper()
+    rec = tmp_path / "rec.csv"
+    rec.write_text("voltage_V\n" + "".join(f"{float(v)!r}\n" for v in
+                                           setup.output(np.radians([10.0, 30.0]))))
+    out = tmp_path / "a.csv"
+    assert main(["readout", "paper", str(rec), "--quantity", "angle", "--span", "0deg:60deg",
+                 "--out", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["estimated"] == 2
+    rows = list(csv.DictReader(out.read_text().splitlines()))
+    np.testing.assert_allclose([float(r["angle_deg"]) for r in rows], [10.0, 30.0], atol=1e-3)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("volts\n1.0\n")
+    out2 = tmp_path / "never.csv"
+    assert main(["readout", "paper", str(bad), "--quantity", "angle", "--span", "0:60",
+                 "--out", str(out2)]) == 2
+    assert "voltage_V" in capsys.readouterr().err
+    assert not out2.exists()
+
+
+def test_design_table_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    png = tmp_path / "design.png"
+    assert main(["design", "paper", *TIP, "--plot", str(png), "--bandwidth", "0.5:50"]) == 0
+    out = capsys.readouterr().out
+    assert "min. detectable" in out and "V/mN" in out
+    assert png.exists()
+    assert main(["design", "paper", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["metrics"]["force"]["sensitivity_V_per_unit"] is None  # sharp cone
+    assert doc["metrics"]["angle"]["unit"] == "rad"
+
+
+def test_bundled_force_sensor_example_bends_and_reads_back(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """examples/force-sensor.toml needs no overrides: bend, then read the force back."""
+    example = str(Path(__file__).resolve().parents[2] / "examples" / "force-sensor.toml")
+    assert main(["bend", example, "--force", "0.1mN", "--json"]) == 0
+    volts = json.loads(capsys.readouterr().out)["output_V"]
+    rec = tmp_path / "rec.csv"
+    rec.write_text(f"voltage_V\n{volts!r}\n")
+    out = tmp_path / "f.csv"
+    assert main(["readout", example, str(rec), "--quantity", "force", "--span", "0:0.2",
+                 "--out", str(out)]) == 0
+    row = out.read_text().splitlines()[1].split(",")
+    assert float(row[1]) == pytest.approx(0.1, rel=1e-5)  # mN
+
+
+def test_readout_with_calibration_covariance(tmp_path: Path) -> None:
+    from magcilia.cli.demo import example_path
+
+    fit = tmp_path / "fit"
+    assert main(["calibrate", str(example_path()), "--out", str(fit), "--restarts", "1",
+                 "--quiet"]) == 0
+    setup = mc.load_setup(fit / "fitted_setup.toml")
+    rec = tmp_path / "rec.csv"
+    rec.write_text("voltage_V\n" + "".join(f"{float(v)!r}\n" for v in
+                                           setup.output(np.radians([20.0, 40.0, 60.0]))))
+    sigmas = []
+    for extra in ([], ["--calibration", str(fit)]):
+        out = tmp_path / f"out{len(extra)}.csv"
+        assert main(["readout", str(fit / "fitted_setup.toml"), str(rec), "--quantity", "angle",
+                     "--span", "0:85", "--out", str(out), *extra]) == 0
+        rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
+        np.testing.assert_allclose([float(r[1]) for r in rows], [20.0, 40.0, 60.0], atol=1e-3)
+        sigmas.append(np.array([float(r[2]) for r in rows]))
+    assert np.all(sigmas[1] > sigmas[0])
