@@ -31,7 +31,7 @@ from SALib.sample import sobol as salib_sample
 import magcilia as mc
 from magcilia.analysis import DEFAULT_ANGLES, rms_change
 from magcilia.calibration import DEFAULT_BOUNDS, INTEGER
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 HARNESS = r"""#define _POSIX_C_SOURCE 199309L
 #include <stdio.h>

@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 import magcilia as mc
 from magcilia.constants import GAUSS
+from magcilia.model.batch import tilt_field_batch, tilt_output_batch
 from magcilia.model.exact import single_dipole_field
 from magcilia.model.kernels import dipole_field
-from magcilia.model.layout import tilt_field_batch, tilt_output_batch
 
 ANGLES = np.radians(np.linspace(0.0, 85.0, 33))
 

@@ -12,7 +12,7 @@ from scipy.integrate import quad
 
 import magcilia as mc
 from magcilia.mechanics import tip_compliance
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 L, RB, RT, E = 3e-3, 2e-4, 5e-5, 2e6
 ANGLES = np.radians(np.linspace(0.0, 85.0, 9))

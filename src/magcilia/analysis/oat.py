@@ -32,7 +32,7 @@ from magcilia.analysis.measures import (
 )
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
 

@@ -27,7 +27,7 @@ from magcilia.analysis.oat import SWEEP_PARAMETERS
 from magcilia.calibration import DEFAULT_BOUNDS, INTEGER, check_bound_values
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
 

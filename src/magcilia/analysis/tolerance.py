@@ -22,10 +22,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.analysis import check_angles
+from magcilia.analysis.measures import check_angles
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
 COORDINATES = ("x", "y", "z", "height", "base_radius", "tip_radius")

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
-from magcilia.model.layout import tilt_output_batch
+from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
 

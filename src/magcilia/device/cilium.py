@@ -16,34 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-
-RINGS = ("mean", "rms")
-
-
-def profile_integrals(u: NDArray[np.float64], rho: NDArray[np.float64],
-                      n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Slice means of rho² and rho⁴ for a piecewise-linear normalised profile, exact.
-
-    Parameters
-    ----------
-    u, rho : ndarray, shape (q,)
-        Knots (0 = base … 1 = tip) and normalised radii of the profile.
-    n : int
-        Equal-length slices.
-
-    Returns
-    -------
-    mean2, mean4 : ndarray, shape (n,)
-        n ∫ rho² du and n ∫ rho⁴ du over each slice (dimensionless).
-    """
-    edges = np.linspace(0.0, 1.0, n + 1)
-    grid = np.union1d(edges, u)
-    p = np.interp(grid, u, rho)
-    a, b, w = p[:-1], p[1:], np.diff(grid)
-    part2 = w * (a * a + a * b + b * b) / 3.0
-    part4 = w * (a**4 + a**3 * b + a * a * b * b + a * b**3 + b**4) / 5.0
-    starts = np.searchsorted(grid, edges[:-1])
-    return n * np.add.reduceat(part2, starts), n * np.add.reduceat(part4, starts)
+from magcilia.model import body
 
 
 @dataclass(frozen=True)
@@ -123,16 +96,17 @@ class Cilium:
                    profile=(tuple((s_arr / height).tolist()), tuple((r_arr / base).tolist())))
 
     @property
-    def _shape(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Normalised knots and radii (a frustum is the two-knot profile)."""
+    def shape(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Normalised knots (s / height) and radii (r / base_radius), shapes (q,): a frustum is
+        the two-knot shape ``(0, 1), (1, taper)``."""
         if self.profile is None:
-            return np.array([0.0, 1.0]), np.array([1.0, self.tip_radius / self.base_radius])
+            return body.frustum_shape(self.taper)
         return np.asarray(self.profile[0]), np.asarray(self.profile[1])
 
     @property
     def max_radius(self) -> float:
         """Largest radius of the body, m."""
-        return self.base_radius * float(self._shape[1].max())
+        return self.base_radius * float(self.shape[1].max())
 
     @property
     def taper(self) -> float:
@@ -142,16 +116,12 @@ class Cilium:
     @property
     def volume(self) -> float:
         """Volume, m³ (a frustum: pi h/3 (r_b² + r_b r_t + r_t²))."""
-        mean2, _ = profile_integrals(*self._shape, 1)
-        return math.pi * self.height * self.base_radius**2 * float(mean2[0])
+        return body.volume(self.height, self.base_radius, *self.shape)
 
     def radius(self, s: ArrayLike) -> NDArray[np.float64]:
         """Radius at arc length ``s`` (m, any shape) -> same shape, m."""
-        s = np.asarray(s, dtype=np.float64)
-        if self.profile is None:
-            return self.base_radius + (self.tip_radius - self.base_radius) * (s / self.height)
-        u, rho = self._shape
-        return self.base_radius * np.interp(s / self.height, u, rho)
+        t = np.asarray(s, dtype=np.float64) / self.height
+        return self.base_radius * body.radius_at(*self.shape, t)
 
     def second_moment(self, s: ArrayLike) -> NDArray[np.float64]:
         """Second moment of area of the cross-section, I(s) = pi r(s)⁴ / 4, m⁴."""
@@ -163,29 +133,18 @@ class Cilium:
 
     def slice_volumes(self, n: int) -> NDArray[np.float64]:
         """Volumes of the n equal-length slices, m³, shape (n,); they sum to the volume."""
-        mean2, _ = profile_integrals(*self._shape, n)
+        mean2, _ = body.slice_means(*self.shape, n)
         return math.pi * (self.height / n) * self.base_radius**2 * mean2
 
     def ring_radii(self, n: int, ring: str = "mean") -> NDArray[np.float64]:
-        """Radius of each slice's dipole ring, m, shape (n,).
-
-        ``"mean"`` (the paper): (r_bottom + r_top)/2. ``"rms"``: sqrt of the slice's
-        volume-averaged rho², i.e. sqrt(∫ r⁴/2 dz / ∫ r² dz), which for a disc is r/√2 and makes
-        the ring reproduce the slice's second radial moment.
-        """
-        if ring == "mean":
-            r = self.radius(self.slice_edges(n))
-            return 0.5 * (r[:-1] + r[1:])
-        mean2, mean4 = profile_integrals(*self._shape, n)
-        return self.base_radius * np.sqrt(0.5 * mean4 / np.where(mean2 > 0.0, mean2, 1.0))
+        """Radius of each slice's dipole ring, m, shape (n,) (rules: see
+        :func:`magcilia.model.body.slice_rings`)."""
+        return self.base_radius * body.slice_rings(*self.shape, n, ring)[0]
 
     def contains(self, axial: ArrayLike, radial: ArrayLike) -> NDArray[np.bool_]:
         """Whether points given in the body frame (axial coordinate from the base, m; distance
         from the axis, m) lie inside or on the body. Broadcasts."""
-        axial = np.asarray(axial, dtype=np.float64)
-        radial = np.asarray(radial, dtype=np.float64)
-        inside_len = (axial >= 0.0) & (axial <= self.height)
-        return inside_len & (radial <= self.radius(np.clip(axial, 0.0, self.height)))
+        return body.contains(self.height, self.base_radius, *self.shape, axial, radial)
 
 
 def _check_profile(profile: object) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

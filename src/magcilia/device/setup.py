@@ -8,7 +8,6 @@ poses: rigid tilt angles (the paper's experiment) or a :class:`~magcilia.Centrel
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import Any
@@ -17,14 +16,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.device.cilium import RINGS, Cilium
+from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.sensor import Sensor
+from magcilia.model import pose as pose_model
+from magcilia.model.body import RINGS
 from magcilia.model.centreline import Centreline
-from magcilia.model.layout import pose_dipoles, pose_field, ring_layout, tilt_fields
+from magcilia.model.pose import Pose
+from magcilia.model.spec import ModelSpec
 
 F64 = NDArray[np.float64]
-Pose = ArrayLike | Centreline
 
 #: Table I of the paper: initial and optimized parameters (SI)
 PAPER_INITIAL: dict[str, Any] = {
@@ -89,7 +90,7 @@ class Setup:
         )
         v.choice("ring", self.ring, RINGS)
         # the sensing element must lie outside the unloaded (upright) cilium
-        self._check_element_outside(np.array([0.0]))
+        pose_model.check_element_outside(self.spec, np.array([0.0]))
 
     # -- construction -------------------------------------------------------------------------
     @classmethod
@@ -121,13 +122,12 @@ class Setup:
     @property
     def base_centre(self) -> F64:
         """Base centre in the sensor frame, m, shape (3,): (x_f, y_f, depth + z_f)."""
-        x, y, z = self.position
-        return np.array([x, y, self.sensor.depth + z])
+        return self.spec.base_centre.copy()
 
     @property
     def moment(self) -> float:
         """Total moment m_c = M · V_c (eq. 1, times the magnetization scale), A·m²."""
-        return self.material.magnetization * self.cilium.volume
+        return self.spec.moment
 
     @property
     def youngs_modulus(self) -> float:
@@ -136,41 +136,24 @@ class Setup:
         return self.material.composite_modulus if e is None else e
 
     def params(self) -> dict[str, float]:
-        """The calibration parameters in SI: the paper's seven plus tip radius, scale and offset."""
-        x, y, z = self.position
-        return {
-            "height": self.cilium.height, "base_radius": self.cilium.base_radius,
-            "tip_radius": self.cilium.tip_radius, "x": x, "y": y, "z": z,
-            "n_loops": self.n_loops, "dipoles_per_loop": self.dipoles_per_loop,
-            "magnetization_scale": self.material.magnetization_scale,
-            "offset": self.sensor.offset,
-        }
+        """The model's parameters in SI by name: the paper's seven (height, base_radius, x, y, z,
+        n_loops, dipoles_per_loop) plus tip_radius, magnetization_scale and offset."""
+        return self.spec.params()
 
     @cached_property
-    def _rel(self) -> F64:
-        """Sensing element (origin) minus base centre, m, shape (3,)."""
-        return -self.base_centre
-
-    @cached_property
-    def _body(self) -> tuple[F64, F64]:
-        """Body-frame dipole positions (d, 3), m, and moments along the axis (d,), A·m²."""
-        c = self.cilium
-        pos, w = ring_layout(
-            np.array([c.height]), np.array([c.base_radius]), np.array([c.tip_radius]),
-            self.n_loops, self.dipoles_per_loop, self.ring, c.profile,
+    def spec(self) -> ModelSpec:
+        """What the field model needs, as plain values (the fast functions of
+        :mod:`magcilia.model` take it)."""
+        c, m, s = self.cilium, self.material, self.sensor
+        knots, radii = c.shape
+        return ModelSpec(
+            height=c.height, base_radius=c.base_radius, tip_radius=c.tip_radius, knots=knots,
+            radii=radii, measured=c.profile is not None, position=self.position, depth=s.depth,
+            full_magnetization=m.volume_fraction * m.cobalt_magnetization,
+            magnetization_scale=m.magnetization_scale, n_loops=self.n_loops,
+            dipoles_per_loop=self.dipoles_per_loop, ring=self.ring, scale=s.scale,
+            offset=s.offset,
         )
-        return pos[0], w[0] * self.moment
-
-    def dipoles(self, pose: Pose) -> tuple[F64, F64]:
-        """Lab-frame dipoles of the model for each pose: positions (a, d, 3) m, moments (a, d, 3)
-        A·m², d = n_loops · dipoles_per_loop."""
-        centreline = self._centreline(pose)
-        c = self.cilium
-        n = self.n_loops
-        rho = c.ring_radii(n, self.ring)
-        vols = c.slice_volumes(n)
-        return pose_dipoles(centreline, self.base_centre, rho, vols / vols.sum(), self.moment,
-                            self.dipoles_per_loop)
 
     # -- evaluation ---------------------------------------------------------------------------
     def field(self, pose: Pose) -> F64:
@@ -182,12 +165,7 @@ class Setup:
             Rigid tilt angles in rad (the paper's experiment), or a batch of ``a`` centrelines
             (e.g. bent shapes from :func:`magcilia.bend`).
         """
-        if isinstance(pose, Centreline):
-            return self.field_at(np.zeros((1, 3)), pose)[:, 0, :]
-        angles = self._angles(pose)
-        pos, mom = self._body
-        bx, by, bz = tilt_fields(angles, self._rel, pos, mom)
-        return np.stack([bx, by, bz], axis=-1)
+        return pose_model.field(self.spec, pose)
 
     def output(self, pose: Pose) -> F64:
         """Sensor output, V, shape (a,): ``scale · B_x + offset`` (75 V/T for the paper).
@@ -197,13 +175,7 @@ class Setup:
         pose : array-like, shape (a,), or Centreline
             Tilt angles in rad, or a batch of centrelines.
         """
-        sensor = self.sensor
-        if isinstance(pose, Centreline):
-            return sensor.scale * self.field(pose)[:, 0] + sensor.offset
-        angles = self._angles(pose)
-        pos, mom = self._body
-        bx = tilt_fields(angles, self._rel, pos, mom, x_only=True)[0]
-        return sensor.scale * bx + sensor.offset
+        return pose_model.output(self.spec, pose)
 
     def field_at(self, points: ArrayLike, pose: Pose) -> F64:
         """Flux density at arbitrary points, T, shape (a, o, 3).
@@ -215,74 +187,23 @@ class Setup:
         pose : array-like, shape (a,), or Centreline
             Tilt angles in rad, or centrelines.
         """
+        return pose_model.field_at(self.spec, points, pose)
+
+    def dipoles(self, pose: Pose) -> tuple[F64, F64]:
+        """Lab-frame dipoles of the model for each pose: positions (a, d, 3) m, moments (a, d, 3)
+        A·m², d = n_loops · dipoles_per_loop."""
+        return pose_model.dipoles(self.spec, self.centreline(pose))
+
+    def centreline(self, pose: Pose) -> Centreline:
+        """The pose as centrelines: tilt angles (rad, shape (a,)) become straight centrelines of
+        the cilium's length; a Centreline is checked to have that length."""
+        return pose_model.as_centreline(self.spec, pose)
+
+    def check_outside(self, points: ArrayLike, pose: Pose) -> None:
+        """Raise a :class:`~magcilia.MagciliaError` if any of ``points`` ((o, 3) or (3,), m in the
+        sensor frame) lies inside the cilium in any pose."""
         pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
-        centreline = self._centreline(pose)
-        self._check_outside(pts, centreline)
-        pos, mom = self.dipoles(centreline)
-        return pose_field(pts, pos, mom)
-
-    # -- checks -------------------------------------------------------------------------------
-    def _angles(self, pose: ArrayLike) -> F64:
-        angles = np.atleast_1d(np.asarray(pose, dtype=np.float64))
-        if angles.ndim != 1 or not np.isfinite(angles).all():
-            angles = v.finite_array("tilt", angles, ndim=1, unit="rad")
-        if not self._element_always_clear:
-            self._check_element_outside(angles)
-        return angles
-
-    @cached_property
-    def _element_always_clear(self) -> bool:
-        """True if no tilt about y can bring the cilium onto the sensing element: the element's
-        distance from the tilt axis plane (|y|) exceeds the largest radius, or its distance from
-        the base centre exceeds the farthest point of the body."""
-        c = self.cilium
-        rel = self.base_centre
-        reach = math.hypot(c.height, c.max_radius)
-        return abs(rel[1]) > c.max_radius or float(np.linalg.norm(rel)) > reach
-
-    def _centreline(self, pose: Pose) -> Centreline:
-        if isinstance(pose, Centreline):
-            if not math.isclose(pose.length, self.cilium.height, rel_tol=1e-9):
-                raise v.fail("centreline length", pose.length,
-                             f"the cilium height ({self.cilium.height:.6g} m)")
-            return pose
-        return Centreline.straight(self.cilium.height, self._angles(pose))
-
-    def _check_element_outside(self, angles: F64) -> None:
-        rel = -self.base_centre
-        c, s = np.cos(angles), np.sin(angles)
-        axial = s * rel[0] + c * rel[2]
-        radial = np.hypot(c * rel[0] - s * rel[2], rel[1])
-        inside = self.cilium.contains(axial, radial)
-        if inside.any():
-            bad = float(angles[np.argmax(inside)])
-            raise v.fail(
-                "position", self.position,
-                f"a placement that keeps the sensing element outside the cilium (it is inside at "
-                f"tilt {math.degrees(bad):.4g} deg); move the base up (z) or sideways (x, y)",
-            )
-
-    def _check_outside(self, points: F64, centreline: Centreline) -> None:
-        """Raise if any observer lies inside any posed cilium (checked on a fine polyline)."""
-        m = max(64, 8 * self.n_loops)
-        s = np.linspace(0.0, centreline.length, m + 1)
-        pts, _ = centreline.frames(s)  # (a, m+1, 3)
-        p0 = pts[:, :-1, :] + self.base_centre
-        seg = pts[:, 1:, :] - pts[:, :-1, :]
-        seg_len2 = np.einsum("ami,ami->am", seg, seg)
-        rel = points[:, None, None, :] - p0[None]  # (o, a, m, 3)
-        t = np.clip(np.einsum("oami,ami->oam", rel, seg) / seg_len2, 0.0, 1.0)
-        closest = rel - t[..., None] * seg[None]
-        dist = np.sqrt(np.einsum("oami,oami->oam", closest, closest))
-        s_at = s[:-1][None, None, :] + t * np.diff(s)[None, None, :]
-        inside = dist <= self.cilium.radius(s_at)
-        # points beyond the flat base (below it along the axis at s = 0) are outside
-        axial0 = np.einsum("oai,ai->oa", rel[:, :, 0, :], seg[:, 0, :]) / np.sqrt(seg_len2[:, 0])
-        inside[:, :, 0] &= axial0 >= 0.0
-        if inside.any():
-            o_idx = int(np.nonzero(inside.any(axis=(1, 2)))[0][0])
-            raise v.fail("points", tuple(float(x) for x in points[o_idx]),
-                         "observer positions outside the cilium")
+        pose_model.check_outside(self.spec, pts, self.centreline(pose))
 
 
 def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:

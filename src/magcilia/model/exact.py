@@ -5,14 +5,13 @@ equal-length slices of the (possibly bent) cilium becomes a cylinder of the same
 (for a frustum slice: radius sqrt((r1² + r1 r2 + r2²)/3)), centred on the centreline at the
 slice's mid-arc-length, with its axis along the local tangent and polarization J = μ0 M along
 that axis. The stack converges to the true body (frustum or measured profile) as O(1/n²)
-everywhere outside the body, near field included (NOTES.md §3), so it measures the error of the
-dipole model.
+everywhere outside the body, near field included (docs/convergence.md), so it measures the error
+of the dipole model.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -20,21 +19,22 @@ from scipy.spatial.transform import Rotation
 
 from magcilia import _validate as v
 from magcilia.constants import MU0
-
-if TYPE_CHECKING:
-    from magcilia.device.setup import Pose, Setup
+from magcilia.model import body
+from magcilia.model.pose import Pose, as_centreline, check_outside
+from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 F64 = NDArray[np.float64]
 
 
 def exact_field(
-    setup: Setup, pose: Pose, n_slices: int = 200, points: ArrayLike | None = None
+    setup: ModelSpec | SupportsSpec, pose: Pose, n_slices: int = 200,
+    points: ArrayLike | None = None,
 ) -> F64:
     """B of the cilium from a stack of exact magpylib cylinders, T.
 
     Parameters
     ----------
-    setup : Setup
+    setup : Setup or ModelSpec
         Geometry, material and placement (its n_loops/dipoles_per_loop are not used).
     pose : array-like, shape (a,), or Centreline
         Tilt angles in rad, or centrelines.
@@ -50,23 +50,24 @@ def exact_field(
     """
     import magpylib as magpy
 
+    spec = as_spec(setup)
     n = v.integer("n_slices", n_slices, 1)
     pts = np.zeros((1, 3)) if points is None else v.finite_array("points", points).reshape(-1, 3)
-    centreline = setup._centreline(pose)
-    setup._check_outside(pts, centreline)
-    c = setup.cilium
-    edges = c.slice_edges(n)
-    r_eq = np.sqrt(c.slice_volumes(n) / (np.pi * c.height / n))  # same volume as each slice
-    s_mid = 0.5 * (edges[:-1] + edges[1:])
+    centreline = as_centreline(spec, pose)
+    check_outside(spec, pts, centreline)
+    mean2, _ = body.slice_means(spec.knots, spec.radii, n)
+    r_eq = spec.base_radius * np.sqrt(mean2)  # same volume as each slice
+    s_mid = spec.height * (np.arange(n) + 0.5) / n
     centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
-    centres = centres + setup.base_centre
+    centres = centres + spec.base_centre
     a, o = angles.shape[0], pts.shape[0]
-    j = MU0 * setup.material.magnetization
+    j = MU0 * spec.magnetization
     # one instance per (pose, slice, observer)
     obs = np.broadcast_to(pts[None, None, :, :], (a, n, o, 3)).reshape(-1, 3)
     pos = np.broadcast_to(centres[:, :, None, :], (a, n, o, 3)).reshape(-1, 3)
     dims = np.broadcast_to(
-        np.stack([2.0 * r_eq, np.full(n, c.height / n)], axis=-1)[None, :, None, :], (a, n, o, 2)
+        np.stack([2.0 * r_eq, np.full(n, spec.height / n)], axis=-1)[None, :, None, :],
+        (a, n, o, 2),
     ).reshape(-1, 2)
     rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
     rot = Rotation.from_rotvec(np.repeat(rotvec.reshape(-1, 3), o, axis=0))
@@ -78,22 +79,21 @@ def exact_field(
     return b[:, 0, :] if points is None else b
 
 
-def single_dipole_field(setup: Setup, pose: Pose) -> F64:
+def single_dipole_field(setup: ModelSpec | SupportsSpec, pose: Pose) -> F64:
     """Field of one dipole carrying the whole moment at the volume centroid, T, shape (a, 3).
 
     The crude far-field model, for comparison (good to ~2 % only beyond ~5 body lengths).
     """
-    centreline = setup._centreline(pose)
-    c = setup.cilium
+    spec = as_spec(setup)
+    centreline = as_centreline(spec, pose)
     n = 64
-    vols = c.slice_volumes(n)
-    s_mid = c.height * (np.arange(n) + 0.5) / n
-    pts, ang = centreline.frames(s_mid)
-    w = vols / vols.sum()
-    centroid = np.einsum("n,ani->ai", w, pts) + setup.base_centre
+    mean2, _ = body.slice_means(spec.knots, spec.radii, n)
+    pts, ang = centreline.frames(spec.height * (np.arange(n) + 0.5) / n)
+    w = mean2 / mean2.sum()
+    centroid = np.einsum("n,ani->ai", w, pts) + spec.base_centre
     direction = np.stack([np.einsum("n,an->a", w, np.sin(ang)), np.zeros(ang.shape[0]),
                           np.einsum("n,an->a", w, np.cos(ang))], axis=-1)
-    m = setup.moment * direction
+    m = spec.moment * direction
     r = -centroid
     rn = np.linalg.norm(r, axis=-1, keepdims=True)
     mr = np.sum(m * r, axis=-1, keepdims=True)

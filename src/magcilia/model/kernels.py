@@ -171,3 +171,36 @@ def tilt_field(
     by = MU0_OVER_4PI * np.vecdot(q, vy[..., None, :])
     bz = MU0_OVER_4PI * (cos_t * bbz - sin_t * bbx)
     return bx, by, bz
+
+
+def tilt_fields(
+    angles: F64, rel: F64, body_positions: F64, body_moments: F64, x_only: bool = False
+) -> tuple[F64, F64, F64]:
+    """Lab-frame B (T) at one observer of rigidly tilted cilia, components each (..., a).
+
+    ``angles`` (a,) rad; ``rel`` (..., 3) observer minus base centre, m; ``body_positions``
+    (..., d, 3) m and ``body_moments`` (..., d) A·m² from
+    :func:`magcilia.model.layout.ring_layout`. With ``x_only`` only B_x is computed (the others
+    come back empty).
+    """
+    return tilt_field(np.cos(angles), np.sin(angles), rel, body_positions, body_moments, x_only)
+
+
+def pose_field(observers: F64, positions: F64, moments: F64) -> F64:
+    """B (T), shape (a, o, 3), of ``a`` dipole sets (a, d, 3) at observers (o, 3).
+
+    Few observers (read-out at the element): vectorised over poses in chunks. Many observers
+    (field maps): the blocked kernel :func:`dipole_field`, pose by pose.
+    """
+    n_pose, n_dip = positions.shape[:2]
+    n_obs = observers.shape[0]
+    out = np.empty((n_pose, n_obs, 3))
+    if n_obs * n_dip > 4096:
+        for i in range(n_pose):
+            out[i] = dipole_field(observers, positions[i], moments[i])
+        return out
+    chunk = max(1, 65536 // max(1, n_obs * n_dip))
+    for start in range(0, n_pose, chunk):
+        stop = start + chunk
+        out[start:stop] = dipole_field_batch(observers, positions[start:stop], moments[start:stop])
+    return out

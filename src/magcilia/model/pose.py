@@ -1,0 +1,122 @@
+"""One sensor's field for a batch of poses: the checked functional layer over the kernels.
+
+A pose is rigid tilt angles (rad, shape (a,)) or a :class:`~magcilia.model.centreline.Centreline`
+of ``a`` (bent) shapes. These functions take a :class:`~magcilia.model.spec.ModelSpec`, check the
+poses (finite angles, the sensing element and any observer outside the cilium) and evaluate the
+dipole model; :class:`magcilia.Setup` calls them with its spec.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia.model import body
+from magcilia.model.centreline import Centreline
+from magcilia.model.kernels import pose_field, tilt_fields
+from magcilia.model.layout import pose_dipoles
+from magcilia.model.spec import ModelSpec
+
+F64 = NDArray[np.float64]
+Pose = ArrayLike | Centreline
+
+
+def check_element_outside(spec: ModelSpec, angles: F64) -> None:
+    """Raise unless the sensing element (origin) lies outside the cilium at every tilt angle."""
+    rel = -spec.base_centre
+    c, s = np.cos(angles), np.sin(angles)
+    axial = s * rel[0] + c * rel[2]
+    radial = np.hypot(c * rel[0] - s * rel[2], rel[1])
+    inside = body.contains(spec.height, spec.base_radius, spec.knots, spec.radii, axial, radial)
+    if inside.any():
+        bad = float(angles[np.argmax(inside)])
+        raise v.fail(
+            "position", spec.position,
+            f"a placement that keeps the sensing element outside the cilium (it is inside at "
+            f"tilt {math.degrees(bad):.4g} deg); move the base up (z) or sideways (x, y)",
+        )
+
+
+def tilt_angles(spec: ModelSpec, pose: ArrayLike) -> F64:
+    """Rigid tilt angles, rad, shape (a,): finite, and keeping the element outside the cilium."""
+    angles = np.atleast_1d(np.asarray(pose, dtype=np.float64))
+    if angles.ndim != 1 or not np.isfinite(angles).all():
+        angles = v.finite_array("tilt", angles, ndim=1, unit="rad")
+    if not spec.element_always_clear:
+        check_element_outside(spec, angles)
+    return angles
+
+
+def as_centreline(spec: ModelSpec, pose: Pose) -> Centreline:
+    """The pose as centrelines: tilt angles become straight ones; a Centreline must have the
+    cilium's length."""
+    if isinstance(pose, Centreline):
+        if not math.isclose(pose.length, spec.height, rel_tol=1e-9):
+            raise v.fail("centreline length", pose.length,
+                         f"the cilium height ({spec.height:.6g} m)")
+        return pose
+    return Centreline.straight(spec.height, tilt_angles(spec, pose))
+
+
+def check_outside(spec: ModelSpec, points: F64, centreline: Centreline) -> None:
+    """Raise if any observer (o, 3), m in the sensor frame, lies inside any posed cilium (checked
+    against a fine polyline of each centreline)."""
+    m = max(64, 8 * spec.n_loops)
+    s = np.linspace(0.0, centreline.length, m + 1)
+    pts, _ = centreline.frames(s)  # (a, m+1, 3)
+    p0 = pts[:, :-1, :] + spec.base_centre
+    seg = pts[:, 1:, :] - pts[:, :-1, :]
+    seg_len2 = np.einsum("ami,ami->am", seg, seg)
+    rel = points[:, None, None, :] - p0[None]  # (o, a, m, 3)
+    t = np.clip(np.einsum("oami,ami->oam", rel, seg) / seg_len2, 0.0, 1.0)
+    closest = rel - t[..., None] * seg[None]
+    dist = np.sqrt(np.einsum("oami,oami->oam", closest, closest))
+    s_at = s[:-1][None, None, :] + t * np.diff(s)[None, None, :]
+    inside = dist <= spec.radius(s_at)
+    # points beyond the flat base (below it along the axis at s = 0) are outside
+    axial0 = np.einsum("oai,ai->oa", rel[:, :, 0, :], seg[:, 0, :]) / np.sqrt(seg_len2[:, 0])
+    inside[:, :, 0] &= axial0 >= 0.0
+    if inside.any():
+        o_idx = int(np.nonzero(inside.any(axis=(1, 2)))[0][0])
+        raise v.fail("points", tuple(float(x) for x in points[o_idx]),
+                     "observer positions outside the cilium")
+
+
+def dipoles(spec: ModelSpec, centreline: Centreline) -> tuple[F64, F64]:
+    """Lab-frame dipoles of the model for each centreline: positions (a, d, 3) m, moments
+    (a, d, 3) A·m², d = n_loops · dipoles_per_loop."""
+    n = spec.n_loops
+    radius, share = body.slice_rings(spec.knots, spec.radii, n, spec.ring)
+    points, angles = centreline.frames(centreline.length * (np.arange(n) + 0.5) / n)
+    return pose_dipoles(points, angles, spec.base_centre, spec.base_radius * radius, share,
+                        spec.moment, spec.dipoles_per_loop)
+
+
+def field_at(spec: ModelSpec, points: ArrayLike, pose: Pose) -> F64:
+    """Flux density at observers ``points`` ((o, 3) or (3,), m), T, shape (a, o, 3)."""
+    pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
+    centreline = as_centreline(spec, pose)
+    check_outside(spec, pts, centreline)
+    pos, mom = dipoles(spec, centreline)
+    return pose_field(pts, pos, mom)
+
+
+def field(spec: ModelSpec, pose: Pose) -> F64:
+    """Flux density at the sensing element (origin), T, shape (a, 3)."""
+    if isinstance(pose, Centreline):
+        return field_at(spec, np.zeros((1, 3)), pose)[:, 0, :]
+    pos, mom = spec.body_dipoles
+    bx, by, bz = tilt_fields(tilt_angles(spec, pose), -spec.base_centre, pos, mom)
+    return np.stack([bx, by, bz], axis=-1)
+
+
+def output(spec: ModelSpec, pose: Pose) -> F64:
+    """Sensor output, V, shape (a,): ``scale · B_x + offset``."""
+    if isinstance(pose, Centreline):
+        return spec.scale * field(spec, pose)[:, 0] + spec.offset
+    pos, mom = spec.body_dipoles
+    bx = tilt_fields(tilt_angles(spec, pose), -spec.base_centre, pos, mom, x_only=True)[0]
+    return spec.scale * bx + spec.offset
