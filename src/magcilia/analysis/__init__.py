@@ -18,7 +18,6 @@ from magcilia.analysis.measures import (
 )
 from magcilia.analysis.oat import (
     STUDY_PARAMETERS,
-    SWEEP_INTEGER,
     SWEEP_PARAMETERS,
     OATResult,
     PlacementMap,
@@ -35,7 +34,6 @@ __all__ = [
     "DEFAULT_ANGLES",
     "MEASURES",
     "STUDY_PARAMETERS",
-    "SWEEP_INTEGER",
     "SWEEP_PARAMETERS",
     "OATResult",
     "PlacementMap",

@@ -30,6 +30,9 @@ from magcilia.analysis.measures import (
     rms_change,
     shape_change,
 )
+from magcilia.device.parameters import PARAMETERS, STUDIED, SWEEPABLE
+from magcilia.device.parameters import default_spans as registry_spans
+from magcilia.device.parameters import parameter as registry_parameter
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
@@ -37,11 +40,9 @@ from magcilia.model.batch import tilt_output_batch
 F64 = NDArray[np.float64]
 
 #: parameters that one-at-a-time sweeps accept (keys of ``Setup.params()`` except the offset)
-SWEEP_PARAMETERS = ("x", "y", "z", "height", "base_radius", "tip_radius", "n_loops",
-                    "dipoles_per_loop", "magnetization_scale")
-SWEEP_INTEGER = ("n_loops", "dipoles_per_loop")
+SWEEP_PARAMETERS = SWEEPABLE
 #: the sweeps of :func:`sensitivity_study` in figure order (figs. 9, 10, 11, 12)
-STUDY_PARAMETERS = ("x", "y", "z", "n_loops", "dipoles_per_loop", "height", "base_radius")
+STUDY_PARAMETERS = STUDIED
 
 
 # -- one at a time -------------------------------------------------------------------------------
@@ -96,23 +97,15 @@ class OATResult:
         }
 
 
-def _check_parameter(parameter: str) -> str:
-    return v.choice("parameter", parameter, SWEEP_PARAMETERS)
-
-
 def _check_values(parameter: str, values: ArrayLike) -> F64:
-    """Swept values: finite, non-empty, inside the parameter's basic domain."""
+    """Swept values: finite, non-empty, inside the parameter's domain (the registry's)."""
     vals = v.finite_array(f"{parameter} values", values).ravel()
     if vals.size == 0:
         raise v.fail(f"{parameter} values", "an empty array", "at least one value")
-    if parameter in SWEEP_INTEGER:
-        if np.any(vals < 1) or np.any(vals != np.round(vals)):
-            bad = float(vals[(vals < 1) | (vals != np.round(vals))][0])
-            raise v.fail(f"{parameter} values", bad, "whole numbers >= 1")
-    elif parameter in ("height", "base_radius") and np.any(vals <= 0):
-        raise v.fail(f"{parameter} values", float(vals[vals <= 0][0]), "positive lengths in m")
-    elif parameter in ("tip_radius", "magnetization_scale") and np.any(vals < 0):
-        raise v.fail(f"{parameter} values", float(vals[vals < 0][0]), "non-negative numbers")
+    p = PARAMETERS[parameter]
+    bad = p.outside(vals)
+    if bad is not None:
+        raise v.fail(f"{parameter} values", bad, p.allowed)
     return vals
 
 
@@ -163,7 +156,7 @@ def oat_sweep(
     """
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
-    parameter = _check_parameter(parameter)
+    parameter = registry_parameter(parameter, SWEEP_PARAMETERS).name
     vals = _check_values(parameter, values)
     ang = check_angles(angles)
     d_ang = data_angles(data)
@@ -336,20 +329,14 @@ class SensitivityStudy:
 
 
 def default_spans(setup: Setup) -> dict[str, tuple[float, float]]:
-    """The default sweep spans around ``setup`` (SI): x, y ±1 mm, z 0..1 mm, n and k 1..10,
-    height and base radius ±20 %."""
-    p = setup.params()
-    return {
-        "x": (p["x"] - 1e-3, p["x"] + 1e-3), "y": (p["y"] - 1e-3, p["y"] + 1e-3),
-        "z": (0.0, 1e-3), "n_loops": (1.0, 10.0), "dipoles_per_loop": (1.0, 10.0),
-        "height": (0.8 * p["height"], 1.2 * p["height"]),
-        "base_radius": (0.8 * p["base_radius"], 1.2 * p["base_radius"]),
-    }
+    """The default sweep spans around ``setup`` (SI, from the registry): x, y ±1 mm, z 0..1 mm,
+    n and k 1..10, height and base radius ±20 %."""
+    return registry_spans(setup.params())
 
 
 def _span_values(name: str, span: tuple[float, float], nominal: float, points: int) -> F64:
     lo, hi = span
-    if name in SWEEP_INTEGER:
+    if PARAMETERS[name].domain == "integer":
         return np.arange(round(lo), round(hi) + 1, dtype=np.float64)
     vals = np.linspace(lo, hi, points)
     if lo <= nominal <= hi:

@@ -23,8 +23,8 @@ from magcilia.analysis.measures import (
     rms_change,
     shape_change,
 )
-from magcilia.analysis.oat import SWEEP_PARAMETERS
-from magcilia.calibration import DEFAULT_BOUNDS, INTEGER, check_bound_values
+from magcilia.device.parameters import PARAMETERS as REGISTRY
+from magcilia.device.parameters import SWEEPABLE, check_ranges, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
@@ -257,11 +257,10 @@ def sobol_indices(
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
     v.choice("measure", measure, MEASURES)
-    box = dict(DEFAULT_BOUNDS) if bounds is None else dict(bounds)
+    box = default_bounds() if bounds is None else dict(bounds)
     for name in box:
-        if name not in SWEEP_PARAMETERS:
-            raise v.fail("bounds key", name, "one of " + ", ".join(SWEEP_PARAMETERS))
-    check_bound_values(box)
+        v.choice("bounds key", name, SWEEPABLE)
+    check_ranges(box)
     names = list(box)
     if measure == "cost":
         d_ang = data_angles(data)
@@ -280,6 +279,6 @@ def sobol_indices(
             return shape_change(curves, target)
         return rms_change(curves, target)
 
-    return sobol_analysis(evaluate, box, n_base, integer=[n for n in names if n in INTEGER],
+    return sobol_analysis(evaluate, box, n_base, integer=[n for n in names if REGISTRY[n].domain == "integer"],
                           rng=rng, conf_level=conf_level, num_resamples=num_resamples,
                           measure=measure)

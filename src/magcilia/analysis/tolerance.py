@@ -23,12 +23,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.analysis.measures import check_angles
+from magcilia.device.parameters import PARAMETERS, SWEEPABLE
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
-COORDINATES = ("x", "y", "z", "height", "base_radius", "tip_radius")
+#: what a tolerance can be asked for: the lengths among the sweepable parameters
+COORDINATES = tuple(n for n in SWEEPABLE if PARAMETERS[n].dimension == "length")
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,7 +166,7 @@ def placement_tolerance(
     for c in coords:
         x0 = float(nominal[c])
         vals = np.array([x0 + step, x0 - step])
-        if c in ("height", "base_radius", "tip_radius") and x0 - step < 0:
+        if PARAMETERS[c].domain != "real" and x0 - step < 0:
             vals[1] = x0  # one-sided at a zero tip radius
         out = tilt_output_batch(setup, {c: vals}, ang)
         rows.append((out[0] - out[1]) / (vals[0] - vals[1]))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from magcilia.calibration.problem import BIASES, CONTINUOUS, DEFAULT_BOUNDS, INTEGER, PARAMETERS
 from magcilia.calibration.result import CalibrationResult, ParameterCovariance
-from magcilia.calibration.search import calibrate, check_bound_values
+from magcilia.calibration.search import calibrate
 
 __all__ = [
     "BIASES",
@@ -21,5 +21,4 @@ __all__ = [
     "CalibrationResult",
     "ParameterCovariance",
     "calibrate",
-    "check_bound_values",
 ]

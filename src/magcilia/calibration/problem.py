@@ -8,21 +8,21 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
 
 F64 = NDArray[np.float64]
 
-CONTINUOUS = ("height", "base_radius", "x", "y", "z")
-INTEGER = ("n_loops", "dipoles_per_loop")
-PARAMETERS = CONTINUOUS + INTEGER
-
-#: the bounds of the paper's search space used by default (SI; n and k as integers)
-DEFAULT_BOUNDS: dict[str, tuple[float, float]] = {
-    "height": (2e-3, 4e-3), "base_radius": (1e-4, 4e-4), "x": (-3e-3, 3e-3),
-    "y": (-3e-3, 3e-3), "z": (0.0, 1e-3), "n_loops": (1, 10), "dipoles_per_loop": (1, 10),
-}
+#: the fitted parameters (the registry's :data:`~magcilia.device.parameters.FITTED`), in the order
+#: of the search vector
+PARAMETERS = FITTED
+CONTINUOUS = tuple(n for n in PARAMETERS if n not in INTEGER)
+#: default search bounds (SI), from the registry
+DEFAULT_BOUNDS = default_bounds()
+#: position of each parameter in the search vector
+INDEX = {name: i for i, name in enumerate(PARAMETERS)}
 BIASES = ("offset", "polynomial", "none")
 
 class Problem:
@@ -76,3 +76,10 @@ class Problem:
             return np.zeros(0)
         coef, *_ = np.linalg.lstsq(self.basis, self.y - a * u, rcond=None)
         return np.asarray(coef)
+
+
+def named(x: F64) -> dict[str, F64]:
+    """Parameter columns by name, each shape (S,), from a search vector (p,) or matrix (p, S) in
+    :data:`PARAMETERS` order."""
+    x2 = np.asarray(x, dtype=np.float64).reshape(len(PARAMETERS), -1)
+    return {name: x2[i] for i, name in enumerate(PARAMETERS)}

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError
 from magcilia.calibration.problem import PARAMETERS
+from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 
@@ -139,21 +140,18 @@ class CalibrationResult:
         return self.data.volts - self.residuals
 
     def table(self) -> list[dict[str, Any]]:
-        """Table-I-style rows: parameter, unit, initial, fitted, standard error (display units)."""
-        scale = {"height": 1e3, "base_radius": 1e3, "x": 1e3, "y": 1e3, "z": 1e3,
-                 "n_loops": 1.0, "dipoles_per_loop": 1.0, "magnetization_scale": 1.0,
-                 "offset": 1e3}
-        unit = {"height": "mm", "base_radius": "mm", "x": "mm", "y": "mm", "z": "mm",
-                "n_loops": "", "dipoles_per_loop": "", "magnetization_scale": "", "offset": "mV"}
+        """Table-I-style rows: parameter, display unit, initial, fitted and standard error in that
+        unit (mm, mV; see :data:`magcilia.device.parameters.PARAMETERS`)."""
         init = self.initial.params()
         rows = []
         for name in (*PARAMETERS, "magnetization_scale", "offset"):
             if name not in self.values:
                 continue
-            f = scale[name]
+            p = REGISTRY[name]
             rows.append({
-                "parameter": name, "unit": unit[name], "initial": init[name] * f,
-                "fitted": self.values[name] * f, "stderr": self.stderr.get(name, math.nan) * f,
+                "parameter": name, "unit": p.display, "initial": p.to_display(init[name]),
+                "fitted": p.to_display(self.values[name]),
+                "stderr": p.to_display(self.stderr.get(name, math.nan)),
             })
         return rows
 

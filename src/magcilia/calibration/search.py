@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from typing import Any, cast
 
 import numpy as np
@@ -36,35 +36,25 @@ from magcilia._errors import MagciliaError
 from magcilia.calibration.problem import (
     BIASES,
     DEFAULT_BOUNDS,
+    INDEX,
     INTEGER,
     PARAMETERS,
     Problem,
+    named,
 )
 from magcilia.calibration.result import CalibrationResult
 from magcilia.calibration.uncertainty import uncertainty
+from magcilia.device.parameters import check_ranges
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 
 F64 = NDArray[np.float64]
 
 
-def check_bound_values(bounds: Mapping[str, Sequence[float]]) -> None:
-    """Raise unless the (low, high) bounds present keep n and k whole numbers >= 1 and the height
-    and base radius positive."""
-    for name in INTEGER:
-        if name in bounds:
-            lo, hi = bounds[name]
-            if lo < 1 or not float(lo).is_integer() or not float(hi).is_integer():
-                raise v.fail(f"bounds[{name!r}]", (lo, hi), "whole numbers >= 1")
-    for name in ("height", "base_radius"):
-        if name in bounds and float(bounds[name][0]) <= 0:
-            raise v.fail(f"bounds[{name!r}]", tuple(bounds[name]), "positive lengths in m")
-
-
 def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
                   initial: Setup) -> dict[str, tuple[float, float]]:
     merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
-    check_bound_values(merged)
+    check_ranges(merged)
     init = initial.params()
     for name in PARAMETERS:
         lo, hi = merged[name]
@@ -151,7 +141,7 @@ def calibrate(
     def objective(x: F64) -> F64:
         # vectorized: x has shape (f, S), one column per population member
         x2 = full(x.reshape(int(free.sum()), -1))
-        return problem.cost({name: x2[i] for i, name in enumerate(PARAMETERS)})
+        return problem.cost(named(x2))
 
     seeds = np.random.default_rng(rng).integers(0, 2**32 - 1, size=restarts)
     candidates: list[tuple[float, F64]] = []
@@ -180,11 +170,11 @@ def calibrate(
 def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
     """B_x is even in y (mirror symmetry about the x-z plane), so y and -y fit exactly equally
     well: keep the sign of the initial y (positive for 0) when -y is within the bounds."""
-    y = float(x[3])
+    y = float(x[INDEX["y"]])
     wanted = -1.0 if y_initial < 0.0 else 1.0
     if y * wanted < 0.0 and y_bounds[0] <= -y <= y_bounds[1]:
         x = x.copy()
-        x[3] = -y
+        x[INDEX["y"]] = -y
     return x
 
 
@@ -199,7 +189,7 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
     def resid(xc: F64) -> F64:
         full = x.copy()
         full[cont] = xc
-        r, _ = problem.residuals(problem.model({n: full[i:i + 1] for i, n in enumerate(PARAMETERS)}))
+        r, _ = problem.residuals(problem.model(named(full)))
         return r[0]
 
     start = np.clip(x[cont], lower[cont], upper[cont])
@@ -216,22 +206,20 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
 def _result(problem: Problem, initial: Setup, data: Measurement,
             box: dict[str, tuple[float, float]], x: F64, bias: str, t0: float,
             restart_costs: tuple[float, ...]) -> CalibrationResult:
-    params = {n: x[i:i + 1] for i, n in enumerate(PARAMETERS)}
-    u = problem.model(params)
+    u = problem.model(named(x))
     _, a = problem.residuals(u)
     scale = float(a[0])
     coef = problem.bias_coefficients(u[0], scale)
     offset = float(coef[0]) if coef.size else 0.0
+    values: dict[str, float] = {
+        n: float(round(x[INDEX[n]]) if n in INTEGER else x[INDEX[n]]) for n in PARAMETERS}
     fitted_setup = initial.replace(
-        height=float(x[0]), base_radius=float(x[1]), x=float(x[2]), y=float(x[3]), z=float(x[4]),
-        n_loops=round(x[5]), dipoles_per_loop=round(x[6]),
+        **{n: round(val) if n in INTEGER else val for n, val in values.items()},
         magnetization_scale=initial.material.magnetization_scale * scale, offset=offset,
     )
     model_full = scale * u[0] + (problem.basis @ coef if coef.size else 0.0)
     residuals = problem.y - model_full
     cost = float(residuals @ residuals)
-    values: dict[str, float] = {n: float(x[i]) for i, n in enumerate(PARAMETERS)}
-    values["n_loops"], values["dipoles_per_loop"] = float(round(x[5])), float(round(x[6]))
     values["magnetization_scale"] = fitted_setup.material.magnetization_scale
     values["offset"] = offset
     names, stderr, corr, cov, warns = uncertainty(problem, x, scale, cost, box)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.problem import CONTINUOUS, PARAMETERS, Problem
+from magcilia.calibration.problem import CONTINUOUS, INDEX, Problem, named
 
 F64 = NDArray[np.float64]
 
@@ -19,19 +19,15 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
     """Standard errors and correlations from the Jacobian of the full model at the optimum."""
     columns: list[F64] = []
     names: list[str] = []
-    free = [i for i, n in enumerate(CONTINUOUS) if box[n][0] < box[n][1]]
-    for i in free:
-        name = CONTINUOUS[i]
-        width = box[name][1] - box[name][0]
-        step = 1e-5 * width
+    for name in (n for n in CONTINUOUS if box[n][0] < box[n][1]):
+        step = 1e-5 * (box[name][1] - box[name][0])
         xp, xm = x.copy(), x.copy()
-        xp[i] += step
-        xm[i] -= step
-        up = problem.model({n: xp[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
-        um = problem.model({n: xm[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
+        xp[INDEX[name]] += step
+        xm[INDEX[name]] -= step
+        up, um = problem.model(named(xp))[0], problem.model(named(xm))[0]
         columns.append(scale * (up - um) / (2 * step))
         names.append(name)
-    u = problem.model({n: x[j:j + 1] for j, n in enumerate(PARAMETERS)})[0]
+    u = problem.model(named(x))[0]
     if problem.fit_scale:
         columns.append(u)  # d model / d scale factor (relative scale)
         names.append("magnetization_scale")
@@ -81,7 +77,7 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
                 warns.append(f"{names[i]} and {names[j]} are strongly correlated "
                              f"({corr[i, j]:+.3f}): the data determine a combination of them, "
                              "not each one")
-    if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[3] < box["y"][1]:
+    if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[INDEX["y"]] < box["y"][1]:
         warns.append("B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
                      "equally well; the sign of the initial y is kept, + for 0)")
     warns.append("n_loops and dipoles_per_loop are modelling parameters chosen by the search; "

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from magcilia._atomic import json_text
 from magcilia._validate import fail
+from magcilia.device.parameters import PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.io.setup_files import load_setup
@@ -65,10 +66,10 @@ def parse_bandwidth(text: str) -> tuple[float, float]:
     return f_lo, f_hi
 
 
-def parse_named_ranges(option: str, items: tuple[str, ...], names: Sequence[str],
-                       plain: Sequence[str] = ()) -> dict[str, tuple[float, float]]:
-    """``NAME=LOW:HIGH`` items of a repeatable option -> SI pairs: lengths given in mm, the
-    ``plain`` names (whole numbers such as n_loops) as they are."""
+def parse_named_ranges(option: str, items: tuple[str, ...],
+                       names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """``NAME=LOW:HIGH`` items of a repeatable option -> SI pairs; LOW and HIGH are in the
+    parameter's display unit (mm for lengths, whole numbers for n_loops)."""
     out: dict[str, tuple[float, float]] = {}
     for item in items:
         name, _, text = item.partition("=")
@@ -79,8 +80,8 @@ def parse_named_ranges(option: str, items: tuple[str, ...], names: Sequence[str]
             lo, hi = (float(x) for x in text.split(":"))
         except ValueError:
             raise fail(option, item, f"NAME=LOW:HIGH, e.g. {names[0]}=2:4 (mm)") from None
-        factor = 1.0 if name in plain else 1e-3
-        out[name] = (lo * factor, hi * factor)
+        p = PARAMETERS[name]
+        out[name] = (p.from_display(lo), p.from_display(hi))
     return out
 
 

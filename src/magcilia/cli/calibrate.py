@@ -9,13 +9,14 @@ import click
 from tqdm import tqdm
 
 from magcilia._atomic import write_json
-from magcilia.calibration import INTEGER, PARAMETERS, CalibrationResult, calibrate
+from magcilia.calibration import PARAMETERS, CalibrationResult, calibrate
 from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     parse_named_ranges,
     staged_directory,
 )
+from magcilia.device.parameters import describe_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement, read_measurements
 from magcilia.io.setup_files import save_setup
@@ -50,8 +51,7 @@ def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, 
               help="Output directory (fitted_setup.toml, result.json, report.md, figures).")
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
-                   "repeatable. Defaults: height 2:4, base_radius 0.1:0.4, x -3:3, y -3:3, z 0:1, "
-                   "n_loops 1:10, dipoles_per_loop 1:10.")
+                   f"repeatable. Defaults: {describe_bounds()}.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--restarts", default=3, show_default=True, help="Independent global searches.")
 @click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
@@ -76,7 +76,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     initial = load_setup_arg(setup_arg)
     measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
                                     saturation=saturation)
-    bounds = parse_named_ranges("--bound", bound_items, PARAMETERS, INTEGER)
+    bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
     result = run_calibration(measurement, initial, Path(out_dir), seed=seed, restarts=restarts,
                              bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
                              bounds=bounds, quiet=quiet)

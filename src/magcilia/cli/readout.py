@@ -19,19 +19,17 @@ from magcilia.cli.bend import (
     mechanics_options,
     require_tip_radius,
 )
+from magcilia.device.parameters import MEASURANDS
 from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.inverse import Readout, ReadoutFlag
 from magcilia.units import UNITS, parse_quantity
 
-#: display unit, its SI factor, the dimension for unit-bearing span values
-DISPLAY = {"angle": ("deg", math.pi / 180.0, "angle"), "force": ("mN", 1e-3, "force"),
-           "flow": ("m/s", 1.0, "speed")}
-
 
 def parse_span(text: str, quantity: str) -> tuple[float, float]:
     """``LO:HI`` in the display unit (deg, mN, m/s), or with units on each end -> SI."""
-    unit, factor, dim = DISPLAY[quantity]
+    q = MEASURANDS[quantity]
+    unit, factor, dim = q.display, q.display_factor, q.dimension or ""
     parts = text.split(":")
     allowed = f"LO:HI in {unit} (or with units, e.g. 0{unit}:1{unit})"
     if len(parts) != 2:
@@ -94,7 +92,7 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
                       table_size=table_size)
     result = readout.read(volts, bandwidth=parse_bandwidth(bandwidth))
-    unit, factor, _ = DISPLAY[quantity]
+    unit, factor = MEASURANDS[quantity].display, MEASURANDS[quantity].display_factor
     col = f"{quantity}_{unit.replace('/', '_per_')}"
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")

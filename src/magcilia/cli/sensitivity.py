@@ -11,7 +11,7 @@ from tqdm import tqdm
 
 from magcilia._errors import MissingDependencyError, require
 from magcilia._validate import fail
-from magcilia.analysis import STUDY_PARAMETERS, SWEEP_INTEGER, sensitivity_study, sobol_indices
+from magcilia.analysis import STUDY_PARAMETERS, sensitivity_study, sobol_indices
 from magcilia.analysis.tolerance import placement_tolerance
 from magcilia.cli._common import (
     bandwidth_option,
@@ -21,6 +21,7 @@ from magcilia.cli._common import (
     parse_named_ranges,
     staged_directory,
 )
+from magcilia.device.parameters import PARAMETERS, describe_spans
 from magcilia.io.recordings import read_measurements
 from magcilia.report.sensitivity import report_dict, write_sensitivity_report
 
@@ -33,8 +34,7 @@ from magcilia.report.sensitivity import report_dict, write_sensitivity_report
               help="Output directory (figures, sensitivity.json, summary.md).")
 @click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Sweep span, lengths in mm (n_loops, dipoles_per_loop whole numbers); "
-                   "repeatable. Defaults: x, y ±1 mm, z 0:1 mm, n and k 1:10, height and base "
-                   "radius ±20 %.")
+                   f"repeatable. Defaults: {describe_spans()}.")
 @click.option("--points", default=21, show_default=True, help="Values per continuous sweep.")
 @click.option("--map-points", default=41, show_default=True, help="Grid points per axis of the x-y map.")
 @click.option("--sobol-base", default=1024, show_default=True,
@@ -61,7 +61,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
     nothing is written if anything fails.
     """
     setup = load_setup_arg(setup_arg)
-    spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS, SWEEP_INTEGER)
+    spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS)
     band = parse_bandwidth(bandwidth)
     if not (math.isfinite(accuracy) and accuracy > 0):
         raise fail("--accuracy", accuracy, "a positive angle in degrees")
@@ -94,9 +94,9 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
     click.echo(f"{'parameter':<18} {'span':>22} {'max RMS change/mV':>18} {'offset-free/mV':>15}"
                + (f" {'min cost/V^2':>13}" if measurement is not None else ""))
     for r in study.summary():
-        f = 1.0 if r["parameter"] in SWEEP_INTEGER else 1e3
-        unit = "" if r["parameter"] in SWEEP_INTEGER else " mm"
-        span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g}{unit}"
+        p = PARAMETERS[r["parameter"]]
+        unit = f" {p.display}" if p.display else ""
+        span = f"{p.to_display(r['span'][0]):.4g}..{p.to_display(r['span'][1]):.4g}{unit}"
         line = (f"{r['parameter']:<18} {span:>22} {r['max_rms_change_V'] * 1e3:18.4g} "
                 f"{r['max_shape_change_V'] * 1e3:15.4g}")
         if "min_cost_V2" in r:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia.device.parameters import PARAMETERS
 from magcilia.model import body
 
 
@@ -49,22 +50,19 @@ class Cilium:
     profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "height", v.positive("height", self.height))
-        object.__setattr__(self, "base_radius", v.positive("base_radius", self.base_radius))
+        for name in ("height", "base_radius"):
+            object.__setattr__(self, name, PARAMETERS[name].check(getattr(self, name)))
         if self.profile is not None:
             u, rho = _check_profile(self.profile)
             object.__setattr__(self, "profile", (tuple(u.tolist()), tuple(rho.tolist())))
             object.__setattr__(self, "tip_radius", self.base_radius * float(rho[-1]))
-        tip = v.non_negative("tip_radius", self.tip_radius)
+        tip = PARAMETERS["tip_radius"].check(self.tip_radius)
         if tip > self.base_radius and self.profile is None:
             raise v.fail("tip_radius", tip, f"at most base_radius ({self.base_radius:.6g} m)")
         object.__setattr__(self, "tip_radius", tip)
         if self.youngs_modulus is not None:
-            object.__setattr__(
-                self,
-                "youngs_modulus",
-                v.positive("youngs_modulus", self.youngs_modulus, "Pa", "modulus"),
-            )
+            modulus = PARAMETERS["youngs_modulus"].check(self.youngs_modulus)
+            object.__setattr__(self, "youngs_modulus", modulus)
 
     @classmethod
     def from_profile(cls, s: ArrayLike, radius: ArrayLike,

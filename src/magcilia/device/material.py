@@ -5,9 +5,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
-from magcilia import _validate as v
 from magcilia.constants import (
     COBALT_ATOM_DENSITY,
     COBALT_DENSITY,
@@ -15,6 +14,7 @@ from magcilia.constants import (
     MU_B,
     SIS_DENSITY,
 )
+from magcilia.device.parameters import PARAMETERS
 
 
 @dataclass(frozen=True)
@@ -56,21 +56,8 @@ class Material:
     polymer_modulus: float = 2.5e6
 
     def __post_init__(self) -> None:
-        for name, unit, what in (
-            ("cobalt_mass", "kg", "mass"),
-            ("polymer_mass", "kg", "mass"),
-            ("cobalt_density", "kg/m^3", "density"),
-            ("polymer_density", "kg/m^3", "density"),
-            ("atom_density", "m^-3", "number density"),
-            ("moment_per_atom", "A*m^2", "moment"),
-            ("polymer_modulus", "Pa", "modulus"),
-        ):
-            object.__setattr__(self, name, v.positive(name, getattr(self, name), unit, what))
-        object.__setattr__(
-            self,
-            "magnetization_scale",
-            v.non_negative("magnetization_scale", self.magnetization_scale, "", "factor"),
-        )
+        for f in fields(self):
+            object.__setattr__(self, f.name, PARAMETERS[f.name].check(getattr(self, f.name)))
 
     @property
     def volume_fraction(self) -> float:

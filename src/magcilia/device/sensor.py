@@ -12,7 +12,7 @@ with a 1/f corner near 10 Hz.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.constants import GAUSS
+from magcilia.device.parameters import PARAMETERS
 
 _HMC1021Z: dict[str, Any] = {
     "name": "HMC1021Z",
@@ -74,31 +75,9 @@ class Sensor:
     name: str = "HMC1021Z"
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "sensitivity", v.positive("sensitivity", self.sensitivity, "V/V/T", "sensitivity")
-        )
-        object.__setattr__(
-            self, "bridge_voltage", v.positive("bridge_voltage", self.bridge_voltage, "V", "voltage")
-        )
-        gain = v.real("gain", self.gain)
-        if gain == 0.0:
-            raise v.fail("gain", gain, "a non-zero finite number")
-        object.__setattr__(self, "gain", gain)
-        object.__setattr__(self, "offset", v.real("offset", self.offset, "V"))
-        object.__setattr__(self, "depth", v.non_negative("depth", self.depth))
-        object.__setattr__(
-            self, "field_range", v.positive("field_range", self.field_range, "T", "field")
-        )
-        object.__setattr__(
-            self,
-            "noise_density",
-            v.non_negative("noise_density", self.noise_density, "T/sqrt(Hz)", "noise density"),
-        )
-        object.__setattr__(
-            self,
-            "flicker_corner",
-            v.non_negative("flicker_corner", self.flicker_corner, "Hz", "frequency"),
-        )
+        for f in fields(self):
+            if f.name in PARAMETERS:  # all but the name
+                object.__setattr__(self, f.name, PARAMETERS[f.name].check(getattr(self, f.name)))
 
     @classmethod
     def hmc1021z(cls, **overrides: Any) -> Sensor:

@@ -18,9 +18,9 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
+from magcilia.device.parameters import PARAMETERS, parameter
 from magcilia.device.sensor import Sensor
 from magcilia.model import pose as pose_model
-from magcilia.model.body import RINGS
 from magcilia.model.centreline import Centreline
 from magcilia.model.pose import Pose
 from magcilia.model.spec import ModelSpec
@@ -84,11 +84,8 @@ class Setup:
                 raise v.fail(name, type(getattr(self, name)).__name__, f"a magcilia.{cls.__name__}")
         pos = v.vector3("position", self.position)
         object.__setattr__(self, "position", tuple(float(p) for p in pos))
-        object.__setattr__(self, "n_loops", v.integer("n_loops", self.n_loops, 1))
-        object.__setattr__(
-            self, "dipoles_per_loop", v.integer("dipoles_per_loop", self.dipoles_per_loop, 1)
-        )
-        v.choice("ring", self.ring, RINGS)
+        for name in ("n_loops", "dipoles_per_loop", "ring"):
+            object.__setattr__(self, name, PARAMETERS[name].check(getattr(self, name)))
         # the sensing element must lie outside the unloaded (upright) cilium
         pose_model.check_element_outside(self.spec, np.array([0.0]))
 
@@ -139,6 +136,14 @@ class Setup:
         """The model's parameters in SI by name: the paper's seven (height, base_radius, x, y, z,
         n_loops, dipoles_per_loop) plus tip_radius, magnetization_scale and offset."""
         return self.spec.params()
+
+    def value(self, name: str) -> Any:
+        """The current value of any setup parameter by its registry name (SI; e.g. ``"height"``,
+        ``"x"``, ``"gain"``; see :data:`magcilia.device.parameters.PARAMETERS`)."""
+        p = parameter(name)
+        if name in ("x", "y", "z"):
+            return self.position["xyz".index(name)]
+        return getattr(self if p.part == "setup" else getattr(self, p.part), name)
 
     @cached_property
     def spec(self) -> ModelSpec:

@@ -49,55 +49,22 @@ import tomli_w
 from magcilia import _validate as v
 from magcilia._atomic import write_text
 from magcilia.device.cilium import Cilium
+from magcilia.device.parameters import PARAMETERS, Parameter
 from magcilia.device.setup import PAPER_OPTIMIZED, Setup
 from magcilia.units import format_quantity, parse_quantity
 
-#: table -> key -> (dimension or None for a plain number/string, Setup keyword, unit for writing)
-SCHEMA: dict[str, dict[str, tuple[str | None, str, str]]] = {
-    "cilium": {
-        "height": ("length", "height", "mm"),
-        "base_radius": ("length", "base_radius", "mm"),
-        "tip_radius": ("length", "tip_radius", "mm"),
-        "youngs_modulus": ("pressure", "youngs_modulus", "MPa"),
-        "profile_s": ("length", "profile_s", "mm"),
-        "profile_r": ("length", "profile_r", "mm"),
-    },
-    "material": {
-        "cobalt_mass": ("mass", "cobalt_mass", "mg"),
-        "polymer_mass": ("mass", "polymer_mass", "mg"),
-        "cobalt_density": ("density", "cobalt_density", "g/cm^3"),
-        "polymer_density": ("density", "polymer_density", "g/cm^3"),
-        "atom_density": ("number_density", "atom_density", "m^-3"),
-        "moment_per_atom": ("moment_per_atom", "moment_per_atom", "muB"),
-        "magnetization_scale": (None, "magnetization_scale", ""),
-        "polymer_modulus": ("pressure", "polymer_modulus", "MPa"),
-    },
-    "placement": {
-        "x": ("length", "x", "mm"),
-        "y": ("length", "y", "mm"),
-        "z": ("length", "z", "mm"),
-    },
-    "sensor": {
-        "preset": (None, "", ""),
-        "sensitivity": ("sensitivity", "sensitivity", "mV/V/gauss"),
-        "bridge_voltage": ("voltage", "bridge_voltage", "V"),
-        "depth": ("length", "depth", "mm"),
-        "range": ("field", "field_range", "gauss"),
-        "noise_density": ("noise_density", "noise_density", "nT/sqrt(Hz)"),
-        "flicker_corner": ("frequency", "flicker_corner", "Hz"),
-    },
-    "amplifier": {
-        "gain": (None, "gain", ""),
-        "offset": ("voltage", "offset", "V"),
-    },
-    "model": {
-        "n_loops": (None, "n_loops", ""),
-        "dipoles_per_loop": (None, "dipoles_per_loop", ""),
-        "ring": (None, "ring", ""),
-    },
-}
+#: table -> key -> the registry's parameter, or None for the keys that only files have: the
+#: sensor preset and the measured profile's two lists (see the module docstring)
+SCHEMA: dict[str, dict[str, Parameter | None]] = {}
+for _p in PARAMETERS.values():
+    if _p.file is not None:
+        SCHEMA.setdefault(_p.file[0], {})[_p.file[1]] = _p
+SCHEMA["cilium"].update(profile_s=None, profile_r=None)
+SCHEMA["sensor"] = {"preset": None, **SCHEMA["sensor"]}
 _PRESETS = ("HMC1021Z",)
 _PROFILE_KEYS = ("profile_s", "profile_r")
+#: what a measured profile sets, so that files leave it out
+_PROFILE_SHAPED = ("height", "base_radius", "tip_radius")
 
 
 def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
@@ -113,22 +80,20 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
             name = f"{source}: {table}.{key}"
             if key not in SCHEMA[table]:
                 raise v.fail(name, key, "one of " + ", ".join(SCHEMA[table]))
-            dimension, target, _ = SCHEMA[table][key]
+            p = SCHEMA[table][key]
             if key == "preset":
                 v.choice(name, value, _PRESETS)
             elif key in _PROFILE_KEYS:
                 if not isinstance(value, list) or not value:
                     raise v.fail(name, value, 'a list of lengths, e.g. ["0 mm", "1.5 mm", "3 mm"]')
-                kwargs[target] = [parse_quantity(x, "length", f"{name}[{i}]")
-                                  for i, x in enumerate(value)]
-            elif dimension is not None:
-                kwargs[target] = parse_quantity(value, dimension, name)
-            elif key == "ring":
-                kwargs[target] = v.choice(name, value, ("mean", "rms"))
-            elif key in ("n_loops", "dipoles_per_loop"):
-                kwargs[target] = v.integer(name, value, 1)
-            else:
-                kwargs[target] = v.real(name, value)
+                kwargs[key] = [parse_quantity(x, "length", f"{name}[{i}]")
+                               for i, x in enumerate(value)]
+            elif p is not None and p.dimension is not None:
+                kwargs[p.name] = parse_quantity(value, p.dimension, name)
+            elif p is not None and p.domain in ("integer", "choice"):
+                kwargs[p.name] = p.check(value, name)
+            elif p is not None:
+                kwargs[p.name] = v.real(name, value)
     try:
         overrides = {**_unpack_position(PAPER_OPTIMIZED), **kwargs}
         if any(key in kwargs for key in _PROFILE_KEYS):
@@ -144,13 +109,13 @@ def _with_profile(overrides: dict[str, Any], given: dict[str, Any]) -> dict[str,
     if not all(key in given for key in _PROFILE_KEYS):
         raise v.fail("cilium.profile_s / profile_r", "only one of them",
                      "both lists (arc lengths from the base and radii, same count)")
-    clash = [key for key in ("height", "base_radius", "tip_radius") if key in given]
+    clash = [key for key in _PROFILE_SHAPED if key in given]
     if clash:
         raise v.fail(f"cilium.{clash[0]}", given[clash[0]],
                      "left out when a profile is given (the profile sets the shape)")
     cilium = Cilium.from_profile(given["profile_s"], given["profile_r"],
                                  youngs_modulus=given.get("youngs_modulus"))
-    dropped = ("height", "base_radius", "tip_radius", "youngs_modulus", *_PROFILE_KEYS)
+    dropped = (*_PROFILE_SHAPED, "youngs_modulus", *_PROFILE_KEYS)
     return {**{k: val for k, val in overrides.items() if k not in dropped}, "cilium": cilium}
 
 
@@ -176,39 +141,23 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
 
 def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
     """The setup as a document of unit-bearing strings (inverse of :func:`setup_from_dict`)."""
-    values: dict[str, Any] = {
-        **{f: getattr(setup.cilium, f) for f in ("height", "base_radius", "tip_radius",
-                                                  "youngs_modulus")},
-        **{f: getattr(setup.material, f) for f in ("cobalt_mass", "polymer_mass", "cobalt_density",
-                                                    "polymer_density", "atom_density",
-                                                    "moment_per_atom", "magnetization_scale",
-                                                    "polymer_modulus")},
-        **dict(zip("xyz", setup.position, strict=True)),
-        **{f: getattr(setup.sensor, f) for f in ("sensitivity", "bridge_voltage", "depth",
-                                                  "field_range", "noise_density", "flicker_corner",
-                                                  "gain", "offset")},
-        "n_loops": setup.n_loops, "dipoles_per_loop": setup.dipoles_per_loop, "ring": setup.ring,
-        "profile_s": None, "profile_r": None,
-    }
     c = setup.cilium
-    if c.profile is not None:  # the measured shape replaces height and radii
-        values["profile_s"] = [u * c.height for u in c.profile[0]]
-        values["profile_r"] = [rho * c.base_radius for rho in c.profile[1]]
-        values["height"] = values["base_radius"] = values["tip_radius"] = None
     doc: dict[str, dict[str, Any]] = {}
     for table, entries in SCHEMA.items():
         out: dict[str, Any] = {}
-        for key, (dimension, target, unit) in entries.items():
-            if key == "preset":
-                out[key] = setup.sensor.name
+        for key, p in entries.items():
+            if p is None:  # the keys only files have
+                if key == "preset":
+                    out[key] = setup.sensor.name
+                elif c.profile is not None:  # the measured shape replaces height and radii
+                    scale, knots = (c.height, c.profile[0]) if key == "profile_s" else (
+                        c.base_radius, c.profile[1])
+                    out[key] = [format_quantity(k * scale, "mm", 12) for k in knots]
                 continue
-            value = values[target]
-            if value is None:
+            value = setup.value(p.name)
+            if value is None or (c.profile is not None and p.name in _PROFILE_SHAPED):
                 continue
-            if isinstance(value, list):
-                out[key] = [format_quantity(x, unit, 12) for x in value]
-            else:
-                out[key] = format_quantity(value, unit, 12) if dimension is not None else value
+            out[key] = format_quantity(value, p.file_unit, 12) if p.dimension else value
         doc[table] = out
     return doc
 

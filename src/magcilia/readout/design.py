@@ -24,6 +24,7 @@ from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
@@ -31,8 +32,6 @@ from magcilia.mechanics.drag import max_speed
 
 F64 = NDArray[np.float64]
 
-#: display unit and factor from SI per measurand (tables and figures)
-DISPLAY = {"force": ("mN", 1e3), "flow": ("m/s", 1.0), "angle": ("deg", 180.0 / math.pi)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,7 +101,8 @@ class DesignMetrics:
             f"{'quantity':<8} {'sensitivity':>22} {'min. detectable':>18} {'range':>14}  limited by",
         ]
         for m in self.metrics:
-            unit, f = DISPLAY[m.quantity]
+            q = MEASURANDS[m.quantity]
+            unit, f = q.display, 1.0 / q.display_factor
             sens = f"{m.sensitivity / f:.4g} V/{unit}" if math.isfinite(m.sensitivity) else "-"
             mini = f"{m.minimum * f:.4g} {unit}" if math.isfinite(m.minimum) else "-"
             rng = f"{m.range * f:.4g} {unit}" if math.isfinite(m.range) else "-"

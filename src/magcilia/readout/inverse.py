@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow, bend_sweep
@@ -33,8 +34,8 @@ if TYPE_CHECKING:
 
 F64 = NDArray[np.float64]
 
-QUANTITIES = ("angle", "force", "flow")
-UNITS = {"angle": "rad", "force": "N", "flow": "m/s"}
+#: what a read-out can estimate (the registry's measurands)
+QUANTITIES = tuple(MEASURANDS)
 
 
 class ReadoutFlag(enum.IntFlag):
@@ -150,7 +151,7 @@ class Readout:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
         self.quantity = v.choice("quantity", quantity, QUANTITIES)
-        self.unit = UNITS[quantity]
+        self.unit = MEASURANDS[quantity].unit
         if span is None or np.size(span) != 2:
             raise v.fail("span", span, f"a pair (low, high) in {self.unit}")
         lo = v.real("span low", span[0], self.unit)
@@ -332,7 +333,7 @@ def _parameter_covariance(cal: CalibrationResult | ParameterCovariance | None,
         with np.errstate(invalid="ignore"):
             full = np.nan_to_num(corr) * np.outer(se, se)
     keep = [i for i, n in enumerate(all_names)
-            if n in params and n not in ("n_loops", "dipoles_per_loop")
+            if n in params and PARAMETERS[n].domain != "integer"
             and math.isfinite(full[i, i]) and full[i, i] > 0.0]
     sub = full[np.ix_(keep, keep)]
     return [all_names[i] for i in keep], np.where(np.isfinite(sub), sub, 0.0)

@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from magcilia.readout.design import DISPLAY, DesignMetrics
+from magcilia.device.parameters import MEASURANDS
+from magcilia.readout.design import DesignMetrics
 
 
 def plot_design(metrics: DesignMetrics) -> Any:
@@ -19,7 +20,8 @@ def plot_design(metrics: DesignMetrics) -> Any:
     fig, axes = new_figure(ncols=3, size=(4.2, 3.6))
     sensor = metrics.setup.sensor
     for ax, m in zip(axes[0], metrics.metrics, strict=True):
-        unit, factor = DISPLAY[m.quantity]
+        measurand = MEASURANDS[m.quantity]
+        unit, factor = measurand.display, 1.0 / measurand.display_factor
         ax.set_xlabel(f"{m.quantity} ({unit})")
         ax.set_ylabel("output change from zero load (mV)")
         ax.grid(alpha=0.3)

@@ -15,27 +15,31 @@ import numpy as np
 from magcilia._atomic import jsonable, save_figure, write_json, write_text
 from magcilia.analysis import OATResult, PlacementMap, SensitivityStudy, SobolResult
 from magcilia.analysis.tolerance import PlacementTolerance
+from magcilia.device.parameters import PARAMETERS, STUDIED
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-#: display label, unit and factor from SI (base radius is shown as the base diameter, as fig. 12)
-DISPLAY: dict[str, tuple[str, str, float]] = {
-    "x": ("x", "mm", 1e3), "y": ("y", "mm", 1e3), "z": ("z", "mm", 1e3),
-    "height": ("height", "mm", 1e3), "base_radius": ("base diameter d", "mm", 2e3),
-    "tip_radius": ("tip radius", "mm", 1e3), "n_loops": ("loops n", "", 1.0),
-    "dipoles_per_loop": ("dipoles per loop k", "", 1.0),
-    "magnetization_scale": ("magnetization scale", "", 1.0),
-}
-#: figure file name -> the sweeps it shows (the paper's figs. 9–12)
-FIGURES = {
-    "fig09_xy.png": ("x", "y"), "fig10_z.png": ("z",), "fig11_nk.png": ("n_loops", "dipoles_per_loop"),
-    "fig12_geometry.png": ("height", "base_radius"),
-}
+def display(parameter: str) -> tuple[str, str, float]:
+    """Label, unit and factor from SI of a parameter in these figures: the registry's display
+    unit, except that the base radius is shown as the base diameter, as the paper's fig. 12
+    does."""
+    p = PARAMETERS[parameter]
+    if parameter == "base_radius":
+        return "base diameter d", p.display, 2.0 / p.display_factor
+    return p.label, p.display, 1.0 / p.display_factor
+
+
+#: figure file of each of the paper's sensitivity figures
+FIGURE_FILES = {9: "fig09_xy.png", 10: "fig10_z.png", 11: "fig11_nk.png",
+                12: "fig12_geometry.png"}
+#: figure file name -> the sweeps it shows (the registry's figure numbers)
+FIGURES = {name: tuple(n for n in STUDIED if PARAMETERS[n].figure == number)
+           for number, name in FIGURE_FILES.items()}
 
 
 def _label(parameter: str) -> str:
-    name, unit, _ = DISPLAY[parameter]
+    name, unit, _ = display(parameter)
     return f"{name} ({unit})" if unit else name
 
 
@@ -43,7 +47,7 @@ def plot_sweep_curves(result: OATResult, ax: Axes, max_curves: int = 7) -> Axes:
     """Output (mV) vs tilt (deg) for up to ``max_curves`` values of the sweep, reference dashed."""
     from matplotlib import colormaps
 
-    name, unit, factor = DISPLAY[result.parameter]
+    name, unit, factor = display(result.parameter)
     deg = np.degrees(result.angles)
     idx = np.unique(np.linspace(0, result.values.size - 1, min(max_curves, result.values.size))
                     .round().astype(int))
@@ -62,9 +66,9 @@ def plot_sweep_curves(result: OATResult, ax: Axes, max_curves: int = 7) -> Axes:
 
 def plot_sweep_measure(result: OATResult, ax: Axes) -> Axes:
     """RMS output change (mV) vs the swept value, and the calibration cost on a twin axis."""
-    _, _, factor = DISPLAY[result.parameter]
+    _, _, factor = display(result.parameter)
     x = result.values * factor
-    marker = "o" if result.parameter in ("n_loops", "dipoles_per_loop") else ""
+    marker = "o" if PARAMETERS[result.parameter].domain == "integer" else ""
     ax.plot(x, result.rms_change * 1e3, marker=marker, color="C0", label="RMS change")
     ax.plot(x, result.shape_change * 1e3, marker=marker, color="C0", ls="--", label="offset-free")
     ax.legend(fontsize="x-small", loc="upper center")
@@ -105,7 +109,7 @@ def plot_xy_map(xy: PlacementMap, ax: Axes, quantity: str = "rms") -> Axes:
 
 def plot_sobol(result: SobolResult, ax: Axes) -> Axes:
     """Bars of first-order and total Sobol indices with confidence intervals."""
-    names = [DISPLAY[n][0] if n in DISPLAY else n for n in result.names]
+    names = [display(n)[0] if n in PARAMETERS else n for n in result.names]
     pos = np.arange(len(names))
     ax.bar(pos - 0.2, result.S1, 0.4, yerr=result.S1_conf, capsize=3, label="first order S1")
     ax.bar(pos + 0.2, result.ST, 0.4, yerr=result.ST_conf, capsize=3, label="total ST")
@@ -125,7 +129,7 @@ def sweep_figure(study: SensitivityStudy, parameters: tuple[str, ...]) -> Any:
     for j, name in enumerate(parameters):
         plot_sweep_curves(study.sweeps[name], axes[0, j])
         plot_sweep_measure(study.sweeps[name], axes[1, j])
-        axes[0, j].set_title(f"sensitivity to {DISPLAY[name][0]}")
+        axes[0, j].set_title(f"sensitivity to {display(name)[0]}")
     return fig
 
 
@@ -143,7 +147,7 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
               + (" min cost (V²) |" if study.data_source else ""),
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
     for r in study.summary():
-        name, unit, f = DISPLAY[r["parameter"]]
+        name, unit, f = display(r["parameter"])
         span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
         row = (f"| {name} | {span} | {r['max_rms_change_V'] * 1e3:.4g} | "
                f"{r['max_shape_change_V'] * 1e3:.4g} |")

@@ -1,0 +1,342 @@
+"""The parameter registry: every quantity a user names, once.
+
+Each :class:`Parameter` says what a setup keyword is: its SI unit and the dimension its
+unit-bearing strings must have, its domain (the one-line error when a value leaves it), its
+setup-file key and unit, its default calibration bound and sweep span, its display unit and label.
+Calibration, sensitivity, tolerance, reports, setup files and the CLI all read this table (the
+idea behind lmfit's ``Parameter`` and SALib's ``problem``); nobody restates it, and code indexes
+parameters by name, never by position.
+
+:data:`MEASURANDS` does the same for what read-out estimates (tilt angle, tip force, flow speed).
+
+Examples
+--------
+>>> PARAMETERS["height"].display, PARAMETERS["height"].to_display(3.2613e-3)
+('mm', 3.2613)
+>>> FITTED
+('height', 'base_radius', 'x', 'y', 'z', 'n_loops', 'dipoles_per_loop')
+>>> PARAMETERS["x"].span.around(1.5e-3)
+(0.0005, 0.0025)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from magcilia import _validate as v
+from magcilia.model.body import RINGS
+from magcilia.units import UNITS
+
+DOMAINS = ("positive", "non_negative", "real", "nonzero", "integer", "choice")
+
+
+@dataclass(frozen=True)
+class Span:
+    """A default one-at-a-time sweep range, relative to the nominal value or fixed (SI).
+
+    ``kind`` is ``"around"`` (nominal + low … nominal + high), ``"scale"`` (nominal · low …
+    nominal · high) or ``"fixed"`` (low … high).
+    """
+
+    kind: str
+    low: float
+    high: float
+
+    def around(self, nominal: float) -> tuple[float, float]:
+        """The range (low, high) for a setup whose value is ``nominal``."""
+        if self.kind == "around":
+            return nominal + self.low, nominal + self.high
+        if self.kind == "scale":
+            return nominal * self.low, nominal * self.high
+        return self.low, self.high
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A named quantity with its SI unit and display unit.
+
+    Attributes
+    ----------
+    name : str
+        The keyword it goes by in the API (``Setup.replace``, ``Setup.params()``, ``Readout``).
+    dimension : str or None
+        Key of :data:`magcilia.units.UNITS` that unit-bearing strings must have; None for plain
+        numbers, whole numbers and choices.
+    unit : str
+        SI unit, as used in messages ("" for dimensionless).
+    display : str
+        Unit shown to people (tables, figures, CLI), a key of ``UNITS[dimension]`` ("" for none).
+    label : str
+        Short human name.
+    """
+
+    name: str
+    dimension: str | None
+    unit: str
+    display: str
+    label: str
+
+    @property
+    def display_factor(self) -> float:
+        """SI value of one display unit (1e-3 for mm)."""
+        return UNITS[self.dimension][self.display] if self.dimension and self.display else 1.0
+
+    def to_display(self, value: float) -> float:
+        """An SI value in the display unit."""
+        return value / self.display_factor
+
+    def from_display(self, value: float) -> float:
+        """A value given in the display unit, in SI."""
+        return value * self.display_factor
+
+    def display_label(self) -> str:
+        """``label (unit)`` for axes and table headers."""
+        return f"{self.label} ({self.display})" if self.display else self.label
+
+
+@dataclass(frozen=True)
+class Parameter(Quantity):
+    """A setup parameter (see the module docstring).
+
+    Attributes
+    ----------
+    domain : str
+        One of :data:`DOMAINS`: the values allowed (integers are ≥ 1).
+    what : str
+        The noun of its one-line errors ("a positive *length* in m").
+    part : str
+        The object that holds it: ``"cilium"``, ``"material"``, ``"sensor"`` or ``"setup"``.
+    file : (str, str) or None
+        Table and key in setup files.
+    file_unit : str
+        Unit written to setup files.
+    bound : (float, float) or None
+        Default calibration bound, SI; the parameters with a bound are the ones
+        :func:`magcilia.calibrate` fits (:data:`FITTED`).
+    span : Span or None
+        Default one-at-a-time sweep span (the paper's figs. 9–12).
+    figure : int or None
+        The paper's sensitivity figure that sweeps it (9–12).
+    choices : tuple of str
+        Allowed strings for ``domain="choice"``.
+    model : bool
+        Whether the dipole model takes it per parameter set (a key of ``Setup.params()`` and of
+        :func:`magcilia.model.tilt_output_batch`).
+    """
+
+    domain: str = "real"
+    what: str = "number"
+    part: str = "setup"
+    file: tuple[str, str] | None = None
+    file_unit: str = ""
+    bound: tuple[float, float] | None = None
+    span: Span | None = None
+    figure: int | None = None
+    choices: tuple[str, ...] = ()
+    model: bool = False
+
+    def check(self, value: object, name: str | None = None) -> Any:
+        """``value`` checked against the domain (an integer, a float or a choice), or a one-line
+        :class:`~magcilia.MagciliaError` naming ``name`` (default: the parameter's name)."""
+        key = self.name if name is None else name
+        if self.domain == "positive":
+            return v.positive(key, value, self.unit, self.what)
+        if self.domain == "non_negative":
+            return v.non_negative(key, value, self.unit, self.what)
+        if self.domain == "integer":
+            return v.integer(key, value, 1)
+        if self.domain == "choice":
+            return v.choice(key, value, self.choices)
+        out = v.real(key, value, self.unit)
+        if self.domain == "nonzero" and out == 0.0:
+            raise v.fail(key, out, "a non-zero finite number")
+        return out
+
+    @property
+    def allowed(self) -> str:
+        """What values of the domain are, in the plural (for arrays and ranges of values)."""
+        return {
+            "positive": f"positive {self.what}s in {self.unit}" if self.unit else "positive numbers",
+            "non_negative": "non-negative numbers",
+            "integer": "whole numbers >= 1",
+            "nonzero": "non-zero finite numbers",
+        }.get(self.domain, "finite numbers")
+
+    def outside(self, values: ArrayLike) -> float | None:
+        """The first of ``values`` (finite numbers) outside the domain, or None."""
+        arr = np.asarray(values, dtype=np.float64).ravel()
+        if self.domain == "positive":
+            bad = arr <= 0.0
+        elif self.domain == "non_negative":
+            bad = arr < 0.0
+        elif self.domain == "integer":
+            bad = (arr < 1.0) | (arr != np.round(arr))
+        elif self.domain == "nonzero":
+            bad = arr == 0.0
+        else:
+            return None
+        return float(arr[bad][0]) if bad.any() else None
+
+    def check_range(self, low: float, high: float, name: str) -> None:
+        """Raise unless both ends of a (low, high) range lie in the domain."""
+        if self.outside([low, high]) is not None:
+            raise v.fail(name, (low, high), self.allowed)
+
+
+_MM = {"dimension": "length", "unit": "m", "display": "mm", "file_unit": "mm", "what": "length"}
+
+
+def _p(name: str, label: str, **kw: object) -> Parameter:
+    fields = {"dimension": None, "unit": "", "display": "", **kw}
+    if "file_unit" not in kw and fields["display"]:
+        fields["file_unit"] = fields["display"]
+    return Parameter(name=name, label=label, **fields)  # type: ignore[arg-type]
+
+
+#: every setup parameter, by name, in the order of setup files (tables cilium, material,
+#: placement, sensor, amplifier, model)
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    # cilium: the body
+    _p("height", "height", **_MM, domain="positive", part="cilium",
+       file=("cilium", "height"), bound=(2e-3, 4e-3), span=Span("scale", 0.8, 1.2), figure=12,
+       model=True),
+    _p("base_radius", "base radius", **_MM, domain="positive", part="cilium",
+       file=("cilium", "base_radius"), bound=(1e-4, 4e-4), span=Span("scale", 0.8, 1.2),
+       figure=12, model=True),
+    _p("tip_radius", "tip radius", **_MM, domain="non_negative", part="cilium",
+       file=("cilium", "tip_radius"), model=True),
+    _p("youngs_modulus", "Young's modulus", dimension="pressure", unit="Pa", display="MPa",
+       domain="positive", what="modulus", part="cilium", file=("cilium", "youngs_modulus")),
+    # material: the composite (eq. 1)
+    _p("cobalt_mass", "cobalt mass", dimension="mass", unit="kg", display="mg",
+       domain="positive", what="mass", part="material", file=("material", "cobalt_mass")),
+    _p("polymer_mass", "polymer mass", dimension="mass", unit="kg", display="mg",
+       domain="positive", what="mass", part="material", file=("material", "polymer_mass")),
+    _p("cobalt_density", "cobalt density", dimension="density", unit="kg/m^3",
+       display="g/cm^3", domain="positive", what="density", part="material",
+       file=("material", "cobalt_density")),
+    _p("polymer_density", "polymer density", dimension="density", unit="kg/m^3",
+       display="g/cm^3", domain="positive", what="density", part="material",
+       file=("material", "polymer_density")),
+    _p("atom_density", "cobalt atom density", dimension="number_density", unit="m^-3",
+       display="m^-3", domain="positive", what="number density", part="material",
+       file=("material", "atom_density")),
+    _p("moment_per_atom", "moment per cobalt atom", dimension="moment_per_atom", unit="A*m^2",
+       display="muB", domain="positive", what="moment", part="material",
+       file=("material", "moment_per_atom")),
+    _p("magnetization_scale", "magnetization scale", domain="non_negative", what="factor",
+       part="material", file=("material", "magnetization_scale"), model=True),
+    _p("polymer_modulus", "polymer modulus", dimension="pressure", unit="Pa", display="MPa",
+       domain="positive", what="modulus", part="material", file=("material", "polymer_modulus")),
+    # placement: the paper's (x_f, y_f, z_f)
+    _p("x", "x", **_MM, part="setup", file=("placement", "x"), bound=(-3e-3, 3e-3),
+       span=Span("around", -1e-3, 1e-3), figure=9, model=True),
+    _p("y", "y", **_MM, part="setup", file=("placement", "y"), bound=(-3e-3, 3e-3),
+       span=Span("around", -1e-3, 1e-3), figure=9, model=True),
+    _p("z", "z", **_MM, part="setup", file=("placement", "z"), bound=(0.0, 1e-3),
+       span=Span("fixed", 0.0, 1e-3), figure=10, model=True),
+    # sensor and amplifier
+    _p("sensitivity", "bridge sensitivity", dimension="sensitivity", unit="V/V/T",
+       display="mV/V/gauss", domain="positive", what="sensitivity", part="sensor",
+       file=("sensor", "sensitivity")),
+    _p("bridge_voltage", "bridge voltage", dimension="voltage", unit="V", display="V",
+       domain="positive", what="voltage", part="sensor", file=("sensor", "bridge_voltage")),
+    _p("depth", "depth of the sensing element", **_MM, domain="non_negative", part="sensor",
+       file=("sensor", "depth")),
+    _p("field_range", "linear range", dimension="field", unit="T", display="gauss",
+       domain="positive", what="field", part="sensor", file=("sensor", "range")),
+    _p("noise_density", "noise density", dimension="noise_density", unit="T/sqrt(Hz)",
+       display="nT/sqrt(Hz)", domain="non_negative", what="noise density", part="sensor",
+       file=("sensor", "noise_density")),
+    _p("flicker_corner", "1/f corner", dimension="frequency", unit="Hz", display="Hz",
+       domain="non_negative", what="frequency", part="sensor",
+       file=("sensor", "flicker_corner")),
+    _p("gain", "amplifier gain", domain="nonzero", part="sensor", file=("amplifier", "gain")),
+    _p("offset", "output offset", dimension="voltage", unit="V", display="mV", file_unit="V",
+       part="sensor", file=("amplifier", "offset"), model=True),
+    # the model's slices
+    _p("n_loops", "slices n", domain="integer", file=("model", "n_loops"), bound=(1, 10),
+       span=Span("fixed", 1, 10), figure=11, model=True),
+    _p("dipoles_per_loop", "dipoles per slice k", domain="integer",
+       file=("model", "dipoles_per_loop"), bound=(1, 10), span=Span("fixed", 1, 10), figure=11,
+       model=True),
+    _p("ring", "ring radius rule", domain="choice", choices=RINGS, file=("model", "ring")),
+)}
+
+#: what read-out estimates: tilt angle, tip force along +x, flow speed
+MEASURANDS: dict[str, Quantity] = {q.name: q for q in (
+    Quantity("angle", "angle", "rad", "deg", "tilt angle"),
+    Quantity("force", "force", "N", "mN", "tip force"),
+    Quantity("flow", "speed", "m/s", "m/s", "flow speed"),
+)}
+
+#: the model's per-set parameters (keys of ``Setup.params()``), in registry order
+MODEL = tuple(n for n, p in PARAMETERS.items() if p.model)
+#: what :func:`magcilia.calibrate` fits: the paper's seven, those with a default bound
+FITTED = tuple(n for n, p in PARAMETERS.items() if p.bound is not None)
+#: what one-at-a-time sweeps, Sobol and tolerance studies may vary (the model's, but the offset)
+SWEEPABLE = tuple(n for n in MODEL if n != "offset")
+#: the sweeps of the paper's figs. 9–12, in figure order
+STUDIED = tuple(sorted((n for n, p in PARAMETERS.items() if p.figure is not None),
+                       key=lambda n: PARAMETERS[n].figure or 0))
+#: fitted whole-number parameters (n and k)
+INTEGER = tuple(n for n in FITTED if PARAMETERS[n].domain == "integer")
+
+
+def parameter(name: str, among: tuple[str, ...] | None = None, key: str = "parameter") -> Parameter:
+    """The registry entry of ``name``, or a one-line error listing the allowed names (all, or
+    ``among``)."""
+    names = tuple(PARAMETERS) if among is None else among
+    v.choice(key, name, names)
+    return PARAMETERS[name]
+
+
+def default_bounds() -> dict[str, tuple[float, float]]:
+    """The default calibration bounds of :data:`FITTED`, SI."""
+    return {n: PARAMETERS[n].bound for n in FITTED}  # type: ignore[misc]
+
+
+def default_spans(nominal: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """The default sweep spans of :data:`STUDIED` around the values ``nominal`` (SI)."""
+    return {n: PARAMETERS[n].span.around(float(nominal[n])) for n in STUDIED}  # type: ignore[union-attr]
+
+
+def check_ranges(ranges: Mapping[str, Sequence[float]], key: str = "bounds") -> None:
+    """Raise unless each named (low, high) range lies in its parameter's domain: n and k whole
+    numbers >= 1, the height and base radius positive, …"""
+    for name, (lo, hi) in ranges.items():
+        PARAMETERS[name].check_range(float(lo), float(hi), f"{key}[{name!r}]")
+
+
+def describe_bounds(names: tuple[str, ...] = FITTED) -> str:
+    """The default bounds in display units, e.g. ``height 2:4, …`` (for help texts)."""
+    parts = []
+    for n in names:
+        p = PARAMETERS[n]
+        lo, hi = (p.to_display(b) for b in p.bound or (math.nan, math.nan))
+        parts.append(f"{n} {lo:g}:{hi:g}")
+    return ", ".join(parts)
+
+
+def describe_spans(names: tuple[str, ...] = STUDIED) -> str:
+    """The default sweep spans in display units, e.g. ``x ±1 mm, …`` (for help texts)."""
+    parts = []
+    for n in names:
+        p = PARAMETERS[n]
+        span = p.span
+        if span is None:
+            continue
+        unit = f" {p.display}" if p.display else ""
+        if span.kind == "scale":
+            parts.append(f"{n} ±{abs(span.high - 1.0) * 100:g} %")
+        elif span.kind == "around":
+            parts.append(f"{n} ±{p.to_display(span.high):g}{unit}")
+        else:
+            parts.append(f"{n} {p.to_display(span.low):g}:{p.to_display(span.high):g}{unit}")
+    return ", ".join(parts)
