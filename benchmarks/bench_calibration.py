@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 
 import magcilia as mc
 from magcilia.calibration import DEFAULT_BOUNDS, PARAMETERS
-from magcilia.cli.demo import example_path
+from magcilia.io import example_path
 
 
 def baseline_model(v: np.ndarray, angles: np.ndarray, depth: float, magnetization: float) -> np.ndarray:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from magcilia.cli.demo import example_path
+from magcilia.io import example_path
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

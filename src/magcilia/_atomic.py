@@ -1,6 +1,7 @@
 """Write output files atomically: to a temporary file beside the target, then rename.
 
-A crash or an error half-way never leaves a half-written file under the target's name. Also the
+A crash or an error half-way never leaves a half-written file under the target's name, nor a
+half-filled output folder (:func:`staged_directory`). Also the
 one JSON encoding of results (NumPy values as plain numbers, NaN/inf as null) and figure saving.
 """
 
@@ -10,12 +11,15 @@ import contextlib
 import json
 import math
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+
+from magcilia._errors import MagciliaError
 
 
 def _umask() -> int:
@@ -89,3 +93,20 @@ def save_figure(fig: Any, path: str | os.PathLike[str], dpi: int = 150) -> None:
     suffix = Path(path).suffix.lstrip(".") or "png"
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format=suffix)
+
+
+@contextlib.contextmanager
+def staged_directory(out: Path) -> Iterator[Path]:
+    """A temporary folder beside ``out``; its files move into ``out`` only when the block
+    succeeds (a failure leaves ``out`` as it was)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists() and not out.is_dir():
+            raise MagciliaError(f"{out}: a file of that name exists; give a folder to write into")
+        out.mkdir(exist_ok=True)
+        for item in tmp.iterdir():
+            item.replace(out / item.name)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

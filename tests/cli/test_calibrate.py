@@ -10,7 +10,7 @@ import pytest
 
 import magcilia as mc
 from magcilia.cli import main
-from magcilia.cli.demo import example_path
+from magcilia.io import example_path
 
 
 def test_bundled_example_is_labelled_synthetic() -> None:

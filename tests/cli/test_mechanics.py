@@ -142,7 +142,7 @@ def test_bundled_force_sensor_example_bends_and_reads_back(tmp_path: Path,
 
 
 def test_readout_with_calibration_covariance(tmp_path: Path) -> None:
-    from magcilia.cli.demo import example_path
+    from magcilia.io import example_path
 
     fit = tmp_path / "fit"
     assert main(["calibrate", str(example_path()), "--out", str(fit), "--restarts", "1",

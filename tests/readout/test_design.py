@@ -11,7 +11,8 @@ import pytest
 
 import magcilia as mc
 from magcilia.mechanics import AIR, Flow
-from magcilia.report.design import plot_design, plot_shapes
+from magcilia.report.design import plot_design
+from magcilia.report.mechanics import plot_shapes
 
 BANDWIDTH = (0.5, 50.0)
 
@@ -76,13 +77,13 @@ def test_range_ends_at_a_fold() -> None:
 
 
 def test_table_and_dict(metrics: mc.DesignMetrics) -> None:
-    text = metrics.table()
+    text = metrics.report()
     assert "V/mN" in text and "m/s" in text and "deg" in text
     assert len(text.splitlines()) == 5
     d = metrics.to_dict()
     assert set(d["metrics"]) == {"force", "flow", "angle"}
     cone = mc.design_metrics(mc.Setup.paper(), bandwidth=BANDWIDTH, points=21)
-    assert "not available" in cone.table()
+    assert "not available" in cone.report()
 
 
 def test_figures(metrics: mc.DesignMetrics, tapered: mc.Setup, tmp_path: Path) -> None:

@@ -11,8 +11,7 @@ import pytest
 
 import magcilia as mc
 from magcilia._atomic import write_json
-from magcilia.calibration import CalibrationResult
-from magcilia.cli.demo import example_path
+from magcilia.io import example_path
 from magcilia.mechanics import Flow
 from magcilia.readout.inverse import ReadoutFlag
 
@@ -124,21 +123,16 @@ def test_sigma_matches_monte_carlo_on_the_noise_model(setup: mc.Setup,
     assert np.all(res.sigma_calibration == 0.0)
 
 
-def _calibration(setup: mc.Setup, stderr: dict[str, float], corr: float) -> CalibrationResult:
-    names = tuple(stderr)
+def _calibration(stderr: dict[str, float], corr: float) -> mc.ParameterCovariance:
+    """What read-out takes of a calibration: standard errors and their correlation."""
     matrix = np.array([[1.0, corr], [corr, 1.0]])
-    return CalibrationResult(
-        setup=setup, initial=setup, cost=0.0, rms=0.0, residuals=np.zeros(1),
-        data=None,  # type: ignore[arg-type]
-        values={k: setup.params()[k] for k in names}, stderr=stderr, correlation=matrix,
-        correlation_names=names, bias_coefficients=np.zeros(1), bias="offset", warnings=(),
-        bounds={}, evaluations=0, elapsed=0.0,
-    )
+    return mc.ParameterCovariance(correlation_names=tuple(stderr), stderr=stderr,
+                                  correlation=matrix)
 
 
 def test_calibration_covariance_matches_monte_carlo(setup: mc.Setup) -> None:
     stderr = {"x": 2e-5, "offset": 2e-5}
-    cal = _calibration(setup, stderr, corr=0.4)
+    cal = _calibration(stderr, corr=0.4)
     span = (0.0, math.radians(80.0))
     r = mc.Readout(setup, quantity="angle", span=span, calibration=cal)
     true = math.radians(40.0)

@@ -96,6 +96,21 @@ class OATResult:
             "skipped": [{"value": val, "reason": why} for val, why in self.skipped],
         }
 
+    def report(self) -> str:
+        """One line: the swept range and the largest changes (display units)."""
+        p = PARAMETERS[self.parameter]
+        unit = f" {p.display}" if p.display else ""
+        lo, hi = (p.to_display(float(x)) for x in (self.values.min(), self.values.max()))
+        text = (f"{self.parameter} {lo:.4g}…{hi:.4g}{unit} ({self.values.size} values, "
+                f"{len(self.skipped)} skipped): largest RMS change "
+                f"{self.rms_change.max() * 1e3:.4g} mV, offset-free "
+                f"{self.shape_change.max() * 1e3:.4g} mV")
+        if self.cost is not None:
+            i = int(np.argmin(self.cost))
+            text += (f"; lowest cost {self.cost[i]:.4g} V² at "
+                     f"{p.to_display(float(self.values[i])):.4g}{unit}")
+        return text
+
 
 def _check_values(parameter: str, values: ArrayLike) -> F64:
     """Swept values: finite, non-empty, inside the parameter's domain (the registry's)."""
@@ -219,6 +234,15 @@ class PlacementMap:
             "cost_V2": None if self.cost is None else self.cost.tolist(),
         }
 
+    def report(self) -> str:
+        """One line: the grid and the largest change (display units)."""
+        x, y = PARAMETERS["x"], PARAMETERS["y"]
+        valid = np.isfinite(self.rms_change)
+        return (f"x-y map {x.to_display(self.x[0]):.4g}…{x.to_display(self.x[-1]):.4g} x "
+                f"{y.to_display(self.y[0]):.4g}…{y.to_display(self.y[-1]):.4g} {x.display}: "
+                f"{int(valid.sum())} of {valid.size} placements physical, largest RMS change "
+                f"{np.nanmax(self.rms_change) * 1e3:.4g} mV")
+
 
 def placement_map(
     setup: Setup,
@@ -300,8 +324,19 @@ class SensitivityStudy:
     data_source: str | None = None
 
     def summary(self) -> list[dict[str, Any]]:
+        """The same as :meth:`table` (the name of magcilia 0.1)."""
+        return self.table()
+
+    def report(self) -> str:
+        """Plain text: one line per sweep, the map and the notes."""
+        lines = [r.report() for r in self.sweeps.values()]
+        lines.append(self.xy_map.report())
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    def table(self) -> list[dict[str, Any]]:
         """Per sweep: span, largest RMS and offset-free change (V) and, with data, the best cost
-        and the value where it is reached."""
+        and the value where it is reached (SI)."""
         rows = []
         for name, res in self.sweeps.items():
             row: dict[str, Any] = {
@@ -322,7 +357,7 @@ class SensitivityStudy:
         return {
             "setup": self.setup.params(), "data": self.data_source,
             "spans": {k: list(s) for k, s in self.spans.items()},
-            "summary": self.summary(), "notes": list(self.notes),
+            "summary": self.table(), "notes": list(self.notes),
             "sweeps": {k: r.to_dict() for k, r in self.sweeps.items()},
             "xy_map": self.xy_map.to_dict(),
         }

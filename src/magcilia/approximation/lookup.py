@@ -5,6 +5,8 @@ beyond the table. SI units: angles in rad, outputs in V."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -83,6 +85,28 @@ class LookupTable:
             "y": self.y.tolist(), "y_unit": unit_out, "error_bound": self.error_bound,
             "angle_range_rad": list(self.angle_range),
         }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> LookupTable:
+        """Rebuild from :meth:`to_dict` output."""
+        try:
+            size = int(data["size"])
+            x = float(data["x_start"]) + float(data["x_step"]) * np.arange(size, dtype=np.float64)
+            lo, hi = (float(a) for a in data["angle_range_rad"])
+            return cls(quantity=v.choice("quantity", data["quantity"], QUANTITIES), x=x,
+                       y=np.asarray(data["y"], dtype=np.float64),
+                       error_bound=float(data["error_bound"]), angle_range=(lo, hi))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise v.fail("lookup table data", f"missing or bad {exc}",
+                         "a dict from LookupTable.to_dict()") from None
+
+    def report(self) -> str:
+        """One line: direction, size and error bound (deg or mV)."""
+        if self.quantity == "inverse":
+            return (f"lookup table V->angle, {self.size} entries: error bound "
+                    f"{math.degrees(self.error_bound):.4g} deg")
+        return (f"lookup table angle->V, {self.size} entries: error bound "
+                f"{self.error_bound * 1e3:.4g} mV")
 
 
 def lookup_table(

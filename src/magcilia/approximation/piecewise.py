@@ -180,6 +180,23 @@ class PiecewiseLinear:
             for k, val, s in zip(self.knots, self.values, slopes, strict=True)
         ]
 
+    def report(self) -> str:
+        """Plain text: the nodes (deg, mV, mV/deg), the errors and whether it can be inverted."""
+        lo, hi = self.angle_range
+        lines = [(f"piecewise-linear approximation, {self.corners} corner(s) over "
+                  f"{math.degrees(lo):.4g}..{math.degrees(hi):.4g} deg"),
+                 f"{'node':>4} {'angle/deg':>10} {'output/mV':>12} {'slope/(mV/deg)':>15}"]
+        for i, row in enumerate(self.table()):
+            slope = "" if math.isnan(row["slope_mV_per_deg"]) else f"{row['slope_mV_per_deg']:15.6g}"
+            lines.append(f"{i:>4} {row['angle_deg']:10.4f} {row['output_mV']:12.6f} {slope}")
+        lines.append(f"max error {self.max_error * 1e3:.4g} mV, RMS {self.rms_error * 1e3:.4g} mV, "
+                     f"max angle error {math.degrees(self.max_angle_error):.4g} deg")
+        if not self.invertible:
+            folds = ", ".join(f"{math.degrees(f):.4g}" for f in self.folds)
+            lines.append(f"note: the output is not monotonic over the range (folds at {folds} "
+                         "deg): no inverse")
+        return "\n".join(lines)
+
 
 def hat_basis(x: F64, knots: F64) -> F64:
     """Hat-function basis of continuous piecewise-linear functions, shape (g, m).

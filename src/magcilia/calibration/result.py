@@ -3,8 +3,9 @@ read-out needs of it."""
 
 from __future__ import annotations
 
-import json
+import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from magcilia.calibration.problem import PARAMETERS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
+from magcilia.io.results import read_json
 
 F64 = NDArray[np.float64]
 
@@ -24,7 +26,7 @@ F64 = NDArray[np.float64]
 @dataclass(frozen=True, eq=False)
 class ParameterCovariance:
     """Standard errors and correlations of calibrated parameters: what read-out needs of a
-    calibration (a :class:`CalibrationResult` carries the same three attributes).
+    calibration (a :class:`CalibrationResult` holds one as ``uncertainty``).
 
     Attributes
     ----------
@@ -44,34 +46,62 @@ class ParameterCovariance:
     correlation: F64
     covariance: F64 | None = None
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI; inf and NaN become null when written)."""
+        names = list(self.correlation_names)
+        return {
+            "stderr": dict(self.stderr),
+            "covariance": {"names": names,
+                           "matrix": None if self.covariance is None else self.covariance.tolist()},
+            "correlation": {"names": names, "matrix": self.correlation.tolist()},
+        }
+
     @classmethod
-    def load(cls, path: str | Path) -> ParameterCovariance:
-        """Read ``result.json`` written by ``magcilia calibrate`` (or a folder holding one);
-        null standard errors (undetermined) become inf."""
-        p = Path(path)
-        if p.is_dir():
-            p = p / "result.json"
+    def from_dict(cls, doc: Mapping[str, Any], source: str = "calibration") -> ParameterCovariance:
+        """Rebuild from :meth:`to_dict` output (or a whole ``result.json``); null standard errors
+        (undetermined) become inf."""
+        hint = "give the result.json of magcilia calibrate"
         try:
-            doc = json.loads(p.read_text(encoding="utf-8"))
             names = tuple(str(n) for n in doc["correlation"]["names"])
             matrix = np.array(doc["correlation"]["matrix"], dtype=np.float64)  # null -> nan
             stderr = {str(k): math.inf if val is None else float(val)
                       for k, val in doc["stderr"].items()}
             stored = (doc.get("covariance") or {}).get("matrix")
             covariance = None if stored is None else np.array(stored, dtype=np.float64)
-        except FileNotFoundError:
-            raise MagciliaError(f"{p}: no such file; give the result.json (or the --out folder) "
-                                "of magcilia calibrate") from None
-        except (ValueError, KeyError, TypeError) as exc:
-            raise MagciliaError(f"{p}: not a calibration result ({type(exc).__name__}: {exc}); "
-                                "give the result.json of magcilia calibrate") from None
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+            raise MagciliaError(f"{source}: not a calibration result ({type(exc).__name__}: "
+                                f"{exc}); {hint}") from None
         shape = (len(names), len(names))
         if (matrix.shape != shape or not set(names) <= set(stderr)
                 or (covariance is not None and covariance.shape != shape)):
-            raise MagciliaError(f"{p}: correlation matrix and standard errors do not match the "
-                                "parameter names; give an unedited result.json")
+            raise MagciliaError(f"{source}: correlation matrix and standard errors do not match "
+                                "the parameter names; give an unedited result.json")
         return cls(correlation_names=names, stderr=stderr, correlation=matrix,
                    covariance=covariance)
+
+    @classmethod
+    def load(cls, path: str | Path) -> ParameterCovariance:
+        """Read ``result.json`` written by ``magcilia calibrate`` (or a folder holding one)."""
+        p, doc = read_json(path, default_name="result.json",
+                           hint="give the result.json (or the --out folder) of magcilia calibrate")
+        return cls.from_dict(doc, source=str(p))
+
+    def report(self) -> str:
+        """Standard errors (display units) and the strong correlations, one per line."""
+        lines = []
+        for name in self.correlation_names:
+            se = self.stderr.get(name, math.nan)
+            unit = REGISTRY[name].display if name in REGISTRY else ""
+            shown = REGISTRY[name].to_display(se) if name in REGISTRY else se
+            text = "undetermined" if se == math.inf else f"± {shown:.4g} {unit}".rstrip()
+            lines.append(f"{name}: {text}")
+        names = self.correlation_names
+        for i, j in itertools.combinations(range(len(names)), 2):
+            c = self.correlation[i, j]
+            if np.isfinite(c) and abs(c) > 0.9:
+                lines.append(f"{names[i]} and {names[j]} correlated {c:+.3f}")
+        return "\n".join(lines)
+
 
 @dataclass(frozen=True, eq=False)
 class CalibrationResult:
@@ -92,12 +122,11 @@ class CalibrationResult:
         Measured − fitted model, V.
     data : Measurement
         The data that were fitted.
-    values, stderr : dict of str to float
-        Fitted parameters (SI) and their 1-σ standard errors from the Jacobian (NaN where not
-        defined: integer parameters, or parameters the data do not determine).
-    correlation : ndarray, shape (p, p)
-        Correlation matrix of ``correlation_names``.
-    correlation_names : tuple of str
+    values : dict of str to float
+        Fitted parameters (SI).
+    uncertainty : ParameterCovariance
+        Their 1-σ standard errors, correlations and covariance from the Jacobian; also as the
+        attributes ``stderr``, ``correlation``, ``correlation_names`` and ``covariance``.
     bias_coefficients : ndarray
         Polynomial bias coefficients (constant first; V, V/rad, …); the constant is the offset.
     warnings : tuple of str
@@ -110,9 +139,6 @@ class CalibrationResult:
         Wall time, s.
     restart_costs : tuple of float
         Final cost of each restart, V².
-    covariance : ndarray, shape (p, p), or None
-        Parameter covariance of ``correlation_names`` (SI): σ² (JᵀJ)⁺, finite also along
-        undetermined combinations, so that J C Jᵀ gives the fitted curve's uncertainty.
     """
 
     setup: Setup
@@ -122,9 +148,7 @@ class CalibrationResult:
     residuals: F64
     data: Measurement
     values: dict[str, float]
-    stderr: dict[str, float]
-    correlation: F64
-    correlation_names: tuple[str, ...]
+    uncertainty: ParameterCovariance
     bias_coefficients: F64
     bias: str
     warnings: tuple[str, ...]
@@ -132,7 +156,28 @@ class CalibrationResult:
     evaluations: int
     elapsed: float
     restart_costs: tuple[float, ...] = field(default=())
-    covariance: F64 | None = None
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """1-σ standard errors, SI (inf where the data do not determine the parameter; NaN where
+        not defined)."""
+        return self.uncertainty.stderr
+
+    @property
+    def correlation(self) -> F64:
+        """Correlation matrix of :attr:`correlation_names`, shape (p, p)."""
+        return self.uncertainty.correlation
+
+    @property
+    def correlation_names(self) -> tuple[str, ...]:
+        """Names of the rows of :attr:`correlation` and :attr:`covariance`."""
+        return self.uncertainty.correlation_names
+
+    @property
+    def covariance(self) -> F64 | None:
+        """Parameter covariance (SI), shape (p, p): σ² (JᵀJ)⁺, finite also along undetermined
+        combinations, so that J C Jᵀ gives the fitted curve's uncertainty."""
+        return self.uncertainty.covariance
 
     @property
     def fitted(self) -> F64:
@@ -174,11 +219,7 @@ class CalibrationResult:
         """JSON-ready content (SI units, plus the display table)."""
         return {
             "source": self.data.source, "cost_V2": self.cost, "rms_V": self.rms,
-            "values": self.values, "stderr": self.stderr,
-            "covariance": {"names": list(self.correlation_names),
-                           "matrix": None if self.covariance is None else self.covariance.tolist()},
-            "correlation": {"names": list(self.correlation_names),
-                            "matrix": self.correlation.tolist()},
+            "values": self.values, **self.uncertainty.to_dict(),
             "bias": self.bias, "bias_coefficients": self.bias_coefficients.tolist(),
             "warnings": list(self.warnings), "bounds": {k: list(b) for k, b in self.bounds.items()},
             "angle_deg": self.data.angles_deg.tolist(), "measured_V": self.data.volts.tolist(),

@@ -42,7 +42,7 @@ from magcilia.calibration.problem import (
     Problem,
     named,
 )
-from magcilia.calibration.result import CalibrationResult
+from magcilia.calibration.result import CalibrationResult, ParameterCovariance
 from magcilia.calibration.uncertainty import uncertainty
 from magcilia.device.parameters import check_ranges
 from magcilia.device.setup import Setup
@@ -225,8 +225,8 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
     names, stderr, corr, cov, warns = uncertainty(problem, x, scale, cost, box)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
-        residuals=residuals, data=data, values=values, stderr=stderr, correlation=corr,
-        correlation_names=names, bias_coefficients=coef, bias=bias, warnings=warns, bounds=box,
-        evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
-        restart_costs=restart_costs, covariance=cov,
+        residuals=residuals, data=data, values=values,
+        uncertainty=ParameterCovariance(names, stderr, corr, cov), bias_coefficients=coef,
+        bias=bias, warnings=warns, bounds=box, evaluations=problem.evaluations,
+        elapsed=time.perf_counter() - t0, restart_costs=restart_costs,
     )

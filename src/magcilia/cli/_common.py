@@ -2,25 +2,27 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
-import shutil
-import tempfile
-from collections.abc import Iterator, Sequence
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 from numpy.typing import NDArray
+from tqdm import tqdm
 
 from magcilia._atomic import json_text
 from magcilia._validate import fail
+from magcilia.calibration import CalibrationResult, calibrate
 from magcilia.device.parameters import PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
-from magcilia.units import parse_range
+from magcilia.mechanics import FLUIDS, Flow
+from magcilia.units import parse_quantity, parse_range
 
 #: built-in setups usable wherever a SETUP file is expected
 PRESETS = {"paper": Setup.paper, "paper-initial": Setup.paper_initial}
@@ -85,17 +87,45 @@ def parse_named_ranges(option: str, items: tuple[str, ...],
     return out
 
 
-@contextlib.contextmanager
-def staged_directory(out: Path) -> Iterator[Path]:
-    """A temporary directory beside ``out``; its files move into ``out`` only on success."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
-    try:
-        yield tmp
-        if out.exists() and not out.is_dir():
-            raise fail("--out", str(out), "a directory (a file of that name exists)")
-        out.mkdir(exist_ok=True)
-        for item in tmp.iterdir():
-            item.replace(out / item.name)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) -> Setup:
+    """SETUP argument with the optional --tip-radius / --modulus overrides applied."""
+    setup = load_setup_arg(arg)
+    changes: dict[str, float] = {}
+    if tip_radius is not None:
+        changes["tip_radius"] = parse_quantity(tip_radius, "length", "--tip-radius")
+    if modulus is not None:
+        changes["youngs_modulus"] = parse_quantity(modulus, "pressure", "--modulus")
+    return setup.replace(**changes) if changes else setup
+
+
+def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow | None:
+    """A Flow from the CLI options (None without --flow)."""
+    if speed is None:
+        return None
+    u = parse_quantity(speed, "speed", "--flow")
+    if shear_height is not None:
+        h = parse_quantity(shear_height, "length", "--shear-height")
+        return Flow.shear(speed=u, height=h, fluid=FLUIDS[fluid])
+    return Flow.uniform(u, FLUIDS[fluid])
+
+
+def mechanics_options(command: Any) -> Any:
+    """``--tip-radius`` and ``--modulus``: override the setup's mechanics on the command line."""
+    command = click.option("--modulus", default=None,
+                           help="Override Young's modulus, with a unit (e.g. 2MPa).")(command)
+    return click.option("--tip-radius", default=None,
+                        help="Override the setup's tip radius, with a unit (e.g. 0.05mm).")(command)
+
+
+def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
+                            **options: Any) -> CalibrationResult:
+    """:func:`magcilia.calibrate` with a progress bar over the restarts on stderr (not with
+    ``--quiet`` or when stderr is not a terminal)."""
+    show = not quiet and sys.stderr.isatty()
+    with tqdm(desc="calibrating (restarts)", unit="run", disable=not show,
+              file=sys.stderr) as bar:
+        def advance(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        return calibrate(data, initial=initial, progress=advance, **options)

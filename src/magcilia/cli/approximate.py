@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import click
 
 from magcilia._atomic import write_json, write_text
@@ -59,20 +57,8 @@ def command(setup_arg: str, corners: int, range_text: str, grid: int, table_size
     if as_json:
         echo_json(doc)
         return
-    click.echo(f"piecewise-linear approximation, {approx.corners} corner(s) over "
-               f"{math.degrees(lo):.4g}..{math.degrees(hi):.4g} deg")
-    click.echo(f"{'node':>4} {'angle/deg':>10} {'output/mV':>12} {'slope/(mV/deg)':>15}")
-    for i, row in enumerate(approx.table()):
-        slope = "" if math.isnan(row["slope_mV_per_deg"]) else f"{row['slope_mV_per_deg']:15.6g}"
-        click.echo(f"{i:>4} {row['angle_deg']:10.4f} {row['output_mV']:12.6f} {slope}")
-    click.echo(f"max error {approx.max_error * 1e3:.4g} mV, RMS {approx.rms_error * 1e3:.4g} mV, "
-               f"max angle error {math.degrees(approx.max_angle_error):.4g} deg")
-    if not approx.invertible:
-        folds = ", ".join(f"{math.degrees(f):.4g}" for f in approx.folds)
-        click.echo(f"note: the output is not monotonic over the range (folds at {folds} deg): "
-                   "no inverse")
+    click.echo(approx.report())
     if table is not None:
-        click.echo(f"lookup table V->angle, {table.size} entries: error bound "
-                   f"{math.degrees(table.error_bound):.4g} deg")
+        click.echo(table.report())
     if c_header:
         click.echo(f"wrote {c_header} ({'fixed-point' if fixed_point else 'float'})")

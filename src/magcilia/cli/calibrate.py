@@ -2,45 +2,18 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import click
-from tqdm import tqdm
 
-from magcilia._atomic import write_json
-from magcilia.calibration import PARAMETERS, CalibrationResult, calibrate
+from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
+    calibrate_with_progress,
     echo_json,
     load_setup_arg,
     parse_named_ranges,
-    staged_directory,
 )
 from magcilia.device.parameters import describe_bounds
-from magcilia.device.setup import Setup
-from magcilia.io.recordings import Measurement, read_measurements
-from magcilia.io.setup_files import save_setup
-from magcilia.report.calibration import write_report
-
-
-def run_calibration(data: Measurement, initial: Setup, out: Path, *, seed: int, restarts: int,
-                    bias: str, bias_degree: int, fit_scale: bool,
-                    bounds: dict[str, tuple[float, float]], quiet: bool) -> CalibrationResult:
-    """Calibrate with a progress bar and write fitted setup, result JSON and report into ``out``."""
-    show = not quiet and sys.stderr.isatty()
-    with tqdm(total=restarts, desc="calibrating (restarts)", unit="run", disable=not show,
-              file=sys.stderr) as bar:
-        def advance(done: int, _total: int) -> None:
-            bar.update(done - bar.n)
-
-        result = calibrate(data, initial=initial, bounds=bounds, rng=seed, bias=bias,
-                           bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts,
-                           progress=advance)
-    with staged_directory(out) as tmp:
-        save_setup(result.setup, tmp / "fitted_setup.toml")
-        write_json(tmp / "result.json", result.to_dict())
-        write_report(result, tmp)
-    return result
+from magcilia.io.recordings import read_measurements
+from magcilia.report.calibration import write_calibration
 
 
 @click.command()
@@ -77,9 +50,10 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
                                     saturation=saturation)
     bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
-    result = run_calibration(measurement, initial, Path(out_dir), seed=seed, restarts=restarts,
-                             bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
-                             bounds=bounds, quiet=quiet)
+    result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds, rng=seed,
+                                     bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
+                                     restarts=restarts)
+    write_calibration(result, out_dir)
     if as_json:
         echo_json(result.to_dict())
     else:

@@ -2,19 +2,14 @@
 
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 import click
 
-from magcilia.cli.calibrate import run_calibration
+from magcilia.cli._common import calibrate_with_progress
 from magcilia.device.setup import Setup
-from magcilia.io.recordings import read_measurements
-
-
-def example_path() -> Path:
-    """Path of the bundled synthetic example recording (CSV)."""
-    return Path(str(resources.files("magcilia") / "data" / "example_recording.csv"))
+from magcilia.io.recordings import example_path, read_measurements
+from magcilia.report.calibration import write_calibration
 
 
 @click.command()
@@ -34,8 +29,8 @@ def command(out_dir: str, seed: int, quiet: bool) -> None:
     data = read_measurements(path, sensor=initial.sensor)
     click.echo(f"bundled synthetic recording: {path.name}, {len(data)} angles, "
                f"{int(data.counts.sum())} samples")
-    result = run_calibration(data, initial, Path(out_dir), seed=seed, restarts=3, bias="offset",
-                             bias_degree=0, fit_scale=False, bounds={}, quiet=quiet)
+    result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed)
+    write_calibration(result, out_dir)
     click.echo(result.report())
     click.echo(f"report written to {Path(out_dir) / 'report.md'} (figures fit.png, residuals.png; "
                "fitted setup fitted_setup.toml)")

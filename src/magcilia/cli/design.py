@@ -5,8 +5,14 @@ from __future__ import annotations
 import click
 
 from magcilia._atomic import save_figure, write_json
-from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth, setup_label
-from magcilia.cli.bend import load_mechanics_setup, mechanics_options
+from magcilia.cli._common import (
+    bandwidth_option,
+    echo_json,
+    load_mechanics_setup,
+    mechanics_options,
+    parse_bandwidth,
+    setup_label,
+)
 from magcilia.mechanics import FLUIDS
 from magcilia.readout.design import design_metrics
 
@@ -42,4 +48,4 @@ def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
     if as_json:
         echo_json(doc)
         return
-    click.echo(metrics.table())
+    click.echo(metrics.report())

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from pathlib import Path
 
@@ -13,16 +11,18 @@ import numpy as np
 from magcilia._atomic import write_text
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
-from magcilia.cli._common import bandwidth_option, echo_json, parse_bandwidth
-from magcilia.cli.bend import (
+from magcilia.cli._common import (
+    bandwidth_option,
+    echo_json,
     load_mechanics_setup,
     mechanics_options,
-    require_tip_radius,
+    parse_bandwidth,
 )
 from magcilia.device.parameters import MEASURANDS
 from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout.inverse import Readout, ReadoutFlag
+from magcilia.readout.inverse import Readout
+from magcilia.report.readout import readout_csv
 from magcilia.units import UNITS, parse_quantity
 
 
@@ -84,33 +84,16 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     """
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     span = parse_span(span_text, quantity)
-    if quantity != "angle":
-        require_tip_radius(setup, setup_arg, "a force" if quantity == "force" else "a flow load")
     volts, times = read_recording(recording)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
                       table_size=table_size)
     result = readout.read(volts, bandwidth=parse_bandwidth(bandwidth))
-    unit, factor = MEASURANDS[quantity].display, MEASURANDS[quantity].display_factor
-    col = f"{quantity}_{unit.replace('/', '_per_')}"
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow([*(["time_s"] if times is not None else []), "voltage_V", col,
-                     f"sigma_{col}", "flags", "flag_names"])
-    for i, volt in enumerate(volts):
-        flag = int(result.flags[i])
-        names = "|".join(f.name.lower() for f in ReadoutFlag if f and flag & f)  # type: ignore[union-attr]
-        value = result.value[i]
-        writer.writerow([
-            *([repr(float(times[i]))] if times is not None else []), repr(float(volt)),
-            "" if math.isnan(value) else f"{value / factor:.10g}",
-            "" if math.isnan(value) else f"{result.sigma[i] / factor:.4g}", flag, names,
-        ])
-    write_text(out_path, buf.getvalue())
+    write_text(out_path, readout_csv(result, volts, times))
     if as_json:
         echo_json({**readout.to_dict(), "readings": int(volts.size),
                    "estimated": int(result.ok.sum()), "out": out_path})
         return
-    click.echo(f"{Path(out_path).name}: {result.summary()}; table error ≤ "
+    click.echo(f"{Path(out_path).name}: {result.report()}; table error ≤ "
                f"{readout.table_error:.2g} {readout.unit}")

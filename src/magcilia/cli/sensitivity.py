@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
+from magcilia._atomic import staged_directory
 from magcilia._errors import MissingDependencyError, require
 from magcilia._validate import fail
 from magcilia.analysis import STUDY_PARAMETERS, sensitivity_study, sobol_indices
@@ -19,7 +20,6 @@ from magcilia.cli._common import (
     load_setup_arg,
     parse_bandwidth,
     parse_named_ranges,
-    staged_directory,
 )
 from magcilia.device.parameters import PARAMETERS, describe_spans
 from magcilia.io.recordings import read_measurements
@@ -93,7 +93,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         return
     click.echo(f"{'parameter':<18} {'span':>22} {'max RMS change/mV':>18} {'offset-free/mV':>15}"
                + (f" {'min cost/V^2':>13}" if measurement is not None else ""))
-    for r in study.summary():
+    for r in study.table():
         p = PARAMETERS[r["parameter"]]
         unit = f" {p.display}" if p.display else ""
         span = f"{p.to_display(r['span'][0]):.4g}..{p.to_display(r['span'][1]):.4g}{unit}"

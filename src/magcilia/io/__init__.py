@@ -2,7 +2,8 @@
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS) reduced to a :class:`Measurement`;
-* :mod:`.firmware`: C headers and JSON of read-out approximations.
+* :mod:`.firmware`: C headers and JSON of read-out approximations;
+* :mod:`.results`: saved JSON results read back with one-line errors.
 """
 
 from __future__ import annotations
@@ -10,17 +11,21 @@ from __future__ import annotations
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
 from magcilia.io.recordings import (
     Measurement,
+    example_path,
     measurement_from_samples,
     read_measurements,
     read_samples,
 )
+from magcilia.io.results import read_json
 from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, setup_to_dict
 
 __all__ = [
     "Measurement",
+    "example_path",
     "fixed_point_format",
     "load_setup",
     "measurement_from_samples",
+    "read_json",
     "read_measurements",
     "read_samples",
     "save_setup",

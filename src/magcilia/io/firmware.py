@@ -20,9 +20,11 @@ caller (or a test) can compare the integer results with.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -59,6 +61,16 @@ class FixedPointFormat:
     inverse_slope_bits: int
     output_tolerance: float
     angle_tolerance: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (bits; tolerances in V and rad)."""
+        return dataclasses.asdict(self)
+
+    def report(self) -> str:
+        """One line: the Q formats and the quantisation error bounds."""
+        return (f"angles Q{self.angle_bits}, volts Q{self.volt_bits}, slopes Q{self.slope_bits} "
+                f"(inverse Q{self.inverse_slope_bits}); quantisation error ≤ "
+                f"{self.output_tolerance:.3g} V, {self.angle_tolerance:.3g} rad")
 
 
 def _frac_bits(max_abs: float, headroom: float = 4.0) -> int:

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
+from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
 
 F64 = NDArray[np.float64]
@@ -85,13 +88,43 @@ class Measurement:
         return np.degrees(self.angles)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (angles in degrees, volts in V)."""
+        """JSON-ready summary (SI: angles in rad, volts in V)."""
         return {
             "source": self.source, "set_reset": self.set_reset,
-            "angle_deg": self.angles_deg.tolist(), "voltage_V": self.volts.tolist(),
+            "angle_rad": self.angles.tolist(), "voltage_V": self.volts.tolist(),
             "sem_V": self.sem.tolist(), "count": self.counts.tolist(),
             "saturated": self.saturated.tolist(), "nonfinite": self.nonfinite.tolist(),
+            "metadata": dict(self.metadata),
         }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Measurement:
+        """Rebuild from :meth:`to_dict` output."""
+        try:
+            return cls(
+                angles=np.asarray(data["angle_rad"], dtype=np.float64),
+                volts=np.asarray(data["voltage_V"], dtype=np.float64),
+                sem=np.asarray(data["sem_V"], dtype=np.float64),
+                counts=np.asarray(data["count"], dtype=np.int64),
+                saturated=np.asarray(data["saturated"], dtype=np.int64),
+                nonfinite=np.asarray(data["nonfinite"], dtype=np.int64),
+                set_reset=bool(data["set_reset"]), source=str(data["source"]),
+                metadata=dict(data.get("metadata") or {}),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise v.fail("measurement data", f"missing or bad {exc}",
+                         "a dict from Measurement.to_dict()") from None
+
+    def report(self) -> str:
+        """One line: source, angles, samples and what was dropped."""
+        deg = self.angles_deg
+        text = (f"{self.source}: {len(self)} angles {deg.min():.4g}..{deg.max():.4g} deg, "
+                f"{int(self.counts.sum())} samples"
+                + (" (set/reset differences)" if self.set_reset else ""))
+        dropped = [f"{int(n.sum())} {what}" for n, what in ((self.saturated, "saturated"),
+                                                            (self.nonfinite, "non-finite"))
+                   if n.sum()]
+        return text + (f"; {', '.join(dropped)}" if dropped else "")
 
 
 def measurement_from_samples(
@@ -149,7 +182,7 @@ def measurement_from_samples(
         i = int(np.argmax(sat))
         raise MagciliaError(
             f"{source}: sample {i + 1} (voltage_V={volt[i]:.6g} at {ang[i]:g} deg) is beyond the "
-            f"sensor's linear range (±{sensor.field_range * 1e4:g} gauss = "
+            f"sensor's linear range (±{sensor.field_range / GAUSS:g} gauss = "
             f"±{sensor.field_range * abs(sensor.scale):.4g} V); check gain and offset, or pass "
             "saturation='omit' (CLI: --saturation omit) to drop such samples"
         )
@@ -358,3 +391,10 @@ def read_measurements(
         cols["angle_deg"], cols["voltage_V"], setreset=cols.get("setreset"), sensor=sensor,
         nan_policy=nan_policy, saturation=saturation, source=str(p),
     )
+
+
+def example_path() -> Path:
+    """Path of the bundled SYNTHETIC example recording (CSV; made by
+    ``scripts/make_example_recording.py`` from the paper's Table I, truth and seed in the JSON
+    beside it)."""
+    return Path(str(resources.files("magcilia") / "data" / "example_recording.csv"))

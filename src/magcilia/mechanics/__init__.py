@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from magcilia.mechanics.bend import bend, bend_sweep, tip_compliance
+from magcilia.mechanics.bend import SHARP_TIP, bend, bend_sweep, require_tip_radius, tip_compliance
 from magcilia.mechanics.drag import AIR, FLUIDS, WATER, Fluid, drag_coefficient, drag_per_length
 from magcilia.mechanics.exact import cantilever_tip
 from magcilia.mechanics.flow import Flow
@@ -17,6 +17,7 @@ from magcilia.mechanics.shape import BentShape, Load
 __all__ = [
     "AIR",
     "FLUIDS",
+    "SHARP_TIP",
     "WATER",
     "BentShape",
     "Flow",
@@ -27,5 +28,6 @@ __all__ = [
     "cantilever_tip",
     "drag_coefficient",
     "drag_per_length",
+    "require_tip_radius",
     "tip_compliance",
 ]

@@ -105,6 +105,23 @@ class _Case:
         return s_out, th, pts
 
 
+#: why a sharp cone (tip_radius 0) cannot carry each kind of load
+SHARP_TIP = {
+    "force": "a point load at the tip: a sharp cone's tip compliance is infinite (I ∝ r⁴ → 0 at "
+             "the tip)",
+    "flow": "a flow load: on a sharp cone the drag on the vanishing tip section (EI ∝ r⁴ → 0 while "
+            "the drag per length stays finite) makes the tip rotation singular",
+}
+
+
+def require_tip_radius(setup: Setup, load: str) -> None:
+    """Raise unless the cilium has a tip radius, which a tip ``load`` ("force" or "flow") needs."""
+    if setup.cilium.tip_radius == 0.0:
+        below = " or apply the load below the tip (at=, CLI: --at)" if load == "force" else ""
+        raise v.fail("tip_radius", 0.0, f"positive for {SHARP_TIP[load]}; set tip_radius > 0 "
+                     f"(CLI: --tip-radius, e.g. --tip-radius 0.05mm){below}")
+
+
 def _check(setup: Setup, force: float, at: float | None, direction: float,
            flow: Flow | None) -> tuple[float, float, float]:
     if not isinstance(setup, Setup):
@@ -120,22 +137,13 @@ def _check(setup: Setup, force: float, at: float | None, direction: float,
         if at > length * (1.0 + 1e-12):
             raise v.fail("at", at, f"an arc length in (0, {length:.6g}] m (the cilium's length)")
         at = min(at, length)
-    if force != 0.0 and c.tip_radius == 0.0 and at >= length * (1.0 - 1e-9):
-        raise v.fail(
-            "tip_radius", 0.0,
-            "positive for a point load at the tip: a sharp cone's tip compliance is infinite "
-            "(I ∝ r⁴ → 0 at the tip); set tip_radius > 0 or apply the load below the tip with at=",
-        )
+    if force != 0.0 and at >= length * (1.0 - 1e-9):
+        require_tip_radius(setup, "force")
     if flow is not None:
-        if c.tip_radius == 0.0 and flow.speed != 0.0:
-            raise v.fail(
-                "tip_radius", 0.0,
-                "positive for a flow load: on a sharp cone the drag on the vanishing tip section "
-                "(EI ∝ r⁴ → 0 while the drag per length stays finite) makes the tip rotation "
-                "singular; set tip_radius > 0",
-            )
         if not isinstance(flow, Flow):
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow (Flow.uniform, …)")
+        if flow.speed != 0.0:
+            require_tip_radius(setup, "flow")
         z = np.linspace(0.0, length, 65)
         fastest = float(np.max(np.abs(flow.velocity(z))))
         check_reynolds(fastest, 2.0 * c.max_radius, flow.fluid)  # the widest section

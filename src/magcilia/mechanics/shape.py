@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,3 +77,21 @@ class BentShape(Centreline):
     def deflection(self) -> float:
         """Tip displacement along x, m."""
         return float(self.points[0, -1, 0])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI): the load, the tip, the solver figures and the centreline."""
+        load = self.load
+        return {
+            "load": {"force_N": load.force, "direction_rad": load.direction, "at_m": load.at,
+                     "flow": None if load.flow is None else load.flow.describe()},
+            "tip_m": self.tip.tolist(), "tip_angle_rad": self.tip_angle,
+            "residual_rad": self.residual, "iterations": self.iterations, "nodes": self.nodes,
+            "centreline_m": {"s": self.s.tolist(), "x": self.points[0, :, 0].tolist(),
+                             "z": self.points[0, :, 2].tolist()},
+        }
+
+    def report(self) -> str:
+        """One line: the tip position (mm) and angle (deg)."""
+        x, _, z = self.tip * 1e3
+        return (f"tip x {x:.6g} mm, z {z:.6g} mm from the base centre; tip angle "
+                f"{math.degrees(self.tip_angle):.6g} deg")

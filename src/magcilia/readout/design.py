@@ -24,10 +24,11 @@ from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
-from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
+from magcilia.mechanics import SHARP_TIP, WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import max_speed
 
 F64 = NDArray[np.float64]
@@ -64,6 +65,18 @@ class Metric:
     limited_by: str
     curve: F64 = field(repr=False)
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI units; the swept curve left out)."""
+        return {"unit": self.unit, "sensitivity_V_per_unit": self.sensitivity,
+                "minimum": self.minimum, "range": self.range, "limited_by": self.limited_by}
+
+    def report(self) -> str:
+        """One line in display units."""
+        q = MEASURANDS[self.quantity]
+        return (f"{self.quantity}: {self.sensitivity * q.display_factor:.4g} V/{q.display}, "
+                f"minimum {q.to_display(self.minimum):.4g} {q.display}, range "
+                f"{q.to_display(self.range):.4g} {q.display} ({self.limited_by})")
+
 
 @dataclass(frozen=True, eq=False)
 class DesignMetrics:
@@ -93,20 +106,31 @@ class DesignMetrics:
         """(force, flow, angle)."""
         return self.force, self.flow, self.angle
 
-    def table(self) -> str:
+    def table(self) -> list[dict[str, Any]]:
+        """Rows per measurand in display units (mN, m/s, deg; V per display unit); NaN where a
+        metric is not available."""
+        rows = []
+        for m in self.metrics:
+            q = MEASURANDS[m.quantity]
+            rows.append({"quantity": m.quantity, "unit": q.display,
+                         "sensitivity": m.sensitivity * q.display_factor,
+                         "minimum": q.to_display(m.minimum), "range": q.to_display(m.range),
+                         "limited_by": m.limited_by})
+        return rows
+
+    def report(self) -> str:
         """Plain-text table in display units (mN, m/s, deg; V)."""
         lo, hi = self.bandwidth
         lines = [
             f"noise {self.noise * 1e6:.4g} µV RMS over {lo:g}–{hi:g} Hz; flow in {self.fluid.name}",
             f"{'quantity':<8} {'sensitivity':>22} {'min. detectable':>18} {'range':>14}  limited by",
         ]
-        for m in self.metrics:
-            q = MEASURANDS[m.quantity]
-            unit, f = q.display, 1.0 / q.display_factor
-            sens = f"{m.sensitivity / f:.4g} V/{unit}" if math.isfinite(m.sensitivity) else "-"
-            mini = f"{m.minimum * f:.4g} {unit}" if math.isfinite(m.minimum) else "-"
-            rng = f"{m.range * f:.4g} {unit}" if math.isfinite(m.range) else "-"
-            lines.append(f"{m.quantity:<8} {sens:>22} {mini:>18} {rng:>14}  {m.limited_by}")
+        for r in self.table():
+            unit = r["unit"]
+            sens = f"{r['sensitivity']:.4g} V/{unit}" if math.isfinite(r["sensitivity"]) else "-"
+            mini = f"{r['minimum']:.4g} {unit}" if math.isfinite(r["minimum"]) else "-"
+            rng = f"{r['range']:.4g} {unit}" if math.isfinite(r["range"]) else "-"
+            lines.append(f"{r['quantity']:<8} {sens:>22} {mini:>18} {rng:>14}  {r['limited_by']}")
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -114,9 +138,7 @@ class DesignMetrics:
         return {
             "noise_V": self.noise, "bandwidth_Hz": list(self.bandwidth),
             "fluid": self.fluid.name,
-            "metrics": {m.quantity: {"unit": m.unit, "sensitivity_V_per_unit": m.sensitivity,
-                                     "minimum": m.minimum, "range": m.range,
-                                     "limited_by": m.limited_by} for m in self.metrics},
+            "metrics": {m.quantity: m.to_dict() for m in self.metrics},
         }
 
 
@@ -135,7 +157,7 @@ def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]
             return 0.0, "sensor range (saturated at zero load)"
         b0, b1 = abs(bx[i_sat - 1]), abs(bx[i_sat])
         t = (sensor.field_range - b0) / (b1 - b0)
-        gauss = sensor.field_range / 1e-4
+        gauss = sensor.field_range / GAUSS
         return float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), f"sensor range (±{gauss:g} gauss)"
     if i_fold is not None:
         return float(q[i_fold]), "fold (output turns back)"
@@ -169,8 +191,8 @@ def _unavailable(quantity: str, unit: str, why: str) -> Metric:
 def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
     c = setup.cilium
     if c.tip_radius == 0.0:
-        return _unavailable("force", "N", "not available: sharp cone (tip_radius 0) has infinite "
-                            "tip compliance; give the setup a tip radius")
+        return _unavailable("force", "N", f"not available: tip_radius 0 cannot carry {SHARP_TIP['force']}"
+                            "; give the setup a tip radius")
     f_max = 3.0 * c.height / tip_compliance(setup)  # linear deflection of 3 L: strongly bent
     delta = 1e-6 * f_max
     v_pm = setup.output(bend_sweep(setup, forces=[-delta, delta]))
@@ -184,8 +206,8 @@ def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
 def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metric:
     c = setup.cilium
     if c.tip_radius == 0.0:
-        return _unavailable("flow", "m/s", "not available: sharp cone (tip_radius 0) makes the "
-                            "drag-loaded tip singular; give the setup a tip radius")
+        return _unavailable("flow", "m/s", f"not available: tip_radius 0 cannot carry {SHARP_TIP['flow']}"
+                            "; give the setup a tip radius")
     d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
     f_max = 3.0 * c.height / tip_compliance(setup)
     u_drag = 2.0 * math.sqrt(f_max / (0.5 * fluid.density * d * c.height))
@@ -246,7 +268,8 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     Returns
     -------
     DesignMetrics
-        With ``.table()`` and ``.to_dict()``; see :mod:`magcilia.report.design` for a figure.
+        With ``.report()``, ``.table()`` and ``.to_dict()``; see :mod:`magcilia.report.design`
+        for a figure.
     """
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")

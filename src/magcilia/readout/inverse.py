@@ -15,22 +15,21 @@ the table's estimate and the directly solved quantity at the skipped mid-points.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia.calibration import CalibrationResult, ParameterCovariance
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow, bend_sweep
-
-if TYPE_CHECKING:
-    from magcilia.calibration import CalibrationResult, ParameterCovariance
 
 F64 = NDArray[np.float64]
 
@@ -86,7 +85,18 @@ class ReadoutResult:
         """True where no flag is set."""
         return np.asarray(self.flags == 0)
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI; flagged estimates are NaN, written as null)."""
+        return {"quantity": self.quantity, "unit": self.unit, "value": self.value.tolist(),
+                "sigma": self.sigma.tolist(), "sigma_noise": self.sigma_noise.tolist(),
+                "sigma_calibration": self.sigma_calibration.tolist(),
+                "flags": self.flags.tolist(), "table_error": self.table_error}
+
     def summary(self) -> str:
+        """The same as :meth:`report` (the name of magcilia 0.1)."""
+        return self.report()
+
+    def report(self) -> str:
         """One line: counts of good and flagged readings, value range, median sigma."""
         good = self.ok
         n = self.flags.size
@@ -103,8 +113,103 @@ class ReadoutResult:
         return f"{int(good.sum())}/{n} readings estimated ({counts} flagged); {rng}"
 
 
+@dataclass(frozen=True, eq=False)
+class InverseTable:
+    """The monotone branch of the output vs a quantity, ready to invert (immutable).
+
+    Built by :meth:`build` from a dense sweep: the branch that contains the sweep's start, every
+    other point of it as the table, the skipped points to measure the interpolation error, and
+    the table resampled on a uniform output grid so that a reading's cell is found by arithmetic
+    instead of a search.
+
+    Attributes
+    ----------
+    quantity, output : ndarray, shape (t,)
+        The table: quantity (SI) and output (V), in sweep order.
+    error : float
+        Largest interpolation error at the skipped points, in the quantity's unit.
+    fold : float or None
+        Quantity at which the output folds back inside the sweep (None if monotone).
+    ambiguous : (float, float) or None
+        Output range (V) that also occurs beyond the fold.
+    volts, values, slope : ndarray, shape (t,)
+        The table sorted by increasing output, and dquantity/dV there.
+    cell_start, cell_step : ndarray, shape (c,)
+        The quantity at the start of each of ``c`` uniform output cells from ``volts[0]`` to
+        ``volts[-1]``, and its change over the cell.
+    cells_per_volt : float
+        Cells per volt of output.
+    """
+
+    quantity: F64
+    output: F64
+    error: float
+    fold: float | None
+    ambiguous: tuple[float, float] | None
+    volts: F64
+    values: F64
+    slope: F64
+    cell_start: F64
+    cell_step: F64
+    cells_per_volt: float
+
+    @classmethod
+    def build(cls, grid: F64, volts: F64, where: str) -> InverseTable:
+        """The table of a sweep ``grid`` (quantity, increasing) with outputs ``volts`` (V);
+        ``where`` names the sweep in errors."""
+        dv = np.diff(volts)
+        nonzero = np.nonzero(dv != 0.0)[0]
+        if nonzero.size == 0:
+            raise v.fail("span", where, "a span over which the output changes")
+        sign = float(np.sign(dv[nonzero[0]]))
+        turns = np.nonzero(np.sign(dv) * sign <= 0.0)[0]
+        end = int(turns[0]) if turns.size else grid.size - 1  # last index of the branch
+        if end < 2:
+            raise v.fail("span", where, f"a span whose output is monotone near its start (it "
+                         f"folds at {grid[end]:.6g})")
+        beyond = volts[end:]
+        even = np.arange(0, end + 1, 2)
+        if even[-1] != end:
+            even = np.append(even, end)
+        order = slice(None) if sign > 0 else slice(None, None, -1)
+        xp = np.ascontiguousarray(volts[even][order])  # increasing outputs
+        fp = np.ascontiguousarray(grid[even][order])
+        n_cells = 16 * (xp.size - 1)
+        cells = np.interp(np.linspace(xp[0], xp[-1], n_cells + 1), xp, fp)
+        table = cls(
+            quantity=grid[even], output=volts[even], error=0.0,
+            fold=float(grid[end]) if turns.size else None,
+            ambiguous=(float(beyond.min()), float(beyond.max())) if turns.size else None,
+            volts=xp, values=fp, slope=np.gradient(fp, xp), cell_start=cells[:-1].copy(),
+            cell_step=np.diff(cells), cells_per_volt=n_cells / float(xp[-1] - xp[0]),
+        )
+        odd = np.arange(1, end, 2)
+        if odd.size:
+            error = float(np.max(np.abs(table.lookup(volts[odd]) - grid[odd])))
+            table = dataclasses.replace(table, error=error)
+        return table
+
+    @property
+    def output_range(self) -> tuple[float, float]:
+        """Outputs (V) at the start and the end of the branch."""
+        return float(self.output[0]), float(self.output[-1])
+
+    def inside(self, x: F64) -> NDArray[np.bool_]:
+        """Whether readings (V) lie within the table's output range (False for NaN)."""
+        return np.asarray((x >= self.volts[0]) & (x <= self.volts[-1]))
+
+    def lookup(self, x: F64) -> F64:
+        """Uniform-grid linear interpolation of readings assumed inside the table."""
+        u = (x - self.volts[0]) * self.cells_per_volt
+        i = u.astype(np.intp)
+        np.clip(i, 0, self.cell_start.size - 1, out=i)
+        u -= i
+        return np.asarray(self.cell_start[i] + u * self.cell_step[i], dtype=np.float64)
+
+
+@dataclass(frozen=True, eq=False, init=False)
 class Readout:
-    """Inverse read-out of one quantity from the sensor output.
+    """Inverse read-out of one quantity from the sensor output (immutable).
 
     Parameters
     ----------
@@ -125,14 +230,20 @@ class Readout:
 
     Attributes
     ----------
+    table : InverseTable
+        The monotone table and its uniform-grid fast path.
     table_quantity, table_output : ndarray, shape (t,)
-        The monotone table (quantity in SI, output in V).
+        The table (quantity in SI, output in V).
     table_error : float
         Largest interpolation error found at the mid-points, in the quantity's unit.
     fold : float or None
         Quantity at which the output folds back inside the span (None if monotone).
     output_range : (float, float)
         Outputs (V) at the start and the end of the usable branch.
+    calibration : ParameterCovariance or None
+        The calibration uncertainty propagated to the estimates.
+    sigma_calibration : ndarray, shape (t,)
+        1-σ output uncertainty (V) from the calibration at the table nodes.
 
     Examples
     --------
@@ -143,6 +254,15 @@ class Readout:
     0.2
     """
 
+    setup: Setup
+    quantity: str
+    unit: str
+    span: tuple[float, float]
+    calibration: ParameterCovariance | None
+    flow: Flow
+    table: InverseTable
+    sigma_calibration: F64
+
     def __init__(self, setup: Setup, quantity: str = "angle",
                  span: tuple[float, float] | None = None,
                  calibration: CalibrationResult | ParameterCovariance | None = None,
@@ -150,85 +270,54 @@ class Readout:
                  table_size: int = 257) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
-        self.quantity = v.choice("quantity", quantity, QUANTITIES)
-        self.unit = MEASURANDS[quantity].unit
+        quantity = v.choice("quantity", quantity, QUANTITIES)
+        unit = MEASURANDS[quantity].unit
         if span is None or np.size(span) != 2:
-            raise v.fail("span", span, f"a pair (low, high) in {self.unit}")
-        lo = v.real("span low", span[0], self.unit)
-        hi = v.real("span high", span[1], self.unit)
+            raise v.fail("span", span, f"a pair (low, high) in {unit}")
+        lo = v.real("span low", span[0], unit)
+        hi = v.real("span high", span[1], unit)
         if hi <= lo:
             raise v.fail("span", (lo, hi), "a pair (low, high) with high > low")
-        self.span = (lo, hi)
-        self.setup = setup
-        self.calibration = calibration
         if flow is not None and not isinstance(flow, Flow):
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow")
-        self.flow = flow if flow is not None else Flow.uniform(1.0)
-        size = v.integer("table_size", table_size, 9)
-        grid = np.linspace(lo, hi, 2 * size - 1)
-        volts = self._outputs(setup, grid)
-        self._build(grid, volts)
-        self._sigma_cal_table = self._calibration_table()
+        if isinstance(calibration, CalibrationResult):
+            calibration = calibration.uncertainty
+        flow = flow if flow is not None else Flow.uniform(1.0)
+        grid = np.linspace(lo, hi, 2 * v.integer("table_size", table_size, 9) - 1)
+        table = InverseTable.build(grid, _outputs(setup, quantity, flow, grid),
+                                   f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
+        for name, value in (("setup", setup), ("quantity", quantity), ("unit", unit),
+                            ("span", (lo, hi)), ("calibration", calibration), ("flow", flow),
+                            ("table", table)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "sigma_calibration", _calibration_sigma(
+            setup, quantity, flow, table.quantity, calibration))
 
-    # -- construction ---------------------------------------------------------------------------
-    def _outputs(self, setup: Setup, q: F64) -> F64:
-        if self.quantity == "angle":
-            return setup.output(q)
-        if self.quantity == "force":
-            return setup.output(bend_sweep(setup, forces=q))
-        return setup.output(bend_sweep(setup, speeds=q, flow=self.flow))
+    # -- the table --------------------------------------------------------------------------------
+    @property
+    def table_quantity(self) -> F64:
+        """Quantity at the table nodes, SI, shape (t,)."""
+        return self.table.quantity
 
-    def _build(self, grid: F64, volts: F64) -> None:
-        dv = np.diff(volts)
-        nonzero = np.nonzero(dv != 0.0)[0]
-        if nonzero.size == 0:
-            raise v.fail("span", self.span, f"a span over which the output changes ({self.quantity})")
-        sign = float(np.sign(dv[nonzero[0]]))
-        turns = np.nonzero(np.sign(dv) * sign <= 0.0)[0]
-        end = int(turns[0]) if turns.size else grid.size - 1  # last index of the branch
-        if end < 2:
-            raise v.fail("span", self.span,
-                         f"a span whose output is monotone near its start (it folds at "
-                         f"{grid[end]:.6g} {self.unit})")
-        self.fold: float | None = float(grid[end]) if turns.size else None
-        beyond = volts[end:]
-        self._ambiguous = (float(beyond.min()), float(beyond.max())) if turns.size else None
-        even = np.arange(0, end + 1, 2)
-        if even[-1] != end:
-            even = np.append(even, end)
-        odd = np.arange(1, end, 2)
-        self.table_quantity = grid[even]
-        self.table_output = volts[even]
-        order = slice(None) if sign > 0 else slice(None, None, -1)
-        self._xp = np.ascontiguousarray(self.table_output[order])  # increasing outputs
-        self._fp = np.ascontiguousarray(self.table_quantity[order])
-        self._slope = np.gradient(self._fp, self._xp)  # dq/dV at the nodes
-        # fast path: the table resampled on a uniform output grid (index arithmetic, no search)
-        cells = 16 * (self._xp.size - 1)
-        self._u0 = float(self._xp[0])
-        self._uinv = cells / float(self._xp[-1] - self._xp[0])
-        uq = np.interp(np.linspace(self._xp[0], self._xp[-1], cells + 1), self._xp, self._fp)
-        self._uq, self._udq = uq[:-1].copy(), np.diff(uq)
-        self._cells = cells
-        check = self._lookup(volts[odd])
-        self.table_error = float(np.max(np.abs(check - grid[odd]))) if odd.size else 0.0
-        self.output_range = (float(self.table_output[0]), float(self.table_output[-1]))
+    @property
+    def table_output(self) -> F64:
+        """Output at the table nodes, V, shape (t,)."""
+        return self.table.output
 
-    def _calibration_table(self) -> F64:
-        """1-σ output uncertainty (V) from the calibration covariance at the table nodes."""
-        params = self.setup.params()
-        names, cov = _parameter_covariance(self.calibration, params)
-        if not names:
-            return np.zeros(self.table_quantity.size)
-        q = np.linspace(self.table_quantity[0], self.table_quantity[-1], 33)
-        jac = np.empty((q.size, len(names)))
-        for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact
-            h = 1.0 if name == "offset" else 1e-3 * max(abs(params[name]), math.sqrt(cov[j, j]))
-            up = self._outputs(self.setup.replace(**{name: params[name] + h}), q)
-            down = self._outputs(self.setup.replace(**{name: params[name] - h}), q)
-            jac[:, j] = (up - down) / (2.0 * h)
-        var = np.einsum("qi,ij,qj->q", jac, cov, jac)
-        return np.interp(self.table_quantity, q, np.sqrt(np.clip(var, 0.0, None)))
+    @property
+    def table_error(self) -> float:
+        """Largest interpolation error found at the mid-points, in the quantity's unit."""
+        return self.table.error
+
+    @property
+    def fold(self) -> float | None:
+        """Quantity at which the output folds back inside the span (None if monotone)."""
+        return self.table.fold
+
+    @property
+    def output_range(self) -> tuple[float, float]:
+        """Outputs (V) at the start and the end of the usable branch."""
+        return self.table.output_range
 
     # -- use ------------------------------------------------------------------------------------
     def estimate(self, volts: ArrayLike) -> F64:
@@ -251,23 +340,14 @@ class Readout:
             first such reading; use :meth:`read` to flag rather than raise.
         """
         x = np.asarray(volts, dtype=np.float64)
-        lo, hi = self._xp[0], self._xp[-1]
-        if x.size and not (x.min() >= lo and x.max() <= hi):  # also catches NaN
-            bad = np.nonzero(~((x >= lo) & (x <= hi)))
-            first = tuple(int(i[0]) for i in bad)
+        table = self.table
+        if x.size and not (x.min() >= table.volts[0] and x.max() <= table.volts[-1]):  # and NaN
+            first = tuple(int(i[0]) for i in np.nonzero(~table.inside(x)))
             where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
             raise v.fail(where, f"{float(x[first]):.6g} V", f"within the span's output range "
                          f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V "
                          f"({self._span_text()})")
-        return self._lookup(x)
-
-    def _lookup(self, x: F64) -> F64:
-        """Uniform-grid linear interpolation (readings assumed inside the table)."""
-        u = (x - self._u0) * self._uinv
-        i = u.astype(np.intp)
-        np.clip(i, 0, self._cells - 1, out=i)
-        u -= i
-        return np.asarray(self._uq[i] + u * self._udq[i], dtype=np.float64)
+        return table.lookup(x)
 
     def _span_text(self) -> str:
         lo, hi = self.span
@@ -287,22 +367,22 @@ class Readout:
             :meth:`magcilia.Sensor.noise_rms`).
         """
         x = np.asarray(volts, dtype=np.float64)
+        table = self.table
         sensor = self.setup.sensor
         noise_v = sensor.output_noise_rms(*bandwidth)
-        inside = (x >= self._xp[0]) & (x <= self._xp[-1])
+        inside = table.inside(x)
         flags = np.where(inside, 0, int(ReadoutFlag.OUTSIDE_SPAN)).astype(np.uint8)
-        if self._ambiguous is not None:
-            amb = (x >= self._ambiguous[0]) & (x <= self._ambiguous[1]) & inside
+        if table.ambiguous is not None:
+            amb = (x >= table.ambiguous[0]) & (x <= table.ambiguous[1]) & inside
             flags |= np.where(amb, int(ReadoutFlag.FOLD), 0).astype(np.uint8)
         with np.errstate(invalid="ignore"):
             sat = ~sensor.in_range(sensor.field(x))
         flags |= np.where(sat, int(ReadoutFlag.SATURATED), 0).astype(np.uint8)
-        value = self._lookup(np.where(inside, x, self._u0))
-        slope = np.abs(np.interp(x, self._xp, self._slope))
+        value = table.lookup(np.where(inside, x, table.volts[0]))
+        slope = np.abs(np.interp(x, table.volts, table.slope))
         s_noise = noise_v * slope
-        s_cal = np.interp(value, self.table_quantity, self._sigma_cal_table) * slope
-        bad = flags != 0
-        nan = np.where(bad, np.nan, 1.0)
+        s_cal = np.interp(value, table.quantity, self.sigma_calibration) * slope
+        nan = np.where(flags != 0, np.nan, 1.0)
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=value * nan,
             sigma=np.hypot(s_noise, s_cal) * nan, sigma_noise=s_noise * nan,
@@ -315,8 +395,47 @@ class Readout:
                 "fold": self.fold, "output_range_V": list(self.output_range),
                 "table_error": self.table_error, "table_size": int(self.table_quantity.size)}
 
+    def report(self) -> str:
+        """One line: the span, its output range, the fold if any and the table's error."""
+        q = MEASURANDS[self.quantity]
+        lo, hi = (q.to_display(x) for x in self.span)
+        text = (f"{q.label} read-out over {lo:.4g}…{hi:.4g} {q.display}: outputs "
+                f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V, table error ≤ "
+                f"{q.to_display(self.table_error):.2g} {q.display}")
+        if self.fold is not None:
+            text += f"; folds at {q.to_display(self.fold):.4g} {q.display}"
+        return text
 
-def _parameter_covariance(cal: CalibrationResult | ParameterCovariance | None,
+
+def _outputs(setup: Setup, quantity: str, flow: Flow, q: F64) -> F64:
+    """The output (V) at the quantity values ``q`` (SI): rigid tilt, bending by a tip force, or
+    bending by ``flow`` scaled to each speed."""
+    if quantity == "angle":
+        return setup.output(q)
+    if quantity == "force":
+        return setup.output(bend_sweep(setup, forces=q))
+    return setup.output(bend_sweep(setup, speeds=q, flow=flow))
+
+
+def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
+                       calibration: ParameterCovariance | None) -> F64:
+    """1-σ output uncertainty (V) from the calibration covariance at the table ``nodes``."""
+    params = setup.params()
+    names, cov = _parameter_covariance(calibration, params)
+    if not names:
+        return np.zeros(nodes.size)
+    q = np.linspace(nodes[0], nodes[-1], 33)
+    jac = np.empty((q.size, len(names)))
+    for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact
+        h = 1.0 if name == "offset" else 1e-3 * max(abs(params[name]), math.sqrt(cov[j, j]))
+        up = _outputs(setup.replace(**{name: params[name] + h}), quantity, flow, q)
+        down = _outputs(setup.replace(**{name: params[name] - h}), quantity, flow, q)
+        jac[:, j] = (up - down) / (2.0 * h)
+    var = np.einsum("qi,ij,qj->q", jac, cov, jac)
+    return np.interp(nodes, q, np.sqrt(np.clip(var, 0.0, None)))
+
+
+def _parameter_covariance(cal: ParameterCovariance | None,
                           params: dict[str, float]) -> tuple[list[str], F64]:
     """Names of the continuous setup parameters with a finite covariance, and that covariance
     (SI). Uses the stored covariance when there is one (it keeps the cancellations along

@@ -9,8 +9,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from magcilia._atomic import save_figure, write_text
+from magcilia._atomic import save_figure, staged_directory, write_json, write_text
 from magcilia.calibration import CalibrationResult
+from magcilia.io.setup_files import save_setup
 from magcilia.report.figures import new_figure
 
 if TYPE_CHECKING:
@@ -98,3 +99,13 @@ def write_report(result: CalibrationResult, directory: str | Path) -> dict[str, 
     write_text(paths["report"], markdown_summary(
         result, {"data and models (Fig. 8)": "fit.png", "residuals": "residuals.png"}))
     return paths
+
+
+def write_calibration(result: CalibrationResult, directory: str | Path) -> None:
+    """Write everything ``magcilia calibrate --out`` gives into ``directory``: the fitted setup
+    (``fitted_setup.toml``), ``result.json`` (SI), ``report.md``, ``fit.png`` and
+    ``residuals.png``. The folder is staged and renamed: a failure leaves nothing behind."""
+    with staged_directory(Path(directory)) as tmp:
+        save_setup(result.setup, tmp / "fitted_setup.toml")
+        write_json(tmp / "result.json", result.to_dict())
+        write_report(result, tmp)

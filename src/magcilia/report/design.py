@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import Any
 
 import numpy as np
 
+from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.readout.design import DesignMetrics
 
@@ -26,16 +28,16 @@ def plot_design(metrics: DesignMetrics) -> Any:
         ax.set_ylabel("output change from zero load (mV)")
         ax.grid(alpha=0.3)
         if m.curve.shape[0] == 0:
-            ax.text(0.5, 0.5, "not available:\n" + m.limited_by.split(": ", 1)[-1],
-                    ha="center", va="center", wrap=True, fontsize="small",
-                    transform=ax.transAxes)
+            why = textwrap.fill(m.limited_by.split(": ", 1)[-1], width=34)
+            ax.text(0.5, 0.5, f"not available:\n{why}", ha="center", va="center",
+                    fontsize="small", transform=ax.transAxes)
             continue
         q, volts = m.curve[:, 0] * factor, m.curve[:, 1]
         ax.plot(q, (volts - volts[0]) * 1e3, color="C0", label="model")
         for sign in (-1.0, 1.0):
             limit = (sign * sensor.field_range * sensor.scale + sensor.offset - volts[0]) * 1e3
             ax.axhline(limit, color="C3", ls="--", lw=0.8,
-                       label=f"±{sensor.field_range / 1e-4:g} gauss" if sign > 0 else None)
+                       label=f"±{sensor.field_range / GAUSS:g} gauss" if sign > 0 else None)
         ax.axhspan(-metrics.noise * 1e3, metrics.noise * 1e3, color="0.8", label="noise RMS")
         if math.isfinite(m.range):
             ax.axvline(m.range * factor, color="C2", ls=":", label=f"range ({m.limited_by})")
@@ -54,25 +56,3 @@ def plot_design(metrics: DesignMetrics) -> Any:
                  f"{metrics.bandwidth[0]:g}–{metrics.bandwidth[1]:g} Hz; flow in "
                  f"{metrics.fluid.name})")
     return fig
-
-
-def plot_shapes(shapes: Any, ax: Any, labels: Any = None) -> Any:
-    """Plot centrelines (a :class:`~magcilia.Centreline`, e.g. a BentShape) in the x–z plane, mm,
-    with the straight cilium dashed; returns ``ax``."""
-    length = shapes.length * 1e3
-    ax.plot([0.0, 0.0], [0.0, length], color="0.6", ls="--", label="unloaded")
-    for i in range(len(shapes)):
-        pts = shapes.points[i] * 1e3
-        label = labels[i] if labels is not None else None
-        ax.plot(pts[:, 0], pts[:, 2], lw=2, label=label)
-        ax.plot(pts[-1, 0], pts[-1, 2], "o", color="k", ms=3)
-    x = shapes.points[..., 0] * 1e3
-    half = max(0.3 * length, float(np.abs(x).max()) * 1.1)  # keep the panel readable
-    ax.set_xlim(-half if x.min() < 0 else -0.1 * half, half)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (mm), along the sensitive axis")
-    ax.set_ylabel("z (mm), from the base")
-    ax.grid(alpha=0.3)
-    if labels is not None:
-        ax.legend(fontsize="small")
-    return ax

@@ -146,7 +146,7 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
               "| parameter | span | max RMS change (mV) | max offset-free change (mV) |"
               + (" min cost (V²) |" if study.data_source else ""),
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
-    for r in study.summary():
+    for r in study.table():
         name, unit, f = display(r["parameter"])
         span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
         row = (f"| {name} | {span} | {r['max_rms_change_V'] * 1e3:.4g} | "

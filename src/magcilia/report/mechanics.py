@@ -1,0 +1,90 @@
+"""Bent shapes for people: figures of centrelines and the record of one bend in display units
+(mm, deg, gauss) that ``magcilia bend`` prints and writes."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from magcilia.constants import GAUSS
+from magcilia.device.setup import Setup
+from magcilia.mechanics import BentShape
+
+
+def load_label(shape: BentShape) -> str:
+    """The load of a shape in words: ``0.2 mN``, a flow's description, both or ``no load``."""
+    load = shape.load
+    parts = [f"{load.force * 1e3:.4g} mN"] if load.force else []
+    if load.flow is not None:
+        parts.append(load.flow.describe())
+    return ", ".join(parts) or "no load"
+
+
+def bend_record(setup: Setup, shape: BentShape, label: str) -> dict[str, Any]:
+    """One bend as the ``magcilia bend`` JSON: tip (mm), tip angle (deg), output (V), B_x (gauss),
+    range flag, solver figures and the centreline (mm); ``label`` names the setup."""
+    bx = float(setup.field(shape)[0, 0])
+    load = shape.load
+    points = shape.points[0] * 1e3
+    return {
+        "setup": label,
+        "units": {"length": "mm", "angle": "deg", "force": "N", "speed": "m/s", "output": "V"},
+        "load": {"force": load.force, "at_mm": load.at * 1e3,
+                 "direction_deg": math.degrees(load.direction),
+                 "flow": None if load.flow is None else load.flow.describe()},
+        "tip_mm": (shape.tip * 1e3).tolist(), "tip_angle_deg": math.degrees(shape.tip_angle),
+        "output_V": float(setup.sensor.voltage(bx)), "Bx_gauss": bx / GAUSS,
+        "in_range": bool(setup.sensor.in_range(bx)),
+        "iterations": shape.iterations, "residual_rad": shape.residual,
+        "centreline_mm": {"s": (shape.s * 1e3).tolist(), "x": points[:, 0].tolist(),
+                          "z": points[:, 2].tolist()},
+    }
+
+
+def bend_text(record: dict[str, Any]) -> str:
+    """The record of :func:`bend_record` as the lines ``magcilia bend`` prints."""
+    x, _, z = record["tip_mm"]
+    flag = "" if record["in_range"] else "  (beyond the sensor's linear range)"
+    lines = [f"tip position  x {x:.6g} mm, z {z:.6g} mm (from the base centre)",
+             f"tip angle     {record['tip_angle_deg']:.6g} deg",
+             f"output        {record['output_V']:.9g} V (Bx {record['Bx_gauss']:.6g} gauss){flag}"]
+    if np.isfinite(record["residual_rad"]) and record["iterations"]:
+        lines.append(f"solver        {record['iterations']} Newton iterations, residual "
+                     f"{record['residual_rad']:.2g} rad")
+    return "\n".join(lines)
+
+
+def shape_figure(setup: Setup, shape: BentShape) -> Any:
+    """A figure of one bent shape, titled with its tip angle and output."""
+    from magcilia.report.figures import new_figure
+
+    fig, axes = new_figure(size=(4.5, 5.0))
+    plot_shapes(shape, axes[0, 0], labels=[load_label(shape)])
+    volts = float(setup.output(shape)[0])
+    axes[0, 0].set_title(f"tip angle {math.degrees(shape.tip_angle):.3g} deg, output "
+                         f"{volts:.6g} V", fontsize="small")
+    return fig
+
+
+def plot_shapes(shapes: Any, ax: Any, labels: Any = None) -> Any:
+    """Plot centrelines (a :class:`~magcilia.Centreline`, e.g. a BentShape) in the x–z plane, mm,
+    with the straight cilium dashed; returns ``ax``."""
+    length = shapes.length * 1e3
+    ax.plot([0.0, 0.0], [0.0, length], color="0.6", ls="--", label="unloaded")
+    for i in range(len(shapes)):
+        pts = shapes.points[i] * 1e3
+        label = labels[i] if labels is not None else None
+        ax.plot(pts[:, 0], pts[:, 2], lw=2, label=label)
+        ax.plot(pts[-1, 0], pts[-1, 2], "o", color="k", ms=3)
+    x = shapes.points[..., 0] * 1e3
+    half = max(0.3 * length, float(np.abs(x).max()) * 1.1)  # keep the panel readable
+    ax.set_xlim(-half if x.min() < 0 else -0.1 * half, half)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm), along the sensitive axis")
+    ax.set_ylabel("z (mm), from the base")
+    ax.grid(alpha=0.3)
+    if labels is not None:
+        ax.legend(fontsize="small")
+    return ax

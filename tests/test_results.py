@@ -1,0 +1,126 @@
+"""One result protocol: every result is frozen, has ``to_dict()`` (SI, JSON-ready) and
+``report()`` (text for people), and ``from_dict()`` rebuilds those that files carry back."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import inspect
+import json
+import math
+import pkgutil
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+import magcilia
+import magcilia as mc
+from magcilia._atomic import json_text
+from magcilia.acquire.synthetic import synthetic_recording
+from magcilia.analysis import placement_map
+from magcilia.io import Measurement, fixed_point_format, measurement_from_samples
+
+SETUP = mc.Setup.paper()
+TAPERED = mc.Setup.paper(tip_radius=5e-5, n_loops=8, dipoles_per_loop=4)
+ANGLES = np.radians(np.linspace(0.0, 85.0, 12))
+
+
+def _measurement() -> Measurement:
+    rec = synthetic_recording(SETUP, ANGLES, samples_per_angle=20, rng=1)
+    return measurement_from_samples(rec.angle_deg, rec.voltage, source="synthetic")
+
+
+def _calibration() -> mc.CalibrationResult:
+    return mc.calibrate(_measurement(), initial=SETUP, rng=0, restarts=1, maxiter=5,
+                        bounds={"n_loops": (2, 2), "dipoles_per_loop": (5, 5)})
+
+
+FACTORIES: dict[str, Callable[[], Any]] = {
+    "Measurement": _measurement,
+    "CalibrationResult": _calibration,
+    "ParameterCovariance": lambda: _calibration().uncertainty,
+    "OATResult": lambda: mc.oat_sweep(SETUP, "x", [1.2e-3, 1.5e-3], angles=ANGLES),
+    "PlacementMap": lambda: placement_map(SETUP, [1.2e-3, 1.6e-3], [1.8e-3, 2.2e-3],
+                                          angles=ANGLES),
+    "SensitivityStudy": lambda: mc.sensitivity_study(SETUP, points=3, map_points=3,
+                                                     angles=ANGLES),
+    "SobolResult": lambda: mc.sobol_indices(SETUP, n_base=16, angles=ANGLES, rng=0),
+    "PlacementTolerance": lambda: mc.placement_tolerance(SETUP, angles=ANGLES),
+    "PiecewiseLinear": lambda: mc.piecewise_linear(SETUP, corners=1, grid=101),
+    "LookupTable": lambda: mc.lookup_table(SETUP, 16),
+    "FixedPointFormat": lambda: fixed_point_format(mc.piecewise_linear(SETUP, corners=1,
+                                                                       grid=101)),
+    "BentShape": lambda: mc.bend(TAPERED, force=1e-4),
+    "Readout": lambda: mc.Readout(SETUP, quantity="angle", span=(0.0, 0.5), table_size=17),
+    "ReadoutResult": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).read(
+        SETUP.output([0.1, 0.3, 2.0])),
+    "DesignMetrics": lambda: mc.design_metrics(TAPERED, points=11),
+    "Metric": lambda: mc.design_metrics(TAPERED, points=11).angle,
+}
+ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable")
+
+
+@pytest.fixture(scope="module", params=sorted(FACTORIES))
+def result(request: pytest.FixtureRequest) -> Any:
+    return FACTORIES[request.param]()
+
+
+def test_results_are_frozen(result: Any) -> None:
+    assert dataclasses.is_dataclass(result)
+    field = dataclasses.fields(result)[0].name
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        setattr(result, field, None)
+
+
+def test_to_dict_is_json(result: Any) -> None:
+    doc = json.loads(json_text(result.to_dict()))
+    assert isinstance(doc, dict) and doc
+
+
+def test_report_is_text(result: Any) -> None:
+    text = result.report()
+    assert isinstance(text, str) and text.strip()
+    assert "Traceback" not in text
+
+
+@pytest.mark.parametrize("name", ROUND_TRIPS)
+def test_from_dict_round_trips(name: str) -> None:
+    result = FACTORIES[name]()
+    back = type(result).from_dict(json.loads(json_text(result.to_dict())))
+    assert json_text(back.to_dict()) == json_text(result.to_dict())
+
+
+def test_every_result_class_is_checked_here() -> None:
+    """Each class of the package that has ``to_dict`` is a result and is in FACTORIES."""
+    found = set()
+    for info in pkgutil.walk_packages(magcilia.__path__, "magcilia."):
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if (inspect.isclass(obj) and obj.__module__ == module.__name__
+                    and callable(getattr(obj, "to_dict", None))):
+                found.add(name)
+    assert found == set(FACTORIES)
+
+
+def test_calibration_result_holds_its_covariance() -> None:
+    fit = _calibration()
+    assert isinstance(fit.uncertainty, mc.ParameterCovariance)
+    assert fit.stderr is fit.uncertainty.stderr
+    assert fit.correlation_names == fit.uncertainty.correlation_names
+    doc = fit.to_dict()
+    assert doc["covariance"]["names"] == list(fit.correlation_names)
+    back = mc.ParameterCovariance.from_dict(json.loads(json_text(doc)))
+    for key, value in fit.stderr.items():
+        assert back.stderr[key] == pytest.approx(value) or (math.isinf(value)
+                                                           and math.isinf(back.stderr[key]))
+
+
+def test_readout_is_frozen_and_takes_a_calibration_result() -> None:
+    fit = _calibration()
+    r = mc.Readout(fit.setup, quantity="angle", span=(0.0, 1.0), calibration=fit, table_size=17)
+    assert r.calibration is fit.uncertainty
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        r.quantity = "force"  # type: ignore[misc]
+    assert r.table.error == r.table_error
