@@ -33,7 +33,9 @@ from magcilia.calibration import DEFAULT_BOUNDS, PARAMETERS
 from magcilia.io import example_path
 
 
-def baseline_model(v: np.ndarray, angles: np.ndarray, depth: float, magnetization: float) -> np.ndarray:
+def baseline_model(
+    v: np.ndarray, angles: np.ndarray, depth: float, magnetization: float
+) -> np.ndarray:
     """Sensor output (V) of the paper's model built from magpylib Dipole objects."""
     h, rb, x, y, z = v[:5]
     n, k = round(v[5]), round(v[6])
@@ -56,7 +58,9 @@ def baseline_model(v: np.ndarray, angles: np.ndarray, depth: float, magnetizatio
     return 75.0 * np.asarray(b)[:, 0]
 
 
-def run_baseline(data: mc.Measurement, seed: int, target: float, cap: float) -> tuple[float, float, bool]:
+def run_baseline(
+    data: mc.Measurement, seed: int, target: float, cap: float
+) -> tuple[float, float, bool]:
     """Run the baseline until its best cost reaches ``target`` or ``cap`` seconds pass.
 
     Returns (elapsed s, best cost, reached)."""
@@ -124,7 +128,8 @@ def main() -> None:
         print(f"baseline  : seed {seed} (DE over magpylib Dipoles, stopped at magcilia's best cost "
               f"+1 %): {t:.1f} s, best cost {c:.6g} V^2, {state}")
     bound = "" if all(reached) else ">= "
-    print(f"speed-up  : {bound}{np.median(t_base) / np.median(t_ours):.0f}x (median time to equal cost)")
+    print(f"speed-up  : {bound}{np.median(t_base) / np.median(t_ours):.0f}x "
+          "(median time to equal cost)")
 
 
 if __name__ == "__main__":

@@ -90,7 +90,8 @@ def main() -> None:
     args = parser.parse_args()
     repeat = 2 if args.quick else 5
     print("magcilia field benchmark (single thread)")
-    print(f"{'workload':<26} {'magcilia Mpairs/s':>18} {'magpylib Mpairs/s':>18} {'ratio':>7} {'max rel diff':>13}")
+    print(f"{'workload':<26} {'magcilia Mpairs/s':>18} {'magpylib Mpairs/s':>18} "
+          f"{'ratio':>7} {'max rel diff':>13}")
     workloads = [(1000, 1000), (10_000, 1000)] if not args.quick else [(1000, 1000)]
     for n_obs, n_dip in workloads:
         ours, ref, err = throughput(n_obs, n_dip, repeat)

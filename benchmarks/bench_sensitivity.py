@@ -33,7 +33,7 @@ from magcilia.analysis import DEFAULT_ANGLES, rms_change
 from magcilia.calibration import DEFAULT_BOUNDS, INTEGER
 from magcilia.model.batch import tilt_output_batch
 
-HARNESS = r"""#define _POSIX_C_SOURCE 199309L
+HARNESS = (r"""#define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
 #include <stdint.h>
 #include <time.h>
@@ -47,7 +47,8 @@ int main(void)
     static float tf[N], vf[N]; static int32_t tq[N], vq[N];
     volatile float sf = 0.0f; volatile int32_t sq = 0; double t0, t1;
     for (int i = 0; i < N; ++i) {
-        float t = %(lo).9ef + (%(hi).9ef - %(lo).9ef) * (float)((int)(((long long)i * 7919) %% N)) / (float)N;
+        float t = %(lo).9ef + (%(hi).9ef - %(lo).9ef)"""
+           r""" * (float)((int)(((long long)i * 7919) %% N)) / (float)N;
         tf[i] = t; vf[i] = a_output(t);
         tq[i] = (int32_t)(t * (float)(1L << AQ_ANGLE_FRAC_BITS));
         vq[i] = aq_output_q(tq[i]);
@@ -62,7 +63,7 @@ int main(void)
     printf("fixed_angle %%.3f\n", 1e9 * (t1 - t0) / N);
     return (int)(sf != sf) + (int)(sq == 12345);
 }
-"""
+""")
 
 
 def sobol_bench(n_base: int, subset: int) -> None:
@@ -90,15 +91,16 @@ def sobol_bench(n_base: int, subset: int) -> None:
     sub = X[:subset]
     t0 = time.perf_counter()
     y_single = np.array([
-        rms_change(setup.replace(**{n: float(row[j]) for j, n in enumerate(names)}).output(angles), ref)
+        rms_change(
+            setup.replace(**{n: float(row[j]) for j, n in enumerate(names)}).output(angles), ref)
         for row in sub])
     t_sub = time.perf_counter() - t0
     t_single = t_sub * X.shape[0] / subset
     agree = float(np.abs(y_single - y_batch[:subset]).max() / np.abs(y_batch).max())
     print(f"Sobol over the calibration bounds: N = {n_base}, {res.n_evaluations} evaluations x "
           f"{angles.size} angles")
-    print(f"  batch path, whole analysis (sample + evaluate + SALib, 100 bootstraps): {t_full:8.2f} s"
-          f"   (target <= 30 s)")
+    print("  batch path, whole analysis (sample + evaluate + SALib, 100 bootstraps): "
+          f"{t_full:8.2f} s   (target <= 30 s)")
     print(f"  batch evaluation only:                         {t_batch:8.2f} s  "
           f"({1e6 * t_batch / X.shape[0]:.2f} us/sample)")
     print(f"  one sample at a time (setup.replace().output): {t_single:8.2f} s  "

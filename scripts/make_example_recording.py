@@ -30,14 +30,16 @@ def main() -> None:
     angles = np.radians(np.linspace(0.0, 85.0, 33))
     rec = synthetic_recording(truth, angles, rng=SEED, **SETTINGS)  # type: ignore[arg-type]
     buf = io.StringIO()
-    buf.write("# SYNTHETIC recording made by scripts/make_example_recording.py (not a measurement)\n")
+    buf.write("# SYNTHETIC recording made by scripts/make_example_recording.py "
+              "(not a measurement)\n")
     buf.write("angle_deg,voltage_V,time_s\n")
     np.savetxt(buf, np.column_stack([rec.angle_deg, rec.voltage, rec.time]),
                fmt=["%.4f", "%.7e", "%.3f"], delimiter=",")
     write_text(OUT / "example_recording.csv", buf.getvalue())
     meta = {
         "synthetic": True,
-        "description": "Synthetic field-vs-tilt recording of the paper's cilium for demos and tests",
+        "description": ("Synthetic field-vs-tilt recording of the paper's cilium "
+                        "for demos and tests"),
         "generator": "scripts/make_example_recording.py",
         "seed": SEED,
         "truth": truth.params(),

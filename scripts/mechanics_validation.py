@@ -30,7 +30,8 @@ def elastica_rows() -> list[str]:
                            youngs_modulus=MODULUS)
     ei = MODULUS * math.pi * RADIUS**4 / 4.0
     rows = [("| α = PL²/EI | x/L exact | z/L exact | tip angle exact (deg) | x/L magcilia | "
-            "rel. error of the tip position | x/L linear theory (α/3) |"), "|---|---|---|---|---|---|---|"]
+             "rel. error of the tip position | x/L linear theory (α/3) |"),
+            "|---|---|---|---|---|---|---|"]
     for alpha in (0.1, 0.3, 1.0, 3.0, 10.0):
         x, z, theta = cantilever_tip(alpha)
         tip = mc.bend(setup, force=alpha * ei / LENGTH**2).tip / LENGTH

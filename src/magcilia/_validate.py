@@ -5,9 +5,10 @@ The physics kernels do no checking; the public functions call these helpers firs
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -75,7 +76,9 @@ def integer(name: str, value: object, minimum: int = 1) -> int:
     return out
 
 
-def finite_array(name: str, value: ArrayLike, ndim: int | None = None, unit: str = "") -> NDArray[np.float64]:
+def finite_array(
+    name: str, value: ArrayLike, ndim: int | None = None, unit: str = ""
+) -> NDArray[np.float64]:
     """A float64 array with only finite entries (and, if given, exactly ``ndim`` dimensions)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -123,3 +126,13 @@ def intervals(
             raise fail(f"{name}[{key!r}]", (lo, hi), "a finite (low, high) pair with low <= high")
         merged[key] = (lo, hi)
     return merged
+
+
+@contextlib.contextmanager
+def rebuilding(what: str, cls_name: str) -> Iterator[None]:
+    """Turn a missing or bad entry met while rebuilding a result from its ``to_dict()`` output
+    into one line: ``WHAT must be a dict from CLS.to_dict(); got missing or bad …``."""
+    try:
+        yield
+    except (KeyError, TypeError, ValueError) as exc:
+        raise fail(what, f"missing or bad {exc}", f"a dict from {cls_name}.to_dict()") from None

@@ -67,7 +67,8 @@ def parse_quantity(text: object, dimension: str, key: str = "value") -> float:
         The value in SI units (m, kg, V, T, …).
     """
     units = UNITS[dimension]
-    allowed = f"a {dimension.replace('_', ' ')} with a unit ({', '.join(units)}), e.g. '1.0 {next(iter(units))}'"
+    allowed = (f"a {dimension.replace('_', ' ')} with a unit ({', '.join(units)}), "
+               f"e.g. '1.0 {next(iter(units))}'")
     if not isinstance(text, str):
         raise fail(key, text, allowed)
     match = _NUMBER.match(text)
@@ -80,7 +81,8 @@ def parse_quantity(text: object, dimension: str, key: str = "value") -> float:
 
 
 def format_quantity(value: float, unit: str, digits: int = 6) -> str:
-    """Format an SI value in ``unit`` (which must be known to :data:`UNITS`), e.g. ``'3.2613 mm'``."""
+    """Format an SI value in ``unit`` (which must be known to :data:`UNITS`), e.g.
+    ``'3.2613 mm'``."""
     for table in UNITS.values():
         if unit in table:
             return f"{value / table[unit]:.{digits}g} {unit}"

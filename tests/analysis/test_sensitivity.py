@@ -58,7 +58,8 @@ def test_oat_matches_direct_model_evaluation(parameter: str, data: mc.Measuremen
     if parameter in ("n_loops", "dipoles_per_loop"):
         values = np.array([1.0, 2.0, 3.0, 5.0, 8.0])
     else:
-        values = nominal * np.array([0.9, 0.95, 1.0, 1.05, 1.1]) if nominal else np.array([0.0, 1e-4])
+        values = (nominal * np.array([0.9, 0.95, 1.0, 1.05, 1.1]) if nominal
+                  else np.array([0.0, 1e-4]))
     res = mc.oat_sweep(setup, parameter, values, angles=ANGLES, data=data)
     assert res.skipped == ()
     ref = setup.output(ANGLES)
@@ -148,7 +149,8 @@ def test_placement_map_matches_direct_evaluation() -> None:
             except mc.MagciliaError:
                 assert math.isnan(xy.rms_change[j, i])
                 continue
-            assert xy.rms_change[j, i] == pytest.approx(rms_change(direct, ref), rel=1e-9, abs=1e-15)
+            assert xy.rms_change[j, i] == pytest.approx(rms_change(direct, ref),
+                                                        rel=1e-9, abs=1e-15)
     assert np.isnan(xy.rms_change).any()  # the element is inside the cilium somewhere on this grid
 
 
@@ -188,7 +190,7 @@ def test_sobol_integer_inputs_are_uniform_whole_numbers() -> None:
         seen.append(X[:, 0].copy())
         return X[:, 0] + X[:, 1]
 
-    sobol_analysis(f, {"n": (1, 3), "u": (0.0, 1.0)}, n_base=1024, integer=["n"])
+    sobol_analysis(f, {"n": (1, 3), "u": (0.0, 1.0)}, n_base=1024, integer=["n"], rng=0)
     n = np.concatenate(seen)
     values, counts = np.unique(n, return_counts=True)
     np.testing.assert_array_equal(values, [1.0, 2.0, 3.0])
@@ -280,7 +282,7 @@ def test_placement_tolerance_symmetry_and_bad_input() -> None:
 def test_report_files(tmp_path: Path, data: mc.Measurement) -> None:
     setup = mc.Setup.paper()
     study = mc.sensitivity_study(setup, data, points=5, map_points=6)
-    sobol = mc.sobol_indices(setup, n_base=64)
+    sobol = mc.sobol_indices(setup, n_base=64, rng=0)
     tol = mc.placement_tolerance(setup)
     written = write_sensitivity_report(study, tmp_path, sobol, tol)
     expected = {"fig09_xy.png", "fig10_z.png", "fig11_nk.png", "fig12_geometry.png", "xy_map.png",
@@ -310,5 +312,5 @@ def test_offset_free_change_reproduces_the_papers_ranking() -> None:
     # without the offset freed, y's level shift dominates: the measure matters
     assert study.sweeps["y"].rms_change.max() > study.sweeps["x"].rms_change.max()
     res = mc.sobol_indices(mc.Setup.paper(), bounds={"x": (1e-3, 2e-3), "y": (1.5e-3, 2.5e-3)},
-                           measure="shape", n_base=128)
+                           measure="shape", n_base=128, rng=0)
     assert res.measure == "shape" and res.ST[0] > res.ST[1]

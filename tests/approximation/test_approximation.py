@@ -31,7 +31,9 @@ def _pl(knots: list[float], values: list[float]):  # exact piecewise-linear "sen
     ],
     ids=["one-corner", "two-corners", "three-corners-non-monotonic"],
 )
-def test_recovers_exact_piecewise_linear_data_and_corners(knots: list[float], values: list[float]) -> None:
+def test_recovers_exact_piecewise_linear_data_and_corners(
+    knots: list[float], values: list[float]
+) -> None:
     corners = len(knots) - 2
     approx = mc.piecewise_linear(_pl(knots, values), corners=corners, angle_range=RANGE, grid=801)
     scale = max(abs(x) for x in values)

@@ -32,7 +32,8 @@ def test_demo_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFixture[st
     fitted = mc.load_setup(out / "fitted_setup.toml")
     result = json.loads((out / "result.json").read_text())
     data = mc.read_measurements(example_path())
-    np.testing.assert_allclose(fitted.output(data.angles), result["fitted_V"], rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(fitted.output(data.angles), result["fitted_V"],
+                               rtol=1e-8, atol=1e-12)
     assert result["cost_V2"] < 1e-8  # within the synthetic noise
     assert "![data and models (Fig. 8)](fit.png)" in (out / "report.md").read_text()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -64,7 +64,9 @@ def test_field_errors(args: list[str], match: str, capsys: pytest.CaptureFixture
     assert err.count("\n") == 1 and "Traceback" not in err
 
 
-def test_bad_setup_file_leaves_no_output(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bad_setup_file_leaves_no_output(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text('[cilium]\nheight = "3"\n')
     out_csv = tmp_path / "out.csv"

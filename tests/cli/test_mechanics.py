@@ -126,8 +126,9 @@ def test_design_table_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert doc["metrics"]["angle"]["unit"] == "rad"
 
 
-def test_bundled_force_sensor_example_bends_and_reads_back(tmp_path: Path,
-                                                            capsys: pytest.CaptureFixture[str]) -> None:
+def test_bundled_force_sensor_example_bends_and_reads_back(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """examples/force-sensor.toml needs no overrides: bend, then read the force back."""
     example = str(Path(__file__).resolve().parents[2] / "examples" / "force-sensor.toml")
     assert main(["bend", example, "--force", "0.1mN", "--json"]) == 0

@@ -22,8 +22,8 @@ def recording(tmp_path: Path) -> Path:
     rec = synthetic_recording(mc.Setup.paper(), np.radians(np.linspace(0.0, 85.0, 12)),
                               samples_per_angle=10, rng=5)
     path = tmp_path / "rec.csv"
-    lines = ["angle_deg,voltage_V"] + [f"{a:.17g},{v:.17g}" for a, v in zip(rec.angle_deg, rec.voltage,
-                                                                      strict=True)]
+    lines = ["angle_deg,voltage_V"] + [
+        f"{a:.17g},{v:.17g}" for a, v in zip(rec.angle_deg, rec.voltage, strict=True)]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -75,11 +75,12 @@ def test_sensitivity_json_stdout(tmp_path: Path, capsys: pytest.CaptureFixture[s
         (["--bandwidth", "10:1"], "--bandwidth must be a range with stop > start"),
         (["--bandwidth", "0:10"], "--bandwidth must be F_LOW:F_HIGH in Hz with 0 < F_LOW"),
         (["--accuracy", "0"], "--accuracy must be a positive angle"),
-        (["--sobol-measure", "cost", "--sobol-base", "64"], "--sobol-measure must be used with --data"),
+        (["--sobol-measure", "cost", "--sobol-base", "64"],
+         "--sobol-measure must be used with --data"),
         (["--data", "missing.csv"], "missing.csv"),
     ],
-    ids=["span-name", "span-reversed", "negative-height", "sobol-base", "band", "band-zero", "accuracy",
-         "cost-without-data", "missing-data"],
+    ids=["span-name", "span-reversed", "negative-height", "sobol-base", "band", "band-zero",
+         "accuracy", "cost-without-data", "missing-data"],
 )
 def test_sensitivity_errors(args: list[str], match: str, tmp_path: Path,
                             capsys: pytest.CaptureFixture[str]) -> None:

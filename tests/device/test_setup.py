@@ -94,7 +94,8 @@ def test_field_map_on_many_points_matches_the_element_field() -> None:
 
 def test_batch_evaluation_matches_setups() -> None:
     base = mc.Setup.paper()
-    params = {"height": np.array([3e-3, 3.3e-3, 2.5e-3]), "base_radius": np.array([2e-4, 1.5e-4, 3e-4]),
+    params = {"height": np.array([3e-3, 3.3e-3, 2.5e-3]),
+              "base_radius": np.array([2e-4, 1.5e-4, 3e-4]),
               "x": np.array([1e-3, 1.5e-3, -1e-3]), "n_loops": np.array([2, 3, 2]),
               "dipoles_per_loop": np.array([5, 4, 5]), "offset": np.array([0.0, 1e-3, -2e-3])}
     out = tilt_output_batch(base, params, ANGLES)

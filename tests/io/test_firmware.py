@@ -117,7 +117,8 @@ def test_fixed_point_format_choices_and_limits() -> None:
 def test_header_text_and_bad_input() -> None:
     approx = _curves()["paper"]
     header = mc.to_c_header(approx, name="cilium_read")
-    assert "#ifndef CILIUM_READ_H" in header and header.rstrip().endswith("#endif /* CILIUM_READ_H */")
+    assert ("#ifndef CILIUM_READ_H" in header
+            and header.rstrip().endswith("#endif /* CILIUM_READ_H */"))
     assert "static inline float cilium_read_output(float tilt_rad)" in header
     assert "static inline float cilium_read_angle(float volts)" in header
     assert "2 corner(s)" in header

@@ -17,7 +17,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
     ("text", "dimension", "value"),
     [("3.0 mm", "length", 3e-3), ("30 mg", "mass", 30e-6), ("7.5 V", "voltage", 7.5),
      ("6 gauss", "field", 6e-4), ("1.0 mV/V/gauss", "sensitivity", 10.0),
-     ("0.92 g/cm^3", "density", 920.0), ("2.5 MPa", "pressure", 2.5e6), ("-1e-3 V", "voltage", -1e-3)],
+     ("0.92 g/cm^3", "density", 920.0), ("2.5 MPa", "pressure", 2.5e6),
+     ("-1e-3 V", "voltage", -1e-3)],
 )
 def test_parse_quantity(text: str, dimension: str, value: float) -> None:
     assert parse_quantity(text, dimension, "key") == pytest.approx(value, rel=1e-12)

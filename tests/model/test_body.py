@@ -1,4 +1,5 @@
-"""The body of revolution in plain numbers, and the spec the model layer takes instead of a Setup."""
+"""The body of revolution in plain numbers, and the spec the model layer takes instead of a
+Setup."""
 
 from __future__ import annotations
 

@@ -59,7 +59,8 @@ def test_tilt_kernel_matches_moved_dipoles() -> None:
 def test_superposition(seed: int, split: int) -> None:
     obs, pos, mom = _scene(seed, 4, 20)
     whole = dipole_field(obs, pos, mom)
-    parts = dipole_field(obs, pos[:split], mom[:split]) + dipole_field(obs, pos[split:], mom[split:])
+    parts = (dipole_field(obs, pos[:split], mom[:split])
+             + dipole_field(obs, pos[split:], mom[split:]))
     np.testing.assert_allclose(whole, parts, rtol=1e-10, atol=1e-12 * np.abs(whole).max())
 
 

@@ -83,7 +83,8 @@ def test_dipole_model_of_a_profile_converges_to_the_exact_body() -> None:
     err = np.linalg.norm(model - exact, axis=1) / np.linalg.norm(exact, axis=1)
     assert err.max() < 2e-3
     coarse = setup.replace(n_loops=2, dipoles_per_loop=8).field(ANGLES)
-    assert (np.linalg.norm(coarse - exact, axis=1) / np.linalg.norm(exact, axis=1)).max() > 5 * err.max()
+    assert (np.linalg.norm(coarse - exact, axis=1)
+            / np.linalg.norm(exact, axis=1)).max() > 5 * err.max()
 
 
 def test_bending_a_profile() -> None:

@@ -72,7 +72,7 @@ def synthetic_recording(
     bias : float
         DC bias added to every sample, V.
     rng : int, Generator or None
-        Randomness.
+        Randomness; None (default) draws fresh entropy, an int repeats the recording.
     """
     ang = v.finite_array("angles", angles, ndim=1, unit="rad")
     n = v.integer("samples_per_angle", samples_per_angle, 2)

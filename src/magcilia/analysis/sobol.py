@@ -75,7 +75,8 @@ class SobolResult:
     def table(self) -> list[dict[str, Any]]:
         """Rows per input: name, S1 ± conf, ST ± conf."""
         return [
-            {"parameter": n, "S1": float(a), "S1_conf": float(b), "ST": float(c), "ST_conf": float(d)}
+            {"parameter": n, "S1": float(a), "S1_conf": float(b),
+             "ST": float(c), "ST_conf": float(d)}
             for n, a, b, c, d in zip(self.names, self.S1, self.S1_conf, self.ST, self.ST_conf,
                                      strict=True)
         ]
@@ -112,7 +113,7 @@ def sobol_analysis(
     n_base: int = 1024,
     *,
     integer: Sequence[str] = (),
-    rng: int | np.random.Generator | None = 0,
+    rng: int | np.random.Generator | None = None,
     conf_level: float = 0.95,
     num_resamples: int = 100,
     chunk: int = 32768,
@@ -133,7 +134,8 @@ def sobol_analysis(
         Inputs that take whole values: sampled uniformly on [low − 0.5, high + 0.5] and rounded,
         so each whole value in [low, high] is equally likely.
     rng : int, Generator or None
-        Seeds the scrambled Sobol sequence and the bootstrap.
+        Seeds the scrambled Sobol sequence and the bootstrap; None (default) draws fresh
+        entropy, an int gives the same indices every run.
     conf_level : float
         Level of the bootstrap confidence intervals.
     num_resamples : int
@@ -156,7 +158,8 @@ def sobol_analysis(
         try:
             lo, hi = (float(b) for b in bounds[name])
         except (TypeError, ValueError):
-            raise v.fail(f"bounds[{name!r}]", bounds[name], "a (low, high) pair of numbers") from None
+            raise v.fail(f"bounds[{name!r}]", bounds[name],
+                         "a (low, high) pair of numbers") from None
         if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
             raise v.fail(f"bounds[{name!r}]", (lo, hi), "a finite (low, high) pair with low < high")
         box[name] = (lo, hi)
@@ -212,7 +215,7 @@ def sobol_indices(
     angles: ArrayLike | None = None,
     measure: str = "rms",
     data: Measurement | None = None,
-    rng: int | np.random.Generator | None = 0,
+    rng: int | np.random.Generator | None = None,
     *,
     conf_level: float = 0.95,
     num_resamples: int = 100,
@@ -246,7 +249,7 @@ def sobol_indices(
     data : Measurement, optional
         Required for ``measure="cost"``.
     rng : int, Generator or None
-        Seed (sampling and bootstrap).
+        Seed (sampling and bootstrap); None (default) draws fresh entropy.
     conf_level, num_resamples : float, int
         Bootstrap confidence intervals.
 
@@ -279,6 +282,7 @@ def sobol_indices(
             return shape_change(curves, target)
         return rms_change(curves, target)
 
-    return sobol_analysis(evaluate, box, n_base, integer=[n for n in names if REGISTRY[n].domain == "integer"],
+    return sobol_analysis(evaluate, box, n_base,
+                          integer=[n for n in names if REGISTRY[n].domain == "integer"],
                           rng=rng, conf_level=conf_level, num_resamples=num_resamples,
                           measure=measure)

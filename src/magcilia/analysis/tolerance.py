@@ -1,4 +1,5 @@
-"""Placement tolerance: how precisely the cilium's position must be known for a target angle accuracy.
+"""Placement tolerance: how precisely the cilium's position must be known for a target angle
+accuracy.
 
 The read-out inverts the calibrated curve V(θ) of the *nominal* placement. If the real placement
 is off by δx_i, the reading at tilt θ is V(θ) + (∂V/∂x_i) δx_i and the inferred angle is off by
@@ -90,9 +91,10 @@ class PlacementTolerance:
     def report(self) -> str:
         """Plain-text summary ("x must be known to ±… µm")."""
         lines = [
-            (f"placement tolerance for {math.degrees(self.angle_accuracy):.3g} deg angle accuracy over "
-            f"{math.degrees(self.angles[0]):.3g}..{math.degrees(self.angles[-1]):.3g} deg"),
-            (f"noise {self.noise_rms * 1e6:.3g} uV rms over {self.bandwidth[0]:g}..{self.bandwidth[1]:g} Hz"
+            (f"placement tolerance for {math.degrees(self.angle_accuracy):.3g} deg angle accuracy "
+            f"over {math.degrees(self.angles[0]):.3g}..{math.degrees(self.angles[-1]):.3g} deg"),
+            (f"noise {self.noise_rms * 1e6:.3g} uV rms over "
+            f"{self.bandwidth[0]:g}..{self.bandwidth[1]:g} Hz"
             f" -> noise-limited angle resolution {math.degrees(self.noise_angle):.3g} deg (1 sigma,"
             " worst angle)"),
         ]
@@ -102,7 +104,8 @@ class PlacementTolerance:
                 lines.append(f"{r['coordinate']}: no first-order effect on the angle")
                 continue
             lines.append(f"{r['coordinate']} must be known to ±{tol:.3g} um (worst at "
-                         f"{r['worst_angle_deg']:.3g} deg; ±{tol_n:.3g} um once the noise is spent)")
+                         f"{r['worst_angle_deg']:.3g} deg; ±{tol_n:.3g} um once the noise is "
+                         "spent)")
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:

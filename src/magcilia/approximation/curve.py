@@ -42,14 +42,16 @@ def evaluate(curve: Curve, angles: F64) -> F64:
         raise v.fail("curve", type(curve).__name__, "a magcilia Setup or a callable f(tilt) -> V")
     out = np.asarray(curve(angles), dtype=np.float64)
     if out.shape != angles.shape:
-        raise v.fail("curve output", f"shape {out.shape}", f"shape {angles.shape} (one V per angle)")
+        raise v.fail("curve output", f"shape {out.shape}",
+                     f"shape {angles.shape} (one V per angle)")
     if not np.isfinite(out).all():
         raise v.fail("curve output", "non-finite values", "finite volts over the whole range")
     return out
 
 
 def interp_extrap(x: F64, xp: F64, fp: F64) -> F64:
-    """Linear interpolation through increasing nodes ``xp`` with linear extrapolation at both ends."""
+    """Linear interpolation through increasing nodes ``xp`` with linear extrapolation at both
+    ends."""
     i = np.clip(np.searchsorted(xp, x, side="right") - 1, 0, xp.size - 2)
     x0, x1 = xp[i], xp[i + 1]
     return np.asarray(fp[i] + (fp[i + 1] - fp[i]) * (x - x0) / (x1 - x0), dtype=np.float64)
@@ -79,6 +81,7 @@ def fold_error(what: str, lo: float, hi: float, folds: tuple[float, ...]) -> Mag
     marks = ", ".join(f"{math.degrees(f):.4g}" for f in folds)
     return MagciliaError(
         f"{what} needs a strictly monotonic curve, but the output over "
-        f"{math.degrees(lo):.4g}..{math.degrees(hi):.4g} deg folds (turns or is flat) at {marks} deg; "
+        f"{math.degrees(lo):.4g}..{math.degrees(hi):.4g} deg folds (turns or is flat) "
+        f"at {marks} deg; "
         "restrict the angle range to one side of it"
     )

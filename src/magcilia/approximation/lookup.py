@@ -89,16 +89,13 @@ class LookupTable:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> LookupTable:
         """Rebuild from :meth:`to_dict` output."""
-        try:
+        with v.rebuilding("lookup table data", "LookupTable"):
             size = int(data["size"])
             x = float(data["x_start"]) + float(data["x_step"]) * np.arange(size, dtype=np.float64)
             lo, hi = (float(a) for a in data["angle_range_rad"])
             return cls(quantity=v.choice("quantity", data["quantity"], QUANTITIES), x=x,
                        y=np.asarray(data["y"], dtype=np.float64),
                        error_bound=float(data["error_bound"]), angle_range=(lo, hi))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise v.fail("lookup table data", f"missing or bad {exc}",
-                         "a dict from LookupTable.to_dict()") from None
 
     def report(self) -> str:
         """One line: direction, size and error bound (deg or mV)."""

@@ -130,7 +130,9 @@ class PiecewiseLinear:
         if not self.invertible:
             lo, hi = self.angle_range
             folds = self.folds or tuple(
-                float(k) for k, d in zip(self.knots[1:], np.diff(self.values), strict=True) if d == 0
+                float(k)
+                for k, d in zip(self.knots[1:], np.diff(self.values), strict=True)
+                if d == 0
             ) or (lo,)
             raise fold_error("inverse", lo, hi, folds)
         y = v.finite_array("volts", volts, unit="V")
@@ -158,7 +160,7 @@ class PiecewiseLinear:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> PiecewiseLinear:
         """Rebuild from :meth:`to_dict` output."""
-        try:
+        with v.rebuilding("approximation data", "PiecewiseLinear"):
             return cls(
                 knots=np.asarray(data["knots_rad"], dtype=np.float64),
                 values=np.asarray(data["values_V"], dtype=np.float64),
@@ -167,9 +169,6 @@ class PiecewiseLinear:
                 folds=tuple(float(f) for f in data.get("folds_rad", ())),
                 grid=int(data.get("grid", 0)),
             )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise v.fail("approximation data", f"missing or bad {exc}",
-                         "a dict from PiecewiseLinear.to_dict()") from None
 
     def table(self) -> list[dict[str, float]]:
         """Rows per node: angle (deg), output (mV), slope of the following segment (mV/deg)."""
@@ -187,7 +186,8 @@ class PiecewiseLinear:
                   f"{math.degrees(lo):.4g}..{math.degrees(hi):.4g} deg"),
                  f"{'node':>4} {'angle/deg':>10} {'output/mV':>12} {'slope/(mV/deg)':>15}"]
         for i, row in enumerate(self.table()):
-            slope = "" if math.isnan(row["slope_mV_per_deg"]) else f"{row['slope_mV_per_deg']:15.6g}"
+            slope = ("" if math.isnan(row["slope_mV_per_deg"])
+                     else f"{row['slope_mV_per_deg']:15.6g}")
             lines.append(f"{i:>4} {row['angle_deg']:10.4f} {row['output_mV']:12.6f} {slope}")
         lines.append(f"max error {self.max_error * 1e3:.4g} mV, RMS {self.rms_error * 1e3:.4g} mV, "
                      f"max angle error {math.degrees(self.max_angle_error):.4g} deg")

@@ -60,7 +60,9 @@ class Problem:
         ru = self._project(u)
         if self.fit_scale:
             denom = np.einsum("na,na->n", ru, ru)
-            a = np.where(denom > 0, np.einsum("na,a->n", ru, self.ry) / np.where(denom > 0, denom, 1.0), 0.0)
+            a = np.where(denom > 0,
+                         np.einsum("na,a->n", ru, self.ry) / np.where(denom > 0, denom, 1.0),
+                         0.0)
             a = np.maximum(a, 0.0)
         else:
             a = np.ones(u.shape[0])

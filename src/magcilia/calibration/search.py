@@ -61,7 +61,8 @@ def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
         tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)  # unit conversions (mm -> m) round off
         if not lo - tol <= init[name] <= hi + tol:
             raise v.fail(f"initial {name}", init[name],
-                         f"inside its bounds [{lo:.6g}, {hi:.6g}] (move the initial value or widen the bounds)")
+                         f"inside its bounds [{lo:.6g}, {hi:.6g}] "
+                         "(move the initial value or widen the bounds)")
     return merged
 
 def calibrate(
@@ -93,7 +94,8 @@ def calibrate(
         Search bounds in SI (m; n and k as whole numbers); missing keys take
         :data:`DEFAULT_BOUNDS`. The initial values must lie inside.
     rng : int, Generator or None
-        Seed for the global search; the same seed gives the same result.
+        Seed for the global search; the same seed gives the same result, None (default)
+        draws fresh entropy.
     bias : {"offset", "polynomial", "none"}
         How the DC bias is removed (see the module docstring).
     bias_degree : int

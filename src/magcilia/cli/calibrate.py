@@ -58,4 +58,5 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
         echo_json(result.to_dict())
     else:
         click.echo(result.report())
-        click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, residuals.png")
+        click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
+                   "residuals.png")

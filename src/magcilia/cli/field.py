@@ -70,7 +70,8 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     if as_json:
         echo_json(doc)
         return
-    header = f"{'setup':<14} {'angle/deg':>9} {'Bx/gauss':>11} {'By/gauss':>11} {'Bz/gauss':>11} {'output/V':>11}"
+    header = (f"{'setup':<14} {'angle/deg':>9} {'Bx/gauss':>11} {'By/gauss':>11} "
+              f"{'Bz/gauss':>11} {'output/V':>11}")
     click.echo(header)
     for r in rows:
         click.echo(f"{r['setup']:<14.14} {r['angle_deg']:9.2f} {r['Bx_gauss']:11.5f} "

@@ -1,4 +1,5 @@
-"""``magcilia sensitivity``: one-at-a-time sweeps (figs. 9–12), Sobol indices and placement tolerance."""
+"""``magcilia sensitivity``: one-at-a-time sweeps (figs. 9–12), Sobol indices and placement
+tolerance."""
 
 from __future__ import annotations
 
@@ -29,14 +30,16 @@ from magcilia.report.sensitivity import report_dict, write_sensitivity_report
 @click.command()
 @click.argument("setup_arg", metavar="SETUP")
 @click.option("--data", type=click.Path(dir_okay=False),
-              help="Recording (CSV/.mat/.tdms): adds the calibration cost (offset solved) to every sweep.")
+              help="Recording (CSV/.mat/.tdms): adds the calibration cost (offset solved) "
+                   "to every sweep.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Output directory (figures, sensitivity.json, summary.md).")
 @click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Sweep span, lengths in mm (n_loops, dipoles_per_loop whole numbers); "
                    f"repeatable. Defaults: {describe_spans()}.")
 @click.option("--points", default=21, show_default=True, help="Values per continuous sweep.")
-@click.option("--map-points", default=41, show_default=True, help="Grid points per axis of the x-y map.")
+@click.option("--map-points", default=41, show_default=True,
+              help="Grid points per axis of the x-y map.")
 @click.option("--sobol-base", default=1024, show_default=True,
               help="Sobol base sample N (power of 2; N*(p+2) evaluations over the calibration "
                    "bounds); 0 skips the global analysis.")

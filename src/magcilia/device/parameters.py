@@ -162,7 +162,8 @@ class Parameter(Quantity):
     def allowed(self) -> str:
         """What values of the domain are, in the plural (for arrays and ranges of values)."""
         return {
-            "positive": f"positive {self.what}s in {self.unit}" if self.unit else "positive numbers",
+            "positive": (f"positive {self.what}s in {self.unit}" if self.unit
+                         else "positive numbers"),
             "non_negative": "non-negative numbers",
             "integer": "whole numbers >= 1",
             "nonzero": "non-zero finite numbers",

@@ -1,7 +1,7 @@
 """Single-axis AMR sensor (Honeywell HMC1021Z preset): field ↔ voltage, range, noise.
 
-Sensitive axis +x at the origin (NOTES.md §2). Output ``V = S · B_x + offset`` with
-``S = sensitivity · bridge_voltage · gain`` (V/T).
+Sensitive axis +x at the origin (the README's "Coordinate frame"). Output ``V = S · B_x + offset``
+with ``S = sensitivity · bridge_voltage · gain`` (V/T).
 
 Datasheet facts (Honeywell HMC1001/1002/1021/1022, rev. E): sensitivity 1.0 mV/V/gauss typical
 (0.8–1.25 spread); linear range ±6 gauss; noise density 48 nV/√Hz at 1 kHz with a 5 V bridge
@@ -113,7 +113,8 @@ class Sensor:
         return math.sqrt(var)
 
     def output_noise_rms(self, f_low: float, f_high: float) -> float:
-        """RMS output noise in the band [f_low, f_high] Hz, V (:meth:`noise_rms` times the scale)."""
+        """RMS output noise in the band [f_low, f_high] Hz, V (:meth:`noise_rms` times the
+        scale)."""
         return abs(self.scale) * self.noise_rms(f_low, f_high)
 
     def noise(
@@ -135,7 +136,7 @@ class Sensor:
         rate : float
             Sampling rate, Hz.
         rng : int, Generator or None
-            Randomness source.
+            Randomness source; None (default) draws fresh entropy, an int repeats the record.
         size : int or None
             Number of independent records; None returns shape (n_samples,), else (size, n_samples).
         """

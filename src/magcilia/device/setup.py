@@ -43,7 +43,8 @@ _PART_FIELDS = {name: {f.name for f in fields(cls)} for name, cls in _PARTS.item
 
 @dataclass(frozen=True, eq=False)
 class Setup:
-    """A cilium standing on a single-axis sensor (all SI; see NOTES.md §2 for the frame).
+    """A cilium standing on a single-axis sensor (all SI; the frame is drawn in the README's
+    "Coordinate frame" section and in docs/frame.png).
 
     Parameters
     ----------
@@ -108,7 +109,8 @@ class Setup:
 
     @classmethod
     def paper_initial(cls, **overrides: Any) -> Setup:
-        """As :meth:`paper` but with Table I's *initial* values (3 mm, 0.25 mm, origin, n=6, k=3)."""
+        """As :meth:`paper` but with Table I's *initial* values
+        (3 mm, 0.25 mm, origin, n=6, k=3)."""
         return _build(_defaults(PAPER_INITIAL, overrides))
 
     def replace(self, **changes: Any) -> Setup:

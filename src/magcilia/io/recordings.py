@@ -100,7 +100,7 @@ class Measurement:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Measurement:
         """Rebuild from :meth:`to_dict` output."""
-        try:
+        with v.rebuilding("measurement data", "Measurement"):
             return cls(
                 angles=np.asarray(data["angle_rad"], dtype=np.float64),
                 volts=np.asarray(data["voltage_V"], dtype=np.float64),
@@ -111,9 +111,6 @@ class Measurement:
                 set_reset=bool(data["set_reset"]), source=str(data["source"]),
                 metadata=dict(data.get("metadata") or {}),
             )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise v.fail("measurement data", f"missing or bad {exc}",
-                         "a dict from Measurement.to_dict()") from None
 
     def report(self) -> str:
         """One line: source, angles, samples and what was dropped."""
@@ -224,8 +221,8 @@ def measurement_from_samples(
     arr = np.array(rows)
     if np.ptp(arr[:, 1]) == 0.0:
         raise MagciliaError(
-            f"{source}: all readings are equal ({arr[0, 1]:.6g} V); the sensor output does not vary "
-            "with the angle (check the wiring, the gain and that the cilium is magnetized)"
+            f"{source}: all readings are equal ({arr[0, 1]:.6g} V); the sensor output does not "
+            "vary with the angle (check the wiring, the gain and that the cilium is magnetized)"
         )
     return Measurement(
         angles=arr[:, 0], volts=arr[:, 1], sem=arr[:, 2], counts=arr[:, 3].astype(np.int64),
@@ -254,7 +251,8 @@ def _read_csv(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
         raise MagciliaError(f"{path}: not a UTF-8 text file; export the recording as CSV") from None
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
-        raise MagciliaError(f"{path}: the file is empty; expected a header with {','.join(required)}")
+        raise MagciliaError(f"{path}: the file is empty; expected a header with "
+                            f"{','.join(required)}")
     reader = csv.reader(lines)
     header = [h.strip() for h in next(reader)]
     for col in required:

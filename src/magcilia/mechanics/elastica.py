@@ -6,12 +6,12 @@ toward +x, position ``r(s) = ∫₀ˢ (sin θ, cos θ)``. With the internal forc
 moment balance is ``E I(s) θ'(s) = M(s)`` with ``M(s) = ∫ₛᴸ (cos θ N_x − sin θ N_z) dσ``.
 
 Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − sin θ N_z`` and
-``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip. θ(0) = 0
-and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on each piece
-θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the integrals are
-spectrally accurate and nodes never sit where EI may vanish (a cone's tip). Newton's method with an
-analytic Jacobian for the point load (batched central differences for the shape-dependent drag),
-load continuation with step halving when Newton fails.
+``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip.
+θ(0) = 0 and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on
+each piece θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the
+integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). Newton's
+method with an analytic Jacobian for the point load (batched central differences for the
+shape-dependent drag), load continuation with step halving when Newton fails.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 A body is its ``height`` (m), ``base_radius`` (m) and a normalised shape: knots ``u`` (s / height,
 0 … 1, increasing) and radii ``rho`` (r / base_radius, ``rho[0] = 1``), linear in between. A frustum
-is the two-knot shape ``u = (0, 1)``, ``rho = (1, tip_radius / base_radius)``; a measured profile has
-more knots. Every formula of the model and of the exact reference that depends on the shape (slice
-volumes, ring radii, the inside test) is here, once.
+is the two-knot shape ``u = (0, 1)``, ``rho = (1, tip_radius / base_radius)``; a measured profile
+has more knots. Every formula of the model and of the exact reference that depends on the shape
+(slice volumes, ring radii, the inside test) is here, once.
 
 Shape letters: ``q`` knots, ``n`` slices, ``N`` bodies of a batch (sharing the knots ``u``).
 """

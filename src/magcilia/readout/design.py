@@ -123,7 +123,8 @@ class DesignMetrics:
         lo, hi = self.bandwidth
         lines = [
             f"noise {self.noise * 1e6:.4g} µV RMS over {lo:g}–{hi:g} Hz; flow in {self.fluid.name}",
-            f"{'quantity':<8} {'sensitivity':>22} {'min. detectable':>18} {'range':>14}  limited by",
+            (f"{'quantity':<8} {'sensitivity':>22} {'min. detectable':>18} {'range':>14}"
+             "  limited by"),
         ]
         for r in self.table():
             unit = r["unit"]
@@ -158,7 +159,8 @@ def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]
         b0, b1 = abs(bx[i_sat - 1]), abs(bx[i_sat])
         t = (sensor.field_range - b0) / (b1 - b0)
         gauss = sensor.field_range / GAUSS
-        return float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), f"sensor range (±{gauss:g} gauss)"
+        return (float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])),
+                f"sensor range (±{gauss:g} gauss)")
     if i_fold is not None:
         return float(q[i_fold]), "fold (output turns back)"
     return float(q[-1]), end_note
@@ -191,7 +193,8 @@ def _unavailable(quantity: str, unit: str, why: str) -> Metric:
 def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
     c = setup.cilium
     if c.tip_radius == 0.0:
-        return _unavailable("force", "N", f"not available: tip_radius 0 cannot carry {SHARP_TIP['force']}"
+        return _unavailable("force", "N",
+                            f"not available: tip_radius 0 cannot carry {SHARP_TIP['force']}"
                             "; give the setup a tip radius")
     f_max = 3.0 * c.height / tip_compliance(setup)  # linear deflection of 3 L: strongly bent
     delta = 1e-6 * f_max
@@ -206,7 +209,8 @@ def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
 def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metric:
     c = setup.cilium
     if c.tip_radius == 0.0:
-        return _unavailable("flow", "m/s", f"not available: tip_radius 0 cannot carry {SHARP_TIP['flow']}"
+        return _unavailable("flow", "m/s",
+                            f"not available: tip_radius 0 cannot carry {SHARP_TIP['flow']}"
                             "; give the setup a tip radius")
     d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
     f_max = 3.0 * c.height / tip_compliance(setup)

@@ -3,10 +3,11 @@
 :class:`Readout` precomputes a dense table of output vs quantity over a span (the paper's rigid
 tilt for ``"angle"``; large-deflection bending of :func:`magcilia.bend` for ``"force"`` and
 ``"flow"``), keeps the monotone branch that contains the span's start (recording where the output
-folds back), and inverts it by linear interpolation, resampled on a uniform output grid so that a reading's
-cell is found by arithmetic instead of a search (the fast path, :meth:`Readout.estimate`).
-:meth:`Readout.read` adds 1-σ uncertainties (sensor noise over a bandwidth through the local slope,
-plus the calibration covariance when a :class:`~magcilia.CalibrationResult` is given) and flags.
+folds back), and inverts it by linear interpolation, resampled on a uniform output grid so that a
+reading's cell is found by arithmetic instead of a search (the fast path,
+:meth:`Readout.estimate`). :meth:`Readout.read` adds 1-σ uncertainties (sensor noise over a
+bandwidth through the local slope, plus the calibration covariance when a
+:class:`~magcilia.CalibrationResult` is given) and flags.
 
 The table's stated error bound (:attr:`Readout.table_error`) is measured, not assumed: the table
 uses every other point of a grid twice as dense, and the bound is the largest difference between

@@ -18,7 +18,9 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def new_figure(ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.4, 4.0)) -> tuple[Figure, Any]:
+def new_figure(
+    ncols: int = 1, nrows: int = 1, size: tuple[float, float] = (6.4, 4.0)
+) -> tuple[Figure, Any]:
     """A figure not tied to pyplot's global state (safe in threads and tests)."""
     from matplotlib.figure import Figure
 

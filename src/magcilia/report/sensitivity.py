@@ -55,7 +55,8 @@ def plot_sweep_curves(result: OATResult, ax: Axes, max_curves: int = 7) -> Axes:
     for j, i in enumerate(idx):
         color = cmap(j / max(1, idx.size - 1))
         val = result.values[i] * factor
-        ax.plot(deg, result.curves[i] * 1e3, color=color, label=f"{name} = {val:.4g} {unit}".strip())
+        ax.plot(deg, result.curves[i] * 1e3, color=color,
+                label=f"{name} = {val:.4g} {unit}".strip())
     ax.plot(deg, result.reference * 1e3, "k--", lw=1.5, label="reference")
     ax.set_xlabel("tilt angle θ (deg)")
     ax.set_ylabel("sensor output (mV)")
@@ -141,8 +142,8 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
     if study.data_source:
         lines += [(f"Measurements: `{study.data_source}` (cost = sum of squared residuals, offset "
                   "solved in closed form)."), ""]
-    lines += [("Changes are RMS over the tilt angles vs the reference curve; *offset-free* removes the "
-              "mean difference (what a fitted output offset absorbs)."), "",
+    lines += [("Changes are RMS over the tilt angles vs the reference curve; *offset-free* "
+               "removes the mean difference (what a fitted output offset absorbs)."), "",
               "| parameter | span | max RMS change (mV) | max offset-free change (mV) |"
               + (" min cost (V²) |" if study.data_source else ""),
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
@@ -158,7 +159,8 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
         lines += ["", *[f"- note: {n}" for n in study.notes]]
     if sobol is not None:
         lines += ["", (f"## Sobol indices ({sobol.measure}, N = {sobol.n_base}, "
-                  f"{sobol.n_evaluations} evaluations)"), "", "| parameter | S1 | ST |", "|---|---|---|"]
+                  f"{sobol.n_evaluations} evaluations)"), "", "| parameter | S1 | ST |",
+                  "|---|---|---|"]
         lines += [f"| {r['parameter']} | {r['S1']:.3f} ± {r['S1_conf']:.3f} | "
                   f"{r['ST']:.3f} ± {r['ST_conf']:.3f} |" for r in sobol.table()]
     if tolerance is not None:
