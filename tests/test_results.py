@@ -9,7 +9,9 @@ import inspect
 import json
 import math
 import pkgutil
+import tempfile
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,6 +39,20 @@ def _calibration() -> mc.CalibrationResult:
                         bounds={"n_loops": (2, 2), "dipoles_per_loop": (5, 5)})
 
 
+def _sweep() -> Any:
+    from magcilia.acquire import SimulatedSource, record_sweep
+
+    path = Path(tempfile.mkdtemp()) / "sweep.tdms"
+    return record_sweep(SimulatedSource(SETUP, rng=0), path, angles=[0.0, 0.3], samples=50)
+
+
+def _stream() -> Any:
+    from magcilia.acquire import SimulatedSource, record_stream
+
+    path = Path(tempfile.mkdtemp()) / "stream.tdms"
+    return record_stream(SimulatedSource(SETUP, rng=0), path, 0.1)
+
+
 FACTORIES: dict[str, Callable[[], Any]] = {
     "Measurement": _measurement,
     "CalibrationResult": _calibration,
@@ -58,6 +74,12 @@ FACTORIES: dict[str, Callable[[], Any]] = {
         SETUP.output([0.1, 0.3, 2.0])),
     "DesignMetrics": lambda: mc.design_metrics(TAPERED, points=11),
     "Metric": lambda: mc.design_metrics(TAPERED, points=11).angle,
+    "SweepResult": _sweep,
+    "SweepPoint": lambda: _sweep().points[0],
+    "StreamResult": _stream,
+    "TiltMeasurement": lambda: importlib.import_module("magcilia.acquire.photo").measure_tilt(
+        np.where(np.abs(np.add.outer(np.arange(120.0) * 0.17, np.arange(160.0) - 80)) < 3,
+                 0.9, 0.2)),
 }
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable")
 

@@ -12,6 +12,7 @@ The public names are grouped below by topic; each comes from the room (subpackag
 from __future__ import annotations
 
 from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia._version import __version__
 
 # -- sensitivity ---------------------------------------------------------------------------------
 from magcilia.analysis import (
@@ -53,8 +54,6 @@ from magcilia.model import Centreline, exact_field
 
 # -- read-out and design ---------------------------------------------------------------------------
 from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult, design_metrics
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AIR",

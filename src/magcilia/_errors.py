@@ -12,6 +12,11 @@ class MagciliaError(ValueError):
     """Invalid input to magcilia: a bad value, file, key or range (one-line message)."""
 
 
+class AcquisitionError(MagciliaError):
+    """A source of samples failed: a port that does not exist or is busy, a device that stopped
+    sending or vanished, a driver that is missing (one-line message naming the thing)."""
+
+
 class MissingDependencyError(ImportError):
     """An optional dependency is needed; the message names the package and the extra to install."""
 

@@ -1,10 +1,55 @@
-"""Acquisition: where recordings come from.
+"""Acquisition: sources of samples, background reading, recordings and the calibration sweep.
 
-* :mod:`.synthetic`: simulated recordings of the paper's experiment (always labelled synthetic).
+* :mod:`.source`: the protocol every source follows (:class:`Source`, :class:`Block`);
+* :mod:`.simulated`: a simulated sensor driven by a scripted pose (:class:`SimulatedSource`);
+* :mod:`.buffer`: a reader thread filling a bounded ring buffer (:class:`BackgroundReader`);
+* :mod:`.serial`: a microcontroller streaming magcilia's framed protocol (:class:`SerialSource`),
+  :mod:`.protocol` the frames, :mod:`.emulator` a device on a pseudo-terminal for tests;
+* :mod:`.nidaq`: the paper's NI DAQ through NI-DAQmx (:class:`NidaqSource`; untested on hardware);
+* :mod:`.photo`: tilt angles from photos of the holder (:func:`measure_tilt`), with
+  :mod:`.stripes` finding the tape and the case edge;
+* :mod:`.sweep`: the guided calibration sweep into a crash-safe recording (:func:`record_sweep`);
+* :mod:`.stream`: continuous recording through the ring buffer (:func:`record_stream`);
+* :mod:`.connect`: sources by name (``sim``, ``serial:PORT``, ``nidaq:DEV/ai0``);
+* :mod:`.synthetic`: whole synthetic recordings of the paper's experiment in one call.
 """
 
 from __future__ import annotations
 
+from magcilia.acquire.buffer import BackgroundReader, RingBuffer
+from magcilia.acquire.connect import source_from_spec
+from magcilia.acquire.emulator import DeviceEmulator
+from magcilia.acquire.nidaq import NidaqSource
+from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
+from magcilia.acquire.serial import SerialSource
+from magcilia.acquire.simulated import Script, SimulatedSource
+from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
+from magcilia.acquire.stream import StreamResult, record_stream
+from magcilia.acquire.sweep import SweepPoint, SweepResult, record_sweep
 from magcilia.acquire.synthetic import Recording, synthetic_recording
 
-__all__ = ["Recording", "synthetic_recording"]
+__all__ = [
+    "OUTPUT",
+    "BackgroundReader",
+    "Block",
+    "Channel",
+    "Counters",
+    "DeviceEmulator",
+    "NidaqSource",
+    "Recording",
+    "RingBuffer",
+    "Script",
+    "SerialSource",
+    "SimulatedSource",
+    "Source",
+    "StreamResult",
+    "SweepPoint",
+    "SweepResult",
+    "TiltMeasurement",
+    "measure_tilt",
+    "read_photo",
+    "record_stream",
+    "record_sweep",
+    "source_from_spec",
+    "synthetic_recording",
+]

@@ -7,8 +7,8 @@ from collections.abc import Sequence
 
 import click
 
-from magcilia import __version__
 from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia._version import __version__
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -31,6 +31,8 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("demo", "demo"),
     ("sensitivity", "sensitivity"),
     ("approximate", "approximate"),
+    ("angle", "angle"),
+    ("record", "record"),
 )
 
 

@@ -2,6 +2,7 @@
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS) reduced to a :class:`Measurement`;
+* :mod:`.recording_file`: crash-safe TDMS recordings streamed in flushed chunks;
 * :mod:`.firmware`: C headers and JSON of read-out approximations;
 * :mod:`.results`: saved JSON results read back with one-line errors.
 """
@@ -9,6 +10,7 @@
 from __future__ import annotations
 
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
+from magcilia.io.recording_file import RecordingWriter, recording_properties
 from magcilia.io.recordings import (
     Measurement,
     example_path,
@@ -21,6 +23,7 @@ from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, set
 
 __all__ = [
     "Measurement",
+    "RecordingWriter",
     "example_path",
     "fixed_point_format",
     "load_setup",
@@ -28,6 +31,7 @@ __all__ = [
     "read_json",
     "read_measurements",
     "read_samples",
+    "recording_properties",
     "save_setup",
     "setup_from_dict",
     "setup_to_dict",

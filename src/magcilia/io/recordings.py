@@ -17,9 +17,11 @@ With set/reset samples the offset-free reading of an angle is ``(mean(V_set) −
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -124,6 +126,38 @@ class Measurement:
         return text + (f"; {', '.join(dropped)}" if dropped else "")
 
 
+def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
+    """True where an output (V, any shape) lies beyond the sensor's linear range. The bias is not
+    known at this point: the field is judged relative to the sensor's offset."""
+    field = (np.asarray(volts, dtype=np.float64) - sensor.offset) / abs(sensor.scale)
+    return np.asarray(np.abs(field) > sensor.field_range)
+
+
+def reading(volts: F64, setreset: F64 | None = None,
+            where: str = "samples") -> tuple[float, float, int]:
+    """One angle's reading from its samples: mean (V), standard error (V), samples used.
+
+    Parameters
+    ----------
+    volts : ndarray, shape (s,)
+        Samples, V (at least one).
+    setreset : ndarray, shape (s,), optional
+        +1 after a set pulse, −1 after a reset pulse: the reading is then the offset-free
+        ``(mean(V_set) − mean(V_reset)) / 2`` (the bridge flips, its offset does not).
+    where : str
+        Names the samples in the error when set/reset samples lack one polarity.
+    """
+    if setreset is None:
+        sem = float(volts.std(ddof=1) / math.sqrt(volts.size)) if volts.size > 1 else 0.0
+        return float(volts.mean()), sem, int(volts.size)
+    vs, vr = volts[setreset > 0], volts[setreset < 0]
+    if vs.size == 0 or vr.size == 0:
+        raise MagciliaError(f"{where} has {vs.size} set and {vr.size} reset samples; set/reset "
+                            "readings need both at every angle")
+    var = sum(x.var(ddof=1) / x.size for x in (vs, vr) if x.size > 1) / 4.0
+    return float((vs.mean() - vr.mean()) / 2.0), math.sqrt(var), int(vs.size + vr.size)
+
+
 def measurement_from_samples(
     angle_deg: ArrayLike,
     voltage: ArrayLike,
@@ -173,8 +207,7 @@ def measurement_from_samples(
             f"{source}: sample {i + 1} is not finite (angle_deg={ang[i]}, voltage_V={volt[i]}); "
             "clean the file or pass nan_policy='omit' (CLI: --nan-policy omit)"
         )
-    # the bias is unknown here: judge saturation on the field relative to the sensor's offset
-    sat = ~bad & (np.abs(volt - sensor.offset) / abs(sensor.scale) > sensor.field_range)
+    sat = ~bad & beyond_range(volt, sensor)
     if sat.any() and saturation == "raise":
         i = int(np.argmax(sat))
         raise MagciliaError(
@@ -197,21 +230,8 @@ def measurement_from_samples(
         n_bad, n_sat = int((at & bad).sum()), int((at & sat).sum())
         if not sel.any():
             continue
-        if sr is None:
-            vals = volt[sel]
-            mean = float(vals.mean())
-            sem = float(vals.std(ddof=1) / math.sqrt(vals.size)) if vals.size > 1 else 0.0
-            count = int(vals.size)
-        else:
-            vs, vr = volt[sel & (sr > 0)], volt[sel & (sr < 0)]
-            if vs.size == 0 or vr.size == 0:
-                raise MagciliaError(
-                    f"{source}: angle {a:g} deg has {vs.size} set and {vr.size} reset samples; "
-                    "set/reset readings need both at every angle"
-                )
-            mean = float((vs.mean() - vr.mean()) / 2.0)
-            var = sum(x.var(ddof=1) / x.size for x in (vs, vr) if x.size > 1) / 4.0
-            sem, count = math.sqrt(var), int(vs.size + vr.size)
+        mean, sem, count = reading(volt[sel], None if sr is None else sr[sel],
+                                   f"{source}: angle {a:g} deg")
         rows.append((math.radians(a), mean, sem, count, n_sat, n_bad))
     if len(rows) < 2:
         raise MagciliaError(
@@ -312,10 +332,24 @@ def _read_mat(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     return out
 
 
+@contextlib.contextmanager
+def quiet_nptdms() -> Iterator[None]:
+    """npTDMS logs warnings for a file cut inside its last segment (a recording whose writer was
+    killed); such a file is read, and the caller says what matters in one line."""
+    log = logging.getLogger("nptdms")
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
+
+
 def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     nptdms: Any = require("nptdms", package="npTDMS", extra="tdms", purpose="Reading TDMS files")
     try:
-        tdms = nptdms.TdmsFile.read(path)
+        with quiet_nptdms():
+            tdms = nptdms.TdmsFile.read(path)
     except (ValueError, TypeError, OSError, KeyError, IndexError) as exc:  # corrupt files
         raise MagciliaError(f"{path}: cannot read as a TDMS file ({exc})") from None
     channels = {ch.name: ch for group in tdms.groups() for ch in group.channels()}
@@ -325,8 +359,13 @@ def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
             f"{path}: missing channel(s) {', '.join(missing)} (found: "
             f"{', '.join(channels) or 'none'}); name the channels {' and '.join(required)}"
         )
-    return {k: np.asarray(channels[k][:], dtype=np.float64) for k in
-            ("angle_deg", "voltage_V", "time_s", "setreset") if k in channels}
+    out = {k: np.asarray(channels[k][:], dtype=np.float64) for k in
+           ("angle_deg", "voltage_V", "time_s", "setreset") if k in channels}
+    if tdms.properties.get("complete") is False:  # a magcilia recording cut short (a crash):
+        # its last segment may end inside a channel; the samples in every channel are whole
+        n = min(a.size for a in out.values())
+        out = {k: a[:n] for k, a in out.items()}
+    return out
 
 
 READERS = {".csv": _read_csv, ".txt": _read_csv, ".mat": _read_mat, ".tdms": _read_tdms}

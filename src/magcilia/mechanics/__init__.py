@@ -8,7 +8,14 @@
 
 from __future__ import annotations
 
-from magcilia.mechanics.bend import SHARP_TIP, bend, bend_sweep, require_tip_radius, tip_compliance
+from magcilia.mechanics.bend import (
+    SHARP_TIP,
+    bend,
+    bend_sweep,
+    output_at,
+    require_tip_radius,
+    tip_compliance,
+)
 from magcilia.mechanics.drag import AIR, FLUIDS, WATER, Fluid, drag_coefficient, drag_per_length
 from magcilia.mechanics.exact import cantilever_tip
 from magcilia.mechanics.flow import Flow
@@ -28,6 +35,7 @@ __all__ = [
     "cantilever_tip",
     "drag_coefficient",
     "drag_per_length",
+    "output_at",
     "require_tip_radius",
     "tip_compliance",
 ]

@@ -300,4 +300,16 @@ def tip_compliance(setup: Setup) -> float:
     return c.height**3 / (3.0 * setup.youngs_modulus * i0 * c.taper)
 
 
-
+def output_at(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None = None) -> F64:
+    """Sensor output (V), shape (a,), at ``values`` (shape (a,), SI) of a measurand: rigid tilt
+    angles (``"angle"``, rad), dead tip forces along +x (``"force"``, N; a sweep continued from
+    one load to the next, so increasing values are cheapest) or flow speeds (``"flow"``, m/s, the
+    profile of ``flow`` scaled to each speed; default uniform water flow)."""
+    q = v.finite_array("values", values, ndim=1)
+    if quantity == "angle":
+        return setup.output(q)
+    if quantity == "force":
+        return setup.output(bend_sweep(setup, forces=q))
+    if quantity == "flow":
+        return setup.output(bend_sweep(setup, speeds=q, flow=flow or Flow.uniform(1.0)))
+    raise v.fail("quantity", quantity, "one of 'angle', 'force', 'flow'")

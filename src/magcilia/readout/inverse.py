@@ -30,7 +30,7 @@ from magcilia.calibration import CalibrationResult, ParameterCovariance
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
-from magcilia.mechanics import Flow, bend_sweep
+from magcilia.mechanics import Flow, output_at
 
 F64 = NDArray[np.float64]
 
@@ -285,7 +285,7 @@ class Readout:
             calibration = calibration.uncertainty
         flow = flow if flow is not None else Flow.uniform(1.0)
         grid = np.linspace(lo, hi, 2 * v.integer("table_size", table_size, 9) - 1)
-        table = InverseTable.build(grid, _outputs(setup, quantity, flow, grid),
+        table = InverseTable.build(grid, output_at(setup, quantity, grid, flow),
                                    f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
         for name, value in (("setup", setup), ("quantity", quantity), ("unit", unit),
                             ("span", (lo, hi)), ("calibration", calibration), ("flow", flow),
@@ -408,16 +408,6 @@ class Readout:
         return text
 
 
-def _outputs(setup: Setup, quantity: str, flow: Flow, q: F64) -> F64:
-    """The output (V) at the quantity values ``q`` (SI): rigid tilt, bending by a tip force, or
-    bending by ``flow`` scaled to each speed."""
-    if quantity == "angle":
-        return setup.output(q)
-    if quantity == "force":
-        return setup.output(bend_sweep(setup, forces=q))
-    return setup.output(bend_sweep(setup, speeds=q, flow=flow))
-
-
 def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
                        calibration: ParameterCovariance | None) -> F64:
     """1-σ output uncertainty (V) from the calibration covariance at the table ``nodes``."""
@@ -429,8 +419,8 @@ def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
     jac = np.empty((q.size, len(names)))
     for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact
         h = 1.0 if name == "offset" else 1e-3 * max(abs(params[name]), math.sqrt(cov[j, j]))
-        up = _outputs(setup.replace(**{name: params[name] + h}), quantity, flow, q)
-        down = _outputs(setup.replace(**{name: params[name] - h}), quantity, flow, q)
+        up = output_at(setup.replace(**{name: params[name] + h}), quantity, q, flow)
+        down = output_at(setup.replace(**{name: params[name] - h}), quantity, q, flow)
         jac[:, j] = (up - down) / (2.0 * h)
     var = np.einsum("qi,ij,qj->q", jac, cov, jac)
     return np.interp(nodes, q, np.sqrt(np.clip(var, 0.0, None)))

@@ -1,0 +1,47 @@
+"""Sources by name, as the command line gives them: ``sim``, ``serial:PORT``, ``nidaq:DEV/ai0``."""
+
+from __future__ import annotations
+
+from magcilia import _validate as v
+from magcilia.acquire.simulated import SimulatedSource
+from magcilia.acquire.source import Source
+from magcilia.device.setup import Setup
+
+KINDS = ("sim", "serial:PORT", "nidaq:DEV/aiN")
+
+
+def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
+                     rng: int | None = None, set_reset: int | None = None,
+                     realtime: bool = False) -> Source:
+    """The source named by ``spec``.
+
+    Parameters
+    ----------
+    spec : str
+        ``"sim"`` (a :class:`SimulatedSource` of ``setup``), ``"serial:PORT"`` (a device speaking
+        magcilia's framed protocol, e.g. ``serial:/dev/ttyACM0`` or ``serial:COM3``) or
+        ``"nidaq:DEV/aiN"`` (an NI-DAQmx channel, e.g. ``nidaq:Dev1/ai0``).
+    setup : Setup
+        The simulated sensor (``sim`` only).
+    rate : float
+        Sample rate, Hz (``sim`` and ``nidaq``; a serial device sends its own).
+    rng : int, optional
+        Seed of the simulation.
+    set_reset : int, optional
+        Alternate set/reset pulses every this many samples (``sim``; ``nidaq`` with a strap
+        line is configured in Python).
+    realtime : bool
+        Pace the simulation by the wall clock.
+    """
+    kind, _, target = spec.partition(":")
+    if kind == "sim" and not target:
+        return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime)
+    if kind == "serial" and target:
+        from magcilia.acquire.serial import SerialSource
+
+        return SerialSource(target)
+    if kind == "nidaq" and target:
+        from magcilia.acquire.nidaq import NidaqSource
+
+        return NidaqSource(target, rate=rate)
+    raise v.fail("--source", spec, "one of " + ", ".join(KINDS))

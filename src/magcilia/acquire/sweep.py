@@ -1,0 +1,227 @@
+"""The guided calibration sweep (the paper's Sec. IV.A): tilt, record, repeat; one recording that
+``magcilia calibrate`` reads as it is.
+
+For each angle the sweep takes the tilt (from a list, or asked of the user: typed in degrees or
+measured on a photo), drops what the device sent meanwhile (and ``settle`` seconds more, while the
+hair stops ringing), records ``samples`` samples into the
+recording (:class:`~magcilia.io.recording_file.RecordingWriter`, crash-safe) with the angle of
+each sample, and reports the angle's reading (mean ± standard error, the offset-free set/reset
+difference when the source alternates them) and how many samples were beyond the sensor's range.
+If anything fails on the way, the recording made so far is kept, closed with a note saying where
+it stopped.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from magcilia import _validate as v
+from magcilia._errors import AcquisitionError, MagciliaError
+from magcilia.acquire.simulated import SimulatedSource
+from magcilia.acquire.source import OUTPUT, Counters, Source
+from magcilia.device.sensor import Sensor
+from magcilia.io.recording_file import RecordingWriter
+from magcilia.io.recordings import beyond_range, reading
+
+#: asked for each new angle (0, 1, …): the tilt in rad, or None to end the sweep
+AskAngle = Callable[[int], float | None]
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    """One angle of a sweep (SI).
+
+    Attributes
+    ----------
+    angle : float
+        Tilt, rad.
+    mean, sem : float
+        The angle's reading and its standard error, V (offset-free with set/reset).
+    samples : int
+        Samples recorded.
+    saturated : int
+        Samples beyond the sensor's linear range.
+    """
+
+    angle: float
+    mean: float
+    sem: float
+    samples: int
+    saturated: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        return {"angle_rad": self.angle, "mean_V": self.mean, "sem_V": self.sem,
+                "samples": self.samples, "saturated": self.saturated}
+
+    def report(self) -> str:
+        """One line: angle (deg), mean ± s.e. (mV), samples and the saturation flag."""
+        flag = f"  SATURATED ({self.saturated} samples beyond range)" if self.saturated else ""
+        return (f"{math.degrees(self.angle):8.3f} deg  {self.mean * 1e3:+.5f} ± "
+                f"{self.sem * 1e3:.5f} mV  ({self.samples} samples){flag}")
+
+
+@dataclass(frozen=True, eq=False)
+class SweepResult:
+    """What a sweep recorded (immutable).
+
+    Attributes
+    ----------
+    path : str
+        The recording.
+    points : tuple of SweepPoint
+        One per angle recorded.
+    counters : Counters
+        The source's delivered, dropped and corrupt counts at the end.
+    complete : bool
+        Whether the sweep ended as planned.
+    stopped : str or None
+        Why and where it stopped early.
+    elapsed : float
+        Wall time, s.
+    """
+
+    path: str
+    points: tuple[SweepPoint, ...]
+    counters: Counters
+    complete: bool = True
+    stopped: str | None = None
+    elapsed: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        c = self.counters
+        return {"path": self.path, "complete": self.complete, "stopped": self.stopped,
+                "elapsed_s": self.elapsed, "points": [p.to_dict() for p in self.points],
+                "samples": c.samples, "dropped": c.dropped, "corrupt": c.corrupt}
+
+    def report(self) -> str:
+        """The angles' readings and a closing line."""
+        lines = [p.report() for p in self.points]
+        end = "complete" if self.complete else f"stopped: {self.stopped}"
+        lines.append(f"{self.path}: {len(self.points)} angles, {self.counters.report()}; {end}")
+        return "\n".join(lines)
+
+
+def record_sweep(
+    source: Source,
+    path: str | Path,
+    *,
+    angles: ArrayLike | None = None,
+    ask: AskAngle | None = None,
+    samples: int = 2000,
+    settle: float = 0.0,
+    sensor: Sensor | None = None,
+    metadata: dict[str, Any] | None = None,
+    chunk: int = 4096,
+    on_point: Callable[[SweepPoint], None] | None = None,
+) -> SweepResult:
+    """Record a calibration sweep into one crash-safe TDMS recording.
+
+    Parameters
+    ----------
+    source : Source
+        Where the samples come from; a :class:`SimulatedSource` with an angle script is tilted to
+        each angle by the sweep itself.
+    path : str or Path
+        The recording (``.tdms``), read by :func:`magcilia.read_measurements`.
+    angles : array-like, shape (a,), optional
+        Tilt angles, rad, in the order they are visited.
+    ask : callable, optional
+        Instead of ``angles``: called with the angle's number, returns its tilt in rad (typed or
+        measured on a photo) or None to end the sweep.
+    samples : int
+        Samples recorded per angle (the paper: 2000 at 1 kHz).
+    settle : float
+        Seconds of samples dropped after each tilt before recording (the hair's ringing, and
+        frames already on their way from the device), s.
+    sensor : Sensor, optional
+        For the saturation count (default: the HMC1021Z at the paper's settings).
+    metadata : dict, optional
+        More to store in the recording (the setup, the sensor…), added to the source's.
+    chunk : int
+        Samples per flushed chunk of the file.
+    on_point : callable, optional
+        Called with each angle's :class:`SweepPoint` as soon as it is recorded.
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    AcquisitionError
+        When the source or the disk fails: the message says where the sweep stopped; the
+        recording made so far is kept.
+    """
+    if not isinstance(source, Source):
+        raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
+    if (angles is None) == (ask is None):
+        raise v.fail("sweep", "both or neither of angles and ask",
+                     "given a list of angles or a function that asks for them")
+    samples = v.integer("samples", samples, 2)
+    settle_samples = round(v.non_negative("settle", settle, "s", "duration") * source.rate)
+    sensor = sensor or Sensor()
+    planned = None if angles is None else [
+        float(a) for a in v.finite_array("angles", angles, ndim=1, unit="rad")]
+    tilt = source.set_value if (isinstance(source, SimulatedSource)
+                                and source.script.quantity == "angle") else None
+    writer = RecordingWriter(path, chunk=chunk, metadata={
+        **source.metadata(), **(metadata or {}), "samples_per_angle": samples,
+        "planned_angles_deg": None if planned is None else [math.degrees(a) for a in planned]})
+    points: list[SweepPoint] = []
+    t0 = time.perf_counter()
+    where = "before the first angle"
+    try:
+        with source:
+            writer.open()
+            for i, angle in enumerate(_angles(planned, ask)):
+                where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
+                if tilt is not None:
+                    tilt(angle)
+                source.discard()
+                if settle_samples:
+                    source.read(settle_samples)
+                block = source.read(samples)
+                volts = block[OUTPUT]
+                writer.write(block.time, volts, angle_deg=np.full(len(block), math.degrees(angle)),
+                             setreset=block.setreset, extra=block.extra())
+                mean, sem, count = reading(volts, None if block.setreset is None else
+                                           block.setreset.astype(np.float64), where)
+                point = SweepPoint(angle, mean, sem, count, int(beyond_range(volts, sensor).sum()))
+                points.append(point)
+                if on_point is not None:
+                    on_point(point)
+                where = f"after angle {i + 1}"
+    except (MagciliaError, OSError, KeyboardInterrupt) as exc:
+        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
+        stopped = f"stopped {where}: {reason}"
+        kept = writer.abort(stopped)
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        if not kept:
+            raise AcquisitionError(f"{reason}; nothing was recorded") from None
+        raise AcquisitionError(f"{stopped}; the recording so far ({len(points)} angles) is kept "
+                               f"in {path}") from None
+    writer.close(complete=True)
+    return SweepResult(path=str(path), points=tuple(points), counters=source.counters,
+                       elapsed=time.perf_counter() - t0)
+
+
+def _angles(planned: list[float] | None, ask: AskAngle | None) -> Iterator[float]:
+    if planned is not None:
+        yield from planned
+        return
+    assert ask is not None
+    i = 0
+    while (angle := ask(i)) is not None:
+        yield v.real("angle", angle, "rad")
+        i += 1

@@ -1,0 +1,71 @@
+"""``magcilia angle``: the holder's tilt angle measured in photos (the tape along the holder)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import click
+
+from magcilia._validate import fail
+from magcilia.acquire.photo import measure_tilt, pick_points, read_photo
+from magcilia.cli._common import echo_json
+from magcilia.report.photo import annotate
+
+
+def _parse_line(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    """``X0,Y0,X1,Y1`` in px -> two points."""
+    allowed = ("X0,Y0,X1,Y1: two points on the tape in px of the upright photo, "
+               "e.g. 812,2950,1040,610")
+    try:
+        x0, y0, x1, y1 = (float(p) for p in text.split(","))
+    except ValueError:
+        raise fail("--line", text, allowed) from None
+    if not all(math.isfinite(c) for c in (x0, y0, x1, y1)):
+        raise fail("--line", text, allowed)
+    return (x0, y0), (x1, y1)
+
+
+@click.command()
+@click.argument("photos", metavar="PHOTO...", nargs=-1, required=True,
+                type=click.Path(dir_okay=False))
+@click.option("--reference", type=click.Choice(["vertical", "detect"]), default="vertical",
+              show_default=True,
+              help="Measure from the image vertical, or from the normal of the sensor case's top "
+                   "edge found in the photo.")
+@click.option("--manual", is_flag=True,
+              help="Click two points on the tape in a window instead of finding it.")
+@click.option("--line", "line_text", metavar="X0,Y0,X1,Y1",
+              help="Two points on the tape, px of the upright photo (one PHOTO only).")
+@click.option("--annotate", "annotate_dir", type=click.Path(file_okay=False),
+              help="Write PHOTO-STEM_angle.png figures of what was measured into this folder.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print a JSON list, one object per photo (path, angle_deg, angle_rad, ...).")
+def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: str | None,
+            annotate_dir: str | None, as_json: bool) -> None:
+    """Measure the holder's tilt in each PHOTO (JPEG, PNG, TIFF) from the reflective tape on it.
+
+    Angles in degrees, positive when the top of the holder leans to the photo's right; EXIF
+    orientation is applied and points are pixels (x right, y down) of the upright photo.
+    Without --manual or --line the tape (a bright, long, straight stripe) is found and fitted.
+    """
+    line = _parse_line(line_text) if line_text is not None else None
+    if line is not None and len(photos) > 1:
+        raise fail("--line", line_text, "used with one PHOTO (the points belong to one photo)")
+    results = []
+    for photo in photos:
+        image = read_photo(photo)
+        points = line
+        if points is None and manual:
+            clicked = pick_points(image, 2, f"{Path(photo).name}: click two points on the tape")
+            points = (clicked[0], clicked[1])
+        m = dataclasses.replace(measure_tilt(image, reference=reference, line_points=points),
+                                path=photo)
+        if annotate_dir is not None:
+            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png")
+        results.append(m)
+        if not as_json:
+            click.echo(m.report())
+    if as_json:
+        echo_json([m.to_dict() for m in results])

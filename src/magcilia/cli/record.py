@@ -1,0 +1,104 @@
+"""``magcilia record``: a guided calibration sweep (or a continuous recording) into a crash-safe
+TDMS file that ``magcilia calibrate`` reads as it is."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import click
+
+from magcilia._validate import fail
+from magcilia.acquire import record_stream, record_sweep, source_from_spec
+from magcilia.acquire.sweep import AskAngle, SweepPoint
+from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
+from magcilia.io.setup_files import setup_to_dict
+
+
+def ask_angle() -> AskAngle:
+    """Ask at the terminal for each angle: degrees, or a photo to measure; empty to finish."""
+
+    def ask(i: int) -> float | None:
+        while True:
+            text = click.prompt(f"angle {i + 1}: tilt in degrees, a photo of the holder, or "
+                                "Enter to finish", default="", show_default=False).strip()
+            if not text:
+                return None
+            try:
+                return math.radians(float(text))
+            except ValueError:
+                pass
+            if Path(text).is_file():
+                from magcilia.acquire.photo import measure_tilt
+
+                tilt = measure_tilt(text)
+                click.echo(f"  photo: {tilt.report()}")
+                return float(tilt.angle)
+            click.echo(f"  {text!r} is neither a number of degrees nor a photo file; try again",
+                       err=True)
+
+    return ask
+
+
+@click.command()
+@click.option("--source", "source_spec", default="sim", show_default=True,
+              help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
+@click.option("--setup", "setup_arg", default="paper", show_default=True,
+              help="The sensor: a setup TOML file or a preset (the simulated one for --source "
+                   "sim; stored in the recording).")
+@click.option("--angles", default=None,
+              help="Tilt angles START:STOP:STEP in degrees, recorded without questions; "
+                   "without it, each angle is asked for (degrees or a photo).")
+@click.option("--samples", default=2000, show_default=True, help="Samples per angle.")
+@click.option("--settle", default=0.0, show_default=True,
+              help="Seconds dropped after each tilt before recording (the hair's ringing).")
+@click.option("--rate", default=1000.0, show_default=True,
+              help="Sample rate, Hz (sim and nidaq; a serial device sends its own).")
+@click.option("--duration", default=None, type=float,
+              help="Record continuously for this many seconds instead of a sweep.")
+@click.option("--set-reset", "set_reset", default=None, type=int,
+              help="Alternate set/reset pulses every N samples (sim), stored per sample.")
+@click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
+@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
+              help="The recording (.tdms), written in flushed chunks (crash-safe).")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--quiet", is_flag=True, help="Print only the closing line.")
+def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
+            rate: float, duration: float | None, set_reset: int | None, seed: int,
+            out_path: str, as_json: bool, quiet: bool) -> None:
+    """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
+    angle's mean ± standard error and a saturation flag; the recording ends in OUT, which
+    `magcilia calibrate OUT` fits as it is. With --duration, record continuously instead
+    (for `magcilia readout`). A failure keeps the recording made so far and says where it
+    stopped.
+    """
+    if not out_path.lower().endswith(".tdms"):
+        raise fail("--out", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
+    setup = load_setup_arg(setup_arg)
+    source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
+                              set_reset=set_reset, realtime=duration is not None)
+    metadata = {"setup_name": setup_label(setup_arg), "setup": setup_to_dict(setup)}
+    if duration is not None:
+        if angles is not None:
+            raise fail("--duration", duration, "used without --angles (a continuous recording)")
+        stream = record_stream(source, out_path, duration, metadata=metadata)
+        if as_json:
+            echo_json(stream.to_dict())
+        else:
+            click.echo(stream.report())
+        return
+
+    def show(point: SweepPoint) -> None:
+        if not (quiet or as_json):
+            click.echo(point.report())
+
+    plan = None if angles is None else angle_grid(angles)
+    result = record_sweep(source, out_path, angles=plan, ask=None if plan is not None else
+                          ask_angle(), samples=samples, settle=settle, sensor=setup.sensor,
+                          metadata=metadata,
+                          on_point=show)
+    if as_json:
+        echo_json(result.to_dict())
+        return
+    click.echo(result.report().splitlines()[-1])
+    click.echo(f"fit it with: magcilia calibrate {out_path} --out fit/")
