@@ -136,13 +136,23 @@ def test_record_errors_are_one_line(args: list[str], match: str, tmp_path: Path,
 
 def test_record_asks_for_angles(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                 capsys: pytest.CaptureFixture[str]) -> None:
-    answers = iter(["10", "not a number", "20", ""])
+    pytest.importorskip("skimage")
+    from PIL import Image
+
+    tape = np.full((240, 320), 40, dtype=np.uint8)  # a bright stripe leaning 20 deg right
+    yy, xx = np.mgrid[0:240, 0:320]
+    along = np.cos(np.radians(20.0)) * (200 - yy) + np.sin(np.radians(20.0)) * (xx - 140)
+    across = np.cos(np.radians(20.0)) * (xx - 140) - np.sin(np.radians(20.0)) * (200 - yy)
+    tape[(np.abs(across) < 4) & (along > 0) & (along < 170)] = 230
+    Image.fromarray(tape).save(tmp_path / "tilt.png")
+    answers = iter(["10", "not a number", str(tmp_path / "tilt.png"), ""])
     monkeypatch.setattr("click.prompt", lambda *a, **k: next(answers))
     out = tmp_path / "asked.tdms"
     assert main(["record", "--samples", "200", "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert "neither a number of degrees nor a photo" in captured.err
-    assert mc.read_measurements(out).angles_deg.tolist() == pytest.approx([10.0, 20.0])
+    assert "photo: " in captured.out  # the measured tilt is shown
+    assert mc.read_measurements(out).angles_deg.tolist() == pytest.approx([10.0, 20.0], abs=0.2)
 
 
 # -- NI-DAQmx at its boundary ------------------------------------------------------------------
