@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 from magcilia import _validate as v
-from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.io.recording_file import RecordingWriter
@@ -91,23 +90,13 @@ def record_stream(source: Source, path: str | Path, seconds: float, *,
     reader = BackgroundReader(source, seconds=buffer_seconds, chunk=min(chunk, total))
     written = 0
     t0 = time.perf_counter()
-    try:
-        with reader:
-            writer.open()
-            while written < total:
-                block = reader.read(min(chunk, total - written))
-                writer.write(block.time, block[OUTPUT], setreset=block.setreset,
-                             extra=block.extra())
-                written += len(block)
-    except (MagciliaError, OSError, KeyboardInterrupt) as exc:
-        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
-        stopped = f"stopped after {written} of {total} samples: {reason}"
-        kept = writer.abort(stopped)
-        if isinstance(exc, KeyboardInterrupt):
-            raise
-        if not kept:
-            raise AcquisitionError(f"{reason}; nothing was recorded") from None
-        raise AcquisitionError(f"{stopped}; the recording so far is kept in {path}") from None
+    with writer.keeping(lambda: f"after {written} of {total} samples"), reader:
+        writer.open()
+        while written < total:
+            block = reader.read(min(chunk, total - written))
+            writer.write(block.time, block[OUTPUT], setreset=block.setreset,
+                         extra=block.extra())
+            written += len(block)
     elapsed = time.perf_counter() - t0
     writer.close(complete=True)
     return StreamResult(str(path), written, reader.counters, reader.overruns, elapsed)

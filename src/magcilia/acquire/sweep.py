@@ -24,7 +24,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
-from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.simulated import SimulatedSource
 from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.device.sensor import Sensor
@@ -180,37 +179,26 @@ def record_sweep(
     points: list[SweepPoint] = []
     t0 = time.perf_counter()
     where = "before the first angle"
-    try:
-        with source:
-            writer.open()
-            for i, angle in enumerate(_angles(planned, ask)):
-                where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
-                if tilt is not None:
-                    tilt(angle)
-                source.discard()
-                if settle_samples:
-                    source.read(settle_samples)
-                block = source.read(samples)
-                volts = block[OUTPUT]
-                writer.write(block.time, volts, angle_deg=np.full(len(block), math.degrees(angle)),
-                             setreset=block.setreset, extra=block.extra())
-                mean, sem, count = reading(volts, None if block.setreset is None else
-                                           block.setreset.astype(np.float64), where)
-                point = SweepPoint(angle, mean, sem, count, int(beyond_range(volts, sensor).sum()))
-                points.append(point)
-                if on_point is not None:
-                    on_point(point)
-                where = f"after angle {i + 1}"
-    except (MagciliaError, OSError, KeyboardInterrupt) as exc:
-        reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
-        stopped = f"stopped {where}: {reason}"
-        kept = writer.abort(stopped)
-        if isinstance(exc, KeyboardInterrupt):
-            raise
-        if not kept:
-            raise AcquisitionError(f"{reason}; nothing was recorded") from None
-        raise AcquisitionError(f"{stopped}; the recording so far ({len(points)} angles) is kept "
-                               f"in {path}") from None
+    with writer.keeping(lambda: where), source:
+        writer.open()
+        for i, angle in enumerate(_angles(planned, ask)):
+            where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
+            if tilt is not None:
+                tilt(angle)
+            source.discard()
+            if settle_samples:
+                source.read(settle_samples)
+            block = source.read(samples)
+            volts = block[OUTPUT]
+            writer.write(block.time, volts, angle_deg=np.full(len(block), math.degrees(angle)),
+                         setreset=block.setreset, extra=block.extra())
+            mean, sem, count = reading(volts, None if block.setreset is None else
+                                       block.setreset.astype(np.float64), where)
+            point = SweepPoint(angle, mean, sem, count, int(beyond_range(volts, sensor).sum()))
+            points.append(point)
+            if on_point is not None:
+                on_point(point)
+            where = f"after angle {i + 1}"
     writer.close(complete=True)
     return SweepResult(path=str(path), points=tuple(points), counters=source.counters,
                        elapsed=time.perf_counter() - t0)

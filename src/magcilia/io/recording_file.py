@@ -18,7 +18,7 @@ import contextlib
 import datetime as dt
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any, Self
@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._atomic import jsonable
-from magcilia._errors import MagciliaError, require
+from magcilia._errors import AcquisitionError, MagciliaError, require
 from magcilia.io.recordings import quiet_nptdms
 
 F64 = NDArray[np.float64]
@@ -136,6 +136,30 @@ class RecordingWriter:
             self.path.unlink(missing_ok=True)
             return False
         return True
+
+    @contextlib.contextmanager
+    def keeping(self, where: Callable[[], str]) -> Iterator[Self]:
+        """Record inside the block; if it fails (the device, the disk, Ctrl-C), close the file with
+        a note saying where it stopped (``where()``, e.g. "at angle 4") and raise one line saying
+        what is kept (a Ctrl-C is raised again as it is).
+
+        Raises
+        ------
+        AcquisitionError
+            For a :class:`MagciliaError` or an ``OSError`` inside the block.
+        """
+        try:
+            yield self
+        except (MagciliaError, OSError, KeyboardInterrupt) as exc:
+            reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else str(exc)
+            stopped = f"stopped {where()}: {reason}"
+            kept = self.abort(stopped)
+            if isinstance(exc, KeyboardInterrupt):
+                raise
+            if not kept:
+                raise AcquisitionError(f"{reason}; nothing was recorded") from None
+            raise AcquisitionError(f"{stopped}; the recording so far is kept in "
+                                   f"{self.path}") from None
 
     def __enter__(self) -> Self:
         return self.open()
