@@ -2,8 +2,9 @@
 
 The cilium follows a :class:`Script` (a tilt angle, a tip force or a flow speed over time); the
 source samples the model's output and adds what a real bench adds: the sensor's white + 1/f noise
-(``Sensor.noise``, generated in long records so that its low frequencies carry over between
-reads), white read-out noise of the amplifier and ADC, a slow linear drift and a DC bias. With
+(``Sensor.noise``, generated in records of at least 65 536 samples, 65 s at 1 kHz: reads within a
+record share its low frequencies, successive records are independent), white read-out noise of
+the amplifier and ADC, a slow linear drift and a DC bias. With
 ``set_reset`` it alternates the AMR strap's set and reset pulses like a device would: the bridge's
 sign flips, its offset does not. Deterministic with ``rng``. It is the source the tests, the demo
 and every command without a device use.
