@@ -34,13 +34,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._errors import MagciliaError, require
+from magcilia._errors import MagciliaError
 from magcilia.acquire.stripes import (
     Point,
     Segment,
     downsample,
     fit_edge,
     fit_tape,
+    photo_module,
     tilt_of,
     upward,
     wrap,
@@ -54,10 +55,6 @@ RESULT_REFERENCES = ("vertical", "detected", "given")
 METHODS = ("auto", "manual")
 ARRAY_PATH = "<array>"  # the path recorded for a photo given as an array
 
-
-
-def _module(name: str, package: str, purpose: str) -> Any:
-    return require(name, package=package, extra="photo", purpose=purpose)
 
 
 # -- reading ---------------------------------------------------------------------------------------
@@ -80,8 +77,8 @@ def read_photo(path: str | os.PathLike[str]) -> F64:
     MagciliaError
         If the file is missing, is not an image Pillow can read, or is truncated.
     """
-    image_mod = _module("PIL.Image", "pillow", "reading photos")
-    ops = _module("PIL.ImageOps", "pillow", "reading photos")
+    image_mod = photo_module("PIL.Image", "pillow", "reading photos")
+    ops = photo_module("PIL.ImageOps", "pillow", "reading photos")
     name = str(path)
     if not Path(name).is_file():
         raise MagciliaError(f"photo {name!r} does not exist (or is not a file); check the path")

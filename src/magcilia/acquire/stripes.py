@@ -27,7 +27,8 @@ MANUAL_HINT = ("give two points on the tape instead (line_points=..., or magcili
                "--manual / --line X0,Y0,X1,Y1)")
 
 
-def _module(name: str, package: str, purpose: str) -> Any:
+def photo_module(name: str, package: str, purpose: str) -> Any:
+    """An optional package of the ``photo`` extra, or a one-line error naming the extra."""
     return require(name, package=package, extra="photo", purpose=purpose)
 
 
@@ -135,8 +136,8 @@ def _find_tape(small: F64, keep: int = 6) -> list[_Bar]:
     """Candidates for the tape, the most bar-like first: bright narrow regions (a white top-hat
     removes the background's light) at three thresholds: Otsu's, then Otsu's again above it,
     twice (a bright tape stays whole where a textured background falls apart)."""
-    measure = _module("skimage.measure", "scikit-image", "finding the tape in a photo")
-    filters = _module("skimage.filters", "scikit-image", "finding the tape in a photo")
+    measure = photo_module("skimage.measure", "scikit-image", "finding the tape in a photo")
+    filters = photo_module("skimage.filters", "scikit-image", "finding the tape in a photo")
     k = max(15, min(small.shape) // 6)
     top = small - ndimage.grey_opening(small, size=(k, k))
     found: list[_Bar] = []
@@ -153,8 +154,9 @@ def _find_tape(small: F64, keep: int = 6) -> list[_Bar]:
 def _find_edge(small: F64) -> tuple[F64, F64] | None:
     """The strongest nearly horizontal straight edge (within 25 degrees): (point, unit direction
     pointing right) in px of ``small``, or None."""
-    feature = _module("skimage.feature", "scikit-image", "finding the case edge in a photo")
-    transform = _module("skimage.transform", "scikit-image", "finding the case edge in a photo")
+    purpose = "finding the case edge in a photo"
+    feature = photo_module("skimage.feature", "scikit-image", purpose)
+    transform = photo_module("skimage.transform", "scikit-image", purpose)
     edges = feature.canny(small, sigma=2.0)
     if not edges.any():
         return None

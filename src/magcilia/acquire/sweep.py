@@ -192,8 +192,7 @@ def record_sweep(
             volts = block[OUTPUT]
             writer.write(block.time, volts, angle_deg=np.full(len(block), math.degrees(angle)),
                          setreset=block.setreset, extra=block.extra())
-            mean, sem, count = reading(volts, None if block.setreset is None else
-                                       block.setreset.astype(np.float64), where)
+            mean, sem, count = reading(volts, block.setreset, where)
             point = SweepPoint(angle, mean, sem, count, int(beyond_range(volts, sensor).sum()))
             points.append(point)
             if on_point is not None:

@@ -95,10 +95,6 @@ class Quantity:
         """A value given in the display unit, in SI."""
         return value * self.display_factor
 
-    def display_label(self) -> str:
-        """``label (unit)`` for axes and table headers."""
-        return f"{self.label} ({self.display})" if self.display else self.label
-
 
 @dataclass(frozen=True)
 class Parameter(Quantity):

@@ -28,8 +28,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._atomic import jsonable
-from magcilia._errors import AcquisitionError, MagciliaError, require
-from magcilia.io.recordings import quiet_nptdms
+from magcilia._errors import AcquisitionError, MagciliaError
+from magcilia.io.recordings import nptdms_module, quiet_nptdms
 
 F64 = NDArray[np.float64]
 GROUP = "recording"
@@ -85,8 +85,7 @@ class RecordingWriter:
         """Create the file and write its properties (idempotent)."""
         if self._writer is not None:
             return self
-        nptdms: Any = require("nptdms", package="npTDMS", extra="tdms",
-                              purpose="Recording to TDMS files")
+        nptdms = nptdms_module("Recording to TDMS files")
         if self.path.suffix.lower() != ".tdms":
             raise v.fail("recording file", str(self.path), "a path ending in .tdms")
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -112,8 +111,7 @@ class RecordingWriter:
         """
         if self._writer is None:
             return
-        nptdms: Any = require("nptdms", package="npTDMS", extra="tdms",
-                              purpose="Recording to TDMS files")
+        nptdms = nptdms_module("Recording to TDMS files")
         try:
             self._flush_pending()
             props: dict[str, Any] = {"complete": complete, "samples": self.samples}
@@ -222,8 +220,7 @@ class RecordingWriter:
         n = self._pending_size() if limit is None else limit
         if self._names is None or (n == 0 and limit is None):
             return
-        nptdms: Any = require("nptdms", package="npTDMS", extra="tdms",
-                              purpose="Recording to TDMS files")
+        nptdms = nptdms_module("Recording to TDMS files")
         objects = []
         for name in self._names:
             joined = np.concatenate(self._pending[name])
@@ -250,7 +247,7 @@ class RecordingWriter:
 
 def recording_properties(path: str | Path) -> dict[str, Any]:
     """The file properties of a TDMS recording (metadata, ``complete``, ``stopped``, …)."""
-    nptdms: Any = require("nptdms", package="npTDMS", extra="tdms", purpose="Reading TDMS files")
+    nptdms = nptdms_module()
     try:
         with quiet_nptdms(), nptdms.TdmsFile.open(Path(path)) as tdms:
             return dict(tdms.properties)

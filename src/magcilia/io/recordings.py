@@ -133,7 +133,7 @@ def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
     return np.asarray(np.abs(field) > sensor.field_range)
 
 
-def reading(volts: F64, setreset: F64 | None = None,
+def reading(volts: F64, setreset: NDArray[Any] | None = None,
             where: str = "samples") -> tuple[float, float, int]:
     """One angle's reading from its samples: mean (V), standard error (V), samples used.
 
@@ -332,6 +332,11 @@ def _read_mat(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
     return out
 
 
+def nptdms_module(purpose: str = "Reading TDMS files") -> Any:
+    """The optional npTDMS package, or a one-line error naming the ``tdms`` extra."""
+    return require("nptdms", package="npTDMS", extra="tdms", purpose=purpose)
+
+
 @contextlib.contextmanager
 def quiet_nptdms() -> Iterator[None]:
     """npTDMS logs warnings for a file cut inside its last segment (a recording whose writer was
@@ -346,7 +351,7 @@ def quiet_nptdms() -> Iterator[None]:
 
 
 def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, Any]:
-    nptdms: Any = require("nptdms", package="npTDMS", extra="tdms", purpose="Reading TDMS files")
+    nptdms = nptdms_module()
     try:
         with quiet_nptdms():
             tdms = nptdms.TdmsFile.read(path)
