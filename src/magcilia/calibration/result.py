@@ -46,6 +46,18 @@ class ParameterCovariance:
     correlation: F64
     covariance: F64 | None = None
 
+    def matrix(self) -> F64:
+        """The covariance (SI), shape (p, p): the stored one when there is one (it keeps the
+        cancellations along combinations the data do not determine), else standard errors ×
+        correlations (NaN where a standard error is undetermined or missing)."""
+        if self.covariance is not None:
+            return np.asarray(self.covariance, dtype=np.float64)
+        se = np.array([self.stderr.get(n, math.nan) for n in self.correlation_names])
+        corr = np.array(self.correlation, dtype=np.float64)
+        np.fill_diagonal(corr, 1.0)
+        with np.errstate(invalid="ignore"):
+            return np.asarray(np.nan_to_num(corr) * np.outer(se, se), dtype=np.float64)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; inf and NaN become null when written)."""
         names = list(self.correlation_names)

@@ -429,19 +429,11 @@ def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
 def _parameter_covariance(cal: ParameterCovariance | None,
                           params: dict[str, float]) -> tuple[list[str], F64]:
     """Names of the continuous setup parameters with a finite covariance, and that covariance
-    (SI). Uses the stored covariance when there is one (it keeps the cancellations along
-    combinations the data do not determine), else standard errors × correlations."""
+    (SI; :meth:`ParameterCovariance.matrix`)."""
     if cal is None:
         return [], np.zeros((0, 0))
     all_names = list(cal.correlation_names)
-    if cal.covariance is not None:
-        full = np.asarray(cal.covariance, dtype=np.float64)
-    else:
-        se = np.array([cal.stderr.get(n, math.nan) for n in all_names])
-        corr = np.array(cal.correlation, dtype=np.float64)
-        np.fill_diagonal(corr, 1.0)
-        with np.errstate(invalid="ignore"):
-            full = np.nan_to_num(corr) * np.outer(se, se)
+    full = cal.matrix()
     keep = [i for i, n in enumerate(all_names)
             if n in params and PARAMETERS[n].domain != "integer"
             and math.isfinite(full[i, i]) and full[i, i] > 0.0]
