@@ -25,6 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("calibration",),
     ("analysis", "readout", "acquire"),
     ("report",),  # figures and written reports
+    ("live",),  # the streaming read-out and its views (terminal, browser)
     ("api",),  # magcilia/__init__.py: the public names
     ("cli",),
 )

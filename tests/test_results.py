@@ -53,6 +53,18 @@ def _stream() -> Any:
     return record_stream(SimulatedSource(SETUP, rng=0), path, 0.1)
 
 
+def _live() -> Any:
+    from magcilia.acquire import SimulatedSource
+    from magcilia.live import LiveReadout
+
+    live = LiveReadout(SimulatedSource(SETUP, 0.2, rng=0),
+                       mc.Readout(SETUP, span=(-0.5, 0.5), table_size=17), rate=100,
+                       tare_at_start=True, tare_seconds=0.1)
+    with live:
+        live.wait(20)
+    return live
+
+
 FACTORIES: dict[str, Callable[[], Any]] = {
     "Measurement": _measurement,
     "CalibrationResult": _calibration,
@@ -77,6 +89,10 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "SweepResult": _sweep,
     "SweepPoint": lambda: _sweep().points[0],
     "StreamResult": _stream,
+    "LiveSamples": lambda: _live().history.last(1.0, 100.0),
+    "LiveStatus": lambda: _live().status,
+    "Limits": lambda: _live().limits(),
+    "Event": lambda: _live().events[0],
     "TiltMeasurement": lambda: importlib.import_module("magcilia.acquire.photo").measure_tilt(
         np.where(np.abs(np.add.outer(np.arange(120.0) * 0.17, np.arange(160.0) - 80)) < 3,
                  0.9, 0.2)),

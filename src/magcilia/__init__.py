@@ -40,6 +40,7 @@ from magcilia.device import Cilium, Material, Sensor, Setup
 from magcilia.io import Measurement, load_setup, read_measurements, save_setup, to_c_header
 
 # -- bending ---------------------------------------------------------------------------------------
+from magcilia.live import LiveReadout
 from magcilia.mechanics import (
     AIR,
     WATER,
@@ -65,6 +66,7 @@ __all__ = [
     "DesignMetrics",
     "Flow",
     "Fluid",
+    "LiveReadout",
     "LookupTable",
     "MagciliaError",
     "Material",

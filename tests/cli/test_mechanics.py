@@ -161,3 +161,10 @@ def test_readout_with_calibration_covariance(tmp_path: Path) -> None:
         np.testing.assert_allclose([float(r[1]) for r in rows], [20.0, 40.0, 60.0], atol=1e-3)
         sigmas.append(np.array([float(r[2]) for r in rows]))
     assert np.all(sigmas[1] > sigmas[0])
+
+
+def test_the_force_sensor_preset_is_the_bundled_example() -> None:
+    from magcilia.cli._common import PRESETS
+
+    example = mc.load_setup(Path(__file__).resolve().parents[2] / "examples" / "force-sensor.toml")
+    assert PRESETS["force-sensor"]().params() == pytest.approx(example.params())

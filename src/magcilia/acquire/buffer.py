@@ -42,6 +42,7 @@ class RingBuffer:
         self._data = np.zeros((v.integer("channels", channels, 1), self.capacity))
         self._sr = np.zeros(self.capacity, dtype=np.int8)
         self._first = np.zeros(self.capacity, dtype=np.int64)
+        self._received = np.zeros(self.capacity)  # wall time each sample was written
         self._start = 0  # index of the oldest unread sample
         self._size = 0
         self._has_sr = True
@@ -53,7 +54,9 @@ class RingBuffer:
         return self._size
 
     def write(self, block: Block) -> None:
-        """Append a block's samples (waits for room only when ``overwrite`` is False)."""
+        """Append a block's samples (waits for room only when ``overwrite`` is False); each is
+        stamped with the block's ``received`` time, or the wall-clock time now."""
+        received = time.time() if block.received is None else block.received
         n = len(block)
         if n > self.capacity:  # keep the newest that fit
             lost = n - self.capacity
@@ -77,6 +80,7 @@ class RingBuffer:
             self._time[idx] = block.time
             self._data[:, idx] = block.data
             self._first[idx] = block.first + np.arange(n)
+            self._received[idx] = received
             if block.setreset is None:
                 self._has_sr = False
             else:
@@ -86,8 +90,9 @@ class RingBuffer:
 
     def read(self, n: int, timeout: float | None,
              channels: tuple[Channel, ...]) -> Block | None:
-        """The oldest ``n`` unread samples as a Block, or None if they did not come within
-        ``timeout`` s (None: wait for ever) or the buffer was closed."""
+        """The oldest ``n`` unread samples as a Block (``received``: when its last sample was
+        written), or None if they did not come within ``timeout`` s (None: wait for ever) or the
+        buffer was closed."""
         deadline = None if timeout is None else time.monotonic() + timeout
         with self._lock:
             while self._size < n:
@@ -100,7 +105,8 @@ class RingBuffer:
             idx = (self._start + np.arange(n)) % self.capacity
             block = Block(time=self._time[idx].copy(), data=self._data[:, idx].copy(),
                           channels=channels, first=int(self._first[idx[0]]),
-                          setreset=self._sr[idx].copy() if self._has_sr else None)
+                          setreset=self._sr[idx].copy() if self._has_sr else None,
+                          received=float(self._received[idx[-1]]))
             self._start = (self._start + n) % self.capacity
             self._size -= n
             self._lock.notify_all()

@@ -80,6 +80,10 @@ class Block:
     setreset : ndarray of int8, shape (n,), or None
         +1 for samples taken after a set pulse of the AMR strap, −1 after a reset pulse; None
         when the source does not alternate them.
+    received : float or None
+        Wall-clock time (:func:`time.time`, s) at which the last sample reached this computer,
+        stamped by :class:`~magcilia.acquire.BackgroundReader` (None where nobody stamped it);
+        what live read-outs measure their latency from.
     """
 
     time: F64
@@ -87,6 +91,7 @@ class Block:
     channels: tuple[Channel, ...]
     first: int = 0
     setreset: NDArray[np.int8] | None = None
+    received: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("time", "data"):
@@ -126,7 +131,8 @@ class Block:
             sr = np.concatenate([b.setreset for b in blocks if b.setreset is not None])
         return cls(time=np.concatenate([b.time for b in blocks]),
                    data=np.concatenate([b.data for b in blocks], axis=1),
-                   channels=blocks[0].channels, first=blocks[0].first, setreset=sr)
+                   channels=blocks[0].channels, first=blocks[0].first, setreset=sr,
+                   received=blocks[-1].received)
 
 
 class Source(abc.ABC):

@@ -33,6 +33,8 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("approximate", "approximate"),
     ("angle", "angle"),
     ("record", "record"),
+    ("live", "live"),
+    ("dashboard", "dashboard"),
 )
 
 

@@ -25,11 +25,19 @@ from magcilia.mechanics import FLUIDS, Flow
 from magcilia.units import parse_quantity, parse_range
 
 #: built-in setups usable wherever a SETUP file is expected
-PRESETS = {"paper": Setup.paper, "paper-initial": Setup.paper_initial}
+PRESETS = {
+    "paper": Setup.paper,
+    "paper-initial": Setup.paper_initial,
+    # the paper's cilium with a 0.05 mm tip radius and a converged model, as
+    # examples/force-sensor.toml: a tip force and flow have a finite compliance
+    "force-sensor": lambda: Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4,
+                                        ring="rms"),
+}
 
 
 def load_setup_arg(value: str) -> Setup:
-    """A SETUP argument: a TOML file path or a built-in preset name (paper, paper-initial)."""
+    """A SETUP argument: a TOML file path or a built-in preset name (paper, paper-initial,
+    force-sensor)."""
     if value in PRESETS and not Path(value).exists():
         return PRESETS[value]()
     return load_setup(value)

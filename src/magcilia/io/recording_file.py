@@ -9,7 +9,9 @@ hold the metadata (source, rate, sensor, setup, start time, software version) an
 
 Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V), and where given
 ``angle_deg`` (the tilt of each sample, deg), ``setreset`` (+1 set, −1 reset) and any extra
-channels of the source.
+channels of the source. Further groups (:meth:`RecordingWriter.write_group`: a live read-out's
+values, its events) go into the same flushed segments; their channel names differ from the
+``recording`` group's, so readers that look a channel up by name find the raw samples.
 """
 
 from __future__ import annotations
@@ -77,6 +79,8 @@ class RecordingWriter:
         self.chunks = 0
         self._pending: dict[str, list[F64]] = {}
         self._names: tuple[str, ...] | None = None
+        self._groups: dict[str, dict[str, list[F64]]] = {}  # further groups' pending columns
+        self._units: dict[tuple[str, str], str] = {}
         self._file: IO[bytes] | None = None
         self._writer: Any = None
 
@@ -212,6 +216,50 @@ class RecordingWriter:
         while self._pending_size() >= self.chunk:
             self._flush_pending(self.chunk)
 
+    def write_group(self, group: str, columns: Mapping[str, ArrayLike],
+                    units: Mapping[str, str] | None = None) -> None:
+        """Append columns to a further group (not ``recording``), written with the next flushed
+        chunk of samples (or at :meth:`close`).
+
+        Parameters
+        ----------
+        group : str
+            The group, e.g. ``"readout"``; its channel names must not be the ``recording``
+            group's.
+        columns : mapping of str to array-like, each shape (m,)
+            The channels; the same names on every call for a group.
+        units : mapping of str to str, optional
+            Unit of each channel (stored as the channel's ``unit_string`` property).
+        """
+        arrays = {k: np.asarray(a, dtype=np.float64).ravel() for k, a in columns.items()}
+        if group == GROUP or not arrays:
+            raise v.fail("recording group", group, f"a group other than {GROUP!r} with channels")
+        if len({a.size for a in arrays.values()}) > 1:
+            raise v.fail(f"{group} columns", {k: a.size for k, a in arrays.items()},
+                         "the same number of values in every channel")
+        pending = self._groups.setdefault(group, {k: [] for k in arrays})
+        if tuple(pending) != tuple(arrays):
+            raise v.fail(f"{group} channels", tuple(arrays), f"the channels {tuple(pending)} "
+                         "of the first write")
+        for k, a in arrays.items():
+            pending[k].append(a)
+        for k, unit in (units or {}).items():
+            self._units[group, k] = unit
+        self.open()
+
+    def _group_objects(self) -> list[Any]:
+        """Every further group's pending columns as channel objects (and forget them)."""
+        nptdms = nptdms_module("Recording to TDMS files")
+        objects = []
+        for group, pending in self._groups.items():
+            for name, parts in pending.items():
+                unit = self._units.get((group, name))
+                objects.append(nptdms.ChannelObject(
+                    group, name, np.concatenate(parts) if parts else np.zeros(0),
+                    properties={"unit_string": unit} if unit else None))
+                pending[name] = []
+        return objects
+
     def _pending_size(self) -> int:
         return sum(a.size for a in self._pending.get("time_s", []))
 
@@ -219,6 +267,8 @@ class RecordingWriter:
         """Write up to ``limit`` pending samples (all by default) as one segment."""
         n = self._pending_size() if limit is None else limit
         if self._names is None or (n == 0 and limit is None):
+            if self._groups and limit is None:  # no samples but a further group's values
+                self._segment(self._group_objects())
             return
         nptdms = nptdms_module("Recording to TDMS files")
         objects = []
@@ -227,7 +277,7 @@ class RecordingWriter:
             self._pending[name] = [joined[n:]] if joined.size > n else []
             data = joined[:n].astype(np.int8) if name == "setreset" else joined[:n]
             objects.append(nptdms.ChannelObject(GROUP, name, data))
-        self._segment(objects)
+        self._segment(objects + self._group_objects())
         self.samples += n
         self.chunks += n > 0
 

@@ -356,7 +356,8 @@ class Readout:
         return text + (f", folding at {self.fold:.4g} {self.unit}" if self.fold is not None else "")
 
     def read(self, volts: ArrayLike,
-             bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH) -> ReadoutResult:
+             bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
+             noise: float | None = None) -> ReadoutResult:
         """Estimates with 1-σ uncertainties and flags (never raises for out-of-span readings).
 
         Parameters
@@ -366,11 +367,15 @@ class Readout:
         bandwidth : (float, float)
             Noise bandwidth (f_low, f_high), Hz, of each reading (see
             :meth:`magcilia.Sensor.noise_rms`).
+        noise : float, optional
+            Output noise RMS of each reading, V, measured (e.g. the spread of unloaded readings);
+            replaces the sensor model's noise over ``bandwidth``.
         """
         x = np.asarray(volts, dtype=np.float64)
         table = self.table
         sensor = self.setup.sensor
-        noise_v = sensor.output_noise_rms(*bandwidth)
+        noise_v = (sensor.output_noise_rms(*bandwidth) if noise is None
+                   else v.non_negative("noise", noise, "V", "noise"))
         inside = table.inside(x)
         flags = np.where(inside, 0, int(ReadoutFlag.OUTSIDE_SPAN)).astype(np.uint8)
         if table.ambiguous is not None:

@@ -1,0 +1,48 @@
+"""``magcilia dashboard``: the live read-out in a browser (plots, value, flags, tare, record)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from magcilia._validate import fail
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+
+
+@click.command()
+@live_options
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="Address to listen on. Anything but 127.0.0.1/localhost/::1 lets anyone on "
+                   "the network see the page and press its tare and record buttons (there is "
+                   "no authentication).")
+@click.option("--port", default=8050, show_default=True, type=click.IntRange(0, 65535),
+              help="TCP port (0: any free one).")
+@click.option("--window", default=10.0, show_default=True,
+              help="Seconds shown on the plots, s.")
+@click.option("--open", "open_browser", is_flag=True, help="Open the page in a browser tab.")
+def command(host: str, port: int, window: float, open_browser: bool, **kwargs: Any) -> None:
+    """Serve a browser dashboard of the live read-out: the value with its σ, flags, plots of
+    the estimate (σ band, range, minimum detectable) and of the raw output, tare and record
+    buttons, the setup and calibration in use. Stop with Ctrl-C (a recording is closed
+    complete)."""
+    from magcilia.live.dashboard import bind_socket, exposure_warning, serve
+
+    if not window > 0:
+        raise fail("--window", window, "a positive duration in s")
+    warning = exposure_warning(host)
+    if warning:
+        click.echo(f"magcilia: warning: {warning}", err=True)
+    bind_socket(host, port).close()  # a port in use fails before the source is opened
+    live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+    live.start()
+    try:
+        serve(live, host, port, window=window, record_dir=kwargs["record_dir"],
+              open_browser=open_browser,
+              on_ready=lambda url: click.echo(f"magcilia dashboard: {url}  (Ctrl-C to stop)"))
+    finally:
+        recording = live.status.recording
+        live.stop()
+    if recording:
+        click.echo(f"recording closed: {recording}")
+    click.echo("magcilia dashboard: stopped")

@@ -1,0 +1,86 @@
+"""``magcilia live``: the live read-out in the terminal, as status lines, or as JSON lines."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from types import FrameType
+from typing import Any
+
+import click
+
+from magcilia._errors import MagciliaError
+from magcilia._validate import fail
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.live.pipeline import LiveStatus
+
+
+@contextlib.contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """While inside, SIGTERM and SIGHUP (a closed SSH session) interrupt like Ctrl-C, so that
+    the read-out stops cleanly and a recording is closed complete (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(_signum: int, _frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    saved = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
+    try:
+        yield
+    finally:
+        for n, handler in saved.items():
+            signal.signal(getattr(signal, n), handler)
+
+
+@click.command()
+@live_options
+@click.option("--json-lines", "json_lines", is_flag=True,
+              help="Stream one JSON object per read-out sample to stdout instead of the view, "
+                   'in SI units: {"t": s, "value", "sigma", "flags", "unit", "raw_V": V}; '
+                   'events as {"event": kind, "text", "t"}.')
+@click.option("--duration", type=float, default=None,
+              help="Stop after this many seconds (for scripts); default: until q or Ctrl-C.")
+@click.option("--every", default=1, show_default=True, type=int,
+              help="With --json-lines: write every N-th read-out sample.")
+def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any) -> None:
+    """Watch a sensor live: the force, angle or flow speed ± σ, a sparkline of the last 10 s,
+    the flags (outside the span, fold, saturated), the state and the drop counters.
+
+    Keys: t tare (with the cilium unloaded), r start/stop recording (into --record-dir),
+    q or Ctrl-C quit. Works over SSH. When stdout is not a terminal, a plain status line is
+    printed every second instead; --json-lines streams every value for other programs. A
+    source that is unplugged is retried every second (the view says so); acquisition and
+    recording go on when it comes back. On q, Ctrl-C, --duration, SIGTERM or a closed SSH
+    session (SIGHUP) a recording is closed complete.
+    """
+    if duration is not None and not duration > 0:
+        raise fail("--duration", duration, "a positive number of seconds")
+    if every < 1:
+        raise fail("--every", every, "a whole number ≥ 1")
+    live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+    status: LiveStatus | None = None
+    with _signals_interrupt():
+        try:
+            live.start()
+            from magcilia.live import terminal
+
+            if json_lines:
+                status = terminal.stream_json_lines(live, sys.stdout, seconds=duration,
+                                                    every=every)
+            elif sys.stdout.isatty():
+                status = terminal.run_terminal(live, record_dir=kwargs["record_dir"],
+                                               seconds=duration)
+            else:
+                status = terminal.run_lines(live, sys.stdout, seconds=duration)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            live.stop()
+    if status is not None and status.state == "failed":
+        raise MagciliaError(f"live read-out failed: {status.message}")

@@ -1,0 +1,14 @@
+"""Live read-out: force, angle and flow speed as they happen, with σ, flags, tare and recording.
+
+:class:`LiveReadout` is the streaming pipeline (a source in, a :class:`History` of estimates
+out); the terminal view (:mod:`magcilia.live.terminal`, needs ``rich``) and the browser dashboard
+(:mod:`magcilia.live.dashboard`, needs ``starlette`` and ``uvicorn``) read it.
+"""
+
+from magcilia.live.history import History, LiveSamples
+from magcilia.live.pipeline import EVENTS, Event, Limits, LiveReadout, LiveStatus
+from magcilia.live.windows import Averager, Windows
+from magcilia.live.zero import Zero
+
+__all__ = ["EVENTS", "Averager", "Event", "History", "Limits", "LiveReadout", "LiveSamples",
+           "LiveStatus", "Windows", "Zero"]
