@@ -24,9 +24,8 @@ import numpy as np
 import pytest
 
 import magcilia as mc
-from magcilia._errors import AcquisitionError, MagciliaError
+from magcilia._errors import MagciliaError
 from magcilia.acquire import Script, SimulatedSource
-from magcilia.acquire.source import Block
 from magcilia.cli import main
 from magcilia.live import LiveReadout, LiveSamples
 from magcilia.live.dashboard import (
@@ -271,31 +270,12 @@ def test_a_stalled_browser_slows_neither_acquisition_nor_the_others(
         stalled.close()
 
 
-class Unplugged(SimulatedSource):
-    """A simulated sensor whose cable is pulled after ``good`` reads, back ``down`` s later."""
-
-    def __init__(self, *args: Any, good: int, down: float, **kw: Any) -> None:
-        super().__init__(*args, **kw)
-        self.good, self.down, self.reads, self.unplugged_at = good, down, 0, 0.0
-
-    def _open(self) -> None:
-        if self.unplugged_at and time.monotonic() - self.unplugged_at < self.down:
-            raise AcquisitionError("sim: no such device (unplugged)")
-        super()._open()
-
-    def _read(self, n: int) -> Block:
-        self.reads += 1
-        if self.reads == self.good:
-            self.unplugged_at = time.monotonic()
-            raise AcquisitionError("sim: device vanished")
-        return super()._read(n)
-
-
 def test_an_unplugged_source_is_shown_and_the_view_recovers(readout: mc.Readout,
-                                                            tmp_path: Path) -> None:
+                                                            tmp_path: Path,
+                                                            unplugged: Any) -> None:
     from websockets.sync.client import connect
 
-    source = _source(1e-4, Unplugged, good=60, down=0.4)
+    source = _source(1e-4, unplugged, good=60, down=0.4)
     live = LiveReadout(source, readout, rate=1000, reconnect=0.1, tracking=None)
     states: list[str] = []
     messages: list[str] = []
@@ -482,8 +462,8 @@ def test_the_page_follows_a_force_step_tares_records_and_shows_it_all(
 
 
 def test_the_page_says_when_the_source_is_unplugged_and_recovers(
-        browser: Any, readout: mc.Readout, tmp_path: Path) -> None:
-    source = _source(0.0, Unplugged, good=200, down=1.0)
+        browser: Any, readout: mc.Readout, tmp_path: Path, unplugged: Any) -> None:
+    source = _source(0.0, unplugged, good=200, down=1.0)
     live = LiveReadout(source, readout, rate=1000, reconnect=0.1, tracking=None)
     page = browser.new_page()
     try:

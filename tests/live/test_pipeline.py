@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 import magcilia as mc
-from magcilia._errors import AcquisitionError, MagciliaError
+from magcilia._errors import MagciliaError
 from magcilia.acquire import Script, SimulatedSource
-from magcilia.acquire.source import Block
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.recordings import read_samples
 from magcilia.live import EVENTS, LiveReadout
@@ -116,30 +116,9 @@ def test_the_latency_is_measured_per_sample(readout: mc.Readout) -> None:
     assert np.diff(s.time) == pytest.approx(1e-3)
 
 
-class Unplugged(SimulatedSource):
-    """A simulated sensor whose cable is pulled after ``good`` reads and put back ``down`` s
-    later."""
-
-    def __init__(self, *args: object, good: int, down: float, **kw: object) -> None:
-        super().__init__(*args, **kw)  # type: ignore[arg-type]
-        self.good, self.down, self.reads, self.unplugged_at = good, down, 0, 0.0
-
-    def _open(self) -> None:
-        if self.unplugged_at and time.monotonic() - self.unplugged_at < self.down:
-            raise AcquisitionError("sim: no such device (unplugged)")
-        super()._open()
-
-    def _read(self, n: int) -> Block:
-        self.reads += 1
-        if self.reads == self.good:
-            self.unplugged_at = time.monotonic()
-            raise AcquisitionError("sim: device vanished")
-        return super()._read(n)
-
-
-def test_an_unplugged_source_is_reported_and_recovers(readout: mc.Readout,
-                                                       tmp_path: Path) -> None:
-    source = Unplugged(SETUP, Script.constant(1e-4, "force"), rate=10000.0, rng=0,
+def test_an_unplugged_source_is_reported_and_recovers(readout: mc.Readout, tmp_path: Path,
+                                                       unplugged: Any) -> None:
+    source = unplugged(SETUP, Script.constant(1e-4, "force"), rate=10000.0, rng=0,
                        realtime=True, good=40, down=0.3)
     live = LiveReadout(source, readout, rate=1000, reconnect=0.1, tracking=None)
     with live:
@@ -233,7 +212,8 @@ def test_a_serial_device_that_stops_sending_is_reported_and_recovers(
         live = LiveReadout(SerialSource(device.port, stall=0.3), readout, rate=200,
                            stall=0.3, reconnect=0.1, tare_at_start=False, tracking=None)
         with live:
-            first = live.wait(100)
+            first = live.wait(100, timeout=1.5)  # the port's rate is known at once
+            assert [e.kind for e in live.events] == ["start"]
             device.stall(0.8)
             deadline = time.monotonic() + 5
             while live.status.state != "disconnected" and time.monotonic() < deadline:

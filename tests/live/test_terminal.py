@@ -17,14 +17,14 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 import magcilia as mc
-from magcilia._errors import AcquisitionError
 from magcilia.acquire import Script, SimulatedSource
-from magcilia.acquire.source import Block, Counters, Source
+from magcilia.acquire.source import Counters
 from magcilia.cli import main
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.recordings import read_samples
@@ -220,32 +220,6 @@ def test_json_lines_into_head() -> None:
 
 
 # -- (d) a source unplugged mid-stream ---------------------------------------------------------
-class Unpluggable(Source):
-    """A simulated source that fails while ``unplugged`` is set (reads and opens)."""
-
-    def __init__(self, inner: SimulatedSource) -> None:
-        super().__init__()
-        self.inner = inner
-        self.rate = inner.rate
-        self.channels = inner.channels
-        self.realtime = True
-        self.name = "usb-sim"
-        self.unplugged = threading.Event()
-
-    def _open(self) -> None:
-        if self.unplugged.is_set():
-            raise AcquisitionError("usb-sim: no such device")
-        self.inner.open()
-
-    def _close(self) -> None:
-        self.inner.close()
-
-    def _read(self, n: int) -> Block:
-        if self.unplugged.is_set():
-            raise AcquisitionError("usb-sim: unplugged")
-        return self.inner.read(n)
-
-
 def wait_until(check: Callable[[], bool], timeout: float, what: str) -> None:
     deadline = time.monotonic() + timeout
     while not check():
@@ -254,10 +228,10 @@ def wait_until(check: Callable[[], bool], timeout: float, what: str) -> None:
         time.sleep(0.02)
 
 
-def test_unplugged_source_recovers(tmp_path: Path) -> None:
+def test_unplugged_source_recovers(tmp_path: Path, unplugged: Any) -> None:
     setup = mc.Setup.paper(tip_radius=5e-5)
-    source = Unpluggable(SimulatedSource(setup, Script.constant(1e-4, "force"), rate=10000,
-                                         realtime=True, rng=0, readout_noise=2e-5))
+    source = unplugged(setup, Script.constant(1e-4, "force"), rate=10000, realtime=True, rng=0,
+                       readout_noise=2e-5)
     readout = mc.Readout(setup, "force", span=(-3e-4, 3e-4))
     live = LiveReadout(source, readout, reconnect=0.2, stall=0.5)
     stream = io.StringIO()
@@ -267,7 +241,7 @@ def test_unplugged_source_recovers(tmp_path: Path) -> None:
                                     kwargs={"seconds": 2.5})
         streamer.start()
         live.wait(200)
-        source.unplugged.set()
+        source.unplug()
         wait_until(lambda: live.status.state == "disconnected", 3.0, "disconnection")
         time.sleep(0.5)  # a few failed reopenings
         down = live.history.total
@@ -275,16 +249,16 @@ def test_unplugged_source_recovers(tmp_path: Path) -> None:
         samples = live.history.last(2.0, live.rate)
         out = text_of(render(status, samples, live.limits(), live.events, now=time.time() + 1))
         assert "DISCONNECTED" in out and "retrying every 0.2 s" in out
-        assert "usb-sim: unplugged" in out and "STALE" in out
+        assert "sim: device vanished" in out and "STALE" in out
         assert live.history.total == down and status.recording == str(path)
-        source.unplugged.clear()
+        source.plug()
         wait_until(lambda: live.status.state == "running", 3.0, "reconnection")
         back = live.wait(200)
         assert np.all(back.flags == 0) and np.median(back.value) == pytest.approx(1e-4, rel=0.05)
         assert np.all(back.time > samples.time[-1])  # the clock went on over the gap
         out = text_of(render(live.status, live.history.last(2.0, live.rate), live.limits(),
                              live.events, now=time.time()))
-        assert "RUNNING" in out and "reconnected: usb-sim is back" in out and "STALE" not in out
+        assert "RUNNING" in out and "reconnected: sim is back" in out and "STALE" not in out
         streamer.join(5)
         live.stop_recording()
     kinds = [e.kind for e in live.events]

@@ -333,6 +333,9 @@ class LiveReadout:
     def stop(self) -> None:
         """Stop reading, close a recording (complete) and the source (idempotent)."""
         self._stop.set()
+        reader = self._reader
+        if reader is not None:
+            reader.buffer.close()  # wakes a read waiting for samples
         if self._thread is not None:
             self._thread.join()
         self.stop_recording()
@@ -496,6 +499,7 @@ class LiveReadout:
         return self.factor * max(1, round(self.batch * self.source.rate / self.factor))
 
     def _connect(self) -> None:
+        self.source.open()  # first: a serial device tells its rate when it opens
         reader = BackgroundReader(self.source, seconds=10.0, stall=self.stall)
         try:
             reader.start()
@@ -532,7 +536,8 @@ class LiveReadout:
                 try:
                     block = self._reader.read(self._reader.chunk)
                 except (MagciliaError, OSError) as exc:
-                    self._disconnected(str(exc))
+                    if not self._stop.is_set():
+                        self._disconnected(str(exc))
                     continue
                 self._process(block)
         except Exception as exc:  # noqa: BLE001 - a failure the views must show
