@@ -477,3 +477,15 @@ def test_the_page_says_when_the_source_is_unplugged_and_recovers(
             assert page.inner_text("#message") == ""
     finally:
         page.close()
+
+
+def test_a_missing_server_package_is_named_before_anything_opens(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setitem(sys.modules, "uvicorn", None)  # import uvicorn -> ImportError
+    opened: list[str] = []
+    monkeypatch.setattr(LiveReadout, "start", lambda self: opened.append("start"))
+    assert main(["dashboard", "--port", "0"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "magcilia: error: The browser dashboard needs the optional package 'uvicorn'; install "
+        "it with: pip install 'magcilia[dashboard]'")
+    assert opened == []

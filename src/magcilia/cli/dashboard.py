@@ -26,13 +26,14 @@ def command(host: str, port: int, window: float, open_browser: bool, **kwargs: A
     the estimate (σ band, range, minimum detectable) and of the raw output, tare and record
     buttons, the setup and calibration in use. Stop with Ctrl-C (a recording is closed
     complete)."""
-    from magcilia.live.dashboard import bind_socket, exposure_warning, serve
+    from magcilia.live.dashboard import bind_socket, exposure_warning, require_server, serve
 
     if not window > 0:
         raise fail("--window", window, "a positive duration in s")
     warning = exposure_warning(host)
     if warning:
         click.echo(f"magcilia: warning: {warning}", err=True)
+    require_server()  # before anything opens
     bind_socket(host, port).close()  # a port in use fails before the source is opened
     live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
     live.start()

@@ -12,7 +12,7 @@ from typing import Any
 
 import click
 
-from magcilia._errors import MagciliaError
+from magcilia._errors import MagciliaError, require
 from magcilia._validate import fail
 from magcilia.cli._live import LIVE_KEYS, build_live, live_options
 from magcilia.live.pipeline import LiveStatus
@@ -63,6 +63,8 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
         raise fail("--duration", duration, "a positive number of seconds")
     if every < 1:
         raise fail("--every", every, "a whole number ≥ 1")
+    if not json_lines and sys.stdout.isatty():  # the rich view: check for it before starting
+        require("rich", package="rich", extra="live", purpose="The terminal view")
     live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
     status: LiveStatus | None = None
     with _signals_interrupt():

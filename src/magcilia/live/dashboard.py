@@ -77,7 +77,7 @@ STATUS_PERIOD = 0.25
 LATENCIES = 1000
 #: hosts that only this computer reaches
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
-_PURPOSE = "the browser dashboard"
+_PURPOSE = "The browser dashboard"
 
 
 # -- pure helpers: decimation and frames -----------------------------------------------------
@@ -474,6 +474,18 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
 
 
 # -- the server ------------------------------------------------------------------------------
+def require_server() -> None:
+    """Check that the dashboard's optional packages are there (starlette, uvicorn, websockets).
+
+    Raises
+    ------
+    MissingDependencyError
+        Naming the package and ``pip install 'magcilia[dashboard]'``.
+    """
+    for module in ("starlette", "uvicorn", "websockets"):
+        require(module, package=module, extra="dashboard", purpose=_PURPOSE)
+
+
 def bind_socket(host: str, port: int) -> socket.socket:
     """A listening TCP socket on ``host``:``port`` (0: a free port).
 
