@@ -16,6 +16,19 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia._errors import MagciliaError
 
 
+def printable(text: str) -> str:
+    r"""``text`` with every non-printable character (control characters, line breaks, escape
+    sequences that would clear or recolour a terminal) written as a Python escape, so that a
+    message built from a file's bytes stays one harmless line.
+
+    >>> printable("volt\x1b[2J\nage")
+    'volt\\x1b[2J\\nage'
+    """
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def _fmt(value: object) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"

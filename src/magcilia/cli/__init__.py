@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import click
 
 from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia._validate import printable
 from magcilia._version import __version__
 
 
@@ -50,7 +51,8 @@ _register()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI in-process and return the exit code (0 ok, 1 usage, 2 error)."""
+    """Run the CLI in-process and return the exit code (0 ok, 1 aborted, 2 a usage or input
+    error, printed as one line)."""
     try:
         cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
                  standalone_mode=False)
@@ -59,17 +61,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     except click.exceptions.Abort:
         click.echo("magcilia: aborted", err=True)
         return 1
+    except click.UsageError as exc:
+        where = exc.ctx.command_path if exc.ctx is not None else "magcilia"
+        return _error(f"{' '.join(exc.format_message().split())} (see {where} --help)")
     except click.ClickException as exc:
-        exc.show()
-        return 1 if isinstance(exc, click.UsageError) else 2
+        return _error(" ".join(exc.format_message().split()))
     except (MagciliaError, MissingDependencyError) as exc:
-        click.echo(f"magcilia: error: {exc}", err=True)
-        return 2
+        return _error(str(exc))
     except OSError as exc:
         name = f" {exc.filename}" if exc.filename else ""
-        click.echo(f"magcilia: error: cannot access{name}: {exc.strerror or exc}", err=True)
-        return 2
+        return _error(f"cannot access{name}: {exc.strerror or exc}")
     return 0
+
+
+def _error(message: str) -> int:
+    """Print ``magcilia: error: MESSAGE`` as one line on stderr (non-printable characters from
+    files escaped); the exit code of every usage and input error, 2."""
+    click.echo(f"magcilia: error: {printable(message)}", err=True)
+    return 2
 
 
 def run() -> None:

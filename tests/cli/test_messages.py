@@ -1,0 +1,36 @@
+"""The README's promise for every command: errors are one line on stderr, exit code 2, with the
+bytes of a file never reaching the terminal raw."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from magcilia.cli import main
+
+
+@pytest.mark.parametrize(("args", "starts"), [
+    (["field", "--bogus"], "No such option '--bogus'"),
+    (["nosuch"], "No such command 'nosuch'"),
+    (["readout", "paper", "x.csv"], "Missing option '--quantity'"),
+    (["field", "paper", "--angles"], "Option '--angles' requires an argument"),
+    (["bend", "paper", "--force", "1mN", "--tip-radius", "0.05mm", "--at", "oops"], "--at"),
+])
+def test_usage_errors_are_one_line_with_exit_2(args: list[str], starts: str,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("magcilia: error: ")
+    assert starts in err
+
+
+def test_control_characters_from_a_file_are_escaped(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A CSV header with a terminal escape (clear screen) and a line break in a column name."""
+    path = tmp_path / "evil.csv"
+    path.write_bytes(b'"angle\x1b[2J_deg","volt\nage_V"\n1,2\n')
+    assert main(["calibrate", str(path), "--out", str(tmp_path / "fit")]) == 2
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and err.count("\n") == 1
+    assert "\\x1b[2J" in err or "angle_deg" in err
