@@ -29,10 +29,26 @@ def printable(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
+def short(value: object, limit: int = 60) -> str:
+    """``value`` for a message: a string as it is, anything else as its ``str``, non-printable
+    characters escaped and cut to ``limit`` characters (a value read from a file may be huge:
+    a 400-digit number, a megabyte of text).
+
+    >>> short(10**400, 12)
+    '100000000000… (401 characters)'
+    """
+    try:
+        text = value if isinstance(value, str) else str(value)
+    except (RecursionError, ValueError):  # e.g. an int beyond Python's digit limit
+        text = f"a {type(value).__name__}"
+    text = printable(text)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+
+
 def _fmt(value: object) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
-    return repr(value) if isinstance(value, str) else str(value)
+    return repr(short(value)) if isinstance(value, str) else short(value)
 
 
 def fail(name: str, value: object, allowed: str) -> MagciliaError:

@@ -46,6 +46,9 @@ UNITS: dict[str, dict[str, float]] = {
     "viscosity": {"Pa*s": 1.0, "Pa s": 1.0, "mPa*s": 1e-3, "mPa s": 1e-3},
 }
 
+#: longest text of a quantity (a number and a unit; longer text is refused before parsing)
+MAX_QUANTITY_CHARS = 200
+
 _NUMBER = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
 
 
@@ -71,7 +74,7 @@ def parse_quantity(text: object, dimension: str, key: str = "value") -> float:
                f"e.g. '1.0 {next(iter(units))}'")
     if not isinstance(text, str):
         raise fail(key, text, allowed)
-    match = _NUMBER.match(text)
+    match = _NUMBER.match(text) if len(text) <= MAX_QUANTITY_CHARS else None
     if match is None or match.group(2) not in units:
         raise fail(key, text, allowed)
     value = float(match.group(1)) * units[match.group(2)]

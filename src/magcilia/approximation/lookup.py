@@ -17,6 +17,7 @@ from magcilia import _validate as v
 from magcilia.approximation.curve import (
     DEFAULT_RANGE,
     Curve,
+    check_grid,
     check_range,
     evaluate,
     fold_error,
@@ -26,6 +27,9 @@ from magcilia.approximation.curve import (
 
 F64 = NDArray[np.float64]
 QUANTITIES = ("inverse", "output")
+#: most entries of a lookup table (4 MB of float32 in firmware; interpolation error falls as
+#: 1/size², so a million entries are far below any sensor's noise)
+MAX_TABLE_SIZE = 1_000_000
 
 
 # -- lookup table --------------------------------------------------------------------------------
@@ -120,14 +124,15 @@ def lookup_table(
     curve : Setup or callable
         As in :func:`piecewise_linear`.
     size : int
-        Table entries (≥ 2).
+        Table entries (2 … :data:`MAX_TABLE_SIZE`).
     angle_range : (float, float)
         Tilt range, rad.
     quantity : {"inverse", "output"}
         ``"inverse"`` (default): tilt (rad) as a function of output (V), uniform in V over the
         curve's output span — needs a strictly monotonic curve. ``"output"``: V of tilt.
     grid : int
-        Dense grid used to invert the curve and to bound its curvature.
+        Dense grid used to invert the curve and to bound its curvature (at most
+        :data:`~magcilia.approximation.curve.MAX_GRID`).
 
     Returns
     -------
@@ -136,8 +141,10 @@ def lookup_table(
     """
     lo, hi = check_range(angle_range)
     size = v.integer("size", size, 2)
+    if size > MAX_TABLE_SIZE:
+        raise v.fail("size", size, f"at most {MAX_TABLE_SIZE} entries (MAX_TABLE_SIZE)")
     v.choice("quantity", quantity, QUANTITIES)
-    grid = v.integer("grid", grid, 5)
+    grid = check_grid(grid, 5)
     t = np.linspace(lo, hi, grid)
     y = evaluate(curve, t)
     d1 = np.gradient(y, t, edge_order=2)

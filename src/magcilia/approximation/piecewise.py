@@ -27,7 +27,9 @@ from scipy.optimize import minimize
 from magcilia import _validate as v
 from magcilia.approximation.curve import (
     DEFAULT_RANGE,
+    MAX_GRID,
     Curve,
+    check_grid,
     check_range,
     evaluate,
     fold_error,
@@ -36,6 +38,22 @@ from magcilia.approximation.curve import (
 )
 
 F64 = NDArray[np.float64]
+
+#: most interior corners: the corner search is a Nelder–Mead over the corners, whose cost grows
+#: steeply (16 corners take ~7 s on a 1001-point grid, 32 over a minute); for a finer read-out use
+#: a lookup table (:func:`magcilia.lookup_table`)
+MAX_CORNERS = 16
+
+
+def _check_corners(corners: object, grid: int) -> int:
+    count = v.integer("corners", corners, 0)
+    if count > MAX_CORNERS:
+        raise v.fail("corners", count, f"at most {MAX_CORNERS} (MAX_CORNERS); for a finer "
+                                       "read-out use a lookup table")
+    if count > grid - 2:
+        raise v.fail("corners", count, f"at most {grid - 2} for a grid of {grid} points "
+                     "(use a finer grid or fewer corners)")
+    return count
 
 
 # -- piecewise-linear fit ------------------------------------------------------------------------
@@ -285,10 +303,9 @@ def fit_piecewise_linear(
     if x.size != y.size or x.size < 2 or np.any(np.diff(x) <= 0):
         raise v.fail("angles", f"{x.size} angles for {y.size} values",
                      "strictly increasing angles, one per value (at least 2)")
-    corners = v.integer("corners", corners, 0)
-    if corners > x.size - 2:
-        raise v.fail("corners", corners, f"at most {x.size - 2} for a grid of {x.size} points "
-                     "(use a finer grid or fewer corners)")
+    if x.size > MAX_GRID:
+        raise v.fail("angles", f"{x.size} samples", f"at most {MAX_GRID} (MAX_GRID)")
+    corners = _check_corners(corners, x.size)
     lo, hi = float(x[0]), float(x[-1])
     if corners == 0:
         knots = np.array([lo, hi])
@@ -327,12 +344,13 @@ def piecewise_linear(
         The sensor (its ``output(tilt)``, offset included), or any ``f(tilt) -> V`` of an
         array (a,) in rad returning (a,) V.
     corners : int
-        Interior corner points; the paper suggests 2; 0 gives the best straight line.
+        Interior corner points, at most :data:`MAX_CORNERS`; the paper suggests 2; 0 gives the
+        best straight line.
     angle_range : (float, float)
         Fitted range (start, stop), rad; default 0..85°.
     grid : int
         Points of the dense uniform grid on which the continuous least-squares error is
-        approximated (≥ corners + 2).
+        approximated (≥ corners + 2, at most :data:`~magcilia.approximation.curve.MAX_GRID`).
     starts : int
         Local refinements of the corner positions, from the best coarse candidates.
 
@@ -351,11 +369,8 @@ def piecewise_linear(
     True
     """
     lo, hi = check_range(angle_range)
-    grid = v.integer("grid", grid, 3)
-    corners = v.integer("corners", corners, 0)
-    if corners > grid - 2:
-        raise v.fail("corners", corners, f"at most {grid - 2} for a grid of {grid} points "
-                     "(increase grid or use fewer corners)")
+    grid = check_grid(grid, 3)
+    corners = _check_corners(corners, grid)
     x = np.linspace(lo, hi, grid)
     y = evaluate(curve, x)
     knots, values = fit_piecewise_linear(x, y, corners, starts=starts)

@@ -24,6 +24,10 @@ DEFAULT_BOUNDS = default_bounds()
 #: position of each parameter in the search vector
 INDEX = {name: i for i, name in enumerate(PARAMETERS)}
 BIASES = ("offset", "polynomial", "none")
+#: the cost given to a candidate whose model output is not finite (its element on a dipole, an
+#: overflow): worse than any real fit but finite, so that the search's population statistics stay
+#: finite and such candidates are simply never chosen; real costs are clipped to it too
+NONFINITE_COST = 1e100
 
 class Problem:
     """The least-squares problem with the linear parameters projected out."""
@@ -51,12 +55,19 @@ class Problem:
         return arr - (arr @ self.q) @ self.q.T
 
     def model(self, params: Mapping[str, F64]) -> F64:
-        """Unbiased model output, V, shape (N, a)."""
+        """Unbiased model output, V, shape (N, a) (unchecked: non-finite where a candidate puts the
+        element on a dipole; :meth:`cost` treats those as bad candidates)."""
         self.evaluations += int(np.size(next(iter(params.values()))))
-        return tilt_output_batch(self.base, params, self.angles)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            return tilt_output_batch(self.base, params, self.angles)
 
     def residuals(self, u: F64) -> tuple[F64, F64]:
-        """Projected residuals (N, a) and the fitted scale factors (N,) for model outputs u."""
+        """Projected residuals (N, a) and the fitted scale factors (N,) for model outputs u (rows
+        with a non-finite output give non-finite residuals)."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            return self._residuals(u)
+
+    def _residuals(self, u: F64) -> tuple[F64, F64]:
         ru = self._project(u)
         if self.fit_scale:
             denom = np.einsum("na,na->n", ru, ru)
@@ -69,8 +80,12 @@ class Problem:
         return self.ry - a[:, None] * ru, a
 
     def cost(self, params: Mapping[str, F64]) -> F64:
+        """Sum of squared residuals per candidate, V², shape (N,): :data:`NONFINITE_COST` where
+        the model is not finite (or the cost exceeds it)."""
         r, _ = self.residuals(self.model(params))
-        return np.einsum("na,na->n", r, r)
+        with np.errstate(invalid="ignore", over="ignore"):
+            c = np.einsum("na,na->n", r, r)
+        return np.where(np.isfinite(c), np.minimum(c, NONFINITE_COST), NONFINITE_COST)
 
     def bias_coefficients(self, u: F64, a: float) -> F64:
         """Least-squares bias polynomial for the scaled model a·u (constant first)."""

@@ -38,23 +38,50 @@ from magcilia.calibration.problem import (
     DEFAULT_BOUNDS,
     INDEX,
     INTEGER,
+    NONFINITE_COST,
     PARAMETERS,
     Problem,
     named,
 )
 from magcilia.calibration.result import CalibrationResult, ParameterCovariance
 from magcilia.calibration.uncertainty import uncertainty
-from magcilia.device.parameters import check_ranges
+from magcilia.device.parameters import PARAMETERS as REGISTRY
+from magcilia.device.parameters import check_dipoles, check_ranges
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 
 F64 = NDArray[np.float64]
+
+#: most dipoles n·k of one candidate the search may try (the product of the n_loops and
+#: dipoles_per_loop upper bounds): a calibration evaluates ~10^5 candidates and its time grows with
+#: n·k (about 4 s per restart at 900 dipoles, 33 angles, 2 cores); the default bounds give 100.
+#: A longer search is legitimate: raise it with
+#: ``magcilia.calibration.search.MAX_FIT_DIPOLES = ...`` before calling :func:`calibrate`.
+MAX_FIT_DIPOLES = 1000
+
+
+def _check_data(data: Measurement) -> None:
+    """Finite angles and outputs, or a one-line error naming the data, before any search."""
+    for what, values in (("voltage_V", data.volts), ("angle_rad", data.angles)):
+        arr = np.asarray(values, dtype=np.float64)
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise MagciliaError(
+                f"{v.printable(str(data.source))}: {what} of angle {i + 1} of {arr.size} is "
+                f"{arr[i]}; calibration needs finite data: clean the recording or read it with "
+                "nan_policy='omit' (CLI: --nan-policy omit)"
+            )
 
 
 def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
                   initial: Setup) -> dict[str, tuple[float, float]]:
     merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
     check_ranges(merged)
+    check_dipoles(merged["n_loops"][1], merged["dipoles_per_loop"][1],
+                  "bounds n_loops x dipoles_per_loop (upper ends)", limit=MAX_FIT_DIPOLES,
+                  hint="narrow the n_loops or dipoles_per_loop bounds (each of the search's "
+                       "~10^5 candidates costs n x k dipoles; see MAX_FIT_DIPOLES)")
     init = initial.params()
     for name in PARAMETERS:
         lo, hi = merged[name]
@@ -116,6 +143,7 @@ def calibrate(
     t0 = time.perf_counter()
     if not isinstance(data, Measurement):
         raise v.fail("data", type(data).__name__, "a magcilia Measurement (use read_measurements)")
+    _check_data(data)
     initial = initial if initial is not None else Setup.paper_initial()
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
@@ -192,7 +220,8 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
         full = x.copy()
         full[cont] = xc
         r, _ = problem.residuals(problem.model(named(full)))
-        return r[0]
+        # a non-finite model (the element on a dipole) is a bad point, not a crash
+        return np.where(np.isfinite(r[0]), r[0], math.sqrt(NONFINITE_COST / r[0].size))
 
     start = np.clip(x[cont], lower[cont], upper[cont])
     try:
@@ -209,15 +238,29 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             box: dict[str, tuple[float, float]], x: F64, bias: str, t0: float,
             restart_costs: tuple[float, ...]) -> CalibrationResult:
     u = problem.model(named(x))
+    if not np.isfinite(u).all():
+        raise MagciliaError(
+            f"{v.printable(str(data.source))}: the search found no parameters within the bounds "
+            "whose model output is finite at every measured angle (the sensing element sits on "
+            "a dipole of the model); change the bounds or the initial setup"
+        )
     _, a = problem.residuals(u)
     scale = float(a[0])
     coef = problem.bias_coefficients(u[0], scale)
     offset = float(coef[0]) if coef.size else 0.0
     values: dict[str, float] = {
         n: float(round(x[INDEX[n]]) if n in INTEGER else x[INDEX[n]]) for n in PARAMETERS}
+    fitted_scale = initial.material.magnetization_scale * scale
+    for name, value in (("magnetization_scale", fitted_scale), ("offset", offset)):
+        if not REGISTRY[name].within(value):
+            raise MagciliaError(
+                f"{v.printable(str(data.source))}: the fitted {name} would be {value:.6g}, "
+                f"beyond its limits ({REGISTRY[name].limits}): the data do not look like this "
+                "sensor's output; check the units (V), the gain and the recording"
+            )
     fitted_setup = initial.replace(
         **{n: round(val) if n in INTEGER else val for n, val in values.items()},
-        magnetization_scale=initial.material.magnetization_scale * scale, offset=offset,
+        magnetization_scale=fitted_scale, offset=offset,
     )
     model_full = scale * u[0] + (problem.basis @ coef if coef.size else 0.0)
     residuals = problem.y - model_full

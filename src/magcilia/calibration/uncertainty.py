@@ -37,6 +37,12 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
     jac = np.stack(columns, axis=1)
     m, p = jac.shape
     warns: list[str] = []
+    broken = [k for k in range(p) if not np.isfinite(jac[:, k]).all()]
+    if broken:  # a finite-difference step put the element on a dipole: no slope there
+        jac[:, broken] = 0.0
+        warns.append("the model is not finite next to the optimum along "
+                     + ", ".join(names[k] for k in broken)
+                     + ": their standard errors are undetermined")
     dof = m - p
     sigma2 = cost / dof if dof > 0 else math.nan
     # rank and null space on the column-equilibrated Jacobian (columns have different units)

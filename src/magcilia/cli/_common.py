@@ -48,12 +48,22 @@ def setup_label(value: str) -> str:
     return value if value in PRESETS else Path(value).stem
 
 
+#: most angles of an ``--angles START:STOP:STEP`` grid (0.0001 deg steps over 0..90 deg are 900 001
+#: angles; a finer grid says more about float rounding than about the sensor)
+MAX_ANGLES = 1_000_000
+
+
 def angle_grid(text: str, key: str = "--angles") -> NDArray[np.float64]:
-    """Angles in rad from ``start:stop[:step]`` in degrees (stop included when on the grid)."""
+    """Angles in rad from ``start:stop[:step]`` in degrees (stop included when on the grid), at
+    most :data:`MAX_ANGLES` of them."""
     start, stop, step = parse_range(text, key, "deg")
     if step is None:
         step = math.radians(1.0)
-    n = math.floor((stop - start) / step + 1e-9) + 1
+    count = (stop - start) / step + 1e-9
+    if not count < MAX_ANGLES:  # also inf and NaN (an overflowing span)
+        raise fail(key, text, f"a grid of at most {MAX_ANGLES} angles (MAX_ANGLES); use a "
+                              "larger step or a shorter range")
+    n = math.floor(count) + 1
     return np.asarray(start + step * np.arange(n), dtype=np.float64)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from magcilia._atomic import staged_directory
 from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
     calibrate_with_progress,
@@ -13,7 +14,7 @@ from magcilia.cli._common import (
 )
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
-from magcilia.report.calibration import write_calibration
+from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
 
 
 @click.command()
@@ -21,7 +22,10 @@ from magcilia.report.calibration import write_calibration
 @click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
               help="Initial setup: a TOML file or a preset (paper, paper-initial).")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Output directory (fitted_setup.toml, result.json, report.md, figures).")
+              help="Output directory (fitted_setup.toml, result.json, report.md, figures); "
+                   "must not exist yet, or be empty.")
+@click.option("--force", is_flag=True,
+              help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
                    f"repeatable. Defaults: {describe_bounds()}.")
@@ -40,20 +44,22 @@ from magcilia.report.calibration import write_calibration
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, bias: str, bias_degree: int, fit_scale: bool, nan_policy: str,
-            saturation: str, as_json: bool, quiet: bool) -> None:
+            saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
-    and residuals.png into --out; nothing is written if anything fails.
+    and residuals.png into --out, a new folder published in one rename when everything is
+    written: nothing is written if anything fails, and a killed run leaves no partial folder.
     """
-    initial = load_setup_arg(setup_arg)
-    measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
-                                    saturation=saturation)
-    bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
-    result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds, rng=seed,
-                                     bias=bias, bias_degree=bias_degree, fit_scale=fit_scale,
-                                     restarts=restarts)
-    write_calibration(result, out_dir)
+    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+        initial = load_setup_arg(setup_arg)
+        measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
+                                        saturation=saturation)
+        bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
+        result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
+                                         rng=seed, bias=bias, bias_degree=bias_degree,
+                                         fit_scale=fit_scale, restarts=restarts)
+        write_calibration_files(result, tmp)
     if as_json:
         echo_json(result.to_dict())
     else:

@@ -6,31 +6,37 @@ from pathlib import Path
 
 import click
 
+from magcilia._atomic import staged_directory
 from magcilia.cli._common import calibrate_with_progress
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
-from magcilia.report.calibration import write_calibration
+from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
 
 
 @click.command()
 @click.option("--out", "out_dir", default="magcilia-demo", show_default=True,
-              type=click.Path(file_okay=False), help="Output directory.")
+              type=click.Path(file_okay=False),
+              help="Output directory; must not exist yet, or be empty.")
+@click.option("--force", is_flag=True,
+              help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def command(out_dir: str, seed: int, quiet: bool) -> None:
+def command(out_dir: str, seed: int, quiet: bool, force: bool) -> None:
     """Calibrate the paper's model to the bundled SYNTHETIC recording and write a report.
 
     The recording (33 angles, 2000 samples at 1 kHz each) was generated from the paper's Table I
     parameters with the sensor's noise, drift and a DC bias (scripts/make_example_recording.py).
-    The fit starts from Table I's initial values, as in the paper.
+    The fit starts from Table I's initial values, as in the paper. The --out folder is published
+    in one rename when everything is written (see `magcilia calibrate --help`).
     """
-    path = example_path()
-    initial = Setup.paper_initial()
-    data = read_measurements(path, sensor=initial.sensor)
-    click.echo(f"bundled synthetic recording: {path.name}, {len(data)} angles, "
-               f"{int(data.counts.sum())} samples")
-    result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed)
-    write_calibration(result, out_dir)
+    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+        path = example_path()
+        initial = Setup.paper_initial()
+        data = read_measurements(path, sensor=initial.sensor)
+        click.echo(f"bundled synthetic recording: {path.name}, {len(data)} angles, "
+                   f"{int(data.counts.sum())} samples")
+        result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed)
+        write_calibration_files(result, tmp)
     click.echo(result.report())
     click.echo(f"report written to {Path(out_dir) / 'report.md'} (figures fit.png, residuals.png; "
                "fitted setup fitted_setup.toml)")

@@ -8,7 +8,7 @@ import io
 import click
 import numpy as np
 
-from magcilia._atomic import save_figure, write_json, write_text
+from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
 from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
 from magcilia.constants import GAUSS
 
@@ -28,9 +28,12 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
 
     SETUP is a setup TOML file or a preset name: `paper` (Table I optimized) or `paper-initial`
     (Table I initial). Several SETUPs are compared in one table and figure. Rows beyond the
-    sensor's linear range are flagged `range`.
+    sensor's linear range are flagged `range`. The output files are written together once
+    everything is computed: a failure leaves none of them changed.
     """
     theta = angle_grid(angles)
+    if plot_path:
+        figure_format(plot_path)  # an unknown suffix fails before the work
     rows = []
     results = []
     for arg in setups:
@@ -48,15 +51,16 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
                 "flag": "" if ok[i] else "range",
             })
     columns = ["setup", "angle_deg", "Bx_gauss", "By_gauss", "Bz_gauss", "output_V", "flag"]
+    files: dict[str, str | bytes] = {}
     if csv_path:
         buf = io.StringIO()
         writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-        write_text(csv_path, buf.getvalue())
+        files[csv_path] = buf.getvalue()
     doc = {"units": {"angle": "deg", "B": "gauss", "output": "V"}, "rows": rows}
     if json_file:
-        write_json(json_file, doc)
+        files[json_file] = json_text(doc)
     if plot_path:
         from magcilia.report.figures import new_figure, plot_field_vs_tilt, plot_output_vs_tilt
 
@@ -66,7 +70,8 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
         plot_output_vs_tilt(theta, [r[3] for r in results], labels, axes[0, 1],
                             in_range=[r[4] for r in results])
         fig.suptitle("Cilium field and sensor output vs tilt (distributed-dipole model)")
-        save_figure(fig, plot_path)
+        files[plot_path] = figure_bytes(fig, plot_path)
+    write_files(files)
     if as_json:
         echo_json(doc)
         return

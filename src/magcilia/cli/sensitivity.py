@@ -24,7 +24,11 @@ from magcilia.cli._common import (
 )
 from magcilia.device.parameters import PARAMETERS, describe_spans
 from magcilia.io.recordings import read_measurements
-from magcilia.report.sensitivity import report_dict, write_sensitivity_report
+from magcilia.report.sensitivity import FIGURE_FILES, report_dict, write_sensitivity_report
+
+#: every file ``magcilia sensitivity --out`` may write (sobol.png only with Sobol indices)
+SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensitivity.json",
+                     "summary.md")
 
 
 @click.command()
@@ -33,7 +37,10 @@ from magcilia.report.sensitivity import report_dict, write_sensitivity_report
               help="Recording (CSV/.mat/.tdms): adds the calibration cost (offset solved) "
                    "to every sweep.")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Output directory (figures, sensitivity.json, summary.md).")
+              help="Output directory (figures, sensitivity.json, summary.md); must not exist "
+                   "yet, or be empty.")
+@click.option("--force", is_flag=True,
+              help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Sweep span, lengths in mm (n_loops, dipoles_per_loop whole numbers); "
                    f"repeatable. Defaults: {describe_spans()}.")
@@ -56,40 +63,44 @@ from magcilia.report.sensitivity import report_dict, write_sensitivity_report
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
-            bandwidth: str, as_json: bool, quiet: bool) -> None:
+            bandwidth: str, as_json: bool, quiet: bool, force: bool) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
-    (xy_map.png), Sobol bars (sobol.png), sensitivity.json (SI units) and summary.md into --out;
-    nothing is written if anything fails.
+    (xy_map.png), Sobol bars (sobol.png), sensitivity.json (SI units) and summary.md into --out,
+    a new folder published in one rename when everything is written: nothing is written if
+    anything fails, and a killed run leaves no partial folder.
     """
-    setup = load_setup_arg(setup_arg)
-    spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS)
-    band = parse_bandwidth(bandwidth)
-    if not (math.isfinite(accuracy) and accuracy > 0):
-        raise fail("--accuracy", accuracy, "a positive angle in degrees")
-    if sobol_base < 0:
-        raise fail("--sobol-base", sobol_base, "0 (skip) or a power of 2")
-    if sobol_measure == "cost" and data is None and sobol_base:
-        raise fail("--sobol-measure", "cost", "used with --data (the cost needs measurements)")
-    if sobol_base:  # fail before the sweeps, and say how to do without
-        try:
-            require("SALib", package="SALib", extra="sensitivity", purpose="Sobol indices")
-        except MissingDependencyError as exc:
-            raise MissingDependencyError(f"{exc} (or skip them with --sobol-base 0)") from None
-    measurement = None if data is None else read_measurements(data, sensor=setup.sensor)
-    show = not quiet and sys.stderr.isatty()
-    with tqdm(total=3, desc="sensitivity", unit="step", disable=not show, file=sys.stderr) as bar:
-        study = sensitivity_study(setup, measurement, spans=spans, points=points,
-                                  map_points=map_points)
-        bar.update()
-        sobol = (sobol_indices(setup, n_base=sobol_base, measure=sobol_measure,
-                               data=measurement, rng=seed) if sobol_base else None)
-        bar.update()
-        tolerance = placement_tolerance(setup, math.radians(accuracy), bandwidth=band)
-        bar.update()
     out = Path(out_dir)
-    with staged_directory(out) as tmp:
+    with staged_directory(out, force=force, names=SENSITIVITY_FILES) as tmp:
+        setup = load_setup_arg(setup_arg)
+        spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS)
+        band = parse_bandwidth(bandwidth)
+        if not (math.isfinite(accuracy) and accuracy > 0):
+            raise fail("--accuracy", accuracy, "a positive angle in degrees")
+        if sobol_base < 0:
+            raise fail("--sobol-base", sobol_base, "0 (skip) or a power of 2")
+        if sobol_measure == "cost" and data is None and sobol_base:
+            raise fail("--sobol-measure", "cost",
+                       "used with --data (the cost needs measurements)")
+        if sobol_base:  # fail before the sweeps, and say how to do without
+            try:
+                require("SALib", package="SALib", extra="sensitivity", purpose="Sobol indices")
+            except MissingDependencyError as exc:
+                raise MissingDependencyError(
+                    f"{exc} (or skip them with --sobol-base 0)") from None
+        measurement = None if data is None else read_measurements(data, sensor=setup.sensor)
+        show = not quiet and sys.stderr.isatty()
+        with tqdm(total=3, desc="sensitivity", unit="step", disable=not show,
+                  file=sys.stderr) as bar:
+            study = sensitivity_study(setup, measurement, spans=spans, points=points,
+                                      map_points=map_points)
+            bar.update()
+            sobol = (sobol_indices(setup, n_base=sobol_base, measure=sobol_measure,
+                                   data=measurement, rng=seed) if sobol_base else None)
+            bar.update()
+            tolerance = placement_tolerance(setup, math.radians(accuracy), bandwidth=band)
+            bar.update()
         written = write_sensitivity_report(study, tmp, sobol, tolerance)
     if as_json:
         echo_json(report_dict(study, sobol, tolerance))

@@ -16,8 +16,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.device.parameters import PARAMETERS
+from magcilia.device.parameters import MAX_LENGTH, MIN_LENGTH, PARAMETERS
 from magcilia.model import body
+
+#: most points of a measured profile (a profile is a handful to a few hundred measured radii; the
+#: slicing's cost grows with the number of knots)
+MAX_PROFILE_POINTS = 10_000
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,7 @@ class Cilium:
             object.__setattr__(self, name, PARAMETERS[name].check(getattr(self, name)))
         if self.profile is not None:
             u, rho = _check_profile(self.profile)
+            _check_profile_radii(self.base_radius * rho)
             object.__setattr__(self, "profile", (tuple(u.tolist()), tuple(rho.tolist())))
             object.__setattr__(self, "tip_radius", self.base_radius * float(rho[-1]))
         tip = PARAMETERS["tip_radius"].check(self.tip_radius)
@@ -80,16 +85,18 @@ class Cilium:
         """
         s_arr = v.finite_array("profile s", s, ndim=1, unit="m")
         r_arr = v.finite_array("profile radius", radius, ndim=1, unit="m")
+        _check_profile_size(s_arr.size)
         if s_arr.size < 2 or s_arr.size != r_arr.size:
             raise v.fail("profile", f"{s_arr.size} arc lengths and {r_arr.size} radii",
                          "at least two (s, radius) pairs of equal count")
         if s_arr[0] != 0.0 or np.any(np.diff(s_arr) <= 0.0):
-            raise v.fail("profile s", s_arr.tolist(), "arc lengths increasing from 0 (m)")
+            raise v.fail("profile s", _head(s_arr), "arc lengths increasing from 0 (m)")
         height = float(s_arr[-1])
         base = v.positive("profile radius at the base", float(r_arr[0]))
         if np.any(r_arr[:-1] <= 0.0) or r_arr[-1] < 0.0:
-            raise v.fail("profile radius", r_arr.tolist(),
+            raise v.fail("profile radius", _head(r_arr),
                          "positive radii in m (only the tip may be 0)")
+        _check_profile_radii(r_arr)
         return cls(height=height, base_radius=base, youngs_modulus=youngs_modulus,
                    profile=(tuple((s_arr / height).tolist()), tuple((r_arr / base).tolist())))
 
@@ -145,20 +152,45 @@ class Cilium:
         return body.contains(self.height, self.base_radius, *self.shape, axial, radial)
 
 
+def _head(values: NDArray[np.float64], count: int = 8) -> str:
+    """The first ``count`` values, for a message about a long profile."""
+    shown = ", ".join(f"{x:.6g}" for x in values[:count])
+    return f"[{shown}{', …' if values.size > count else ''}] ({values.size} values)"
+
+
+def _check_profile_size(size: int) -> None:
+    if size > MAX_PROFILE_POINTS:
+        raise v.fail("profile", f"{size} points",
+                     f"at most {MAX_PROFILE_POINTS} points (MAX_PROFILE_POINTS); resample the "
+                     "measured shape")
+
+
+def _check_profile_radii(radii: NDArray[np.float64]) -> None:
+    """Radii in m of a profile within the registry's limits (MIN_LENGTH … MAX_LENGTH; the tip may
+    be 0)."""
+    big = radii > MAX_LENGTH
+    small = np.zeros_like(big)
+    small[:-1] = radii[:-1] < MIN_LENGTH
+    if big.any() or small.any():
+        raise v.fail("profile radius", float(radii[np.argmax(big | small)]),
+                     f"radii within [{MIN_LENGTH:g}, {MAX_LENGTH:g}] m (only the tip may be 0)")
+
+
 def _check_profile(profile: object) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Validate a normalised profile (u, rho): u from 0 to 1 increasing, rho ≥ 0, rho[0] = 1."""
     if not isinstance(profile, tuple | list) or len(profile) != 2:
-        raise v.fail("profile", profile, "a pair (u, rho) of equal-length sequences")
+        raise v.fail("profile", type(profile).__name__, "a pair (u, rho) of equal-length sequences")
     u_raw, rho_raw = profile
     u = v.finite_array("profile u", u_raw, ndim=1)
     rho = v.finite_array("profile rho", rho_raw, ndim=1)
+    _check_profile_size(max(u.size, rho.size))
     if u.size < 2 or u.size != rho.size:
         raise v.fail("profile", f"{u.size} knots and {rho.size} radii",
                      "at least two knots with one radius each")
     if u[0] != 0.0 or abs(u[-1] - 1.0) > 1e-12 or np.any(np.diff(u) <= 0.0):
-        raise v.fail("profile u", u.tolist(), "knots increasing from 0 to 1 (s / height)")
+        raise v.fail("profile u", _head(u), "knots increasing from 0 to 1 (s / height)")
     if np.any(rho[:-1] <= 0.0) or rho[-1] < 0.0 or abs(rho[0] - 1.0) > 1e-12:
-        raise v.fail("profile rho", rho.tolist(),
+        raise v.fail("profile rho", _head(rho),
                      "radii / base_radius starting at 1, positive (only the tip may be 0)")
     u[-1], rho[0] = 1.0, 1.0
     return u, rho

@@ -7,6 +7,13 @@ Calibration, sensitivity, tolerance, reports, setup files and the CLI all read t
 idea behind lmfit's ``Parameter`` and SALib's ``problem``); nobody restates it, and code indexes
 parameters by name, never by position.
 
+Every number has limits as well as a domain (``minimum``/``maximum``, SI): generous physical
+ranges (lengths up to 1 m, n and k up to 1000, …) that keep the model's float arithmetic finite,
+so that anything read from a file or typed on a command line either builds a sensible setup or
+fails with a one-line error naming the limit (issue 12). The model's size is bounded too:
+:data:`MAX_LOOPS` slices, :data:`MAX_DIPOLES_PER_LOOP` dipoles per slice and
+:data:`MAX_DIPOLES` dipoles per cilium (see :func:`check_dipoles`).
+
 :data:`MEASURANDS` does the same for what read-out estimates (tilt angle, tip force, flow speed).
 
 Examples
@@ -30,10 +37,25 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
+from magcilia._errors import MagciliaError
 from magcilia.model.body import RINGS
 from magcilia.units import UNITS
 
 DOMAINS = ("positive", "non_negative", "real", "nonzero", "integer", "choice")
+
+#: the longest length of a setup (height, radii, |x|, |y|, |z|, depth), m: a metre-sized cilium is
+#: far beyond any sensor of this kind, and the bound keeps r³ and r⁵ of the field finite
+MAX_LENGTH = 1.0
+#: the shortest height or radius, m (1 nm: below it a "cilium" is not a continuum body, and
+#: powers like r⁴ of the bending stiffness would underflow)
+MIN_LENGTH = 1e-9
+#: most slices n of the dipole model (a model converges with tens of slices)
+MAX_LOOPS = 1000
+#: most dipoles k per slice
+MAX_DIPOLES_PER_LOOP = 1000
+#: most dipoles n·k of one cilium's model: the field costs O(n·k) per angle and its arrays hold
+#: n·k entries per angle, so this keeps one evaluation in memory and well under a second
+MAX_DIPOLES = 100_000
 
 
 @dataclass(frozen=True)
@@ -124,6 +146,12 @@ class Parameter(Quantity):
     model : bool
         Whether the dipole model takes it per parameter set (a key of ``Setup.params()`` and of
         :func:`magcilia.model.tilt_output_batch`).
+    minimum : float
+        Smallest magnitude of a non-zero value, SI (``positive`` and ``nonzero`` domains; the
+        others allow 0). 0 for none.
+    maximum : float
+        Largest magnitude, SI (largest value of an integer). Every number in the registry has a
+        finite one (see the module docstring).
     """
 
     domain: str = "real"
@@ -136,37 +164,94 @@ class Parameter(Quantity):
     figure: int | None = None
     choices: tuple[str, ...] = ()
     model: bool = False
+    minimum: float = 0.0
+    maximum: float = math.inf
 
     def check(self, value: object, name: str | None = None) -> Any:
-        """``value`` checked against the domain (an integer, a float or a choice), or a one-line
-        :class:`~magcilia.MagciliaError` naming ``name`` (default: the parameter's name)."""
+        """``value`` checked against the domain and the limits (an integer, a float or a choice),
+        or a one-line :class:`~magcilia.MagciliaError` naming ``name`` (default: the parameter's
+        name)."""
         key = self.name if name is None else name
+        if self.domain == "choice":
+            return v.choice(key, value, self.choices)
+        try:
+            out = self._in_domain(key, value)
+        except OverflowError:  # an integer beyond float range, e.g. 400 digits from a file
+            out = value
+        if isinstance(out, float) and self.within(out):
+            return out
+        if isinstance(out, float):
+            raise v.fail(key, out, f"{self._singular} {self.limits}")
+        if not self.within(out):  # an integer, perhaps of hundreds of digits
+            raise MagciliaError(f"{key} must be {self._singular} {self.limits}; "
+                                f"got {v.short(out, 40)}")
+        return out
+
+    def _in_domain(self, key: str, value: object) -> Any:
         if self.domain == "positive":
             return v.positive(key, value, self.unit, self.what)
         if self.domain == "non_negative":
             return v.non_negative(key, value, self.unit, self.what)
         if self.domain == "integer":
             return v.integer(key, value, 1)
-        if self.domain == "choice":
-            return v.choice(key, value, self.choices)
         out = v.real(key, value, self.unit)
         if self.domain == "nonzero" and out == 0.0:
             raise v.fail(key, out, "a non-zero finite number")
         return out
 
     @property
+    def _singular(self) -> str:
+        unit = f" in {self.unit}" if self.unit else ""
+        return {
+            "positive": f"a positive {self.what}{unit},",
+            "non_negative": f"a non-negative {self.what}{unit},",
+            "integer": "an integer >= 1,",
+            "nonzero": "a non-zero finite number,",
+        }.get(self.domain, f"a finite number{unit},")
+
+    @property
+    def limits(self) -> str:
+        """The limits in words, e.g. ``"within [1e-09, 1] m"`` (SI; ``""`` for choices)."""
+        unit = f" {self.unit}" if self.unit else ""
+        lo, hi = self.minimum, self.maximum
+        if self.domain == "integer":
+            return f"at most {hi:g}"
+        if self.domain == "positive":
+            return f"within [{lo:g}, {hi:g}]{unit}"
+        if self.domain == "non_negative":
+            return f"within [0, {hi:g}]{unit}"
+        if self.domain == "nonzero":
+            return f"with |{self.name}| within [{lo:g}, {hi:g}]{unit}"
+        if self.domain == "real":
+            return f"within [{-hi:g}, {hi:g}]{unit}"
+        return ""
+
+    def within(self, value: float) -> bool:
+        """Whether a value of the domain also lies within the limits."""
+        size = abs(value)  # not float(): an integer may be too large for a float
+        if self.domain in ("positive", "nonzero") and size < self.minimum:
+            return False
+        return size <= self.maximum
+
+    @property
     def allowed(self) -> str:
         """What values of the domain are, in the plural (for arrays and ranges of values)."""
         return {
-            "positive": (f"positive {self.what}s in {self.unit}" if self.unit
+            "positive": (f"positive {_plural(self.what)} in {self.unit}" if self.unit
                          else "positive numbers"),
             "non_negative": "non-negative numbers",
             "integer": "whole numbers >= 1",
             "nonzero": "non-zero finite numbers",
         }.get(self.domain, "finite numbers")
 
+    @property
+    def allowed_within(self) -> str:
+        """:attr:`allowed` with the limits, e.g. ``"whole numbers >= 1, at most 1000"``."""
+        return f"{self.allowed}, {self.limits}" if self.limits else self.allowed
+
     def outside(self, values: ArrayLike) -> float | None:
-        """The first of ``values`` (finite numbers) outside the domain, or None."""
+        """The first of ``values`` (finite numbers) outside the domain, or None (the limits are
+        :meth:`within`'s: a sweep skips values beyond them, naming the limit)."""
         arr = np.asarray(values, dtype=np.float64).ravel()
         if self.domain == "positive":
             bad = arr <= 0.0
@@ -181,12 +266,20 @@ class Parameter(Quantity):
         return float(arr[bad][0]) if bad.any() else None
 
     def check_range(self, low: float, high: float, name: str) -> None:
-        """Raise unless both ends of a (low, high) range lie in the domain."""
-        if self.outside([low, high]) is not None:
-            raise v.fail(name, (low, high), self.allowed)
+        """Raise unless both ends of a (low, high) range lie in the domain and the limits."""
+        if self.outside([low, high]) is not None or not (self.within(low)
+                                                         and self.within(high)):
+            raise v.fail(name, (low, high), self.allowed_within)
 
 
-_MM = {"dimension": "length", "unit": "m", "display": "mm", "file_unit": "mm", "what": "length"}
+def _plural(noun: str) -> str:
+    return f"{noun[:-1]}ies" if noun.endswith("y") else f"{noun}s"
+
+
+_MM = {"dimension": "length", "unit": "m", "display": "mm", "file_unit": "mm", "what": "length",
+       "maximum": MAX_LENGTH}
+#: heights and radii: positive, from 1 nm to 1 m
+_SIZE = {**_MM, "minimum": MIN_LENGTH}
 
 
 def _p(name: str, label: str, **kw: object) -> Parameter:
@@ -200,37 +293,41 @@ def _p(name: str, label: str, **kw: object) -> Parameter:
 #: placement, sensor, amplifier, model)
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     # cilium: the body
-    _p("height", "height", **_MM, domain="positive", part="cilium",
+    _p("height", "height", **_SIZE, domain="positive", part="cilium",
        file=("cilium", "height"), bound=(2e-3, 4e-3), span=Span("scale", 0.8, 1.2), figure=12,
        model=True),
-    _p("base_radius", "base radius", **_MM, domain="positive", part="cilium",
+    _p("base_radius", "base radius", **_SIZE, domain="positive", part="cilium",
        file=("cilium", "base_radius"), bound=(1e-4, 4e-4), span=Span("scale", 0.8, 1.2),
        figure=12, model=True),
     _p("tip_radius", "tip radius", **_MM, domain="non_negative", part="cilium",
        file=("cilium", "tip_radius"), model=True),
     _p("youngs_modulus", "Young's modulus", dimension="pressure", unit="Pa", display="MPa",
-       domain="positive", what="modulus", part="cilium", file=("cilium", "youngs_modulus")),
+       domain="positive", what="modulus", part="cilium", file=("cilium", "youngs_modulus"),
+       minimum=1.0, maximum=1e13),
     # material: the composite (eq. 1)
     _p("cobalt_mass", "cobalt mass", dimension="mass", unit="kg", display="mg",
-       domain="positive", what="mass", part="material", file=("material", "cobalt_mass")),
+       domain="positive", what="mass", part="material", file=("material", "cobalt_mass"),
+       minimum=1e-12, maximum=1e3),
     _p("polymer_mass", "polymer mass", dimension="mass", unit="kg", display="mg",
-       domain="positive", what="mass", part="material", file=("material", "polymer_mass")),
+       domain="positive", what="mass", part="material", file=("material", "polymer_mass"),
+       minimum=1e-12, maximum=1e3),
     _p("cobalt_density", "cobalt density", dimension="density", unit="kg/m^3",
        display="g/cm^3", domain="positive", what="density", part="material",
-       file=("material", "cobalt_density")),
+       file=("material", "cobalt_density"), minimum=1e-2, maximum=1e6),
     _p("polymer_density", "polymer density", dimension="density", unit="kg/m^3",
        display="g/cm^3", domain="positive", what="density", part="material",
-       file=("material", "polymer_density")),
+       file=("material", "polymer_density"), minimum=1e-2, maximum=1e6),
     _p("atom_density", "cobalt atom density", dimension="number_density", unit="m^-3",
        display="m^-3", domain="positive", what="number density", part="material",
-       file=("material", "atom_density")),
+       file=("material", "atom_density"), minimum=1e20, maximum=1e31),
     _p("moment_per_atom", "moment per cobalt atom", dimension="moment_per_atom", unit="A*m^2",
        display="muB", domain="positive", what="moment", part="material",
-       file=("material", "moment_per_atom")),
+       file=("material", "moment_per_atom"), minimum=1e-30, maximum=1e-18),
     _p("magnetization_scale", "magnetization scale", domain="non_negative", what="factor",
-       part="material", file=("material", "magnetization_scale"), model=True),
+       part="material", file=("material", "magnetization_scale"), model=True, maximum=100.0),
     _p("polymer_modulus", "polymer modulus", dimension="pressure", unit="Pa", display="MPa",
-       domain="positive", what="modulus", part="material", file=("material", "polymer_modulus")),
+       domain="positive", what="modulus", part="material", file=("material", "polymer_modulus"),
+       minimum=1.0, maximum=1e13),
     # placement: the paper's (x_f, y_f, z_f)
     _p("x", "x", **_MM, part="setup", file=("placement", "x"), bound=(-3e-3, 3e-3),
        span=Span("around", -1e-3, 1e-3), figure=9, model=True),
@@ -241,28 +338,31 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     # sensor and amplifier
     _p("sensitivity", "bridge sensitivity", dimension="sensitivity", unit="V/V/T",
        display="mV/V/gauss", domain="positive", what="sensitivity", part="sensor",
-       file=("sensor", "sensitivity")),
+       file=("sensor", "sensitivity"), minimum=1e-9, maximum=1e9),
     _p("bridge_voltage", "bridge voltage", dimension="voltage", unit="V", display="V",
-       domain="positive", what="voltage", part="sensor", file=("sensor", "bridge_voltage")),
+       domain="positive", what="voltage", part="sensor", file=("sensor", "bridge_voltage"),
+       minimum=1e-6, maximum=1e4),
     _p("depth", "depth of the sensing element", **_MM, domain="non_negative", part="sensor",
        file=("sensor", "depth")),
     _p("field_range", "linear range", dimension="field", unit="T", display="gauss",
-       domain="positive", what="field", part="sensor", file=("sensor", "range")),
+       domain="positive", what="field", part="sensor", file=("sensor", "range"),
+       minimum=1e-15, maximum=1e3),
     _p("noise_density", "noise density", dimension="noise_density", unit="T/sqrt(Hz)",
        display="nT/sqrt(Hz)", domain="non_negative", what="noise density", part="sensor",
-       file=("sensor", "noise_density")),
+       file=("sensor", "noise_density"), maximum=1.0),
     _p("flicker_corner", "1/f corner", dimension="frequency", unit="Hz", display="Hz",
        domain="non_negative", what="frequency", part="sensor",
-       file=("sensor", "flicker_corner")),
-    _p("gain", "amplifier gain", domain="nonzero", part="sensor", file=("amplifier", "gain")),
+       file=("sensor", "flicker_corner"), maximum=1e9),
+    _p("gain", "amplifier gain", domain="nonzero", part="sensor", file=("amplifier", "gain"),
+       minimum=1e-9, maximum=1e9),
     _p("offset", "output offset", dimension="voltage", unit="V", display="mV", file_unit="V",
-       part="sensor", file=("amplifier", "offset"), model=True),
+       part="sensor", file=("amplifier", "offset"), model=True, maximum=1e6),
     # the model's slices
     _p("n_loops", "slices n", domain="integer", file=("model", "n_loops"), bound=(1, 10),
-       span=Span("fixed", 1, 10), figure=11, model=True),
+       span=Span("fixed", 1, 10), figure=11, model=True, maximum=MAX_LOOPS),
     _p("dipoles_per_loop", "dipoles per slice k", domain="integer",
        file=("model", "dipoles_per_loop"), bound=(1, 10), span=Span("fixed", 1, 10), figure=11,
-       model=True),
+       model=True, maximum=MAX_DIPOLES_PER_LOOP),
     _p("ring", "ring radius rule", domain="choice", choices=RINGS, file=("model", "ring")),
 )}
 
@@ -304,11 +404,27 @@ def default_spans(nominal: dict[str, float]) -> dict[str, tuple[float, float]]:
     return {n: PARAMETERS[n].span.around(float(nominal[n])) for n in STUDIED}  # type: ignore[union-attr]
 
 
+def check_dipoles(n_loops: float, dipoles_per_loop: float, name: str = "n_loops * dipoles_per_loop",
+                  limit: int = MAX_DIPOLES, hint: str = "use fewer slices or dipoles per slice"
+                  ) -> None:
+    """Raise unless a model of ``n_loops`` × ``dipoles_per_loop`` dipoles stays within ``limit``
+    (default :data:`MAX_DIPOLES`)."""
+    total = float(n_loops) * float(dipoles_per_loop)
+    if not total <= limit:
+        raise MagciliaError(f"{name} must be at most {limit} dipoles per cilium; got "
+                            f"{n_loops:g} x {dipoles_per_loop:g} = {total:g}; {hint}")
+
+
 def check_ranges(ranges: Mapping[str, Sequence[float]], key: str = "bounds") -> None:
-    """Raise unless each named (low, high) range lies in its parameter's domain: n and k whole
-    numbers >= 1, the height and base radius positive, …"""
+    """Raise unless each named (low, high) range lies in its parameter's domain and limits: n and
+    k whole numbers from 1 to 1000, the height and base radius positive, …; with both n and k
+    given, their upper ends must also keep the model within :data:`MAX_DIPOLES`."""
     for name, (lo, hi) in ranges.items():
         PARAMETERS[name].check_range(float(lo), float(hi), f"{key}[{name!r}]")
+    if "n_loops" in ranges and "dipoles_per_loop" in ranges:
+        check_dipoles(ranges["n_loops"][1], ranges["dipoles_per_loop"][1],
+                      f"{key} n_loops x dipoles_per_loop (upper ends)",
+                      hint="narrow the n_loops or dipoles_per_loop range")
 
 
 def describe_bounds(names: tuple[str, ...] = FITTED) -> str:

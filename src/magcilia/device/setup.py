@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
-from magcilia.device.parameters import PARAMETERS, parameter
+from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
 from magcilia.device.sensor import Sensor
 from magcilia.model import pose as pose_model
 from magcilia.model.centreline import Centreline
@@ -58,7 +58,8 @@ class Setup:
         (x_f, y_f, z_f), m: the base centre relative to the case-top point above the element;
         the base centre sits at (x_f, y_f, depth + z_f).
     n_loops, dipoles_per_loop : int
-        The model's n slices and k dipoles per slice (≥ 1).
+        The model's n slices and k dipoles per slice (1 … 1000 each, n·k ≤ 100 000: the
+        registry's :data:`~magcilia.device.parameters.MAX_DIPOLES`).
     ring : {"mean", "rms"}
         Ring radius rule: the paper's mean radius or sqrt<rho²> (converges to the exact body).
 
@@ -84,9 +85,12 @@ class Setup:
             if not isinstance(getattr(self, name), cls):
                 raise v.fail(name, type(getattr(self, name)).__name__, f"a magcilia.{cls.__name__}")
         pos = v.vector3("position", self.position)
-        object.__setattr__(self, "position", tuple(float(p) for p in pos))
+        object.__setattr__(self, "position",
+                           tuple(PARAMETERS[n].check(float(p)) for n, p in zip("xyz", pos,
+                                                                               strict=True)))
         for name in ("n_loops", "dipoles_per_loop", "ring"):
             object.__setattr__(self, name, PARAMETERS[name].check(getattr(self, name)))
+        check_dipoles(self.n_loops, self.dipoles_per_loop)
         # the sensing element must lie outside the unloaded (upright) cilium
         pose_model.check_element_outside(self.spec, np.array([0.0]))
 

@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._atomic import jsonable
 from magcilia._errors import AcquisitionError, MagciliaError
+from magcilia._validate import printable
 from magcilia.io.recordings import nptdms_module, quiet_nptdms
 
 F64 = NDArray[np.float64]
@@ -298,8 +299,11 @@ class RecordingWriter:
 def recording_properties(path: str | Path) -> dict[str, Any]:
     """The file properties of a TDMS recording (metadata, ``complete``, ``stopped``, …)."""
     nptdms = nptdms_module()
-    try:
-        with quiet_nptdms(), nptdms.TdmsFile.open(Path(path)) as tdms:
+    try:  # the file opened here: npTDMS leaks its own handle when parsing fails
+        with quiet_nptdms(), Path(path).open("rb") as file, nptdms.TdmsFile.open(file) as tdms:
             return dict(tdms.properties)
-    except (ValueError, OSError, KeyError) as exc:
-        raise MagciliaError(f"{path}: cannot read as a TDMS file ({exc})") from None
+    except OSError as exc:
+        raise MagciliaError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    except Exception as exc:  # npTDMS raises struct.error, NotImplementedError, …
+        raise MagciliaError(f"{path}: cannot read as a TDMS file ({type(exc).__name__}: "
+                            f"{printable(str(exc))[:200]})") from exc

@@ -35,6 +35,13 @@ between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "
 
 Every quantity needs its unit; a missing table takes the paper's defaults. Unknown keys and values
 without units are errors that name the key.
+
+Files come from people and other programs, so reading one is bounded: at most
+:data:`MAX_SETUP_BYTES` bytes, tables and arrays nested at most :data:`MAX_NESTING` deep, a
+profile of at most :data:`~magcilia.device.cilium.MAX_PROFILE_POINTS` points, and every number
+within its registry limits (:mod:`magcilia.device.parameters`). Anything else is a one-line
+:class:`~magcilia.MagciliaError` naming the file and the key, with the file's text escaped
+(:func:`magcilia._validate.printable`) and long values cut short.
 """
 
 from __future__ import annotations
@@ -48,7 +55,7 @@ import tomli_w
 
 from magcilia import _validate as v
 from magcilia._atomic import write_text
-from magcilia.device.cilium import Cilium
+from magcilia.device.cilium import MAX_PROFILE_POINTS, Cilium
 from magcilia.device.parameters import PARAMETERS, Parameter
 from magcilia.device.setup import PAPER_OPTIMIZED, Setup
 from magcilia.units import format_quantity, parse_quantity
@@ -66,34 +73,71 @@ _PROFILE_KEYS = ("profile_s", "profile_r")
 #: what a measured profile sets, so that files leave it out
 _PROFILE_SHAPED = ("height", "base_radius", "tip_radius")
 
+#: largest setup file read, bytes (a setup is about 1 kB; a measured profile of
+#: MAX_PROFILE_POINTS points about 0.5 MB)
+MAX_SETUP_BYTES = 1_000_000
+#: deepest nesting of tables and arrays in a setup file (a setup needs 2: tables of values and the
+#: profile's lists); deeper documents are refused before anything walks them recursively
+MAX_NESTING = 32
+
+
+def _shown(value: object, limit: int = 60) -> str:
+    """A value from a file for a message: its repr with control characters escaped, cut to
+    ``limit`` characters."""
+    try:
+        text = repr(value)
+    except (RecursionError, ValueError):  # pathological nesting or an enormous integer
+        text = f"a {type(value).__name__}"
+    text = v.printable(text)
+    return text if len(text) <= limit else f"{text[:limit]}… ({len(text)} characters)"
+
+
+def _key(text: object, limit: int = 40) -> str:
+    """A key or table name from a file for a message: escaped, cut to ``limit`` characters."""
+    out = v.printable(str(text))
+    return out if len(out) <= limit else f"{out[:limit]}…"
+
+
+def _fail(name: str, value: object, allowed: str) -> v.MagciliaError:
+    """The package's error template for a value read from a file (escaped, cut short)."""
+    return v.MagciliaError(f"{v.printable(name)} must be {allowed}; got {_shown(value)}")
+
+
+def _depth(doc: object) -> int:
+    """Nesting depth of a parsed TOML document (tables and arrays), without recursion."""
+    deepest, stack = 0, [(doc, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, dict | list):
+            deepest = max(deepest, depth + 1)
+            if deepest > MAX_NESTING:
+                return deepest
+            stack.extend((child, depth + 1)
+                         for child in (node.values() if isinstance(node, dict) else node))
+    return deepest
+
 
 def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
     """Build a Setup from a parsed setup document (tables of unit-bearing strings)."""
+    source = v.printable(source)
+    if not isinstance(doc, dict):
+        raise _fail(source, doc, "a document of [tables] of key = value lines")
+    if _depth(doc) > MAX_NESTING:
+        raise v.MagciliaError(f"{source}: tables or arrays nested more than {MAX_NESTING} deep "
+                              "(MAX_NESTING); a setup file needs 2 levels: [table] and key = value")
     kwargs: dict[str, Any] = {}
     for table, entries in doc.items():
         if table not in SCHEMA:
-            raise v.fail(f"{source}: table [{table}]", table,
-                         "one of " + ", ".join(f"[{t}]" for t in SCHEMA))
+            raise _fail(f"{source}: table [{_key(table)}]", table,
+                        "one of " + ", ".join(f"[{t}]" for t in SCHEMA))
         if not isinstance(entries, dict):
-            raise v.fail(f"{source}: [{table}]", entries, "a table of key = value lines")
+            raise _fail(f"{source}: [{table}]", entries, "a table of key = value lines")
         for key, value in entries.items():
             name = f"{source}: {table}.{key}"
             if key not in SCHEMA[table]:
-                raise v.fail(name, key, "one of " + ", ".join(SCHEMA[table]))
-            p = SCHEMA[table][key]
-            if key == "preset":
-                v.choice(name, value, _PRESETS)
-            elif key in _PROFILE_KEYS:
-                if not isinstance(value, list) or not value:
-                    raise v.fail(name, value, 'a list of lengths, e.g. ["0 mm", "1.5 mm", "3 mm"]')
-                kwargs[key] = [parse_quantity(x, "length", f"{name}[{i}]")
-                               for i, x in enumerate(value)]
-            elif p is not None and p.dimension is not None:
-                kwargs[p.name] = parse_quantity(value, p.dimension, name)
-            elif p is not None and p.domain in ("integer", "choice"):
-                kwargs[p.name] = p.check(value, name)
-            elif p is not None:
-                kwargs[p.name] = v.real(name, value)
+                raise _fail(f"{source}: {table}.{_key(key)}", key,
+                            "one of " + ", ".join(SCHEMA[table]))
+            kwargs.update(_entry(name, key, SCHEMA[table][key], value))
     try:
         overrides = {**_unpack_position(PAPER_OPTIMIZED), **kwargs}
         if any(key in kwargs for key in _PROFILE_KEYS):
@@ -101,6 +145,40 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
         return Setup.paper(**overrides)
     except v.MagciliaError as exc:
         raise v.MagciliaError(f"{source}: {exc}") from None
+
+
+def _entry(name: str, key: str, p: Parameter | None, value: object) -> dict[str, Any]:
+    """One checked ``key = value`` line of a known key, as keyword(s) for the Setup."""
+    if key == "preset":
+        if value not in _PRESETS:
+            raise _fail(name, value, "one of " + ", ".join(repr(x) for x in _PRESETS))
+        return {}
+    if key in _PROFILE_KEYS:
+        if not isinstance(value, list) or not value:
+            raise _fail(name, value, 'a list of lengths, e.g. ["0 mm", "1.5 mm", "3 mm"]')
+        if len(value) > MAX_PROFILE_POINTS:
+            raise _fail(name, f"a list of {len(value)} lengths",
+                        f"at most {MAX_PROFILE_POINTS} points (MAX_PROFILE_POINTS); resample "
+                        "the measured shape")
+        return {key: [parse_quantity(x, "length", f"{name}[{i}]") for i, x in enumerate(value)]}
+    assert p is not None  # every other key of SCHEMA is a registry parameter
+    if p.dimension is not None:
+        return {p.name: p.check(parse_quantity(value, p.dimension, name), name)}
+    if p.domain == "choice" and not isinstance(value, str):
+        raise _fail(name, value, "one of " + ", ".join(repr(c) for c in p.choices))
+    if p.domain in ("integer", "choice") or (isinstance(value, int | float)
+                                             and not isinstance(value, bool)):
+        try:
+            return {p.name: p.check(value, name)}
+        except v.MagciliaError as exc:  # the registry's message, with the value cut short
+            raise v.MagciliaError(_cut(str(exc))) from None
+    raise _fail(name, value, f"a number, e.g. {name.rsplit('.', 1)[-1]} = 1.0")
+
+
+def _cut(message: str, limit: int = 400) -> str:
+    """A message with escaped control characters, cut to ``limit`` characters."""
+    message = v.printable(message)
+    return message if len(message) <= limit else f"{message[:limit]}…"
 
 
 def _with_profile(overrides: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
@@ -126,16 +204,30 @@ def _unpack_position(d: dict[str, Any]) -> dict[str, Any]:
 
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:
-    """Read a setup TOML file (see the module docstring for the format)."""
+    """Read a setup TOML file (see the module docstring for the format and its limits)."""
     p = Path(path)
+    where = v.printable(str(p))
+    with p.open("rb") as f:  # a missing file is an OSError, as for every file magcilia reads
+        raw = f.read(MAX_SETUP_BYTES + 1)
+    if len(raw) > MAX_SETUP_BYTES:
+        raise v.MagciliaError(f"setup file {where} is larger than {MAX_SETUP_BYTES} bytes "
+                              "(MAX_SETUP_BYTES); a setup file is a few kB of TOML")
     try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise v.fail(f"setup file {p}", "binary data", "UTF-8 TOML text") from None
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise v.MagciliaError(f"setup file {where} is not UTF-8 text (byte {exc.start}); give a "
+                              "TOML text file") from None
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise v.MagciliaError(f"setup file {p} is not valid TOML ({exc}); fix the syntax") from None
+        raise v.MagciliaError(f"setup file {where} is not valid TOML ({_cut(str(exc), 200)}); "
+                              "fix the syntax") from None
+    except RecursionError:  # tomllib recurses per level: a few hundred levels exhaust the stack
+        raise v.MagciliaError(f"setup file {where}: tables or arrays nested too deep for the "
+                              f"TOML reader (at most {MAX_NESTING} levels, MAX_NESTING)") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise v.MagciliaError(f"setup file {where} is not valid TOML ({_cut(str(exc), 200)}); "
+                              "fix the value") from None
     return setup_from_dict(doc, source=str(p))
 
 
@@ -163,6 +255,22 @@ def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
 
 
 def save_setup(setup: Setup, path: str | os.PathLike[str]) -> None:
-    """Write ``setup`` as a setup TOML file (atomically)."""
-    header = "# magcilia setup file: every quantity carries its unit (SI prefixes allowed)\n"
-    write_text(path, header + tomli_w.dumps(setup_to_dict(setup)))
+    """Write ``setup`` as a setup TOML file (atomically).
+
+    The document is read back in memory first: a setup that :func:`load_setup` would refuse
+    (a sensor name other than a preset; a placement whose rounding to 12 digits moves the element
+    into the cilium) is an error, and nothing is written."""
+    if not isinstance(setup, Setup):
+        raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
+    doc = setup_to_dict(setup)
+    text = ("# magcilia setup file: every quantity carries its unit (SI prefixes allowed)\n"
+            + tomli_w.dumps(doc))
+    try:
+        setup_from_dict(tomllib.loads(text), source="setup")
+    except v.MagciliaError as exc:
+        raise v.MagciliaError(f"{v.printable(str(path))}: not written, because the file could "
+                              f"not be read back: {exc}") from None
+    if len(text.encode("utf-8")) > MAX_SETUP_BYTES:
+        raise v.MagciliaError(f"{v.printable(str(path))}: not written, because the file would be "
+                              f"larger than {MAX_SETUP_BYTES} bytes (MAX_SETUP_BYTES)")
+    write_text(path, text)

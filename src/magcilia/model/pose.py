@@ -23,6 +23,11 @@ from magcilia.model.spec import ModelSpec
 F64 = NDArray[np.float64]
 Pose = ArrayLike | Centreline
 
+#: angles × dipoles evaluated in one block by :func:`field` and :func:`output`: larger batches are
+#: split into blocks of about this many pairs, so that memory stays near 100 MB whatever the
+#: number of angles (ordinary calls are one block, as fast as the bare kernel)
+BLOCK_PAIRS = 1 << 21
+
 
 def check_element_outside(spec: ModelSpec, angles: F64) -> None:
     """Raise unless the sensing element (origin) lies outside the cilium at every tilt angle."""
@@ -70,6 +75,13 @@ def check_outside(spec: ModelSpec, points: F64, centreline: Centreline) -> None:
     p0 = pts[:, :-1, :] + spec.base_centre
     seg = pts[:, 1:, :] - pts[:, :-1, :]
     seg_len2 = np.einsum("ami,ami->am", seg, seg)
+    block = max(1, BLOCK_PAIRS // max(1, seg_len2.size))  # observers per block (memory)
+    for start in range(0, points.shape[0], block):
+        _check_outside_block(spec, points[start:start + block], s, p0, seg, seg_len2)
+
+
+def _check_outside_block(spec: ModelSpec, points: F64, s: F64, p0: F64, seg: F64,
+                         seg_len2: F64) -> None:
     rel = points[:, None, None, :] - p0[None]  # (o, a, m, 3)
     t = np.clip(np.einsum("oami,ami->oam", rel, seg) / seg_len2, 0.0, 1.0)
     closest = rel - t[..., None] * seg[None]
@@ -96,27 +108,87 @@ def dipoles(spec: ModelSpec, centreline: Centreline) -> tuple[F64, F64]:
 
 
 def field_at(spec: ModelSpec, points: ArrayLike, pose: Pose) -> F64:
-    """Flux density at observers ``points`` ((o, 3) or (3,), m), T, shape (a, o, 3)."""
+    """Flux density at observers ``points`` ((o, 3) or (3,), m), T, shape (a, o, 3).
+
+    Raises a one-line error if the field is not finite anywhere (an observer on a dipole of the
+    model, or a field beyond float range)."""
     pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
     centreline = as_centreline(spec, pose)
     check_outside(spec, pts, centreline)
     pos, mom = dipoles(spec, centreline)
-    return pose_field(pts, pos, mom)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # checked below
+        out = pose_field(pts, pos, mom)
+    if not np.isfinite(out).all():
+        a_idx, o_idx = (int(i[0]) for i in np.nonzero(~np.isfinite(out).all(axis=2)))
+        _nonfinite("field", out[a_idx, o_idx], pts[o_idx], pos[a_idx],
+                   f"centreline {a_idx} at the point {tuple(float(x) for x in pts[o_idx])} m")
+    return out
+
+
+def _tilt_blocks(spec: ModelSpec, angles: F64, x_only: bool) -> tuple[F64, F64, F64]:
+    """:func:`tilt_fields` of the spec's straight dipoles, in blocks of angles (memory)."""
+    pos, mom = spec.body_dipoles
+    rel = -spec.base_centre
+    block = max(1, BLOCK_PAIRS // max(1, mom.size))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # the callers check
+        if angles.size <= block:
+            return tilt_fields(angles, rel, pos, mom, x_only)
+        parts = [tilt_fields(angles[i:i + block], rel, pos, mom, x_only)
+                 for i in range(0, angles.size, block)]
+    return tuple(np.concatenate([p[c] for p in parts]) for c in range(3))  # type: ignore[return-value]
+
+
+def _nonfinite(what: str, value: ArrayLike, observer: F64, positions: F64, where: str) -> None:
+    """Raise the one-line error for a non-finite model result: where, and why (the observer's
+    distance from the nearest dipole of the model)."""
+    dist = float(np.min(np.linalg.norm(positions - observer, axis=-1)))
+    shown = np.array2string(np.asarray(value, dtype=np.float64), precision=4, separator=", ")
+    raise v.MagciliaError(
+        f"the model's {what} at {where} is not finite ({shown}): the point lies {dist:.3g} m from "
+        "one of the model's dipoles, where a point dipole's field diverges; move the cilium "
+        "(position x, y, z) or change n_loops / dipoles_per_loop"
+    )
+
+
+def _check_tilt(spec: ModelSpec, what: str, angles: F64, result: F64) -> F64:
+    """``result`` (a, ...) if finite; else the one-line error naming the first bad angle."""
+    bad = ~np.isfinite(result.reshape(angles.size, -1)).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        pos, _ = dipoles(spec, Centreline.straight(spec.height, angles[i:i + 1]))
+        _nonfinite(what, result[i], np.zeros(3), pos[0],
+                   f"tilt {math.degrees(float(angles[i])):.6g} deg")
+    return result
 
 
 def field(spec: ModelSpec, pose: Pose) -> F64:
-    """Flux density at the sensing element (origin), T, shape (a, 3)."""
+    """Flux density at the sensing element (origin), T, shape (a, 3).
+
+    Raises a one-line error naming the pose if the field is not finite (the element on a dipole
+    of the model)."""
     if isinstance(pose, Centreline):
         return field_at(spec, np.zeros((1, 3)), pose)[:, 0, :]
-    pos, mom = spec.body_dipoles
-    bx, by, bz = tilt_fields(tilt_angles(spec, pose), -spec.base_centre, pos, mom)
-    return np.stack([bx, by, bz], axis=-1)
+    angles = tilt_angles(spec, pose)
+    bx, by, bz = _tilt_blocks(spec, angles, x_only=False)
+    return _check_tilt(spec, "field", angles, np.stack([bx, by, bz], axis=-1))
 
 
 def output(spec: ModelSpec, pose: Pose) -> F64:
-    """Sensor output, V, shape (a,): ``scale · B_x + offset``."""
+    """Sensor output, V, shape (a,): ``scale · B_x + offset``.
+
+    Raises a one-line error naming the pose if the output is not finite (the element on a dipole
+    of the model)."""
     if isinstance(pose, Centreline):
-        return spec.scale * field(spec, pose)[:, 0] + spec.offset
-    pos, mom = spec.body_dipoles
-    bx = tilt_fields(tilt_angles(spec, pose), -spec.base_centre, pos, mom, x_only=True)[0]
-    return spec.scale * bx + spec.offset
+        with np.errstate(over="ignore"):
+            out = spec.scale * field(spec, pose)[:, 0] + spec.offset
+        if not np.isfinite(out).all():
+            i = int(np.argmax(~np.isfinite(out)))
+            raise v.MagciliaError(f"the model's output for centreline {i} is not finite "
+                                  f"({out[i]}): the field times the sensor's scale "
+                                  f"({spec.scale:.4g} V/T) overflows; lower the gain")
+        return out
+    angles = tilt_angles(spec, pose)
+    bx = _tilt_blocks(spec, angles, x_only=True)[0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = spec.scale * bx + spec.offset
+    return _check_tilt(spec, "output", angles, out)

@@ -101,11 +101,28 @@ def write_report(result: CalibrationResult, directory: str | Path) -> dict[str, 
     return paths
 
 
-def write_calibration(result: CalibrationResult, directory: str | Path) -> None:
-    """Write everything ``magcilia calibrate --out`` gives into ``directory``: the fitted setup
-    (``fitted_setup.toml``), ``result.json`` (SI), ``report.md``, ``fit.png`` and
-    ``residuals.png``. The folder is staged and renamed: a failure leaves nothing behind."""
-    with staged_directory(Path(directory)) as tmp:
-        save_setup(result.setup, tmp / "fitted_setup.toml")
-        write_json(tmp / "result.json", result.to_dict())
-        write_report(result, tmp)
+#: the files ``magcilia calibrate --out`` (and ``demo``) writes into its folder
+CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png", "residuals.png")
+
+
+def write_calibration_files(result: CalibrationResult, directory: str | Path) -> None:
+    """Write :data:`CALIBRATION_FILES` into the existing folder ``directory`` (each file atomic,
+    the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own)."""
+    folder = Path(directory)
+    save_setup(result.setup, folder / "fitted_setup.toml")
+    write_json(folder / "result.json", result.to_dict())
+    write_report(result, folder)
+
+
+def write_calibration(result: CalibrationResult, directory: str | Path, *,
+                      force: bool = False) -> None:
+    """Write everything ``magcilia calibrate --out`` gives into the new folder ``directory``: the
+    fitted setup (``fitted_setup.toml``), ``result.json`` (SI), ``report.md``, ``fit.png`` and
+    ``residuals.png``.
+
+    The folder is filled under a staging name and renamed in one step: a failure or a crash
+    leaves nothing behind. An existing ``directory`` (an earlier output) is replaced only with
+    ``force=True``.
+    """
+    with staged_directory(directory, force=force, names=CALIBRATION_FILES) as tmp:
+        write_calibration_files(result, tmp)

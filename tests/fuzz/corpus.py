@@ -1,0 +1,342 @@
+"""A seeded corpus of mutated recordings (CSV, MATLAB v4/v5/v7.3, TDMS) for the fuzz tests.
+
+Small valid recordings are made here (nothing binary is stored in the repository); case ``i`` of
+seed ``s`` takes seed recording ``i mod n`` and applies one to four mutations drawn with
+``numpy.random.default_rng([s, i])``: bit flips, interesting integers (0, -1, 2**31, ...) written
+over length and type fields, truncation, insertion, deletion, duplication and swaps of chunks,
+another recording's header spliced in, for compressed MATLAB variables mutations of the inflated
+bytes (re-deflated so that they pass zlib and reach the parser), for TDMS mutations of the lead-ins
+and data types, and for CSV numbers, names and lines mutated as text. The same seed, index and
+library versions give the same bytes (the times written into headers are fixed).
+
+Used by ``tests/fuzz/test_fuzz_recordings.py`` and ``scripts/fuzz_recordings.py``.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import re
+import struct
+import tempfile
+import zlib
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.io import savemat
+
+import magcilia as mc
+from magcilia._errors import MissingDependencyError
+from magcilia.io import RecordingWriter
+from magcilia.io.recordings import nptdms_module
+
+ANGLES = np.repeat([-20.0, 0.0, 10.0, 25.0], 4)
+SETRESET = np.tile([1.0, -1.0], 8)
+VOLTS = np.repeat([-2e-3, 0.0, 1e-3, 2.5e-3], 4) * SETRESET + 1e-4
+TIME = np.arange(16) * 1e-3
+INTERESTING = (0, 1, 2, 7, 8, 0x7F, 0x80, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x10000,
+               0x7FFFFFFF, 0x80000000, 0xFFFFFFFF)
+TDMS_TYPES = (0, 1, 5, 8, 9, 0x19, 0x20, 0x21, 0x44, 0x08000C, 0x10000D, 0xFFFFFFFF)
+TEXT_VALUES = ("nan", "inf", "-inf", "1e309", "-1.7e308", "1.8e300", "", "abc", "0x10", "1_0",
+               " ", "\x00", "1e-400", "-0", "9" * 400, "set", "+1", "'", '"', "\x1b[2J", "1e5")
+MAT_HEADER_5 = b"MATLAB 5.0 MAT-file Platform: posix, Created on: Thu Jan  1 00:00:00 2026"
+MAT_HEADER_73 = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Thu Jan  1 00:00:00 2026 "
+                 b"HDF5 schema 1.00 .")
+
+
+@dataclass(frozen=True)
+class Case:
+    """One mutated recording: its index, seed recording, suffix, bytes and mutations applied."""
+
+    index: int
+    seed_name: str
+    suffix: str
+    data: bytes
+    mutations: tuple[str, ...]
+
+    def write(self, directory: Path) -> Path:
+        """Write the recording as ``case<index>-<seed>.<suffix>`` in ``directory``."""
+        path = directory / f"case{self.index}-{self.seed_name}{self.suffix}"
+        path.write_bytes(self.data)
+        return path
+
+
+def write_mat73(path: Path, variables: dict[str, np.ndarray]) -> None:
+    """A MATLAB v7.3 file as MATLAB writes one: HDF5 with a 512-byte user block holding the
+    MAT-file header, column vectors stored transposed (HDF5 shape (1, n)), ``MATLAB_class``."""
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as f:
+        for name, value in variables.items():
+            arr = np.asarray(value)
+            data = arr.reshape(1, -1) if arr.ndim == 1 else arr.T
+            ds = f.create_dataset(name, data=data)
+            cls = "double" if arr.dtype == np.float64 else str(arr.dtype)
+            ds.attrs["MATLAB_class"] = np.bytes_(cls)
+    header = MAT_HEADER_73.ljust(116) + b"\x00" * 8 + b"\x00\x02IM"
+    with path.open("r+b") as f:
+        f.write(header.ljust(512, b"\x00"))
+
+
+@functools.cache
+def seeds() -> dict[str, tuple[str, bytes]]:
+    """The valid recordings that the mutations start from: name -> (suffix, bytes)."""
+    out: dict[str, tuple[str, bytes]] = {}
+    rows = "\n".join(f"{a:g},{v:.6g},{t:g},{'set' if s > 0 else 'reset'}"
+                     for a, v, t, s in zip(ANGLES, VOLTS, TIME, SETRESET, strict=True))
+    out["csv"] = (".csv", f"# bench 3\nangle_deg,voltage_V,time_s,setreset\n{rows}\n".encode())
+    rows = "\r\n".join(f'"{a:g}", {v:.6g},"x{i}",{s:+g}'
+                       for i, (a, v, s) in enumerate(zip(ANGLES, VOLTS, SETRESET, strict=True)))
+    out["csv_quoted"] = (".csv", ("\ufeffangle_deg, voltage_V,note,setreset\r\n" + rows
+                                  ).encode())
+    columns = {"angle_deg": ANGLES, "voltage_V": VOLTS, "time_s": TIME, "setreset": SETRESET}
+    for name, kwargs in (("mat_v5", {"do_compression": False}),
+                         ("mat_v5z", {"do_compression": True}), ("mat_v4", {"format": "4"})):
+        buf = io.BytesIO()
+        extra = {} if name == "mat_v4" else {"note": "bench 3"}
+        savemat(buf, {**columns, **extra}, **kwargs)
+        data = bytearray(buf.getvalue())
+        if name != "mat_v4":  # the header's text holds the time of writing
+            data[:116] = MAT_HEADER_5.ljust(116)
+        out[name] = (".mat", bytes(data))
+    with tempfile.TemporaryDirectory() as tmp:
+        try:  # without npTDMS (the extra "tdms") the TDMS seeds are left out
+            nptdms = nptdms_module()
+        except MissingDependencyError:
+            pass
+        else:
+            buf = io.BytesIO()
+            with nptdms.TdmsWriter(buf) as writer:
+                writer.write_segment([nptdms.RootObject({"operator": "bench 3"})] + [
+                    nptdms.ChannelObject("run", k, a) for k, a in columns.items()])
+            out["tdms"] = (".tdms", buf.getvalue())
+            path = Path(tmp) / "rec.tdms"
+            with RecordingWriter(path, metadata={"source": "fuzz"}, chunk=6) as rec:
+                rec.write(TIME, VOLTS, angle_deg=ANGLES, setreset=SETRESET)
+                rec.write_group("readout", {"readout_time_s": TIME[:3], "value": VOLTS[:3]})
+            out["tdms_magcilia"] = (".tdms", re.sub(  # its start time, fixed
+                rb"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", b"2026-01-01T00:00:00+00:00",
+                path.read_bytes()))
+        try:  # without h5py (the extra "hdf5") the v7.3 seed is left out
+            write_mat73(Path(tmp) / "v73.mat", columns)
+        except ImportError:
+            pass
+        else:
+            out["mat_v73"] = (".mat", (Path(tmp) / "v73.mat").read_bytes())
+    return out
+
+
+# -- byte mutations -----------------------------------------------------------------------------
+Mutation = Callable[[bytearray, np.random.Generator], bytearray]
+
+
+def _pos(data: bytearray, rng: np.random.Generator, end: int = 0) -> int:
+    """A position in ``data``, often near the start (where the headers are)."""
+    n = len(data) + end
+    if n <= 0:
+        return 0
+    if rng.random() < 0.5:
+        return int(rng.integers(0, min(n, 256)))
+    return int(rng.integers(0, n))
+
+
+def flip_bits(data: bytearray, rng: np.random.Generator) -> bytearray:
+    for _ in range(int(rng.integers(1, 9))):
+        if data:
+            data[_pos(data, rng, -1) if len(data) > 1 else 0] ^= 1 << int(rng.integers(0, 8))
+    return data
+
+
+def set_bytes(data: bytearray, rng: np.random.Generator) -> bytearray:
+    for _ in range(int(rng.integers(1, 5))):
+        if data:
+            data[min(_pos(data, rng), len(data) - 1)] = int(rng.choice([0, 1, 0x7F, 0x80, 0xFF]))
+    return data
+
+
+def write_integer(data: bytearray, rng: np.random.Generator) -> bytearray:
+    if len(data) < 8:
+        return data
+    value = int(rng.choice(INTERESTING))
+    value = (value + int(rng.integers(-1, 2))) % (1 << 32)
+    fmt = str(rng.choice(["<I", ">I", "<Q"]))
+    size = struct.calcsize(fmt)
+    at = min(_pos(data, rng), len(data) - size)
+    if rng.random() < 0.7:
+        at -= at % 4
+    data[at:at + size] = struct.pack(fmt, value)
+    return data
+
+
+def truncate(data: bytearray, rng: np.random.Generator) -> bytearray:
+    return data[:_pos(data, rng)] if rng.random() < 0.5 else data[:int(rng.integers(0, len(data)
+                                                                                      + 1))]
+
+
+def insert(data: bytearray, rng: np.random.Generator) -> bytearray:
+    at = _pos(data, rng)
+    junk = rng.integers(0, 256, int(rng.integers(1, 65)), dtype=np.uint8).tobytes()
+    return data[:at] + junk + data[at:]
+
+
+def delete(data: bytearray, rng: np.random.Generator) -> bytearray:
+    at = _pos(data, rng)
+    return data[:at] + data[at + int(rng.integers(1, 65)):]
+
+
+def duplicate(data: bytearray, rng: np.random.Generator) -> bytearray:
+    at = _pos(data, rng)
+    chunk = data[at:at + int(rng.integers(1, 257))]
+    to = _pos(data, rng)
+    return data[:to] + chunk * int(rng.integers(1, 4)) + data[to:]
+
+
+def swap(data: bytearray, rng: np.random.Generator) -> bytearray:
+    a, b = sorted((_pos(data, rng), _pos(data, rng)))
+    n = min(int(rng.integers(1, 65)), b - a)
+    if n <= 0:
+        return data
+    data[a:a + n], data[b:b + n] = data[b:b + n], data[a:a + n]
+    return data
+
+
+def splice(data: bytearray, rng: np.random.Generator) -> bytearray:
+    """Another seed recording's header (or tail) in place of this one's."""
+    others = [d for _, d in seeds().values()]
+    other = others[int(rng.integers(0, len(others)))]
+    n = int(rng.integers(1, min(len(other), 600) + 1))
+    if rng.random() < 0.7:
+        return bytearray(other[:n]) + data[n:]
+    return data[:len(data) - n] + bytearray(other[-n:])
+
+
+BYTE_MUTATIONS: tuple[Mutation, ...] = (flip_bits, set_bytes, write_integer, write_integer,
+                                        truncate, insert, delete, duplicate, swap, splice)
+
+
+# -- format-aware mutations ---------------------------------------------------------------------
+def mat_inner(data: bytearray, rng: np.random.Generator) -> bytearray:
+    """Mutate the inflated bytes of a compressed MATLAB variable and deflate them again."""
+    if len(data) < 136 or data[126:128] != b"IM":
+        return data
+    starts, pos = [], 128
+    while pos + 8 <= len(data):
+        mdtype, nbytes = struct.unpack_from("<II", data, pos)
+        if mdtype == 15:
+            starts.append((pos, nbytes))
+        pos += 8 + nbytes
+    if not starts:
+        return data
+    pos, nbytes = starts[int(rng.integers(0, len(starts)))]
+    try:
+        inner = bytearray(zlib.decompress(bytes(data[pos + 8:pos + 8 + nbytes])))
+    except zlib.error:
+        return data
+    for _ in range(int(rng.integers(1, 3))):
+        op = (flip_bits, set_bytes, write_integer, truncate, insert, duplicate)[
+            int(rng.integers(0, 6))]
+        inner = op(inner, rng)
+    packed = zlib.compress(bytes(inner))
+    return (data[:pos] + struct.pack("<II", 15, len(packed)) + packed
+            + data[pos + 8 + nbytes:])
+
+
+def tdms_leadin(data: bytearray, rng: np.random.Generator) -> bytearray:
+    """Write an interesting integer into a TDMS segment's lead-in or the metadata after it."""
+    marks = [m.start() for m in re.finditer(b"TDSm", bytes(data))]
+    if not marks:
+        return data
+    at = marks[int(rng.integers(0, len(marks)))] + 4 + 4 * int(rng.integers(0, 16))
+    if at + 8 > len(data):
+        return data
+    fmt = "<Q" if rng.random() < 0.3 else "<I"
+    value = int(rng.choice(INTERESTING)) + int(rng.integers(-1, 2))
+    data[at:at + struct.calcsize(fmt)] = struct.pack(fmt, value % (1 << 32))
+    return data
+
+
+def tdms_dtype(data: bytearray, rng: np.random.Generator) -> bytearray:
+    """Give a channel another TDMS data type (string, complex, timestamp, DAQmx, void, ...)."""
+    marks = [m.start() for m in re.finditer(rb"\x14\x00\x00\x00(?=[\x01-\x44]\x00\x00\x00)",
+                                            bytes(data))]
+    if not marks:
+        return data
+    at = marks[int(rng.integers(0, len(marks)))] + 4
+    data[at:at + 4] = struct.pack("<I", int(rng.choice(TDMS_TYPES)))
+    return data
+
+
+def csv_text(data: bytearray, rng: np.random.Generator) -> bytearray:
+    """Mutate a CSV as text: a value, a column name, a line, a huge field, a control byte."""
+    text = bytes(data).decode("utf-8", "replace")
+    kind = int(rng.integers(0, 7))
+    if kind == 0:  # a value
+        numbers = list(re.finditer(r"-?[0-9.]+(e-?[0-9]+)?", text))
+        if numbers:
+            m = numbers[int(rng.integers(0, len(numbers)))]
+            text = text[:m.start()] + str(rng.choice(TEXT_VALUES)) + text[m.end():]
+    elif kind == 1:  # a column name: duplicated, missing or renamed
+        names = ("angle_deg", "voltage_V", "time_s", "setreset", "note", "")
+        old, new = rng.choice(names, 2)
+        text = text.replace(str(old), str(new), 1)
+    elif kind == 2:  # a huge field
+        text = text.replace(",", "," + "7" * int(rng.choice([1000, 140_000])), 1)
+    elif kind == 3:  # lines duplicated, dropped or joined
+        lines = text.splitlines(keepends=True)
+        if lines:
+            i = int(rng.integers(0, len(lines)))
+            lines[i] = str(rng.choice([lines[i] * 2, "", lines[i].rstrip("\r\n")]))
+        text = "".join(lines)
+    elif kind == 4:  # another delimiter or a quote
+        text = text.replace(str(rng.choice([",", "\n"])), str(rng.choice([";", '"', "\t", "\r"])),
+                            int(rng.integers(1, 4)))
+    elif kind == 5:  # a control or non-UTF-8 byte
+        raw = bytearray(text.encode())
+        at = _pos(raw, rng)
+        return raw[:at] + bytes([int(rng.choice([0, 0x1B, 0x85, 0xC3, 0xFF]))]) + raw[at:]
+    else:  # many columns
+        text = text.replace("\n", "," * int(rng.integers(1, 3000)) + "\n", 1)
+    return bytearray(text.encode())
+
+
+FORMAT_MUTATIONS: dict[str, tuple[Mutation, ...]] = {
+    "csv": (csv_text, csv_text, csv_text),
+    "mat_v5z": (mat_inner, mat_inner, mat_inner),
+    "tdms": (tdms_leadin, tdms_leadin, tdms_dtype),
+    "tdms_magcilia": (tdms_leadin, tdms_leadin, tdms_dtype),
+    "csv_quoted": (csv_text, csv_text, csv_text),
+}
+
+
+def case(index: int, seed: int = 0, names: Sequence[str] | None = None) -> Case:
+    """Case ``index`` of the corpus of ``seed`` (over the seed recordings ``names``, default
+    all)."""
+    pool = sorted(seeds()) if names is None else list(names)
+    name = pool[index % len(pool)]
+    suffix, original = seeds()[name]
+    rng = np.random.default_rng([seed, index])
+    ops = BYTE_MUTATIONS + FORMAT_MUTATIONS.get(name, ())
+    data = bytearray(original)
+    applied = []
+    for _ in range(min(int(rng.geometric(0.5)), 4)):
+        op = ops[int(rng.integers(0, len(ops)))]
+        data = op(data, rng)
+        applied.append(op.__name__)
+    return Case(index, name, suffix, bytes(data), tuple(applied))
+
+
+def cases(n: int, seed: int = 0, suffixes: Sequence[str] | None = None,
+          start: int = 0) -> Iterator[Case]:
+    """Cases ``start`` … ``start + n − 1`` of seed ``seed`` (only the seed recordings with the
+    given suffixes, default all)."""
+    names = sorted(k for k, (s, _) in seeds().items() if suffixes is None or s in suffixes)
+    for i in range(start, start + n):
+        yield case(i, seed, names)
+
+
+def read_case(path: Path, index: int) -> None:
+    """Read a mutated recording as ``magcilia calibrate`` does, the policies varied by index."""
+    mc.read_measurements(path, nan_policy=("raise", "omit")[index % 2],
+                         saturation=("raise", "omit", "keep")[index % 3])
