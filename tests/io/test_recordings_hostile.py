@@ -21,7 +21,7 @@ from scipy.io import savemat
 
 import magcilia as mc
 from magcilia._errors import MissingDependencyError
-from magcilia.io import RecordingWriter, recordings
+from magcilia.io import RecordingWriter, matfile, recordings
 from magcilia.io.recordings import measurement_from_samples, read_samples
 
 ANG = np.repeat([0.0, 10.0, 20.0], 4)
@@ -117,18 +117,18 @@ def test_a_crash_or_hang_of_the_reader_is_one_line(tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     path = tmp_path / "r.mat"
     savemat(path, COLUMNS)
-    monkeypatch.setattr(recordings, "_mat_child_code",
+    monkeypatch.setattr(matfile, "_mat_child_code",
                         lambda: "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)")
     if sys.platform != "win32":
         with pytest.raises(mc.MagciliaError, match=r"the MATLAB reader crashed on this file "
                            r"\(signal 11, SIGSEGV\); it is damaged or not a MAT file") as info:
             read_samples(path)
         _one_line(info, path)
-    monkeypatch.setattr(recordings, "_mat_child_code", lambda: "raise SystemExit(3)")
+    monkeypatch.setattr(matfile, "_mat_child_code", lambda: "raise SystemExit(3)")
     with pytest.raises(mc.MagciliaError, match=r"failed on this file \(exit code 3\)"):
         read_samples(path)
-    monkeypatch.setattr(recordings, "_mat_child_code", lambda: "import time; time.sleep(30)")
-    monkeypatch.setattr(recordings, "MAT_TIMEOUT_S", 0.5)
+    monkeypatch.setattr(matfile, "_mat_child_code", lambda: "import time; time.sleep(30)")
+    monkeypatch.setattr(matfile, "MAT_TIMEOUT_S", 0.5)
     with pytest.raises(mc.MagciliaError, match=r"longer than MAT_TIMEOUT_S = 0\.5 s") as info:
         read_samples(path)
     _one_line(info, path)
@@ -147,13 +147,13 @@ def _bomb(path: Path, zeros: int, pieces: int) -> Path:
 
 def test_a_zip_bomb_is_refused_before_it_is_inflated(tmp_path: Path,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(recordings, "MAX_DECOMPRESSED", 1 << 20)
+    monkeypatch.setattr(matfile, "MAX_DECOMPRESSED", 1 << 20)
     path = tmp_path / "honest.mat"  # 1.6 MB of zeros, declared as such
     savemat(path, {"angle_deg": np.zeros(200_000), "voltage_V": VOLT}, do_compression=True)
     assert path.stat().st_size < 10_000
     with pytest.raises(mc.MagciliaError, match=r"variable angle_deg .* declares 1,600,\d+ bytes, "
                        r"more than MAX_DECOMPRESSED = 0\.000976562 GiB.*raise "
-                       r"magcilia\.io\.recordings\.MAX_DECOMPRESSED") as info:
+                       r"magcilia\.io\.matfile\.MAX_DECOMPRESSED") as info:
         mc.read_measurements(path)
     _one_line(info, path)
     path = _bomb(tmp_path / "lying.mat", 1 << 16, 40)  # declares 64 bytes, inflates to 2.6 MB
@@ -218,9 +218,9 @@ def test_bad_matlab_v73_variables(tmp_path: Path, value: Any, match: str) -> Non
 
 def test_a_v73_variable_beyond_the_limit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     path = _write_mat73(tmp_path / "big.mat", COLUMNS)
-    monkeypatch.setattr(recordings, "MAX_DECOMPRESSED", 50)
+    monkeypatch.setattr(matfile, "MAX_DECOMPRESSED", 50)
     with pytest.raises(mc.MagciliaError, match=r"variable angle_deg holds 96 bytes, more than "
-                       r"MAX_DECOMPRESSED = 50; raise magcilia\.io\.recordings") as info:
+                       r"MAX_DECOMPRESSED = 50; raise magcilia\.io\.matfile") as info:
         read_samples(path)
     _one_line(info, path)
 
