@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import argparse
 import collections
-import importlib.util
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -25,20 +23,9 @@ import types
 import warnings
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from _fuzz_pool import load_corpus, run_workers
+
 FORMATS = {"csv": (".csv",), "mat": (".mat",), "tdms": (".tdms",)}
-
-
-def load_corpus() -> types.ModuleType:
-    """``tests/fuzz/corpus.py`` as a module (the tests folder is not a package)."""
-    spec = importlib.util.spec_from_file_location("magcilia_fuzz_corpus",
-                                                  ROOT / "tests" / "fuzz" / "corpus.py")
-    if spec is None or spec.loader is None:
-        raise ImportError("cannot load tests/fuzz/corpus.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def outcome(corpus: types.ModuleType, path: Path, index: int) -> tuple[str, str]:
@@ -61,7 +48,7 @@ def outcome(corpus: types.ModuleType, path: Path, index: int) -> tuple[str, str]
 
 def worker(seed: int, start: int, stop: int, suffixes: tuple[str, ...] | None) -> None:
     """Read cases ``start``…``stop − 1`` and print ``index<TAB>outcome<TAB>detail`` lines."""
-    corpus = load_corpus()
+    corpus = load_corpus("corpus.py")
     with tempfile.TemporaryDirectory(prefix="magcilia-fuzz-") as tmp:
         for case in corpus.cases(stop - start, seed, suffixes, start=start):
             path = case.write(Path(tmp))
@@ -76,39 +63,18 @@ def run(n: int, seed: int, jobs: int, suffixes: tuple[str, ...] | None) -> int:
     per_seed: dict[str, collections.Counter[str]] = collections.defaultdict(collections.Counter)
     examples: dict[str, list[str]] = collections.defaultdict(list)
     isolated = 0  # MATLAB reader crashes turned into one line
-    step = 250
-    todo = [(a, min(a + step, n)) for a in range(0, n, step)]
-    active: list[tuple[subprocess.Popen[bytes], int, int, Path]] = []
     t0 = time.monotonic()
-    with tempfile.TemporaryDirectory(prefix="magcilia-fuzz-log-") as logs:
-        while todo or active:
-            while todo and len(active) < jobs:
-                a, b = todo.pop(0)
-                log = Path(logs) / f"{a}-{b}.txt"
-                argv = [sys.executable, __file__, "--worker", "--seed", str(seed), "--start",
-                        str(a), "--stop", str(b), "--suffixes", ",".join(suffixes or ())]
-                with log.open("wb") as out:
-                    active.append((subprocess.Popen(argv, stdout=out), a, b, log))
-            time.sleep(0.1)
-            for item in [x for x in active if x[0].poll() is not None]:
-                active.remove(item)
-                proc, a, b, log = item
-                done = a
-                for line in log.read_text().splitlines():
-                    index, kind, name, detail = line.split("\t", 3)
-                    done = int(index) + 1
-                    counts[kind] += 1
-                    per_seed[name][kind] += 1
-                    isolated += "MATLAB reader crashed" in detail
-                    if kind != "ok" and (kind != "MagciliaError" or len(examples[kind]) < 3):
-                        examples[kind].append(f"case {index} ({name}): {detail}")
-                if done < b:  # the worker died on case `done`
-                    counts["crash"] += 1
-                    examples["crash"].append(f"case {done}: worker exit code {proc.returncode}")
-                    if done + 1 < b:
-                        todo.insert(0, (done + 1, b))
-                print(f"... {sum(counts.values())} of {n} cases, {time.monotonic() - t0:.0f} s",
-                      file=sys.stderr, flush=True)
+    extra = ["--suffixes", ",".join(suffixes or ())]
+    for index, kind, name, detail in run_workers(__file__, n, seed, jobs, extra):
+        if kind == "crash":
+            counts["crash"] += 1
+            examples["crash"].append(f"case {index}: {detail}")
+            continue
+        counts[kind] += 1
+        per_seed[name][kind] += 1
+        isolated += "MATLAB reader crashed" in detail
+        if kind != "ok" and (kind != "MagciliaError" or len(examples[kind]) < 3):
+            examples[kind].append(f"case {index} ({name}): {detail}")
     print(f"{sum(counts.values())} mutated recordings, seed {seed}, "
           f"{time.monotonic() - t0:.0f} s")
     for kind in ("ok", "MagciliaError", "bad message", "other", "crash"):
