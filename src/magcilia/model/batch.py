@@ -1,7 +1,16 @@
 """Fast evaluation of many parameter sets at once, for optimisers and global sensitivity analysis.
 
 No input checks: the caller keeps the parameters physical (positive lengths, n and k ≥ 1, the
-sensing element outside the cilium). Shape letters: ``N`` parameter sets, ``a`` tilt angles.
+sensing element outside the cilium). A set that puts the element on a dipole gives non-finite
+values in its row (no error, no warning from the compiled kernel). Shape letters: ``N`` parameter
+sets, ``a`` tilt angles.
+
+:class:`TiltBatch` holds what depends only on the setup and the angles; each call packs the
+parameters into one array (:func:`pack`, columns :data:`magcilia.model.compiled.COLUMNS`) and runs
+one compiled kernel for all sets (:func:`magcilia.model.compiled.tilt_batch`: layout, field and
+output fused, no grouping). Without numba, the NumPy reference runs instead: the sets grouped by
+(n, k), each group one vectorised :func:`~magcilia.model.layout.ring_layout` and
+:func:`~magcilia.model.kernels.tilt_field`.
 """
 
 from __future__ import annotations
@@ -12,12 +21,125 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from magcilia.model import body
+from magcilia.model import body, compiled
 from magcilia.model.kernels import tilt_field
 from magcilia.model.layout import ring_layout
 from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 F64 = NDArray[np.float64]
+
+
+def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
+    """Parameter sets as the kernels' array, shape (N, len(COLUMNS)), SI.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        Supplies every parameter missing from ``params``, the sensor depth and the material.
+    params : mapping of str to array-like, each shape (N,) or scalar
+        Any of the spec's :meth:`~magcilia.model.spec.ModelSpec.params` keys: ``height``,
+        ``base_radius``, ``tip_radius``, ``x``, ``y``, ``z`` (m), ``n_loops``,
+        ``dipoles_per_loop`` (rounded to integers), ``magnetization_scale`` and ``offset`` (V).
+        N is the largest size among them (1 if none is given).
+    """
+    sizes = {np.size(val) for val in params.values()}
+    out = np.empty((max(sizes) if sizes else 1, len(compiled.COLUMNS)))
+    defaults = spec.params()
+    for j, key in enumerate(("height", "base_radius", "tip_radius", "x", "y", "z", "n_loops",
+                             "dipoles_per_loop", "magnetization_scale", "offset")):
+        out[:, j] = params.get(key, defaults[key])
+    out[:, 2] /= out[:, 1]  # taper = tip / base radius
+    out[:, 5] += spec.depth  # base centre height above the element
+    np.rint(out[:, 6:8], out=out[:, 6:8])
+    out[:, 8] *= spec.full_magnetization
+    return out
+
+
+def evaluate(spec: ModelSpec, packed: F64, angles: F64, out: F64, measured: bool) -> bool:
+    """Fill ``out`` (N, a, 1) with outputs (V) or (N, a, 3) with fields (T) of the ``packed`` sets
+    (N, len(COLUMNS)) at ``angles`` (a,), rad; return whether all are finite.
+
+    ``measured`` uses the spec's shape for every set (its height and base radius scaled), else each
+    set's frustum of its taper. Compiled when numba is available, else the NumPy reference. The
+    arrays must be float64 and C-contiguous (``out`` writable)."""
+    jit = compiled.kernels()
+    if jit is not None:
+        return bool(jit.tilt_batch(packed, angles, spec.knots, spec.radii, measured,
+                                   spec.ring == "rms", spec.scale, out))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # returned as non-finite
+        _evaluate_numpy(spec, packed, angles, out, measured)
+    return bool(np.isfinite(out).all())
+
+
+def _evaluate_numpy(spec: ModelSpec, packed: F64, angles: F64, out: F64, measured: bool) -> None:
+    """:func:`evaluate` in NumPy, the sets grouped by (n, k)."""
+    h, rb, taper, x, y, z, nl, kd, mag, offset = packed.T
+    base = np.stack([x, y, z], axis=-1)
+    u, rho = (spec.knots, spec.radii) if measured else body.frustum_shape(taper)
+    moment = mag * math.pi * h * rb * rb * body.mean_square_radius(u, rho)
+    cos_t, sin_t = np.cos(angles), np.sin(angles)
+    x_only = out.shape[2] == 1
+    keys = nl * 100_003 + kd
+    for key in np.unique(keys):
+        sel = np.nonzero(keys == key)[0]
+        n, k = int(nl[sel[0]]), int(kd[sel[0]])
+        pos, w = ring_layout(h[sel], rb[sel], u, rho if rho.ndim == 1 else rho[sel], n, k,
+                             spec.ring)
+        bx, by, bz = tilt_field(cos_t, sin_t, -base[sel], pos, w * moment[sel, None], x_only)
+        if x_only:
+            out[sel, :, 0] = spec.scale * bx + offset[sel, None]
+        else:
+            out[sel] = np.stack([bx, by, bz], axis=-1)
+
+
+class TiltBatch:
+    """One setup's model at fixed tilt angles, prepared for many parameter sets (optimisers, Sobol).
+
+    Parameters
+    ----------
+    setup : Setup or ModelSpec
+        Supplies every parameter not given per set (material, sensor depth and scale, ring rule,
+        a measured profile).
+    angles : array-like, shape (a,)
+        Tilt angles, rad.
+
+    Notes
+    -----
+    The per-set parameters are those of :func:`pack`. With a measured profile, ``height`` and
+    ``base_radius`` scale the measured shape and ``tip_radius`` is not used; a frustum setup gives
+    each set the frustum of its own tip radius.
+
+    Examples
+    --------
+    >>> import numpy as np, magcilia as mc
+    >>> batch = TiltBatch(mc.Setup.paper(), np.radians([0.0, 30.0, 60.0]))
+    >>> batch.output({"x": np.array([1.0e-3, 1.5e-3]), "n_loops": np.array([2, 6])}).shape
+    (2, 3)
+    """
+
+    def __init__(self, setup: ModelSpec | SupportsSpec, angles: ArrayLike) -> None:
+        self.spec = as_spec(setup)
+        self.angles = np.array(angles, dtype=np.float64, ndmin=1)
+        self.angles.setflags(write=False)
+        self._angles = self.angles.copy()  # writable: one kernel specialisation for every caller
+
+    def output(self, params: Mapping[str, ArrayLike]) -> F64:
+        """Sensor output, V, shape (N, a): ``scale · B_x + offset`` of each set (``params`` as in
+        :func:`pack`; ``offset`` defaults to the setup's)."""
+        packed = pack(self.spec, params)
+        out = np.empty((packed.shape[0], self._angles.size, 1))
+        evaluate(self.spec, packed, self._angles, out, self.spec.measured)
+        return out[..., 0]
+
+    def field(self, params: Mapping[str, ArrayLike], x_only: bool = False) -> F64:
+        """B at the sensing element, T, shape (N, a, 3); with ``x_only`` the other components
+        are set to zero."""
+        packed = pack(self.spec, params)
+        out = np.empty((packed.shape[0], self._angles.size, 3))
+        evaluate(self.spec, packed, self._angles, out, self.spec.measured)
+        if x_only:
+            out[..., 1:] = 0.0
+        return out
 
 
 def tilt_field_batch(
@@ -43,41 +165,9 @@ def tilt_field_batch(
 
     Notes
     -----
-    Samples are grouped by (n, k); each group is one vectorised kernel call.
+    A thin wrapper of :class:`TiltBatch`; build one to evaluate the same angles repeatedly.
     """
-    spec = as_spec(setup)
-    ang = np.asarray(angles, dtype=np.float64)
-    sizes = {np.size(v) for v in params.values()}
-    n_set = max(sizes) if sizes else 1
-    defaults = spec.params()
-
-    def get(key: str) -> F64:
-        val = params.get(key, defaults[key])
-        return np.broadcast_to(np.asarray(val, dtype=np.float64), (n_set,))
-
-    h, rb = get("height"), get("base_radius")
-    base = np.stack([get("x"), get("y"), get("z") + spec.depth], axis=-1)
-    nl = np.rint(get("n_loops")).astype(np.int64)
-    kd = np.rint(get("dipoles_per_loop")).astype(np.int64)
-    if spec.measured:  # one measured shape, scaled by each height and base radius
-        u, rho = spec.knots, spec.radii
-    else:  # frustums, each with its own taper
-        u, rho = body.frustum_shape(get("tip_radius") / rb)
-    volume = math.pi * h * rb * rb * body.mean_square_radius(u, rho)
-    moment = get("magnetization_scale") * spec.full_magnetization * volume
-    out = np.zeros((n_set, ang.size, 3))
-    cos_t, sin_t = np.cos(ang), np.sin(ang)
-    keys = nl * 100_003 + kd
-    for key in np.unique(keys):
-        sel = np.nonzero(keys == key)[0]
-        n, k = int(nl[sel[0]]), int(kd[sel[0]])
-        pos, w = ring_layout(h[sel], rb[sel], u, rho if rho.ndim == 1 else rho[sel], n, k,
-                             spec.ring)
-        bx, by, bz = tilt_field(cos_t, sin_t, -base[sel], pos, w * moment[sel, None], x_only)
-        out[sel, :, 0] = bx
-        if not x_only:
-            out[sel, :, 1], out[sel, :, 2] = by, bz
-    return out
+    return TiltBatch(setup, angles).field(params, x_only)
 
 
 def tilt_output_batch(
@@ -86,9 +176,6 @@ def tilt_output_batch(
     """Sensor output (V) for N parameter sets at a tilt angles: shape (N, a).
 
     As :func:`tilt_field_batch`, plus an optional ``offset`` key (V) in ``params``; the sensor's
-    scale (V/T) comes from ``setup``.
+    scale (V/T) comes from ``setup``. A thin wrapper of :meth:`TiltBatch.output`.
     """
-    spec = as_spec(setup)
-    bx = tilt_field_batch(spec, params, angles, x_only=True)[..., 0]
-    offset = np.asarray(params.get("offset", spec.offset), dtype=np.float64)
-    return spec.scale * bx + np.reshape(offset, (-1, 1))
+    return TiltBatch(setup, angles).output(params)

@@ -3,18 +3,22 @@
 A pose is rigid tilt angles (rad, shape (a,)) or a :class:`~magcilia.model.centreline.Centreline`
 of ``a`` (bent) shapes. These functions take a :class:`~magcilia.model.spec.ModelSpec`, check the
 poses (finite angles, the sensing element and any observer outside the cilium) and evaluate the
-dipole model; :class:`magcilia.Setup` calls them with its spec.
+dipole model; :class:`magcilia.Setup` calls them with its spec. Rigid tilts run the compiled
+kernel of the batch path (:func:`magcilia.model.batch.evaluate`) for one set; the finiteness
+check reads the flag it returns, so only a non-finite result costs the search for its pose.
 """
 
 from __future__ import annotations
 
 import math
+from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.model import body
+from magcilia.model import body, compiled
+from magcilia.model.batch import evaluate, pack
 from magcilia.model.centreline import Centreline
 from magcilia.model.kernels import pose_field, tilt_fields
 from magcilia.model.layout import pose_dipoles
@@ -23,9 +27,10 @@ from magcilia.model.spec import ModelSpec
 F64 = NDArray[np.float64]
 Pose = ArrayLike | Centreline
 
-#: angles × dipoles evaluated in one block by :func:`field` and :func:`output`: larger batches are
-#: split into blocks of about this many pairs, so that memory stays near 100 MB whatever the
-#: number of angles (ordinary calls are one block, as fast as the bare kernel)
+#: angles × dipoles (or observers × polyline segments) evaluated in one NumPy block by the inside
+#: check and the NumPy fallback of :func:`field` and :func:`output`: larger batches are split into
+#: blocks of about this many pairs, so that memory stays near 100 MB whatever the number of angles
+#: (the compiled kernel works in blocks of its own)
 BLOCK_PAIRS = 1 << 21
 
 
@@ -46,8 +51,9 @@ def check_element_outside(spec: ModelSpec, angles: F64) -> None:
 
 
 def tilt_angles(spec: ModelSpec, pose: ArrayLike) -> F64:
-    """Rigid tilt angles, rad, shape (a,): finite, and keeping the element outside the cilium."""
-    angles = np.atleast_1d(np.asarray(pose, dtype=np.float64))
+    """Rigid tilt angles, rad, shape (a,): finite, and keeping the element outside the cilium
+    (a new C-contiguous array)."""
+    angles = np.array(pose, dtype=np.float64, ndmin=1)
     if angles.ndim != 1 or not np.isfinite(angles).all():
         angles = v.finite_array("tilt", angles, ndim=1, unit="rad")
     if not spec.element_always_clear:
@@ -125,6 +131,26 @@ def field_at(spec: ModelSpec, points: ArrayLike, pose: Pose) -> F64:
     return out
 
 
+#: each spec's row of parameters for the compiled kernel (:func:`magcilia.model.batch.pack`)
+_ROWS: WeakKeyDictionary[ModelSpec, F64] = WeakKeyDictionary()
+
+
+def _tilt(spec: ModelSpec, angles: F64, x_only: bool) -> tuple[F64, bool]:
+    """Output (a,), V, or field (a, 3), T, at the element for tilt ``angles`` (C-contiguous), and
+    whether it is finite: the compiled kernel, or NumPy in blocks (:func:`_tilt_blocks`)."""
+    if compiled.kernels() is None:
+        bx, by, bz = _tilt_blocks(spec, angles, x_only)
+        with np.errstate(over="ignore", invalid="ignore"):  # the callers check
+            out = spec.scale * bx + spec.offset if x_only else np.stack([bx, by, bz], axis=-1)
+        return out, bool(np.isfinite(out).all())
+    row = _ROWS.get(spec)
+    if row is None:
+        row = _ROWS.setdefault(spec, pack(spec, {}))
+    out = np.empty((1, angles.size, 1 if x_only else 3))
+    finite = evaluate(spec, row, angles, out, measured=True)
+    return (out[0, :, 0] if x_only else out[0]), finite
+
+
 def _tilt_blocks(spec: ModelSpec, angles: F64, x_only: bool) -> tuple[F64, F64, F64]:
     """:func:`tilt_fields` of the spec's straight dipoles, in blocks of angles (memory)."""
     pos, mom = spec.body_dipoles
@@ -169,8 +195,8 @@ def field(spec: ModelSpec, pose: Pose) -> F64:
     if isinstance(pose, Centreline):
         return field_at(spec, np.zeros((1, 3)), pose)[:, 0, :]
     angles = tilt_angles(spec, pose)
-    bx, by, bz = _tilt_blocks(spec, angles, x_only=False)
-    return _check_tilt(spec, "field", angles, np.stack([bx, by, bz], axis=-1))
+    out, finite = _tilt(spec, angles, x_only=False)
+    return out if finite else _check_tilt(spec, "field", angles, out)
 
 
 def output(spec: ModelSpec, pose: Pose) -> F64:
@@ -188,7 +214,5 @@ def output(spec: ModelSpec, pose: Pose) -> F64:
                                   f"({spec.scale:.4g} V/T) overflows; lower the gain")
         return out
     angles = tilt_angles(spec, pose)
-    bx = _tilt_blocks(spec, angles, x_only=True)[0]
-    with np.errstate(over="ignore", invalid="ignore"):
-        out = spec.scale * bx + spec.offset
-    return _check_tilt(spec, "output", angles, out)
+    out, finite = _tilt(spec, angles, x_only=True)
+    return out if finite else _check_tilt(spec, "output", angles, out)
