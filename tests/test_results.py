@@ -35,7 +35,7 @@ def _measurement() -> Measurement:
 
 
 def _calibration() -> mc.CalibrationResult:
-    return mc.calibrate(_measurement(), initial=SETUP, rng=0, restarts=1, maxiter=5,
+    return mc.calibrate(_measurement(), initial=SETUP, rng=0, starts=8,
                         bounds={"n_loops": (2, 2), "dipoles_per_loop": (5, 5)})
 
 

@@ -70,7 +70,7 @@ def test_identifiable_parameters_recovered_within_errors() -> None:
 
 def test_reproducible_for_a_seed() -> None:
     data = _data(seed=5, samples=100)
-    kw = {"initial": mc.Setup.paper_initial(), "restarts": 1, "maxiter": 40}
+    kw = {"initial": mc.Setup.paper_initial(), "starts": 32}
     a = mc.calibrate(data, rng=7, **kw)
     b = mc.calibrate(data, rng=7, **kw)
     assert a.values == b.values and a.cost == b.cost

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
-from magcilia.model.batch import tilt_output_batch
+from magcilia.model.batch import TiltBatch
 
 F64 = NDArray[np.float64]
 
@@ -38,6 +38,7 @@ class Problem:
         self.y = np.asarray(data.volts)
         self.angles = np.asarray(data.angles)
         self.base = initial.replace(offset=0.0)
+        self.batch = TiltBatch(self.base, self.angles)
         self.fit_scale = fit_scale
         degree = -1 if bias == "none" else (0 if bias == "offset" else bias_degree)
         self.basis = np.vander(self.angles, degree + 1, increasing=True) if degree >= 0 else (
@@ -58,8 +59,7 @@ class Problem:
         """Unbiased model output, V, shape (N, a) (unchecked: non-finite where a candidate puts the
         element on a dipole; :meth:`cost` treats those as bad candidates)."""
         self.evaluations += int(np.size(next(iter(params.values()))))
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            return tilt_output_batch(self.base, params, self.angles)
+        return self.batch.output(params)
 
     def residuals(self, u: F64) -> tuple[F64, F64]:
         """Projected residuals (N, a) and the fitted scale factors (N,) for model outputs u (rows

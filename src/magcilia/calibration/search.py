@@ -3,12 +3,14 @@
 The paper fits height, base radius, position (x, y, z), n and k with MATLAB's genetic algorithm,
 minimising the sum of squared errors (its eq. 6, with the square the text describes). magcilia:
 
-1. searches globally with SciPy's ``differential_evolution`` (integer n and k through
-   ``integrality``), evaluating the whole population in one vectorised call
-   (:func:`magcilia.model.tilt_output_batch`);
+1. searches globally with many local Levenberg–Marquardt fits from a stratified sample of the
+   bounds, narrowed by successive halving, then refits every (n, k) from the best few
+   (:mod:`magcilia.calibration.multistart`); all candidates of a step are evaluated in one
+   vectorised, compiled model call (:func:`magcilia.model.tilt_output_batch`);
 2. solves the parameters that enter the output *linearly* in closed form inside the objective:
    the output offset (or a polynomial bias in the angle) and, optionally, the magnetization scale;
-3. polishes the best candidates with ``least_squares`` and repeats from several seeds;
+3. polishes the best candidate with ``least_squares`` (optionally repeating the whole search
+   from fresh samples: ``restarts``);
 4. reports standard errors and correlations from the Jacobian, and says plainly which parameters
    the data do not determine (one field component along one tilt path cannot pin seven
    parameters).
@@ -25,14 +27,14 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping
-from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import Bounds, differential_evolution, least_squares
+from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.calibration.multistart import Box, search
 from magcilia.calibration.problem import (
     BIASES,
     DEFAULT_BOUNDS,
@@ -58,6 +60,7 @@ F64 = NDArray[np.float64]
 #: A longer search is legitimate: raise it with
 #: ``magcilia.calibration.search.MAX_FIT_DIPOLES = ...`` before calling :func:`calibrate`.
 MAX_FIT_DIPOLES = 1000
+
 
 
 def _check_data(data: Measurement) -> None:
@@ -101,10 +104,8 @@ def calibrate(
     bias: str = "offset",
     bias_degree: int = 0,
     fit_scale: bool = False,
-    restarts: int = 3,
-    maxiter: int = 300,
-    popsize: int = 12,
-    tol: float = 1e-8,
+    restarts: int = 1,
+    starts: int = 256,
     progress: Callable[[int, int], None] | None = None,
 ) -> CalibrationResult:
     """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
@@ -130,9 +131,11 @@ def calibrate(
     fit_scale : bool
         Also fit the magnetization scale (solved in closed form; ≥ 0).
     restarts : int
-        Independent global searches; the best polished result is kept.
-    maxiter, popsize, tol : int, int, float
-        ``differential_evolution`` settings per restart.
+        Independent global searches (each from its own sample of starts); the best polished
+        result is kept. One finds the best fit of a 33-angle recording in more than 99 % of
+        cases; more make a miss rarer still, at proportional cost.
+    starts : int
+        Local fits started by each global search (see :mod:`magcilia.calibration.multistart`).
     progress : callable(done, total), optional
         Called after each restart (the CLI draws a progress bar with it).
 
@@ -148,6 +151,7 @@ def calibrate(
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
     restarts = v.integer("restarts", restarts, 1)
+    starts = v.integer("starts", starts, 1)
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(
@@ -159,43 +163,19 @@ def calibrate(
     lower = np.array([box[n][0] for n in PARAMETERS])
     upper = np.array([box[n][1] for n in PARAMETERS])
     integrality = np.array([n in INTEGER for n in PARAMETERS])
-    free = lower < upper  # fixed parameters (low == high) are left out of the search
+    space = Box(lower, upper, integrality)
     x_init = np.clip([initial.params()[n] for n in PARAMETERS], lower, upper)
-
-    def full(x_free: F64) -> F64:
-        """Complete parameter columns (7, S) from the free ones (f, S)."""
-        x2 = np.repeat(x_init[:, None], x_free.shape[1], axis=1)
-        x2[free] = x_free
-        return x2
-
-    def objective(x: F64) -> F64:
-        # vectorized: x has shape (f, S), one column per population member
-        x2 = full(x.reshape(int(free.sum()), -1))
-        return problem.cost(named(x2))
-
-    seeds = np.random.default_rng(rng).integers(0, 2**32 - 1, size=restarts)
+    gen = np.random.default_rng(rng)
     candidates: list[tuple[float, F64]] = []
-    restart_costs = []
-    for i, seed in enumerate(seeds):
-        if free.any():
-            res = differential_evolution(
-                cast(Any, objective), bounds=Bounds(lower[free], upper[free]),
-                integrality=integrality[free], vectorized=True, updating="deferred",
-                seed=int(seed), maxiter=maxiter, popsize=popsize, tol=tol, polish=False,
-                init="sobol", x0=x_init[free] if i == 0 else None, mutation=(0.5, 1.0),
-                recombination=0.7,
-            )
-            x_start = full(np.asarray(res.x)[:, None])[:, 0]
-        else:
-            x_start = x_init
-        best = _polish(problem, x_start, lower, upper, integrality)
-        candidates.append(best)
-        restart_costs.append(best[0])
+    for i in range(restarts):
+        x_start = search(problem, space, x_init, gen, starts) if space.free.any() else x_init
+        candidates.append(_polish(problem, x_start, lower, upper, integrality))
         if progress is not None:
             progress(i + 1, restarts)
+    restart_costs = tuple(c for c, _ in candidates)
     _, x_best = min(candidates, key=lambda c: c[0])
     x_best = _y_sign_of(x_best, initial.position[1], box["y"])
-    return _result(problem, initial, data, box, x_best, bias, t0, tuple(restart_costs))
+    return _result(problem, initial, data, box, x_best, bias, t0, restart_costs)
 
 def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
     """B_x is even in y (mirror symmetry about the x-z plane), so y and -y fit exactly equally

@@ -30,7 +30,11 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
                    f"repeatable. Defaults: {describe_bounds()}.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
-@click.option("--restarts", default=3, show_default=True, help="Independent global searches.")
+@click.option("--restarts", default=1, show_default=True,
+              help="Independent global searches, the best kept (one finds the best fit of a "
+                   "33-angle recording in > 99 % of cases; more make a miss rarer).")
+@click.option("--starts", default=256, show_default=True,
+              help="Local fits started by each global search.")
 @click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
               show_default=True, help="DC bias model, fitted jointly.")
 @click.option("--bias-degree", default=0, show_default=True,
@@ -43,8 +47,8 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
-            restarts: int, bias: str, bias_degree: int, fit_scale: bool, nan_policy: str,
-            saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
+            restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
+            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
@@ -58,7 +62,8 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
                                          rng=seed, bias=bias, bias_degree=bias_degree,
-                                         fit_scale=fit_scale, restarts=restarts)
+                                         fit_scale=fit_scale, restarts=restarts,
+                                         starts=starts)
         write_calibration_files(result, tmp)
     if as_json:
         echo_json(result.to_dict())
