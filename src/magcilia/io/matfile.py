@@ -4,7 +4,9 @@ child process with memory and time limits.
 **Why MATLAB files are parsed in a child process.** ``scipy.io.loadmat`` (C/Cython) crashes the
 interpreter (SIGSEGV/SIGBUS) on some damaged files and HDF5 (under ``h5py``) is a large C library
 with a long history of such crashes; no check in Python can prove a file safe for either. The CSV
-and TDMS readers are pure Python and NumPy and cannot crash the process, so they run in-process. A
+and TDMS readers run in-process: TDMS is pure Python and NumPy; CSV bytes reach pandas' C
+tokenizer only after a byte-level check (digits, separators, the letters of nan/inf/set/reset,
+bounded lines), with Python's csv module for everything else, and the fuzz suites run both. A
 ``.mat`` file is therefore (1) checked in-process by a small pure-Python scan of its container
 (empty, unknown header, elements running past the end of the file, damaged zlib streams, and the
 declared and the real inflated size of every compressed variable we read, counted in bounded pieces
