@@ -1,12 +1,18 @@
-"""Large-deflection bending and read-out speed, side by side with PyElastica (issue 5).
+"""Large-deflection bending and read-out speed, side by side with SciPy, PyElastica and NumPy.
 
-Measures, in one run and on one thread:
+Measures, in one run and on one thread (min and median of interleaved repeats):
   * one static equilibrium of the issue's tapered cilium (L = 3 mm, r 0.2 -> 0.05 mm, E = 2 MPa)
-    under a dead tip force with P L^2 / (E I0) = 1, at 1e-6 relative tip accuracy (checked against
-    a run with far more collocation nodes): median time (target <= 2 ms);
+    under a dead tip force with P L^2 / (E I0) = 1, at 1e-6 relative tip accuracy or better
+    (checked against a run with far more collocation nodes), target <= 0.5 ms;
+  * SciPy ``solve_bvp`` on the same elastica boundary-value problem (dimensionless, vectorised
+    right-hand side, straight-rod initial guess, the loosest ``tol`` that reaches 1e-6 at the tip),
+    interleaved with it;
+  * a force sweep of 513 loads (a read-out table's) through ``bend_sweep``;
   * PyElastica (Cosserat rod, 50 elements, explicit position-Verlet with analytical linear
     damping) reaching the same static tip by damped dynamics to 1 %: wall time, steps, ratio;
-  * read-out throughput of ``Readout.estimate`` (the table fast path), samples/s (target >= 1e7).
+  * read-out throughput on 1e6 readings: ``Readout.estimate`` (value only) and ``Readout.read``
+    (value, 1-σ and flags), against ``np.interp`` over the same table (value only), samples/s
+    (target >= 1e7 for ``read``).
 
 Run: python benchmarks/bench_mechanics.py [--quick]
 """
@@ -20,33 +26,67 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 
 import argparse
 import math
+import statistics
 import time
 import warnings
+from collections.abc import Callable
 
 import numpy as np
+from scipy.integrate import solve_bvp
 
 import magcilia as mc
 
 E = 2.0e6
 L = 3e-3
+R0, R1 = 2e-4, 5e-5
+I0 = math.pi * R0**4 / 4
 
 
 def setup() -> mc.Setup:
-    return mc.Setup.paper(height=L, base_radius=2e-4, tip_radius=5e-5, youngs_modulus=E,
+    return mc.Setup.paper(height=L, base_radius=R0, tip_radius=R1, youngs_modulus=E,
                           position=(1.4727e-3, 1.9891e-3, 0.3804e-3), n_loops=12,
                           dipoles_per_loop=4)
 
 
-def ours(s: mc.Setup, force: float, repeat: int) -> tuple[float, float, np.ndarray]:
-    shape = mc.bend(s, force=force)
-    fine = mc.bend(s, force=force, nodes=120)
-    err = float(np.linalg.norm(shape.tip - fine.tip) / np.linalg.norm(fine.tip))
-    times = []
+def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str, list[float]]:
+    """Wall times (s) of each callable, ``repeat`` rounds, the callables interleaved."""
+    times: dict[str, list[float]] = {name: [] for name in runs}
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        mc.bend(s, force=force)
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), err, fine.tip
+        for name, run in runs.items():
+            t0 = time.perf_counter()
+            run()
+            times[name].append(time.perf_counter() - t0)
+    return times
+
+
+def stats(t: list[float]) -> tuple[float, float]:
+    return min(t), statistics.median(t)
+
+
+def bvp(alpha: float, tol: float) -> np.ndarray:
+    """Tip (m, (3,)) of the tapered elastica by SciPy's ``solve_bvp``: y = (θ, m, x, z) over
+    t = s / L, m = M L / (E I0); θ' = m / (I/I0), m' = −α cos θ, x' = sin θ, z' = cos θ;
+    θ(0) = x(0) = z(0) = 0, m(1) = 0."""
+    lam = R1 / R0
+
+    def fun(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.vstack([y[1] / (1.0 - (1.0 - lam) * t) ** 4, -alpha * np.cos(y[0]),
+                          np.sin(y[0]), np.cos(y[0])])
+
+    def bc(ya: np.ndarray, yb: np.ndarray) -> np.ndarray:
+        return np.array([ya[0], yb[1], ya[2], ya[3]])
+
+    t = np.linspace(0.0, 1.0, 11)
+    y0 = np.zeros((4, t.size))
+    y0[3] = t  # the straight rod
+    sol = solve_bvp(fun, bc, t, y0, tol=tol, max_nodes=100_000)
+    if sol.status != 0:
+        raise RuntimeError(f"solve_bvp failed: {sol.message}")
+    return np.array([sol.y[2, -1], 0.0, sol.y[3, -1]]) * L
+
+
+def relative(tip: np.ndarray, ref: np.ndarray) -> float:
+    return float(np.linalg.norm(tip - ref) / np.linalg.norm(ref))
 
 
 def pyelastica(s: mc.Setup, force: float, tip: np.ndarray, n_elem: int, budget: float
@@ -98,18 +138,59 @@ def pyelastica(s: mc.Setup, force: float, tip: np.ndarray, n_elem: int, budget: 
     return wall, n_steps, history[-1][2], history[-1][0] / steps
 
 
-def readout_throughput(s: mc.Setup, n: int, repeat: int) -> tuple[float, float, float]:
+def bending(s: mc.Setup, quick: bool) -> tuple[float, np.ndarray]:
+    """The bend rows; returns the force (N) and the reference tip (m)."""
+    force = E * I0 / L**2  # P L^2 / (E I0) = 1
+    print(f"tapered cilium L = 3 mm, r 0.2 -> 0.05 mm, E = 2 MPa; tip force {force * 1e3:.4g} mN "
+          "(P L^2 / E I0 = 1); one thread")
+    ref = mc.bend(s, force=force, nodes=120).tip
+    shape = mc.bend(s, force=force)
+    tol = next(t for t in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7) if relative(bvp(1.0, t), ref) <= 1e-6)
+    times = interleaved({"ours": lambda: mc.bend(s, force=force),
+                         "bvp": lambda: bvp(1.0, tol)}, 20 if quick else 100)
+    (o_min, o_med), (b_min, b_med) = stats(times["ours"]), stats(times["bvp"])
+    print(f"  magcilia.bend (Chebyshev collocation, {shape.nodes} nodes, Newton from the "
+          f"saturated linear-beam guess, {shape.iterations} iterations): min {o_min * 1e3:.3f} "
+          f"ms, median {o_med * 1e3:.3f} ms; tip error {relative(shape.tip, ref):.1e} "
+          "[target <= 0.5 ms at 1e-6]")
+    print(f"  SciPy solve_bvp (vectorised, tol {tol:g}): min {b_min * 1e3:.3f} ms, median "
+          f"{b_med * 1e3:.3f} ms; tip error {relative(bvp(1.0, tol), ref):.1e}")
+    print(f"  ratio solve_bvp / magcilia: min {b_min / o_min:.3g}x, median {b_med / o_med:.3g}x")
+    forces = np.linspace(0.0, 2e-4, 513)
+    sweep = stats(interleaved({"sweep": lambda: mc.bend_sweep(s, forces=forces)},
+                              3 if quick else 10)["sweep"])
+    print(f"  magcilia.bend_sweep, 513 forces 0..0.2 mN (each predicted from its neighbours): "
+          f"min {sweep[0] * 1e3:.1f} ms ({sweep[0] / 512 * 1e6:.0f} µs per load), median "
+          f"{sweep[1] * 1e3:.1f} ms")
+    return force, ref
+
+
+def readout(s: mc.Setup, quick: bool) -> None:
     t0 = time.perf_counter()
     r = mc.Readout(s, quantity="force", span=(0.0, 2e-4))
     build = time.perf_counter() - t0
+    table = r.table
+    n = 1_000_000
     lo, hi = sorted(r.output_range)
     volts = np.random.default_rng(0).uniform(lo, hi, n)
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        r.estimate(volts)
-        best = min(best, time.perf_counter() - t0)
-    return n / best, build, r.table_error
+    print(f"Readout force table ({table.volts.size} points, 0..0.2 mN): built in {build:.3g} s, "
+          f"table error {r.table_error:.2g} N; {n:.0e} readings, samples/s (min | median time):")
+    times = interleaved({
+        "np.interp": lambda: np.interp(volts, table.volts, table.values),
+        "estimate": lambda: r.estimate(volts),
+        "read": lambda: r.read(volts, noise=1e-4),
+    }, 5 if quick else 15)
+    anchor = stats(times["np.interp"])
+    for name, label in (("np.interp", "np.interp over the table (value)"),
+                        ("estimate", "Readout.estimate (value)"),
+                        ("read", "Readout.read (value, sigma, flags)")):
+        best, med = stats(times[name])
+        ratio = "" if name == "np.interp" else (f"; {anchor[0] / best:.3g}x np.interp (min), "
+                                                f"{anchor[1] / med:.3g}x (median)")
+        print(f"  {label}: {n / best:.3g} | {n / med:.3g}{ratio}")
+    est = stats(times["estimate"])
+    print(f"  read / estimate time: {stats(times['read'])[0] / est[0]:.2f} (min) "
+          "[target read >= 1e7 samples/s]")
 
 
 def main() -> None:
@@ -117,27 +198,18 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer repeats, shorter budgets")
     args = parser.parse_args()
     s = setup()
-    i0 = math.pi * (2e-4) ** 4 / 4
-    force = E * i0 / L**2  # P L^2 / (E I0) = 1
-    print(f"tapered cilium L = 3 mm, r 0.2 -> 0.05 mm, E = 2 MPa; tip force {force * 1e3:.4g} mN "
-          "(P L^2 / E I0 = 1)")
-    t_ours, err, tip = ours(s, force, 30 if args.quick else 300)
-    print(f"magcilia.bend (Chebyshev collocation + Newton): median {t_ours * 1e3:.3f} ms, "
-          f"tip relative error {err:.1e} (vs 120 nodes); tip = ({tip[0] * 1e3:.5f}, "
-          f"{tip[2] * 1e3:.5f}) mm [target <= 2 ms at 1e-6]")
+    force, tip = bending(s, args.quick)
+    readout(s, args.quick)
     pe = pyelastica(s, force, tip, 50, 20.0 if args.quick else 120.0)
     if pe is None:
         print("PyElastica not installed: skipped (pip install pyelastica)")
-    else:
-        wall, steps, final, per_step = pe
-        print(f"PyElastica 50 elements, damped dynamics: within 1 % after {steps} steps, "
-              f"{wall:.3g} s ({per_step * 1e6:.1f} µs/step); settled tip error "
-              f"{final * 100:.2f} % (discretisation, shear and extension)")
-        print(f"ratio PyElastica / magcilia: {wall / t_ours:.3g}x")
-    thr, build, table_err = readout_throughput(s, 1_000_000 if args.quick else 10_000_000,
-                                               3 if args.quick else 5)
-    print(f"Readout force table (257 points, 0..0.2 mN): built in {build:.3g} s, table error "
-          f"{table_err:.2g} N; estimate: {thr:.3g} samples/s [target >= 1e7]")
+        return
+    wall, steps, final, per_step = pe
+    t_ours = stats(interleaved({"ours": lambda: mc.bend(s, force=force)}, 20)["ours"])[1]
+    print(f"PyElastica 50 elements, damped dynamics: within 1 % after {steps} steps, "
+          f"{wall:.3g} s ({per_step * 1e6:.1f} µs/step); settled tip error "
+          f"{final * 100:.2f} % (discretisation, shear and extension)")
+    print(f"  ratio PyElastica / magcilia.bend (median): {wall / t_ours:.3g}x")
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ from scipy.integrate import quad
 
 import magcilia as mc
 from magcilia.mechanics import cantilever_tip, elastica, tip_compliance
+from magcilia.mechanics.bend import _Case
 
 E = 2.0e6
 L = 3.0e-3
@@ -170,3 +171,93 @@ def test_cone_accepts_a_load_below_the_tip() -> None:
     cone = mc.Setup.paper(youngs_modulus=E)
     shape = mc.bend(cone, force=2e-5, at=0.8 * cone.cilium.height)
     assert shape.tip[0] > 0.0 and np.isfinite(shape.points).all()
+
+
+def _tapered() -> mc.Setup:
+    return mc.Setup.paper(height=L, base_radius=2e-4, tip_radius=5e-5, youngs_modulus=E)
+
+
+def _path_followed(setup: mc.Setup, force: float, direction: float, steps: int = 200
+                   ) -> mc.Centreline:
+    """The load ramped up slowly (each solve continued from the last): the quasi-static path."""
+    return mc.bend_sweep(setup, forces=np.linspace(0.0, force, steps), direction=direction)
+
+
+@pytest.mark.parametrize(
+    ("alpha", "direction"),
+    [(0.01, 0.5 * math.pi), (1.0, 0.5 * math.pi), (30.0, 0.5 * math.pi), (10.0, 0.3),
+     (10.0, -1.0), (10.0, 2.5), (30.0, 4.0)],
+    ids=["small", "benchmark", "large", "pull", "negative", "push", "push-beyond-pi"],
+)
+def test_warm_start_gives_the_path_followed_solution(alpha: float, direction: float) -> None:
+    # a single bend starts Newton from the saturated linear-beam guess; it must land on the
+    # equilibrium that slow loading reaches (pushing loads have others that Newton from the
+    # straight rod found before the warm start: tip on the wrong side of the load)
+    setup = _tapered()
+    force = alpha * E * math.pi * (2e-4) ** 4 / 4.0 / L**2
+    warm = mc.bend(setup, force=force, direction=direction)
+    slow = _path_followed(setup, force, direction)
+    np.testing.assert_allclose(warm.points[0], slow.points[-1], rtol=0, atol=1e-10 * L)
+    assert warm.residual < 1e-12
+    assert warm.iterations <= 4
+
+
+@pytest.mark.parametrize("direction", [0.5 * math.pi, 2.5], ids=["perpendicular", "push"])
+def test_warm_and_cold_newton_agree(direction: float) -> None:
+    # the same continuation from the straight rod with the guess (warm) and without it (cold)
+    setup = _tapered()
+    case = _Case(setup, L, direction, True, None, None)
+    force = E * math.pi * (2e-4) ** 4 / 4.0 / L**2
+
+    def at(lam: float) -> tuple[elastica.Problem, float]:
+        return case.problem(force, 0.0), lam
+
+    zero = np.zeros(case.grid.s.size)
+    warm, _ = elastica.solve(at, 0.0, 1.0, zero, case.guess(force, 0.0))
+    cold, _ = elastica.solve(at, 0.0, 1.0, zero)
+    np.testing.assert_allclose(warm.theta, cold.theta, rtol=0, atol=1e-10)
+    assert warm.iterations < cold.iterations  # 4 against 5
+
+
+def test_sweep_predicts_each_load_from_its_neighbours(monkeypatch: pytest.MonkeyPatch) -> None:
+    setup = _tapered()
+    real = elastica.newton
+    iterations: list[int] = []
+
+    def counting(problem: elastica.Problem, scale: float, guess: np.ndarray,
+                 **kw: float) -> elastica.Solution | None:
+        sol = real(problem, scale, guess, **kw)
+        iterations.append(-1 if sol is None else sol.iterations)
+        return sol
+
+    monkeypatch.setattr(elastica, "newton", counting)
+    mc.bend_sweep(setup, forces=np.linspace(0.0, 2e-4, 513))  # a read-out table's sweep
+    assert -1 not in iterations and len(iterations) == 512
+    # one Newton step per load from the parabola through the last three solutions (two each
+    # when each started from its neighbour's solution)
+    assert max(iterations[3:]) == 1
+
+
+def test_sweep_of_unordered_and_repeated_loads_matches_single_bends() -> None:
+    setup = _tapered()
+    f1 = E * math.pi * (2e-4) ** 4 / 4.0 / L**2
+    forces = [1e-3 * f1, 1e-2 * f1, 10 * f1, f1, -f1, f1, f1, 0.0, 3 * f1]
+    batch = mc.bend_sweep(setup, forces=forces)
+    for i, f in enumerate(forces):
+        np.testing.assert_allclose(batch.points[i], mc.bend(setup, force=f).points[0],
+                                   rtol=0, atol=1e-10 * L)
+
+
+def test_a_misleading_prediction_is_retried_from_the_last_solution(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    setup = cylinder()
+    force = stiffness(setup) / L**2
+    expected = mc.bend(setup, force=force).tip
+    real = elastica.newton
+
+    def refusing_guesses(problem: elastica.Problem, scale: float, guess: np.ndarray,
+                         **kw: float) -> elastica.Solution | None:
+        return None if np.any(guess != 0.0) else real(problem, scale, guess, **kw)
+
+    monkeypatch.setattr(elastica, "newton", refusing_guesses)
+    np.testing.assert_allclose(mc.bend(setup, force=force).tip, expected, rtol=1e-10)

@@ -13,6 +13,7 @@ import magcilia as mc
 from magcilia._atomic import write_json
 from magcilia.io import example_path
 from magcilia.mechanics import Flow
+from magcilia.readout import inverse
 from magcilia.readout.inverse import ReadoutFlag
 
 POSITION = (1.4727e-3, 1.9891e-3, 0.3804e-3)
@@ -187,3 +188,73 @@ def test_parameter_covariance_load_errors(tmp_path: Path) -> None:
     bad.write_text('{"stderr": {}}')
     with pytest.raises(mc.MagciliaError, match="not a calibration result"):
         mc.ParameterCovariance.load(bad)
+
+
+def _reference_read(r: mc.Readout, volts: np.ndarray, noise: float) -> tuple[np.ndarray, ...]:
+    """What read returns, computed the straightforward way (np.interp, one array per step)."""
+    x = np.asarray(volts, dtype=np.float64)
+    table, sensor = r.table, r.setup.sensor
+    inside = (x >= table.volts[0]) & (x <= table.volts[-1])
+    flags = np.where(inside, 0, int(ReadoutFlag.OUTSIDE_SPAN))
+    if table.ambiguous is not None:
+        amb = (x >= table.ambiguous[0]) & (x <= table.ambiguous[1]) & inside
+        flags |= np.where(amb, int(ReadoutFlag.FOLD), 0)
+    with np.errstate(invalid="ignore"):
+        sat = ~(np.abs((x - sensor.offset) / sensor.scale) <= sensor.field_range)  # and NaN
+    flags |= np.where(sat, int(ReadoutFlag.SATURATED), 0)
+    value = table.lookup(np.where(inside, x, table.volts[0]))
+    slope = np.abs(np.interp(x, table.volts, table.slope))
+    s_noise = noise * slope
+    s_cal = np.interp(value, table.quantity, r.sigma_calibration) * slope
+    nan = np.where(flags != 0, np.nan, 1.0)
+    return (value * nan, np.hypot(s_noise, s_cal) * nan, s_noise * nan, s_cal * nan,
+            flags.astype(np.uint8))
+
+
+@pytest.fixture(scope="module")
+def folding_calibrated() -> mc.Readout:
+    s = mc.Setup.paper(position=(1e-3, 0.0, 0.0))
+    return mc.Readout(s, quantity="angle", span=(0.0, math.radians(85.0)), table_size=40,
+                      calibration=_calibration({"x": 2e-5, "offset": 2e-5}, corr=0.4))
+
+
+@pytest.mark.parametrize("which", ["force", "folding_calibrated"])
+@pytest.mark.parametrize("block", [65536, 1000], ids=["one-block", "blocks"])
+def test_read_equals_the_straightforward_computation(which: str, block: int,
+                                                     request: pytest.FixtureRequest,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    r: mc.Readout = request.getfixturevalue(f"{which}_readout" if which == "force" else which)
+    monkeypatch.setattr(inverse, "BLOCK", block)
+    table, sensor = r.table, r.setup.sensor
+    lo, hi = table.volts[0], table.volts[-1]
+    width = hi - lo
+    edges = [lo, hi, np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf), np.nan, np.inf,
+             -np.inf, 1e308, -1e308, sensor.voltage(7e-4), sensor.voltage(-7e-4)]
+    x = np.concatenate([np.random.default_rng(1).uniform(lo - 0.2 * width, hi + 0.2 * width,
+                                                         3000),
+                        table.volts, table.output, np.linspace(lo, hi, 1001),
+                        table.ambiguous or [], edges])
+    res = r.read(x, noise=1e-4)
+    expected = _reference_read(r, x, 1e-4)
+    for name, want in zip(("value", "sigma", "sigma_noise", "sigma_calibration", "flags"),
+                          expected, strict=True):
+        got = getattr(res, name)
+        assert got.dtype == want.dtype and got.shape == x.shape, name
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0.0, err_msg=name)
+    flags = res.flags[-len(edges):]
+    assert (flags[:4] & ReadoutFlag.OUTSIDE_SPAN).tolist() == [0, 0, 1, 1]  # at and beyond
+    assert (flags[4:9] & ReadoutFlag.OUTSIDE_SPAN).all()  # NaN, infinite, huge
+    assert (flags[-2:] & ReadoutFlag.SATURATED).all()
+    if which == "folding_calibrated":
+        assert (res.flags & ReadoutFlag.FOLD).any() and (res.sigma_calibration[res.ok] > 0).all()
+
+
+def test_read_and_estimate_keep_the_shape_of_the_readings(force_readout: mc.Readout) -> None:
+    lo, hi = force_readout.table.volts[[0, -1]]
+    mid = 0.5 * (lo + hi)
+    res = force_readout.read(mid, noise=1e-4)
+    assert res.value.shape == res.sigma.shape == res.flags.shape == ()
+    assert float(res.value) == force_readout.estimate(mid) == force_readout.estimate([mid])[0]
+    grid = np.full((2, 0, 3), mid)
+    assert force_readout.read(grid).value.shape == (2, 0, 3)
+    assert force_readout.estimate(grid).shape == (2, 0, 3)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -14,6 +15,7 @@ from scipy.integrate import quad
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.device.cilium import Cilium
 from magcilia.device.setup import Setup
 from magcilia.mechanics.drag import check_reynolds, drag_per_length
 from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
@@ -27,11 +29,10 @@ F64 = NDArray[np.float64]
 OUTPUT_POINTS = 129
 
 
-def _nodes(setup: Setup, bounds: F64) -> tuple[int, ...]:
+def _nodes(c: Cilium, bounds: F64) -> tuple[int, ...]:
     """Nodes per piece for ~1e-12 accuracy: from the Bernstein ellipse through the zero of the
     piece's linear r(s) (where 1/EI has its pole). A piece that reaches a cone's tip converges
     only algebraically."""
-    c = setup.cilium
     sizes = []
     for b0, b1 in itertools.pairwise(bounds):
         r0, r1 = (float(r) for r in c.radius(np.array([b0, b1])))
@@ -49,29 +50,42 @@ def _nodes(setup: Setup, bounds: F64) -> tuple[int, ...]:
     return tuple(sizes)
 
 
+@lru_cache(maxsize=64)
+def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
+            nodes: int | None) -> tuple[Grid, F64, F64, F64, F64]:
+    """What a load case keeps fixed (cached: sweeps and repeated bends share it): the grid,
+    EI (N·m², (N,)), diameter (m, (N,)), ``loaded`` (1 below the point load, (N,)) and the
+    influence matrix ``C diag(1/EI) R`` ((N, N), rad per N)."""
+    length = cilium.height
+    split = point_load and at < length * (1.0 - 1e-12)
+    bounds = np.array([0.0, at, length]) if split else np.array([0.0, length])
+    if cilium.profile is not None:  # r(s) has kinks at the profile's knots: pieces end there
+        knots = np.asarray(cilium.profile[0][1:-1]) * length
+        bounds = np.union1d(bounds, knots[np.abs(knots[:, None] - bounds).min(axis=1)
+                                          > 1e-9 * length])
+    sizes = _nodes(cilium, bounds) if nodes is None else (nodes,) * (bounds.size - 1)
+    grid = Grid.build(bounds, sizes)
+    ei = modulus * cilium.second_moment(grid.s)
+    diameter = 2.0 * cilium.radius(grid.s)
+    loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
+    influence = grid.C @ (grid.R / ei[:, None])
+    for arr in (ei, diameter, loaded, influence):
+        arr.setflags(write=False)
+    return grid, ei, diameter, loaded, influence
+
+
 class _Case:
     """Grid, stiffness and load builders shared by the solves of one bend / sweep."""
 
     def __init__(self, setup: Setup, at: float, direction: float, point_load: bool,
                  flow: Flow | None, nodes: int | None) -> None:
-        c = setup.cilium
-        length = c.height
-        split = point_load and at < length * (1.0 - 1e-12)
-        bounds = np.array([0.0, at, length]) if split else np.array([0.0, length])
-        if c.profile is not None:  # r(s) has kinks at the profile's knots: pieces end there
-            knots = np.asarray(c.profile[0][1:-1]) * length
-            bounds = np.union1d(bounds, knots[np.abs(knots[:, None] - bounds).min(axis=1)
-                                              > 1e-9 * length])
-        sizes = _nodes(setup, bounds) if nodes is None else \
-            (nodes,) * (bounds.size - 1)
-        self.grid = Grid.build(bounds, sizes)
-        s = self.grid.s
-        self.ei = setup.youngs_modulus * c.second_moment(s)
-        self.diameter = 2.0 * c.radius(s)
-        self.loaded = (s < at).astype(np.float64) if point_load else np.zeros(s.size)
+        self.grid, self.ei, self.diameter, self.loaded, self.influence = _static(
+            setup.cilium, setup.youngs_modulus, at, point_load, nodes)
         self.unit = np.array([math.sin(direction), math.cos(direction)])
+        # the rod turns toward a dead force (or along the flow), never past it: |θ| ≤ limit
+        self.limit = abs(math.remainder(direction, 2.0 * math.pi)) if point_load \
+            else 0.5 * math.pi
         self.flow = flow
-        self.length = length
 
     def problem(self, force: float, speed: float) -> Problem:
         drag = None
@@ -82,24 +96,34 @@ class _Case:
             def drag(cos_t: F64, z: F64) -> F64:
                 return drag_per_length(flow.velocity(z) * cos_t, d, flow.fluid)
 
-        return Problem(self.grid, self.ei, self.diameter, force * self.unit, self.loaded, drag)
+        return Problem(self.grid, self.ei, self.influence, force * self.unit, self.loaded, drag)
 
-    def solve(self, start: tuple[float, float], end: tuple[float, float], guess: F64) -> Solution:
+    def guess(self, force: float, speed: float) -> F64:
+        """Newton's start from the straight rod, rad (N,): the linear-beam angles θ_lin saturated
+        at the load's direction, ``limit · tanh(θ_lin / limit)`` (θ_lin itself overshoots:
+        several radians at P L² / EI₀ = 1 on a tapered cilium)."""
+        lin = self.problem(force, speed).linear(1.0)
+        return self.limit * np.tanh(lin / self.limit) if self.limit > 0.0 else lin
+
+    def solve(self, start: tuple[float, float], end: tuple[float, float], theta: F64,
+              slope: F64) -> Solution:
+        """Continue from the solution ``theta`` at load ``start`` (force N, speed m/s) to
+        ``end``; ``slope`` is the predicted change of θ (rad, (N,)) over the whole step."""
         (f0, u0), (f1, u1) = start, end
 
         def at(lam: float) -> tuple[Problem, float]:
             return self.problem(f0 + lam * (f1 - f0), u0 + lam * (u1 - u0)), 1.0
 
-        return solve(at, 0.0, 1.0, guess)[0]
+        return solve(at, 0.0, 1.0, theta, slope)[0]
 
     def shape_data(self, sol: Solution, force: float, speed: float) -> tuple[F64, F64, F64]:
         """Arc lengths (m,), angles (m,) and points (m, 3) on the output grid."""
         s_out, cum = self.grid.uniform_output(OUTPUT_POINTS)
         kappa = self.problem(force, speed).curvature(sol.theta)
-        th = cum @ kappa
+        x, z, th = (cum @ np.stack([np.sin(sol.theta), np.cos(sol.theta), kappa], axis=1)).T
         pts = np.zeros((s_out.size, 3))
-        pts[:, 0] = cum @ np.sin(sol.theta)
-        pts[:, 2] = cum @ np.cos(sol.theta)
+        pts[:, 0], pts[:, 2] = x, z
+        th = th.copy()
         th[0] = 0.0  # clamped base, exactly (the quadrature gives ~1e-17)
         pts[0] = 0.0
         return s_out, th, pts
@@ -157,8 +181,10 @@ def bend(setup: Setup, force: float = 0.0, *, at: float | None = None,
 
     Inextensible, unshearable planar elastica of the real frustum (``setup.cilium``; E from
     ``setup.youngs_modulus``), clamped at the base along +z, free at the tip; solved as a
-    boundary-value problem by Chebyshev collocation and Newton's method with load continuation
-    (relative tip accuracy ~1e-10 for smooth cases).
+    boundary-value problem by Chebyshev collocation and Newton's method, started from the
+    linear-beam solution saturated at the load's direction, with load continuation where Newton
+    fails (relative tip accuracy ~1e-10 for smooth cases). The equilibrium is the one a slowly
+    increased load reaches.
 
     Parameters
     ----------
@@ -210,7 +236,8 @@ def bend(setup: Setup, force: float = 0.0, *, at: float | None = None,
         return BentShape(s, np.zeros((1, s.size)), pts, load=load)
     case = _Case(setup, at_s, direction, force != 0.0, flow, nodes)
     try:
-        sol = case.solve((0.0, 0.0), (force, speed), np.zeros(case.grid.s.size))
+        sol = case.solve((0.0, 0.0), (force, speed), np.zeros(case.grid.s.size),
+                         case.guess(force, speed))
     except ContinuationError as exc:
         by_force = force != 0.0
         value = force if by_force else speed
@@ -227,8 +254,9 @@ def bend_sweep(setup: Setup, forces: ArrayLike | None = None, *,
     """Shapes for a sequence of loads, each solve continued from the previous one.
 
     Give ``forces`` (N, shape (a,)) for point loads, or ``speeds`` (m/s, shape (a,)) together
-    with ``flow`` (whose profile is scaled to each speed). Ordered sweeps (e.g. increasing) are
-    cheapest. For building read-out tables.
+    with ``flow`` (whose profile is scaled to each speed). Each solve starts from the polynomial
+    through the last (up to three) solutions, so ordered, finely spaced sweeps (e.g. a read-out
+    table's) are cheapest: one Newton step per load. For building read-out tables.
 
     Returns
     -------
@@ -249,27 +277,41 @@ def bend_sweep(setup: Setup, forces: ArrayLike | None = None, *,
     test_flow = flow.with_speed(biggest) if (flow is not None and not is_force) else flow
     _, at_s, direction = _check(setup, biggest if is_force else 0.0, at, direction, test_flow)
     case = _Case(setup, at_s, direction, is_force, flow if not is_force else None, nodes)
-    theta = np.zeros(case.grid.s.size)
-    prev = (0.0, 0.0)
+    i = 0 if is_force else 1  # the swept component of a load (force N, speed m/s)
+    solved = [(0.0, np.zeros(case.grid.s.size))]  # the last (≤ 3) solutions (value, θ)
     rows_th: list[F64] = []
     rows_pts: list[F64] = []
     s_out = np.linspace(0.0, setup.cilium.height, OUTPUT_POINTS)
-    for value in values:
-        load = (float(value), 0.0) if is_force else (0.0, float(value))
-        if load == (0.0, 0.0):
+    for value in values.tolist():
+        load = (value, 0.0) if is_force else (0.0, value)
+        last, theta = solved[-1]
+        prev = (last, 0.0) if is_force else (0.0, last)
+        if value == 0.0:
             sol = Solution(np.zeros_like(theta), 0.0, 0)
         else:
+            guess = case.guess(*load) if len(solved) == 1 else _extrapolate(solved, value)
             try:
-                sol = case.solve(prev, load, theta)
+                sol = case.solve(prev, load, theta, guess - theta)
             except ContinuationError as exc:
-                i = 0 if is_force else 1
                 reached = prev[i] + exc.reached * (load[i] - prev[i])
-                raise MagciliaError(_message(is_force, float(value), reached)) from None
+                raise MagciliaError(_message(is_force, value, reached)) from None
+        kept = [e for e in solved if e[0] != value][-2:]  # distinct values for _extrapolate
+        solved = [*kept, (value, sol.theta)]
         s_out, th, pts = case.shape_data(sol, *load)
         rows_th.append(th)
         rows_pts.append(pts)
-        theta, prev = sol.theta, load
     return Centreline(s_out, np.stack(rows_th), np.stack(rows_pts))
+
+
+def _extrapolate(solved: list[tuple[float, F64]], value: float) -> F64:
+    """θ (rad, (N,)) at ``value`` from the polynomial through the solutions ``(value_k, θ_k)``
+    (distinct values; 2 or 3 of them: a secant or a parabola, error O(h²) or O(h³) for a sweep
+    of step h)."""
+    out = np.zeros_like(solved[-1][1])
+    for k, (vk, theta) in enumerate(solved):
+        weight = math.prod((value - vj) / (vk - vj) for j, (vj, _) in enumerate(solved) if j != k)
+        out += weight * theta
+    return out
 
 
 def _message(is_force: bool, value: float, reached: float) -> str:

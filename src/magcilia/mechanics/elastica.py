@@ -9,9 +9,12 @@ Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − s
 ``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip.
 θ(0) = 0 and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on
 each piece θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the
-integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). Newton's
-method with an analytic Jacobian for the point load (batched central differences for the
-shape-dependent drag), load continuation with step halving when Newton fails.
+integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). With the
+influence matrix ``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's
+method with the analytic Jacobian ``I − P diag(g'(θ))`` for the point load (O(N²) per step;
+batched central differences for the shape-dependent drag), started from a guess (the caller's:
+:func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
+predictor and step halving when Newton fails.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
 from numpy.typing import NDArray
+from scipy.linalg.lapack import dgesv
 
 F64 = NDArray[np.float64]
 
@@ -54,7 +58,7 @@ class Grid:
     R: F64  # (N, N) ∫_s^L
     w: F64  # (N,) ∫_0^L quadrature weights
     piece: NDArray[np.int64]  # (N,) piece index of each node
-    _memo: dict[int, F64] = field(default_factory=dict, repr=False, compare=False)
+    _memo: dict[int, tuple[F64, F64]] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def build(cls, bounds: F64, sizes: tuple[int, ...]) -> Grid:
@@ -63,10 +67,13 @@ class Grid:
 
     def uniform_output(self, m: int) -> tuple[F64, F64]:
         """Uniform arc lengths (m,) from 0 to L and their :meth:`cumulative_at` matrix (cached)."""
-        s_out = np.linspace(0.0, float(self.bounds[-1]), m)
         if m not in self._memo:
-            self._memo[m] = self.cumulative_at(s_out)
-        return s_out, self._memo[m]
+            s_out = np.linspace(0.0, float(self.bounds[-1]), m)
+            cum = self.cumulative_at(s_out)
+            for arr in (s_out, cum):
+                arr.setflags(write=False)
+            self._memo[m] = (s_out, cum)
+        return self._memo[m]
 
     @classmethod
     def _assemble(cls, bounds: F64, sizes: tuple[int, ...]) -> Grid:
@@ -120,43 +127,68 @@ class Problem:
 
     grid: Grid
     ei: F64  # (N,) bending stiffness at the nodes, N·m²
-    diameter: F64  # (N,) m
+    influence: F64  # (N, N) C diag(1/EI) R: nodal angles (rad) per moment density g (N)
     force: F64  # (2,) dead point force (F_x, F_z), N
     loaded: F64  # (N,) 1 where s < a (the point force is carried across the section)
     #: (cos θ, z) at the nodes, shape (b, N) each -> drag per length along the normal, N/m
     drag: Callable[[F64, F64], F64] | None = None
 
+    def moment_density(self, theta: F64, scale: float = 1.0) -> F64:
+        """g = cos θ N_x − sin θ N_z at the nodes, N, same shape as ``theta`` ((N,) or (b, N));
+        ``scale`` multiplies the point force (the drag is that of the problem's flow)."""
+        c, s = np.cos(theta), np.sin(theta)
+        fx, fz = (scale * self.force).tolist()
+        g = (fx * c - fz * s) * self.loaded
+        if self.drag is not None:
+            q = self.drag(c, c @ self.grid.C.T)
+            g = g + c * ((q * c) @ self.grid.R.T) + s * ((q * s) @ self.grid.R.T)
+        return np.asarray(g, dtype=np.float64)
+
     def residual(self, theta: F64, scale: float) -> F64:
-        """θ − C[(R g)/EI] for nodal angles (N,) or a batch (b, N); ``scale`` multiplies the
-        point force (the drag is that of the problem's flow)."""
-        return np.asarray(theta - self.curvature(theta, scale) @ self.grid.C.T, dtype=np.float64)
+        """θ − C[(R g)/EI] for nodal angles (N,) or a batch (b, N)."""
+        return np.asarray(theta - self.moment_density(theta, scale) @ self.influence.T,
+                          dtype=np.float64)
 
     def curvature(self, theta: F64, scale: float = 1.0) -> F64:
         """Curvature θ' = M / EI at the nodes, 1/m, same shape as ``theta``."""
-        c, s = np.cos(theta), np.sin(theta)
-        fx, fz = scale * self.force
-        g = (fx * c - fz * s) * self.loaded
-        if self.drag is not None:
-            z = c @ self.grid.C.T
-            q = self.drag(c, z)
-            nx = (q * c) @ self.grid.R.T
-            nz = (-q * s) @ self.grid.R.T
-            g = g + c * nx - s * nz
-        return np.asarray((g @ self.grid.R.T) / self.ei, dtype=np.float64)
+        return np.asarray((self.moment_density(theta, scale) @ self.grid.R.T) / self.ei,
+                          dtype=np.float64)
 
-    def jacobian(self, theta: F64, scale: float) -> F64:
-        """d residual / d θ, (N, N)."""
-        if self.drag is None:
-            fx, fz = scale * self.force
-            dg = (-fx * np.sin(theta) - fz * np.cos(theta)) * self.loaded
-            inner = (self.grid.R * dg[None, :]) / self.ei[:, None]
-            return np.asarray(np.eye(theta.size) - self.grid.C @ inner, dtype=np.float64)
+    def linear(self, scale: float) -> F64:
+        """The small-deflection (Euler–Bernoulli) angles, rad (N,): the load of the straight rod
+        integrated once, ``C[(R g(0))/EI]``."""
+        return np.asarray(self.influence @ self.moment_density(np.zeros(self.ei.size), scale),
+                          dtype=np.float64)
+
+    def newton_step(self, theta: F64, scale: float, tol: float) -> tuple[float, F64 | None]:
+        """Largest |residual| at ``theta`` (N,) and the Newton step (N,), rad; the step is None
+        once the residual is below ``tol`` or not finite, or if the Jacobian is singular.
+
+        Point load: analytic Jacobian ``I − P diag(g'(θ))`` (``P`` the influence matrix; O(N²)
+        per step); with drag (shape-dependent): batched central differences.
+        """
+        r = self.residual(theta, scale)
+        err = float(np.abs(r).max())
+        if not tol <= err < math.inf:  # converged, or not finite
+            return err, None
         n = theta.size
-        step = 1e-7
-        eye = np.eye(n) * step
-        pert = np.concatenate([theta[None, :] + eye, theta[None, :] - eye])
-        res = self.residual(pert, scale)
-        return np.asarray((res[:n] - res[n:]).T / (2.0 * step), dtype=np.float64)
+        if self.drag is None:  # −g'(θ) = F_x sin θ + F_z cos θ below the load
+            fx, fz = (scale * self.force).tolist()
+            jac = _identity(n) + self.influence * (
+                (fx * np.sin(theta) + fz * np.cos(theta)) * self.loaded)
+        else:
+            h = 1e-7
+            res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
+            jac = (res[:n] - res[n:]).T / (2.0 * h)
+        *_, step, info = dgesv(jac, r)
+        return err, (-step if info == 0 else None)
+
+
+@lru_cache(maxsize=8)
+def _identity(n: int) -> F64:
+    eye = np.eye(n)
+    eye.setflags(write=False)
+    return eye
 
 
 @dataclass(frozen=True)
@@ -171,30 +203,23 @@ class Solution:
 def newton(problem: Problem, scale: float, guess: F64, tol: float = 1e-12,
            max_iter: int = 40) -> Solution | None:
     """Newton's method at one load factor; None if it does not converge."""
-    theta = guess.copy()
+    theta = guess
     prev = math.inf
     worse = 0
     for it in range(1, max_iter + 1):
-        r = problem.residual(theta, scale)
-        err = float(np.max(np.abs(r)))
-        if not math.isfinite(err):
-            return None
+        err, step = problem.newton_step(theta, scale, tol)
         if err < tol:
             return Solution(theta, err, it - 1)
         worse = worse + 1 if err > prev else 0
-        if worse >= 3:
+        if step is None or worse >= 3:  # diverging, singular or not finite
             return None
         prev = err
-        try:
-            step = np.linalg.solve(problem.jacobian(theta, scale), -r)
-        except np.linalg.LinAlgError:
-            return None
-        if float(np.max(np.abs(step))) > 1.0:  # damp steps of more than a radian
-            step *= 1.0 / float(np.max(np.abs(step)))
+        size = float(np.max(np.abs(step)))
+        if size > 1.0:  # damp steps of more than a radian
+            step *= 1.0 / size
         theta = theta + step
-        if float(np.max(np.abs(step))) < 1e-14:
-            r = problem.residual(theta, scale)
-            err = float(np.max(np.abs(r)))
+        if size < 1e-14:
+            err = float(np.max(np.abs(problem.residual(theta, scale))))
             return Solution(theta, err, it) if err < 1e3 * tol else None
     return None
 
@@ -208,14 +233,18 @@ class ContinuationError(RuntimeError):
 
 
 def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, target: float,
-          guess: F64, min_step: float = 1e-3) -> tuple[Solution, int]:
-    """Continue the solution from load parameter ``start`` (solved: ``guess``) to ``target``.
+          theta: F64, slope: F64 | None = None, min_step: float = 1e-3) -> tuple[Solution, int]:
+    """Continue the solution from load parameter ``start`` (solved: ``theta``) to ``target``.
 
     ``problem_at(p)`` returns the problem and load factor at parameter p (the same problem object
-    can serve several p). Returns the solution at ``target`` and the number of solves.
+    can serve several p). Each Newton solve starts from the secant prediction
+    ``theta + (p_trial − p) · slope``; ``slope`` (rad per unit of p, shape (N,)) is dθ/dp at
+    ``start`` (default 0: start from ``theta``) and then the secant of the last two solutions;
+    where a predicted start fails, the same step is retried from ``theta``. Returns the solution
+    at ``target`` and the number of solves (a solution's iterations are those of all of them).
     Raises :class:`ContinuationError` with the last converged parameter on failure.
     """
-    p, theta = start, guess
+    p = start
     span = target - start
     step = 1.0  # fraction of the remaining span
     solves = 0
@@ -223,10 +252,16 @@ def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, ta
     while True:
         trial = target if step >= 1.0 else p + step * (target - p)
         prob, scale = problem_at(trial)
-        sol = newton(prob, scale, theta)
+        guess = theta if slope is None else theta + (trial - p) * slope
+        sol = newton(prob, scale, guess)
         solves += 1
+        if sol is None and slope is not None:  # the prediction misled Newton: retry from theta
+            slope = None
+            continue
         if sol is not None:
             total_iter += sol.iterations
+            if trial != p:
+                slope = (sol.theta - theta) / (trial - p)
             p, theta = trial, sol.theta
             if trial == target:
                 return Solution(sol.theta, sol.residual, total_iter), solves

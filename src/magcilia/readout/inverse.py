@@ -36,6 +36,8 @@ F64 = NDArray[np.float64]
 
 #: what a read-out can estimate (the registry's measurands)
 QUANTITIES = tuple(MEASURANDS)
+#: readings per block of :meth:`Readout.read` (its temporaries stay in the CPU's cache)
+BLOCK = 65536
 
 
 class ReadoutFlag(enum.IntFlag):
@@ -140,6 +142,11 @@ class InverseTable:
         ``volts[-1]``, and its change over the cell.
     cells_per_volt : float
         Cells per volt of output.
+    cell_knot : ndarray of intp, shape (c,)
+        For each cell, a table interval (index into ``volts``) at or below its readings; at most
+        ``knot_steps`` knots lie between it and any reading of the cell.
+    knot_steps : int
+        Forward steps that find a reading's table interval from ``cell_knot``.
     """
 
     quantity: F64
@@ -153,6 +160,8 @@ class InverseTable:
     cell_start: F64
     cell_step: F64
     cells_per_volt: float
+    cell_knot: NDArray[np.intp]
+    knot_steps: int
 
     @classmethod
     def build(cls, grid: F64, volts: F64, where: str) -> InverseTable:
@@ -177,12 +186,18 @@ class InverseTable:
         fp = np.ascontiguousarray(grid[even][order])
         n_cells = 16 * (xp.size - 1)
         cells = np.interp(np.linspace(xp[0], xp[-1], n_cells + 1), xp, fp)
+        per_volt = n_cells / float(xp[-1] - xp[0])
+        # the intervals at half a cell below and above each cell (a margin for rounding)
+        first, last = np.clip(np.searchsorted(
+            xp, xp[0] + (np.arange(n_cells) + np.array([[-0.5], [1.5]])) / per_volt,
+            side="right") - 1, 0, xp.size - 1)
         table = cls(
             quantity=grid[even], output=volts[even], error=0.0,
             fold=float(grid[end]) if turns.size else None,
             ambiguous=(float(beyond.min()), float(beyond.max())) if turns.size else None,
             volts=xp, values=fp, slope=np.gradient(fp, xp), cell_start=cells[:-1].copy(),
-            cell_step=np.diff(cells), cells_per_volt=n_cells / float(xp[-1] - xp[0]),
+            cell_step=np.diff(cells), cells_per_volt=per_volt,
+            cell_knot=first.astype(np.intp), knot_steps=int(np.max(last - first)),
         )
         odd = np.arange(1, end, 2)
         if odd.size:
@@ -200,12 +215,44 @@ class InverseTable:
         return np.asarray((x >= self.volts[0]) & (x <= self.volts[-1]))
 
     def lookup(self, x: F64) -> F64:
-        """Uniform-grid linear interpolation of readings assumed inside the table."""
-        u = (x - self.volts[0]) * self.cells_per_volt
-        i = u.astype(np.intp)
-        np.clip(i, 0, self.cell_start.size - 1, out=i)
+        """Uniform-grid linear interpolation of readings (V, any shape) assumed inside the
+        table (readings outside get the end cells' lines)."""
+        return self._cells(x)[0]
+
+    def _cells(self, x: F64) -> tuple[F64, NDArray[np.intp]]:
+        """:meth:`lookup` and each reading's cell index (same shape as ``x``)."""
+        u = np.subtract(x, self.volts[0], out=np.empty(np.shape(x)))
+        u *= self.cells_per_volt
+        i = np.minimum(u, self.cell_start.size - 1).astype(np.intp)  # u ≥ 0 inside
         u -= i
-        return np.asarray(self.cell_start[i] + u * self.cell_step[i], dtype=np.float64)
+        value = self.cell_step[i]
+        value *= u
+        value += self.cell_start[i]
+        return value, i
+
+    def value_and_slope(self, x: F64) -> tuple[F64, F64]:
+        """Estimates (as :meth:`lookup`) and |dquantity/dV| (the table's slope interpolated
+        linearly in output, as ``np.interp`` over ``volts``), same shape as ``x``; readings
+        outside the table are taken at its nearest end (NaN at the start)."""
+        xc = np.fmax(x, self.volts[0])  # NaN -> the start
+        np.fmin(xc, self.volts[-1], out=xc)
+        value, i = self._cells(xc)
+        return value, np.abs(_interp(xc, self.cell_knot[i], self.knot_steps, self.volts,
+                                     self.slope))
+
+
+def _interp(x: F64, j: NDArray[np.intp], steps: int, xp: F64, fp: F64) -> F64:
+    """``np.interp(x, xp, fp)`` for ``x`` within [xp[0], xp[-1]] (same shape as ``j``), given
+    intervals ``j`` at or below each x with at most ``steps`` knots in between; the same
+    arithmetic as NumPy's, so the same numbers (``j`` is updated in place)."""
+    ahead = np.append(xp[1:], math.inf)
+    for _ in range(steps):
+        j += x >= ahead[j]
+    rate = np.append(np.diff(fp) / np.diff(xp), 0.0)
+    out = np.subtract(x, xp[j])
+    out *= rate[j]
+    out += fp[j]
+    return out
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -348,7 +395,7 @@ class Readout:
             raise v.fail(where, f"{float(x[first]):.6g} V", f"within the span's output range "
                          f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V "
                          f"({self._span_text()})")
-        return table.lookup(x)
+        return table.lookup(x.reshape(-1)).reshape(x.shape)
 
     def _span_text(self) -> str:
         lo, hi = self.span
@@ -371,29 +418,53 @@ class Readout:
             Output noise RMS of each reading, V, measured (e.g. the spread of unloaded readings);
             replaces the sensor model's noise over ``bandwidth``.
         """
-        x = np.asarray(volts, dtype=np.float64)
-        table = self.table
         sensor = self.setup.sensor
         noise_v = (sensor.output_noise_rms(*bandwidth) if noise is None
                    else v.non_negative("noise", noise, "V", "noise"))
+        shape = np.shape(volts)
+        x = np.asarray(volts, dtype=np.float64).reshape(-1)
+        value, sigma, s_noise, s_cal = (np.empty(x.size) for _ in range(4))
+        flags = np.empty(x.size, dtype=np.uint8)
+        for start in range(0, x.size, BLOCK):
+            part = slice(start, start + BLOCK)
+            self._read_block(x[part], noise_v, value[part], sigma[part], s_noise[part],
+                             s_cal[part], flags[part])
+        return ReadoutResult(
+            quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
+            sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
+            sigma_calibration=s_cal.reshape(shape), flags=flags.reshape(shape),
+            table_error=self.table_error,
+        )
+
+    def _read_block(self, x: F64, noise_v: float, value: F64, sigma: F64, s_noise: F64,
+                    s_cal: F64, flags: NDArray[np.uint8]) -> None:
+        """:meth:`read` of readings ``x`` (V, (b,)) with output noise ``noise_v`` (V), into the
+        result arrays (b,): one interpolation step gives the estimate and the table's slope."""
+        table = self.table
+        sensor = self.setup.sensor
         inside = table.inside(x)
-        flags = np.where(inside, 0, int(ReadoutFlag.OUTSIDE_SPAN)).astype(np.uint8)
+        np.logical_not(inside, out=flags, casting="unsafe")  # OUTSIDE_SPAN = 1
         if table.ambiguous is not None:
             amb = (x >= table.ambiguous[0]) & (x <= table.ambiguous[1]) & inside
-            flags |= np.where(amb, int(ReadoutFlag.FOLD), 0).astype(np.uint8)
+            flags |= amb.view(np.uint8) * np.uint8(ReadoutFlag.FOLD)
         with np.errstate(invalid="ignore"):
             sat = ~sensor.in_range(sensor.field(x))
-        flags |= np.where(sat, int(ReadoutFlag.SATURATED), 0).astype(np.uint8)
-        value = table.lookup(np.where(inside, x, table.volts[0]))
-        slope = np.abs(np.interp(x, table.volts, table.slope))
-        s_noise = noise_v * slope
-        s_cal = np.interp(value, table.quantity, self.sigma_calibration) * slope
-        nan = np.where(flags != 0, np.nan, 1.0)
-        return ReadoutResult(
-            quantity=self.quantity, unit=self.unit, value=value * nan,
-            sigma=np.hypot(s_noise, s_cal) * nan, sigma_noise=s_noise * nan,
-            sigma_calibration=s_cal * nan, flags=flags, table_error=self.table_error,
-        )
+        flags |= sat.view(np.uint8) * np.uint8(ReadoutFlag.SATURATED)
+        value[:], slope = table.value_and_slope(x)
+        np.multiply(slope, noise_v, out=s_noise)
+        if self.sigma_calibration.any():
+            q = table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
+            vq = np.fmin(np.fmax(value, q[0]), q[-1])
+            j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
+            j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
+            np.multiply(_interp(vq, j, 1, q, self.sigma_calibration), slope, out=s_cal)
+            np.hypot(s_noise, s_cal, out=sigma)
+        else:  # hypot(s, 0) = s exactly
+            s_cal[:] = 0.0
+            sigma[:] = s_noise
+        flagged = flags.astype(bool)
+        for arr in (value, sigma, s_noise, s_cal):
+            np.copyto(arr, np.nan, where=flagged)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description of the table (SI)."""
