@@ -1,6 +1,7 @@
 """Calibration: fit the model's parameters to a field-vs-tilt recording (the paper's Sec. III.B).
 
-* :func:`calibrate` (:mod:`.search`): global search + polish;
+* :func:`calibrate` (:mod:`.search`): global search (:mod:`.multistart`, many local fits at
+  once by the batched Levenberg–Marquardt of :mod:`.local`) + polish;
 * :class:`CalibrationResult`, :class:`ParameterCovariance` (:mod:`.result`);
 * the least-squares problem with its linear parameters solved in closed form (:mod:`.problem`)
   and the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`).

@@ -119,7 +119,10 @@ def levenberg_marquardt(
         jac = (rp - ra[:, None, :]) / (sign * h)[:, :, None]  # (s, p, a)
         jtj = np.einsum("spa,sqa->spq", jac, jac)
         jtr = np.einsum("spa,sa->sp", jac, ra)
+        # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
+        # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
         diag = np.einsum("spp->sp", jtj)
+        diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
         scaled = jtj + lam[idx, None, None] * (diag[:, :, None] * eye[None])
         ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
         delta = np.zeros_like(xa)
