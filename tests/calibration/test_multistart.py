@@ -58,3 +58,15 @@ def test_more_restarts_never_do_worse() -> None:
     three = mc.calibrate(data, rng=3, starts=64, restarts=3)
     assert three.cost <= one.cost * (1 + 1e-9)
     assert len(three.restart_costs) == 3 and three.restart_costs[0] == pytest.approx(one.cost)
+
+
+def test_same_fit_without_numba(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the NumPy reference model (used where numba cannot be imported) gives the same search
+    from magcilia.model import compiled
+
+    data, _ = _drawn(5)
+    fast = mc.calibrate(data, rng=2, starts=32)
+    monkeypatch.setattr(compiled, "ENABLED", False)
+    slow = mc.calibrate(data, rng=2, starts=32)
+    assert slow.cost == pytest.approx(fast.cost, rel=1e-6)
+    assert slow.values["n_loops"] == fast.values["n_loops"]
