@@ -12,6 +12,11 @@ from magcilia.calibration.problem import CONTINUOUS, INDEX, Problem, named
 
 F64 = NDArray[np.float64]
 
+#: singular values of the column-equilibrated Jacobian below this fraction of the largest mark
+#: combinations the data do not determine (well above the ~1e-10 relative error of its
+#: finite-difference columns)
+RANK_TOLERANCE = 1e-7
+
 
 def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
                  box: dict[str, tuple[float, float]]
@@ -45,13 +50,17 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
                      + ": their standard errors are undetermined")
     dof = m - p
     sigma2 = cost / dof if dof > 0 else math.nan
-    # rank and null space on the column-equilibrated Jacobian (columns have different units)
+    # rank, null space and covariance all from the SVD of the column-equilibrated Jacobian
+    # (columns have different units): a small column, e.g. d/dy near y = 0 where B_x is even in
+    # y, is then judged by its direction, not its size, and is never dropped unseen
     norms = np.linalg.norm(jac, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
-    null = vt[sv < sv[0] * 1e-7]
+    kept = sv >= sv[0] * RANK_TOLERANCE
+    null = vt[~kept]
     undetermined = np.any(np.abs(null) > 0.1, axis=0) if null.size else np.zeros(p, dtype=bool)
-    cov = sigma2 * np.linalg.pinv(jac.T @ jac, rcond=1e-14)
+    cov_scaled = (vt[kept].T / sv[kept] ** 2) @ vt[kept]  # (JᵀJ)⁺ of the scaled columns
+    cov = sigma2 * cov_scaled / np.outer(norms, norms)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
     with np.errstate(invalid="ignore", divide="ignore"):
