@@ -198,15 +198,24 @@ def unit(text: str, rng: np.random.Generator) -> str:
     return text[:a] + new + text[b:]
 
 
-def key(text: str, rng: np.random.Generator) -> str:
-    """A key renamed, a line dropped, duplicated, or moved to another table."""
-    lines = _lines(text)
+def _keyed_line(lines: list[str], rng: np.random.Generator) -> tuple[int, re.Match[str]] | None:
+    """A random ``key = value`` line of ``lines``: its index and match (None if there is none)."""
     keyed = [i for i, line in enumerate(lines) if _LINE.match(line)]
     if not keyed:
-        return text
+        return None
     i = keyed[int(rng.integers(0, len(keyed)))]
     m = _LINE.match(lines[i])
     assert m is not None
+    return i, m
+
+
+def key(text: str, rng: np.random.Generator) -> str:
+    """A key renamed, a line dropped, duplicated, or moved to another table."""
+    lines = _lines(text)
+    picked = _keyed_line(lines, rng)
+    if picked is None:
+        return text
+    i, m = picked
     kind = int(rng.integers(0, 4))
     if kind == 0:
         lines[i] = f"{_pick(rng, KEYS)} = {m.group(2)}"
@@ -237,12 +246,10 @@ def table(text: str, rng: np.random.Generator) -> str:
 def value_type(text: str, rng: np.random.Generator) -> str:
     """A value replaced by one of another type (string, number, bool, date, array, table)."""
     lines = _lines(text)
-    keyed = [i for i, line in enumerate(lines) if _LINE.match(line)]
-    if not keyed:
+    picked = _keyed_line(lines, rng)
+    if picked is None:
         return text
-    i = keyed[int(rng.integers(0, len(keyed)))]
-    m = _LINE.match(lines[i])
-    assert m is not None
+    i, m = picked
     lines[i] = f"{m.group(1)} = {_pick(rng, VALUES)}"
     return "\n".join(lines)
 

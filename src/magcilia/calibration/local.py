@@ -30,16 +30,10 @@ class LocalFits:
         Final parameters.
     cost : ndarray, shape (s,)
         Their sums of squared residuals (inf where the residuals were never finite).
-    iterations : int
-        Iterations run.
-    evaluations : int
-        Residual vectors evaluated (problems × points).
     """
 
     x: F64
     cost: F64
-    iterations: int
-    evaluations: int
 
 
 def _sum_squares(r: F64) -> F64:
@@ -102,12 +96,10 @@ def levenberg_marquardt(
     h = step * (upper - lower)
     r = residuals(x, np.arange(size))
     cost = _sum_squares(r)
-    evaluations = size
     lam = np.full(size, damping)
     active = np.isfinite(cost)
     eye = np.eye(dims)
-    iteration = 0
-    for iteration in range(1, maxiter + 1):  # noqa: B007 (read after the loop)
+    for _ in range(maxiter):
         idx = np.nonzero(active)[0]
         if idx.size == 0:
             break
@@ -140,7 +132,6 @@ def levenberg_marquardt(
         trial = np.clip(xa + delta, lower, upper)
         rt = residuals(trial, idx)
         ct = _sum_squares(rt)
-        evaluations += idx.size * (dims + 1)
         better = ct < cost[idx]
         gain = np.where(better, (cost[idx] - ct) / np.maximum(cost[idx], 1e-300), 0.0)
         acc = idx[better]
@@ -150,4 +141,4 @@ def levenberg_marquardt(
         moved = np.abs(trial - xa).max(axis=1) > 1e-14 * (upper - lower).max()
         done = (better & (gain < ftol)) | (lam[idx] > 1e12) | ~moved | ~ok
         active[idx[done]] = False
-    return LocalFits(x=x, cost=cost, iterations=iteration, evaluations=evaluations)
+    return LocalFits(x=x, cost=cost)
