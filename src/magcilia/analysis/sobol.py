@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, dataframe, rows_table, si
 from magcilia._errors import MagciliaError, require
 from magcilia.analysis.measures import (
     MEASURES,
@@ -33,8 +34,8 @@ F64 = NDArray[np.float64]
 
 
 # -- global: Sobol indices -----------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class SobolResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class SobolResult(Display):
     """First- and total-order Sobol indices with bootstrap confidence intervals (immutable).
 
     Attributes
@@ -98,6 +99,23 @@ class SobolResult:
             "bounds": {k: list(b) for k, b in self.bounds.items()}, "table": self.table(),
             "output_mean": self.output_mean, "output_std": self.output_std,
         }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        order = np.argsort(self.ST)[::-1]
+        top = ", ".join(f"{self.names[i]} {self.ST[i]:.2f}" for i in order[:3])
+        return [("measure", self.measure), ("ST", top), ("N", str(self.n_base)),
+                ("evaluations", str(self.n_evaluations)), ("elapsed", si(self.elapsed, "s")),
+                ("confidence", f"{self.conf_level:.0%}")]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table(), 3)
+
+    def to_dataframe(self) -> Any:
+        """The indices as a ``pandas.DataFrame``, one row per parameter: ``parameter``, ``S1``,
+        ``S1_conf``, ``ST``, ``ST_conf`` (dimensionless; conf: half-width of the interval)."""
+        return dataframe({"parameter": list(self.names), "S1": self.S1,
+                          "S1_conf": self.S1_conf, "ST": self.ST, "ST_conf": self.ST_conf})
 
 
 def _seeds(rng: int | np.random.Generator | None) -> tuple[int, int]:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number, si
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
@@ -41,8 +42,8 @@ _PARTS = {"cilium": Cilium, "material": Material, "sensor": Sensor}
 _PART_FIELDS = {name: {f.name for f in fields(cls)} for name, cls in _PARTS.items()}
 
 
-@dataclass(frozen=True, eq=False)
-class Setup:
+@dataclass(frozen=True, eq=False, repr=False)
+class Setup(Display):
     """A cilium standing on a single-axis sensor (all SI; the frame is drawn in the README's
     "Coordinate frame" section and in docs/frame.png).
 
@@ -215,6 +216,24 @@ class Setup:
         sensor frame) lies inside the cilium in any pose."""
         pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
         pose_model.check_outside(self.spec, pts, self.centreline(pose))
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        p, par = self.params(), PARAMETERS
+        items = [(n, par[n].text(p[n])) for n in ("height", "base_radius")]
+        if p["tip_radius"]:
+            items.append(("tip_radius", par["tip_radius"].text(p["tip_radius"])))
+        items += [(n, par[n].text(p[n])) for n in "xyz"]
+        ring = "" if self.ring == "mean" else f" {self.ring}"
+        items.append(("n×k", f"{self.n_loops}×{self.dipoles_per_loop}{ring}"))
+        items.append(("sensor", f"{self.sensor.name} {self.sensor.scale:.3g} V/T"))
+        if p["offset"]:
+            items.append(("offset", par["offset"].text(p["offset"])))
+        if p["magnetization_scale"] != 1.0:
+            items.append(("magnetization_scale", number(p["magnetization_scale"])))
+        return [*items, ("moment", si(self.moment, "A·m²")),
+                ("youngs_modulus", par["youngs_modulus"].text(self.youngs_modulus)),
+                ("depth", par["depth"].text(self.sensor.depth))]
 
 
 def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:

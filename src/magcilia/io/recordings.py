@@ -64,6 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, count, dataframe, number, si
 from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
@@ -93,8 +94,8 @@ MAX_SAMPLES = 50_000_000
 MAX_LINE_CHARS = 1 << 20
 
 
-@dataclass(frozen=True, eq=False)
-class Measurement:
+@dataclass(frozen=True, eq=False, repr=False)
+class Measurement(Display):
     """Per-angle summary of a recording (SI units).
 
     Attributes
@@ -187,6 +188,35 @@ class Measurement:
             dropped.append(f"{lost['samples']} at {len(lost['angles_deg'])} angle(s) left with no "
                            f"usable sample ({', '.join(f'{a:g}' for a in lost['angles_deg'])} deg)")
         return text + (f"; {', '.join(dropped)}" if dropped else "")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        deg = np.degrees(self.angles)
+        items = [("source", self.source), ("", count(len(self), "angle")),
+                 ("angles", f"{number(deg.min())}…{number(deg.max())} deg" if len(self) else "-"),
+                 ("output", f"{si(self.volts.min(), 'V')}…{si(self.volts.max(), 'V')}"
+                  if len(self) else "-"),
+                 ("median s.e.", si(float(np.median(self.sem)), "V") if len(self) else "-"),
+                 ("samples", str(int(self.counts.sum())))]
+        if self.saturated.any():
+            items.append(("saturated", str(int(self.saturated.sum()))))
+        if self.set_reset:
+            items.append(("", "set/reset"))
+        return items
+
+    def _display_table(self) -> Table:
+        return (("angle (deg)", "output (mV)", "s.e. (µV)", "samples"),
+                [(number(a, 5), number(v * 1e3, 5), number(e * 1e6), str(int(n)))
+                 for a, v, e, n in zip(self.angles_deg, self.volts, self.sem, self.counts,
+                                       strict=True)])
+
+    def to_dataframe(self) -> Any:
+        """The reduced measurements as a ``pandas.DataFrame``, one row per angle, SI: columns
+        ``angle_rad``, ``output_V`` (mean), ``sem_V`` (its standard error), ``count``,
+        ``saturated``, ``nonfinite`` (samples per angle)."""
+        return dataframe({"angle_rad": self.angles, "output_V": self.volts, "sem_V": self.sem,
+                          "count": self.counts, "saturated": self.saturated,
+                          "nonfinite": self.nonfinite})
 
 
 def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
