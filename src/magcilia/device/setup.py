@@ -217,6 +217,53 @@ class Setup(Display):
         pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
         pose_model.check_outside(self.spec, pts, self.centreline(pose))
 
+    # -- hand-over --------------------------------------------------------------------------------
+    def to_magpylib(self, pose: float | Centreline = 0.0, *, sensor: bool = True) -> Any:
+        """The model's dipoles in one pose as a ``magpylib.Collection``, to draw or to compute
+        with in magpylib (SI, magpylib ≥ 5): ``magpylib.show(setup.to_magpylib(0.3))``.
+
+        Parameters
+        ----------
+        pose : float or Centreline
+            One rigid tilt angle in rad, or one centreline (a single bent shape from
+            :func:`magcilia.bend`).
+        sensor : bool
+            Add a ``magpylib.Sensor`` at the sensing element (the origin; its x axis is the
+            sensitive axis), as the collection's last child.
+
+        Returns
+        -------
+        magpylib.Collection
+            ``n_loops · dipoles_per_loop`` ``magpylib.misc.Dipole`` sources at the model's
+            dipole positions (m) with its moments (A·m²), then the sensor. Their field at the
+            sensor, ``collection.getB()`` (with the sensor) or ``collection.getB((0, 0, 0))``
+            (without), is :meth:`field` of the same pose.
+
+        Examples
+        --------
+        >>> c = Setup.paper().to_magpylib(0.2)
+        >>> len(c.sources), len(c.sensors)
+        (10, 1)
+        """
+        import magpylib as magpy
+
+        if isinstance(pose, Centreline):
+            if pose.angles.ndim == 2 and pose.angles.shape[0] != 1:
+                raise v.fail("pose", f"{pose.angles.shape[0]} centrelines", "one centreline")
+            shape: Pose = pose
+        else:
+            shape = np.array([v.real("pose", pose, "rad")])
+        positions, moments = self.dipoles(shape)
+        dipoles = [magpy.misc.Dipole(position=p, moment=m,
+                                     style_label=f"dipole {i // self.dipoles_per_loop + 1}."
+                                                 f"{i % self.dipoles_per_loop + 1}")
+                   for i, (p, m) in enumerate(zip(positions[0], moments[0], strict=True))]
+        children: list[Any] = list(dipoles)
+        if sensor:
+            children.append(magpy.Sensor(position=(0.0, 0.0, 0.0),
+                                         style_label=f"{self.sensor.name} (x: sensitive)"))
+        return magpy.Collection(*children, style_label="magcilia cilium")
+
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         p, par = self.params(), PARAMETERS
