@@ -14,6 +14,7 @@ all) is a one-line :class:`~magcilia.MagciliaError`. SI units throughout.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +38,8 @@ from magcilia.device.parameters import parameter as registry_parameter
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
+
+logger = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 
@@ -499,6 +502,7 @@ def sensitivity_study(
     for name in STUDY_PARAMETERS:
         vals = _span_values(name, merged[name], float(nominal[name]), points)
         res = oat_sweep(setup, name, vals, angles=angles, data=data)
+        logger.info("sensitivity: %s swept over %d values", name, vals.size)
         sweeps[name] = res
         if res.skipped:
             shown = ", ".join(f"{s:.4g}" for s, _ in res.skipped[:5])
@@ -508,6 +512,7 @@ def sensitivity_study(
     xs = np.linspace(*merged["x"], map_points)
     ys = np.linspace(*merged["y"], map_points)
     xy = placement_map(setup, xs, ys, angles=angles, data=data)
+    logger.info("sensitivity: x-y map of %d x %d placements", map_points, map_points)
     n_bad = int(np.isnan(xy.rms_change).sum())
     if n_bad:
         notes.append(f"x-y map: {n_bad} of {xy.rms_change.size} placements skipped (sensing "

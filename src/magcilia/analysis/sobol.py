@@ -4,6 +4,7 @@ magcilia's batch evaluation (:func:`magcilia.model.tilt_output_batch`)."""
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -29,6 +30,8 @@ from magcilia.device.parameters import SWEEPABLE, check_ranges, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
+
+logger = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 
@@ -203,6 +206,7 @@ def sobol_analysis(
         if name in integer:
             X[:, j] = np.clip(np.rint(X[:, j]), box[name][0], box[name][1])
     Y = np.empty(X.shape[0])
+    logger.info("Sobol: %d evaluations of %d parameters (N = %d)", X.shape[0], len(names), n_base)
     for start in range(0, X.shape[0], chunk):
         stop = min(start + chunk, X.shape[0])
         Y[start:stop] = np.asarray(func(X[start:stop]), dtype=np.float64).reshape(-1)
@@ -215,6 +219,7 @@ def sobol_analysis(
     if np.ptp(Y) == 0:
         raise MagciliaError("the output does not vary over the bounds, so Sobol indices are "
                             "undefined; widen the bounds")
+    logger.info("Sobol: model evaluated in %.3g s; analysing", time.perf_counter() - t0)
     res = salib_analyze.analyze(problem, Y, calc_second_order=False,  # type: ignore[attr-defined]
                                 num_resamples=num_resamples, conf_level=conf_level,
                                 print_to_console=False, seed=seed_boot)

@@ -54,6 +54,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -80,6 +81,7 @@ from magcilia.io.matfile import read_mat
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
 
 F64 = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 NAN_POLICIES = ("raise", "omit")
 SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
@@ -411,6 +413,7 @@ class _Reduction:
             metadata["dropped"] = {"no_angle": self.no_angle,
                                    "angles_deg": self.angles[~has].tolist(),
                                    "samples": int(lost[~has].sum())}
+        logger.info("%s: %d samples reduced to %d angles", source, self.samples, int(has.sum()))
         return Measurement(
             angles=np.radians(self.angles[has]), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
@@ -590,8 +593,10 @@ def _recording_path(path: str | Path) -> Path:
 def _reader_boundary(p: Path) -> Iterator[None]:
     """Any failure of a reader of ``p`` as one :class:`MagciliaError` line (the parser's own
     exception kept as its ``__cause__``)."""
+    t0 = time.perf_counter()
     try:
         yield
+        logger.info("read %s in %.3g s", p, time.perf_counter() - t0)
     except (MagciliaError, MissingDependencyError):
         raise
     except (PermissionError, IsADirectoryError, FileNotFoundError) as exc:
@@ -642,6 +647,7 @@ def read_samples(
         )
     if any(n > MAX_SAMPLES for n in lengths.values()):
         raise too_many_samples(p, "the recording", MAX_SAMPLES)
+    logger.debug("%s: %d rows of %s", p, max(lengths.values(), default=0), ", ".join(cols))
     return cols
 
 
