@@ -223,3 +223,10 @@ def test_table_dataframes_round_trip_values() -> None:
     df = cov.to_dataframe()
     assert list(df.columns) == list(df.index) == list(cov.correlation_names)
     np.testing.assert_array_equal(df.to_numpy(), cov.correlation)
+
+
+def test_long_texts_keep_their_end() -> None:
+    path = "/a/very/long/folder/name/that/goes/on/and/on/recording_2024.csv"
+    text = one_line("M", [("", "3 angles"), ("source", path)])
+    assert text.endswith("on/and/on/recording_2024.csv)") and "…" in text
+    assert len(text) <= REPR_WIDTH

@@ -34,6 +34,8 @@ from typing import Any
 
 #: longest ``repr`` of a magcilia object, characters
 REPR_WIDTH = 120
+#: longest text of one item in a ``repr`` (longer ones keep their end: file names)
+ITEM_WIDTH = 40
 #: most rows of the row table in ``_repr_html_`` (the rest is counted in a last row)
 HTML_ROWS = 20
 
@@ -81,9 +83,10 @@ def count(n: int, noun: str) -> str:
 
 def one_line(name: str, items: Sequence[Item], width: int = REPR_WIDTH) -> str:
     """``Name(label=text, …)`` in at most ``width`` characters: the items that fit, in order, and
-    ``…`` where some were dropped."""
-    parts = [f"{label}={text}" if label else text for label, text in items]
-    parts = [" ".join(p.split()) for p in parts]  # one line, whatever the texts held
+    ``…`` where some were dropped; a text over :data:`ITEM_WIDTH` characters keeps its end."""
+    texts = [" ".join(text.split()) for _, text in items]  # one line, whatever the texts held
+    texts = [t if len(t) <= ITEM_WIDTH else "…" + t[1 - ITEM_WIDTH:] for t in texts]
+    parts = [f"{label}={t}" if label else t for (label, _), t in zip(items, texts, strict=True)]
     for kept in range(len(parts), -1, -1):
         shown = parts[:kept] + (["…"] if kept < len(parts) else [])
         line = f"{name}({', '.join(shown)})"

@@ -122,7 +122,7 @@ class ParameterCovariance(Display):
         undetermined = sum(1 for s in self.stderr.values() if s == math.inf)
         return [("", count(len(self.correlation_names), "parameter")),
                 ("undetermined", str(undetermined)), ("max |correlation|", number(worst)),
-                ("parameters", ", ".join(self.correlation_names))]
+                ("parameters", " ".join(self.correlation_names))]
 
     def _display_table(self) -> Table:
         rows = [(n, REGISTRY[n].text(s) if n in REGISTRY else number(s))

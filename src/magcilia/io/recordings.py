@@ -194,7 +194,7 @@ class Measurement(Display):
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         deg = np.degrees(self.angles)
-        items = [("source", self.source), ("", count(len(self), "angle")),
+        items = [("", count(len(self), "angle")),
                  ("angles", f"{number(deg.min())}…{number(deg.max())} deg" if len(self) else "-"),
                  ("output", f"{si(self.volts.min(), 'V')}…{si(self.volts.max(), 'V')}"
                   if len(self) else "-"),
@@ -204,7 +204,7 @@ class Measurement(Display):
             items.append(("saturated", str(int(self.saturated.sum()))))
         if self.set_reset:
             items.append(("", "set/reset"))
-        return items
+        return [*items, ("source", self.source)]
 
     def _display_table(self) -> Table:
         return (("angle (deg)", "output (mV)", "s.e. (µV)", "samples"),
