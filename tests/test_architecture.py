@@ -17,7 +17,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "magcilia"
 
 #: layers from the bottom up; a room may import rooms of lower layers only
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("foundation",),  # constants, units, _errors, _validate, _atomic: no physics
+    ("foundation",),  # constants, units, _errors, _validate, _atomic, _display: no physics
     ("model",),  # the field model: plain values in, arrays out
     ("device",),  # the checked device objects and the parameter registry
     ("mechanics", "approximation"),
@@ -46,6 +46,8 @@ def room_of(module: str) -> str:
     parts = module.split(".")
     if len(parts) == 1:
         return "api"
+    if module == "magcilia.__main__":  # ``python -m magcilia`` runs the CLI
+        return "cli"
     if f"magcilia.{parts[1]}" in MODULES and MODULES[f"magcilia.{parts[1]}"].name == "__init__.py":
         return parts[1]
     return "foundation"
@@ -134,3 +136,5 @@ def test_the_layer_test_sees_real_arrows() -> None:
     assert "magcilia.model.kernels" in GRAPH["magcilia.model.pose"]
     assert any(room_of(t) == "model" for t in GRAPH["magcilia.device.setup"])
     assert {room_of(m) for m in MODULES} == set(RANK)  # every layer's rooms exist
+    assert room_of("magcilia._display") == "foundation"
+    assert room_of("magcilia.__main__") == "cli"

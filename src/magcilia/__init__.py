@@ -11,6 +11,8 @@ The public names are grouped below by topic; each comes from the room (subpackag
 
 from __future__ import annotations
 
+import logging
+
 from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._version import __version__
 
@@ -102,3 +104,7 @@ __all__ = [
     "sobol_indices",
     "to_c_header",
 ]
+
+# the library logs to "magcilia" (and its modules' child loggers) but never configures logging:
+# the application does (the CLI's -v/-q); without one, nothing is printed
+logging.getLogger("magcilia").addHandler(logging.NullHandler())

@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number
 from magcilia._errors import MagciliaError
 from magcilia.acquire.stripes import (
     Point,
@@ -108,8 +109,8 @@ def _segment(value: Any) -> Segment:
     return (float(x0), float(y0)), (float(x1), float(y1))
 
 
-@dataclass(frozen=True)
-class TiltMeasurement:
+@dataclass(frozen=True, repr=False)
+class TiltMeasurement(Display):
     """The tilt of the holder measured in one photo (immutable).
 
     Attributes
@@ -207,6 +208,12 @@ class TiltMeasurement:
                else f", rms {self.residual_rms:.2g} px")
         return (f"{self.path}: tilt {self.angle_deg:+.3f} deg from {ref} ({self.method}, "
                 f"line {self.length:.0f} px{fit})")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("angle", f"{math.degrees(self.angle):.4g} deg"), ("reference", self.reference),
+                ("method", self.method), ("length", f"{self.length:.0f} px"),
+                ("residual", f"{number(self.residual_rms)} px"), ("path", self.path)]
 
 
 # -- the image -------------------------------------------------------------------------------------

@@ -12,13 +12,14 @@ from pathlib import Path
 from typing import Any
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, si
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.io.recording_file import RecordingWriter
 
 
-@dataclass(frozen=True)
-class StreamResult:
+@dataclass(frozen=True, repr=False)
+class StreamResult(Display):
     """What a continuous recording wrote (immutable).
 
     Attributes
@@ -57,6 +58,12 @@ class StreamResult:
         return (f"{self.path}: {self.samples} samples in {self.elapsed:.3g} s "
                 f"({self.rate:.4g} samples/s), {self.overruns} overruns, "
                 f"{self.counters.dropped} dropped, {self.counters.corrupt} corrupt frames")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("samples", str(self.samples)), ("elapsed", si(self.elapsed, "s")),
+                ("dropped", str(self.counters.dropped)), ("overruns", str(self.overruns)),
+                ("path", self.path)]
 
 
 def record_stream(source: Source, path: str | Path, seconds: float, *,

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, count, dataframe, rows_table, si
 from magcilia.acquire.simulated import SimulatedSource
 from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.device.sensor import Sensor
@@ -34,8 +35,8 @@ from magcilia.io.recordings import beyond_range, reading
 AskAngle = Callable[[int], float | None]
 
 
-@dataclass(frozen=True)
-class SweepPoint:
+@dataclass(frozen=True, repr=False)
+class SweepPoint(Display):
     """One angle of a sweep (SI).
 
     Attributes
@@ -67,9 +68,15 @@ class SweepPoint:
         return (f"{math.degrees(self.angle):8.3f} deg  {self.mean * 1e3:+.5f} ± "
                 f"{self.sem * 1e3:.5f} mV  ({self.samples} samples){flag}")
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("angle", f"{math.degrees(self.angle):.4g} deg"), ("mean", si(self.mean, "V")),
+                ("s.e.", si(self.sem, "V")), ("samples", str(self.samples)),
+                ("saturated", str(self.saturated))]
 
-@dataclass(frozen=True, eq=False)
-class SweepResult:
+
+@dataclass(frozen=True, eq=False, repr=False)
+class SweepResult(Display):
     """What a sweep recorded (immutable).
 
     Attributes
@@ -108,6 +115,24 @@ class SweepResult:
         end = "complete" if self.complete else f"stopped: {self.stopped}"
         lines.append(f"{self.path}: {len(self.points)} angles, {self.counters.report()}; {end}")
         return "\n".join(lines)
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("", count(len(self.points), "angle")),
+                ("complete", "yes" if self.complete else f"no ({self.stopped})"),
+                ("elapsed", si(self.elapsed, "s")), ("dropped", str(self.counters.dropped)),
+                ("path", self.path)]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.to_dataframe().to_dict("records"))
+
+    def to_dataframe(self) -> Any:
+        """One row per angle as a ``pandas.DataFrame``, SI: ``angle_rad``, ``output_V`` (mean),
+        ``sem_V``, ``samples``, ``saturated``."""
+        p = self.points
+        return dataframe({"angle_rad": [x.angle for x in p], "output_V": [x.mean for x in p],
+                          "sem_V": [x.sem for x in p], "samples": [x.samples for x in p],
+                          "saturated": [x.saturated for x in p]})
 
 
 def record_sweep(

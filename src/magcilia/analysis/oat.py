@@ -14,6 +14,7 @@ all) is a one-line :class:`~magcilia.MagciliaError`. SI units throughout.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, column, count, dataframe, rows_table, scaled, si
 from magcilia._errors import MagciliaError
 from magcilia.analysis.measures import (
     check_angles,
@@ -37,6 +39,8 @@ from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
 
+logger = logging.getLogger(__name__)
+
 F64 = NDArray[np.float64]
 
 #: parameters that one-at-a-time sweeps accept (keys of ``Setup.params()`` except the offset)
@@ -46,8 +50,8 @@ STUDY_PARAMETERS = STUDIED
 
 
 # -- one at a time -------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class OATResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class OATResult(Display):
     """A one-at-a-time sweep of one parameter (immutable).
 
     Attributes
@@ -110,6 +114,33 @@ class OATResult:
             text += (f"; lowest cost {self.cost[i]:.4g} V² at "
                      f"{p.to_display(float(self.values[i])):.4g}{unit}")
         return text
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        p = PARAMETERS[self.parameter]
+        lo, hi = (p.text(float(f(self.values))) for f in (np.min, np.max))
+        items = [("", self.parameter), ("values", f"{lo}…{hi} ({self.values.size})"),
+                 ("max rms change", si(float(self.rms_change.max()), "V")),
+                 ("offset-free", si(float(self.shape_change.max()), "V"))]
+        if self.cost is not None:
+            i = int(np.argmin(self.cost))
+            best = f"{si(float(self.cost[i]), 'V²')} at {p.text(float(self.values[i]))}"
+            items.append(("lowest cost", best))
+        return [*items, ("skipped", str(len(self.skipped)))]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.to_dataframe().to_dict("records"))
+
+    def to_dataframe(self) -> Any:
+        """The sweep as a ``pandas.DataFrame``, one row per value, SI: the parameter's value
+        (``x_m``, ``n_loops``, …: name and SI unit), ``rms_change_V``, ``shape_change_V`` and,
+        with data, ``cost_V2``."""
+        cols: dict[str, Any] = {column(self.parameter, PARAMETERS[self.parameter].unit):
+                                self.values, "rms_change_V": self.rms_change,
+                                "shape_change_V": self.shape_change}
+        if self.cost is not None:
+            cols["cost_V2"] = self.cost
+        return dataframe(cols)
 
 
 def _check_values(parameter: str, values: ArrayLike) -> F64:
@@ -202,8 +233,8 @@ def oat_sweep(
     )
 
 
-@dataclass(frozen=True, eq=False)
-class PlacementMap:
+@dataclass(frozen=True, eq=False, repr=False)
+class PlacementMap(Display):
     """RMS output change (and cost) over a grid of x, y placements (fig. 9 as a map).
 
     Attributes
@@ -242,6 +273,28 @@ class PlacementMap:
                 f"{y.to_display(self.y[0]):.4g}…{y.to_display(self.y[-1]):.4g} {x.display}: "
                 f"{int(valid.sum())} of {valid.size} placements physical, largest RMS change "
                 f"{np.nanmax(self.rms_change) * 1e3:.4g} mV")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        items = [("grid", f"{self.x.size}×{self.y.size}"),
+                 ("x", f"{scaled(self.x.min(), 1e-3, 'mm')}…{scaled(self.x.max(), 1e-3, 'mm')}"),
+                 ("y", f"{scaled(self.y.min(), 1e-3, 'mm')}…{scaled(self.y.max(), 1e-3, 'mm')}"),
+                 ("nominal", f"{self.nominal[0] * 1e3:.3g}, {self.nominal[1] * 1e3:.3g} mm"),
+                 ("max rms change", si(float(np.nanmax(self.rms_change)), "V")
+                  if np.isfinite(self.rms_change).any() else "-")]
+        if self.cost is not None and np.isfinite(self.cost).any():
+            items.append(("lowest cost", si(float(np.nanmin(self.cost)), "V²")))
+        return items
+
+    def to_dataframe(self) -> Any:
+        """The map in long form as a ``pandas.DataFrame``, one row per grid point, SI: ``x_m``,
+        ``y_m``, ``rms_change_V`` and, with data, ``cost_V2`` (NaN where not physical)."""
+        gx, gy = np.meshgrid(self.x, self.y)
+        cols: dict[str, Any] = {"x_m": gx.ravel(), "y_m": gy.ravel(),
+                                "rms_change_V": self.rms_change.ravel()}
+        if self.cost is not None:
+            cols["cost_V2"] = self.cost.ravel()
+        return dataframe(cols)
 
 
 def placement_map(
@@ -296,8 +349,8 @@ def placement_map(
 
 
 # -- the study of figs. 9–12 ---------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class SensitivityStudy:
+@dataclass(frozen=True, eq=False, repr=False)
+class SensitivityStudy(Display):
     """All one-at-a-time sweeps of figs. 9–12 around one setup (immutable).
 
     Attributes
@@ -362,6 +415,34 @@ class SensitivityStudy:
             "xy_map": self.xy_map.to_dict(),
         }
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        rms = {n: float(r.rms_change.max()) for n, r in self.sweeps.items()}
+        top = max(rms, key=lambda n: rms[n]) if rms else "-"
+        return [("", count(len(self.sweeps), "sweep")),
+                ("largest effect", f"{top} ({si(rms[top], 'V')})" if rms else "-"),
+                ("map", f"{self.xy_map.x.size}×{self.xy_map.y.size}"),
+                ("data", self.data_source or "none"), ("", count(len(self.notes), "note")),
+                ("parameters", ", ".join(self.sweeps))]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.to_dataframe().to_dict("records"))
+
+    def to_dataframe(self) -> Any:
+        """One row per sweep as a ``pandas.DataFrame``, SI: ``parameter``, ``unit`` (its SI
+        unit), ``nominal``, ``low``, ``high`` (the span), ``max_rms_change_V``,
+        ``max_shape_change_V``, ``skipped`` and, with data, ``min_cost_V2`` and ``argmin``."""
+        rows = self.table()
+        cols: dict[str, Any] = {
+            "parameter": [r["parameter"] for r in rows],
+            "unit": [PARAMETERS[r["parameter"]].unit for r in rows],
+            "nominal": [r["nominal"] for r in rows],
+            "low": [r["span"][0] for r in rows], "high": [r["span"][1] for r in rows]}
+        for key in ("max_rms_change_V", "max_shape_change_V", "skipped", "min_cost_V2", "argmin"):
+            if rows and key in rows[0]:
+                cols[key] = [r[key] for r in rows]
+        return dataframe(cols)
+
 
 def default_spans(setup: Setup) -> dict[str, tuple[float, float]]:
     """The default sweep spans around ``setup`` (SI, from the registry): x, y ±1 mm, z 0..1 mm,
@@ -421,6 +502,7 @@ def sensitivity_study(
     for name in STUDY_PARAMETERS:
         vals = _span_values(name, merged[name], float(nominal[name]), points)
         res = oat_sweep(setup, name, vals, angles=angles, data=data)
+        logger.info("sensitivity: %s swept over %d values", name, vals.size)
         sweeps[name] = res
         if res.skipped:
             shown = ", ".join(f"{s:.4g}" for s, _ in res.skipped[:5])
@@ -430,6 +512,7 @@ def sensitivity_study(
     xs = np.linspace(*merged["x"], map_points)
     ys = np.linspace(*merged["y"], map_points)
     xy = placement_map(setup, xs, ys, angles=angles, data=data)
+    logger.info("sensitivity: x-y map of %d x %d placements", map_points, map_points)
     n_bad = int(np.isnan(xy.rms_change).sum())
     if n_bad:
         notes.append(f"x-y map: {n_bad} of {xy.rms_change.size} placements skipped (sensing "

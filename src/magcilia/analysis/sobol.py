@@ -4,6 +4,7 @@ magcilia's batch evaluation (:func:`magcilia.model.tilt_output_batch`)."""
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -14,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, dataframe, rows_table, si
 from magcilia._errors import MagciliaError, require
 from magcilia.analysis.measures import (
     MEASURES,
@@ -29,12 +31,14 @@ from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
 
+logger = logging.getLogger(__name__)
+
 F64 = NDArray[np.float64]
 
 
 # -- global: Sobol indices -----------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class SobolResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class SobolResult(Display):
     """First- and total-order Sobol indices with bootstrap confidence intervals (immutable).
 
     Attributes
@@ -98,6 +102,23 @@ class SobolResult:
             "bounds": {k: list(b) for k, b in self.bounds.items()}, "table": self.table(),
             "output_mean": self.output_mean, "output_std": self.output_std,
         }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        order = np.argsort(self.ST)[::-1]
+        top = ", ".join(f"{self.names[i]} {self.ST[i]:.2f}" for i in order[:3])
+        return [("measure", self.measure), ("ST", top), ("N", str(self.n_base)),
+                ("evaluations", str(self.n_evaluations)), ("elapsed", si(self.elapsed, "s")),
+                ("confidence", f"{self.conf_level:.0%}")]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table(), 3)
+
+    def to_dataframe(self) -> Any:
+        """The indices as a ``pandas.DataFrame``, one row per parameter: ``parameter``, ``S1``,
+        ``S1_conf``, ``ST``, ``ST_conf`` (dimensionless; conf: half-width of the interval)."""
+        return dataframe({"parameter": list(self.names), "S1": self.S1,
+                          "S1_conf": self.S1_conf, "ST": self.ST, "ST_conf": self.ST_conf})
 
 
 def _seeds(rng: int | np.random.Generator | None) -> tuple[int, int]:
@@ -185,6 +206,7 @@ def sobol_analysis(
         if name in integer:
             X[:, j] = np.clip(np.rint(X[:, j]), box[name][0], box[name][1])
     Y = np.empty(X.shape[0])
+    logger.info("Sobol: %d evaluations of %d parameters (N = %d)", X.shape[0], len(names), n_base)
     for start in range(0, X.shape[0], chunk):
         stop = min(start + chunk, X.shape[0])
         Y[start:stop] = np.asarray(func(X[start:stop]), dtype=np.float64).reshape(-1)
@@ -197,6 +219,7 @@ def sobol_analysis(
     if np.ptp(Y) == 0:
         raise MagciliaError("the output does not vary over the bounds, so Sobol indices are "
                             "undefined; widen the bounds")
+    logger.info("Sobol: model evaluated in %.3g s; analysing", time.perf_counter() - t0)
     res = salib_analyze.analyze(problem, Y, calc_second_order=False,  # type: ignore[attr-defined]
                                 num_resamples=num_resamples, conf_level=conf_level,
                                 print_to_console=False, seed=seed_boot)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, dataframe, rows_table, scaled, si
 from magcilia.analysis.measures import check_angles
 from magcilia.device.parameters import PARAMETERS, SWEEPABLE
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
@@ -34,8 +35,8 @@ F64 = NDArray[np.float64]
 COORDINATES = tuple(n for n in SWEEPABLE if PARAMETERS[n].dimension == "length")
 
 
-@dataclass(frozen=True, eq=False)
-class PlacementTolerance:
+@dataclass(frozen=True, eq=False, repr=False)
+class PlacementTolerance(Display):
     """Per-coordinate position tolerance for a target angle accuracy (immutable).
 
     Attributes
@@ -117,6 +118,25 @@ class PlacementTolerance:
             "worst_angle_rad": self.worst_angle.tolist(),
             "tolerance_with_noise_m": self.tolerance_with_noise.tolist(), "table": self.table(),
         }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        tol = [(c, f"±{si(t, 'm')}") for c, t in zip(self.coordinates, self.tolerance,
+                                                     strict=True)]
+        return [("accuracy", scaled(self.angle_accuracy, math.pi / 180.0, "deg")), *tol,
+                ("noise", si(self.noise_rms, "V")),
+                ("noise angle", scaled(self.noise_angle, math.pi / 180.0, "deg"))]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table())
+
+    def to_dataframe(self) -> Any:
+        """One row per coordinate as a ``pandas.DataFrame``, SI: ``coordinate``,
+        ``tolerance_m``, ``worst_angle_rad``, ``tolerance_with_noise_m`` (inf: no first-order
+        effect)."""
+        return dataframe({"coordinate": list(self.coordinates), "tolerance_m": self.tolerance,
+                          "worst_angle_rad": self.worst_angle,
+                          "tolerance_with_noise_m": self.tolerance_with_noise})
 
 
 def placement_tolerance(

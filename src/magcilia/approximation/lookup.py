@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, dataframe, rows_table, si
 from magcilia.approximation.curve import (
     DEFAULT_RANGE,
     Curve,
@@ -33,8 +34,8 @@ MAX_TABLE_SIZE = 1_000_000
 
 
 # -- lookup table --------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class LookupTable:
+@dataclass(frozen=True, eq=False, repr=False)
+class LookupTable(Display):
     """A uniform lookup table with linear interpolation (immutable).
 
     Attributes
@@ -108,6 +109,28 @@ class LookupTable:
                     f"{math.degrees(self.error_bound):.4g} deg")
         return (f"lookup table angle->V, {self.size} entries: error bound "
                 f"{self.error_bound * 1e3:.4g} mV")
+
+    # -- display --------------------------------------------------------------------------------
+    def _names(self) -> tuple[str, str]:
+        names = ("output_V", "angle_rad")
+        return names if self.quantity == "inverse" else (names[1], names[0])
+
+    def _display_items(self) -> list[Item]:
+        lo, hi = (math.degrees(a) for a in self.angle_range)
+        bound = (f"{math.degrees(self.error_bound):.3g} deg" if self.quantity == "inverse"
+                 else si(self.error_bound, "V"))
+        return [("", self.quantity), ("size", str(self.size)),
+                ("angles", f"{lo:.3g}…{hi:.3g} deg"), ("error bound", bound)]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.to_dataframe().to_dict("records"))
+
+    def to_dataframe(self) -> Any:
+        """The table as a ``pandas.DataFrame``, SI, one row per entry: ``output_V`` then
+        ``angle_rad`` for an ``"inverse"`` table, ``angle_rad`` then ``output_V`` for an
+        ``"output"`` table (input column first)."""
+        x, y = self._names()
+        return dataframe({x: self.x, y: self.y})
 
 
 def lookup_table(

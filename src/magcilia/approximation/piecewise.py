@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, count, dataframe, rows_table, si
 from magcilia.approximation.curve import (
     DEFAULT_RANGE,
     MAX_GRID,
@@ -57,8 +58,8 @@ def _check_corners(corners: object, grid: int) -> int:
 
 
 # -- piecewise-linear fit ------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class PiecewiseLinear:
+@dataclass(frozen=True, eq=False, repr=False)
+class PiecewiseLinear(Display):
     """A continuous piecewise-linear approximation of the output-vs-tilt curve (immutable).
 
     Call it with tilt angles (rad, shape (a,)) to get outputs (V, shape (a,)); beyond the fitted
@@ -214,6 +215,23 @@ class PiecewiseLinear:
             lines.append(f"note: the output is not monotonic over the range (folds at {folds} "
                          "deg): no inverse")
         return "\n".join(lines)
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        lo, hi = (math.degrees(a) for a in self.angle_range)
+        return [("", count(self.corners, "corner")), ("range", f"{lo:.3g}…{hi:.3g} deg"),
+                ("max error", si(self.max_error, "V")), ("rms", si(self.rms_error, "V")),
+                ("max angle error", f"{math.degrees(self.max_angle_error):.3g} deg"),
+                ("invertible", "yes" if self.invertible else "no")]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table())
+
+    def to_dataframe(self) -> Any:
+        """The knots as a ``pandas.DataFrame``, SI: ``angle_rad``, ``output_V`` and
+        ``slope_V_per_rad`` (of the segment that starts there; NaN at the last knot)."""
+        return dataframe({"angle_rad": self.knots, "output_V": self.values,
+                          "slope_V_per_rad": np.append(self.slopes, math.nan)})
 
 
 def hat_basis(x: F64, knots: F64) -> F64:

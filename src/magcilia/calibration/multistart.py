@@ -25,6 +25,8 @@ Every stage stops when it is done: a local fit ends when its steps stop lowering
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -32,6 +34,7 @@ from magcilia.calibration.local import levenberg_marquardt
 from magcilia.calibration.problem import Problem, named
 
 F64 = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 
 #: Levenberg–Marquardt iterations between two halvings
 ROUND = 10
@@ -127,13 +130,16 @@ def search(problem: Problem, box: Box, x_init: F64, rng: np.random.Generator,
     x[:, box.integrality] = np.rint(x[:, box.integrality])
     x[0] = x_init
     x, cost = _halving(problem, box, x, ROUND)
+    logger.debug("global search: %d starts, best cost %.6g V^2", starts, float(cost.min()))
     best = _distinct(x, cost, box, PROFILED)
     if box.integers.size == 0 or best.shape[0] == 0:
         return x[int(np.argmin(cost))]
     combos = box.combinations()
     trial = np.repeat(best, combos.shape[0], axis=0)
     trial[:, box.integers] = np.tile(combos, (best.shape[0], 1))
+    logger.debug("(n, k) refits: %d solutions x %d combinations", best.shape[0], combos.shape[0])
     trial, cost = _halving(problem, box, trial, PROFILE_ROUND)
+    logger.debug("(n, k) refits: best cost %.6g V^2", float(cost.min()))
     return trial[int(np.argmin(cost))]
 
 
@@ -143,6 +149,7 @@ def _halving(problem: Problem, box: Box, x: F64, iterations: int) -> tuple[F64, 
     survivors (m, p) and their costs (m,)."""
     while True:
         x, cost = local_fits(problem, box, x, iterations)
+        logger.debug("halving round: %d fits, best cost %.6g V^2", x.shape[0], float(cost.min()))
         if x.shape[0] <= SURVIVORS:
             break
         x = x[np.argsort(cost, kind="stable")[:max(SURVIVORS, x.shape[0] // 2)]]

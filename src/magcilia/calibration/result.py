@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._display import Display, Item, Table, count, dataframe, number, rows_table, si
 from magcilia._errors import MagciliaError
 from magcilia.calibration.problem import PARAMETERS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
@@ -23,8 +24,8 @@ from magcilia.io.results import read_json
 F64 = NDArray[np.float64]
 
 
-@dataclass(frozen=True, eq=False)
-class ParameterCovariance:
+@dataclass(frozen=True, eq=False, repr=False)
+class ParameterCovariance(Display):
     """Standard errors and correlations of calibrated parameters: what read-out needs of a
     calibration (a :class:`CalibrationResult` holds one as ``uncertainty``).
 
@@ -114,9 +115,31 @@ class ParameterCovariance:
                 lines.append(f"{names[i]} and {names[j]} correlated {c:+.3f}")
         return "\n".join(lines)
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        corr = np.abs(self.correlation - np.eye(len(self.correlation_names)))
+        worst = float(np.nanmax(corr)) if corr.size else math.nan
+        undetermined = sum(1 for s in self.stderr.values() if s == math.inf)
+        return [("", count(len(self.correlation_names), "parameter")),
+                ("undetermined", str(undetermined)), ("max |correlation|", number(worst)),
+                ("parameters", " ".join(self.correlation_names))]
 
-@dataclass(frozen=True, eq=False)
-class CalibrationResult:
+    def _display_table(self) -> Table:
+        rows = [(n, REGISTRY[n].text(s) if n in REGISTRY else number(s))
+                for n, s in self.stderr.items()]
+        return ("parameter", "standard error"), rows
+
+    def to_dataframe(self) -> Any:
+        """The correlation matrix as a ``pandas.DataFrame`` indexed and labelled by parameter
+        name (dimensionless)."""
+        names = list(self.correlation_names)
+        frame = dataframe({n: self.correlation[:, i] for i, n in enumerate(names)})
+        frame.index = names
+        return frame
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class CalibrationResult(Display):
     """The outcome of :func:`calibrate` (immutable).
 
     Attributes
@@ -239,3 +262,29 @@ class CalibrationResult:
             "table": self.table(), "evaluations": self.evaluations, "elapsed_s": self.elapsed,
             "restart_costs_V2": list(self.restart_costs),
         }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("cost", si(self.cost, "V²")), ("rms", si(self.rms, "V")),
+                ("", count(len(self.data), "angle")), ("", count(len(self.warnings), "warning")),
+                ("source", self.data.source), ("bias", self.bias),
+                ("evaluations", str(self.evaluations)), ("elapsed", si(self.elapsed, "s")),
+                *(("warning", w) for w in self.warnings)]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table())
+
+    def to_dataframe(self) -> Any:
+        """The parameter table as a ``pandas.DataFrame``, one row per fitted parameter, SI:
+        ``parameter``, ``unit`` (its SI unit, "" for numbers), ``initial``, ``fitted``,
+        ``stderr`` (inf: undetermined), ``lower``, ``upper`` (the bounds; NaN where fixed by
+        the model rather than bounded)."""
+        init = self.initial.params()
+        names = [n for n in (*PARAMETERS, "magnetization_scale", "offset") if n in self.values]
+        bounds = [self.bounds.get(n, (math.nan, math.nan)) for n in names]
+        return dataframe({
+            "parameter": names, "unit": [REGISTRY[n].unit for n in names],
+            "initial": [float(init[n]) for n in names],
+            "fitted": [float(self.values[n]) for n in names],
+            "stderr": [float(self.stderr.get(n, math.nan)) for n in names],
+            "lower": [float(b[0]) for b in bounds], "upper": [float(b[1]) for b in bounds]})

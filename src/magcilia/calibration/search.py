@@ -24,6 +24,7 @@ degrees absorb real signal shape and weaken the fit, so use them only for a know
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -51,6 +52,8 @@ from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_dipoles, check_ranges
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
+
+logger = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 
@@ -167,14 +170,18 @@ def calibrate(
     x_init = np.clip([initial.params()[n] for n in PARAMETERS], lower, upper)
     gen = np.random.default_rng(rng)
     candidates: list[tuple[float, F64]] = []
+    logger.info("calibrating %s: %d angles, %d free parameters, %d restart(s) of %d starts",
+                data.source, len(data), int(space.free.sum()), restarts, starts)
     for i in range(restarts):
         x_start = search(problem, space, x_init, gen, starts) if space.free.any() else x_init
         candidates.append(_polish(problem, x_start, lower, upper, integrality))
+        logger.info("restart %d/%d: cost %.6g V^2", i + 1, restarts, candidates[-1][0])
         if progress is not None:
             progress(i + 1, restarts)
     restart_costs = tuple(c for c, _ in candidates)
     _, x_best = min(candidates, key=lambda c: c[0])
     x_best = _y_sign_of(x_best, initial.position[1], box["y"])
+    logger.info("best cost %.6g V^2 after %.3g s", min(restart_costs), time.perf_counter() - t0)
     return _result(problem, initial, data, box, x_best, bias, t0, restart_costs)
 
 def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Sequence
 
@@ -10,16 +11,60 @@ import click
 from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia._version import __version__
+from magcilia.cli._common import QUIET_KEY
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="magcilia")
-def cli() -> None:
+@click.option("-v", "--verbose", count=True,
+              help="Log what long steps do on stderr: -v progress (INFO), -vv details (DEBUG).")
+@click.option("-q", "--quiet", is_flag=True,
+              help="Warnings and errors only: no progress bars, no log (each command's --quiet).")
+@click.pass_context
+def cli(ctx: click.Context, verbose: int, quiet: bool) -> None:
     """Magnetic cilia force and flow sensors: field, calibration, sensitivity, bending, read-out.
 
     Lengths in mm, angles in degrees and fields in gauss on the command line; setup files carry
     their units ("3.0 mm"). Run `magcilia COMMAND --help` for each command.
     """
+    if verbose and quiet:
+        raise click.UsageError("-v/--verbose and -q/--quiet exclude each other")
+    level = logging.WARNING if quiet or not verbose else (logging.INFO if verbose == 1
+                                                           else logging.DEBUG)
+    _configure_logging(ctx, level)
+    if quiet:
+        ctx.meta[QUIET_KEY] = True
+        # the group's -q turns on every command's own --quiet
+        ctx.default_map = {name: {"quiet": True} for name, command in cli.commands.items()
+                           if any(p.name == "quiet" for p in command.params)}
+
+
+class _EchoHandler(logging.Handler):
+    """Log records as lines on the current stderr (click.echo, so captured streams work):
+    ``magcilia: info: message``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            click.echo(f"magcilia: {record.levelname.lower()}: {printable(self.format(record))}",
+                       err=True)
+        except Exception:  # noqa: BLE001 (logging must never raise into the caller)
+            self.handleError(record)
+
+
+def _configure_logging(ctx: click.Context, level: int) -> None:
+    """Attach a stderr handler at ``level`` to the ``magcilia`` logger for this command, and
+    take it off again when the command ends (the library itself never configures logging)."""
+    logger = logging.getLogger("magcilia")
+    handler = _EchoHandler(level)
+    old_level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(min(level, old_level) if old_level else level)
+
+    def restore() -> None:
+        logger.removeHandler(handler)
+        logger.setLevel(old_level)
+
+    ctx.call_on_close(restore)
 
 
 # one line per subcommand module: (module name under magcilia.cli, command name)

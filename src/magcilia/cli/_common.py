@@ -139,7 +139,7 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
                             **options: Any) -> CalibrationResult:
     """:func:`magcilia.calibrate` with a progress bar over the restarts on stderr (not with
     ``--quiet`` or when stderr is not a terminal)."""
-    show = not quiet and sys.stderr.isatty()
+    show = not quiet_requested(quiet) and sys.stderr.isatty()
     with tqdm(desc="calibrating (restarts)", unit="run", disable=not show,
               file=sys.stderr) as bar:
         def advance(done: int, total: int) -> None:
@@ -147,3 +147,14 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
             bar.update(done - bar.n)
 
         return calibrate(data, initial=initial, progress=advance, **options)
+
+
+#: key of ``click.Context.meta`` set by the group's ``-q/--quiet``
+QUIET_KEY = "magcilia.quiet"
+
+
+def quiet_requested(flag: bool = False) -> bool:
+    """Whether to stay quiet (no progress bars, no info lines): a command's own ``--quiet``
+    ``flag`` or the group's ``magcilia -q``."""
+    ctx = click.get_current_context(silent=True)
+    return flag or bool(ctx is not None and ctx.meta.get(QUIET_KEY, False))

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, count, scaled
 from magcilia.device.parameters import MAX_LENGTH, MIN_LENGTH, PARAMETERS
 from magcilia.model import body
 
@@ -24,8 +25,8 @@ from magcilia.model import body
 MAX_PROFILE_POINTS = 10_000
 
 
-@dataclass(frozen=True)
-class Cilium:
+@dataclass(frozen=True, repr=False)
+class Cilium(Display):
     """A cilium of revolution: a frustum (a cone when ``tip_radius`` is 0, the paper's case) or
     a measured radius profile (:meth:`from_profile`).
 
@@ -150,6 +151,15 @@ class Cilium:
         """Whether points given in the body frame (axial coordinate from the base, m; distance
         from the axis, m) lie inside or on the body. Broadcasts."""
         return body.contains(self.height, self.base_radius, *self.shape, axial, radial)
+
+    def _display_items(self) -> list[Item]:
+        items = [(n, PARAMETERS[n].text(getattr(self, n)))
+                 for n in ("height", "base_radius", "tip_radius")]
+        if self.youngs_modulus is not None:
+            items.append(("youngs_modulus", PARAMETERS["youngs_modulus"].text(self.youngs_modulus)))
+        if self.profile is not None:
+            items.append(("profile", count(len(self.profile[0]), "point")))
+        return [*items, ("volume", scaled(self.volume, 1e-9, "mm³"))]
 
 
 def _head(values: NDArray[np.float64], count: int = 8) -> str:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from magcilia._display import Display, Item, number, scaled
 from magcilia.constants import (
     COBALT_ATOM_DENSITY,
     COBALT_DENSITY,
@@ -17,8 +18,8 @@ from magcilia.constants import (
 from magcilia.device.parameters import PARAMETERS
 
 
-@dataclass(frozen=True)
-class Material:
+@dataclass(frozen=True, repr=False)
+class Material(Display):
     """Cobalt/polymer composite made by the paper's recipe (all SI).
 
     Parameters
@@ -84,3 +85,10 @@ class Material:
         """
         phi = self.volume_fraction
         return self.polymer_modulus * (1.0 + 2.5 * phi + 14.1 * phi**2)
+
+    def _display_items(self) -> list[Item]:
+        names = ("cobalt_mass", "polymer_mass", "magnetization_scale", "cobalt_density",
+                 "polymer_density", "polymer_modulus")
+        items = [(n, PARAMETERS[n].text(getattr(self, n))) for n in names]
+        return [*items[:3], ("magnetization", scaled(self.magnetization, 1e3, "kA/m")),
+                ("volume_fraction", number(self.volume_fraction)), *items[3:]]

@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
+from magcilia._display import scaled
 from magcilia._errors import MagciliaError
 from magcilia.model.body import RINGS
 from magcilia.units import UNITS
@@ -116,6 +117,10 @@ class Quantity:
     def from_display(self, value: float) -> float:
         """A value given in the display unit, in SI."""
         return value * self.display_factor
+
+    def text(self, value: float, digits: int = 3) -> str:
+        """An SI value as text in the display unit (``"3.26 mm"``; a bare number without one)."""
+        return scaled(value, self.display_factor, self.display, digits)
 
 
 @dataclass(frozen=True)

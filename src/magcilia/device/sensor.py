@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import PARAMETERS
 
@@ -38,8 +39,8 @@ _HMC1021Z: dict[str, Any] = {
 DEFAULT_BANDWIDTH = (0.5, 500.0)
 
 
-@dataclass(frozen=True)
-class Sensor:
+@dataclass(frozen=True, repr=False)
+class Sensor(Display):
     """A single-axis magnetoresistive bridge with an amplifier (all SI).
 
     Parameters
@@ -153,3 +154,9 @@ class Sensor:
         # white part: variance density^2 * rate/2 per sample
         out *= abs(self.scale) * self.noise_density * math.sqrt(rate / 2.0)
         return out[0] if size is None else out
+
+    def _display_items(self) -> list[Item]:
+        names = ("sensitivity", "bridge_voltage", "gain", "offset", "depth", "field_range",
+                 "noise_density", "flicker_corner")
+        return [("", self.name), ("scale", f"{number(self.scale)} V/T"),
+                *((n, PARAMETERS[n].text(getattr(self, n))) for n in names)]

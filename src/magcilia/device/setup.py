@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number, si
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
@@ -41,8 +42,8 @@ _PARTS = {"cilium": Cilium, "material": Material, "sensor": Sensor}
 _PART_FIELDS = {name: {f.name for f in fields(cls)} for name, cls in _PARTS.items()}
 
 
-@dataclass(frozen=True, eq=False)
-class Setup:
+@dataclass(frozen=True, eq=False, repr=False)
+class Setup(Display):
     """A cilium standing on a single-axis sensor (all SI; the frame is drawn in the README's
     "Coordinate frame" section and in docs/frame.png).
 
@@ -215,6 +216,71 @@ class Setup:
         sensor frame) lies inside the cilium in any pose."""
         pts = v.finite_array("points", points, unit="m").reshape(-1, 3)
         pose_model.check_outside(self.spec, pts, self.centreline(pose))
+
+    # -- hand-over --------------------------------------------------------------------------------
+    def to_magpylib(self, pose: float | Centreline = 0.0, *, sensor: bool = True) -> Any:
+        """The model's dipoles in one pose as a ``magpylib.Collection``, to draw or to compute
+        with in magpylib (SI, magpylib ≥ 5): ``magpylib.show(setup.to_magpylib(0.3))``.
+
+        Parameters
+        ----------
+        pose : float or Centreline
+            One rigid tilt angle in rad, or one centreline (a single bent shape from
+            :func:`magcilia.bend`).
+        sensor : bool
+            Add a ``magpylib.Sensor`` at the sensing element (the origin; its x axis is the
+            sensitive axis), as the collection's last child.
+
+        Returns
+        -------
+        magpylib.Collection
+            ``n_loops · dipoles_per_loop`` ``magpylib.misc.Dipole`` sources at the model's
+            dipole positions (m) with its moments (A·m²), then the sensor. Their field at the
+            sensor, ``collection.getB()`` (with the sensor) or ``collection.getB((0, 0, 0))``
+            (without), is :meth:`field` of the same pose.
+
+        Examples
+        --------
+        >>> c = Setup.paper().to_magpylib(0.2)
+        >>> len(c.sources), len(c.sensors)
+        (10, 1)
+        """
+        import magpylib as magpy
+
+        if isinstance(pose, Centreline):
+            if pose.angles.ndim == 2 and pose.angles.shape[0] != 1:
+                raise v.fail("pose", f"{pose.angles.shape[0]} centrelines", "one centreline")
+            shape: Pose = pose
+        else:
+            shape = np.array([v.real("pose", pose, "rad")])
+        positions, moments = self.dipoles(shape)
+        dipoles = [magpy.misc.Dipole(position=p, moment=m,
+                                     style_label=f"dipole {i // self.dipoles_per_loop + 1}."
+                                                 f"{i % self.dipoles_per_loop + 1}")
+                   for i, (p, m) in enumerate(zip(positions[0], moments[0], strict=True))]
+        children: list[Any] = list(dipoles)
+        if sensor:
+            children.append(magpy.Sensor(position=(0.0, 0.0, 0.0),
+                                         style_label=f"{self.sensor.name} (x: sensitive)"))
+        return magpy.Collection(*children, style_label="magcilia cilium")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        p, par = self.params(), PARAMETERS
+        items = [(n, par[n].text(p[n])) for n in ("height", "base_radius")]
+        if p["tip_radius"]:
+            items.append(("tip_radius", par["tip_radius"].text(p["tip_radius"])))
+        items += [(n, par[n].text(p[n])) for n in "xyz"]
+        ring = "" if self.ring == "mean" else f" {self.ring}"
+        items.append(("n×k", f"{self.n_loops}×{self.dipoles_per_loop}{ring}"))
+        items.append(("sensor", f"{self.sensor.name} {self.sensor.scale:.3g} V/T"))
+        if p["offset"]:
+            items.append(("offset", par["offset"].text(p["offset"])))
+        if p["magnetization_scale"] != 1.0:
+            items.append(("magnetization_scale", number(p["magnetization_scale"])))
+        return [*items, ("moment", si(self.moment, "A·m²")),
+                ("youngs_modulus", par["youngs_modulus"].text(self.youngs_modulus)),
+                ("depth", par["depth"].text(self.sensor.depth))]
 
 
 def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:

@@ -30,14 +30,15 @@ import numpy as np
 
 from magcilia import _validate as v
 from magcilia._atomic import json_text
+from magcilia._display import Display, Item, si
 from magcilia.approximation import PiecewiseLinear
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _INT32_MAX = 2**31 - 1
 
 
-@dataclass(frozen=True)
-class FixedPointFormat:
+@dataclass(frozen=True, repr=False)
+class FixedPointFormat(Display):
     """Q-format scalings of a fixed-point export.
 
     Attributes
@@ -71,6 +72,13 @@ class FixedPointFormat:
         return (f"angles Q{self.angle_bits}, volts Q{self.volt_bits}, slopes Q{self.slope_bits} "
                 f"(inverse Q{self.inverse_slope_bits}); quantisation error ≤ "
                 f"{self.output_tolerance:.3g} V, {self.angle_tolerance:.3g} rad")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("angle", f"Q{self.angle_bits}"), ("volt", f"Q{self.volt_bits}"),
+                ("slope", f"Q{self.slope_bits}"), ("inverse slope", f"Q{self.inverse_slope_bits}"),
+                ("output tolerance", si(self.output_tolerance, "V")),
+                ("angle tolerance", f"{math.degrees(self.angle_tolerance):.3g} deg")]
 
 
 def _frac_bits(max_abs: float, headroom: float = 4.0) -> int:

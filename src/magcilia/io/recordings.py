@@ -54,6 +54,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -64,6 +65,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, count, dataframe, number, si
 from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
@@ -79,6 +81,7 @@ from magcilia.io.matfile import read_mat
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
 
 F64 = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 NAN_POLICIES = ("raise", "omit")
 SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
@@ -93,8 +96,8 @@ MAX_SAMPLES = 50_000_000
 MAX_LINE_CHARS = 1 << 20
 
 
-@dataclass(frozen=True, eq=False)
-class Measurement:
+@dataclass(frozen=True, eq=False, repr=False)
+class Measurement(Display):
     """Per-angle summary of a recording (SI units).
 
     Attributes
@@ -187,6 +190,35 @@ class Measurement:
             dropped.append(f"{lost['samples']} at {len(lost['angles_deg'])} angle(s) left with no "
                            f"usable sample ({', '.join(f'{a:g}' for a in lost['angles_deg'])} deg)")
         return text + (f"; {', '.join(dropped)}" if dropped else "")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        deg = np.degrees(self.angles)
+        items = [("", count(len(self), "angle")),
+                 ("angles", f"{number(deg.min())}…{number(deg.max())} deg" if len(self) else "-"),
+                 ("output", f"{si(self.volts.min(), 'V')}…{si(self.volts.max(), 'V')}"
+                  if len(self) else "-"),
+                 ("median s.e.", si(float(np.median(self.sem)), "V") if len(self) else "-"),
+                 ("samples", str(int(self.counts.sum())))]
+        if self.saturated.any():
+            items.append(("saturated", str(int(self.saturated.sum()))))
+        if self.set_reset:
+            items.append(("", "set/reset"))
+        return [*items, ("source", self.source)]
+
+    def _display_table(self) -> Table:
+        return (("angle (deg)", "output (mV)", "s.e. (µV)", "samples"),
+                [(number(a, 5), number(v * 1e3, 5), number(e * 1e6), str(int(n)))
+                 for a, v, e, n in zip(self.angles_deg, self.volts, self.sem, self.counts,
+                                       strict=True)])
+
+    def to_dataframe(self) -> Any:
+        """The reduced measurements as a ``pandas.DataFrame``, one row per angle, SI: columns
+        ``angle_rad``, ``output_V`` (mean), ``sem_V`` (its standard error), ``count``,
+        ``saturated``, ``nonfinite`` (samples per angle)."""
+        return dataframe({"angle_rad": self.angles, "output_V": self.volts, "sem_V": self.sem,
+                          "count": self.counts, "saturated": self.saturated,
+                          "nonfinite": self.nonfinite})
 
 
 def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
@@ -381,6 +413,7 @@ class _Reduction:
             metadata["dropped"] = {"no_angle": self.no_angle,
                                    "angles_deg": self.angles[~has].tolist(),
                                    "samples": int(lost[~has].sum())}
+        logger.info("%s: %d samples reduced to %d angles", source, self.samples, int(has.sum()))
         return Measurement(
             angles=np.radians(self.angles[has]), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
@@ -560,8 +593,10 @@ def _recording_path(path: str | Path) -> Path:
 def _reader_boundary(p: Path) -> Iterator[None]:
     """Any failure of a reader of ``p`` as one :class:`MagciliaError` line (the parser's own
     exception kept as its ``__cause__``)."""
+    t0 = time.perf_counter()
     try:
         yield
+        logger.info("read %s in %.3g s", p, time.perf_counter() - t0)
     except (MagciliaError, MissingDependencyError):
         raise
     except (PermissionError, IsADirectoryError, FileNotFoundError) as exc:
@@ -612,6 +647,7 @@ def read_samples(
         )
     if any(n > MAX_SAMPLES for n in lengths.values()):
         raise too_many_samples(p, "the recording", MAX_SAMPLES)
+    logger.debug("%s: %d rows of %s", p, max(lengths.values(), default=0), ", ".join(cols))
     return cols
 
 

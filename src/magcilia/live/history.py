@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, column, count, dataframe
 from magcilia.device.parameters import MEASURANDS
 
 F64 = NDArray[np.float64]
@@ -26,8 +27,8 @@ F64 = NDArray[np.float64]
 COLUMNS = ("time", "raw", "value", "sigma", "flags", "correction", "received", "published")
 
 
-@dataclass(frozen=True, eq=False)
-class LiveSamples:
+@dataclass(frozen=True, eq=False, repr=False)
+class LiveSamples(Display):
     """Output samples of a live read-out (immutable; arrays of shape (m,)).
 
     Attributes
@@ -98,6 +99,25 @@ class LiveSamples:
         return (f"{len(self)} {self.quantity} samples over {self.time[-1] - self.time[0]:.3g} s, "
                 f"{good.size} good; {last}; latency median {np.median(lat):.2g} ms, "
                 f"max {np.max(lat):.2g} ms")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q = MEASURANDS[self.quantity]
+        items = [("", self.quantity), ("", count(self.time.size, "sample"))]
+        if self.time.size:
+            last = f"{q.text(float(self.value[-1]))} ± {q.text(float(self.sigma[-1]))}"
+            items += [("time", f"{self.time[0]:.4g}…{self.time[-1]:.4g} s"), ("last", last)]
+        return items
+
+    def to_dataframe(self) -> Any:
+        """The samples as a ``pandas.DataFrame``, SI, one row per reading: ``time_s``, ``raw_V``,
+        the value and ``sigma`` named by quantity and unit (``force_N``, ``sigma_N``), ``flags``,
+        ``correction_V``, ``received_s``, ``published_s``."""
+        return dataframe({"time_s": self.time, "raw_V": self.raw,
+                          column(self.quantity, self.unit): self.value,
+                          column("sigma", self.unit): self.sigma, "flags": self.flags,
+                          "correction_V": self.correction, "received_s": self.received,
+                          "published_s": self.published})
 
 
 class History:

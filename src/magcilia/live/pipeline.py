@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, si
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Block, Counters, Source
@@ -68,8 +69,8 @@ EVENTS = {"start": 0, "tare": 1, "disconnected": 2, "reconnected": 3, "recording
 _OUTSIDE_WARNING = 0.9
 
 
-@dataclass(frozen=True)
-class Event:
+@dataclass(frozen=True, repr=False)
+class Event(Display):
     """Something that happened during a live read-out (immutable).
 
     Attributes
@@ -94,9 +95,13 @@ class Event:
         """One line."""
         return f"{self.time:8.2f} s  {self.kind}: {self.text}"
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("", self.kind), ("time", f"{self.time:.6g} s"), ("", self.text)]
 
-@dataclass(frozen=True)
-class LiveStatus:
+
+@dataclass(frozen=True, repr=False)
+class LiveStatus(Display):
     """Where a live read-out stands (immutable; :attr:`LiveReadout.status`).
 
     Attributes
@@ -165,9 +170,20 @@ class LiveStatus:
                 f"{self.latency_median * 1e3:.2g} ms (p99 {self.latency_p99 * 1e3:.2g} ms)"
                 f"{rec}{msg}")
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        items = [("", self.state), ("samples", str(self.samples)), ("rate", f"{self.rate:.4g} Hz"),
+                 ("tared", "yes" if self.tared else "no"), ("noise", si(self.noise, "V")),
+                 ("dropped", str(self.counters.dropped)), ("overruns", str(self.overruns))]
+        if self.message:
+            items.append(("message", self.message))
+        if self.recording:
+            items.append(("recording", self.recording))
+        return items
 
-@dataclass(frozen=True)
-class Limits:
+
+@dataclass(frozen=True, repr=False)
+class Limits(Display):
     """What the read-out can measure (immutable; SI, :meth:`LiveReadout.limits`).
 
     Attributes
@@ -202,6 +218,13 @@ class Limits:
         lo, hi = (q.to_display(x) for x in self.range)
         return (f"{q.label} range {lo:.4g}…{hi:.4g} {q.display} ({self.limited_by}), minimum "
                 f"detectable {q.to_display(self.minimum):.3g} {q.display}")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q = MEASURANDS[self.quantity]
+        return [("", self.quantity), ("span", f"{q.text(self.span[0])}…{q.text(self.span[1])}"),
+                ("range", f"{q.text(self.range[0])}…{q.text(self.range[1])}"),
+                ("minimum", q.text(self.minimum)), ("limited by", self.limited_by)]
 
 
 class LiveReadout:

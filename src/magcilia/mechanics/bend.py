@@ -6,6 +6,7 @@ All SI: forces in N, arc lengths in m, angles in rad, flow speeds in m/s.
 from __future__ import annotations
 
 import itertools
+import logging
 import math
 from functools import lru_cache
 
@@ -24,6 +25,7 @@ from magcilia.mechanics.shape import BentShape, Load
 from magcilia.model.centreline import Centreline
 
 F64 = NDArray[np.float64]
+logger = logging.getLogger(__name__)
 
 #: points of the uniform arc-length grid of returned shapes
 OUTPUT_POINTS = 129
@@ -282,6 +284,8 @@ def bend_sweep(setup: Setup, forces: ArrayLike | None = None, *,
     rows_th: list[F64] = []
     rows_pts: list[F64] = []
     s_out = np.linspace(0.0, setup.cilium.height, OUTPUT_POINTS)
+    logger.info("bend sweep: %d loads up to %.4g %s", values.size, biggest,
+                "N" if is_force else "m/s")
     for value in values.tolist():
         load = (value, 0.0) if is_force else (0.0, value)
         last, theta = solved[-1]

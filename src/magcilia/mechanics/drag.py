@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number, si
 
 F64 = NDArray[np.float64]
 
@@ -38,8 +39,8 @@ _RE_LAMB, _RE_WHITE = 0.5, 1.0
 _EULER_GAMMA = 0.5772156649015329
 
 
-@dataclass(frozen=True)
-class Fluid:
+@dataclass(frozen=True, repr=False)
+class Fluid(Display):
     """A Newtonian fluid.
 
     Parameters
@@ -66,6 +67,10 @@ class Fluid:
         """Reynolds number ``ρ |U| d / μ`` (dimensionless) for speeds (m/s) and diameters (m)."""
         return (self.density / self.viscosity) * np.abs(np.asarray(speed, dtype=np.float64)) \
             * np.asarray(diameter, dtype=np.float64)
+
+    def _display_items(self) -> list[Item]:
+        return [("", self.name), ("density", f"{number(self.density)} kg/m³"),
+                ("viscosity", si(self.viscosity, "Pa·s"))]
 
 
 #: air at 20 °C and 1 atm: ρ = 1.204 kg/m³, μ = 1.81e-5 Pa·s (CRC Handbook of Chemistry and

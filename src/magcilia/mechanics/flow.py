@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, number, scaled
 from magcilia.mechanics.drag import WATER, Fluid
 
 F64 = NDArray[np.float64]
@@ -24,8 +25,8 @@ def _one(z: F64) -> F64:
     return np.ones_like(z)
 
 
-@dataclass(frozen=True)
-class Flow:
+@dataclass(frozen=True, repr=False)
+class Flow(Display):
     """A planar flow along x over the wall, ``U(z) = speed · shape(z)`` (m/s).
 
     Build it with :meth:`uniform`, :meth:`shear` or :meth:`custom`.
@@ -111,6 +112,13 @@ class Flow:
             return (f"linear shear flow of {self.fluid.name}, {self.speed:.4g} m/s at "
                     f"{self.reference_height * 1e3:.4g} mm")
         return f"{self.kind} flow of {self.fluid.name}, {self.speed:.4g} m/s"
+
+    def _display_items(self) -> list[Item]:
+        items = [("", self.kind), ("speed", f"{number(self.speed)} m/s"),
+                 ("fluid", self.fluid.name)]
+        if self.reference_height:
+            items.append(("reference_height", scaled(self.reference_height, 1e-3, "mm")))
+        return items
 
 
 @dataclass(frozen=True)

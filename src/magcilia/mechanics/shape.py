@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._display import Item, dataframe, number, scaled, si
 from magcilia.mechanics.flow import Flow
 from magcilia.model.centreline import Centreline
 
@@ -37,7 +38,7 @@ class Load:
     flow: Flow | None = None
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class BentShape(Centreline):
     """One static shape of the cilium (a :class:`~magcilia.Centreline` with a = 1).
 
@@ -95,3 +96,22 @@ class BentShape(Centreline):
         x, _, z = self.tip * 1e3
         return (f"tip x {x:.6g} mm, z {z:.6g} mm from the base centre; tip angle "
                 f"{math.degrees(self.tip_angle):.6g} deg")
+
+    def _display_items(self) -> list[Item]:
+        load = self.load
+        items = [("tip angle", scaled(float(np.ravel(self.angles)[-1]), math.pi / 180.0, "deg")),
+                 ("force", si(load.force, "N"))]
+        if load.flow is not None:
+            items.append(("flow", f"{load.flow.kind} {number(load.flow.speed)} m/s"))
+        tip = np.reshape(self.points, (-1, 3))[-1]
+        return [*items, ("tip x, z", f"{tip[0] * 1e3:.3g}, {tip[2] * 1e3:.3g} mm"),
+                ("nodes", str(self.nodes)), ("iterations", str(self.iterations)),
+                ("residual", number(self.residual))]
+
+    def to_dataframe(self) -> Any:
+        """The centreline as a ``pandas.DataFrame``, one row per node: ``s_m`` (arc length),
+        ``angle_rad`` (tangent angle from +z toward +x), ``x_m``, ``z_m`` (from the base centre).
+        """
+        points = np.reshape(self.points, (-1, 3))
+        return dataframe({"s_m": self.s, "angle_rad": np.ravel(self.angles),
+                          "x_m": points[:, 0], "z_m": points[:, 2]})

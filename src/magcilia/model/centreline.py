@@ -14,10 +14,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, scaled
 
 
-@dataclass(frozen=True, eq=False)
-class Centreline:
+@dataclass(frozen=True, eq=False, repr=False)
+class Centreline(Display):
     """A batch of planar centrelines in the xz plane, on a common arc-length grid.
 
     Parameters
@@ -156,3 +157,10 @@ class Centreline:
         h11 = (t3 - t2)[:, None]
         points = h00 * p0 + h10 * d0 + h01 * p1 + h11 * d1
         return points, angles
+
+    def _display_items(self) -> list[Item]:
+        tip = np.atleast_2d(self.angles)[:, -1]
+        return [("poses", str(tip.size)), ("nodes", str(self.s.size)),
+                ("length", scaled(float(self.s[-1]), 1e-3, "mm")),
+                ("tip angle", ", ".join(scaled(t, np.pi / 180.0, "deg") for t in tip[:4])
+                 + (", …" if tip.size > 4 else ""))]

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, dataframe, number, rows_table, si
 from magcilia._errors import MagciliaError
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
@@ -35,8 +36,8 @@ F64 = NDArray[np.float64]
 
 
 
-@dataclass(frozen=True, eq=False)
-class Metric:
+@dataclass(frozen=True, eq=False, repr=False)
+class Metric(Display):
     """Metrics of one measurand (SI units in ``unit``).
 
     Attributes
@@ -77,9 +78,17 @@ class Metric:
                 f"minimum {q.to_display(self.minimum):.4g} {q.display}, range "
                 f"{q.to_display(self.range):.4g} {q.display} ({self.limited_by})")
 
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q = MEASURANDS[self.quantity]
+        return [("", self.quantity),
+                ("sensitivity", f"{number(self.sensitivity * q.display_factor)} V/{q.display}"),
+                ("minimum", q.text(self.minimum)), ("range", q.text(self.range)),
+                ("limited by", self.limited_by)]
 
-@dataclass(frozen=True, eq=False)
-class DesignMetrics:
+
+@dataclass(frozen=True, eq=False, repr=False)
+class DesignMetrics(Display):
     """Result of :func:`design_metrics`: one :class:`Metric` per measurand.
 
     Attributes
@@ -141,6 +150,29 @@ class DesignMetrics:
             "fluid": self.fluid.name,
             "metrics": {m.quantity: m.to_dict() for m in self.metrics},
         }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        lo, hi = self.bandwidth
+        return [*((f"min {m.quantity}", MEASURANDS[m.quantity].text(m.minimum))
+                  for m in self.metrics),
+                ("noise", si(self.noise, "V")), ("band", f"{lo:g}–{hi:g} Hz"),
+                ("fluid", self.fluid.name)]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table())
+
+    def to_dataframe(self) -> Any:
+        """One row per quantity (force, flow, angle) as a ``pandas.DataFrame``, SI:
+        ``quantity``, ``unit`` (its SI unit), ``sensitivity`` (V per unit), ``minimum``
+        (detectable), ``range`` and ``limited_by``."""
+        metrics = list(self.metrics)
+        return dataframe({"quantity": [m.quantity for m in metrics],
+                          "unit": [MEASURANDS[m.quantity].unit for m in metrics],
+                          "sensitivity": [m.sensitivity for m in metrics],
+                          "minimum": [m.minimum for m in metrics],
+                          "range": [m.range for m in metrics],
+                          "limited_by": [m.limited_by for m in metrics]})
 
 
 def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]:

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, Table, column, dataframe, si
 from magcilia.calibration import CalibrationResult, ParameterCovariance
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
@@ -52,8 +53,8 @@ class ReadoutFlag(enum.IntFlag):
     SATURATED = 4
 
 
-@dataclass(frozen=True, eq=False)
-class ReadoutResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class ReadoutResult(Display):
     """Estimates from :meth:`Readout.read` (arrays have the shape of the readings).
 
     Attributes
@@ -114,6 +115,38 @@ class ReadoutResult:
         else:
             rng = "no valid estimate"
         return f"{int(good.sum())}/{n} readings estimated ({counts} flagged); {rng}"
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q, good = MEASURANDS[self.quantity], self.ok
+        items = [("", self.quantity), ("estimated", f"{int(good.sum())}/{self.flags.size}")]
+        for flag in (ReadoutFlag.OUTSIDE_SPAN, ReadoutFlag.FOLD, ReadoutFlag.SATURATED):
+            n = int(np.count_nonzero(self.flags & flag))
+            if n:
+                items.append((str(flag.name).lower(), str(n)))
+        if good.any():
+            lo, hi = (q.text(float(f(self.value[good]))) for f in (np.min, np.max))
+            items += [("range", f"{lo}…{hi}"),
+                      ("median σ", q.text(float(np.median(self.sigma[good]))))]
+        return items
+
+    def _display_table(self) -> Table:
+        q = MEASURANDS[self.quantity]
+        return ((f"{self.quantity} ({q.display})", f"σ ({q.display})", "flags"),
+                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], ReadoutFlag(int(f)).name
+                  or "ok") for v, s, f in zip(self.value, self.sigma, self.flags, strict=True)])
+
+    def to_dataframe(self) -> Any:
+        """The estimates as a ``pandas.DataFrame``, one row per reading, SI, columns named by
+        quantity and unit: the value (``force_N``, ``angle_rad``, ``flow_m_per_s``), ``sigma_*``,
+        ``sigma_noise_*``, ``sigma_calibration_*`` (same unit) and ``flags``
+        (:class:`ReadoutFlag` bits, 0 a good reading; NaN values where flagged)."""
+        return dataframe({
+            column(self.quantity, self.unit): self.value,
+            column("sigma", self.unit): self.sigma,
+            column("sigma_noise", self.unit): self.sigma_noise,
+            column("sigma_calibration", self.unit): self.sigma_calibration,
+            "flags": self.flags})
 
 
 @dataclass(frozen=True, eq=False)
@@ -255,8 +288,8 @@ def _interp(x: F64, j: NDArray[np.intp], steps: int, xp: F64, fp: F64) -> F64:
     return out
 
 
-@dataclass(frozen=True, eq=False, init=False)
-class Readout:
+@dataclass(frozen=True, eq=False, init=False, repr=False)
+class Readout(Display):
     """Inverse read-out of one quantity from the sensor output (immutable).
 
     Parameters
@@ -482,6 +515,15 @@ class Readout:
         if self.fold is not None:
             text += f"; folds at {q.to_display(self.fold):.4g} {q.display}"
         return text
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q = MEASURANDS[self.quantity]
+        lo, hi = self.table.output_range
+        return [("", self.quantity), ("span", f"{q.text(self.span[0])}…{q.text(self.span[1])}"),
+                ("output", f"{si(lo, 'V')}…{si(hi, 'V')}"),
+                ("calibrated", "yes" if self.calibration is not None else "no"),
+                ("table error", q.text(self.table_error)), ("setup", repr(self.setup))]
 
 
 def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
