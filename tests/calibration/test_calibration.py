@@ -150,3 +150,25 @@ def test_sign_of_y_follows_the_initial_setup(full_fit: mc.CalibrationResult) -> 
     negative = mc.calibrate(data, initial=TRUTH.replace(y=-1e-3), bounds=fixed, rng=0, restarts=1)
     assert negative.values["y"] < 0.0
     assert negative.values["y"] == pytest.approx(-p["y"], rel=0.05)
+
+
+def test_truth_is_shown_beside_the_fit(full_fit: mc.CalibrationResult) -> None:
+    truth = {**TRUTH.params(), "offset": 2e-3}
+    truth.pop("tip_radius", None)
+    shown = full_fit.with_truth(truth)
+    assert full_fit.truth is None and "truth" not in full_fit.table()[0]
+    rows = {r["parameter"]: r for r in shown.table()}
+    assert rows["height"]["truth"] == pytest.approx(3.2613)  # mm
+    assert rows["offset"]["truth"] == pytest.approx(2.0)  # mV
+    text = shown.report()
+    assert text.splitlines()[2].split()[-1] == "truth"
+    lines = shown.truth_comparison()
+    assert lines[0].startswith("fit versus truth")
+    assert "reproduces the data to the noise level" in lines[1]
+    undetermined = next(w for w in full_fit.diagnostics if w.kind == "undetermined").parameters
+    assert any(line.startswith(f"- {', '.join(undetermined)} differ from the truth")
+               for line in lines)
+    assert "README" in lines[-1]
+    assert json.loads(json.dumps(shown.to_dict()))["truth"]["height"] == pytest.approx(3.2613e-3)
+    with pytest.raises(mc.MagciliaError, match="truth key must be one of"):
+        full_fit.with_truth({"colour": 1.0})

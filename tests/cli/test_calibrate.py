@@ -35,8 +35,62 @@ def test_demo_writes_the_report(tmp_path: Path, capsys: pytest.CaptureFixture[st
     np.testing.assert_allclose(fitted.output(data.angles), result["fitted_V"],
                                rtol=1e-8, atol=1e-12)
     assert result["cost_V2"] < 1e-8  # within the synthetic noise
-    assert "![data and models (Fig. 8)](fit.png)" in (out / "report.md").read_text()
+    report = (out / "report.md").read_text()
+    assert "![data and models (Fig. 8)](fit.png)" in report
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    # the truth beside the fit, and what the difference means
+    header = next(line for line in text.splitlines() if line.startswith("parameter"))
+    assert header.split()[-1] == "truth"
+    height = next(line for line in text.splitlines() if line.startswith("height"))
+    assert height.split()[-2:] == ["undetermined", "3.2613"]
+    assert "fit versus truth" in text and "see the README" in text
+    assert "| standard error | truth |" in report and "## Fit versus truth" in report
+    assert result["truth"]["height"] == pytest.approx(3.2613e-3)
+
+
+def test_demo_with_a_known_height(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--quiet", "--fix", "height=3.2613mm",
+                 "--fix", "n_loops=2", "--fix", "dipoles_per_loop=5"]) == 0
+    text = capsys.readouterr().out
+    height = next(line for line in text.splitlines() if line.startswith("height"))
+    assert height.split()[-2:] == ["fixed", "3.2613"]
+    result = json.loads((out / "result.json").read_text())
+    assert result["fixed"] == {"height": 3.2613e-3, "n_loops": 2.0, "dipoles_per_loop": 5.0}
+    assert not any(d["kind"] == "undetermined" for d in result["diagnostics"])
+
+
+def test_calibrate_with_fixed_parameters(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "cal"
+    code = main(["calibrate", str(example_path()), "--out", str(out), "--quiet", "--json",
+                 "--fix", "height=3.2613", "--fix", "base_radius=180.1um", "--fix", "z=0.3804",
+                 "--fix", "n_loops=2", "--fix", "dipoles_per_loop=5", "--bound", "y=0.5:3",
+                 "--setup", "paper"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["fixed"] == pytest.approx({"height": 3.2613e-3, "base_radius": 1.801e-4,
+                                          "z": 3.804e-4, "n_loops": 2, "dipoles_per_loop": 5})
+    assert doc["values"]["height"] == 3.2613e-3  # held exactly
+    assert set(doc["stderr"]) == {"x", "y", "offset"}
+    # within 0.1 mm of the truth (the recording's 0.02 mV drift, which the model lacks, moves x
+    # by more than its standard error)
+    assert doc["values"]["x"] == pytest.approx(1.4727e-3, abs=1e-4)
+    rows = {r["parameter"]: r for r in doc["table"]}
+    assert rows["height"]["fixed"] and not rows["x"]["fixed"]
+    assert "| fixed |" in (out / "report.md").read_text()
+    fitted = mc.load_setup(out / "fitted_setup.toml")
+    assert fitted.cilium.height == pytest.approx(3.2613e-3, rel=1e-12)
+
+
+def test_calibrate_warns_of_a_bias_that_absorbed_the_signal(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the case: a cubic bias on the bundled recording
+    assert main(["calibrate", str(example_path()), "--out", str(tmp_path / "cal"), "--quiet",
+                 "--bias", "polynomial", "--bias-degree", "3"]) == 0
+    text = capsys.readouterr().out
+    assert "warning: the degree-3 bias polynomial varies by" in text
+    assert "sits at its upper bound" in text
 
 
 def test_calibrate_with_bounds_and_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -58,8 +112,18 @@ def test_calibrate_with_bounds_and_json(tmp_path: Path, capsys: pytest.CaptureFi
         (["--bound", "width=1:2"], "--bound must be NAME=LOW:HIGH"),
         (["--bound", "height=a:b"], "--bound must be NAME=LOW:HIGH"),
         (["--setup", "missing.toml"], "cannot access missing.toml"),
+        (["--fix", "colour=1"], "--fix must be NAME=VALUE with NAME one of height"),
+        (["--fix", "height"], "--fix must be NAME=VALUE with NAME one of height"),
+        (["--fix", "height=abc"], "VALUE in mm or with a unit"),
+        (["--fix", "height=3V"], "VALUE in mm or with a unit"),
+        (["--fix", "height=-3"], "within [1e-06, 1000] mm"),
+        (["--fix", "n_loops=2.5"], "VALUE a whole number from 1 to 1000"),
+        (["--fix", "height=3", "--fix", "height=3.1"], "height is given twice"),
+        (["--fix", "height=3", "--bound", "height=2:4"], "both fixed and given bounds"),
     ],
-    ids=["reversed", "unknown", "text", "missing-setup"],
+    ids=["reversed", "unknown", "text", "missing-setup", "fix-unknown", "fix-no-value",
+         "fix-text", "fix-unit", "fix-negative", "fix-fractional-n", "fix-twice",
+         "fix-and-bound"],
 )
 def test_calibrate_errors_leave_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                         args: list[str], match: str) -> None:

@@ -3,12 +3,14 @@
 * :func:`calibrate` (:mod:`.search`): global search (:mod:`.multistart`, many local fits at
   once by the batched Levenberg–Marquardt of :mod:`.local`) + polish;
 * :class:`CalibrationResult`, :class:`ParameterCovariance` (:mod:`.result`);
+* :class:`CalibrationWarning` and the thresholds of the warnings (:mod:`.diagnostics`);
 * the least-squares problem with its linear parameters solved in closed form (:mod:`.problem`)
   and the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`).
 """
 
 from __future__ import annotations
 
+from magcilia.calibration.diagnostics import WARNING_KINDS, CalibrationWarning
 from magcilia.calibration.problem import BIASES, CONTINUOUS, DEFAULT_BOUNDS, INTEGER, PARAMETERS
 from magcilia.calibration.result import CalibrationResult, ParameterCovariance
 from magcilia.calibration.search import calibrate
@@ -19,7 +21,9 @@ __all__ = [
     "DEFAULT_BOUNDS",
     "INTEGER",
     "PARAMETERS",
+    "WARNING_KINDS",
     "CalibrationResult",
+    "CalibrationWarning",
     "ParameterCovariance",
     "calibrate",
 ]

@@ -6,16 +6,18 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, count, dataframe, number, rows_table, si
 from magcilia._errors import MagciliaError
-from magcilia.calibration.problem import PARAMETERS
+from magcilia.calibration.diagnostics import CalibrationWarning
+from magcilia.calibration.problem import INTEGER, PARAMETERS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
@@ -165,7 +167,8 @@ class CalibrationResult(Display):
     bias_coefficients : ndarray
         Polynomial bias coefficients (constant first; V, V/rad, …); the constant is the offset.
     warnings : tuple of str
-        Plain-language identifiability warnings.
+        Plain-language warnings: what the data do not determine, parameters at a bound, a bias
+        that absorbed the signal, implausible standard errors (the texts of ``diagnostics``).
     bounds : dict
         The search bounds (SI).
     evaluations : int
@@ -174,6 +177,15 @@ class CalibrationResult(Display):
         Wall time, s.
     restart_costs : tuple of float
         Final cost of each restart, V².
+    diagnostics : tuple of CalibrationWarning
+        The warnings as records with a ``kind`` and the ``parameters`` they concern (see
+        :mod:`magcilia.calibration.diagnostics`), for code to match.
+    fixed : dict of str to float
+        Parameters held at a value instead of fitted (``calibrate(fixed=...)`` or equal bounds),
+        SI; they have no standard error.
+    truth : dict of str to float or None
+        Known true values (SI) of a synthetic recording, shown beside the fit (see
+        :meth:`with_truth`); None for a measurement.
     """
 
     setup: Setup
@@ -191,6 +203,9 @@ class CalibrationResult(Display):
     evaluations: int
     elapsed: float
     restart_costs: tuple[float, ...] = field(default=())
+    diagnostics: tuple[CalibrationWarning, ...] = field(default=())
+    fixed: dict[str, float] = field(default_factory=dict)
+    truth: dict[str, float] | None = None
 
     @property
     def stderr(self) -> dict[str, float]:
@@ -221,33 +236,132 @@ class CalibrationResult(Display):
 
     def table(self) -> list[dict[str, Any]]:
         """Table-I-style rows: parameter, display unit, initial, fitted and standard error in that
-        unit (mm, mV; see :data:`magcilia.device.parameters.PARAMETERS`)."""
+        unit (mm, mV; see :data:`magcilia.device.parameters.PARAMETERS`), whether it was held
+        (``fixed``; its standard error is NaN) and, with :attr:`truth`, the true value (NaN where
+        not known)."""
         init = self.initial.params()
         rows = []
         for name in (*PARAMETERS, "magnetization_scale", "offset"):
             if name not in self.values:
                 continue
             p = REGISTRY[name]
-            rows.append({
+            row = {
                 "parameter": name, "unit": p.display, "initial": p.to_display(init[name]),
                 "fitted": p.to_display(self.values[name]),
                 "stderr": p.to_display(self.stderr.get(name, math.nan)),
-            })
+                "fixed": name in self.fixed,
+            }
+            if self.truth is not None:
+                row["truth"] = p.to_display(self.truth.get(name, math.nan))
+            rows.append(row)
         return rows
 
+    def with_truth(self, truth: Mapping[str, float]) -> CalibrationResult:
+        """This result with the known true values (SI) of a synthetic recording, which
+        :meth:`table`, :meth:`report` and the markdown report then show beside the fit, with
+        :meth:`truth_comparison`'s explanation (``magcilia demo`` does this with the bundled
+        recording's truth)."""
+        known = (*PARAMETERS, "magnetization_scale", "offset")
+        checked: dict[str, float] = {}
+        for name, value in truth.items():
+            if name not in known:
+                raise v.fail("truth key", name, "one of " + ", ".join(known))
+            checked[name] = v.real(f"truth[{name!r}]", value, REGISTRY[name].unit)
+        return replace(self, truth=checked)
+
+    def truth_comparison(self) -> list[str]:
+        """Plain-text lines comparing the fit with :attr:`truth` ([] without one): how well the
+        fit and the truth reproduce the data, which parameters agree within 3 standard errors,
+        which the data leave undetermined, and what would pin them down."""
+        if self.truth is None:
+            return []
+        data = self.data
+        noise = math.sqrt(float(np.mean(data.sem**2)))
+        lines = ["fit versus truth (the recording is synthetic, so its true parameters are known):"]
+        close = self.rms <= 1.5 * noise
+        fit_line = (f"- the fit {'reproduces' if close else 'does not reproduce'} the data to the "
+                    f"noise level: RMS residual {self.rms * 1e6:.3g} µV against {noise * 1e6:.3g} "
+                    "µV of noise in each angle's mean")
+        truth_rms = self._truth_rms(self.truth)
+        if truth_rms is not None and truth_rms <= 1.5 * max(self.rms, noise):
+            fit_line += (f"; the true parameters give {truth_rms * 1e6:.3g} µV: the data cannot "
+                         "tell the two sets apart")
+        elif truth_rms is not None:
+            fit_line += (f"; the true parameters give {truth_rms * 1e6:.3g} µV, worse than the "
+                         "fit: the recording holds effects the model lacks (a slow drift, "
+                         "correlated noise) and the free parameters absorbed them")
+        lines.append(fit_line)
+        undetermined = [n for w in self.diagnostics if w.kind == "undetermined"
+                        for n in w.parameters if n in self.truth and n not in self.fixed]
+        agree: list[str] = []
+        differ: list[str] = []
+        for name in (*PARAMETERS, "magnetization_scale", "offset"):
+            se = self.stderr.get(name, math.nan)
+            if name not in self.truth or name in self.fixed or not math.isfinite(se):
+                continue
+            z = (self.values[name] - self.truth[name]) / se if se > 0 else math.inf
+            (agree if abs(z) <= 3.0 else differ).append(f"{name} ({z:+.1f} s.e.)")
+        if undetermined:
+            lines.append(f"- {', '.join(undetermined)} differ from the truth yet fit as well: one "
+                         "field component along one tilt path leaves them undetermined (the "
+                         "output does not change along a combination of them), so the search "
+                         "returned one of many equally good sets")
+        if agree:
+            lines.append(f"- within 3 standard errors of the truth: {', '.join(agree)}")
+        if differ:
+            lines.append(f"- beyond 3 standard errors of the truth: {', '.join(differ)} (a "
+                         "linearised error understates the spread along poorly determined "
+                         "combinations; see the correlations in the warnings)")
+        ints = [n for n in INTEGER if n in self.truth and n not in self.fixed]
+        if ints:
+            pairs = ", ".join(f"{n} {self.values[n]:g} (truth {self.truth[n]:g})" for n in ints)
+            lines.append(f"- {pairs}: modelling choices of the search, not measured quantities")
+        if undetermined:
+            lines.append("- what pins them down is information this tilt path lacks: another "
+                         "experiment (a second tilt path or field component) or prior knowledge, "
+                         f"e.g. a measured {undetermined[0]} held with --fix "
+                         f"{undetermined[0]}=VALUE (API fixed=...); see the README's Calibration "
+                         "section")
+        return lines
+
+    def _truth_rms(self, truth: dict[str, float]) -> float | None:
+        """RMS residual of the true parameters with their best bias (and the truth's scale), V;
+        None if the truth does not give every fitted parameter."""
+        if not all(n in truth for n in PARAMETERS):
+            return None
+        changes: dict[str, Any] = {n: (round(truth[n]) if n in INTEGER else truth[n])
+                                   for n in PARAMETERS}
+        if "magnetization_scale" in truth:
+            changes["magnetization_scale"] = truth["magnetization_scale"]
+        try:
+            curve = self.initial.replace(offset=0.0, **changes).output(self.data.angles)
+        except MagciliaError:
+            return None
+        r = self.data.volts - curve
+        if self.bias_coefficients.size:
+            basis = np.vander(self.data.angles, self.bias_coefficients.size, increasing=True)
+            coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
+            r = r - basis @ coef
+        return math.sqrt(float(np.mean(r**2)))
+
     def report(self) -> str:
-        """A plain-text summary: cost, RMS, the parameter table and the warnings."""
+        """A plain-text summary: cost, RMS, the parameter table (with the truth when known) and
+        the warnings, then :meth:`truth_comparison`."""
+        truth = self.truth is not None
         lines = [
             f"calibration of {self.data.source}: {len(self.data)} angles",
             f"cost {self.cost:.6g} V^2 (sum of squared residuals), RMS {self.rms * 1e3:.4g} mV",
-            f"{'parameter':<20} {'unit':<4} {'initial':>12} {'fitted':>12} {'std. error':>12}",
+            f"{'parameter':<20} {'unit':<4} {'initial':>12} {'fitted':>12} {'std. error':>12}"
+            + (f" {'truth':>12}" if truth else ""),
         ]
         for r in self.table():
-            se = (f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
+            se = ("fixed" if r["fixed"] else f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
                   else "undetermined" if r["stderr"] == math.inf else "-")
             lines.append(f"{r['parameter']:<20} {r['unit']:<4} {r['initial']:12.6g} "
-                         f"{r['fitted']:12.6g} {se:>12}")
+                         f"{r['fitted']:12.6g} {se:>12}"
+                         + (f" {r['truth']:12.6g}" if truth else ""))
         lines += [f"warning: {w}" for w in self.warnings]
+        lines += self.truth_comparison()
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -261,6 +375,10 @@ class CalibrationResult(Display):
             "fitted_V": self.fitted.tolist(), "residual_V": self.residuals.tolist(),
             "table": self.table(), "evaluations": self.evaluations, "elapsed_s": self.elapsed,
             "restart_costs_V2": list(self.restart_costs),
+            "diagnostics": [{"kind": w.kind, "parameters": list(w.parameters),
+                             "message": w.message} for w in self.diagnostics],
+            "fixed": dict(self.fixed),
+            **({"truth": dict(self.truth)} if self.truth is not None else {}),
         }
 
     # -- display --------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +35,7 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, bias_absorption
 from magcilia.calibration.multistart import Box, search
 from magcilia.calibration.problem import (
     BIASES,
@@ -98,6 +99,40 @@ def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
                          "(move the initial value or widen the bounds)")
     return merged
 
+def _check_fixed(fixed: Mapping[str, float] | Iterable[str] | str | None,
+                 bounds: Mapping[str, tuple[float, float]] | None,
+                 initial: Setup) -> dict[str, float]:
+    """The held parameters and their values (SI), checked: known fitted names, values in their
+    parameters' domains, no name both held and bounded."""
+    if fixed is None:
+        return {}
+    if isinstance(fixed, str):
+        fixed = (fixed,)
+    if isinstance(fixed, Mapping):
+        items = list(fixed.items())
+    else:
+        try:
+            names = list(fixed)
+        except TypeError:
+            raise v.fail("fixed", fixed, "a mapping of parameter names to SI values, or a "
+                                         "sequence of names to hold at the initial setup's "
+                                         "values") from None
+        init = initial.params()
+        items = [(n, init[n]) if n in init else (n, math.nan) for n in names]
+    out: dict[str, float] = {}
+    for name, value in items:
+        if name not in PARAMETERS:
+            hint = (" (magnetization_scale is held unless fit_scale=True; the offset is "
+                    "bias='none' with the setup's offset 0)"
+                    if name in ("magnetization_scale", "offset") else "")
+            raise v.fail("fixed key", name, "one of " + ", ".join(PARAMETERS) + hint)
+        if bounds is not None and name in bounds:
+            raise MagciliaError(f"{name} is both fixed and given bounds; give one of them "
+                                "(fixed holds it, bounds search it)")
+        out[name] = REGISTRY[name].check(value, f"fixed[{name!r}]")
+    return out
+
+
 def calibrate(
     data: Measurement,
     initial: Setup | None = None,
@@ -110,6 +145,7 @@ def calibrate(
     restarts: int = 1,
     starts: int = 256,
     progress: Callable[[int, int], None] | None = None,
+    fixed: Mapping[str, float] | Iterable[str] | None = None,
 ) -> CalibrationResult:
     """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
     scale) to a recording.
@@ -141,10 +177,29 @@ def calibrate(
         Local fits started by each global search (see :mod:`magcilia.calibration.multistart`).
     progress : callable(done, total), optional
         Called after each restart (the CLI draws a progress bar with it).
+    fixed : mapping of str to float, or sequence of str, optional
+        Parameters to hold instead of fitting (lmfit's ``vary=False``, iminuit's ``fixed``):
+        a mapping of names to values (SI: m; n and k whole numbers), e.g.
+        ``{"height": 3.1e-3}``, or names to hold at the ``initial`` setup's values, e.g.
+        ``("height", "base_radius")``. Names among :data:`PARAMETERS`; a held parameter takes
+        no bounds (give one or the other), is not searched, has no standard error and is listed
+        in ``result.fixed``. Equal bounds ``(v, v)`` hold a parameter too.
 
     Returns
     -------
     CalibrationResult
+        Its ``warnings`` (and ``diagnostics``, with a ``kind`` each) say what the data do not
+        determine: parameters at a bound, a bias that absorbed the signal, implausible standard
+        errors, undetermined combinations (see :mod:`magcilia.calibration.diagnostics`).
+
+    Examples
+    --------
+    >>> from magcilia.io import example_path
+    >>> from magcilia import read_measurements
+    >>> data = read_measurements(example_path())
+    >>> fit = calibrate(data, rng=0, starts=32, fixed={"height": 3.2613e-3, "n_loops": 2})
+    >>> fit.values["height"], fit.values["n_loops"], fit.fixed
+    (0.0032613, 2.0, {'height': 0.0032613, 'n_loops': 2.0})
     """
     t0 = time.perf_counter()
     if not isinstance(data, Measurement):
@@ -161,6 +216,10 @@ def calibrate(
             f"{data.source}: {len(data)} angles cannot determine {n_lin} linear parameters and the "
             "geometry; record more angles"
         )
+    held = _check_fixed(fixed, bounds, initial)
+    if held:
+        initial = initial.replace(**held)
+        bounds = {**(bounds or {}), **{n: (val, val) for n, val in held.items()}}
     box = _check_bounds(bounds, initial)
     problem = Problem(data, initial, bias, degree, fit_scale)
     lower = np.array([box[n][0] for n in PARAMETERS])
@@ -254,11 +313,23 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
     cost = float(residuals @ residuals)
     values["magnetization_scale"] = fitted_setup.material.magnetization_scale
     values["offset"] = offset
-    names, stderr, corr, cov, warns = uncertainty(problem, x, scale, cost, box)
+    names, stderr, corr, cov, found = uncertainty(problem, x, scale, cost, box, values)
+    undetermined = frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)
+    notes: list[CalibrationWarning] = at_bound(values, box, undetermined)
+    if problem.fit_scale and scale == 0.0:
+        notes.append(CalibrationWarning(
+            "at_bound", "magnetization_scale = 0 (its lower limit): the model's signal does not "
+            "match the data in any proportion; check the sign of the gain and the recording",
+            ("magnetization_scale",)))
+    absorbed = bias_absorption(problem.angles, coef, scale * u[0]) if bias == "polynomial" else None
+    notes += [absorbed] if absorbed is not None else []
+    diagnostics = (*notes, *found)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
         residuals=residuals, data=data, values=values,
         uncertainty=ParameterCovariance(names, stderr, corr, cov), bias_coefficients=coef,
-        bias=bias, warnings=warns, bounds=box, evaluations=problem.evaluations,
-        elapsed=time.perf_counter() - t0, restart_costs=restart_costs,
+        bias=bias, warnings=tuple(w.message for w in diagnostics), bounds=box,
+        evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
+        restart_costs=restart_costs, diagnostics=diagnostics,
+        fixed={n: values[n] for n in PARAMETERS if box[n][0] == box[n][1]},
     )

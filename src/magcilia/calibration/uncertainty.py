@@ -1,5 +1,6 @@
 """Uncertainty of a calibration: standard errors, correlations and the covariance from the
-Jacobian at the optimum, and plain-language warnings about what the data do not determine."""
+Jacobian at the optimum, and plain-language warnings about what the data do not determine
+(:mod:`magcilia.calibration.diagnostics`)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,12 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.problem import CONTINUOUS, INDEX, Problem, named
+from magcilia.calibration.diagnostics import (
+    CORRELATION_LIMIT,
+    CalibrationWarning,
+    stderr_checks,
+)
+from magcilia.calibration.problem import CONTINUOUS, INDEX, INTEGER, Problem, named
 
 F64 = NDArray[np.float64]
 
@@ -19,9 +25,12 @@ RANK_TOLERANCE = 1e-7
 
 
 def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
-                 box: dict[str, tuple[float, float]]
-                 ) -> tuple[tuple[str, ...], dict[str, float], F64, F64, tuple[str, ...]]:
-    """Standard errors and correlations from the Jacobian of the full model at the optimum."""
+                 box: dict[str, tuple[float, float]], values: dict[str, float] | None = None
+                 ) -> tuple[tuple[str, ...], dict[str, float], F64, F64,
+                            tuple[CalibrationWarning, ...]]:
+    """Standard errors and correlations from the Jacobian of the full model at the optimum, and
+    the warnings about them (see :mod:`magcilia.calibration.diagnostics`); ``values`` (SI) are
+    the fitted values the implausible-standard-error check compares with (optional)."""
     columns: list[F64] = []
     names: list[str] = []
     for name in (n for n in CONTINUOUS if box[n][0] < box[n][1]):
@@ -41,20 +50,21 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
         names.append("offset" if d == 0 else f"bias_{d}")
     jac = np.stack(columns, axis=1)
     m, p = jac.shape
-    warns: list[str] = []
+    warns: list[CalibrationWarning] = []
     broken = [k for k in range(p) if not np.isfinite(jac[:, k]).all()]
     if broken:  # a finite-difference step put the element on a dipole: no slope there
         jac[:, broken] = 0.0
-        warns.append("the model is not finite next to the optimum along "
-                     + ", ".join(names[k] for k in broken)
-                     + ": their standard errors are undetermined")
+        warns.append(CalibrationWarning(
+            "model_not_finite", "the model is not finite next to the optimum along "
+            + ", ".join(names[k] for k in broken) + ": their standard errors are undetermined",
+            tuple(names[k] for k in broken)))
     dof = m - p
     sigma2 = cost / dof if dof > 0 else math.nan
     # rank, null space and covariance all from the SVD of the column-equilibrated Jacobian
     # (columns have different units): a small column, e.g. d/dy near y = 0 where B_x is even in
     # y, is then judged by its direction, not its size, and is never dropped unseen
-    norms = np.linalg.norm(jac, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
+    slopes = np.linalg.norm(jac, axis=0)
+    norms = np.where(slopes > 0, slopes, 1.0)
     _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
     kept = sv >= sv[0] * RANK_TOLERANCE
     null = vt[~kept]
@@ -72,29 +82,36 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
     cov_si = np.asarray(cov * np.outer(units, units), dtype=np.float64)
     stderr = {name: float(se[k] * units[k]) for k, name in enumerate(names)}
     if dof <= 0:
-        warns.append(f"{m} angles for {p} continuous parameters: no degrees of freedom left, so "
-                     "no standard errors; record more angles")
+        warns.append(CalibrationWarning(
+            "no_degrees_of_freedom",
+            f"{m} angles for {p} continuous parameters: no degrees of freedom left, so no "
+            "standard errors; record more angles"))
     if null.size:
-        involved = ", ".join(n for n, u in zip(names, undetermined, strict=True) if u)
-        warns.append(f"the output is (numerically) unchanged along {len(null)} combination(s) of "
-                     f"{involved}: these parameters are not determined by this tilt path and "
-                     "their standard errors are infinite")
-    for k, name in enumerate(names):
-        if name in box:
-            width = box[name][1] - box[name][0]
-            if math.isfinite(se[k]) and se[k] > 0.25 * width:
-                warns.append(f"{name} is not determined by the data (standard error "
-                             f"{se[k]:.3g} vs a bound width of {width:.3g}); treat its value as "
-                             "arbitrary")
+        involved = tuple(n for n, u in zip(names, undetermined, strict=True) if u)
+        warns.append(CalibrationWarning(
+            "undetermined",
+            f"the output is (numerically) unchanged along {len(null)} combination(s) of "
+            f"{', '.join(involved)}: these parameters are not determined by this tilt path and "
+            "their standard errors are infinite", involved))
+    if values is not None and dof > 0:
+        warns += stderr_checks(tuple(names), values, se * units, slopes / units,
+                               math.sqrt(sigma2), math.sqrt(cost / m),
+                               float(np.max(np.abs(problem.y))), box)
     for i in range(p):
         for j in range(i + 1, p):
-            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
-                warns.append(f"{names[i]} and {names[j]} are strongly correlated "
-                             f"({corr[i, j]:+.3f}): the data determine a combination of them, "
-                             "not each one")
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
+                warns.append(CalibrationWarning(
+                    "correlated",
+                    f"{names[i]} and {names[j]} are strongly correlated ({corr[i, j]:+.3f}): the "
+                    "data determine a combination of them, not each one", (names[i], names[j])))
     if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[INDEX["y"]] < box["y"][1]:
-        warns.append("B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
-                     "equally well; the sign of the initial y is kept, + for 0)")
-    warns.append("n_loops and dipoles_per_loop are modelling parameters chosen by the search; "
-                 "they have no standard error")
+        warns.append(CalibrationWarning(
+            "y_sign", "B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
+            "equally well; the sign of the initial y is kept, + for 0)", ("y",)))
+    searched = tuple(n for n in INTEGER if box[n][0] < box[n][1])
+    if searched:
+        are = ("are modelling parameters chosen by the search; they have" if len(searched) > 1
+               else "is a modelling parameter chosen by the search; it has")
+        warns.append(CalibrationWarning(
+            "integer_parameters", f"{' and '.join(searched)} {are} no standard error", searched))
     return tuple(names), stderr, corr, cov_si, tuple(warns)

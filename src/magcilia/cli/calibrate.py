@@ -12,6 +12,7 @@ from magcilia.cli._common import (
     load_setup_arg,
     parse_named_ranges,
 )
+from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
 from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
@@ -29,6 +30,7 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
                    f"repeatable. Defaults: {describe_bounds()}.")
+@click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
@@ -48,7 +50,8 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
-            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
+            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
+            fix_items: tuple[str, ...]) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
@@ -63,7 +66,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
         result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
                                          rng=seed, bias=bias, bias_degree=bias_degree,
                                          fit_scale=fit_scale, restarts=restarts,
-                                         starts=starts)
+                                         starts=starts, fixed=parse_fixed(fix_items))
         write_calibration_files(result, tmp)
     if as_json:
         echo_json(result.to_dict())

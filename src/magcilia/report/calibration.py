@@ -68,16 +68,22 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
         f"- model evaluations: {result.evaluations}, time {result.elapsed:.2f} s",
         f"- restarts' final costs: {', '.join(f'{c:.4g}' for c in result.restart_costs)} V²",
         "",
-        "| parameter | unit | initial | fitted | standard error |",
-        "|---|---|---|---|---|",
+        "| parameter | unit | initial | fitted | standard error |"
+        + (" truth |" if result.truth is not None else ""),
+        "|---|---|---|---|---|" + ("---|" if result.truth is not None else ""),
     ]
     for r in result.table():
         se = r["stderr"]
-        se_text = f"{se:.4g}" if math.isfinite(se) else ("undetermined" if se == math.inf else "–")
+        se_text = ("fixed" if r.get("fixed") else f"{se:.4g}" if math.isfinite(se)
+                   else "undetermined" if se == math.inf else "–")
         lines.append(f"| {r['parameter']} | {r['unit']} | {r['initial']:.6g} | {r['fitted']:.6g} "
-                     f"| {se_text} |")
+                     f"| {se_text} |" + (f" {r['truth']:.6g} |" if "truth" in r else ""))
     lines += ["", "## Warnings", ""]
     lines += [f"- {w}" for w in result.warnings] or ["- none"]
+    comparison = result.truth_comparison()
+    if comparison:
+        known = "The recording is synthetic: its true parameters are known."
+        lines += ["", "## Fit versus truth", "", known, "", *comparison[1:]]
     lines += ["", "## Figures", ""]
     lines += [f"![{name}]({path})" for name, path in figures.items()]
     lines.append("")

@@ -1,0 +1,268 @@
+"""What a calibration's numbers do not say by themselves: warnings with a kind, the parameters
+they concern and a plain-language text (value, cause, remedy).
+
+Every warning of a :class:`~magcilia.calibration.CalibrationResult` is a
+:class:`CalibrationWarning`; ``result.warnings`` holds their texts, ``result.diagnostics`` the
+records, so code (and tests) match the ``kind``, people read the text. The kinds:
+
+``"at_bound"``
+    A fitted parameter within :data:`AT_BOUND_TOLERANCE` of the width of its search bound from
+    that bound: the best fit may lie beyond it (widen the bound) or the data do not determine the
+    parameter and the bound chose its value (fix it to a known value).
+``"bias_absorbs_signal"``
+    A polynomial bias of degree ≥ 1 whose variation over the angles is comparable to the model's
+    (:data:`BIAS_SPAN_LIMIT`), or correlated with it (:data:`BIAS_CORRELATION_LIMIT`) while not
+    small (:data:`BIAS_CORRELATED_SPAN`): the bias has absorbed signal shape and the geometry
+    was fitted to what is left.
+``"implausible_stderr"``
+    A standard error the data cannot give: smaller than the noise allows (below
+    :data:`STDERR_FLOOR_FRACTION` of σ/|∂output/∂p|, or a relative error below
+    :data:`STDERR_RELATIVE_FLOOR` on noisy data), or larger than the parameter's whole bound
+    width (the linearised error no longer means anything there).
+``"weakly_determined"``
+    A standard error above :data:`LOOSE_FRACTION` of the bound width.
+``"undetermined"``
+    Combinations of parameters along which the output does not change (the null space of the
+    Jacobian): these parameters' standard errors are infinite.
+``"correlated"``
+    Two parameters correlated beyond :data:`CORRELATION_LIMIT`.
+``"y_sign"``
+    y and −y fit equally well (B_x is even in y).
+``"model_not_finite"``, ``"no_degrees_of_freedom"``, ``"integer_parameters"``
+    No slope next to the optimum; as many parameters as angles; n and k carry no standard error.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia.device.parameters import PARAMETERS as REGISTRY
+
+F64 = NDArray[np.float64]
+
+#: a fitted value closer than this fraction of its bound's width to the bound is "at the bound"
+#: (the polish ends on a bound face exactly; 1e-3 of the default 2 mm height range is 2 µm)
+AT_BOUND_TOLERANCE = 1e-3
+#: the polynomial bias's span over the angles (its non-constant part) at or above this fraction of
+#: the model's own span: the bias shapes the fitted curve as much as the geometry does
+BIAS_SPAN_LIMIT = 0.5
+#: |correlation| between the bias's variation and the model's beyond which the two trade off; a
+#: real drift is also smooth and monotonic over a tilt path, hence correlated with the model, so
+#: this counts only together with a span of at least :data:`BIAS_CORRELATED_SPAN` of the model's
+BIAS_CORRELATION_LIMIT = 0.9
+#: see :data:`BIAS_CORRELATION_LIMIT`
+BIAS_CORRELATED_SPAN = 0.25
+#: a standard error below this fraction of σ/|∂output/∂p| (σ: the residual noise) is impossible:
+#: the least variance a linear fit can give a parameter is σ²/|∂output/∂p|² (all other
+#: parameters known); only a numerical failure of the covariance goes below it
+STDERR_FLOOR_FRACTION = 0.5
+#: a relative standard error σ_p/|p| below this on data whose residual RMS exceeds
+#: :data:`NOISE_FLOOR` of the data's largest value is not credible for a sensor recording
+STDERR_RELATIVE_FLOOR = 1e-6
+#: see :data:`STDERR_RELATIVE_FLOOR` (residuals this small are float round-off: noiseless data)
+NOISE_FLOOR = 1e-9
+#: a standard error above this fraction of the bound width: weakly determined
+LOOSE_FRACTION = 0.25
+#: |correlation| beyond which two parameters are reported as strongly correlated
+CORRELATION_LIMIT = 0.99
+
+#: every kind a :class:`CalibrationWarning` can have (see the module docstring)
+WARNING_KINDS = (
+    "at_bound", "bias_absorbs_signal", "implausible_stderr", "weakly_determined",
+    "undetermined", "correlated", "y_sign", "model_not_finite", "no_degrees_of_freedom",
+    "integer_parameters",
+)
+
+
+@dataclass(frozen=True)
+class CalibrationWarning:
+    """One warning of a calibration.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`WARNING_KINDS`.
+    message : str
+        The text people read (values in display units: mm, mV).
+    parameters : tuple of str
+        The parameters it concerns (may be empty).
+    """
+
+    kind: str
+    message: str
+    parameters: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        return self.message
+
+
+def shown(name: str, value: float) -> str:
+    """``value`` (SI) of parameter ``name`` in its display unit, e.g. ``'3.1 mm'``."""
+    p = REGISTRY.get(name)
+    if p is None:
+        return f"{value:.4g}"
+    unit = f" {p.display}" if p.display else ""
+    return f"{p.to_display(value):.4g}{unit}"
+
+
+def _bound_text(name: str, lo: float, hi: float) -> str:
+    """``lo:hi`` in the display unit (as ``--bound`` takes it)."""
+    p = REGISTRY[name]
+    return f"{p.to_display(lo):.4g}:{p.to_display(hi):.4g}"
+
+
+def _widened(name: str, lo: float, hi: float, upper: bool) -> tuple[float, float]:
+    """The bound widened by half its width on the side the value sits, within the limits."""
+    p = REGISTRY[name]
+    step = 0.5 * (hi - lo)
+    if p.domain == "integer":
+        step = max(1.0, math.ceil(step))
+    if upper:
+        return lo, min(hi + step, p.maximum)
+    low = lo - step
+    if p.domain == "integer":
+        low = max(low, 1.0)
+    elif p.domain in ("positive", "non_negative"):
+        low = max(low, p.minimum, 0.5 * lo)
+    else:
+        low = max(low, -p.maximum)
+    return low, hi
+
+
+def _can_widen(name: str, lo: float, hi: float, upper: bool) -> bool:
+    return _widened(name, lo, hi, upper) != (lo, hi)
+
+
+def at_bound(values: Mapping[str, float], box: Mapping[str, tuple[float, float]],
+             undetermined: frozenset[str] = frozenset()) -> list[CalibrationWarning]:
+    """Warnings for the free parameters (lower < upper) whose fitted ``values`` (SI) sit within
+    :data:`AT_BOUND_TOLERANCE` of the bound width from a bound of ``box`` (SI) that could be
+    widened (n and k at 1 are at their smallest possible value, not at a bound)."""
+    out = []
+    for name, (lo, hi) in box.items():
+        if not lo < hi or name not in values:
+            continue
+        value = values[name]
+        tol = AT_BOUND_TOLERANCE * (hi - lo)
+        for upper, edge in ((False, lo), (True, hi)):
+            if abs(value - edge) > tol or not _can_widen(name, lo, hi, upper):
+                continue
+            side = "upper" if upper else "lower"
+            wlo, whi = _widened(name, lo, hi, upper)
+            unit = f" {REGISTRY[name].display}".rstrip()
+            head = (f"{name} = {shown(name, value)} sits at its {side} bound "
+                    f"({shown(name, edge)}; bounds {_bound_text(name, lo, hi)}{unit})")
+            if name in undetermined:
+                text = (f"{head}: the data do not determine it (see the undetermined "
+                        "combination), so the bound, not the data, chose this value; fix it to "
+                        f"a known value (--fix {name}=VALUE; API fixed={{'{name}': value}}) "
+                        f"or widen the bound (--bound {name}={_bound_text(name, wlo, whi)})")
+            else:
+                text = (f"{head}: the best fit may lie beyond it; widen the bound "
+                        f"(--bound {name}={_bound_text(name, wlo, whi)}) or fix it "
+                        f"(--fix {name}=VALUE; API fixed={{'{name}': value}})")
+            out.append(CalibrationWarning("at_bound", text, (name,)))
+    return out
+
+
+def bias_absorption(angles: F64, bias_coefficients: F64, model: F64) -> CalibrationWarning | None:
+    """A warning when the non-constant part of a polynomial bias rivals the model's signal.
+
+    Parameters
+    ----------
+    angles : ndarray, shape (a,)
+        Tilt angles, rad.
+    bias_coefficients : ndarray, shape (d + 1,)
+        The bias polynomial in the angle, constant first (V, V/rad, …).
+    model : ndarray, shape (a,)
+        The fitted model's output without the bias, V.
+
+    Returns
+    -------
+    CalibrationWarning or None
+        Kind ``"bias_absorbs_signal"`` when the bias's span is at least :data:`BIAS_SPAN_LIMIT`
+        of the model's, or at least :data:`BIAS_CORRELATED_SPAN` of it with
+        \\|correlation\\| ≥ :data:`BIAS_CORRELATION_LIMIT`; None otherwise (and for degree 0).
+    """
+    degree = bias_coefficients.size - 1
+    if degree < 1:
+        return None
+    curve = np.vander(angles, degree + 1, increasing=True)[:, 1:] @ bias_coefficients[1:]
+    span_b, span_m = float(np.ptp(curve)), float(np.ptp(model))
+    ratio = span_b / span_m if span_m > 0 else math.inf
+    corr = float(np.corrcoef(curve, model)[0, 1]) if span_b > 0 and span_m > 0 else 0.0
+    if not (ratio >= BIAS_SPAN_LIMIT
+            or (abs(corr) >= BIAS_CORRELATION_LIMIT and ratio >= BIAS_CORRELATED_SPAN)):
+        return None
+    text = (f"the degree-{degree} bias polynomial varies by {span_b * 1e3:.3g} mV over the "
+            f"angles, {ratio:.3g} x the model's own variation ({span_m * 1e3:.3g} mV), "
+            f"correlation {corr:+.3f} with it: the bias has absorbed signal and the geometry was "
+            "fitted to what is left; use a lower --bias-degree (0, a constant offset, unless "
+            "the recording has a known drift of this size)")
+    return CalibrationWarning("bias_absorbs_signal", text, tuple(
+        ["offset"] + [f"bias_{d}" for d in range(1, degree + 1)]))
+
+
+def stderr_checks(names: tuple[str, ...], values: Mapping[str, float], stderr: F64,
+                  slopes: F64, sigma: float, rms: float, data_scale: float,
+                  box: Mapping[str, tuple[float, float]]) -> list[CalibrationWarning]:
+    """Warnings for standard errors the data cannot give, and for loose parameters.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The covariance's parameters.
+    values : mapping of str to float
+        Their fitted values (SI; the magnetization scale relative or absolute, as ``stderr``).
+    stderr : ndarray, shape (p,)
+        Their standard errors (SI; inf where undetermined).
+    slopes : ndarray, shape (p,)
+        |∂output/∂p| over the angles (the Jacobian's column norms, V per SI unit).
+    sigma : float
+        The residual noise per angle, V (sqrt(cost / dof)).
+    rms : float
+        The RMS residual, V.
+    data_scale : float
+        The data's largest |output|, V.
+    box : mapping of str to (float, float)
+        Search bounds (SI) of the bounded parameters.
+    """
+    out: list[CalibrationWarning] = []
+    noisy = rms > NOISE_FLOOR * data_scale
+    for k, name in enumerate(names):
+        se = float(stderr[k])
+        if not math.isfinite(se):
+            continue
+        value = values.get(name, math.nan)
+        floor = sigma / slopes[k] if slopes[k] > 0 else math.inf
+        relative = se / abs(value) if value else math.inf
+        if math.isfinite(floor) and se < STDERR_FLOOR_FRACTION * floor:
+            out.append(CalibrationWarning("implausible_stderr", (
+                f"the standard error of {name} ({shown(name, se)}) is below the least the noise "
+                f"allows ({shown(name, floor)}: residual noise {sigma * 1e6:.3g} µV over its "
+                "slope): a numerical artefact of a near-singular fit, not a measurement; treat "
+                f"{name} as undetermined (fix or bound it)"), (name,)))
+        elif noisy and relative < STDERR_RELATIVE_FLOOR:
+            out.append(CalibrationWarning("implausible_stderr", (
+                f"the standard error of {name} is {relative:.2g} of its value, more precise "
+                f"than data with a {rms * 1e6:.3g} µV RMS residual can be: a numerical artefact; "
+                f"treat {name} as undetermined (fix or bound it)"), (name,)))
+        elif name in box:
+            width = box[name][1] - box[name][0]
+            if se > width:
+                out.append(CalibrationWarning("implausible_stderr", (
+                    f"{name} is not determined by the data: its standard error "
+                    f"({shown(name, se)}) exceeds its whole bound width ({shown(name, width)}), "
+                    "where the linearised error no longer holds; the bounds, not the data, "
+                    "confine it: treat its value as arbitrary, or fix it"), (name,)))
+            elif se > LOOSE_FRACTION * width:
+                out.append(CalibrationWarning("weakly_determined", (
+                    f"{name} is not determined by the data (standard error {shown(name, se)} "
+                    f"vs a bound width of {shown(name, width)}); treat its value as arbitrary"),
+                    (name,)))
+    return out
