@@ -309,6 +309,11 @@ class OutputUnits:
         unit = self.unit(what)
         return f"{base}_{ascii_unit(unit)}" if unit else base
 
+    def named(self, values: dict[str, object]) -> dict[str, object]:
+        """SI values by parameter name -> output values by suffixed name
+        (``{"height": 0.003}`` -> ``{"height_mm": 3.0}``)."""
+        return {self.key(name, name): self.value(v, name) for name, v in values.items()}
+
     def label(self, what: str) -> str:
         """The unit for a table header or a message (``mm``; "" for plain numbers)."""
         return self.unit(what)

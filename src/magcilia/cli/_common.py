@@ -22,7 +22,7 @@ from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.units import UNITS, OutputUnits, parse_range, parse_value, parse_values
+from magcilia.units import UNITS, parse_range, parse_value, parse_values
 
 #: built-in setups usable wherever a SETUP file is expected
 PRESETS = {
@@ -176,26 +176,6 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
 
 
 # --- the unit policy of command outputs and physical options (docs/ARCHITECTURE.md, README Units)
-
-#: where a dimension's display unit is read in the registry when its entries differ (a sensor
-#: output is shown like the output offset, mV; the bridge supply in V)
-_DISPLAY_SOURCE = {"voltage": "offset", "length": "height", "field": "field_range"}
-
-
-def output_units(si: bool = False) -> OutputUnits:
-    """The units of a command's outputs: the registry's display units (measurands first: angle
-    deg, force mN, speed m/s; lengths mm, fields gauss, voltages mV, …), or SI with ``si``."""
-    dimensions: dict[str, str] = {}
-    names: dict[str, tuple[str | None, str]] = {}
-    for q in (*MEASURANDS.values(), *PARAMETERS.values()):
-        names.setdefault(q.name, (q.dimension, q.display))
-        if q.dimension and q.display:
-            dimensions.setdefault(q.dimension, q.display)
-    for dimension, name in _DISPLAY_SOURCE.items():
-        dimensions[dimension] = PARAMETERS[name].display
-    names["output"] = names["offset"]
-    return OutputUnits(si, dimensions, names)
-
 
 def si_option(command: Any) -> Any:
     """The shared ``--si`` flag: every output of the command (console, CSV, JSON) in SI units

@@ -9,8 +9,9 @@ import click
 from magcilia._atomic import write_json, write_text
 from magcilia._validate import fail
 from magcilia.approximation import lookup_table, piecewise_linear
-from magcilia.cli._common import echo_json, load_setup_arg, output_units, si_option
+from magcilia.cli._common import echo_json, load_setup_arg, si_option
 from magcilia.io.firmware import to_c_header
+from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, ascii_unit, parse_range
 
 

@@ -11,12 +11,12 @@ from magcilia.cli._common import (
     load_mechanics_setup,
     make_flow,
     mechanics_options,
-    output_units,
     setup_label,
     si_option,
 )
 from magcilia.mechanics import FLUIDS, bend
 from magcilia.report.mechanics import bend_record, bend_text, shape_figure
+from magcilia.report.units import output_units
 
 
 @click.command()

@@ -13,13 +13,13 @@ from magcilia.cli._common import (
     echo_json,
     load_mechanics_setup,
     mechanics_options,
-    output_units,
     parse_bandwidth,
     setup_label,
     si_option,
 )
 from magcilia.mechanics import FLUIDS
 from magcilia.readout.design import DesignMetrics, design_metrics
+from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, ascii_unit
 
 

@@ -12,10 +12,10 @@ from magcilia.cli._common import (
     angle_grid,
     echo_json,
     load_setup_arg,
-    output_units,
     setup_label,
     si_option,
 )
+from magcilia.report.units import output_units
 
 
 @click.command()

@@ -16,11 +16,11 @@ from magcilia.cli._common import (
     angle_grid,
     echo_json,
     load_setup_arg,
-    output_units,
     setup_label,
     si_option,
 )
 from magcilia.io.setup_files import setup_to_dict
+from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, parse_value
 
 
