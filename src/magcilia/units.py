@@ -322,7 +322,8 @@ class OutputUnits:
         """A JSON-ready document with every key whose suffix names a unit of a
         :data:`CONVERTIBLE` dimension (``_rad``, ``_V``, ``_mm``, ``_V2``, ``_V_per_rad``, …)
         renamed and its value converted to the output unit; a key that then repeats another
-        (``knots_rad`` and ``knots_deg``) is kept once."""
+        (``knots_rad`` and ``knots_deg``) is kept once. Squares (``cost_V2``, sums of squared
+        residuals) stay in SI in both systems."""
         if isinstance(doc, list | tuple):
             return [self.convert(x) for x in doc]
         if not isinstance(doc, dict):
@@ -370,7 +371,7 @@ class OutputUnits:
         if token not in _SUFFIXES:
             return None
         dimension, factor = _SUFFIXES[token]
-        unit = self.unit(dimension)
+        unit = self.unit(dimension) if power == 1 else si_unit(dimension)  # costs stay in V^2
         scale = (factor / UNITS[dimension][unit]) ** power
         return ascii_unit(unit) + ("2" if power == 2 else ""), scale
 

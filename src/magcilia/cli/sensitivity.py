@@ -121,7 +121,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         return
     volt = units.unit("voltage")
     change, shape = f"max RMS change/{volt}", f"offset-free/{volt}"
-    cost = f"min cost/{volt}^2"
+    cost = "min cost/V^2"
     click.echo(f"{'parameter':<18} {'span':>22} {change:>18} {shape:>15}"
                + (f" {cost:>13}" if measurement is not None else ""))
     v = ascii_unit(volt)
@@ -132,8 +132,8 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         span = f"{lo:.4g}..{hi:.4g} {unit}".rstrip()
         line = (f"{name:<18} {span:>22} {r[f'max_rms_change_{v}']:18.4g} "
                 f"{r[f'max_shape_change_{v}']:15.4g}")
-        if f"min_cost_{v}2" in r:
-            line += f" {r[f'min_cost_{v}2']:13.4g}"
+        if "min_cost_V2" in r:
+            line += f" {r['min_cost_V2']:13.4g}"
         click.echo(line)
     for note in study.notes:
         click.echo(f"note: {note}")
