@@ -121,13 +121,15 @@ def si_unit(dimension: str) -> str:
     return next(u for u, f in UNITS[dimension].items() if f == 1.0)
 
 
-def _dimension_words(dimension: str | None, unit: str) -> str:
-    """What a value of this dimension may be, for messages."""
+def dimension_words(dimension: str | None, unit: str) -> str:
+    """What a value of this dimension may be, for messages (``"a number in mm or with a length
+    unit (m, cm, mm, um, nm)"``)."""
     bare = f"a number in {unit}" if unit else "a plain number"
     if dimension is None:
         return bare
     units = ", ".join(u for u in UNITS[dimension] if u.isascii())
-    return f"{bare} or with a {dimension.replace('_', ' ')} unit ({units})"
+    noun = dimension.replace("_", " ")
+    return f"{bare} or with {'an' if noun[0] in 'aeiou' else 'a'} {noun} unit ({units})"
 
 
 def _split(text: str) -> tuple[float, str] | None:
@@ -175,9 +177,9 @@ def parse_values(text: object, dimension: str | None, unit: str, key: str,
     >>> [round(x, 6) for x in parse_values("0:10:5", "angle", "deg", "--angles", (2, 3))]
     [0.0, 0.174533, 0.087266]
     """
-    shape = {1: "VALUE", 2: "LOW:HIGH", 3: "START:STOP:STEP"}
-    form = " or ".join(shape.get(n, "A:...") for n in counts)
-    words = _dimension_words(dimension, unit)
+    form = ("START:STOP or START:STOP:STEP" if counts == (2, 3) else
+            " or ".join({1: "VALUE", 2: "LOW:HIGH", 3: "START:STOP:STEP"}[n] for n in counts))
+    words = dimension_words(dimension, unit)
     allowed = words if counts == (1,) else f"{form}, each {words}"
     if example:
         allowed += f", e.g. {example}"

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from tqdm import tqdm
 
 from magcilia._atomic import json_text
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import CalibrationResult, calibrate
 from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
@@ -22,7 +23,7 @@ from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.units import UNITS, parse_range, parse_value, parse_values
+from magcilia.units import UNITS, dimension_words, parse_range, parse_value, parse_values
 
 #: built-in setups usable wherever a SETUP file is expected
 PRESETS = {
@@ -99,8 +100,14 @@ def parse_named_ranges(option: str, items: tuple[str, ...],
         if name not in names:
             raise fail(option, item, "NAME=LOW:HIGH with NAME one of " + ", ".join(names))
         p = PARAMETERS[name]
-        example = f"{name}=2:4 ({p.display})" if p.display else f"{name}=1:10"
-        lo, hi = parse_values(text, p.dimension, p.display, f"{option} {name}", (2,), example)
+        try:
+            lo, hi = parse_values(text, p.dimension, p.display, option, (2,))
+        except MagciliaError:
+            example = (f"{name}=2:4 or {name}=2{p.display}:4{p.display}" if p.display
+                       else f"{name}=1:10")
+            raise fail(option, item, f"NAME=LOW:HIGH with LOW and HIGH each "
+                                     f"{dimension_words(p.dimension, p.display)}, e.g. "
+                                     f"{example}") from None
         if not lo <= hi:
             raise fail(option, item, "NAME=LOW:HIGH with LOW <= HIGH")
         if p.outside([lo, hi]) is not None or not (p.within(lo) and p.within(hi)):

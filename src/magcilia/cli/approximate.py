@@ -93,7 +93,8 @@ def approximation_text(doc: dict[str, Any], units: OutputUnits) -> str:
     slopes = doc[f"slopes_{v}_per_{a}"]
     for i, (knot, value) in enumerate(zip(doc[f"knots_{a}"], doc[f"values_{v}"], strict=True)):
         slope = f"{slopes[i]:15.6g}" if i < len(slopes) else ""
-        lines.append(f"{i:>4} {knot:10.6g} {value:12.7g} {slope}".rstrip())
+        lines.append(f"{i:>4} {knot:10.{6 if units.si else 4}f} "
+                     f"{value:12.{9 if units.si else 6}f} {slope}".rstrip())
     lines.append(f"max error {doc[f'max_error_{v}']:.4g} {volt}, RMS {doc[f'rms_error_{v}']:.4g} "
                  f"{volt}, max angle error {doc[f'max_angle_error_{a}']:.4g} {deg}")
     if not doc["invertible"]:

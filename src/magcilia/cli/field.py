@@ -90,5 +90,5 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
              f"Bz/{u.label('field')}", f"output/{u.label('output')}"]
     click.echo(f"{'setup':<14} {names[0]:>9} " + " ".join(f"{n:>11}" for n in names[1:]))
     for r in rows:
-        click.echo(f"{r['setup']:<14.14} {r[ang]:9.4g} {r[bx]:11.6g} {r[by]:11.6g} "
+        click.echo(f"{r['setup']:<14.14} {r[ang]:9.4f} {r[bx]:11.6g} {r[by]:11.6g} "
                    f"{r[bz]:11.6g} {r[out]:11.6g} {r['flag']}")
