@@ -4,6 +4,10 @@ Only the CLI and setup files use this; the Python API takes SI numbers. Each key
 names a *dimension* (length, mass, …); a value with a unit of another dimension, or none, is an
 error that names the key.
 
+On the command line a bare number means the option's display unit (:func:`parse_values`,
+:func:`parse_value`), and :class:`OutputUnits` shows a command's outputs in display units or SI
+with the unit in every key (the policy in the README's "Units").
+
 Examples
 --------
 >>> parse_quantity("3.2613 mm", "length")
