@@ -402,3 +402,22 @@ def test_bound_is_echoed_as_typed(tmp_path: Path, capsys: pytest.CaptureFixture[
     err = capsys.readouterr().err
     assert code == 2 and "got 'height=-1:4'" in err and "mm" in err
     assert "0.004" not in err and "-0.001" not in err  # never silently metres
+
+
+@pytest.mark.parametrize(
+    ("args", "echo"),
+    [
+        (["bend", "paper", "--force", "0.1mN", "--at", "9mm"], "(0, 3.2613] mm"),
+        (["design", "paper", "--tip-radius", "-1"], "[0, 1000] mm; got '-1'"),
+        (["design", "paper", "--modulus", "0"], "MPa; got '0'"),
+        (["sensitivity", "paper", "--out", "{tmp}/s", "--span", "z=0:2m"],
+         "mm; got 'z=0:2m'"),
+    ],
+    ids=["at", "tip-radius", "modulus", "span"],
+)
+def test_echoes_use_display_units(args: list[str], echo: str, tmp_path: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert echo in err and err.count("\n") == 1
+    assert not re.search(r"\bin m\b|\] m\b|got -?0\.00", err), err

@@ -116,17 +116,29 @@ def parse_named_ranges(option: str, items: tuple[str, ...],
     return out
 
 
-def _display_domain(p: Parameter) -> str:
+def _display_domain(p: Parameter, plural: bool = True) -> str:
     """A parameter's domain and limits in its display unit, in words (for range errors)."""
     unit = f" {p.display}" if p.display else ""
     hi = p.to_display(p.maximum)
+    values = "values" if plural else "value"
     if p.domain == "integer":
-        return f"whole numbers >= 1, at most {p.maximum:g}"
+        return f"{'whole numbers' if plural else 'a whole number'} >= 1, at most {p.maximum:g}"
     if p.domain == "positive":
-        return f"positive values within [{p.to_display(p.minimum):g}, {hi:g}]{unit}"
+        return (f"{'' if plural else 'a '}positive {values} within "
+                f"[{p.to_display(p.minimum):g}, {hi:g}]{unit}")
     if p.domain == "non_negative":
-        return f"values within [0, {hi:g}]{unit}"
-    return f"values within [{-hi:g}, {hi:g}]{unit}"
+        return f"{'' if plural else 'a '}{values} within [0, {hi:g}]{unit}"
+    return f"{'' if plural else 'a '}{values} within [{-hi:g}, {hi:g}]{unit}"
+
+
+def _checked_override(name: str, option: str, text: str, example: str) -> float:
+    """A ``--tip-radius``-like override: parsed (bare: display unit), refused as typed when it
+    leaves the parameter's domain."""
+    p = PARAMETERS[name]
+    value = parse_value(text, p.dimension, p.display, option, example)
+    if p.outside([value]) is not None or not p.within(value):
+        raise fail(option, text, _display_domain(p, plural=False))
+    return value
 
 
 def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) -> Setup:
@@ -135,13 +147,11 @@ def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) 
     setup = load_setup_arg(arg)
     changes: dict[str, float] = {}
     if tip_radius is not None:
-        p = PARAMETERS["tip_radius"]
-        changes["tip_radius"] = parse_value(tip_radius, p.dimension, p.display, "--tip-radius",
-                                            "0.05mm or 50um")
+        changes["tip_radius"] = _checked_override("tip_radius", "--tip-radius", tip_radius,
+                                                  "0.05mm or 50um")
     if modulus is not None:
-        p = PARAMETERS["youngs_modulus"]
-        changes["youngs_modulus"] = parse_value(modulus, p.dimension, p.display, "--modulus",
-                                                "2MPa")
+        changes["youngs_modulus"] = _checked_override("youngs_modulus", "--modulus", modulus,
+                                                      "2MPa")
     return setup.replace(**changes) if changes else setup
 
 

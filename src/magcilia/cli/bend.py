@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from magcilia._atomic import save_figure, write_json
+from magcilia._validate import fail
 from magcilia.cli._common import (
     Physical,
     echo_json,
@@ -55,6 +56,10 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
     cone (tip radius 0): a tip force then needs --tip-radius (or --at below the tip).
     """
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    if at is not None and not 0.0 < at <= setup.cilium.height:  # echoed in mm, not m
+        length = setup.cilium.height * 1e3
+        raise fail("--at", f"{at * 1e3:g} mm", f"an arc length in (0, {length:g}] mm (the "
+                                               "cilium's length)")
     shape = bend(setup, force=force if force is not None else 0.0, at=at, direction=direction,
                  flow=make_flow(flow_text, fluid, shear_height))
     units = output_units(si)
