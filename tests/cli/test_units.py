@@ -264,6 +264,9 @@ def test_sensitivity_console_json_agree(tmp_path: Path,
         doc["tolerance"]["tolerance_mm"][0], rel=1e-2)
     si = run_json(capsys, [*args, "--out", str(tmp_path / "b"), "--si", "--json"])
     assert si == json.loads((tmp_path / "b" / "sensitivity.json").read_text())
+    assert "| height | 2.5..3.5 mm |" in (tmp_path / "a" / "summary.md").read_text()
+    summary = (tmp_path / "b" / "summary.md").read_text()
+    assert "max RMS change (V)" in summary and "| height | 0.0025..0.0035 m |" in summary
     row_si = next(r for r in si["summary"] if r["parameter"] == "height")
     assert row_si["span_m"] == pytest.approx([2.5e-3, 3.5e-3])
     assert row_si["max_rms_change_V"] == pytest.approx(row["max_rms_change_mV"] * 1e-3,

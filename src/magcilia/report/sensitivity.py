@@ -138,22 +138,29 @@ def sweep_figure(study: SensitivityStudy, parameters: tuple[str, ...]) -> Any:
 
 def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
                      tolerance: PlacementTolerance | None = None,
-                     figures: dict[str, str] | None = None) -> str:
-    """Short markdown summary: the sweep table, notes, Sobol and tolerance tables, figure links."""
+                     figures: dict[str, str] | None = None,
+                     units: OutputUnits | None = None) -> str:
+    """Short markdown summary: the sweep table, notes, Sobol and tolerance tables, figure links;
+    in ``units`` (default: display units, as the figures; SI with ``output_units(si=True)``)."""
+    u = units if units is not None else output_units()
+    volt = u.unit("voltage")
     lines = ["# Sensitivity of the cilium model", ""]
     if study.data_source:
         lines += [(f"Measurements: `{study.data_source}` (cost = sum of squared residuals, offset "
                   "solved in closed form)."), ""]
     lines += [("Changes are RMS over the tilt angles vs the reference curve; *offset-free* "
                "removes the mean difference (what a fitted output offset absorbs)."), "",
-              "| parameter | span | max RMS change (mV) | max offset-free change (mV) |"
+              f"| parameter | span | max RMS change ({volt}) | max offset-free change ({volt}) |"
               + (" min cost (V²) |" if study.data_source else ""),
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
     for r in study.table():
         name, unit, f = display(r["parameter"])
+        if u.si:  # the base diameter in m; the rest in SI
+            unit, f = u.unit(r["parameter"]), f * PARAMETERS[r["parameter"]].display_factor
         span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
-        row = (f"| {name} | {span} | {r['max_rms_change_V'] * 1e3:.4g} | "
-               f"{r['max_shape_change_V'] * 1e3:.4g} |")
+        change = u.factor("voltage")
+        row = (f"| {name} | {span} | {r['max_rms_change_V'] / change:.4g} | "
+               f"{r['max_shape_change_V'] / change:.4g} |")
         if "min_cost_V2" in r:
             row += f" {r['min_cost_V2']:.4g} |"
         lines.append(row)
@@ -166,7 +173,9 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
         lines += [f"| {r['parameter']} | {r['S1']:.3f} ± {r['S1_conf']:.3f} | "
                   f"{r['ST']:.3f} ± {r['ST_conf']:.3f} |" for r in sobol.table()]
     if tolerance is not None:
-        lines += ["", "## Placement tolerance", "", "```", tolerance.report(), "```"]
+        doc = u.convert(dict(jsonable(tolerance.to_dict())))
+        assert isinstance(doc, dict)
+        lines += ["", "## Placement tolerance", "", "```", tolerance_text(doc, u), "```"]
     if figures:
         lines += ["", "## Figures", ""]
         lines += [f"![{k}]({p})" for k, p in figures.items()]
@@ -253,6 +262,7 @@ def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
     write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance, units))
     written["sensitivity.json"] = out / "sensitivity.json"
     figs = {k: k for k in written if k.endswith(".png")}
-    write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs))
+    write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs,
+                                                    units or output_units(si=False)))
     written["summary.md"] = out / "summary.md"
     return written
