@@ -4,6 +4,10 @@ Only the CLI and setup files use this; the Python API takes SI numbers. Each key
 names a *dimension* (length, mass, …); a value with a unit of another dimension, or none, is an
 error that names the key.
 
+On the command line a bare number means the option's display unit (:func:`parse_values`,
+:func:`parse_value`), and :class:`OutputUnits` shows a command's outputs in display units or SI
+with the unit in every key (the policy in the README's "Units").
+
 Examples
 --------
 >>> parse_quantity("3.2613 mm", "length")
@@ -93,20 +97,297 @@ def format_quantity(value: float, unit: str, digits: int = 6) -> str:
 
 
 def parse_range(text: str, key: str, unit: str = "deg") -> tuple[float, float, float | None]:
-    """Parse ``"start:stop[:step]"`` in ``unit`` (angle) into SI floats; step is None if absent."""
-    parts = text.split(":")
-    allowed = f"start:stop or start:stop:step in {unit}, e.g. '0:85:5'"
-    try:
-        nums = [float(p) for p in parts]
-    except ValueError:
-        raise fail(key, text, allowed) from None
-    if len(nums) not in (2, 3) or not all(math.isfinite(v) for v in nums):
-        raise fail(key, text, allowed)
-    factor = UNITS["angle"].get(unit, 1.0)
-    start, stop = nums[0] * factor, nums[1] * factor
-    step = nums[2] * factor if len(nums) == 3 else None
+    """Parse ``"start:stop[:step]"`` into SI floats; step is None if absent. Bare numbers are in
+    ``unit``; each part, or the last, may carry a unit of the same dimension (``0:85:5deg``,
+    ``0.5Hz:0.5kHz``)."""
+    dimension = unit_dimension(unit)
+    start, stop, *rest = parse_values(text, dimension, unit, key, (2, 3), f"0:85:5 ({unit})")
+    step = rest[0] if rest else None
     if step is not None and step <= 0:
         raise fail(key, text, "a range with a positive step")
     if stop <= start:
         raise fail(key, text, "a range with stop > start")
     return start, stop, step
+
+
+# --- values and ranges typed on a command line (a bare number is in the option's unit) --------
+
+def unit_dimension(unit: str) -> str | None:
+    """The dimension (key of :data:`UNITS`) of a unit symbol, or None if unknown."""
+    for dimension, table in UNITS.items():
+        if unit in table:
+            return dimension
+    return None
+
+
+def si_unit(dimension: str) -> str:
+    """The SI unit of a dimension: the first of its units with factor 1 (``m``, ``rad``, …)."""
+    return next(u for u, f in UNITS[dimension].items() if f == 1.0)
+
+
+def dimension_words(dimension: str | None, unit: str) -> str:
+    """What a value of this dimension may be, for messages (``"a number in mm or with a length
+    unit (m, cm, mm, um, nm)"``)."""
+    bare = f"a number in {unit}" if unit else "a plain number"
+    if dimension is None:
+        return bare
+    units = ", ".join(u for u in UNITS[dimension] if u.isascii())
+    noun = dimension.replace("_", " ")
+    return f"{bare} or with {'an' if noun[0] in 'aeiou' else 'a'} {noun} unit ({units})"
+
+
+def _split(text: str) -> tuple[float, str] | None:
+    """``"0.2 mN"`` -> (0.2, "mN"); ``"3"`` -> (3.0, ""); None if not a number (and a unit)."""
+    match = _NUMBER.match(text) if len(text) <= MAX_QUANTITY_CHARS else None
+    if match is None:
+        return None
+    return float(match.group(1)), match.group(2)
+
+
+def parse_values(text: object, dimension: str | None, unit: str, key: str,
+                 counts: tuple[int, ...] = (1,), example: str = "") -> list[float]:
+    """Parse ``a[:b[:c]]`` with optional units into SI floats.
+
+    Each part may carry its own unit (``0mN:0.2mN``); a bare part takes the unit of the last part
+    that has one (``0:0.2mN``, ``0:85:5deg``), or ``unit`` (the option's documented display unit)
+    when none has (``0:85``).
+
+    Parameters
+    ----------
+    text : str
+        The option's text.
+    dimension : str or None
+        Key of :data:`UNITS` the units must belong to; None for plain numbers (no unit allowed).
+    unit : str
+        The unit of bare numbers (a key of ``UNITS[dimension]``; "" when ``dimension`` is None).
+    key : str
+        The option, for the one-line error.
+    counts : tuple of int
+        The numbers of parts allowed (``(1,)`` a value, ``(2,)`` a range, ``(2, 3)`` with a step).
+    example : str
+        An example for the error message.
+
+    Returns
+    -------
+    list of float
+        The parts in SI units, finite.
+
+    Examples
+    --------
+    >>> parse_values("0:0.2mN", "force", "mN", "--span", (2,))
+    [0.0, 0.0002]
+    >>> parse_values("2mm:0.4cm", "length", "mm", "--bound", (2,))
+    [0.002, 0.004]
+    >>> [round(x, 6) for x in parse_values("0:10:5", "angle", "deg", "--angles", (2, 3))]
+    [0.0, 0.174533, 0.087266]
+    """
+    form = ("START:STOP or START:STOP:STEP" if counts == (2, 3) else
+            " or ".join({1: "VALUE", 2: "LOW:HIGH", 3: "START:STOP:STEP"}[n] for n in counts))
+    words = dimension_words(dimension, unit)
+    allowed = words if counts == (1,) else f"{form}, each {words}"
+    if example:
+        allowed += f", e.g. {example}"
+    if not isinstance(text, str) or len(text) > MAX_QUANTITY_CHARS:
+        raise fail(key, text, allowed)
+    split = [_split(part) for part in text.split(":")]
+    if len(split) not in counts or any(s is None for s in split):
+        raise fail(key, text, allowed)
+    parts = [s for s in split if s is not None]
+    typed = [u for _, u in parts if u]
+    default = typed[-1] if typed else unit
+    table = UNITS[dimension] if dimension is not None else {"": 1.0}
+    out = []
+    for number, part_unit in parts:
+        factor = table.get(part_unit or default)
+        if factor is None:
+            raise fail(key, text, allowed)
+        value = number * factor
+        if not math.isfinite(value):
+            raise fail(key, text, allowed)
+        out.append(value)
+    return out
+
+
+def parse_value(text: object, dimension: str | None, unit: str, key: str,
+                example: str = "") -> float:
+    """One value with an optional unit (a bare number is in ``unit``) -> SI float.
+
+    >>> parse_value("2um", "length", "mm", "--tip-radius")
+    2e-06
+    >>> parse_value("2", "length", "mm", "--tip-radius")
+    0.002
+    """
+    return parse_values(text, dimension, unit, key, (1,), example)[0]
+
+
+# --- the units of a command's outputs (display units by default, SI with --si) ----------------
+
+#: dimensions whose values an output document converts by the unit suffix of their key
+#: (``angle_rad`` -> ``angle_deg``); others (mass, density, …) are named per parameter
+CONVERTIBLE = ("length", "angle", "force", "field", "voltage", "speed", "time", "frequency")
+
+
+def ascii_unit(unit: str) -> str:
+    """A unit as it is spelled in a CSV column or JSON key: ASCII, ``/`` as ``_per_``.
+
+    >>> ascii_unit("µm"), ascii_unit("mV/V/gauss"), ascii_unit("m/s"), ascii_unit("nT/sqrt(Hz)")
+    ('um', 'mV_per_V_per_gauss', 'm_per_s', 'nT_per_rtHz')
+    """
+    text = unit.replace("µ", "u").replace("μ", "u").replace("°", "deg")
+    text = text.replace("sqrt(Hz)", "rtHz").replace("^", "").replace("*", "").replace(" ", "")
+    return text.replace("/", "_per_")
+
+
+def _suffixes() -> dict[str, tuple[str, float]]:
+    """ASCII unit token -> (dimension, SI factor) of the :data:`CONVERTIBLE` dimensions."""
+    out: dict[str, tuple[str, float]] = {}
+    for dimension in CONVERTIBLE:
+        for unit, factor in UNITS[dimension].items():
+            if unit.isascii() and unit != "G":
+                out.setdefault(ascii_unit(unit), (dimension, factor))
+    return out
+
+
+_SUFFIXES = _suffixes()
+
+
+class OutputUnits:
+    """The units of one command's outputs: display units (``si=False``) or SI.
+
+    Parameters
+    ----------
+    si : bool
+        SI everywhere (``--si``) instead of display units.
+    dimensions : mapping
+        Dimension -> display unit (``{"length": "mm", "angle": "deg", …}``); a dimension not
+        named is shown in SI.
+    names : mapping
+        Quantity or parameter name -> (dimension or None, display unit), for values whose unit
+        is not the dimension's (a parameter registry's entries).
+
+    Examples
+    --------
+    >>> u = OutputUnits(False, {"length": "mm", "angle": "deg", "voltage": "mV"})
+    >>> u.unit("length"), u.key("tip", "length"), u.value(0.0025, "length")
+    ('mm', 'tip_mm', 2.5)
+    >>> u.convert({"knots_rad": [0.0], "max_error_V": 0.002, "slopes_V_per_rad": [-1.0]})
+    {'knots_deg': [0.0], 'max_error_mV': 2.0, 'slopes_mV_per_deg': [-17.453292519943297]}
+    >>> OutputUnits(True, {}).convert({"at_mm": 2.5, "angle_deg": 90.0})
+    {'at_m': 0.0025, 'angle_rad': 1.5707963267948966}
+    """
+
+    def __init__(self, si: bool, dimensions: dict[str, str],
+                 names: dict[str, tuple[str | None, str]] | None = None) -> None:
+        self.si = si
+        self.dimensions = dict(dimensions)
+        self.names = dict(names or {})
+
+    @property
+    def system(self) -> str:
+        """``"SI"`` or ``"display"``: the value of the ``units`` key of a JSON document."""
+        return "SI" if self.si else "display"
+
+    def _entry(self, what: str) -> tuple[str | None, str]:
+        if what in self.names:
+            return self.names[what]
+        if what in UNITS:
+            return what, self.dimensions.get(what, si_unit(what))
+        raise KeyError(what)
+
+    def unit(self, what: str) -> str:
+        """The output unit of a dimension or a named quantity ("" for plain numbers)."""
+        dimension, display = self._entry(what)
+        if dimension is None:
+            return ""
+        return si_unit(dimension) if self.si else display
+
+    def factor(self, what: str) -> float:
+        """SI value of one output unit (1e-3 for mm; 1 with ``si``)."""
+        dimension, _ = self._entry(what)
+        return UNITS[dimension][self.unit(what)] if dimension is not None else 1.0
+
+    def value(self, si_value: object, what: str) -> object:
+        """An SI value (a number, None or nested lists of them) in the output unit."""
+        return _scale(si_value, 1.0 / self.factor(what))
+
+    def key(self, base: str, what: str) -> str:
+        """``base`` with the output unit as suffix (``force_mN``; ``base`` for plain numbers)."""
+        unit = self.unit(what)
+        return f"{base}_{ascii_unit(unit)}" if unit else base
+
+    def named(self, values: dict[str, object]) -> dict[str, object]:
+        """SI values by parameter name -> output values by suffixed name
+        (``{"height": 0.003}`` -> ``{"height_mm": 3.0}``)."""
+        return {self.key(name, name): self.value(v, name) for name, v in values.items()}
+
+    def label(self, what: str) -> str:
+        """The unit for a table header or a message (``mm``; "" for plain numbers)."""
+        return self.unit(what)
+
+    def convert(self, doc: object) -> object:
+        """A JSON-ready document with every key whose suffix names a unit of a
+        :data:`CONVERTIBLE` dimension (``_rad``, ``_V``, ``_mm``, ``_V2``, ``_V_per_rad``, …)
+        renamed and its value converted to the output unit; a key that then repeats another
+        (``knots_rad`` and ``knots_deg``) is kept once. Squares (``cost_V2``, sums of squared
+        residuals) stay in SI in both systems."""
+        if isinstance(doc, list | tuple):
+            return [self.convert(x) for x in doc]
+        if not isinstance(doc, dict):
+            return doc
+        out: dict[str, object] = {}
+        for key, item in doc.items():
+            new_key, scale = self._rename(str(key))
+            if new_key in out:
+                continue
+            out[new_key] = _scale(item, scale) if scale != 1.0 else self.convert(item)
+        return out
+
+    def _rename(self, key: str) -> tuple[str, float]:
+        """(new key, factor to multiply the value by) for a key with a unit suffix: one unit or a
+        ratio ``A_per_B[_per_C]`` (A over B over C; a speed ``m_per_s`` is one unit)."""
+        parts = key.split("_")
+        tokens: list[tuple[str, float]] = []
+        end = len(parts)
+        while end > 1:
+            joined = "_".join(parts[end - 3:end]) if end > 3 and parts[end - 2] == "per" else ""
+            token = self._token(joined) if joined else None
+            width = 3 if token is not None else 1
+            if token is None:
+                token = self._token(parts[end - 1])
+            if token is None:
+                break
+            tokens.insert(0, token)
+            end -= width
+            if end > 2 and parts[end - 1] == "per":
+                end -= 1
+                continue
+            break
+        if not tokens or parts[end - 1] == "per":  # no unit, or x_per_V: not a unit of x
+            return key, 1.0
+        scale = tokens[0][1]
+        for _, factor in tokens[1:]:
+            scale /= factor
+        return "_".join([*parts[:end], "_per_".join(t for t, _ in tokens)]), scale
+
+    def _token(self, token: str) -> tuple[str, float] | None:
+        """(output token, SI-to-output factor) of one unit token (``V2`` is V squared)."""
+        power = 1
+        if token.endswith("2") and token[:-1] in _SUFFIXES:
+            token, power = token[:-1], 2
+        if token not in _SUFFIXES:
+            return None
+        dimension, factor = _SUFFIXES[token]
+        unit = self.unit(dimension) if power == 1 else si_unit(dimension)  # costs stay in V^2
+        scale = (factor / UNITS[dimension][unit]) ** power
+        return ascii_unit(unit) + ("2" if power == 2 else ""), scale
+
+
+def _scale(value: object, scale: float) -> object:
+    """Numbers (in nested lists and dicts) times ``scale``; None, bools and text unchanged."""
+    if isinstance(value, dict):
+        return {k: _scale(v, scale) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_scale(v, scale) for v in value]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return value
+    return value * scale

@@ -101,14 +101,19 @@ def test_calibrate_with_bounds_and_json(tmp_path: Path, capsys: pytest.CaptureFi
                  "--bound", "y=0.5:3", "--restarts", "1", "--json", "--quiet"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["values"]["x"] == pytest.approx(1.4727e-3, abs=1e-4)
+    assert doc["units"] == "display"
+    assert doc["values"]["x_mm"] == pytest.approx(1.4727, abs=0.1)
+    assert doc["bounds"]["y_mm"] == pytest.approx([0.5, 3.0])
+    saved = json.loads((out / "result.json").read_text())  # the format read back: SI
+    assert saved["units"] == "SI" and saved["values"]["x"] == pytest.approx(
+        doc["values"]["x_mm"] * 1e-3, rel=1e-12)
     assert (out / "fitted_setup.toml").exists()
 
 
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--bound", "height=4:2"], "low <= high"),
+        (["--bound", "height=4:2"], "LOW <= HIGH"),
         (["--bound", "width=1:2"], "--bound must be NAME=LOW:HIGH"),
         (["--bound", "height=a:b"], "--bound must be NAME=LOW:HIGH"),
         (["--setup", "missing.toml"], "cannot access missing.toml"),

@@ -35,9 +35,11 @@ def test_field_table_csv_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture
     assert len(rows) == 2 * 18
     first = [r for r in rows if r["setup"] == "paper"]
     expected = mc.Setup.paper().output(np.radians(np.arange(0, 86, 5)))
-    np.testing.assert_allclose([float(r["output_V"]) for r in first], expected, rtol=1e-9)
+    np.testing.assert_allclose([float(r["output_mV"]) for r in first], expected * 1e3,
+                               rtol=1e-9)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert json.loads(js.read_text())["units"]["B"] == "gauss"
+    doc = json.loads(js.read_text())
+    assert doc["units"] == "display" and "Bx_gauss" in doc["rows"][0]
     assert not list(tmp_path.glob(".*"))  # no temporary files left behind
 
 
@@ -52,10 +54,11 @@ def test_field_json_stdout(capsys: pytest.CaptureFixture[str]) -> None:
     [
         (["field", "missing.toml"], "cannot access missing.toml"),
         (["field", "paper", "--angles", "10:0"], "--angles must be a range with stop > start"),
-        (["field", "paper", "--angles", "a:b"], "--angles must be start:stop"),
+        (["field", "paper", "--angles", "a:b"], "--angles must be START:STOP"),
+        (["field", "paper", "--angles", "0:1mm"], "with an angle unit (rad, deg)"),
         (["field", "paper", "--angles", "0:10:0"], "positive step"),
     ],
-    ids=["missing-file", "reversed", "text", "zero-step"],
+    ids=["missing-file", "reversed", "text", "wrong-unit", "zero-step"],
 )
 def test_field_errors(args: list[str], match: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(args) == 2

@@ -34,7 +34,8 @@ def test_bend_table_json_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[
     shape = mc.bend(setup, force=2e-4)
     np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12)
     assert doc["tip_angle_deg"] == pytest.approx(math.degrees(shape.tip_angle), rel=1e-12)
-    assert doc["output_V"] == pytest.approx(setup.output(shape)[0], rel=1e-12)
+    assert doc["output_mV"] == pytest.approx(setup.output(shape)[0] * 1e3, rel=1e-12)
+    assert doc["units"] == "display" and doc["load"]["force_mN"] == pytest.approx(0.2)
     assert len(doc["centreline_mm"]["x"]) == shape.s.size
     assert doc["centreline_mm"]["z"][0] == 0.0
     assert not list(tmp_path.glob(".*"))
@@ -54,14 +55,14 @@ def test_bend_flow_and_load_below_tip(capsys: pytest.CaptureFixture[str]) -> Non
     ("args", "match"),
     [
         (["bend", "paper", "--force", "0.2mN"], "--tip-radius"),
-        (["bend", "paper", "--force", "0.2"], "--force must be a force with a unit"),
+        (["bend", "paper", "--force", "0.2mm"], "--force must be a number in mN or with a force"),
         (["bend", "paper", "--flow", "1e6m/s", *TIP], "drag law ends"),
         (["bend", "paper", "--force", "0.1mN", "--at", "9mm"], "at must be an arc length"),
         (["readout", "paper", "missing.csv", "--quantity", "angle", "--span", "0:40",
           "--out", "x.csv"], "missing.csv: no such file"),
         (["design", "paper", "--bandwidth", "10:1"], "--bandwidth must be a range"),
     ],
-    ids=["cone-tip", "no-unit", "too-fast", "at-beyond", "missing-recording", "bandwidth"],
+    ids=["cone-tip", "wrong-unit", "too-fast", "at-beyond", "missing-recording", "bandwidth"],
 )
 def test_errors_are_one_line(args: list[str], match: str,
                              capsys: pytest.CaptureFixture[str]) -> None:
@@ -118,12 +119,12 @@ def test_design_table_json_plot(tmp_path: Path, capsys: pytest.CaptureFixture[st
     png = tmp_path / "design.png"
     assert main(["design", "paper", *TIP, "--plot", str(png), "--bandwidth", "0.5:50"]) == 0
     out = capsys.readouterr().out
-    assert "min. detectable" in out and "V/mN" in out
+    assert "min. detectable" in out and "mV/mN" in out
     assert png.exists()
     assert main(["design", "paper", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["metrics"]["force"]["sensitivity_V_per_unit"] is None  # sharp cone
-    assert doc["metrics"]["angle"]["unit"] == "rad"
+    assert doc["metrics"]["force"]["sensitivity_mV_per_mN"] is None  # sharp cone
+    assert doc["metrics"]["angle"]["range_deg"] == pytest.approx(90.0)
 
 
 def test_bundled_force_sensor_example_bends_and_reads_back(
@@ -132,7 +133,7 @@ def test_bundled_force_sensor_example_bends_and_reads_back(
     """examples/force-sensor.toml needs no overrides: bend, then read the force back."""
     example = str(Path(__file__).resolve().parents[2] / "examples" / "force-sensor.toml")
     assert main(["bend", example, "--force", "0.1mN", "--json"]) == 0
-    volts = json.loads(capsys.readouterr().out)["output_V"]
+    volts = json.loads(capsys.readouterr().out)["output_mV"] * 1e-3
     rec = tmp_path / "rec.csv"
     rec.write_text(f"voltage_V\n{volts!r}\n")
     out = tmp_path / "f.csv"

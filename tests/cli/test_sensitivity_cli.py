@@ -4,7 +4,6 @@ errors (exit code 2, one line, nothing written)."""
 from __future__ import annotations
 
 import json
-import math
 import re
 import sys
 from pathlib import Path
@@ -51,9 +50,9 @@ def test_sensitivity_writes_report(tmp_path: Path, recording: Path,
     assert {"fig09_xy.png", "fig12_geometry.png", "xy_map.png", "sobol.png", "sensitivity.json",
             "summary.md"} <= names
     doc = json.loads((out / "sensitivity.json").read_text())
-    assert doc["spans"]["z"] == pytest.approx([0.0, 0.8e-3])
+    assert doc["units"] == "display" and doc["spans"]["z_mm"] == pytest.approx([0.0, 0.8])
     assert doc["data"] == str(recording) or doc["data"].endswith("rec.csv")
-    assert doc["tolerance"]["angle_accuracy_rad"] == pytest.approx(math.radians(0.5))
+    assert doc["tolerance"]["angle_accuracy_deg"] == pytest.approx(0.5)
     assert doc["sobol"]["measure"] == "cost" and doc["sobol"]["n_evaluations"] == 64 * 9
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # staging removed
 
@@ -69,8 +68,9 @@ def test_sensitivity_json_stdout(tmp_path: Path, capsys: pytest.CaptureFixture[s
     ("args", "match"),
     [
         (["--span", "w=0:1"], "--span must be NAME=LOW:HIGH with NAME one of"),
-        (["--span", "z=1:0"], r"spans\['z'\] must be a finite"),
-        (["--span", "height=-1:3"], "height values must be positive lengths"),
+        (["--span", "z=1:0"], r"--span must be NAME=LOW:HIGH with LOW <= HIGH; got 'z=1:0'"),
+        (["--span", "height=-1:3"],
+         r"--span must be positive values within \[1e-06, 1000\] mm; got 'height=-1:3'"),
         (["--sobol-base", "100"], "n_base must be a power of 2"),
         (["--bandwidth", "10:1"], "--bandwidth must be a range with stop > start"),
         (["--bandwidth", "0:10"], "--bandwidth must be F_LOW:F_HIGH in Hz with 0 < F_LOW"),
@@ -111,8 +111,11 @@ def test_approximate_json_and_c_header(tmp_path: Path, capsys: pytest.CaptureFix
                  "--c-header", str(header), "--fixed-point", "--name", "cil",
                  "--json-file", str(js)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["corners"] == 1 and doc["angle_range_rad"] == pytest.approx(np.radians([5, 60]))
+    assert doc["corners"] == 1 and doc["angle_range_deg"] == pytest.approx([5, 60])
     assert json.loads(js.read_text()) == doc
+    assert main(["approximate", "paper", "--corners", "1", "--range", "5:60", "--json",
+                 "--si"]) == 0  # the SI document is the one PiecewiseLinear.from_dict reads
+    doc = json.loads(capsys.readouterr().out)
     text = header.read_text()
     assert "int32_t cil_output_q(int32_t tilt_q)" in text and "CIL_VOLT_FRAC_BITS" in text
     again = mc.approximation.PiecewiseLinear.from_dict(doc)

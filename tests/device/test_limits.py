@@ -225,7 +225,7 @@ def test_the_largest_angle_grid_is_allowed() -> None:
          f"size must be at most {MAX_TABLE_SIZE}"),
         (["field", "paper", "--angles", "0:85:1e-9"], f"at most {MAX_ANGLES} angles"),
         (["calibrate", str(example_path()), "--out", "{out}", "--bound", "n_loops=1:1000000"],
-         r"bounds['n_loops'] must be whole numbers >= 1, at most 1000"),
+         "--bound must be whole numbers >= 1, at most 1000; got 'n_loops=1:1000000'"),
     ],
     ids=["grid", "corners", "table", "angles", "bound"],
 )

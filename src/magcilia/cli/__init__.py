@@ -24,7 +24,8 @@ from magcilia.cli._common import QUIET_KEY
 def cli(ctx: click.Context, verbose: int, quiet: bool) -> None:
     """Magnetic cilia force and flow sensors: field, calibration, sensitivity, bending, read-out.
 
-    Lengths in mm, angles in degrees and fields in gauss on the command line; setup files carry
+    Lengths in mm, angles in degrees and fields in gauss on the command line, or any unit typed
+    with the value (2.5mm, 0:0.2mN); outputs in display units, SI with --si. Setup files carry
     their units ("3.0 mm"). Run `magcilia COMMAND --help` for each command.
     """
     if verbose and quiet:

@@ -14,15 +14,16 @@ from numpy.typing import NDArray
 from tqdm import tqdm
 
 from magcilia._atomic import json_text
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import CalibrationResult, calibrate
-from magcilia.device.parameters import PARAMETERS
+from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.units import parse_quantity, parse_range
+from magcilia.units import UNITS, dimension_words, parse_range, parse_value, parse_values
 
 #: built-in setups usable wherever a SETUP file is expected
 PRESETS = {
@@ -54,8 +55,8 @@ MAX_ANGLES = 1_000_000
 
 
 def angle_grid(text: str, key: str = "--angles") -> NDArray[np.float64]:
-    """Angles in rad from ``start:stop[:step]`` in degrees (stop included when on the grid), at
-    most :data:`MAX_ANGLES` of them."""
+    """Angles in rad from ``start:stop[:step]`` in degrees, or with an angle unit (``0:85:5deg``,
+    ``0:1.4rad``; stop included when on the grid), at most :data:`MAX_ANGLES` of them."""
     start, stop, step = parse_range(text, key, "deg")
     if step is None:
         step = math.radians(1.0)
@@ -79,7 +80,7 @@ def bandwidth_option(help_text: str = "Noise band of each reading, F_LOW:F_HIGH 
 
 
 def parse_bandwidth(text: str) -> tuple[float, float]:
-    """``F_LOW:F_HIGH`` in Hz -> (f_low, f_high)."""
+    """``F_LOW:F_HIGH`` in Hz, or with units (``0.5Hz:0.5kHz``) -> (f_low, f_high)."""
     f_lo, f_hi, step = parse_range(text, "--bandwidth", "Hz")
     if step is not None or f_lo <= 0.0:
         raise fail("--bandwidth", text, "F_LOW:F_HIGH in Hz with 0 < F_LOW < F_HIGH, e.g. 0.5:500")
@@ -89,40 +90,80 @@ def parse_bandwidth(text: str) -> tuple[float, float]:
 def parse_named_ranges(option: str, items: tuple[str, ...],
                        names: Sequence[str]) -> dict[str, tuple[float, float]]:
     """``NAME=LOW:HIGH`` items of a repeatable option -> SI pairs; LOW and HIGH are in the
-    parameter's display unit (mm for lengths, whole numbers for n_loops)."""
+    parameter's display unit (mm for lengths, whole numbers for n_loops) or carry a unit
+    (``height=2mm:4mm``, ``z=0:0.8mm``). A range outside the parameter's domain is refused in the
+    units typed (the display unit for bare numbers), never in metres."""
     out: dict[str, tuple[float, float]] = {}
     for item in items:
         name, _, text = item.partition("=")
         name = name.strip()
         if name not in names:
             raise fail(option, item, "NAME=LOW:HIGH with NAME one of " + ", ".join(names))
-        try:
-            lo, hi = (float(x) for x in text.split(":"))
-        except ValueError:
-            raise fail(option, item, f"NAME=LOW:HIGH, e.g. {names[0]}=2:4 (mm)") from None
         p = PARAMETERS[name]
-        out[name] = (p.from_display(lo), p.from_display(hi))
+        try:
+            lo, hi = parse_values(text, p.dimension, p.display, option, (2,))
+        except MagciliaError:
+            example = (f"{name}=2:4 or {name}=2{p.display}:4{p.display}" if p.display
+                       else f"{name}=1:10")
+            raise fail(option, item, f"NAME=LOW:HIGH with LOW and HIGH each "
+                                     f"{dimension_words(p.dimension, p.display)}, e.g. "
+                                     f"{example}") from None
+        if not lo <= hi:
+            raise fail(option, item, "NAME=LOW:HIGH with LOW <= HIGH")
+        if p.outside([lo, hi]) is not None or not (p.within(lo) and p.within(hi)):
+            raise fail(option, item, _display_domain(p))
+        out[name] = (lo, hi)
     return out
 
 
+def _display_domain(p: Parameter, plural: bool = True) -> str:
+    """A parameter's domain and limits in its display unit, in words (for range errors)."""
+    unit = f" {p.display}" if p.display else ""
+    hi = p.to_display(p.maximum)
+    values = "values" if plural else "value"
+    if p.domain == "integer":
+        return f"{'whole numbers' if plural else 'a whole number'} >= 1, at most {p.maximum:g}"
+    if p.domain == "positive":
+        return (f"{'' if plural else 'a '}positive {values} within "
+                f"[{p.to_display(p.minimum):g}, {hi:g}]{unit}")
+    if p.domain == "non_negative":
+        return f"{'' if plural else 'a '}{values} within [0, {hi:g}]{unit}"
+    return f"{'' if plural else 'a '}{values} within [{-hi:g}, {hi:g}]{unit}"
+
+
+def _checked_override(name: str, option: str, text: str, example: str) -> float:
+    """A ``--tip-radius``-like override: parsed (bare: display unit), refused as typed when it
+    leaves the parameter's domain."""
+    p = PARAMETERS[name]
+    value = parse_value(text, p.dimension, p.display, option, example)
+    if p.outside([value]) is not None or not p.within(value):
+        raise fail(option, text, _display_domain(p, plural=False))
+    return value
+
+
 def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) -> Setup:
-    """SETUP argument with the optional --tip-radius / --modulus overrides applied."""
+    """SETUP argument with the optional --tip-radius (bare: mm) / --modulus (bare: MPa) overrides
+    applied."""
     setup = load_setup_arg(arg)
     changes: dict[str, float] = {}
     if tip_radius is not None:
-        changes["tip_radius"] = parse_quantity(tip_radius, "length", "--tip-radius")
+        changes["tip_radius"] = _checked_override("tip_radius", "--tip-radius", tip_radius,
+                                                  "0.05mm or 50um")
     if modulus is not None:
-        changes["youngs_modulus"] = parse_quantity(modulus, "pressure", "--modulus")
+        changes["youngs_modulus"] = _checked_override("youngs_modulus", "--modulus", modulus,
+                                                      "2MPa")
     return setup.replace(**changes) if changes else setup
 
 
 def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow | None:
-    """A Flow from the CLI options (None without --flow)."""
+    """A Flow from the CLI options (None without --flow); bare numbers in m/s and mm."""
     if speed is None:
         return None
-    u = parse_quantity(speed, "speed", "--flow")
+    q = MEASURANDS["flow"]
+    u = parse_value(speed, q.dimension, q.display, "--flow", "0.1m/s")
     if shear_height is not None:
-        h = parse_quantity(shear_height, "length", "--shear-height")
+        p = PARAMETERS["height"]
+        h = parse_value(shear_height, p.dimension, p.display, "--shear-height", "3mm")
         return Flow.shear(speed=u, height=h, fluid=FLUIDS[fluid])
     return Flow.uniform(u, FLUIDS[fluid])
 
@@ -130,9 +171,11 @@ def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow |
 def mechanics_options(command: Any) -> Any:
     """``--tip-radius`` and ``--modulus``: override the setup's mechanics on the command line."""
     command = click.option("--modulus", default=None,
-                           help="Override Young's modulus, with a unit (e.g. 2MPa).")(command)
+                           help="Override Young's modulus: MPa, or with a unit (e.g. 2MPa)."
+                           )(command)
     return click.option("--tip-radius", default=None,
-                        help="Override the setup's tip radius, with a unit (e.g. 0.05mm).")(command)
+                        help="Override the setup's tip radius: mm, or with a unit (e.g. 0.05mm, "
+                             "50um).")(command)
 
 
 def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
@@ -158,3 +201,40 @@ def quiet_requested(flag: bool = False) -> bool:
     ``flag`` or the group's ``magcilia -q``."""
     ctx = click.get_current_context(silent=True)
     return flag or bool(ctx is not None and ctx.meta.get(QUIET_KEY, False))
+
+# --- the unit policy of command outputs and physical options (docs/ARCHITECTURE.md, README Units)
+
+def si_option(command: Any) -> Any:
+    """The shared ``--si`` flag: every output of the command (console, CSV, JSON) in SI units
+    instead of display units."""
+    return click.option("--si", "si", is_flag=True,
+                        help="All outputs (console, CSV, JSON) in SI units (m, rad, N, T, V) "
+                             "instead of display units (mm, deg, mN, gauss, mV); names carry "
+                             "the unit either way.")(command)
+
+
+class Physical(click.ParamType):
+    """A click type for one physical value: a number in the option's display unit, or with a
+    unit of its dimension (``2.5mm``, ``90deg``, ``1kHz``) -> SI float (errors are one line)."""
+
+    name = "value"
+
+    def __repr__(self) -> str:
+        return f"Physical({self.dimension!r}, {self.unit!r})"
+
+    def __init__(self, dimension: str, unit: str, example: str = "") -> None:
+        self.dimension, self.unit, self.example = dimension, unit, example
+
+    @classmethod
+    def of(cls, name: str, example: str = "") -> Physical:
+        """The type of a registry quantity or parameter (``"angle"``, ``"height"``) or of a
+        dimension shown in SI (``"time"``, ``"frequency"``)."""
+        entry = {**PARAMETERS, **MEASURANDS}.get(name)
+        if entry is not None and entry.dimension:
+            return cls(entry.dimension, entry.display, example)
+        return cls(name, next(iter(UNITS[name])), example)
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:  # noqa: ARG002 (click's signature)
+        key = max(param.opts, key=len) if param is not None and param.opts else "value"
+        return parse_value(str(value), self.dimension, self.unit, key, self.example)

@@ -12,7 +12,7 @@ import numpy as np
 from magcilia._validate import fail
 from magcilia.acquire import Script, SimulatedSource, Source, source_from_spec
 from magcilia.calibration import ParameterCovariance
-from magcilia.cli._common import load_mechanics_setup, mechanics_options
+from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options
 from magcilia.cli.readout import parse_span
 from magcilia.device.setup import Setup
 from magcilia.live import LiveReadout
@@ -60,27 +60,31 @@ def live_options(command: Any) -> Any:
                      help="What to estimate: tilt angle (deg), tip force (mN) or flow speed "
                           "(m/s)."),
         click.option("--span", "span_text", default=None,
-                     help="Read-out range LO:HI in deg, mN or m/s (units allowed); default ± the "
-                          "design range (to the sensor's range or a fold)."),
+                     help="Read-out range LO:HI in deg, mN or m/s, or with units (0:0.2mN, "
+                          "-0.1mN:100uN); default ± the design range (to the sensor's range or a "
+                          "fold)."),
         click.option("--calibration", "calibration_path", type=click.Path(),
                      help="result.json (or folder) of `magcilia calibrate`: adds its parameter "
                           "uncertainty to sigma."),
         click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water",
                      show_default=True, help="Fluid for --quantity flow."),
-        click.option("--rate", default=1000.0, show_default=True,
-                     help="Read-out samples per second, Hz (each averages source rate / rate "
-                          "samples)."),
-        click.option("--source-rate", default=10000.0, show_default=True,
-                     help="Sample rate of sim and nidaq sources, Hz (a serial device sends "
-                          "its own)."),
+        click.option("--rate", default="1000", show_default=True,
+                     type=Physical.of("frequency", "1kHz"),
+                     help="Read-out samples per second: Hz, or with a unit (1kHz; each averages "
+                          "source rate / rate samples)."),
+        click.option("--source-rate", default="10000", show_default=True,
+                     type=Physical.of("frequency", "10kHz"),
+                     help="Sample rate of sim and nidaq sources: Hz, or with a unit (a serial "
+                          "device sends its own)."),
         click.option("--channel", default="output", show_default=True,
                      help="The source's channel that carries the sensor output."),
         click.option("--set-reset", "set_reset", default=None, type=int,
                      help="sim: alternate set/reset pulses every N samples (demodulated)."),
         click.option("--no-tare", is_flag=True,
                      help="Do not tare on the first 0.5 s (the cilium must be unloaded then)."),
-        click.option("--tracking", default=30.0, show_default=True,
-                     help="Zero-tracking time constant after a tare, s (0: off)."),
+        click.option("--tracking", default="30", show_default=True,
+                     type=Physical.of("time", "30s"),
+                     help="Zero-tracking time constant after a tare: s, or with a unit (0: off)."),
         click.option("--record-dir", default="recordings", show_default=True,
                      type=click.Path(file_okay=False),
                      help="Where recordings started from the view go (live-DATE-TIME.tdms)."),

@@ -9,9 +9,11 @@ from pathlib import Path
 import click
 
 from magcilia._validate import fail
-from magcilia.acquire.photo import measure_tilt, pick_points, read_photo
-from magcilia.cli._common import echo_json
+from magcilia.acquire.photo import TiltMeasurement, measure_tilt, pick_points, read_photo
+from magcilia.cli._common import echo_json, si_option
 from magcilia.report.photo import annotate
+from magcilia.report.units import output_units
+from magcilia.units import OutputUnits
 
 
 def _parse_line(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -25,6 +27,20 @@ def _parse_line(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
     if not all(math.isfinite(c) for c in (x0, y0, x1, y1)):
         raise fail("--line", text, allowed)
     return (x0, y0), (x1, y1)
+
+
+def tilt_text(m: TiltMeasurement, units: OutputUnits) -> str:
+    """One line: the photo, the tilt and what it is measured from (as ``TiltMeasurement.report``,
+    in ``units``)."""
+    deg = units.unit("angle")
+    if m.reference == "vertical":
+        ref = "the image vertical"
+    else:
+        what = "case edge normal" if m.reference == "detected" else "given reference"
+        ref = f"the {what} (at {units.value(m.reference_angle, 'angle'):+.4g} {deg})"
+    fit = "" if math.isnan(m.residual_rms) else f", rms {m.residual_rms:.2g} px"
+    return (f"{m.path}: tilt {units.value(m.angle, 'angle'):+.5g} {deg} from {ref} ({m.method}, "
+            f"line {m.length:.0f} px{fit})")
 
 
 @click.command()
@@ -41,18 +57,21 @@ def _parse_line(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
 @click.option("--annotate", "annotate_dir", type=click.Path(file_okay=False),
               help="Write PHOTO-STEM_angle.png figures of what was measured into this folder.")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print a JSON list, one object per photo (path, angle_deg, angle_rad, ...).")
+              help="Print a JSON list, one object per photo (path, angle_deg, ...; angle_rad "
+                   "with --si).")
+@si_option
 def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: str | None,
-            annotate_dir: str | None, as_json: bool) -> None:
+            annotate_dir: str | None, as_json: bool, si: bool) -> None:
     """Measure the holder's tilt in each PHOTO (JPEG, PNG, TIFF) from the reflective tape on it.
 
-    Angles in degrees, positive when the top of the holder leans to the photo's right; EXIF
-    orientation is applied and points are pixels (x right, y down) of the upright photo.
+    Angles in degrees (rad with --si), positive when the top of the holder leans to the photo's
+    right; EXIF orientation is applied and points are pixels (x right, y down) of the upright photo.
     Without --manual or --line the tape (a bright, long, straight stripe) is found and fitted.
     """
     line = _parse_line(line_text) if line_text is not None else None
     if line is not None and len(photos) > 1:
         raise fail("--line", line_text, "used with one PHOTO (the points belong to one photo)")
+    units = output_units(si)
     results = []
     for photo in photos:
         image = read_photo(photo)
@@ -66,6 +85,6 @@ def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: st
             annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png")
         results.append(m)
         if not as_json:
-            click.echo(m.report())
+            click.echo(tilt_text(m, units))
     if as_json:
-        echo_json([m.to_dict() for m in results])
+        echo_json([units.convert(m.to_dict()) for m in results])

@@ -2,20 +2,27 @@
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import click
 
 from magcilia._atomic import staged_directory
-from magcilia.calibration import PARAMETERS
+from magcilia.calibration import PARAMETERS, CalibrationResult
 from magcilia.cli._common import (
     calibrate_with_progress,
     echo_json,
     load_setup_arg,
     parse_named_ranges,
+    si_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
 from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
+from magcilia.report.units import output_units
+from magcilia.units import OutputUnits
 
 
 @click.command()
@@ -28,8 +35,8 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
 @click.option("--force", is_flag=True,
               help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
-              help="Search bound, lengths in mm (n_loops, dipoles_per_loop as whole numbers); "
-                   f"repeatable. Defaults: {describe_bounds()}.")
+              help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm; n_loops, "
+                   f"dipoles_per_loop whole numbers); repeatable. Defaults: {describe_bounds()}.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
@@ -46,12 +53,15 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               show_default=True, help="NaN/inf samples: error or drop.")
 @click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]), default="raise",
               show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
-@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the result as JSON, in the units of the console table (mm, mV, deg; SI "
+                   "with --si; result.json in --out is always SI).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@si_option
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
             nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
-            fix_items: tuple[str, ...]) -> None:
+            fix_items: tuple[str, ...], si: bool) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
@@ -68,9 +78,74 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
                                          fit_scale=fit_scale, restarts=restarts,
                                          starts=starts, fixed=parse_fixed(fix_items))
         write_calibration_files(result, tmp)
+    units = output_units(si)
     if as_json:
-        echo_json(result.to_dict())
+        echo_json(calibration_doc(result, units))
     else:
-        click.echo(result.report())
+        click.echo(calibration_text(result, units))
         click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
                    "residuals.png")
+
+
+def calibration_doc(result: CalibrationResult, units: OutputUnits) -> dict[str, Any]:
+    """``calibrate --json``: :meth:`CalibrationResult.to_dict` in ``units`` (the console table's
+    display units, or SI): parameter values, standard errors and bounds keyed ``height_mm``, …;
+    the covariance with a unit per row; the bias coefficients with theirs; costs in V^2."""
+    raw = result.to_dict()
+    names = list(raw["covariance"]["names"]) if raw.get("covariance") else []
+    factors = [units.factor(n) for n in names]
+    if raw.get("covariance") and raw["covariance"].get("matrix") is not None:
+        raw["covariance"] = {
+            "names": names, "units": [units.unit(n) for n in names],
+            "matrix": [[None if c is None else c / (factors[i] * factors[j])
+                        for j, c in enumerate(row)]
+                       for i, row in enumerate(raw["covariance"]["matrix"])]}
+    volt, angle = units.factor("voltage"), units.factor("angle")
+    coefficients = raw.pop("bias_coefficients")
+    doc = units.convert({k: v for k, v in raw.items()
+                         if k not in ("values", "stderr", "bounds", "table", "covariance")})
+    assert isinstance(doc, dict)
+    doc["values"] = units.named(raw["values"])
+    doc["stderr"] = units.named(raw["stderr"])
+    doc["bounds"] = units.named(raw["bounds"])
+    doc["covariance"] = raw.get("covariance")
+    v, a = units.unit("voltage"), units.unit("angle")
+    doc["bias_coefficients"] = [c * angle ** k / volt for k, c in enumerate(coefficients)]
+    doc["bias_coefficient_units"] = [v if k == 0 else f"{v}/{a}" if k == 1 else f"{v}/{a}^{k}"
+                                     for k in range(len(coefficients))]
+    doc["table"] = [{"parameter": r["parameter"], "unit": units.unit(r["parameter"]),
+                     **{k: _redisplay(r[k], r["parameter"], units)
+                        for k in ("initial", "fitted", "stderr")}} for r in result.table()]
+    return {"units": units.system, **doc}
+
+
+def _redisplay(display_value: float, name: str, units: OutputUnits) -> float:
+    """A value of the registry's display unit of ``name`` in ``units``."""
+    return display_value * REGISTRY[name].display_factor / units.factor(name)
+
+
+def calibration_text(result: CalibrationResult, units: OutputUnits) -> str:
+    """The console report: :meth:`CalibrationResult.report` (display units), with its RMS and
+    parameter table in SI when ``units`` is SI."""
+    text = result.report()
+    if not units.si:
+        return text
+    lines = text.splitlines()
+    rows = result.table()
+    try:
+        head = next(i for i, line in enumerate(lines) if line.startswith("parameter "))
+    except StopIteration:
+        return text
+    table = []
+    for r in rows:
+        name = r["parameter"]
+        se = _redisplay(r["stderr"], name, units)
+        shown = (f"{se:.4g}" if math.isfinite(se) else "undetermined" if se == math.inf
+                 else "-")
+        table.append(f"{name:<20} {units.unit(name):<4} "
+                     f"{_redisplay(r['initial'], name, units):12.6g} "
+                     f"{_redisplay(r['fitted'], name, units):12.6g} {shown:>12}")
+    lines[head + 1:head + 1 + len(rows)] = table
+    lines = [f"cost {result.cost:.6g} V^2 (sum of squared residuals), RMS {result.rms:.4g} V"
+             if line.startswith("cost ") else line for line in lines]
+    return "\n".join(lines)

@@ -7,6 +7,7 @@ from typing import Any
 import click
 
 from magcilia._validate import fail
+from magcilia.cli._common import Physical
 from magcilia.cli._live import LIVE_KEYS, build_live, live_options
 
 
@@ -18,8 +19,8 @@ from magcilia.cli._live import LIVE_KEYS, build_live, live_options
                    "no authentication).")
 @click.option("--port", default=8050, show_default=True, type=click.IntRange(0, 65535),
               help="TCP port (0: any free one).")
-@click.option("--window", default=10.0, show_default=True,
-              help="Seconds shown on the plots, s.")
+@click.option("--window", default="10", show_default=True, type=Physical.of("time", "10s"),
+              help="Time shown on the plots: s, or with a unit (e.g. 30s, 500ms).")
 @click.option("--open", "open_browser", is_flag=True, help="Open the page in a browser tab.")
 def command(host: str, port: int, window: float, open_browser: bool, **kwargs: Any) -> None:
     """Serve a browser dashboard of the live read-out: the value with its σ, flags, plots of
@@ -29,7 +30,7 @@ def command(host: str, port: int, window: float, open_browser: bool, **kwargs: A
     from magcilia.live.dashboard import bind_socket, exposure_warning, require_server, serve
 
     if not window > 0:
-        raise fail("--window", window, "a positive duration in s")
+        raise fail("--window", f"{window:g} s", "a positive duration")
     warning = exposure_warning(host)
     if warning:
         click.echo(f"magcilia: warning: {warning}", err=True)

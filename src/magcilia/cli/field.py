@@ -6,25 +6,33 @@ import csv
 import io
 
 import click
-import numpy as np
 
 from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
-from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
-from magcilia.constants import GAUSS
+from magcilia.cli._common import (
+    angle_grid,
+    echo_json,
+    load_setup_arg,
+    setup_label,
+    si_option,
+)
+from magcilia.report.units import output_units
 
 
 @click.command()
 @click.argument("setups", nargs=-1, required=True, metavar="SETUP...")
 @click.option("--angles", default="0:85:5", show_default=True,
-              help="Tilt angles start:stop:step in degrees (stop included).")
+              help="Tilt angles start:stop:step in degrees, or with a unit (0:85:5deg; stop "
+                   "included).")
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False), help="Write the table as CSV.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the table.")
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a figure (PNG/PDF/SVG by suffix).")
+@si_option
 def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json: bool,
-            json_file: str | None, plot_path: str | None) -> None:
-    """Field at the sensing element (gauss) and sensor output (V) vs tilt angle.
+            json_file: str | None, plot_path: str | None, si: bool) -> None:
+    """Field at the sensing element (gauss) and sensor output (mV) vs tilt angle (T, V, rad
+    with --si; the console, CSV and JSON agree).
 
     SETUP is a setup TOML file or a preset name: `paper` (Table I optimized) or `paper-initial`
     (Table I initial). Several SETUPs are compared in one table and figure. Rows beyond the
@@ -34,6 +42,9 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     theta = angle_grid(angles)
     if plot_path:
         figure_format(plot_path)  # an unknown suffix fails before the work
+    u = output_units(si)
+    ang, bx, by, bz, out = (u.key("angle", "angle"), u.key("Bx", "field"), u.key("By", "field"),
+                            u.key("Bz", "field"), u.key("output", "output"))
     rows = []
     results = []
     for arg in setups:
@@ -45,12 +56,12 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
         results.append((label, setup, b, volts, ok))
         for i, t in enumerate(theta):
             rows.append({
-                "setup": label, "angle_deg": float(np.degrees(t)),
-                "Bx_gauss": b[i, 0] / GAUSS, "By_gauss": b[i, 1] / GAUSS,
-                "Bz_gauss": b[i, 2] / GAUSS, "output_V": float(volts[i]),
+                "setup": label, ang: u.value(float(t), "angle"),
+                bx: u.value(float(b[i, 0]), "field"), by: u.value(float(b[i, 1]), "field"),
+                bz: u.value(float(b[i, 2]), "field"), out: u.value(float(volts[i]), "output"),
                 "flag": "" if ok[i] else "range",
             })
-    columns = ["setup", "angle_deg", "Bx_gauss", "By_gauss", "Bz_gauss", "output_V", "flag"]
+    columns = ["setup", ang, bx, by, bz, out, "flag"]
     files: dict[str, str | bytes] = {}
     if csv_path:
         buf = io.StringIO()
@@ -58,7 +69,7 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
         writer.writeheader()
         writer.writerows(rows)
         files[csv_path] = buf.getvalue()
-    doc = {"units": {"angle": "deg", "B": "gauss", "output": "V"}, "rows": rows}
+    doc = {"units": u.system, "rows": rows}
     if json_file:
         files[json_file] = json_text(doc)
     if plot_path:
@@ -75,9 +86,9 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     if as_json:
         echo_json(doc)
         return
-    header = (f"{'setup':<14} {'angle/deg':>9} {'Bx/gauss':>11} {'By/gauss':>11} "
-              f"{'Bz/gauss':>11} {'output/V':>11}")
-    click.echo(header)
+    names = [f"angle/{u.label('angle')}", f"Bx/{u.label('field')}", f"By/{u.label('field')}",
+             f"Bz/{u.label('field')}", f"output/{u.label('output')}"]
+    click.echo(f"{'setup':<14} {names[0]:>9} " + " ".join(f"{n:>11}" for n in names[1:]))
     for r in rows:
-        click.echo(f"{r['setup']:<14.14} {r['angle_deg']:9.2f} {r['Bx_gauss']:11.5f} "
-                   f"{r['By_gauss']:11.5f} {r['Bz_gauss']:11.5f} {r['output_V']:11.6f} {r['flag']}")
+        click.echo(f"{r['setup']:<14.14} {r[ang]:9.4f} {r[bx]:11.6g} {r[by]:11.6g} "
+                   f"{r[bz]:11.6g} {r[out]:11.6g} {r['flag']}")

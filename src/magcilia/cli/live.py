@@ -14,6 +14,7 @@ import click
 
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import fail
+from magcilia.cli._common import Physical
 from magcilia.cli._live import LIVE_KEYS, build_live, live_options
 from magcilia.live.pipeline import LiveStatus
 
@@ -44,8 +45,9 @@ def _signals_interrupt() -> Iterator[None]:
               help="Stream one JSON object per read-out sample to stdout instead of the view, "
                    'in SI units: {"t": s, "value", "sigma", "flags", "unit", "raw_V": V}; '
                    'events as {"event": kind, "text", "t"}.')
-@click.option("--duration", type=float, default=None,
-              help="Stop after this many seconds (for scripts); default: until q or Ctrl-C.")
+@click.option("--duration", type=Physical.of("time", "10s"), default=None,
+              help="Stop after this long (for scripts): s, or with a unit; default: until q or "
+                   "Ctrl-C.")
 @click.option("--every", default=1, show_default=True, type=int,
               help="With --json-lines: write every N-th read-out sample.")
 def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import click
@@ -23,28 +22,17 @@ from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.inverse import Readout
 from magcilia.report.readout import readout_csv
-from magcilia.units import UNITS, parse_quantity
+from magcilia.units import parse_values
 
 
 def parse_span(text: str, quantity: str) -> tuple[float, float]:
-    """``LO:HI`` in the display unit (deg, mN, m/s), or with units on each end -> SI."""
+    """``LO:HI`` in the display unit (deg, mN, m/s), or with units on each end or the last
+    (``0:0.2mN``, ``0mN:200uN``) -> SI."""
     q = MEASURANDS[quantity]
-    unit, factor, dim = q.display, q.display_factor, q.dimension or ""
-    parts = text.split(":")
-    allowed = f"LO:HI in {unit} (or with units, e.g. 0{unit}:1{unit})"
-    if len(parts) != 2:
-        raise fail("--span", text, allowed)
-    out = []
-    for part in parts:
-        try:
-            out.append(float(part) * factor)
-        except ValueError:
-            if not any(part.strip().endswith(u) for u in UNITS[dim]):
-                raise fail("--span", text, allowed) from None
-            out.append(parse_quantity(part, dim, "--span"))
-    if not all(math.isfinite(x) for x in out) or out[1] <= out[0]:
+    lo, hi = parse_values(text, q.dimension, q.display, "--span", (2,), f"0:1{q.display}")
+    if hi <= lo:
         raise fail("--span", text, "LO:HI with HI > LO")
-    return out[0], out[1]
+    return lo, hi
 
 
 def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:

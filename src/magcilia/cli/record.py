@@ -3,16 +3,25 @@ TDMS file that ``magcilia calibrate`` reads as it is."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import click
 
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.acquire import record_stream, record_sweep, source_from_spec
 from magcilia.acquire.sweep import AskAngle, SweepPoint
-from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
+from magcilia.cli._common import (
+    Physical,
+    angle_grid,
+    echo_json,
+    load_setup_arg,
+    setup_label,
+    si_option,
+)
 from magcilia.io.setup_files import setup_to_dict
+from magcilia.report.units import output_units
+from magcilia.units import OutputUnits, parse_value
 
 
 def ask_angle() -> AskAngle:
@@ -24,9 +33,9 @@ def ask_angle() -> AskAngle:
                                 "Enter to finish", default="", show_default=False).strip()
             if not text:
                 return None
-            try:
-                return math.radians(float(text))
-            except ValueError:
+            try:  # degrees, or with an angle unit (0.2rad)
+                return parse_value(text, "angle", "deg", "angle")
+            except MagciliaError:
                 pass
             if Path(text).is_file():
                 from magcilia.acquire.photo import measure_tilt
@@ -40,6 +49,16 @@ def ask_angle() -> AskAngle:
     return ask
 
 
+def point_text(point: SweepPoint, units: OutputUnits) -> str:
+    """One recorded angle as ``magcilia record`` prints it: angle, mean ± s.e., samples, flag."""
+    flag = f"  SATURATED ({point.saturated} samples beyond range)" if point.saturated else ""
+    deg, volt = units.unit("angle"), units.unit("voltage")
+    angle, mean, sem = (units.value(point.angle, "angle"), units.value(point.mean, "voltage"),
+                        units.value(point.sem, "voltage"))
+    return (f"{angle:8.4g} {deg}  {mean:+.6g} ± {sem:.5g} {volt}  ({point.samples} "
+            f"samples){flag}")
+
+
 @click.command()
 @click.option("--source", "source_spec", default="sim", show_default=True,
               help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
@@ -47,31 +66,38 @@ def ask_angle() -> AskAngle:
               help="The sensor: a setup TOML file or a preset (the simulated one for --source "
                    "sim; stored in the recording).")
 @click.option("--angles", default=None,
-              help="Tilt angles START:STOP:STEP in degrees, recorded without questions; "
-                   "without it, each angle is asked for (degrees or a photo).")
+              help="Tilt angles START:STOP:STEP in degrees or with a unit (0:80:2.5deg), "
+                   "recorded without questions; without it, each angle is asked for (degrees or "
+                   "a photo).")
 @click.option("--samples", default=2000, show_default=True, help="Samples per angle.")
-@click.option("--settle", default=0.0, show_default=True,
-              help="Seconds dropped after each tilt before recording (the hair's ringing).")
-@click.option("--rate", default=1000.0, show_default=True,
-              help="Sample rate, Hz (sim and nidaq; a serial device sends its own).")
-@click.option("--duration", default=None, type=float,
-              help="Record continuously for this many seconds instead of a sweep.")
+@click.option("--settle", default="0", show_default=True, type=Physical.of("time", "0.5s"),
+              help="Time dropped after each tilt before recording (the hair's ringing): s, or "
+                   "with a unit (500ms).")
+@click.option("--rate", default="1000", show_default=True, type=Physical.of("frequency", "1kHz"),
+              help="Sample rate: Hz, or with a unit (1kHz) (sim and nidaq; a serial device "
+                   "sends its own).")
+@click.option("--duration", default=None, type=Physical.of("time", "60s"),
+              help="Record continuously for this long instead of a sweep: s, or with a unit.")
 @click.option("--set-reset", "set_reset", default=None, type=int,
               help="Alternate set/reset pulses every N samples (sim), stored per sample.")
 @click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
-@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the result as JSON (the console's units: deg, mV; SI with --si).")
 @click.option("--quiet", is_flag=True, help="Print only the closing line.")
+@si_option
 def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
-            out_path: str, as_json: bool, quiet: bool) -> None:
+            out_path: str, as_json: bool, quiet: bool, si: bool) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
     angle's mean ± standard error and a saturation flag; the recording ends in OUT, which
     `magcilia calibrate OUT` fits as it is. With --duration, record continuously instead
     (for `magcilia readout`). A failure keeps the recording made so far and says where it
-    stopped.
+    stopped. The recording itself is in SI (angle_rad, voltage_V); the console and --json are in
+    deg and mV (SI with --si).
     """
+    units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
         raise fail("--out", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
     setup = load_setup_arg(setup_arg)
@@ -83,14 +109,14 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
             raise fail("--duration", duration, "used without --angles (a continuous recording)")
         stream = record_stream(source, out_path, duration, metadata=metadata)
         if as_json:
-            echo_json(stream.to_dict())
+            echo_json({"units": units.system, **stream.to_dict()})
         else:
             click.echo(stream.report())
         return
 
     def show(point: SweepPoint) -> None:
         if not (quiet or as_json):
-            click.echo(point.report())
+            click.echo(point_text(point, units))
 
     plan = None if angles is None else angle_grid(angles)
     result = record_sweep(source, out_path, angles=plan, ask=None if plan is not None else
@@ -98,7 +124,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
                           metadata=metadata,
                           on_point=show)
     if as_json:
-        echo_json(result.to_dict())
+        echo_json({"units": units.system, **units.convert(result.to_dict())})  # type: ignore[dict-item]
         return
     click.echo(result.report().splitlines()[-1])
     click.echo(f"fit it with: magcilia calibrate {out_path} --out fit/")

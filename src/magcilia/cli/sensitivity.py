@@ -16,15 +16,24 @@ from magcilia._validate import fail
 from magcilia.analysis import STUDY_PARAMETERS, sensitivity_study, sobol_indices
 from magcilia.analysis.tolerance import placement_tolerance
 from magcilia.cli._common import (
+    Physical,
     bandwidth_option,
     echo_json,
     load_setup_arg,
     parse_bandwidth,
     parse_named_ranges,
+    si_option,
 )
-from magcilia.device.parameters import PARAMETERS, describe_spans
+from magcilia.device.parameters import describe_spans
 from magcilia.io.recordings import read_measurements
-from magcilia.report.sensitivity import FIGURE_FILES, report_dict, write_sensitivity_report
+from magcilia.report.sensitivity import (
+    FIGURE_FILES,
+    report_dict,
+    tolerance_text,
+    write_sensitivity_report,
+)
+from magcilia.report.units import output_units
+from magcilia.units import ascii_unit
 
 #: every file ``magcilia sensitivity --out`` may write (sobol.png only with Sobol indices)
 SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensitivity.json",
@@ -42,8 +51,9 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 @click.option("--force", is_flag=True,
               help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
-              help="Sweep span, lengths in mm (n_loops, dipoles_per_loop whole numbers); "
-                   f"repeatable. Defaults: {describe_spans()}.")
+              help="Sweep span, lengths in mm or with units (x=0.5:2.5, height=2mm:4mm; "
+                   "n_loops, dipoles_per_loop whole numbers); repeatable. Defaults: "
+                   f"{describe_spans()}.")
 @click.option("--points", default=21, show_default=True, help="Values per continuous sweep.")
 @click.option("--map-points", default=41, show_default=True,
               help="Grid points per axis of the x-y map.")
@@ -55,19 +65,21 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
               help="Sobol output per sample: RMS change of the curve, the offset-free change, or "
                    "the calibration cost (needs --data).")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the Sobol sampling.")
-@click.option("--accuracy", default=1.0, show_default=True,
-              help="Target angle accuracy for the placement tolerance, degrees.")
+@click.option("--accuracy", default="1", show_default=True, type=Physical.of("angle", "1deg"),
+              help="Target angle accuracy for the placement tolerance: degrees, or with a unit.")
 @bandwidth_option("Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
 @click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@si_option
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
-            bandwidth: str, as_json: bool, quiet: bool, force: bool) -> None:
+            bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
-    (xy_map.png), Sobol bars (sobol.png), sensitivity.json (SI units) and summary.md into --out,
+    (xy_map.png), Sobol bars (sobol.png), sensitivity.json (the console's units: mm, deg, mV; SI
+    with --si; every key names its unit) and summary.md into --out,
     a new folder published in one rename when everything is written: nothing is written if
     anything fails, and a killed run leaves no partial folder.
     """
@@ -76,8 +88,8 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         setup = load_setup_arg(setup_arg)
         spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS)
         band = parse_bandwidth(bandwidth)
-        if not (math.isfinite(accuracy) and accuracy > 0):
-            raise fail("--accuracy", accuracy, "a positive angle in degrees")
+        if not accuracy > 0:
+            raise fail("--accuracy", f"{math.degrees(accuracy):g} deg", "a positive angle")
         if sobol_base < 0:
             raise fail("--sobol-base", sobol_base, "0 (skip) or a power of 2")
         if sobol_measure == "cost" and data is None and sobol_base:
@@ -99,20 +111,27 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
             sobol = (sobol_indices(setup, n_base=sobol_base, measure=sobol_measure,
                                    data=measurement, rng=seed) if sobol_base else None)
             bar.update()
-            tolerance = placement_tolerance(setup, math.radians(accuracy), bandwidth=band)
+            tolerance = placement_tolerance(setup, accuracy, bandwidth=band)
             bar.update()
-        written = write_sensitivity_report(study, tmp, sobol, tolerance)
+        units = output_units(si)
+        written = write_sensitivity_report(study, tmp, sobol, tolerance, units)
+    doc = report_dict(study, sobol, tolerance, units)
     if as_json:
-        echo_json(report_dict(study, sobol, tolerance))
+        echo_json(doc)
         return
-    click.echo(f"{'parameter':<18} {'span':>22} {'max RMS change/mV':>18} {'offset-free/mV':>15}"
-               + (f" {'min cost/V^2':>13}" if measurement is not None else ""))
-    for r in study.table():
-        p = PARAMETERS[r["parameter"]]
-        unit = f" {p.display}" if p.display else ""
-        span = f"{p.to_display(r['span'][0]):.4g}..{p.to_display(r['span'][1]):.4g}{unit}"
-        line = (f"{r['parameter']:<18} {span:>22} {r['max_rms_change_V'] * 1e3:18.4g} "
-                f"{r['max_shape_change_V'] * 1e3:15.4g}")
+    volt = units.unit("voltage")
+    change, shape = f"max RMS change/{volt}", f"offset-free/{volt}"
+    cost = "min cost/V^2"
+    click.echo(f"{'parameter':<18} {'span':>22} {change:>18} {shape:>15}"
+               + (f" {cost:>13}" if measurement is not None else ""))
+    v = ascii_unit(volt)
+    for r in doc["summary"]:
+        name = r["parameter"]
+        unit = units.unit(name)
+        lo, hi = r[units.key("span", name)]
+        span = f"{lo:.4g}..{hi:.4g} {unit}".rstrip()
+        line = (f"{name:<18} {span:>22} {r[f'max_rms_change_{v}']:18.4g} "
+                f"{r[f'max_shape_change_{v}']:15.4g}")
         if "min_cost_V2" in r:
             line += f" {r['min_cost_V2']:13.4g}"
         click.echo(line)
@@ -120,5 +139,5 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         click.echo(f"note: {note}")
     if sobol is not None:
         click.echo(sobol.report())
-    click.echo(tolerance.report())
+    click.echo(tolerance_text(doc["tolerance"], units))
     click.echo(f"wrote {', '.join(sorted(written))} to {out}")

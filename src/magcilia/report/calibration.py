@@ -116,7 +116,9 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path) ->
     the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own)."""
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
-    write_json(folder / "result.json", result.to_dict())
+    doc = result.to_dict()
+    doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
+    write_json(folder / "result.json", doc)
     write_report(result, folder)
 
 

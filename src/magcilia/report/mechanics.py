@@ -1,5 +1,5 @@
 """Bent shapes for people: figures of centrelines and the record of one bend in display units
-(mm, deg, gauss) that ``magcilia bend`` prints and writes."""
+(mm, deg, mN, mV, gauss) or SI that ``magcilia bend`` prints and writes."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from magcilia.constants import GAUSS
 from magcilia.device.setup import Setup
 from magcilia.mechanics import BentShape
+from magcilia.units import OutputUnits
 
 
 def load_label(shape: BentShape) -> str:
@@ -22,37 +22,49 @@ def load_label(shape: BentShape) -> str:
     return ", ".join(parts) or "no load"
 
 
-def bend_record(setup: Setup, shape: BentShape, label: str) -> dict[str, Any]:
-    """One bend as the ``magcilia bend`` JSON: tip (mm), tip angle (deg), output (V), B_x (gauss),
-    range flag, solver figures and the centreline (mm); ``label`` names the setup."""
+def bend_record(setup: Setup, shape: BentShape, label: str,
+                units: OutputUnits | None = None) -> dict[str, Any]:
+    """One bend as the ``magcilia bend`` JSON: load, tip position, tip angle, output, B_x, range
+    flag, solver figures and the centreline, in ``units`` (default: display units, mm, deg, mN,
+    mV, gauss; every key carries its unit, e.g. ``tip_mm``); ``label`` names the setup."""
     bx = float(setup.field(shape)[0, 0])
     load = shape.load
-    points = shape.points[0] * 1e3
-    return {
+    points = shape.points[0]
+    record = {
         "setup": label,
-        "units": {"length": "mm", "angle": "deg", "force": "N", "speed": "m/s", "output": "V"},
-        "load": {"force": load.force, "at_mm": load.at * 1e3,
-                 "direction_deg": math.degrees(load.direction),
+        "load": {"force_N": load.force, "at_m": load.at, "direction_rad": load.direction,
                  "flow": None if load.flow is None else load.flow.describe()},
-        "tip_mm": (shape.tip * 1e3).tolist(), "tip_angle_deg": math.degrees(shape.tip_angle),
-        "output_V": float(setup.sensor.voltage(bx)), "Bx_gauss": bx / GAUSS,
+        "tip_m": shape.tip.tolist(), "tip_angle_rad": shape.tip_angle,
+        "output_V": float(setup.sensor.voltage(bx)), "Bx_T": bx,
         "in_range": bool(setup.sensor.in_range(bx)),
         "iterations": shape.iterations, "residual_rad": shape.residual,
-        "centreline_mm": {"s": (shape.s * 1e3).tolist(), "x": points[:, 0].tolist(),
-                          "z": points[:, 2].tolist()},
+        "centreline_m": {"s": shape.s.tolist(), "x": points[:, 0].tolist(),
+                         "z": points[:, 2].tolist()},
     }
+    u = units if units is not None else OutputUnits(False, _DISPLAY)
+    return {"units": u.system, **u.convert(record)}  # type: ignore[dict-item]
 
 
-def bend_text(record: dict[str, Any]) -> str:
-    """The record of :func:`bend_record` as the lines ``magcilia bend`` prints."""
-    x, _, z = record["tip_mm"]
+#: the display units of :func:`bend_record` without an OutputUnits (the CLI passes its own)
+_DISPLAY = {"length": "mm", "angle": "deg", "force": "mN", "voltage": "mV", "field": "gauss"}
+
+
+def bend_text(record: dict[str, Any], units: OutputUnits | None = None) -> str:
+    """The record of :func:`bend_record` (made with the same ``units``) as the lines
+    ``magcilia bend`` prints."""
+    u = units if units is not None else OutputUnits(False, _DISPLAY)
+    mm, deg, volt, gauss = (u.unit("length"), u.unit("angle"), u.unit("voltage"),
+                            u.unit("field"))
+    x, _, z = record[u.key("tip", "length")]
     flag = "" if record["in_range"] else "  (beyond the sensor's linear range)"
-    lines = [f"tip position  x {x:.6g} mm, z {z:.6g} mm (from the base centre)",
-             f"tip angle     {record['tip_angle_deg']:.6g} deg",
-             f"output        {record['output_V']:.9g} V (Bx {record['Bx_gauss']:.6g} gauss){flag}"]
-    if np.isfinite(record["residual_rad"]) and record["iterations"]:
+    lines = [f"tip position  x {x:.6g} {mm}, z {z:.6g} {mm} (from the base centre)",
+             f"tip angle     {record[u.key('tip_angle', 'angle')]:.6g} {deg}",
+             (f"output        {record[u.key('output', 'voltage')]:.9g} {volt} "
+              f"(Bx {record[u.key('Bx', 'field')]:.6g} {gauss}){flag}")]
+    residual = record[u.key("residual", "angle")]
+    if np.isfinite(residual) and record["iterations"]:
         lines.append(f"solver        {record['iterations']} Newton iterations, residual "
-                     f"{record['residual_rad']:.2g} rad")
+                     f"{residual:.2g} {deg}")
     return "\n".join(lines)
 
 

@@ -16,6 +16,8 @@ from magcilia._atomic import jsonable, save_figure, write_json, write_text
 from magcilia.analysis import OATResult, PlacementMap, SensitivityStudy, SobolResult
 from magcilia.analysis.tolerance import PlacementTolerance
 from magcilia.device.parameters import PARAMETERS, STUDIED
+from magcilia.report.units import output_units
+from magcilia.units import OutputUnits, ascii_unit
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -136,22 +138,29 @@ def sweep_figure(study: SensitivityStudy, parameters: tuple[str, ...]) -> Any:
 
 def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
                      tolerance: PlacementTolerance | None = None,
-                     figures: dict[str, str] | None = None) -> str:
-    """Short markdown summary: the sweep table, notes, Sobol and tolerance tables, figure links."""
+                     figures: dict[str, str] | None = None,
+                     units: OutputUnits | None = None) -> str:
+    """Short markdown summary: the sweep table, notes, Sobol and tolerance tables, figure links;
+    in ``units`` (default: display units, as the figures; SI with ``output_units(si=True)``)."""
+    u = units if units is not None else output_units()
+    volt = u.unit("voltage")
     lines = ["# Sensitivity of the cilium model", ""]
     if study.data_source:
         lines += [(f"Measurements: `{study.data_source}` (cost = sum of squared residuals, offset "
                   "solved in closed form)."), ""]
     lines += [("Changes are RMS over the tilt angles vs the reference curve; *offset-free* "
                "removes the mean difference (what a fitted output offset absorbs)."), "",
-              "| parameter | span | max RMS change (mV) | max offset-free change (mV) |"
+              f"| parameter | span | max RMS change ({volt}) | max offset-free change ({volt}) |"
               + (" min cost (V²) |" if study.data_source else ""),
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
     for r in study.table():
         name, unit, f = display(r["parameter"])
+        if u.si:  # the base diameter in m; the rest in SI
+            unit, f = u.unit(r["parameter"]), f * PARAMETERS[r["parameter"]].display_factor
         span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
-        row = (f"| {name} | {span} | {r['max_rms_change_V'] * 1e3:.4g} | "
-               f"{r['max_shape_change_V'] * 1e3:.4g} |")
+        change = u.factor("voltage")
+        row = (f"| {name} | {span} | {r['max_rms_change_V'] / change:.4g} | "
+               f"{r['max_shape_change_V'] / change:.4g} |")
         if "min_cost_V2" in r:
             row += f" {r['min_cost_V2']:.4g} |"
         lines.append(row)
@@ -164,7 +173,9 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
         lines += [f"| {r['parameter']} | {r['S1']:.3f} ± {r['S1_conf']:.3f} | "
                   f"{r['ST']:.3f} ± {r['ST_conf']:.3f} |" for r in sobol.table()]
     if tolerance is not None:
-        lines += ["", "## Placement tolerance", "", "```", tolerance.report(), "```"]
+        doc = u.convert(dict(jsonable(tolerance.to_dict())))
+        assert isinstance(doc, dict)
+        lines += ["", "## Placement tolerance", "", "```", tolerance_text(doc, u), "```"]
     if figures:
         lines += ["", "## Figures", ""]
         lines += [f"![{k}]({p})" for k, p in figures.items()]
@@ -172,19 +183,63 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
 
 
 def report_dict(study: SensitivityStudy, sobol: SobolResult | None = None,
-                tolerance: PlacementTolerance | None = None) -> dict[str, Any]:
-    """The content of ``sensitivity.json`` (SI units; NaN/inf as null)."""
+                tolerance: PlacementTolerance | None = None,
+                units: OutputUnits | None = None) -> dict[str, Any]:
+    """The content of ``sensitivity.json`` in ``units`` (default: SI; ``magcilia sensitivity``
+    passes display units unless ``--si``): every number's key carries its unit (``x_mm``,
+    ``nominal_mm``, ``rms_change_mV``, ``angles_deg``); NaN/inf as null."""
+    u = units if units is not None else output_units(si=True)
     doc = study.to_dict()
+    doc["setup"] = u.named(doc["setup"])
+    doc["spans"] = u.named(doc["spans"])
+    for row in doc.get("summary", []):
+        name = row["parameter"]
+        for key in ("nominal", "span"):
+            if key in row:
+                row[u.key(key, name)] = u.value(row.pop(key), name)
+    for name, sweep in doc.get("sweeps", {}).items():
+        for key in ("nominal", "values"):
+            if key in sweep:
+                sweep[u.key(key, name)] = u.value(sweep.pop(key), name)
     doc["sobol"] = None if sobol is None else sobol.to_dict()
+    if doc["sobol"] is not None:
+        sob = doc["sobol"]
+        sob["bounds"] = u.named(sob["bounds"])
+        unit = "V2" if sob.get("measure") == "cost" else "V"
+        for key in ("output_mean", "output_std"):
+            if key in sob:
+                sob[f"{key}_{unit}"] = sob.pop(key)
     doc["tolerance"] = None if tolerance is None else tolerance.to_dict()
-    return dict(jsonable(doc))
+    return dict(jsonable({"units": u.system, **u.convert(doc)}))  # type: ignore[dict-item]
+
+
+def tolerance_text(doc: dict[str, Any], units: OutputUnits) -> str:
+    """The placement tolerance (the ``tolerance`` entry of :func:`report_dict`, made with the
+    same ``units``) as the lines ``magcilia sensitivity`` prints."""
+    deg, mm, volt = units.unit("angle"), units.unit("length"), units.unit("voltage")
+    a, m, v = (ascii_unit(x) for x in (deg, mm, volt))
+    lines = [f"placement tolerance for {doc[f'angle_accuracy_{a}']:.3g} {deg} angle accuracy",
+             (f"noise {doc[f'noise_rms_{v}']:.3g} {volt} rms over {doc['bandwidth_Hz'][0]:g}.."
+              f"{doc['bandwidth_Hz'][1]:g} Hz -> noise-limited angle resolution "
+              f"{doc[f'noise_angle_{a}']:.3g} {deg} (1 sigma, worst angle)")]
+    for name, tol, worst, tol_n in zip(doc["coordinates"], doc[f"tolerance_{m}"],
+                                       doc[f"worst_angle_{a}"],
+                                       doc[f"tolerance_with_noise_{m}"], strict=True):
+        if tol is None:  # inf: no first-order effect
+            lines.append(f"{name}: no first-order effect on the angle")
+            continue
+        lines.append(f"{name} must be known to ±{tol:.3g} {mm} (worst at {worst:.3g} {deg}; "
+                     f"±{tol_n:.3g} {mm} once the noise is spent)")
+    return "\n".join(lines)
 
 
 def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
                              sobol: SobolResult | None = None,
-                             tolerance: PlacementTolerance | None = None) -> dict[str, Path]:
-    """Write figs. 9–12 equivalents, the x–y map, Sobol bars, ``sensitivity.json`` and
-    ``summary.md`` into ``directory``; returns the written paths by name."""
+                             tolerance: PlacementTolerance | None = None,
+                             units: OutputUnits | None = None) -> dict[str, Path]:
+    """Write figs. 9–12 equivalents, the x–y map, Sobol bars, ``sensitivity.json`` (in
+    ``units``, default SI; see :func:`report_dict`) and ``summary.md`` into ``directory``;
+    returns the written paths by name."""
     from magcilia.report.figures import new_figure
 
     out = Path(directory)
@@ -204,9 +259,10 @@ def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
     for fname, fig in figures.items():
         save_figure(fig, out / fname, dpi=120)
         written[fname] = out / fname
-    write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance))
+    write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance, units))
     written["sensitivity.json"] = out / "sensitivity.json"
     figs = {k: k for k in written if k.endswith(".png")}
-    write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs))
+    write_text(out / "summary.md", markdown_summary(study, sobol, tolerance, figs,
+                                                    units or output_units(si=False)))
     written["summary.md"] = out / "summary.md"
     return written
