@@ -69,13 +69,14 @@ def test_calibrate_with_fixed_parameters(tmp_path: Path,
                  "--setup", "paper"])
     assert code == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["fixed"] == pytest.approx({"height": 3.2613e-3, "base_radius": 1.801e-4,
-                                          "z": 3.804e-4, "n_loops": 2, "dipoles_per_loop": 5})
-    assert doc["values"]["height"] == 3.2613e-3  # held exactly
-    assert set(doc["stderr"]) == {"x", "y", "offset"}
+    assert doc["units"] == "display"
+    assert doc["fixed"] == pytest.approx({"height_mm": 3.2613, "base_radius_mm": 0.1801,
+                                          "z_mm": 0.3804, "n_loops": 2, "dipoles_per_loop": 5})
+    assert doc["values"]["height_mm"] == pytest.approx(3.2613, rel=1e-15)  # held exactly
+    assert set(doc["stderr"]) == {"x_mm", "y_mm", "offset_mV"}
     # within 0.1 mm of the truth (the recording's 0.02 mV drift, which the model lacks, moves x
     # by more than its standard error)
-    assert doc["values"]["x"] == pytest.approx(1.4727e-3, abs=1e-4)
+    assert doc["values"]["x_mm"] == pytest.approx(1.4727, abs=0.1)
     rows = {r["parameter"]: r for r in doc["table"]}
     assert rows["height"]["fixed"] and not rows["x"]["fixed"]
     assert "| fixed |" in (out / "report.md").read_text()

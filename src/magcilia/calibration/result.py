@@ -234,25 +234,26 @@ class CalibrationResult(Display):
         """Fitted model at the measured angles, V, shape (a,) (bias included)."""
         return self.data.volts - self.residuals
 
-    def table(self) -> list[dict[str, Any]]:
+    def table(self, si: bool = False) -> list[dict[str, Any]]:
         """Table-I-style rows: parameter, display unit, initial, fitted and standard error in that
-        unit (mm, mV; see :data:`magcilia.device.parameters.PARAMETERS`), whether it was held
-        (``fixed``; its standard error is NaN) and, with :attr:`truth`, the true value (NaN where
-        not known)."""
+        unit (mm, mV; see :data:`magcilia.device.parameters.PARAMETERS`; SI units with ``si``),
+        whether it was held (``fixed``; its standard error is NaN) and, with :attr:`truth`, the
+        true value (NaN where not known)."""
         init = self.initial.params()
         rows = []
         for name in (*PARAMETERS, "magnetization_scale", "offset"):
             if name not in self.values:
                 continue
             p = REGISTRY[name]
+            unit, factor = (p.unit, 1.0) if si else (p.display, p.display_factor)
             row = {
-                "parameter": name, "unit": p.display, "initial": p.to_display(init[name]),
-                "fitted": p.to_display(self.values[name]),
-                "stderr": p.to_display(self.stderr.get(name, math.nan)),
+                "parameter": name, "unit": unit, "initial": init[name] / factor,
+                "fitted": self.values[name] / factor,
+                "stderr": self.stderr.get(name, math.nan) / factor,
                 "fixed": name in self.fixed,
             }
             if self.truth is not None:
-                row["truth"] = p.to_display(self.truth.get(name, math.nan))
+                row["truth"] = self.truth.get(name, math.nan) / factor
             rows.append(row)
         return rows
 
@@ -344,17 +345,18 @@ class CalibrationResult(Display):
             r = r - basis @ coef
         return math.sqrt(float(np.mean(r**2)))
 
-    def report(self) -> str:
-        """A plain-text summary: cost, RMS, the parameter table (with the truth when known) and
-        the warnings, then :meth:`truth_comparison`."""
+    def report(self, si: bool = False) -> str:
+        """A plain-text summary: cost, RMS, the parameter table (display units, SI with ``si``;
+        with the truth when known) and the warnings, then :meth:`truth_comparison`."""
         truth = self.truth is not None
+        rms = f"{self.rms:.4g} V" if si else f"{self.rms * 1e3:.4g} mV"
         lines = [
             f"calibration of {self.data.source}: {len(self.data)} angles",
-            f"cost {self.cost:.6g} V^2 (sum of squared residuals), RMS {self.rms * 1e3:.4g} mV",
+            f"cost {self.cost:.6g} V^2 (sum of squared residuals), RMS {rms}",
             f"{'parameter':<20} {'unit':<4} {'initial':>12} {'fitted':>12} {'std. error':>12}"
             + (f" {'truth':>12}" if truth else ""),
         ]
-        for r in self.table():
+        for r in self.table(si):
             se = ("fixed" if r["fixed"] else f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
                   else "undetermined" if r["stderr"] == math.inf else "-")
             lines.append(f"{r['parameter']:<20} {r['unit']:<4} {r['initial']:12.6g} "

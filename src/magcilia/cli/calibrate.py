@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import click
 
 from magcilia._atomic import staged_directory
-from magcilia.calibration import PARAMETERS, CalibrationResult
+from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
     calibrate_with_progress,
     echo_json,
@@ -17,12 +14,13 @@ from magcilia.cli._common import (
     si_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
-from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
-from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
-from magcilia.report.units import output_units
-from magcilia.units import OutputUnits
+from magcilia.report.calibration import (
+    CALIBRATION_FILES,
+    calibration_json,
+    write_calibration_files,
+)
 
 
 @click.command()
@@ -78,74 +76,10 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
                                          fit_scale=fit_scale, restarts=restarts,
                                          starts=starts, fixed=parse_fixed(fix_items))
         write_calibration_files(result, tmp)
-    units = output_units(si)
     if as_json:
-        echo_json(calibration_doc(result, units))
+        echo_json(calibration_json(result, si))
     else:
-        click.echo(calibration_text(result, units))
+        click.echo(result.report(si))
         click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
                    "residuals.png")
 
-
-def calibration_doc(result: CalibrationResult, units: OutputUnits) -> dict[str, Any]:
-    """``calibrate --json``: :meth:`CalibrationResult.to_dict` in ``units`` (the console table's
-    display units, or SI): parameter values, standard errors and bounds keyed ``height_mm``, …;
-    the covariance with a unit per row; the bias coefficients with theirs; costs in V^2."""
-    raw = result.to_dict()
-    names = list(raw["covariance"]["names"]) if raw.get("covariance") else []
-    factors = [units.factor(n) for n in names]
-    if raw.get("covariance") and raw["covariance"].get("matrix") is not None:
-        raw["covariance"] = {
-            "names": names, "units": [units.unit(n) for n in names],
-            "matrix": [[None if c is None else c / (factors[i] * factors[j])
-                        for j, c in enumerate(row)]
-                       for i, row in enumerate(raw["covariance"]["matrix"])]}
-    volt, angle = units.factor("voltage"), units.factor("angle")
-    coefficients = raw.pop("bias_coefficients")
-    doc = units.convert({k: v for k, v in raw.items()
-                         if k not in ("values", "stderr", "bounds", "table", "covariance")})
-    assert isinstance(doc, dict)
-    doc["values"] = units.named(raw["values"])
-    doc["stderr"] = units.named(raw["stderr"])
-    doc["bounds"] = units.named(raw["bounds"])
-    doc["covariance"] = raw.get("covariance")
-    v, a = units.unit("voltage"), units.unit("angle")
-    doc["bias_coefficients"] = [c * angle ** k / volt for k, c in enumerate(coefficients)]
-    doc["bias_coefficient_units"] = [v if k == 0 else f"{v}/{a}" if k == 1 else f"{v}/{a}^{k}"
-                                     for k in range(len(coefficients))]
-    doc["table"] = [{"parameter": r["parameter"], "unit": units.unit(r["parameter"]),
-                     **{k: _redisplay(r[k], r["parameter"], units)
-                        for k in ("initial", "fitted", "stderr")}} for r in result.table()]
-    return {"units": units.system, **doc}
-
-
-def _redisplay(display_value: float, name: str, units: OutputUnits) -> float:
-    """A value of the registry's display unit of ``name`` in ``units``."""
-    return display_value * REGISTRY[name].display_factor / units.factor(name)
-
-
-def calibration_text(result: CalibrationResult, units: OutputUnits) -> str:
-    """The console report: :meth:`CalibrationResult.report` (display units), with its RMS and
-    parameter table in SI when ``units`` is SI."""
-    text = result.report()
-    if not units.si:
-        return text
-    lines = text.splitlines()
-    rows = result.table()
-    try:
-        head = next(i for i, line in enumerate(lines) if line.startswith("parameter "))
-    except StopIteration:
-        return text
-    table = []
-    for r in rows:
-        name = r["parameter"]
-        se = _redisplay(r["stderr"], name, units)
-        shown = (f"{se:.4g}" if math.isfinite(se) else "undetermined" if se == math.inf
-                 else "-")
-        table.append(f"{name:<20} {units.unit(name):<4} "
-                     f"{_redisplay(r['initial'], name, units):12.6g} "
-                     f"{_redisplay(r['fitted'], name, units):12.6g} {shown:>12}")
-    lines[head + 1:head + 1 + len(rows)] = table
-    lines = [f"cost {result.cost:.6g} V^2 (sum of squared residuals), RMS {result.rms:.4g} V"
-             if line.startswith("cost ") else line for line in lines]
-    return "\n".join(lines)

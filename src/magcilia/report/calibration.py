@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -13,6 +13,7 @@ from magcilia._atomic import save_figure, staged_directory, write_json, write_te
 from magcilia.calibration import CalibrationResult
 from magcilia.io.setup_files import save_setup
 from magcilia.report.figures import new_figure
+from magcilia.report.units import output_units
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -105,6 +106,39 @@ def write_report(result: CalibrationResult, directory: str | Path) -> dict[str, 
     write_text(paths["report"], markdown_summary(
         result, {"data and models (Fig. 8)": "fit.png", "residuals": "residuals.png"}))
     return paths
+
+
+def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, Any]:
+    """``calibrate --json``: :meth:`CalibrationResult.to_dict` in the console table's display
+    units (SI with ``si``), every dimensional key suffixed with its unit: parameter values,
+    standard errors, bounds, held and true values keyed ``height_mm``, …; the covariance with a
+    unit per row; the bias coefficients with theirs; costs in V^2 in both systems."""
+    units = output_units(si)
+    raw = result.to_dict()
+    doc: dict[str, Any] = units.convert(  # type: ignore[assignment]
+        {k: v for k, v in raw.items()
+         if k not in ("values", "stderr", "bounds", "fixed", "truth", "table", "covariance",
+                      "bias_coefficients")})
+    for key in ("values", "stderr", "bounds", "fixed"):
+        doc[key] = units.named(raw[key])
+    if result.truth is not None:
+        doc["truth"] = units.named(dict(result.truth))
+    covariance = raw.get("covariance")
+    if covariance and covariance.get("matrix") is not None:
+        names = list(covariance["names"])
+        f = [units.factor(n) for n in names]
+        doc["covariance"] = {
+            "names": names, "units": [units.unit(n) for n in names],
+            "matrix": [[None if c is None else c / (f[i] * f[j]) for j, c in enumerate(row)]
+                       for i, row in enumerate(covariance["matrix"])]}
+    volt, angle = units.factor("voltage"), units.factor("angle")
+    v, a = units.unit("voltage"), units.unit("angle")
+    coefficients = raw["bias_coefficients"]
+    doc["bias_coefficients"] = [c * angle ** k / volt for k, c in enumerate(coefficients)]
+    doc["bias_coefficient_units"] = [v if k == 0 else f"{v}/{a}" if k == 1 else f"{v}/{a}^{k}"
+                                     for k in range(len(coefficients))]
+    doc["table"] = result.table(si)
+    return {"units": units.system, **doc}
 
 
 #: the files ``magcilia calibrate --out`` (and ``demo``) writes into its folder
