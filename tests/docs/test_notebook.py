@@ -25,14 +25,16 @@ NOTEBOOK = Path(__file__).resolve().parents[2] / "docs" / "tutorial.ipynb"
 #: seconds one cell may take (the live cell runs ~3 s of clock-paced samples; the first one
 #: may compile numba's kernels on a cold cache)
 CELL_TIMEOUT = 180
-#: injected before the notebook's first cell: a warning in the tutorial fails the test
-STRICT = "import warnings\nwarnings.simplefilter('error')"
+#: injected before the notebook's first cell: a warning in the tutorial fails the test, and the
+#: kernel says which interpreter it runs
+STRICT = "import sys, warnings\nwarnings.simplefilter('error')\nprint(sys.executable)"
 
 
-def kernel_manager(tmp_path: Path) -> object:
-    """A KernelManager whose only kernelspec runs ipykernel on this interpreter."""
+def kernel_manager_class(tmp_path: Path) -> type:
+    """An (async) KernelManager whose only kernelspec runs ipykernel on this interpreter."""
     from jupyter_client.kernelspec import KernelSpecManager
-    from jupyter_client.manager import KernelManager
+    from jupyter_client.manager import AsyncKernelManager
+    from traitlets import default
 
     spec = tmp_path / "kernels" / "python3"
     spec.mkdir(parents=True)
@@ -41,8 +43,13 @@ def kernel_manager(tmp_path: Path) -> object:
         "display_name": "Python 3 (magcilia tests)",
         "language": "python",
     }), encoding="utf-8")
-    specs = KernelSpecManager(kernel_dirs=[str(spec.parent)])
-    return KernelManager(kernel_name="python3", kernel_spec_manager=specs)
+
+    class Manager(AsyncKernelManager):
+        @default("kernel_spec_manager")
+        def _kernel_spec_manager_default(self) -> KernelSpecManager:
+            return KernelSpecManager(kernel_dirs=[str(spec.parent)])
+
+    return Manager
 
 
 def test_notebook_is_committed_without_outputs() -> None:
@@ -78,13 +85,15 @@ def test_tutorial_notebook_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
     monkeypatch.setenv("MPLCONFIGDIR", str(tmp_path / "mpl"))
     client = nbclient.NotebookClient(
-        nb, km=kernel_manager(tmp_path), timeout=CELL_TIMEOUT, allow_errors=False,
+        nb, kernel_manager_class=kernel_manager_class(tmp_path), timeout=CELL_TIMEOUT,
+        allow_errors=False, kernel_name="python3",
         resources={"metadata": {"path": str(work)}})
     client.execute()
 
+    assert nb.cells[0].outputs[0].text.strip() == sys.executable  # this interpreter's kernel
     problems = []
     figures = 0
-    for i, cell in enumerate(nb.cells):
+    for i, cell in enumerate(nb.cells[1:], start=1):
         if cell.cell_type != "code":
             continue
         for out in cell.outputs:
