@@ -109,5 +109,12 @@ def test_tutorial_notebook_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     live = next(c for c in nb.cells if c.get("id") == "live")
     text = "".join(o.get("text", "") for o in live.outputs)
     assert "tared" in text and "0 overruns" in text, text
+    # the live estimate follows the simulated force: plateau means within 10 µN of it
+    plot = next(c for c in nb.cells if c.get("id") == "live-plot")
+    rows = [line.split() for line in "".join(o.get("text", "") for o in plot.outputs).splitlines()
+            if line.strip() and line.split()[0][0] in "+-"]
+    assert len(rows) == 5, rows
+    for applied, mean, *_ in rows:
+        assert abs(float(mean) - float(applied)) < 0.01, rows
     # nothing was written beside the notebook
     assert not list(NOTEBOOK.parent.glob("*.tdms"))
