@@ -40,7 +40,9 @@ def _shadowed(module: str, name: str) -> str | None:
     """The defining path of a public name that a submodule of the same name hides from griffe
     (``magcilia.mechanics.bend``, the function, is also a module), else None."""
     obj = getattr(importlib.import_module(module), name)
-    if inspect.ismodule(obj) or importlib.util.find_spec(f"{module}.{name}") is None:
+    if not (inspect.isclass(obj) or inspect.isroutine(obj)):
+        return None
+    if importlib.util.find_spec(f"{module}.{name}") is None:
         return None
     return f"{obj.__module__}.{obj.__qualname__}"
 
@@ -61,7 +63,7 @@ def _module_page(module: str) -> str:
 
 
 def _summary(obj: Any) -> str:
-    """First line of an object's own docstring (a constant: its type)."""
+    """First paragraph of an object's own docstring (a constant: its type)."""
     if inspect.isclass(obj) or inspect.isroutine(obj):
         return (inspect.getdoc(obj) or "").strip().split("\n\n")[0].replace("\n", " ")
     return f"a `{type(obj).__name__}`"
