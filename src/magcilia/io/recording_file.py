@@ -191,6 +191,8 @@ class RecordingWriter:
         extra : mapping of str to array-like, each shape (n,), optional
             Further channels of the source (their names as channel names).
 
+        Notes
+        -----
         The same channels must be given on every call.
         """
         columns = {"time_s": time, "voltage_V": volts}
