@@ -164,4 +164,5 @@ def rebuilding(what: str, cls_name: str) -> Iterator[None]:
     try:
         yield
     except (KeyError, TypeError, ValueError) as exc:
-        raise fail(what, f"missing or bad {exc}", f"a dict from {cls_name}.to_dict()") from None
+        raise fail(what, f"missing or bad {exc}", f"a dict from {cls_name}.to_dict() (SI; "
+                   "a command's JSON in display units is not one: write it with --si)") from None
