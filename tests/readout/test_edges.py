@@ -192,8 +192,8 @@ def test_flag_names_keep_their_bits() -> None:
 
 
 # -- tare ---------------------------------------------------------------------------------------
-def test_tare_removes_an_offset_and_adds_its_standard_error(setup: mc.Setup,
-                                                            readouts: dict[str, mc.Readout]) -> None:
+def test_tare_removes_an_offset_and_adds_its_standard_error(
+        setup: mc.Setup, readouts: dict[str, mc.Readout]) -> None:
     r = readouts["extrapolate"]
     drift = 3e-4  # V: the lab's field and the bridge offset, unknown to the model
     baseline = _baseline(setup, 0.0, n=500, seed=3) + drift
