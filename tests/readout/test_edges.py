@@ -134,8 +134,9 @@ def test_round_trip_near_both_edges(where: float, top: bool) -> None:
     res = r.read(r.setup.output([angle]))
     assert res.estimated[0]
     assert res.value[0] == pytest.approx(angle, abs=2 * r.table_error + 1e-12)
-    beyond = angle > hi if top else angle < lo
-    assert bool(res.flags[0] & F.EXTRAPOLATED) == beyond
+    if abs(where) > 1e-9:  # closer, the output's rounding decides the side
+        beyond = angle > hi if top else angle < lo
+        assert bool(res.flags[0] & F.EXTRAPOLATED) == beyond
 
 
 _ANGLE: list[mc.Readout] = []

@@ -10,6 +10,7 @@ import click
 import numpy as np
 from tqdm import tqdm
 
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
@@ -89,7 +90,10 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
     if t.isdigit():
         count = int(t)
     else:
-        seconds = parse_quantity(t, "time", "--tare") if not _is_number(t) else math.nan
+        try:
+            seconds = parse_quantity(t, "time", "--tare")
+        except MagciliaError:
+            raise fail("--tare", spec, allowed) from None
         if not seconds > 0.0:
             raise fail("--tare", spec, allowed)
         if times is None:
@@ -101,14 +105,6 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
     if count > volts.size:
         raise fail("--tare", spec, f"at most the recording's {volts.size} readings")
     return volts[:count]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 @click.command()
