@@ -63,10 +63,11 @@ def _digit_chars(m: NDArray[np.int64], p: int) -> tuple[U8, NDArray[np.int64]]:
     with more integer digits than significant ones) and how many are left without the trailing
     zeros (≥ 1)."""
     d = np.full((m.size, p + 2), _ZERO, np.uint8)
-    rest = m.copy()
-    for j in range(p - 1, -1, -1):  # a scalar divisor: NumPy divides fast
-        rest, digit = np.divmod(rest, 10)
-        d[:, j] += digit.astype(np.uint8)
+    rest = m.astype(np.float64)  # exact below 2**53, and floating division is fast:
+    for j in range(p - 1, -1, -1):  # floor(rest / 10) is exact for rest < 1e15
+        nxt = np.floor(rest / 10.0)
+        d[:, j] += (rest - 10.0 * nxt).astype(np.uint8)
+        rest = nxt
     q = p - np.argmax(d[:, p - 1::-1] != _ZERO, axis=1).astype(np.int64)
     return d, q
 
@@ -93,36 +94,46 @@ def _layout(m: NDArray[np.int64], e: NDArray[np.int64], p: int, below: int,
 
 def _group(digits: U8, q: NDArray[np.int64], e: int, p: int, below: int,
            point_zero: bool) -> U8:
-    """:func:`_layout` of rows that share the exponent ``e``."""
-    # each slot: a digit index (≥ 0) or a constant character (< 0: -code)
-    if -4 <= e < below:
-        if e >= 0:
-            slots = [*range(e + 1), -_DOT, *range(e + 1, max(p, e + 2))]
-        else:
-            slots = [-_ZERO, -_DOT, *([-_ZERO] * (-e - 1)), *range(p)]
-        fraction_from = max(e + 1, 0)
+    """:func:`_layout` of rows that share the exponent ``e``: slices of digit columns and
+    constant characters, then the fraction's trailing zeros dropped."""
+    pieces: list[tuple[int, int] | bytes] = []  # digit columns [a, b) or constant characters
+    positional = -4 <= e < below
+    if positional and e >= 0:
+        pieces = [(0, e + 1), b".", (e + 1, max(p, e + 2))]
+        fraction = e + 1  # the digit index of the first character after the point
+    elif positional:
+        pieces = [b"0." + b"0" * (-e - 1), (0, p)]
+        fraction = 0
     else:
-        exp = f"{abs(e):02d}"
-        slots = [0, -_DOT, *range(1, p), -_E, -(_MINUS if e < 0 else _PLUS),
-                 *(-ord(c) for c in exp)]
-        fraction_from = 1
-    src = np.array(slots)
-    out = np.empty((q.size, src.size), np.uint8)
-    is_digit = src >= 0
-    out[:, is_digit] = digits[:, src[is_digit]]
-    out[:, ~is_digit] = (-src[~is_digit]).astype(np.uint8)
+        pieces = [(0, 1), b".", (1, max(p, 2)),
+                  f"e{'-' if e < 0 else '+'}{abs(e):02d}".encode()]
+        fraction = 1
+    width = sum(len(x) if isinstance(x, bytes) else x[1] - x[0] for x in pieces)
+    out = np.empty((q.size, width), np.uint8)
+    at = 0
+    point = frac_start = frac_stop = 0
+    for piece in pieces:
+        if isinstance(piece, bytes):
+            out[:, at:at + len(piece)] = np.frombuffer(piece, np.uint8)
+            if b"." in piece:
+                point = at + piece.index(b".")
+            at += len(piece)
+        else:
+            lo, hi = piece
+            out[:, at:at + hi - lo] = digits[:, lo:hi]
+            if hi > fraction and (frac_stop == 0):  # the digits after the point
+                frac_start, frac_stop = at + max(fraction - lo, 0), at + hi - lo
+            at += hi - lo
     # drop the trailing zeros of the fraction (and the point with them, unless ".0" is wanted)
-    frac = np.flatnonzero(is_digit & (src >= fraction_from))
-    keep_first = point_zero and e >= 0 and -4 <= e < below  # "100.0"
-    drop = q[:, None] <= src[frac][None, :]
-    if keep_first and frac.size:
+    keep_first = point_zero and positional and e >= 0  # "100.0"
+    index = fraction + np.arange(frac_stop - frac_start)
+    drop = q[:, None] <= index[None, :]
+    if keep_first and drop.shape[1]:
         drop[:, 0] = False
-    sub = out[:, frac]
-    sub[drop] = 0
-    out[:, frac] = sub
-    point = int(np.flatnonzero(src == -_DOT)[0])
+    view = out[:, frac_start:frac_stop]
+    view[drop] = 0
     if not keep_first:
-        out[:, point] = np.where(q > fraction_from, _DOT, 0)
+        out[:, point] = np.where(q > fraction, _DOT, 0)
     return out
 
 

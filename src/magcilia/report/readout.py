@@ -23,7 +23,7 @@ from magcilia.readout.inverse import summary_line
 from magcilia.report import csvtext
 
 #: rows of the CSV formatted at a time (their text stays small)
-ROWS = 262144
+ROWS = 65536
 
 
 def flag_names(flags: int) -> str:
