@@ -89,11 +89,14 @@ def test_extrapolation_against_the_forward_model(setup: mc.Setup,
     tol = r.edge_tolerance
     assert tol == pytest.approx(EDGE_TOLERANCE * (SPAN[1] - SPAN[0]))
     assert r.edge_reach == pytest.approx((tol, tol))
+    assert 0 < r.edge_error < 1e-9 and r.to_dict()["edge_error"] == r.edge_error
+    assert "clipped up to 0.01 mN below and 0.01 mN above" in readouts["clip"].report()
+    assert "no estimate beyond the span" in readouts["blank"].report()
     forces = np.concatenate([np.linspace(-tol, 0.0, 7), SPAN[1] + np.linspace(0.0, tol, 7)])
     volts = output_at(setup, "force", forces)
     res = r.read(volts)
     assert res.estimated.all()
-    bound = 2 * max(r.table_error, *(t.error for t in r.edge_tables if t is not None)) + 1e-13
+    bound = 2 * max(r.table_error, r.edge_error) + 1e-13
     np.testing.assert_allclose(res.value, forces, atol=bound)
     np.testing.assert_allclose(r.estimate(volts), res.value, rtol=0, atol=0)
     # just beyond the reach: no estimate, and which side it is on

@@ -116,7 +116,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
               help="Range LO:HI in deg (angle), mN (force) or m/s (flow); units allowed.")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="Output CSV (estimates, 1-sigma, flags), written atomically.")
-@bandwidth_option()
+@bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
+                  "(with --tare or --tare-file the baseline's measured spread is used instead).")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid for --quantity flow (uniform flow along +x).")
 @click.option("--table-size", default=257, show_default=True, help="Read-out table points.")

@@ -475,6 +475,12 @@ class Readout:
         return tuple(0.0 if t is None else abs(float(t.quantity[-1] - t.quantity[0]))
                      for t in self.edge_tables)  # type: ignore[return-value]
 
+    @property
+    def edge_error(self) -> float:
+        """Largest interpolation error of the edge tables at their mid-points, in the quantity's
+        unit (0 without them): as :attr:`table_error`, for readings beyond the span."""
+        return max((t.error for t in self.edge_tables if t is not None), default=0.0)
+
     # -- tare -----------------------------------------------------------------------------------
     def tare(self, baseline_volts: ArrayLike) -> Readout:
         """A copy of this read-out whose zero is the mean of unloaded readings.
@@ -700,7 +706,7 @@ class Readout:
                 "fold": self.fold, "output_range_V": list(self.output_range),
                 "table_error": self.table_error, "table_size": int(self.table_quantity.size),
                 "edge": self.edge, "edge_tolerance": self.edge_tolerance,
-                "edge_reach": list(self.edge_reach),
+                "edge_reach": list(self.edge_reach), "edge_error": self.edge_error,
                 "tare": None if self.baseline is None else self.baseline.to_dict()}
 
     def report(self) -> str:
@@ -716,7 +722,8 @@ class Readout:
         if self.edge == "blank" or not (low or high):
             text += "; no estimate beyond the span"
         else:
-            text += (f"; {self.edge}d up to {low:.4g} {q.display} below and {high:.4g} "
+            done = "extrapolated" if self.edge == "extrapolate" else "clipped"
+            text += (f"; {done} up to {low:.4g} {q.display} below and {high:.4g} "
                      f"{q.display} above the span")
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"

@@ -121,6 +121,7 @@ def readout_summary(readout: Readout, result: ReadoutResult, si: bool = False) -
         "table_size": int(readout.table_quantity.size),
         "edge": readout.edge, f"edge_tolerance_{token}": readout.edge_tolerance / factor,
         f"edge_reach_{token}": [x / factor for x in readout.edge_reach],
+        f"edge_error_{token}": readout.edge_error / factor,
         **counts,
         f"range_{token}": [float(values.min()), float(values.max())] if values.size else None,
         f"median_sigma_{token}": (float(np.median(result.sigma[good])) / factor if values.size
