@@ -70,7 +70,7 @@ def test_edges_of_the_span(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     doc = json.loads(_run([str(rec), "--out", str(out), "--edge", "clip", "--edge-tolerance",
                            "10%", "--json"], capsys))
     assert doc["clipped"] == empty and doc["edge"] == "clip"
-    assert doc["edge_tolerance_mN"] == pytest.approx(0.02)
+    assert doc["edge_tolerance_mN"] == pytest.approx([0.02, 0.02])
     rows = _rows(out)
     clipped = [r for r in rows if "clipped" in r["flag_names"]]
     assert len(clipped) == empty and {float(r["force_mN"]) for r in clipped} == {0.0, 0.2}
@@ -84,7 +84,8 @@ def test_json_summary_in_display_or_si_units(tmp_path: Path,
     doc = json.loads(_run([str(rec), "--out", str(out), "--json", "--edge-tolerance",
                            "0.02mN"], capsys))
     assert doc["unit"] == "mN" and doc["units"] == "display"
-    assert doc["span_mN"] == [0.0, 0.2] and doc["edge_tolerance_mN"] == pytest.approx(0.02)
+    assert doc["span_mN"] == [0.0, 0.2]
+    assert doc["edge_tolerance_mN"] == pytest.approx([0.02, 0.02])
     assert doc["readings"] == doc["estimated"] == 400 and doc["outside_span"] == 0
     assert doc["extrapolated"] == doc["below_span"] + doc["above_span"] > 0
     assert doc["range_mN"][0] < 0 < 0.2 < doc["range_mN"][1] < 0.22

@@ -17,7 +17,7 @@ from scipy.optimize import brentq
 import magcilia as mc
 from magcilia.live.zero import Zero
 from magcilia.mechanics import output_at
-from magcilia.readout.inverse import EDGE_TOLERANCE, NO_ESTIMATE, ReadoutFlag
+from magcilia.readout.inverse import EDGE_SIGMAS, EDGE_TOLERANCE, NO_ESTIMATE, ReadoutFlag
 from magcilia.readout.tare import Tare
 
 F = ReadoutFlag
@@ -86,8 +86,8 @@ def test_full_scale_reads_back_the_top_of_the_span(setup: mc.Setup,
 def test_extrapolation_against_the_forward_model(setup: mc.Setup,
                                                  readouts: dict[str, mc.Readout]) -> None:
     r = readouts["extrapolate"]
-    tol = r.edge_tolerance
-    assert tol == pytest.approx(EDGE_TOLERANCE * (SPAN[1] - SPAN[0]))
+    tol = EDGE_TOLERANCE * (SPAN[1] - SPAN[0])  # the noise moves the output less than that
+    assert r.edge_tolerance == pytest.approx((tol, tol))
     assert r.edge_reach == pytest.approx((tol, tol))
     assert 0 < r.edge_error < 1e-9 and r.to_dict()["edge_error"] == r.edge_error
     assert "clipped up to 0.01 mN below and 0.01 mN above" in readouts["clip"].report()
@@ -132,7 +132,7 @@ def test_round_trip_near_both_edges(where: float, top: bool) -> None:
     """Forward then inverse near either end, inside or within the tolerance beyond it."""
     r = _angle_readout()
     lo, hi = r.span
-    tol = r.edge_tolerance
+    tol = r.edge_tolerance[1 if top else 0]
     angle = (hi if top else lo) + where * tol
     res = r.read(r.setup.output([angle]))
     assert res.estimated[0]
@@ -159,12 +159,12 @@ def test_a_fold_end_is_never_continued() -> None:
     assert r.edge_tables[1] is None and r.edge_reach[1] == 0.0 and r.edge_reach[0] > 0
     start, turn = r.output_range
     beyond = turn - 1e-4 * np.sign(start - turn)  # past the turn
-    below = s.output([0.1 - 0.5 * r.edge_tolerance])[0]
+    below = s.output([0.1 - 0.5 * r.edge_tolerance[0]])[0]
     res = r.read([beyond, below])
     assert res.flags[0] == F.OUTSIDE_SPAN  # no side: the fold is inside the span
     assert res.flags[1] == F.EXTRAPOLATED | F.BELOW_SPAN
     bound = 2 * r.edge_tables[0].error + 1e-12  # type: ignore[union-attr]
-    assert res.value[1] == pytest.approx(0.1 - 0.5 * r.edge_tolerance, abs=bound)
+    assert res.value[1] == pytest.approx(0.1 - 0.5 * r.edge_tolerance[0], abs=bound)
 
 
 def test_flow_from_rest_is_continued_to_negative_speeds(setup: mc.Setup) -> None:
@@ -179,6 +179,26 @@ def test_flow_from_rest_is_continued_to_negative_speeds(setup: mc.Setup) -> None
     np.testing.assert_allclose(res.value, speeds, atol=2e-3)
 
 
+def test_the_default_tolerance_covers_the_noise_at_a_flat_end(setup: mc.Setup) -> None:
+    """From rest a flow speed moves the output ∝ U²: 5 % of the span is within the noise, so
+    the default reaches further, until the output has moved by 5 σ."""
+    flow = mc.Flow.uniform(1.0)
+    r = mc.Readout(setup, quantity="flow", span=(0.0, 0.5), flow=flow, table_size=33)
+    low, high = r.edge_tolerance
+    assert low > 2 * EDGE_TOLERANCE * 0.5 and high >= EDGE_TOLERANCE * 0.5
+    noise = setup.sensor.output_noise_rms(0.5, 500.0)
+    rest, reach = output_at(setup, "flow", np.array([0.0, -low]), flow)
+    assert abs(reach - rest) >= EDGE_SIGMAS * noise
+    shorter = output_at(setup, "flow", np.array([-low / 2]), flow)[0]
+    assert abs(shorter - rest) < EDGE_SIGMAS * noise  # doubling: no further than needed × 2
+    res = r.read(rest + setup.sensor.noise(50, 1000.0, rng=13))
+    assert res.estimated.all()
+    fixed = mc.Readout(setup, quantity="flow", span=(0.0, 0.5), flow=flow, table_size=33,
+                       edge_tolerance=0.025)
+    assert fixed.edge_tolerance == (0.025, 0.025)
+    assert not fixed.read(rest + setup.sensor.noise(50, 1000.0, rng=13)).estimated.all()
+
+
 def test_edge_arguments_are_checked(setup: mc.Setup) -> None:
     with pytest.raises(mc.MagciliaError, match="edge must be one of 'extrapolate', 'clip'"):
         mc.Readout(mc.Setup.paper(), quantity="angle", span=(0, 1), edge="wrap")
@@ -187,7 +207,8 @@ def test_edge_arguments_are_checked(setup: mc.Setup) -> None:
     r = mc.Readout(mc.Setup.paper(), quantity="angle", span=(0, 1), edge_tolerance=0.0)
     assert r.edge_reach == (0.0, 0.0) and "no estimate beyond the span" in r.report()
     doc = r.to_dict()
-    assert doc["edge"] == "extrapolate" and doc["edge_tolerance"] == 0.0 and doc["tare"] is None
+    assert doc["edge"] == "extrapolate" and doc["edge_tolerance"] == [0.0, 0.0]
+    assert doc["tare"] is None
 
 
 def test_flag_names_keep_their_bits() -> None:

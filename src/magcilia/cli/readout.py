@@ -130,7 +130,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
                    "(flag extrapolated), clip to the end (flag clipped), or leave blank.")
 @click.option("--edge-tolerance", "edge_tolerance", default=None,
               help="How far beyond the span's ends readings are estimated: a percentage of the "
-                   "span or a value (deg, mN, m/s; units allowed). [default: 5%]")
+                   "span or a value (deg, mN, m/s; units allowed). [default: 5% of the span, "
+                   "further where the output moves by less than 5 sigma of the noise in it]")
 @click.option("--tare", "tare_spec", default=None,
               help="Zero on the recording's first readings (unloaded): a duration with a unit "
                    "(0.5s) or a count (500). Their spread is then the noise of one reading.")

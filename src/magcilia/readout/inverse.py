@@ -73,8 +73,11 @@ class ReadoutFlag(enum.IntFlag):
 NO_ESTIMATE = ReadoutFlag.OUTSIDE_SPAN | ReadoutFlag.FOLD | ReadoutFlag.SATURATED
 #: how readings beyond the span's ends (within the edge tolerance) are read
 EDGES = ("extrapolate", "clip", "blank")
-#: default edge tolerance, as a fraction of the span's width
+#: default edge tolerance: at least this fraction of the span's width …
 EDGE_TOLERANCE = 0.05
+#: … and at least as far as the output moves by this many σ of the sensor's noise (over
+#: DEFAULT_BANDWIDTH) from the span's end, up to the span's width
+EDGE_SIGMAS = 5.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -347,16 +350,20 @@ class Readout:
         cannot be solved (``edge_reach`` says how far each end reaches).
     edge_tolerance : float, optional
         How far beyond each end of the span readings are estimated, in the quantity's SI unit
-        (rad, N, m/s); default :data:`EDGE_TOLERANCE` (5 %) of the span's width. A quantity whose
-        output changes slowly at the end (a flow speed from rest, where drag ∝ U²) may need more
-        to cover the noise.
+        (rad, N, m/s). Default, for each end: :data:`EDGE_TOLERANCE` (5 %) of the span's width,
+        or more where the output moves by less than :data:`EDGE_SIGMAS` (5) σ of the sensor's
+        noise over :data:`~magcilia.device.sensor.DEFAULT_BANDWIDTH` within it (a flow speed
+        from rest, where drag ∝ U²): then as far as it takes (doubling), up to the span's
+        width.
 
     Attributes
     ----------
     table : InverseTable
         The monotone table and its uniform-grid fast path.
-    edge, edge_tolerance
-        As given (``edge_tolerance`` in SI).
+    edge : str
+        As given.
+    edge_tolerance : (float, float)
+        The tolerance below the span's low end and above its high end, SI.
     edge_tables : (InverseTable or None, InverseTable or None)
         The model continued beyond the span's low and high ends (None where not continued).
     baseline : Tare or None
@@ -396,7 +403,7 @@ class Readout:
     table: InverseTable
     sigma_calibration: F64
     edge: str
-    edge_tolerance: float
+    edge_tolerance: tuple[float, float]
     edge_tables: tuple[InverseTable | None, InverseTable | None]
     baseline: Tare | None
 
@@ -419,25 +426,36 @@ class Readout:
         if flow is not None and not isinstance(flow, Flow):
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow")
         edge = v.choice("edge", edge, EDGES)
-        tolerance = (EDGE_TOLERANCE * (hi - lo) if edge_tolerance is None else
-                     v.non_negative("edge_tolerance", edge_tolerance, unit, "tolerance"))
+        given = (None if edge_tolerance is None else
+                 v.non_negative("edge_tolerance", edge_tolerance, unit, "tolerance"))
         if isinstance(calibration, CalibrationResult):
             calibration = calibration.uncertainty
         flow = flow if flow is not None else Flow.uniform(1.0)
         grid = np.linspace(lo, hi, 2 * v.integer("table_size", table_size, 9) - 1)
         table = InverseTable.build(grid, output_at(setup, quantity, grid, flow),
                                    f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
-        edges: tuple[InverseTable | None, InverseTable | None] = (None, None)
-        if edge != "blank" and tolerance > 0.0:
-            step = (hi - lo) / (grid.size - 1)
-            points = int(min(max(2 * math.ceil(tolerance / step) + 1, 9), grid.size))
-            edges = (_edge_table(setup, quantity, flow, lo, -tolerance, points, table.output[0]),
-                     None if table.fold is not None else
-                     _edge_table(setup, quantity, flow, hi, tolerance, points, table.output[-1]))
+        base = EDGE_TOLERANCE * (hi - lo) if given is None else given
+        tolerance = (base, base)
+        if given is None and edge != "blank":
+            volts = EDGE_SIGMAS * setup.sensor.output_noise_rms(*DEFAULT_BANDWIDTH)
+            tolerance = (_noise_reach(setup, quantity, flow, lo, -1.0, table.output[0], base,
+                                      hi - lo, volts),
+                         base if table.fold is not None else
+                         _noise_reach(setup, quantity, flow, hi, 1.0, table.output[-1], base,
+                                      hi - lo, volts))
+        edges: list[InverseTable | None] = [None, None]
+        step = (hi - lo) / (grid.size - 1)
+        for i, (end, sign, volts_end) in enumerate(((lo, -1.0, table.output[0]),
+                                                    (hi, 1.0, table.output[-1]))):
+            if edge == "blank" or tolerance[i] == 0.0 or (i and table.fold is not None):
+                continue
+            points = int(min(max(2 * math.ceil(tolerance[i] / step) + 1, 9), grid.size))
+            edges[i] = _edge_table(setup, quantity, flow, end, sign * tolerance[i], points,
+                                   volts_end)
         for name, value in (("setup", setup), ("quantity", quantity), ("unit", unit),
                             ("span", (lo, hi)), ("calibration", calibration), ("flow", flow),
                             ("table", table), ("edge", edge), ("edge_tolerance", tolerance),
-                            ("edge_tables", edges), ("baseline", None)):
+                            ("edge_tables", tuple(edges)), ("baseline", None)):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "sigma_calibration", _calibration_sigma(
             setup, quantity, flow, table.quantity, calibration))
@@ -705,7 +723,7 @@ class Readout:
         return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
                 "fold": self.fold, "output_range_V": list(self.output_range),
                 "table_error": self.table_error, "table_size": int(self.table_quantity.size),
-                "edge": self.edge, "edge_tolerance": self.edge_tolerance,
+                "edge": self.edge, "edge_tolerance": list(self.edge_tolerance),
                 "edge_reach": list(self.edge_reach), "edge_error": self.edge_error,
                 "tare": None if self.baseline is None else self.baseline.to_dict()}
 
@@ -728,6 +746,23 @@ class Readout:
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"
         return text
+
+
+def _noise_reach(setup: Setup, quantity: str, flow: Flow, end: float, sign: float,
+                 end_volts: float, start: float, cap: float, volts: float) -> float:
+    """How far (SI, from ``start`` doubling up to ``cap``) beyond a span's ``end`` in the
+    direction ``sign`` the model's output moves by ``volts`` (V) from ``end_volts``; where the
+    model cannot be solved, the reach reached so far."""
+    reach = start
+    while reach < cap:
+        try:
+            out = output_at(setup, quantity, np.array([end + sign * reach]), flow)[0]
+        except MagciliaError:
+            return reach
+        if abs(out - end_volts) >= volts:
+            return reach
+        reach = min(2.0 * reach, cap)
+    return reach
 
 
 def _edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: float, points: int,
