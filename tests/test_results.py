@@ -84,6 +84,8 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "Readout": lambda: mc.Readout(SETUP, quantity="angle", span=(0.0, 0.5), table_size=17),
     "ReadoutResult": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).read(
         SETUP.output([0.1, 0.3, 2.0])),
+    "Tare": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).tare(
+        SETUP.output([0.0, 0.0]) + [1e-5, -1e-5]).baseline,
     "DesignMetrics": lambda: mc.design_metrics(TAPERED, points=11),
     "Metric": lambda: mc.design_metrics(TAPERED, points=11).angle,
     "SweepResult": _sweep,

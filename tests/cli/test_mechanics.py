@@ -86,8 +86,8 @@ def test_readout_writes_estimates_and_flags(tmp_path: Path,
     assert code == 0
     assert "3/4 readings estimated" in capsys.readouterr().out
     rows = list(csv.DictReader(out.read_text().splitlines()))
-    assert [r["flags"] for r in rows] == ["0", "0", "0", "1"]
-    assert rows[3]["flag_names"] == "outside_span" and rows[3]["force_mN"] == ""
+    assert [r["flags"] for r in rows] == ["0", "0", "0", "65"]  # outside_span | above_span
+    assert rows[3]["flag_names"] == "outside_span|above_span" and rows[3]["force_mN"] == ""
     np.testing.assert_allclose([float(r["force_mN"]) for r in rows[:3]], forces[:3] * 1e3,
                                atol=1e-5)  # table error ~1e-7 mN
     assert all(float(r["sigma_force_mN"]) > 0 for r in rows[:3])

@@ -14,7 +14,7 @@ from magcilia._atomic import write_json
 from magcilia.io import example_path
 from magcilia.mechanics import Flow
 from magcilia.readout import inverse
-from magcilia.readout.inverse import ReadoutFlag
+from magcilia.readout.inverse import NO_ESTIMATE, ReadoutFlag
 
 POSITION = (1.4727e-3, 1.9891e-3, 0.3804e-3)
 
@@ -77,8 +77,10 @@ def test_read_flags_outside_span_and_saturation(force_readout: mc.Readout,
     lo, hi = sorted(force_readout.output_range)
     saturated = setup.sensor.voltage(7e-4)  # 7 gauss
     res = force_readout.read([0.5 * (lo + hi), lo - 1e-4, saturated])
-    assert res.flags.tolist() == [0, ReadoutFlag.OUTSIDE_SPAN,
-                                  ReadoutFlag.OUTSIDE_SPAN | ReadoutFlag.SATURATED]
+    # the output falls with the force: below the range is above the span (beyond its tolerance)
+    assert res.flags.tolist() == [0, ReadoutFlag.OUTSIDE_SPAN | ReadoutFlag.ABOVE_SPAN,
+                                  ReadoutFlag.OUTSIDE_SPAN | ReadoutFlag.SATURATED
+                                  | ReadoutFlag.BELOW_SPAN]
     assert np.isfinite(res.value[0]) and np.isnan(res.value[1:]).all()
     assert np.isnan(res.sigma[1:]).all() and res.sigma[0] > 0
     assert res.ok.tolist() == [True, False, False]
@@ -191,7 +193,8 @@ def test_parameter_covariance_load_errors(tmp_path: Path) -> None:
 
 
 def _reference_read(r: mc.Readout, volts: np.ndarray, noise: float) -> tuple[np.ndarray, ...]:
-    """What read returns, computed the straightforward way (np.interp, one array per step)."""
+    """What read returns, computed the straightforward way (np.interp, one array per step,
+    reading by reading beyond the span)."""
     x = np.asarray(volts, dtype=np.float64)
     table, sensor = r.table, r.setup.sensor
     inside = (x >= table.volts[0]) & (x <= table.volts[-1])
@@ -204,11 +207,33 @@ def _reference_read(r: mc.Readout, volts: np.ndarray, noise: float) -> tuple[np.
     flags |= np.where(sat, int(ReadoutFlag.SATURATED), 0)
     value = table.lookup(np.where(inside, x, table.volts[0]))
     slope = np.abs(np.interp(x, table.volts, table.slope))
+    bias = np.zeros(x.size)
+    rising = table.output[0] < table.output[-1]  # the span's low end at the lowest output
+    for i in np.flatnonzero(~inside & ~np.isnan(x)):
+        low_end = (x[i] < table.volts[0]) == rising
+        if not low_end and r.fold is not None:
+            continue
+        flags[i] |= ReadoutFlag.BELOW_SPAN if low_end else ReadoutFlag.ABOVE_SPAN
+        ext = r.edge_tables[0 if low_end else 1]
+        if ext is None or not ext.volts[0] <= x[i] <= ext.volts[-1]:
+            continue
+        flags[i] &= ~ReadoutFlag.OUTSIDE_SPAN
+        est = ext.lookup(x[i:i + 1])[0]
+        if r.edge == "clip":
+            flags[i] |= ReadoutFlag.CLIPPED
+            end = r.span[0] if low_end else r.span[1]
+            value[i], bias[i] = end, abs(est - end)
+            slope[i] = abs(np.interp(end, table.quantity[::1 if rising else -1],
+                                     table.slope[::1 if rising else -1]))
+        else:
+            flags[i] |= ReadoutFlag.EXTRAPOLATED
+            value[i] = est
+            slope[i] = abs(np.interp(x[i], ext.volts, ext.slope))
     s_noise = noise * slope
     s_cal = np.interp(value, table.quantity, r.sigma_calibration) * slope
-    nan = np.where(flags != 0, np.nan, 1.0)
-    return (value * nan, np.hypot(s_noise, s_cal) * nan, s_noise * nan, s_cal * nan,
-            flags.astype(np.uint8))
+    nan = np.where(flags & int(NO_ESTIMATE), np.nan, 1.0)
+    return (value * nan, np.sqrt(s_noise**2 + s_cal**2 + bias**2) * nan, s_noise * nan,
+            s_cal * nan, bias * nan, flags.astype(np.uint8))
 
 
 @pytest.fixture(scope="module")
@@ -218,7 +243,18 @@ def folding_calibrated() -> mc.Readout:
                       calibration=_calibration({"x": 2e-5, "offset": 2e-5}, corr=0.4))
 
 
-@pytest.mark.parametrize("which", ["force", "folding_calibrated"])
+@pytest.fixture(scope="module")
+def clipping(setup: mc.Setup) -> mc.Readout:
+    return mc.Readout(setup, quantity="force", span=(0.0, 2e-4), edge="clip", table_size=65,
+                      calibration=_calibration({"x": 2e-5, "offset": 2e-5}, corr=0.4))
+
+
+@pytest.fixture(scope="module")
+def blanking(setup: mc.Setup) -> mc.Readout:
+    return mc.Readout(setup, quantity="angle", span=(0.0, 1.0), edge="blank", table_size=65)
+
+
+@pytest.mark.parametrize("which", ["force", "folding_calibrated", "clipping", "blanking"])
 @pytest.mark.parametrize("block", [65536, 1000], ids=["one-block", "blocks"])
 def test_read_equals_the_straightforward_computation(which: str, block: int,
                                                      request: pytest.FixtureRequest,
@@ -236,13 +272,19 @@ def test_read_equals_the_straightforward_computation(which: str, block: int,
                         table.ambiguous or [], edges])
     res = r.read(x, noise=1e-4)
     expected = _reference_read(r, x, 1e-4)
-    for name, want in zip(("value", "sigma", "sigma_noise", "sigma_calibration", "flags"),
+    for name, want in zip(("value", "sigma", "sigma_noise", "sigma_calibration", "sigma_edge",
+                           "flags"),
                           expected, strict=True):
         got = getattr(res, name)
         assert got.dtype == want.dtype and got.shape == x.shape, name
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=0.0, err_msg=name)
     flags = res.flags[-len(edges):]
-    assert (flags[:4] & ReadoutFlag.OUTSIDE_SPAN).tolist() == [0, 0, 1, 1]  # at and beyond
+    assert not (flags[:2] & ReadoutFlag.OUTSIDE_SPAN).any()  # at the ends
+    beyond = flags[2:4] & (ReadoutFlag.EXTRAPOLATED | ReadoutFlag.CLIPPED)  # one step beyond
+    if which == "blanking":
+        assert (flags[2:4] & ReadoutFlag.OUTSIDE_SPAN).all() and not beyond.any()
+    else:  # an estimate, but beyond the turn at a fold
+        assert np.count_nonzero(beyond) == (1 if r.fold is not None else 2)
     assert (flags[4:9] & ReadoutFlag.OUTSIDE_SPAN).all()  # NaN, infinite, huge
     assert (flags[-2:] & ReadoutFlag.SATURATED).all()
     if which == "folding_calibrated":

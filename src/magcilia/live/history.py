@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, column, count, dataframe
 from magcilia.device.parameters import MEASURANDS
+from magcilia.readout.inverse import NO_ESTIMATE
 
 F64 = NDArray[np.float64]
 
@@ -42,9 +43,11 @@ class LiveSamples(Display):
     raw : ndarray
         Averaged (set/reset-demodulated) sensor output, V, before the tare correction.
     value, sigma : ndarray
-        Estimate and its 1-σ uncertainty, SI (NaN where flagged).
+        Estimate and its 1-σ uncertainty, SI (NaN where a flag of
+        :data:`~magcilia.readout.inverse.NO_ESTIMATE` is set).
     flags : ndarray of uint8
-        :class:`~magcilia.readout.inverse.ReadoutFlag` bits (0: a good reading).
+        :class:`~magcilia.readout.inverse.ReadoutFlag` bits (0: a good reading; EXTRAPOLATED or
+        CLIPPED readings just beyond the span have values).
     correction : ndarray
         Tare + zero-tracking correction added to ``raw`` before the read-out, V.
     received : ndarray
@@ -91,7 +94,7 @@ class LiveSamples(Display):
         if not len(self):
             return f"no {self.quantity} samples"
         q = MEASURANDS[self.quantity]
-        good = np.nonzero(self.flags == 0)[0]
+        good = np.nonzero(self.flags & np.uint8(NO_ESTIMATE) == 0)[0]
         last = (f"last {q.to_display(self.value[good[-1]]):.4g} ± "
                 f"{q.to_display(self.sigma[good[-1]]):.2g} {q.display}" if good.size
                 else "no good reading")

@@ -41,7 +41,7 @@ from magcilia._errors import MagciliaError, require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.live.history import COLUMNS, LiveSamples
 from magcilia.live.pipeline import Event, Limits, LiveReadout, LiveStatus
-from magcilia.readout.inverse import ReadoutFlag
+from magcilia.readout.inverse import NO_ESTIMATE, ReadoutFlag
 
 if TYPE_CHECKING:
     from rich.console import Console, RenderableType
@@ -52,7 +52,8 @@ F64 = NDArray[np.float64]
 SPARKS = "▁▂▃▄▅▆▇█"
 #: names of the flag bits as the view shows them
 FLAG_NAMES = {ReadoutFlag.OUTSIDE_SPAN: "OUTSIDE SPAN", ReadoutFlag.FOLD: "FOLD",
-              ReadoutFlag.SATURATED: "SATURATED"}
+              ReadoutFlag.SATURATED: "SATURATED", ReadoutFlag.EXTRAPOLATED: "EXTRAPOLATED",
+              ReadoutFlag.CLIPPED: "CLIPPED"}
 #: the key help line
 KEYS = "t tare · r start/stop recording · q quit (Ctrl-C)"
 
@@ -119,7 +120,7 @@ def current(samples: LiveSamples, window: float = 0.1, now: float | None = None)
     if not len(samples):
         return Reading(math.nan, math.nan, 0, 0, window, math.nan)
     inside = samples.time >= samples.time[-1] - window
-    good = inside & (samples.flags == 0) & np.isfinite(samples.value)
+    good = inside & (samples.flags & np.uint8(NO_ESTIMATE) == 0) & np.isfinite(samples.value)
     age = 0.0 if now is None else now - float(samples.published[-1])
     if not good.any():
         return Reading(math.nan, math.nan, 0, int(inside.sum()), window, age)
@@ -316,7 +317,7 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
     if len(samples):
         end = float(samples.time[-1]) + (0.0 if now is None else
                                          max(0.0, now - float(samples.published[-1])))
-        good = np.where(samples.flags == 0, samples.value / scale, np.nan)
+        good = np.where(samples.flags & np.uint8(NO_ESTIMATE) == 0, samples.value / scale, np.nan)
         line, lo, hi = sparkline(samples.time, good, end=end, seconds=seconds, width=width)
     else:
         line, lo, hi = " " * max(1, width), math.nan, math.nan

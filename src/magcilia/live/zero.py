@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
-from magcilia._errors import MagciliaError
+from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
@@ -89,11 +89,9 @@ class Zero:
         MagciliaError
             If fewer than two finite readings were given.
         """
-        good = volts[np.isfinite(volts)]
-        if good.size < 2:
-            raise MagciliaError(f"tare needs at least 2 finite readings; got {good.size}")
-        self.correction = self.rest - float(good.mean())
-        self.noise = float(good.std(ddof=1))
+        tare = Tare.from_readings(volts, self.rest)  # the arithmetic of Readout.tare
+        self.correction = tare.correction
+        self.noise = tare.noise
         self.drift = 0.0
         self.tared_at = at
 

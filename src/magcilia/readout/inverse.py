@@ -16,6 +16,7 @@ the table's estimate and the directly solved quantity at the skipped mid-points.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import enum
 import math
@@ -27,11 +28,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, column, dataframe, si
+from magcilia._errors import MagciliaError
 from magcilia.calibration import CalibrationResult, ParameterCovariance
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow, output_at
+from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
@@ -42,15 +45,40 @@ BLOCK = 65536
 
 
 class ReadoutFlag(enum.IntFlag):
-    """Bit flags of a reading (combine with ``|``; 0 is a good reading)."""
+    """Bit flags of a reading (combine with ``|``; 0 is a good reading).
+
+    OUTSIDE_SPAN, FOLD and SATURATED leave a reading without an estimate (NaN,
+    :data:`NO_ESTIMATE`); EXTRAPOLATED and CLIPPED readings have one (see :class:`Readout`'s
+    ``edge``); BELOW_SPAN and ABOVE_SPAN say on which side of the span a reading lies beyond it.
+    """
 
     OK = 0
-    #: the reading is outside the output range of the span (or beyond the fold)
+    #: no estimate: beyond the span by more than its edge tolerance, beyond the fold, or NaN
     OUTSIDE_SPAN = 1
     #: the span extends past a fold and this output also occurs beyond it (ambiguous branch)
     FOLD = 2
     #: beyond the sensor's linear range (±field_range on the sensitive axis)
     SATURATED = 4
+    #: beyond an end of the span but within the edge tolerance: estimated by the model continued
+    #: past the end (``edge="extrapolate"``)
+    EXTRAPOLATED = 8
+    #: beyond an end of the span but within the edge tolerance: set to the end (``edge="clip"``)
+    CLIPPED = 16
+    #: the reading lies beyond the span's low end (quantity below ``span[0]``)
+    BELOW_SPAN = 32
+    #: the reading lies beyond the span's high end (quantity above ``span[1]``)
+    ABOVE_SPAN = 64
+
+
+#: the flags that leave a reading without an estimate (value and sigma NaN)
+NO_ESTIMATE = ReadoutFlag.OUTSIDE_SPAN | ReadoutFlag.FOLD | ReadoutFlag.SATURATED
+#: how readings beyond the span's ends (within the edge tolerance) are read
+EDGES = ("extrapolate", "clip", "blank")
+#: default edge tolerance: at least this fraction of the span's width …
+EDGE_TOLERANCE = 0.05
+#: … and at least as far as the output moves by this many σ of the sensor's noise (over
+#: DEFAULT_BANDWIDTH) from the span's end, up to the span's width
+EDGE_SIGMAS = 5.0
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -64,11 +92,18 @@ class ReadoutResult(Display):
     unit : str
         SI unit of ``value`` and ``sigma`` (rad, N, m/s).
     value : ndarray
-        Estimates; NaN where flagged.
+        Estimates; NaN where a flag of :data:`NO_ESTIMATE` is set (EXTRAPOLATED and CLIPPED
+        readings have one).
     sigma : ndarray
-        1-σ uncertainty, sqrt(sigma_noise² + sigma_calibration²); NaN where flagged.
+        1-σ uncertainty, sqrt(sigma_noise² + sigma_calibration² + sigma_edge²); NaN where
+        ``value`` is.
     sigma_noise, sigma_calibration : ndarray
-        The two parts: sensor noise over the bandwidth, and the calibration covariance.
+        Two parts: the noise of the reading (the sensor model's over the bandwidth, or the
+        measured one), and the errors shared by all readings: the calibration covariance and a
+        tare's standard error.
+    sigma_edge : ndarray
+        The third part: for CLIPPED readings the distance from the model's estimate to the
+        span's end that they were set to; 0 for the others.
     flags : ndarray of uint8
         :class:`ReadoutFlag` bits.
     table_error : float
@@ -81,49 +116,54 @@ class ReadoutResult(Display):
     sigma: F64
     sigma_noise: F64
     sigma_calibration: F64
+    sigma_edge: F64
     flags: NDArray[np.uint8]
     table_error: float
 
     @property
     def ok(self) -> NDArray[np.bool_]:
-        """True where no flag is set."""
+        """True where no flag is set (a reading within the span)."""
         return np.asarray(self.flags == 0)
+
+    @property
+    def estimated(self) -> NDArray[np.bool_]:
+        """True where the reading has an estimate (no flag of :data:`NO_ESTIMATE`: within the
+        span, or EXTRAPOLATED or CLIPPED within the edge tolerance)."""
+        return np.asarray(self.flags & np.uint8(NO_ESTIMATE) == 0)
+
+    def counts(self) -> dict[str, int]:
+        """Readings per flag name (lower case, as in the CSV's ``flag_names``), and ``"readings"``,
+        ``"estimated"`` and ``"ok"``."""
+        out = {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
+               "ok": int(self.ok.sum())}
+        bits = np.bincount(self.flags.reshape(-1), minlength=256)
+        for f in ReadoutFlag:
+            if f:
+                out[str(f.name).lower()] = int(bits[(np.arange(256) & int(f)) != 0].sum())
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; flagged estimates are NaN, written as null)."""
         return {"quantity": self.quantity, "unit": self.unit, "value": self.value.tolist(),
                 "sigma": self.sigma.tolist(), "sigma_noise": self.sigma_noise.tolist(),
                 "sigma_calibration": self.sigma_calibration.tolist(),
-                "flags": self.flags.tolist(), "table_error": self.table_error}
+                "sigma_edge": self.sigma_edge.tolist(), "flags": self.flags.tolist(),
+                "table_error": self.table_error}
 
     def summary(self) -> str:
         """The same as :meth:`report` (the name of magcilia 0.1)."""
         return self.report()
 
     def report(self) -> str:
-        """One line: counts of good and flagged readings, value range, median sigma."""
-        good = self.ok
-        n = self.flags.size
-        counts = ", ".join(f"{int(np.count_nonzero(self.flags & f))} {name}"
-                           for f, name in ((ReadoutFlag.OUTSIDE_SPAN, "outside span"),
-                                           (ReadoutFlag.FOLD, "ambiguous (fold)"),
-                                           (ReadoutFlag.SATURATED, "saturated")))
-        if good.any():
-            vals = self.value[good]
-            rng = (f"{self.quantity} {np.min(vals):.4g}…{np.max(vals):.4g} {self.unit}, median "
-                   f"1-σ {np.median(self.sigma[good]):.3g} {self.unit}")
-        else:
-            rng = "no valid estimate"
-        return f"{int(good.sum())}/{n} readings estimated ({counts} flagged); {rng}"
+        """One line: counts of estimated and flagged readings, value range, median sigma (SI)."""
+        return summary_line(self, self.unit, 1.0)
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
-        q, good = MEASURANDS[self.quantity], self.ok
-        items = [("", self.quantity), ("estimated", f"{int(good.sum())}/{self.flags.size}")]
-        for flag in (ReadoutFlag.OUTSIDE_SPAN, ReadoutFlag.FOLD, ReadoutFlag.SATURATED):
-            n = int(np.count_nonzero(self.flags & flag))
-            if n:
-                items.append((str(flag.name).lower(), str(n)))
+        q, good, c = MEASURANDS[self.quantity], self.estimated, self.counts()
+        items = [("", self.quantity), ("estimated", f"{c['estimated']}/{c['readings']}")]
+        items += [(key, str(c[key])) for key in ("outside_span", "fold", "saturated",
+                                                  "extrapolated", "clipped") if c[key]]
         if good.any():
             lo, hi = (q.text(float(f(self.value[good]))) for f in (np.min, np.max))
             items += [("range", f"{lo}…{hi}"),
@@ -139,14 +179,35 @@ class ReadoutResult(Display):
     def to_dataframe(self) -> Any:
         """The estimates as a ``pandas.DataFrame``, one row per reading, SI, columns named by
         quantity and unit: the value (``force_N``, ``angle_rad``, ``flow_m_per_s``), ``sigma_*``,
-        ``sigma_noise_*``, ``sigma_calibration_*`` (same unit) and ``flags``
+        ``sigma_noise_*``, ``sigma_calibration_*``, ``sigma_edge_*`` (same unit) and ``flags``
         (:class:`ReadoutFlag` bits, 0 a good reading; NaN values where flagged)."""
         return dataframe({
             column(self.quantity, self.unit): self.value,
             column("sigma", self.unit): self.sigma,
             column("sigma_noise", self.unit): self.sigma_noise,
             column("sigma_calibration", self.unit): self.sigma_calibration,
+            column("sigma_edge", self.unit): self.sigma_edge,
             "flags": self.flags})
+
+
+def summary_line(result: ReadoutResult, unit: str, factor: float) -> str:
+    """:meth:`ReadoutResult.report` with values shown in ``unit``, of which one is ``factor``
+    in SI (``"mN"``, 1e-3): counts of estimated and flagged readings, range, median 1-σ."""
+    c = result.counts()
+    flagged = ", ".join(f"{c[key]} {name}" for key, name in (
+        ("outside_span", "outside span"), ("fold", "ambiguous (fold)"),
+        ("saturated", "saturated")))
+    edges = ", ".join(f"{c[key]} {key}" for key in ("extrapolated", "clipped") if c[key])
+    good = result.estimated
+    if good.any():
+        vals = result.value[good] / factor
+        rng = (f"{result.quantity} {np.min(vals):.4g}…{np.max(vals):.4g} {unit}, median "
+               f"1-σ {np.median(result.sigma[good]) / factor:.3g} {unit}")
+    else:
+        rng = "no valid estimate"
+    beyond = f", {edges} beyond the span's ends" if edges else ""
+    return (f"{c['estimated']}/{c['readings']} readings estimated ({flagged} flagged{beyond}); "
+            f"{rng}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,11 +369,37 @@ class Readout(Display):
         Profile for ``"flow"`` (scaled to each speed); default uniform water flow.
     table_size : int
         Table points (≥ 9); the table is checked against direct solves at its mid-points.
+    edge : {"extrapolate", "clip", "blank"}
+        What a reading just beyond an end of the span gets, within ``edge_tolerance`` of it (a
+        zero-load baseline whose noise dips below 0, a full-scale load whose noise rises above
+        the span): ``"extrapolate"`` (default) the model continued past the end (the table
+        extended by direct solves beyond the span: the same accuracy as within), flag
+        EXTRAPOLATED; ``"clip"`` the end's value, flag CLIPPED, with the distance from the
+        model's estimate to the end as ``sigma_edge``; ``"blank"`` no estimate (OUTSIDE_SPAN, as
+        magcilia 0.1). Readings further out are OUTSIDE_SPAN. All of them also get BELOW_SPAN or
+        ABOVE_SPAN. The end at a fold is never continued (a reading beyond the turn stays
+        OUTSIDE_SPAN), nor past a turn of the output beyond the span, nor where the model
+        cannot be solved (``edge_reach`` says how far each end reaches).
+    edge_tolerance : float, optional
+        How far beyond each end of the span readings are estimated, in the quantity's SI unit
+        (rad, N, m/s). Default, for each end: :data:`EDGE_TOLERANCE` (5 %) of the span's width,
+        or more where the output moves by less than :data:`EDGE_SIGMAS` (5) σ of the sensor's
+        noise over :data:`~magcilia.device.sensor.DEFAULT_BANDWIDTH` within it (a flow speed
+        from rest, where drag ∝ U²): then as far as it takes (doubling), up to the span's
+        width.
 
     Attributes
     ----------
     table : InverseTable
         The monotone table and its uniform-grid fast path.
+    edge : str
+        As given.
+    edge_tolerance : (float, float)
+        The tolerance below the span's low end and above its high end, SI.
+    edge_tables : (InverseTable or None, InverseTable or None)
+        The model continued beyond the span's low and high ends (None where not continued).
+    baseline : Tare or None
+        The zero-load baseline of :meth:`tare` (None: untared).
     table_quantity, table_output : ndarray, shape (t,)
         The table (quantity in SI, output in V).
     table_error : float
@@ -325,6 +412,10 @@ class Readout(Display):
         The calibration uncertainty propagated to the estimates.
     sigma_calibration : ndarray, shape (t,)
         1-σ output uncertainty (V) from the calibration at the table nodes.
+    edge_reach : (float, float)
+        How far (SI, ≥ 0) the model is continued below the span's low end and above its high
+        end: ``edge_tolerance``, less where the output turns or the model fails, 0 at a fold
+        end or with ``edge="blank"``.
 
     Examples
     --------
@@ -343,12 +434,17 @@ class Readout(Display):
     flow: Flow
     table: InverseTable
     sigma_calibration: F64
+    edge: str
+    edge_tolerance: tuple[float, float]
+    edge_tables: tuple[InverseTable | None, InverseTable | None]
+    baseline: Tare | None
 
     def __init__(self, setup: Setup, quantity: str = "angle",
                  span: tuple[float, float] | None = None,
                  calibration: CalibrationResult | ParameterCovariance | None = None,
                  flow: Flow | None = None,
-                 table_size: int = 257) -> None:
+                 table_size: int = 257, edge: str = "extrapolate",
+                 edge_tolerance: float | None = None) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
         quantity = v.choice("quantity", quantity, QUANTITIES)
@@ -361,15 +457,37 @@ class Readout(Display):
             raise v.fail("span", (lo, hi), "a pair (low, high) with high > low")
         if flow is not None and not isinstance(flow, Flow):
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow")
+        edge = v.choice("edge", edge, EDGES)
+        given = (None if edge_tolerance is None else
+                 v.non_negative("edge_tolerance", edge_tolerance, unit, "tolerance"))
         if isinstance(calibration, CalibrationResult):
             calibration = calibration.uncertainty
         flow = flow if flow is not None else Flow.uniform(1.0)
         grid = np.linspace(lo, hi, 2 * v.integer("table_size", table_size, 9) - 1)
         table = InverseTable.build(grid, output_at(setup, quantity, grid, flow),
                                    f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
+        base = EDGE_TOLERANCE * (hi - lo) if given is None else given
+        tolerance = (base, base)
+        if given is None and edge != "blank":
+            volts = EDGE_SIGMAS * setup.sensor.output_noise_rms(*DEFAULT_BANDWIDTH)
+            tolerance = (_noise_reach(setup, quantity, flow, lo, -1.0, table.output[0], base,
+                                      hi - lo, volts),
+                         base if table.fold is not None else
+                         _noise_reach(setup, quantity, flow, hi, 1.0, table.output[-1], base,
+                                      hi - lo, volts))
+        edges: list[InverseTable | None] = [None, None]
+        step = (hi - lo) / (grid.size - 1)
+        for i, (end, sign, volts_end) in enumerate(((lo, -1.0, table.output[0]),
+                                                    (hi, 1.0, table.output[-1]))):
+            if edge == "blank" or tolerance[i] == 0.0 or (i and table.fold is not None):
+                continue
+            points = int(min(max(2 * math.ceil(tolerance[i] / step) + 1, 9), grid.size))
+            edges[i] = _edge_table(setup, quantity, flow, end, sign * tolerance[i], points,
+                                   volts_end)
         for name, value in (("setup", setup), ("quantity", quantity), ("unit", unit),
                             ("span", (lo, hi)), ("calibration", calibration), ("flow", flow),
-                            ("table", table)):
+                            ("table", table), ("edge", edge), ("edge_tolerance", tolerance),
+                            ("edge_tables", tuple(edges)), ("baseline", None)):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "sigma_calibration", _calibration_sigma(
             setup, quantity, flow, table.quantity, calibration))
@@ -400,9 +518,60 @@ class Readout(Display):
         """Outputs (V) at the start and the end of the usable branch."""
         return self.table.output_range
 
+    @property
+    def edge_reach(self) -> tuple[float, float]:
+        """How far (SI) the model is continued below the span's low end and above its high end
+        (see the class docstring)."""
+        return tuple(0.0 if t is None else abs(float(t.quantity[-1] - t.quantity[0]))
+                     for t in self.edge_tables)  # type: ignore[return-value]
+
+    @property
+    def edge_error(self) -> float:
+        """Largest interpolation error of the edge tables at their mid-points, in the quantity's
+        unit (0 without them): as :attr:`table_error`, for readings beyond the span."""
+        return max((t.error for t in self.edge_tables if t is not None), default=0.0)
+
+    # -- tare -----------------------------------------------------------------------------------
+    def tare(self, baseline_volts: ArrayLike) -> Readout:
+        """A copy of this read-out whose zero is the mean of unloaded readings.
+
+        Every reading then gets the correction ``V_rest − mean(baseline)`` added (``V_rest``:
+        the model's output at angle 0, force 0 or flow 0), as the live read-out's tare does
+        (:class:`~magcilia.readout.tare.Tare`); the baseline's standard error, an error shared by
+        all readings, adds to ``sigma_calibration``, and its spread, the measured noise of one
+        reading, replaces the sensor model's noise in :meth:`read` unless ``noise`` is given.
+
+        Parameters
+        ----------
+        baseline_volts : array-like, any shape
+            Raw outputs (V) with the cilium unloaded, at least 2 finite ones (NaN are skipped);
+            a previous tare is replaced, not added to.
+
+        Returns
+        -------
+        Readout
+            The tared read-out (same table; ``baseline`` set).
+
+        Examples
+        --------
+        >>> import magcilia as mc
+        >>> r = mc.Readout(mc.Setup.paper(), quantity="angle", span=(0.0, 0.5))
+        >>> drifted = mc.Setup.paper().output([0.0, 0.0, 0.2]) + 1e-3   # a 1 mV offset
+        >>> tared = r.tare(drifted[:2])
+        >>> round(float(tared.estimate(drifted[2:])[0]), 4)
+        0.2
+        """
+        rest = float(output_at(self.setup, self.quantity, np.zeros(1), self.flow)[0])
+        new = copy.copy(self)
+        object.__setattr__(new, "baseline", Tare.from_readings(baseline_volts, rest))
+        return new
+
     # -- use ------------------------------------------------------------------------------------
     def estimate(self, volts: ArrayLike) -> F64:
         """The quantity for each reading (fast path: the monotone table), same shape as ``volts``.
+
+        Readings within the edge tolerance beyond an end of the span are extrapolated or clipped
+        as ``edge`` says (with ``edge="blank"`` they raise); a tare's correction is added first.
 
         Parameters
         ----------
@@ -417,23 +586,83 @@ class Readout(Display):
         Raises
         ------
         MagciliaError
-            If a reading lies outside the span's output range (or beyond the fold), naming the
-            first such reading; use :meth:`read` to flag rather than raise.
+            If a reading lies outside the span's output range (or beyond the fold) by more than
+            the edge tolerance, naming the first such reading; use :meth:`read` to flag rather
+            than raise.
         """
         x = np.asarray(volts, dtype=np.float64)
+        if self.baseline is not None:
+            x = x + self.baseline.correction
         table = self.table
         if x.size and not (x.min() >= table.volts[0] and x.max() <= table.volts[-1]):  # and NaN
-            first = tuple(int(i[0]) for i in np.nonzero(~table.inside(x)))
-            where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
-            raise v.fail(where, f"{float(x[first]):.6g} V", f"within the span's output range "
-                         f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V "
-                         f"({self._span_text()})")
+            flat = x.reshape(-1)
+            out = np.flatnonzero(~table.inside(flat))
+            beyond, _, _, flags = self._beyond(flat[out])
+            bad = out[flags & np.uint8(ReadoutFlag.OUTSIDE_SPAN) != 0]
+            if bad.size:
+                first = np.unravel_index(int(bad[0]), x.shape)
+                where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
+                raise v.fail(where, f"{float(x[first]):.6g} V", f"within the span's output range "
+                             f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V "
+                             f"({self._span_text()}){self._reach_text()}")
+            value = table.lookup(flat)
+            value[out] = beyond
+            return value.reshape(x.shape)
         return table.lookup(x.reshape(-1)).reshape(x.shape)
 
     def _span_text(self) -> str:
         lo, hi = self.span
         text = f"{self.quantity} {lo:.4g}…{hi:.4g} {self.unit}"
         return text + (f", folding at {self.fold:.4g} {self.unit}" if self.fold is not None else "")
+
+    def _reach_text(self) -> str:
+        """``, or within ... beyond its ends (a…b V)`` where the span's ends are continued."""
+        low, high = self.edge_reach
+        if not (low or high):
+            return ""
+        ends = [t.volts[[0, -1]] for t in self.edge_tables if t is not None]
+        a = min(self.table.volts[0], *(e[0] for e in ends))
+        b = max(self.table.volts[-1], *(e[1] for e in ends))
+        reach = f"{low:.4g} {self.unit} below" if low else ""
+        reach += (" and " if low and high else "") + (f"{high:.4g} {self.unit} above" if high
+                                                       else "")
+        return f", or up to {reach} it ({a:.6g}…{b:.6g} V, edge={self.edge!r})"
+
+    def _beyond(self, x: F64) -> tuple[F64, F64, F64, NDArray[np.uint8]]:
+        """Readings ``x`` (V, (b,)) outside the table's output range (or NaN): estimates, the
+        slope |dquantity/dV| for σ, the clipping distance (SI) and the flags (OUTSIDE_SPAN and
+        BELOW/ABOVE_SPAN beyond the reach; EXTRAPOLATED or CLIPPED within it), all (b,)."""
+        table = self.table
+        value = np.full(x.size, np.nan)
+        slope = np.full(x.size, np.nan)
+        bias = np.zeros(x.size)
+        flags = np.full(x.size, np.uint8(ReadoutFlag.OUTSIDE_SPAN))
+        low_at_bottom = bool(table.output[0] == table.volts[0])  # output rises with the quantity
+        for bottom in (True, False):
+            low_end = bottom == low_at_bottom
+            if not low_end and table.fold is not None:
+                continue  # beyond the turn at the fold: no direction, no estimate
+            side = np.flatnonzero(x < table.volts[0] if bottom else x > table.volts[-1])
+            direction = np.uint8(ReadoutFlag.BELOW_SPAN if low_end else ReadoutFlag.ABOVE_SPAN)
+            flags[side] |= direction
+            ext = self.edge_tables[0 if low_end else 1]
+            if ext is None or not side.size:
+                continue
+            side = side[ext.inside(x[side])]
+            if not side.size:
+                continue
+            est, est_slope = ext.value_and_slope(x[side])
+            if self.edge == "clip":
+                end = table.quantity[0 if low_end else -1]
+                value[side] = end
+                bias[side] = np.abs(est - end)
+                slope[side] = abs(float(table.slope[0 if bottom else -1]))
+                flags[side] = direction | np.uint8(ReadoutFlag.CLIPPED)
+            else:
+                value[side] = est
+                slope[side] = est_slope
+                flags[side] = direction | np.uint8(ReadoutFlag.EXTRAPOLATED)
+        return value, slope, bias, flags
 
     def read(self, volts: ArrayLike,
              bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
@@ -443,36 +672,45 @@ class Readout(Display):
         Parameters
         ----------
         volts : array-like, any shape
-            Sensor outputs, V (NaN readings are flagged OUTSIDE_SPAN).
+            Sensor outputs, V (NaN readings are flagged OUTSIDE_SPAN). A tare's correction is
+            added first.
         bandwidth : (float, float)
             Noise bandwidth (f_low, f_high), Hz, of each reading (see
             :meth:`magcilia.Sensor.noise_rms`).
         noise : float, optional
             Output noise RMS of each reading, V, measured (e.g. the spread of unloaded readings);
-            replaces the sensor model's noise over ``bandwidth``.
+            replaces the sensor model's noise over ``bandwidth``. Default: the spread measured by
+            :meth:`tare` if tared, else the sensor model's.
         """
         sensor = self.setup.sensor
-        noise_v = (sensor.output_noise_rms(*bandwidth) if noise is None
-                   else v.non_negative("noise", noise, "V", "noise"))
+        if noise is not None:
+            noise_v = v.non_negative("noise", noise, "V", "noise")
+        elif self.baseline is not None:
+            noise_v = self.baseline.noise
+        else:
+            noise_v = sensor.output_noise_rms(*bandwidth)
         shape = np.shape(volts)
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
-        value, sigma, s_noise, s_cal = (np.empty(x.size) for _ in range(4))
+        if self.baseline is not None:
+            x = x + self.baseline.correction
+        value, sigma, s_noise, s_cal, s_edge = (np.empty(x.size) for _ in range(5))
         flags = np.empty(x.size, dtype=np.uint8)
         for start in range(0, x.size, BLOCK):
             part = slice(start, start + BLOCK)
             self._read_block(x[part], noise_v, value[part], sigma[part], s_noise[part],
-                             s_cal[part], flags[part])
+                             s_cal[part], s_edge[part], flags[part])
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
             sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
-            sigma_calibration=s_cal.reshape(shape), flags=flags.reshape(shape),
-            table_error=self.table_error,
+            sigma_calibration=s_cal.reshape(shape), sigma_edge=s_edge.reshape(shape),
+            flags=flags.reshape(shape), table_error=self.table_error,
         )
 
     def _read_block(self, x: F64, noise_v: float, value: F64, sigma: F64, s_noise: F64,
-                    s_cal: F64, flags: NDArray[np.uint8]) -> None:
-        """:meth:`read` of readings ``x`` (V, (b,)) with output noise ``noise_v`` (V), into the
-        result arrays (b,): one interpolation step gives the estimate and the table's slope."""
+                    s_cal: F64, s_edge: F64, flags: NDArray[np.uint8]) -> None:
+        """:meth:`read` of readings ``x`` (V, (b,), tare applied) with output noise ``noise_v``
+        (V), into the result arrays (b,): one interpolation step gives the estimate and the
+        table's slope; the few readings beyond the span take :meth:`_beyond`."""
         table = self.table
         sensor = self.setup.sensor
         inside = table.inside(x)
@@ -484,26 +722,42 @@ class Readout(Display):
             sat = ~sensor.in_range(sensor.field(x))
         flags |= sat.view(np.uint8) * np.uint8(ReadoutFlag.SATURATED)
         value[:], slope = table.value_and_slope(x)
+        s_edge[:] = 0.0
+        out = np.flatnonzero(~inside)
+        if out.size:
+            value[out], slope[out], s_edge[out], beyond = self._beyond(x[out])
+            flags[out] = beyond | (flags[out] & np.uint8(ReadoutFlag.SATURATED))
         np.multiply(slope, noise_v, out=s_noise)
+        tare_error = 0.0 if self.baseline is None else self.baseline.standard_error
         if self.sigma_calibration.any():
             q = table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
             vq = np.fmin(np.fmax(value, q[0]), q[-1])
             j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
             j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
             np.multiply(_interp(vq, j, 1, q, self.sigma_calibration), slope, out=s_cal)
+            if tare_error:
+                np.hypot(s_cal, slope * tare_error, out=s_cal)
+            np.hypot(s_noise, s_cal, out=sigma)
+        elif tare_error:
+            np.multiply(slope, tare_error, out=s_cal)
             np.hypot(s_noise, s_cal, out=sigma)
         else:  # hypot(s, 0) = s exactly
             s_cal[:] = 0.0
             sigma[:] = s_noise
-        flagged = flags.astype(bool)
-        for arr in (value, sigma, s_noise, s_cal):
+        if out.size:
+            sigma[out] = np.hypot(sigma[out], s_edge[out])
+        flagged = (flags & np.uint8(NO_ESTIMATE)).astype(bool)
+        for arr in (value, sigma, s_noise, s_cal, s_edge):
             np.copyto(arr, np.nan, where=flagged)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description of the table (SI)."""
         return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
                 "fold": self.fold, "output_range_V": list(self.output_range),
-                "table_error": self.table_error, "table_size": int(self.table_quantity.size)}
+                "table_error": self.table_error, "table_size": int(self.table_quantity.size),
+                "edge": self.edge, "edge_tolerance": list(self.edge_tolerance),
+                "edge_reach": list(self.edge_reach), "edge_error": self.edge_error,
+                "tare": None if self.baseline is None else self.baseline.to_dict()}
 
     def report(self) -> str:
         """One line: the span, its output range, the fold if any and the table's error."""
@@ -514,6 +768,15 @@ class Readout(Display):
                 f"{q.to_display(self.table_error):.2g} {q.display}")
         if self.fold is not None:
             text += f"; folds at {q.to_display(self.fold):.4g} {q.display}"
+        low, high = (q.to_display(x) for x in self.edge_reach)
+        if self.edge == "blank" or not (low or high):
+            text += "; no estimate beyond the span"
+        else:
+            done = "extrapolated" if self.edge == "extrapolate" else "clipped"
+            text += (f"; {done} up to {low:.4g} {q.display} below and {high:.4g} "
+                     f"{q.display} above the span")
+        if self.baseline is not None:
+            text += f"; {self.baseline.report()}"
         return text
 
     # -- display --------------------------------------------------------------------------------
@@ -524,6 +787,38 @@ class Readout(Display):
                 ("output", f"{si(lo, 'V')}…{si(hi, 'V')}"),
                 ("calibrated", "yes" if self.calibration is not None else "no"),
                 ("table error", q.text(self.table_error)), ("setup", repr(self.setup))]
+
+
+def _noise_reach(setup: Setup, quantity: str, flow: Flow, end: float, sign: float,
+                 end_volts: float, start: float, cap: float, volts: float) -> float:
+    """How far (SI, from ``start`` doubling up to ``cap``) beyond a span's ``end`` in the
+    direction ``sign`` the model's output moves by ``volts`` (V) from ``end_volts``; where the
+    model cannot be solved, the reach reached so far."""
+    reach = start
+    while reach < cap:
+        try:
+            out = output_at(setup, quantity, np.array([end + sign * reach]), flow)[0]
+        except MagciliaError:
+            return reach
+        if abs(out - end_volts) >= volts:
+            return reach
+        reach = min(2.0 * reach, cap)
+    return reach
+
+
+def _edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: float, points: int,
+                end_volts: float) -> InverseTable | None:
+    """The model continued from a span's ``end`` (SI) by ``reach`` (signed, SI) over ``points``
+    directly solved points, as a table whose output at ``end`` is ``end_volts`` (V, the span
+    table's, so that no reading falls between the two); it ends where the output turns. None
+    where the model cannot be solved there or its output does not change."""
+    grid = end + np.linspace(0.0, reach, points)
+    try:
+        volts = output_at(setup, quantity, grid, flow)
+        volts[0] = end_volts
+        return InverseTable.build(grid, volts, f"{quantity} beyond {end:.6g}")
+    except MagciliaError:
+        return None
 
 
 def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,

@@ -10,7 +10,8 @@
 
   const HEADER = 7;
   const COLUMNS = 5;
-  const FLAGS = [[1, "OUTSIDE SPAN", "warn"], [2, "FOLD", "bad"], [4, "SATURATED", "bad"]];
+  const FLAGS = [[1, "OUTSIDE SPAN", "warn"], [2, "FOLD", "bad"], [4, "SATURATED", "bad"],
+    [8, "EXTRAPOLATED", "warn"], [16, "CLIPPED", "warn"]];
   const BLUE = "#1f4e9c";
   const RED = "#b8261c";
   const GREY = "rgba(100, 110, 125, 0.9)";
