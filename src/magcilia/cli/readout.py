@@ -57,10 +57,11 @@ def parse_edge_tolerance(text: str | None, quantity: str,
     q = MEASURANDS[quantity]
     allowed = f"a percentage of the span (5%) or a value in {q.display} (or with a unit)"
     t = text.strip()
-    if t.endswith("%"):
-        value = parse_value(t[:-1], None, "", "--edge-tolerance") / 100.0 * (span[1] - span[0])
-    else:
-        value = parse_value(t, q.dimension, q.display, "--edge-tolerance")
+    try:
+        value = (parse_value(t[:-1], None, "", "--edge-tolerance") / 100.0 * (span[1] - span[0])
+                 if t.endswith("%") else parse_value(t, q.dimension, q.display, "--edge-tolerance"))
+    except MagciliaError:
+        raise fail("--edge-tolerance", text, allowed) from None
     if not value >= 0.0:
         raise fail("--edge-tolerance", text, allowed.replace("a percentage", "a non-negative "
                                                               "percentage"))

@@ -21,11 +21,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item, si
 from magcilia._errors import MagciliaError
 
 
-@dataclass(frozen=True)
-class Tare:
+@dataclass(frozen=True, repr=False)
+class Tare(Display):
     """A zero-load baseline (immutable; SI).
 
     Attributes
@@ -89,3 +90,8 @@ class Tare:
         return (f"tare: zero at {self.mean * 1e3:.6g} mV from {self.count} readings (correction "
                 f"{self.correction * 1e3:+.4g} mV ± {self.standard_error * 1e6:.3g} µV; noise "
                 f"{self.noise * 1e6:.3g} µV per reading)")
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("readings", str(self.count)), ("correction", si(self.correction, "V")),
+                ("± s.e.", si(self.standard_error, "V")), ("noise", si(self.noise, "V"))]
