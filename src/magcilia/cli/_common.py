@@ -147,3 +147,15 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
             bar.update(done - bar.n)
 
         return calibrate(data, initial=initial, progress=advance, **options)
+
+
+def style_option(command: Any) -> Any:
+    """``--style screen|paper``: the look of the figures a command writes
+    (:mod:`magcilia.report.style`)."""
+    from magcilia.report.style import STYLES
+
+    return click.option(
+        "--style", type=click.Choice(STYLES), default="screen", show_default=True,
+        help="Figure style: screen, or paper (serif, one journal column wide, print-sized "
+             "fonts; vector PDF/SVG by the file suffix, a PDF beside each PNG of a folder)."
+    )(command)

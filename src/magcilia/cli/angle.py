@@ -10,7 +10,7 @@ import click
 
 from magcilia._validate import fail
 from magcilia.acquire.photo import measure_tilt, pick_points, read_photo
-from magcilia.cli._common import echo_json
+from magcilia.cli._common import echo_json, style_option
 from magcilia.report.photo import annotate
 
 
@@ -42,8 +42,9 @@ def _parse_line(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
               help="Write PHOTO-STEM_angle.png figures of what was measured into this folder.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print a JSON list, one object per photo (path, angle_deg, angle_rad, ...).")
+@style_option
 def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: str | None,
-            annotate_dir: str | None, as_json: bool) -> None:
+            annotate_dir: str | None, as_json: bool, style: str) -> None:
     """Measure the holder's tilt in each PHOTO (JPEG, PNG, TIFF) from the reflective tape on it.
 
     Angles in degrees, positive when the top of the holder leans to the photo's right; EXIF
@@ -63,7 +64,7 @@ def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: st
         m = dataclasses.replace(measure_tilt(image, reference=reference, line_points=points),
                                 path=photo)
         if annotate_dir is not None:
-            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png")
+            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png", style)
         results.append(m)
         if not as_json:
             click.echo(m.report())

@@ -13,6 +13,7 @@ from magcilia.cli._common import (
     make_flow,
     mechanics_options,
     setup_label,
+    style_option,
 )
 from magcilia.mechanics import FLUIDS, bend
 from magcilia.report.mechanics import bend_record, bend_text, shape_figure
@@ -37,10 +38,11 @@ from magcilia.units import parse_quantity
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a figure of the shape (PNG/PDF/SVG by suffix).")
+@style_option
 def command(setup_arg: str, force: str | None, at_text: str | None, direction: float,
             flow_text: str | None, shear_height: str | None, fluid: str,
             tip_radius: str | None, modulus: str | None, as_json: bool, json_file: str | None,
-            plot_path: str | None) -> None:
+            plot_path: str | None, style: str) -> None:
     """Large-deflection shape of the cilium under a tip force and/or flow: tip position (mm),
     tip angle (deg) and sensor output (V).
 
@@ -56,7 +58,10 @@ def command(setup_arg: str, force: str | None, at_text: str | None, direction: f
     if json_file:
         write_json(json_file, record)
     if plot_path:
-        save_figure(shape_figure(setup, shape), plot_path)
+        from magcilia.report import style as st
+
+        with st.use(style):
+            save_figure(shape_figure(setup, shape), plot_path, dpi=st.dpi())
     if as_json:
         echo_json(record)
     else:

@@ -11,6 +11,7 @@ from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     parse_named_ranges,
+    style_option,
 )
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
@@ -46,9 +47,11 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@style_option
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
-            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
+            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
+            style: str) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
@@ -64,7 +67,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
                                          rng=seed, bias=bias, bias_degree=bias_degree,
                                          fit_scale=fit_scale, restarts=restarts,
                                          starts=starts)
-        write_calibration_files(result, tmp)
+        write_calibration_files(result, tmp, style)
     if as_json:
         echo_json(result.to_dict())
     else:

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from magcilia._atomic import staged_directory
-from magcilia.cli._common import calibrate_with_progress
+from magcilia.cli._common import calibrate_with_progress, style_option
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
 from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
@@ -21,7 +21,8 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def command(out_dir: str, seed: int, quiet: bool, force: bool) -> None:
+@style_option
+def command(out_dir: str, seed: int, quiet: bool, force: bool, style: str) -> None:
     """Calibrate the paper's model to the bundled SYNTHETIC recording and write a report.
 
     The recording (33 angles, 2000 samples at 1 kHz each) was generated from the paper's Table I
@@ -36,7 +37,7 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool) -> None:
         click.echo(f"bundled synthetic recording: {path.name}, {len(data)} angles, "
                    f"{int(data.counts.sum())} samples")
         result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed)
-        write_calibration_files(result, tmp)
+        write_calibration_files(result, tmp, style)
     click.echo(result.report())
     click.echo(f"report written to {Path(out_dir) / 'report.md'} (figures fit.png, residuals.png; "
                "fitted setup fitted_setup.toml)")

@@ -12,6 +12,7 @@ from magcilia.cli._common import (
     mechanics_options,
     parse_bandwidth,
     setup_label,
+    style_option,
 )
 from magcilia.mechanics import FLUIDS
 from magcilia.readout.design import design_metrics
@@ -27,9 +28,10 @@ from magcilia.readout.design import design_metrics
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write the figure (PNG/PDF/SVG by suffix).")
+@style_option
 def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
             modulus: str | None, as_json: bool, json_file: str | None,
-            plot_path: str | None) -> None:
+            plot_path: str | None, style: str) -> None:
     """Design metrics: dV/dF, dV/dU, dV/dθ, minimum detectable force (mN), flow speed (m/s) and
     angle (deg) from the sensor noise, and the range before ±6 gauss or a fold.
 
@@ -42,9 +44,11 @@ def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
     if json_file:
         write_json(json_file, doc)
     if plot_path:
-        from magcilia.report.design import plot_design
+        from magcilia.report import style as st
+        from magcilia.report.design import design_figure
 
-        save_figure(plot_design(metrics), plot_path)
+        with st.use(style):
+            save_figure(design_figure(metrics), plot_path, dpi=st.dpi())
     if as_json:
         echo_json(doc)
         return

@@ -9,7 +9,7 @@ import click
 import numpy as np
 
 from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
-from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label
+from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, setup_label, style_option
 from magcilia.constants import GAUSS
 
 
@@ -22,8 +22,9 @@ from magcilia.constants import GAUSS
 @click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a figure (PNG/PDF/SVG by suffix).")
+@style_option
 def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json: bool,
-            json_file: str | None, plot_path: str | None) -> None:
+            json_file: str | None, plot_path: str | None, style: str) -> None:
     """Field at the sensing element (gauss) and sensor output (V) vs tilt angle.
 
     SETUP is a setup TOML file or a preset name: `paper` (Table I optimized) or `paper-initial`
@@ -62,15 +63,13 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     if json_file:
         files[json_file] = json_text(doc)
     if plot_path:
-        from magcilia.report.figures import new_figure, plot_field_vs_tilt, plot_output_vs_tilt
+        from magcilia.report import style as st
+        from magcilia.report.figures import field_figure
 
-        fig, axes = new_figure(ncols=2)
-        labels = [r[0] for r in results]
-        plot_field_vs_tilt(theta, [r[2] for r in results], labels, axes[0, 0])
-        plot_output_vs_tilt(theta, [r[3] for r in results], labels, axes[0, 1],
-                            in_range=[r[4] for r in results])
-        fig.suptitle("Cilium field and sensor output vs tilt (distributed-dipole model)")
-        files[plot_path] = figure_bytes(fig, plot_path)
+        with st.use(style):
+            fig = field_figure(theta, [r[2] for r in results], [r[3] for r in results],
+                               [r[0] for r in results], in_range=[r[4] for r in results])
+            files[plot_path] = figure_bytes(fig, plot_path, dpi=st.dpi())
     write_files(files)
     if as_json:
         echo_json(doc)

@@ -21,14 +21,20 @@ from magcilia.cli._common import (
     load_setup_arg,
     parse_bandwidth,
     parse_named_ranges,
+    style_option,
 )
 from magcilia.device.parameters import PARAMETERS, describe_spans
 from magcilia.io.recordings import read_measurements
-from magcilia.report.sensitivity import FIGURE_FILES, report_dict, write_sensitivity_report
+from magcilia.report.sensitivity import (
+    FIGURE_FILES,
+    FIGURE_NAMES,
+    report_dict,
+    write_sensitivity_report,
+)
 
 #: every file ``magcilia sensitivity --out`` may write (sobol.png only with Sobol indices)
 SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensitivity.json",
-                     "summary.md")
+                     "summary.md", *FIGURE_NAMES)
 
 
 @click.command()
@@ -60,10 +66,11 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 @bandwidth_option("Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
 @click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@style_option
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
-            bandwidth: str, as_json: bool, quiet: bool, force: bool) -> None:
+            bandwidth: str, as_json: bool, quiet: bool, force: bool, style: str) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
@@ -101,7 +108,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
             bar.update()
             tolerance = placement_tolerance(setup, math.radians(accuracy), bandwidth=band)
             bar.update()
-        written = write_sensitivity_report(study, tmp, sobol, tolerance)
+        written = write_sensitivity_report(study, tmp, sobol, tolerance, style)
     if as_json:
         echo_json(report_dict(study, sobol, tolerance))
         return
