@@ -13,7 +13,9 @@ the same style context, and checked:
 (d) no title, label, legend or annotation writes a number's minus as a hyphen (``-0.5``,
     ``1e-05``): the figures use the real minus sign (mathtext ``$...$`` is exempt: it renders
     one);
-(e) and the files written are what their suffix says (PNG, PDF, SVG), not empty.
+(e) measured data drawn with error bars span at least a quarter of their axes' height (a model
+    curve must not set the scale);
+and the files written are what their suffix says (PNG, PDF, SVG), complete and not empty.
 
 Missing glyphs fail too (the suite turns matplotlib's warning into an error).
 """
@@ -159,6 +161,15 @@ def problems(fig: Figure) -> list[str]:
         plain = re.sub(r"\$[^$]*\$", "", t.get_text())
         if _HYPHEN_MINUS.search(plain):
             found.append(f"(d) text {_describe(t)} writes a minus as a hyphen")
+    # (e): measured data (error bars) fill the frame, not a sliver of it
+    for ax in axes:
+        for c in ax.containers:
+            if isinstance(c, ErrorbarContainer) and c.lines[0] is not None:
+                xy = c.lines[0].get_transform().transform(c.lines[0].get_xydata())
+                ys = xy[np.isfinite(xy).all(axis=1), 1]
+                if len(ys) >= 5 and np.ptp(ys) < 0.25 * ax.bbox.height:
+                    found.append(f"(e) the data of {_name(ax)} fill "
+                                 f"{np.ptp(ys) / ax.bbox.height:.0%} of its height")
     # (c): legends
     for ax in axes:
         legend = ax.get_legend()

@@ -15,7 +15,7 @@ from magcilia.cli._common import (
 )
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
-from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
+from magcilia.report.calibration import CALIBRATION_NAMES, write_calibration_files
 
 
 @click.command()
@@ -58,7 +58,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     and residuals.png into --out, a new folder published in one rename when everything is
     written: nothing is written if anything fails, and a killed run leaves no partial folder.
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         initial = load_setup_arg(setup_arg)
         measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
                                         saturation=saturation)

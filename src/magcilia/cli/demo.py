@@ -10,7 +10,7 @@ from magcilia._atomic import staged_directory
 from magcilia.cli._common import calibrate_with_progress, style_option
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
-from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
+from magcilia.report.calibration import CALIBRATION_NAMES, write_calibration_files
 
 
 @click.command()
@@ -30,7 +30,7 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, style: str) -> No
     The fit starts from Table I's initial values, as in the paper. The --out folder is published
     in one rename when everything is written (see `magcilia calibrate --help`).
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         path = example_path()
         initial = Setup.paper_initial()
         data = read_measurements(path, sensor=initial.sensor)

@@ -239,8 +239,9 @@ def write_report(result: CalibrationResult, directory: str | Path,
 
 
 #: the files ``magcilia calibrate --out`` (and ``demo``) writes into its folder
-CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png", "residuals.png",
-                     "fit.pdf", "residuals.pdf")
+CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png", "residuals.png")
+#: every file it may write: :data:`CALIBRATION_FILES` and, in the paper style, the PDF figures
+CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf")
 
 
 def write_calibration_files(result: CalibrationResult, directory: str | Path,
@@ -264,5 +265,5 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
     leaves nothing behind. An existing ``directory`` (an earlier output) is replaced only with
     ``force=True``.
     """
-    with staged_directory(directory, force=force, names=CALIBRATION_FILES) as tmp:
+    with staged_directory(directory, force=force, names=CALIBRATION_NAMES) as tmp:
         write_calibration_files(result, tmp, style)

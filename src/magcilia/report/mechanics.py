@@ -87,6 +87,8 @@ def plot_shapes(shapes: Any, ax: Any = None, labels: Any = None) -> Any:
     -------
     matplotlib Axes
     """
+    import matplotlib as mpl
+
     from magcilia.report.figures import axes_or_new
 
     ax = axes_or_new(ax, size=(3.6, 4.4))
@@ -95,7 +97,8 @@ def plot_shapes(shapes: Any, ax: Any = None, labels: Any = None) -> Any:
     for i in range(len(shapes)):
         pts = shapes.points[i] * 1e3
         label = labels[i] if labels is not None else None
-        ax.plot(pts[:, 0], pts[:, 2], lw=2, color=f"C{i}", label=label)
+        ax.plot(pts[:, 0], pts[:, 2], lw=1.4 * mpl.rcParams["lines.linewidth"], color=f"C{i}",
+                label=label)
         ax.plot(pts[-1, 0], pts[-1, 2], "o", color="k", ms=3)
     x = shapes.points[..., 0] * 1e3
     half = max(0.5 * length, float(np.abs(x).max()) * 1.15)  # keep the panel readable

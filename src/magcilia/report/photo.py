@@ -45,7 +45,6 @@ def plot_measurement(measurement: TiltMeasurement, image: ArrayLike, ax: Any = N
     matplotlib Axes
     """
     from magcilia.report.figures import axes_or_new
-    from magcilia.report.style import number
 
     img = v.finite_array("image", image, ndim=2)
     h, w = img.shape
@@ -70,8 +69,8 @@ def plot_measurement(measurement: TiltMeasurement, image: ArrayLike, ax: Any = N
     ax.set_ylabel("y (px)")
     ref_text = {"vertical": "the image vertical", "detected": "the case edge normal",
                 "given": "the given reference"}[measurement.reference]
-    ax.set_title(f"{Path(measurement.path).name}: tilt "
-                 f"{number(measurement.angle_deg, 4, sign=True)}° from {ref_text}",
+    angle = f"{measurement.angle_deg:+.2f}".replace("-", "−")  # the real minus sign
+    ax.set_title(f"{Path(measurement.path).name}: tilt {angle}° from {ref_text}",
                  fontsize="medium")
     ax.legend(loc="upper right")
     return ax
