@@ -30,6 +30,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("cli",),
 )
 RANK = {room: i for i, rooms in enumerate(LAYERS) for room in rooms}
+#: top-level modules of the public face beside magcilia/__init__ (``magcilia.plot`` imports report)
+API_MODULES = frozenset({"magcilia.plot"})
 
 
 def _module_name(path: Path) -> str:
@@ -44,7 +46,7 @@ MODULES = {_module_name(p): p for p in SRC.rglob("*.py")}
 
 def room_of(module: str) -> str:
     parts = module.split(".")
-    if len(parts) == 1:
+    if len(parts) == 1 or module in API_MODULES:
         return "api"
     if module == "magcilia.__main__":  # ``python -m magcilia`` runs the CLI
         return "cli"
@@ -138,3 +140,5 @@ def test_the_layer_test_sees_real_arrows() -> None:
     assert {room_of(m) for m in MODULES} == set(RANK)  # every layer's rooms exist
     assert room_of("magcilia._display") == "foundation"
     assert room_of("magcilia.__main__") == "cli"
+    assert room_of("magcilia.plot") == "api" and "magcilia.report.calibration" in GRAPH[
+        "magcilia.plot"]

@@ -11,7 +11,7 @@ import pytest
 
 import magcilia as mc
 from magcilia.mechanics import AIR, Flow
-from magcilia.report.design import plot_design
+from magcilia.report.design import design_figure
 from magcilia.report.mechanics import plot_shapes
 
 BANDWIDTH = (0.5, 50.0)
@@ -87,11 +87,11 @@ def test_table_and_dict(metrics: mc.DesignMetrics) -> None:
 
 
 def test_figures(metrics: mc.DesignMetrics, tapered: mc.Setup, tmp_path: Path) -> None:
-    fig = plot_design(metrics)
+    fig = design_figure(metrics)
     assert len(fig.axes) == 3
     fig.savefig(tmp_path / "d.png")
     cone = mc.design_metrics(mc.Setup.paper(), bandwidth=BANDWIDTH, points=21)
-    plot_design(cone).savefig(tmp_path / "c.png")
+    design_figure(cone).savefig(tmp_path / "c.png")
     from magcilia.report.figures import new_figure
 
     _fig2, axes = new_figure()

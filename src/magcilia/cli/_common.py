@@ -202,6 +202,7 @@ def quiet_requested(flag: bool = False) -> bool:
     ctx = click.get_current_context(silent=True)
     return flag or bool(ctx is not None and ctx.meta.get(QUIET_KEY, False))
 
+
 # --- the unit policy of command outputs and physical options (docs/ARCHITECTURE.md, README Units)
 
 def si_option(command: Any) -> Any:
@@ -238,3 +239,15 @@ class Physical(click.ParamType):
                 ctx: click.Context | None) -> float:  # noqa: ARG002 (click's signature)
         key = max(param.opts, key=len) if param is not None and param.opts else "value"
         return parse_value(str(value), self.dimension, self.unit, key, self.example)
+
+
+def style_option(command: Any) -> Any:
+    """``--style screen|paper``: the look of the figures a command writes
+    (:mod:`magcilia.report.style`)."""
+    from magcilia.report.style import STYLES
+
+    return click.option(
+        "--style", type=click.Choice(STYLES), default="screen", show_default=True,
+        help="Figure style: screen, or paper (serif, one journal column wide, print-sized "
+             "fonts; vector PDF/SVG by the file suffix, a PDF beside each PNG of a folder)."
+    )(command)

@@ -10,7 +10,7 @@ import click
 
 from magcilia._validate import fail
 from magcilia.acquire.photo import TiltMeasurement, measure_tilt, pick_points, read_photo
-from magcilia.cli._common import echo_json, si_option
+from magcilia.cli._common import echo_json, si_option, style_option
 from magcilia.report.photo import annotate
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits
@@ -60,8 +60,9 @@ def tilt_text(m: TiltMeasurement, units: OutputUnits) -> str:
               help="Print a JSON list, one object per photo (path, angle_deg, ...; angle_rad "
                    "with --si).")
 @si_option
+@style_option
 def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: str | None,
-            annotate_dir: str | None, as_json: bool, si: bool) -> None:
+            annotate_dir: str | None, as_json: bool, si: bool, style: str) -> None:
     """Measure the holder's tilt in each PHOTO (JPEG, PNG, TIFF) from the reflective tape on it.
 
     Angles in degrees (rad with --si), positive when the top of the holder leans to the photo's
@@ -82,7 +83,7 @@ def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: st
         m = dataclasses.replace(measure_tilt(image, reference=reference, line_points=points),
                                 path=photo)
         if annotate_dir is not None:
-            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png")
+            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png", style)
         results.append(m)
         if not as_json:
             click.echo(tilt_text(m, units))

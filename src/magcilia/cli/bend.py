@@ -14,6 +14,7 @@ from magcilia.cli._common import (
     mechanics_options,
     setup_label,
     si_option,
+    style_option,
 )
 from magcilia.mechanics import FLUIDS, bend
 from magcilia.report.mechanics import bend_record, bend_text, shape_figure
@@ -45,10 +46,11 @@ from magcilia.report.units import output_units
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a figure of the shape (PNG/PDF/SVG by suffix).")
 @si_option
+@style_option
 def command(setup_arg: str, force: float | None, at: float | None, direction: float,
             flow_text: str | None, shear_height: str | None, fluid: str,
             tip_radius: str | None, modulus: str | None, as_json: bool, json_file: str | None,
-            plot_path: str | None, si: bool) -> None:
+            plot_path: str | None, si: bool, style: str) -> None:
     """Large-deflection shape of the cilium under a tip force and/or flow: tip position (mm),
     tip angle (deg) and sensor output (mV); SI (m, rad, V) with --si.
 
@@ -67,7 +69,10 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
     if json_file:
         write_json(json_file, record)
     if plot_path:
-        save_figure(shape_figure(setup, shape), plot_path)
+        from magcilia.report import style as st
+
+        with st.use(style):
+            save_figure(shape_figure(setup, shape), plot_path, dpi=st.dpi())
     if as_json:
         echo_json(record)
     else:

@@ -12,12 +12,13 @@ from magcilia.cli._common import (
     load_setup_arg,
     parse_named_ranges,
     si_option,
+    style_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
 from magcilia.report.calibration import (
-    CALIBRATION_FILES,
+    CALIBRATION_NAMES,
     calibration_json,
     write_calibration_files,
 )
@@ -56,17 +57,18 @@ from magcilia.report.calibration import (
                    "with --si; result.json in --out is always SI).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
+@style_option
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
             nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
-            fix_items: tuple[str, ...], si: bool) -> None:
+            fix_items: tuple[str, ...], si: bool, style: str) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
     and residuals.png into --out, a new folder published in one rename when everything is
     written: nothing is written if anything fails, and a killed run leaves no partial folder.
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         initial = load_setup_arg(setup_arg)
         measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
                                         saturation=saturation)
@@ -75,7 +77,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
                                          rng=seed, bias=bias, bias_degree=bias_degree,
                                          fit_scale=fit_scale, restarts=restarts,
                                          starts=starts, fixed=parse_fixed(fix_items))
-        write_calibration_files(result, tmp)
+        write_calibration_files(result, tmp, style)
     if as_json:
         echo_json(calibration_json(result, si))
     else:

@@ -9,11 +9,11 @@ import click
 
 from magcilia._atomic import staged_directory
 from magcilia.calibration import PARAMETERS
-from magcilia.cli._common import calibrate_with_progress
+from magcilia.cli._common import calibrate_with_progress, style_option
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
-from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_files
+from magcilia.report.calibration import CALIBRATION_NAMES, write_calibration_files
 
 
 @click.command()
@@ -26,7 +26,9 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               help=FIX_HELP + " Try --fix height=3.2613 to see what a known height pins down.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[str, ...]) -> None:
+@style_option
+def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[str, ...],
+            style: str) -> None:
     """Calibrate the paper's model to the bundled SYNTHETIC recording and write a report.
 
     The recording (33 angles, 2000 samples at 1 kHz each) was generated from the paper's Table I
@@ -36,7 +38,7 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[
     folder is published in one rename when everything is written (see `magcilia calibrate
     --help`).
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         path = example_path()
         initial = Setup.paper_initial()
         data = read_measurements(path, sensor=initial.sensor)
@@ -45,7 +47,7 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[
         result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed,
                                          fixed=parse_fixed(fix_items))
         result = result.with_truth(example_truth(path))
-        write_calibration_files(result, tmp)
+        write_calibration_files(result, tmp, style)
     click.echo(result.report())
     click.echo(f"report written to {Path(out_dir) / 'report.md'} (figures fit.png, residuals.png; "
                "fitted setup fitted_setup.toml)")

@@ -16,6 +16,7 @@ from magcilia.cli._common import (
     parse_bandwidth,
     setup_label,
     si_option,
+    style_option,
 )
 from magcilia.mechanics import FLUIDS
 from magcilia.readout.design import DesignMetrics, design_metrics
@@ -35,9 +36,10 @@ from magcilia.units import OutputUnits, ascii_unit
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write the figure (PNG/PDF/SVG by suffix).")
 @si_option
+@style_option
 def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
             modulus: str | None, as_json: bool, json_file: str | None,
-            plot_path: str | None, si: bool) -> None:
+            plot_path: str | None, si: bool, style: str) -> None:
     """Design metrics: dV/dF, dV/dU, dV/dθ (mV per mN, m/s, deg), minimum detectable force (mN),
     flow speed (m/s) and angle (deg) from the sensor noise, and the range before ±6 gauss or a
     fold (SI with --si; the table and the JSON agree).
@@ -52,9 +54,11 @@ def command(setup_arg: str, fluid: str, bandwidth: str, tip_radius: str | None,
     if json_file:
         write_json(json_file, doc)
     if plot_path:
-        from magcilia.report.design import plot_design
+        from magcilia.report import style as st
+        from magcilia.report.design import design_figure
 
-        save_figure(plot_design(metrics), plot_path)
+        with st.use(style):
+            save_figure(design_figure(metrics), plot_path, dpi=st.dpi())
     if as_json:
         echo_json(doc)
         return

@@ -14,6 +14,7 @@ from magcilia.cli._common import (
     load_setup_arg,
     setup_label,
     si_option,
+    style_option,
 )
 from magcilia.report.units import output_units
 
@@ -29,8 +30,9 @@ from magcilia.report.units import output_units
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               help="Write a figure (PNG/PDF/SVG by suffix).")
 @si_option
+@style_option
 def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json: bool,
-            json_file: str | None, plot_path: str | None, si: bool) -> None:
+            json_file: str | None, plot_path: str | None, si: bool, style: str) -> None:
     """Field at the sensing element (gauss) and sensor output (mV) vs tilt angle (T, V, rad
     with --si; the console, CSV and JSON agree).
 
@@ -73,15 +75,13 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     if json_file:
         files[json_file] = json_text(doc)
     if plot_path:
-        from magcilia.report.figures import new_figure, plot_field_vs_tilt, plot_output_vs_tilt
+        from magcilia.report import style as st
+        from magcilia.report.figures import field_figure
 
-        fig, axes = new_figure(ncols=2)
-        labels = [r[0] for r in results]
-        plot_field_vs_tilt(theta, [r[2] for r in results], labels, axes[0, 0])
-        plot_output_vs_tilt(theta, [r[3] for r in results], labels, axes[0, 1],
-                            in_range=[r[4] for r in results])
-        fig.suptitle("Cilium field and sensor output vs tilt (distributed-dipole model)")
-        files[plot_path] = figure_bytes(fig, plot_path)
+        with st.use(style):
+            fig = field_figure(theta, [r[2] for r in results], [r[3] for r in results],
+                               [r[0] for r in results], in_range=[r[4] for r in results])
+            files[plot_path] = figure_bytes(fig, plot_path, dpi=st.dpi())
     write_files(files)
     if as_json:
         echo_json(doc)

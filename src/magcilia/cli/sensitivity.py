@@ -23,11 +23,13 @@ from magcilia.cli._common import (
     parse_bandwidth,
     parse_named_ranges,
     si_option,
+    style_option,
 )
 from magcilia.device.parameters import describe_spans
 from magcilia.io.recordings import read_measurements
 from magcilia.report.sensitivity import (
     FIGURE_FILES,
+    FIGURE_NAMES,
     report_dict,
     tolerance_text,
     write_sensitivity_report,
@@ -37,7 +39,7 @@ from magcilia.units import ascii_unit
 
 #: every file ``magcilia sensitivity --out`` may write (sobol.png only with Sobol indices)
 SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensitivity.json",
-                     "summary.md")
+                     "summary.md", *FIGURE_NAMES)
 
 
 @click.command()
@@ -71,10 +73,11 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 @click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
+@style_option
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
-            bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool) -> None:
+            bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool, style: str) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
@@ -114,7 +117,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
             tolerance = placement_tolerance(setup, accuracy, bandwidth=band)
             bar.update()
         units = output_units(si)
-        written = write_sensitivity_report(study, tmp, sobol, tolerance, units)
+        written = write_sensitivity_report(study, tmp, sobol, tolerance, units, style)
     doc = report_dict(study, sobol, tolerance, units)
     if as_json:
         echo_json(doc)

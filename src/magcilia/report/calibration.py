@@ -8,51 +8,182 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
 from magcilia.calibration import CalibrationResult
+from magcilia.constants import GAUSS
 from magcilia.io.setup_files import save_setup
-from magcilia.report.figures import new_figure
 from magcilia.report.units import output_units
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
-def plot_fit(result: CalibrationResult, ax: Axes) -> Axes:
-    """Fig. 8: measured means (error bars: 1 standard error), initial and fitted model (mV).
-
-    The initial model is drawn with the fitted bias so that shapes can be compared."""
-    data = result.data
-    dense = np.radians(np.linspace(data.angles_deg.min(), data.angles_deg.max(), 300))
-    ax.errorbar(data.angles_deg, data.volts * 1e3, yerr=data.sem * 1e3, fmt="o", ms=4,
-                capsize=2, label="measured (mean ± s.e.)", color="k")
-    offset = result.values["offset"]
-    ax.plot(np.degrees(dense), (result.initial.replace(offset=offset).output(dense)) * 1e3,
-            "--", label="initial model", color="tab:orange")
-    fitted = result.setup.output(dense)
+def _bias(result: CalibrationResult, angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The fitted bias at ``angles`` (rad), V (the constant offset and any angle terms)."""
     coef = result.bias_coefficients
-    if coef.size > 1:  # polynomial bias beyond the constant
-        fitted = fitted + np.polynomial.polynomial.polyval(dense, np.r_[0.0, coef[1:]])
-    ax.plot(np.degrees(dense), fitted * 1e3, "-", label="fitted model", color="tab:blue")
+    if coef.size == 0:
+        return np.zeros_like(angles)
+    return np.asarray(np.polynomial.polynomial.polyval(angles, coef), dtype=np.float64)
+
+
+def measured_field(result: CalibrationResult) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The measurement in field units: ``B_x = (V − bias(θ)) / S`` with the fitted setup's sensor
+    scale ``S`` and the fitted bias, and its standard error ``sem / |S|``; both T, shape (a,)."""
+    scale = result.setup.sensor.scale
+    data = result.data
+    return (data.volts - _bias(result, data.angles)) / scale, data.sem / abs(scale)
+
+
+def _volts_axis(ax: Axes, scale: float, offset: float, label: str, factor: float) -> Any:
+    """A secondary y axis of ``ax`` (in units of ``factor`` × gauss) showing the output
+    ``S·B + offset`` in mV or µV (``label``)."""
+    unit = 1e3 if "mV" in label else 1e6
+
+    def to_volts(g: Any) -> Any:
+        return (np.asarray(g) / factor * GAUSS * scale + offset) * unit
+
+    def to_field(v: Any) -> Any:
+        return (np.asarray(v) / unit - offset) / scale / GAUSS * factor
+
+    sec = ax.secondary_yaxis("right", functions=(to_volts, to_field))
+    sec.set_ylabel(label)
+    return sec
+
+
+def plot_fit(result: CalibrationResult, ax: Axes | None = None) -> Axes:
+    """The paper's Fig. 8: the measured field with 1 s.e. error bars and the fitted model's
+    ``B_x`` (gauss) vs tilt (deg), the sensor output (mV) on the right-hand axis.
+
+    The measurement is shown as field, ``B_x = (V − bias(θ)) / S`` (:func:`measured_field`),
+    the right-hand axis reads ``V = S·B_x + offset`` with the fitted offset (with a bias
+    polynomial in the angle, the output less its angle terms).
+
+    Parameters
+    ----------
+    result : CalibrationResult
+    ax : matplotlib Axes, optional
+        Where to draw; a new figure when None.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax)
+    data = result.data
+    b, sem = measured_field(result)
+    dense = np.radians(np.linspace(data.angles_deg.min(), data.angles_deg.max(), 300))
+    ax.plot(np.degrees(dense), result.setup.field(dense)[:, 0] / GAUSS, "-", color="C0",
+            label="fitted model", zorder=2)
+    spread = float(np.ptp(b)) or 1.0
+    hidden = 2.0 * float(sem.max()) < 0.015 * spread  # bars shorter than the symbols
+    ax.errorbar(data.angles_deg, b / GAUSS, yerr=sem / GAUSS, fmt="o", mfc="white", mew=0.9,
+                elinewidth=0.9, color="k", zorder=3,
+                label="measured (mean ± 1 s.e." + (", bars within symbols)" if hidden else ")"))
     ax.set_xlabel("tilt angle θ (deg)")
-    ax.set_ylabel("sensor output (mV)")
-    ax.set_title(f"cost {result.cost:.3g} V², RMS {result.rms * 1e3:.3g} mV")
+    ax.set_ylabel("$B_x$ at the sensing element (gauss)")
+    ax.margins(x=0.02, y=0.08)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="small")
+    ax.legend(loc="best")
+    coef = result.bias_coefficients
+    _volts_axis(ax, result.setup.sensor.scale, float(coef[0]) if coef.size else 0.0,
+                "output (mV)" if coef.size <= 1 else "output less bias(θ) terms (mV)", 1.0)
     return ax
 
 
-def plot_residuals(result: CalibrationResult, ax: Axes) -> Axes:
-    """Residuals (measured − fitted, µV) with the measurement standard errors."""
+def plot_initial(result: CalibrationResult, ax: Axes | None = None) -> Axes:
+    """The start of the fit: the measured field (as :func:`plot_fit`) and the initial model's
+    ``B_x`` (gauss) vs tilt (deg), on their own scale.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+    ax : matplotlib Axes, optional
+        Where to draw; a new figure when None.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax)
     data = result.data
-    ax.errorbar(data.angles_deg, result.residuals * 1e6, yerr=data.sem * 1e6, fmt="o", ms=4,
-                capsize=2, color="k")
+    b, _ = measured_field(result)
+    dense = np.radians(np.linspace(data.angles_deg.min(), data.angles_deg.max(), 300))
+    ax.plot(np.degrees(dense), result.initial.field(dense)[:, 0] / GAUSS, "--", color="C1",
+            label="initial model")
+    ax.plot(data.angles_deg, b / GAUSS, "o", ms=2.5, color="k", label="measured")
+    ax.set_xlabel("tilt angle θ (deg)")
+    ax.set_ylabel("$B_x$ (gauss)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best")
+    return ax
+
+
+def plot_residuals(result: CalibrationResult, ax: Axes | None = None) -> Axes:
+    """Residuals (measured − fitted) as field, mG (10⁻³ gauss), with 1 s.e. error bars, vs tilt
+    (deg); µV on the right-hand axis.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+    ax : matplotlib Axes, optional
+        Where to draw; a new figure when None.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax, size=(6.4, 3.0))
+    data = result.data
+    scale = result.setup.sensor.scale
+    mg = 1e3 / GAUSS / scale
+    ax.errorbar(data.angles_deg, result.residuals * mg, yerr=data.sem * abs(mg), fmt="o",
+                mfc="white", mew=0.9, elinewidth=0.9, color="k")
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_xlabel("tilt angle θ (deg)")
-    ax.set_ylabel("residual (µV)")
+    ax.set_ylabel("residual of $B_x$ (mG)")
+    ax.margins(x=0.02)
     ax.grid(alpha=0.3)
+    _volts_axis(ax, scale, 0.0, "residual (µV)", 1e3)
     return ax
+
+
+def fit_figure(result: CalibrationResult) -> Figure:
+    """``fit.png``: Fig. 8 (:func:`plot_fit`), the residuals with their error bars
+    (:func:`plot_residuals`) and the initial model on its own panel (:func:`plot_initial`), one
+    above the other on a shared angle axis."""
+    from magcilia.report.figures import new_figure
+    from magcilia.report.style import current, number
+
+    fig, axes = new_figure(nrows=3, size=(6.4, 2.3), sharex=True, height_ratios=(2.4, 1.0, 1.1))
+    plot_fit(result, axes[0, 0])
+    plot_residuals(result, axes[1, 0])
+    plot_initial(result, axes[2, 0])
+    axes[1, 0].set_ylabel("residual (mG)")
+    for ax in axes[:2, 0]:
+        ax.set_xlabel("")
+    if current() == "screen":
+        axes[0, 0].set_title(f"fit: RMS residual {number(result.rms * 1e6)} µV, cost "
+                             f"{number(result.cost)} V²")
+    fig.align_ylabels(axes[:, 0])
+    return fig
+
+
+def residuals_figure(result: CalibrationResult) -> Figure:
+    """``residuals.png``: :func:`plot_residuals` alone."""
+    from magcilia.report.figures import new_figure
+
+    fig, axes = new_figure(size=(6.4, 3.0))
+    plot_residuals(result, axes[0, 0])
+    return fig
 
 
 def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
@@ -91,17 +222,23 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
     return "\n".join(lines)
 
 
-def write_report(result: CalibrationResult, directory: str | Path) -> dict[str, Path]:
-    """Write ``fit.png``, ``residuals.png`` and ``report.md`` into ``directory`` (atomically)."""
+def write_report(result: CalibrationResult, directory: str | Path,
+                 style: str = "screen") -> dict[str, Path]:
+    """Write ``fit.png``, ``residuals.png`` and ``report.md`` into ``directory`` (atomically);
+    with ``style="paper"`` also ``fit.pdf`` and ``residuals.pdf`` (vector, one column wide; the
+    report links the PNGs)."""
+    from magcilia.report import style as st
+
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"fit": out / "fit.png", "residuals": out / "residuals.png"}
-    fig, axes = new_figure()
-    plot_fit(result, axes[0, 0])
-    save_figure(fig, paths["fit"], dpi=130)
-    fig, axes = new_figure(size=(6.4, 3.0))
-    plot_residuals(result, axes[0, 0])
-    save_figure(fig, paths["residuals"], dpi=130)
+    with st.use(style):
+        for name, build in (("fit", fit_figure), ("residuals", residuals_figure)):
+            fig = build(result)
+            save_figure(fig, paths[name], dpi=st.dpi())
+            if style == "paper":
+                paths[f"{name}_pdf"] = out / f"{name}.pdf"
+                save_figure(fig, paths[f"{name}_pdf"])
     paths["report"] = out / "report.md"
     write_text(paths["report"], markdown_summary(
         result, {"data and models (Fig. 8)": "fit.png", "residuals": "residuals.png"}))
@@ -143,28 +280,32 @@ def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, A
 
 #: the files ``magcilia calibrate --out`` (and ``demo``) writes into its folder
 CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png", "residuals.png")
+#: every file it may write: :data:`CALIBRATION_FILES` and, in the paper style, the PDF figures
+CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf")
 
 
-def write_calibration_files(result: CalibrationResult, directory: str | Path) -> None:
+def write_calibration_files(result: CalibrationResult, directory: str | Path,
+                            style: str = "screen") -> None:
     """Write :data:`CALIBRATION_FILES` into the existing folder ``directory`` (each file atomic,
-    the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own)."""
+    the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own); the
+    PDF figures only with ``style="paper"``."""
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
     doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
     write_json(folder / "result.json", doc)
-    write_report(result, folder)
+    write_report(result, folder, style)
 
 
 def write_calibration(result: CalibrationResult, directory: str | Path, *,
-                      force: bool = False) -> None:
+                      force: bool = False, style: str = "screen") -> None:
     """Write everything ``magcilia calibrate --out`` gives into the new folder ``directory``: the
     fitted setup (``fitted_setup.toml``), ``result.json`` (SI), ``report.md``, ``fit.png`` and
-    ``residuals.png``.
+    ``residuals.png`` (and their PDFs with ``style="paper"``).
 
     The folder is filled under a staging name and renamed in one step: a failure or a crash
     leaves nothing behind. An existing ``directory`` (an earlier output) is replaced only with
     ``force=True``.
     """
-    with staged_directory(directory, force=force, names=CALIBRATION_FILES) as tmp:
-        write_calibration_files(result, tmp)
+    with staged_directory(directory, force=force, names=CALIBRATION_NAMES) as tmp:
+        write_calibration_files(result, tmp, style)

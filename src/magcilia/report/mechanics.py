@@ -69,34 +69,57 @@ def bend_text(record: dict[str, Any], units: OutputUnits | None = None) -> str:
 
 
 def shape_figure(setup: Setup, shape: BentShape) -> Any:
-    """A figure of one bent shape, titled with its tip angle and output."""
+    """The figure of ``magcilia bend --plot``: one bent shape beside the unloaded cilium, titled
+    with its load, tip angle and output (mV)."""
     from magcilia.report.figures import new_figure
+    from magcilia.report.style import number
 
-    fig, axes = new_figure(size=(4.5, 5.0))
-    plot_shapes(shape, axes[0, 0], labels=[load_label(shape)])
+    fig, axes = new_figure(size=(3.6, 4.4))
+    plot_shapes(shape, axes[0, 0], labels=["loaded"])
     volts = float(setup.output(shape)[0])
-    axes[0, 0].set_title(f"tip angle {math.degrees(shape.tip_angle):.3g} deg, output "
-                         f"{volts:.6g} V", fontsize="small")
+    tip = number(math.degrees(shape.tip_angle))
+    axes[0, 0].set_title(f"load: {load_label(shape)}\ntip angle {tip} deg, output "
+                         f"{number(volts * 1e3, 5)} mV", fontsize="medium")
     return fig
 
 
-def plot_shapes(shapes: Any, ax: Any, labels: Any = None) -> Any:
-    """Plot centrelines (a :class:`~magcilia.Centreline`, e.g. a BentShape) in the x–z plane, mm,
-    with the straight cilium dashed; returns ``ax``."""
+def plot_shapes(shapes: Any, ax: Any = None, labels: Any = None) -> Any:
+    """Plot centrelines in the x–z plane, mm, with the straight cilium dashed.
+
+    Parameters
+    ----------
+    shapes : Centreline
+        One or more centrelines (a :class:`~magcilia.BentShape`, a ``bend_sweep`` result).
+    ax : matplotlib Axes, optional
+        Where to draw; a new figure when None.
+    labels : sequence of str, optional
+        A legend label for each shape (no legend without).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    import matplotlib as mpl
+
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax, size=(3.6, 4.4))
     length = shapes.length * 1e3
     ax.plot([0.0, 0.0], [0.0, length], color="0.6", ls="--", label="unloaded")
     for i in range(len(shapes)):
         pts = shapes.points[i] * 1e3
         label = labels[i] if labels is not None else None
-        ax.plot(pts[:, 0], pts[:, 2], lw=2, label=label)
+        ax.plot(pts[:, 0], pts[:, 2], lw=1.4 * mpl.rcParams["lines.linewidth"], color=f"C{i}",
+                label=label)
         ax.plot(pts[-1, 0], pts[-1, 2], "o", color="k", ms=3)
     x = shapes.points[..., 0] * 1e3
-    half = max(0.3 * length, float(np.abs(x).max()) * 1.1)  # keep the panel readable
-    ax.set_xlim(-half if x.min() < 0 else -0.1 * half, half)
+    half = max(0.5 * length, float(np.abs(x).max()) * 1.15)  # keep the panel readable
+    ax.set_xlim(-half if x.min() < -0.05 * half else -0.25 * half, half)
+    ax.set_ylim(-0.04 * length, 1.08 * max(length, float((shapes.points[..., 2] * 1e3).max())))
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm), along the sensitive axis")
     ax.set_ylabel("z (mm), from the base")
     ax.grid(alpha=0.3)
     if labels is not None:
-        ax.legend(fontsize="small")
+        ax.legend(loc="lower right" if x[..., -1].mean() >= 0 else "lower left")  # below the bend
     return ax

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 from numpy.typing import ArrayLike
 
@@ -16,9 +17,20 @@ from magcilia.acquire.photo import TiltMeasurement
 _SHOWN = 1600  # the image is shown with at most about this many pixels a side
 
 
-def annotate(measurement: TiltMeasurement, image: ArrayLike,
-             path: str | os.PathLike[str]) -> Path:
-    """Save a figure of ``measurement`` drawn over ``image`` (atomically; format from the suffix).
+def annotate_figure(measurement: TiltMeasurement, image: ArrayLike) -> Any:
+    """A figure of ``measurement`` drawn over ``image``: the photo, the fitted tape line, the
+    reference and the angle in degrees (arguments as :func:`annotate`)."""
+    from magcilia.report.figures import new_figure
+
+    img = v.finite_array("image", image, ndim=2)
+    h, w = img.shape
+    fig, axes = new_figure(size=(6.0, 6.0 * h / w + 0.5))
+    plot_measurement(measurement, img, axes[0, 0])
+    return fig
+
+
+def plot_measurement(measurement: TiltMeasurement, image: ArrayLike, ax: Any = None) -> Any:
+    """Draw ``measurement`` over ``image`` on ``ax`` (a new figure when None); returns ``ax``.
 
     Parameters
     ----------
@@ -26,21 +38,18 @@ def annotate(measurement: TiltMeasurement, image: ArrayLike,
         The result of :func:`magcilia.acquire.photo.measure_tilt` on ``image``.
     image : array-like, shape (h, w)
         The upright grey photo the measurement was made on (px coordinates of the measurement).
-    path : str or path-like
-        Output file, e.g. ``angle.png``.
+    ax : matplotlib Axes, optional
 
     Returns
     -------
-    Path
-        The file written.
+    matplotlib Axes
     """
-    from magcilia.report.figures import new_figure
+    from magcilia.report.figures import axes_or_new
 
     img = v.finite_array("image", image, ndim=2)
     h, w = img.shape
+    ax = axes_or_new(ax, size=(6.0, 6.0 * h / w + 0.5))
     step = max(1, math.ceil(max(h, w) / _SHOWN))
-    fig, axes = new_figure(size=(7.0, 7.0 * h / w + 0.6))
-    ax = axes[0, 0]
     ax.imshow(img[::step, ::step], cmap="gray", vmin=0.0, vmax=max(float(img.max()), 1e-12),
               extent=(-0.5, w - 0.5, h - 0.5, -0.5))
     (x0, y0), (x1, y1) = measurement.line
@@ -60,9 +69,40 @@ def annotate(measurement: TiltMeasurement, image: ArrayLike,
     ax.set_ylabel("y (px)")
     ref_text = {"vertical": "the image vertical", "detected": "the case edge normal",
                 "given": "the given reference"}[measurement.reference]
-    ax.set_title(f"{Path(measurement.path).name}: tilt {measurement.angle_deg:+.2f}° from "
-                 f"{ref_text}", fontsize="medium")
-    ax.legend(fontsize="small", loc="upper right")
+    angle = f"{measurement.angle_deg:+.2f}".replace("-", "−")  # the real minus sign
+    ax.set_title(f"{Path(measurement.path).name}: tilt {angle}° from {ref_text}",
+                 fontsize="medium")
+    ax.legend(loc="upper right")
+    return ax
+
+
+def annotate(measurement: TiltMeasurement, image: ArrayLike,
+             path: str | os.PathLike[str], style: str = "screen") -> Path:
+    """Save a figure of ``measurement`` drawn over ``image`` (atomically; format from the suffix);
+    with ``style="paper"`` a vector PDF beside a PNG ``path``.
+
+    Parameters
+    ----------
+    measurement : TiltMeasurement
+        The result of :func:`magcilia.acquire.photo.measure_tilt` on ``image``.
+    image : array-like, shape (h, w)
+        The upright grey photo the measurement was made on (px coordinates of the measurement).
+    path : str or path-like
+        Output file, e.g. ``angle.png``.
+    style : {"screen", "paper"}
+        The figure style (:mod:`magcilia.report.style`).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    from magcilia.report import style as st
+
     out = Path(path)
-    save_figure(fig, out)
+    with st.use(style):
+        fig = annotate_figure(measurement, image)
+        save_figure(fig, out, dpi=st.dpi())
+        if style == "paper" and out.suffix.lower() == ".png":
+            save_figure(fig, out.with_suffix(".pdf"))
     return out

@@ -7,6 +7,7 @@ summary into a directory (each file atomically).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +36,10 @@ def display(parameter: str) -> tuple[str, str, float]:
 #: figure file of each of the paper's sensitivity figures
 FIGURE_FILES = {9: "fig09_xy.png", 10: "fig10_z.png", 11: "fig11_nk.png",
                 12: "fig12_geometry.png"}
+#: every figure file ``write_sensitivity_report`` may write (PDFs in the paper style)
+FIGURE_NAMES = tuple(f"{Path(name).stem}{ext}"
+                     for name in (*FIGURE_FILES.values(), "xy_map.png", "sobol.png")
+                     for ext in (".png", ".pdf"))
 #: figure file name -> the sweeps it shows (the registry's figure numbers)
 FIGURES = {name: tuple(n for n in STUDIED if PARAMETERS[n].figure == number)
            for number, name in FIGURE_FILES.items()}
@@ -45,52 +50,89 @@ def _label(parameter: str) -> str:
     return f"{name} ({unit})" if unit else name
 
 
-def plot_sweep_curves(result: OATResult, ax: Axes, max_curves: int = 7) -> Axes:
-    """Output (mV) vs tilt (deg) for up to ``max_curves`` values of the sweep, reference dashed."""
+def plot_sweep_curves(result: OATResult, ax: Axes | None = None, max_curves: int = 9) -> Axes:
+    """Output (mV) vs tilt (deg) for up to ``max_curves`` values of a one-at-a-time sweep,
+    coloured by the swept value (colour bar; every value of a whole-number sweep up to 12), the
+    reference curve dashed; returns ``ax`` (a new figure when None)."""
     from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import BoundaryNorm, Normalize
 
-    name, unit, factor = display(result.parameter)
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax)
     deg = np.degrees(result.angles)
-    idx = np.unique(np.linspace(0, result.values.size - 1, min(max_curves, result.values.size))
+    integer = PARAMETERS[result.parameter].domain == "integer"
+    shown = result.values.size if integer and result.values.size <= 12 else max_curves
+    idx = np.unique(np.linspace(0, result.values.size - 1, min(shown, result.values.size))
                     .round().astype(int))
-    cmap = colormaps["viridis"]
-    for j, i in enumerate(idx):
-        color = cmap(j / max(1, idx.size - 1))
-        val = result.values[i] * factor
-        ax.plot(deg, result.curves[i] * 1e3, color=color,
-                label=f"{name} = {val:.4g} {unit}".strip())
-    ax.plot(deg, result.reference * 1e3, "k--", lw=1.5, label="reference")
+    values = result.values * display(result.parameter)[2]
+    cmap = colormaps["viridis"].resampled(256)
+    if integer:  # one colour per whole number shown
+        edges = np.r_[values[idx] - 0.5, values[idx][-1] + 0.5]
+        norm: Normalize = BoundaryNorm(edges, cmap.N)
+    else:
+        norm = Normalize(float(values.min()), float(values.max()))
+    for i in idx:
+        ax.plot(deg, result.curves[i] * 1e3, color=cmap(norm(values[i])), lw=1.2)
+    ax.plot(deg, result.reference * 1e3, color="k", ls=(0, (4, 3)), lw=1.2, label="reference")
+    bar = ax.figure.colorbar(ScalarMappable(norm, cmap), ax=ax, location="top", aspect=35,
+                             pad=0.02, label=_label(result.parameter),
+                             ticks=values[idx] if integer and idx.size <= 10 else None)
+    bar.ax.axvline(result.nominal * display(result.parameter)[2], color="k", lw=1.5)
     ax.set_xlabel("tilt angle θ (deg)")
     ax.set_ylabel("sensor output (mV)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize="x-small")
+    ax.legend(loc="best")
     return ax
 
 
-def plot_sweep_measure(result: OATResult, ax: Axes) -> Axes:
-    """RMS output change (mV) vs the swept value, and the calibration cost on a twin axis."""
+def plot_sweep_measure(result: OATResult, ax: Axes | None = None) -> Axes:
+    """RMS output change (mV) vs the swept value, and the calibration cost (V², log) on a twin
+    axis when the study had measurements; returns ``ax`` (a new figure when None)."""
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax)
     _, _, factor = display(result.parameter)
     x = result.values * factor
     marker = "o" if PARAMETERS[result.parameter].domain == "integer" else ""
-    ax.plot(x, result.rms_change * 1e3, marker=marker, color="C0", label="RMS change")
-    ax.plot(x, result.shape_change * 1e3, marker=marker, color="C0", ls="--", label="offset-free")
-    ax.legend(fontsize="x-small", loc="upper center")
+    ax.plot(x, result.rms_change * 1e3, marker=marker, ms=3, color="C0", label="RMS change")
+    ax.plot(x, result.shape_change * 1e3, marker=marker, ms=3, color="C0", ls="--",
+            label="offset-free")
     ax.axvline(result.nominal * factor, color="k", ls=":", lw=1)
     ax.set_xlabel(_label(result.parameter))
-    ax.set_ylabel("RMS change of the output (mV)", color="C0")
+    ax.set_ylabel("RMS output change (mV)", color="C0")
     ax.grid(alpha=0.3)
+    handles, labels = ax.get_legend_handles_labels()
+    top = float(np.nanmax(np.r_[result.rms_change, result.shape_change])) * 1e3
+    ax.set_ylim(-0.04 * top, 1.3 * top)  # the legend's row above the curves
+    target = ax
     if result.cost is not None:
         twin = ax.twinx()
-        twin.plot(x, result.cost, marker=marker, color="C3", label="cost")
+        twin.plot(x, result.cost, marker=marker, ms=3, color="C3", label="cost")
         twin.set_ylabel("calibration cost (V²)", color="C3")
         twin.set_yscale("log")
+        cost = result.cost[np.isfinite(result.cost) & (result.cost > 0)]
+        if cost.size:
+            lo, hi = float(cost.min()), float(cost.max())
+            decades = math.log10(hi / lo) if hi > lo else 1.0
+            twin.set_ylim(lo / 10 ** (0.04 * decades), hi * 10 ** (0.3 * decades))
+        more = twin.get_legend_handles_labels()
+        handles, labels = handles + more[0], labels + more[1]
+        target = twin  # drawn above the twin's line
+    target.legend(handles, labels, loc="upper center", ncols=len(labels), handlelength=1.4,
+                  columnspacing=0.8)
     return ax
 
 
-def plot_xy_map(xy: PlacementMap, ax: Axes, quantity: str = "rms") -> Axes:
-    """Map of the RMS change (mV) or the cost (V², log) over x, y (mm); the reference marked."""
+def plot_xy_map(xy: PlacementMap, ax: Axes | None = None, quantity: str = "rms") -> Axes:
+    """Map of the RMS change (mV) or the cost (V², log) over x, y (mm); the reference marked;
+    returns ``ax`` (a new figure when None)."""
     from matplotlib.colors import LogNorm
 
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax, size=(6.0, 4.8))
     z = xy.cost if quantity == "cost" and xy.cost is not None else xy.rms_change * 1e3
     extent = (xy.x[0] * 1e3, xy.x[-1] * 1e3, xy.y[0] * 1e3, xy.y[-1] * 1e3)
     if quantity == "cost" and xy.cost is not None:
@@ -98,42 +140,72 @@ def plot_xy_map(xy: PlacementMap, ax: Axes, quantity: str = "rms") -> Axes:
         norm = LogNorm(vmin=float(pos.min()), vmax=float(pos.max())) if pos.size else None
         label = "calibration cost (V²)"
     else:
-        norm, label = None, "RMS change of the output (mV)"
+        norm, label = None, "RMS output change (mV)"
     im = ax.imshow(z, origin="lower", extent=extent, aspect="auto", cmap="magma", norm=norm)
     if np.isfinite(z).sum() > 4 and norm is None:
         ax.contour(xy.x * 1e3, xy.y * 1e3, z, colors="w", linewidths=0.6, levels=6)
-    ax.plot(xy.nominal[0] * 1e3, xy.nominal[1] * 1e3, "c+", ms=12, mew=2, label="reference")
+    ax.plot(xy.nominal[0] * 1e3, xy.nominal[1] * 1e3, "+", color="c", ms=10, mew=2,
+            label="reference")
     ax.figure.colorbar(im, ax=ax, label=label)
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
-    ax.legend(fontsize="small")
+    ax.legend(loc="upper right")
     return ax
 
 
-def plot_sobol(result: SobolResult, ax: Axes) -> Axes:
-    """Bars of first-order and total Sobol indices with confidence intervals."""
+def plot_sobol(result: SobolResult, ax: Axes | None = None) -> Axes:
+    """Horizontal bars of first-order and total Sobol indices with their confidence intervals;
+    returns ``ax`` (a new figure when None)."""
+    from magcilia.report.figures import axes_or_new
+
+    ax = axes_or_new(ax)
     names = [display(n)[0] if n in PARAMETERS else n for n in result.names]
     pos = np.arange(len(names))
-    ax.bar(pos - 0.2, result.S1, 0.4, yerr=result.S1_conf, capsize=3, label="first order S1")
-    ax.bar(pos + 0.2, result.ST, 0.4, yerr=result.ST_conf, capsize=3, label="total ST")
-    ax.set_xticks(pos, names, rotation=30, ha="right")
-    ax.set_ylabel("Sobol index")
+    bars: dict[str, Any] = {"capsize": 2, "error_kw": {"elinewidth": 0.8}}
+    ax.barh(pos - 0.2, result.S1, 0.4, xerr=result.S1_conf, color="C0",
+            label="first order $S_1$", **bars)
+    ax.barh(pos + 0.2, result.ST, 0.4, xerr=result.ST_conf, color="C1", label="total $S_T$",
+            **bars)
+    ax.axvline(0.0, color="0.4", lw=0.8)
+    ax.set_yticks(pos, names)
+    ax.invert_yaxis()  # the registry's order, top down
+    ax.set_xlabel("Sobol index")
     ax.set_title(f"global sensitivity ({result.measure}, {result.n_evaluations} evaluations)")
-    ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3, axis="x")
+    ax.legend(loc="best")
     return ax
 
 
 def sweep_figure(study: SensitivityStudy, parameters: tuple[str, ...]) -> Any:
-    """One figure: for each parameter, its curves (top) and measure (bottom)."""
+    """One figure: for each parameter, its curves (top, the swept value on a colour bar above,
+    the reference marked on it) and measure (bottom)."""
     from magcilia.report.figures import new_figure
 
     fig, axes = new_figure(ncols=len(parameters), nrows=2, size=(5.5, 3.8))
     for j, name in enumerate(parameters):
         plot_sweep_curves(study.sweeps[name], axes[0, j])
         plot_sweep_measure(study.sweeps[name], axes[1, j])
-        axes[0, j].set_title(f"sensitivity to {display(name)[0]}")
     return fig
+
+
+def sensitivity_figures(study: SensitivityStudy,
+                        sobol: SobolResult | None = None) -> dict[str, Any]:
+    """The figures of ``magcilia sensitivity --out`` by file name (figs. 9–12 equivalents, the
+    x–y map and, with ``sobol``, the Sobol bars), built in the style in use."""
+    from magcilia.report.figures import new_figure
+
+    figures = {fname: sweep_figure(study, params) for fname, params in FIGURES.items()}
+    ncols = 2 if study.xy_map.cost is not None else 1
+    fig, axes = new_figure(ncols=ncols, size=(6.0, 4.8))
+    plot_xy_map(study.xy_map, axes[0, 0])
+    if ncols == 2:
+        plot_xy_map(study.xy_map, axes[0, 1], quantity="cost")
+    figures["xy_map.png"] = fig
+    if sobol is not None:
+        fig, axes = new_figure()
+        plot_sobol(sobol, axes[0, 0])
+        figures["sobol.png"] = fig
+    return figures
 
 
 def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
@@ -236,29 +308,25 @@ def tolerance_text(doc: dict[str, Any], units: OutputUnits) -> str:
 def write_sensitivity_report(study: SensitivityStudy, directory: str | Path,
                              sobol: SobolResult | None = None,
                              tolerance: PlacementTolerance | None = None,
-                             units: OutputUnits | None = None) -> dict[str, Path]:
+                             units: OutputUnits | None = None,
+                             style: str = "screen") -> dict[str, Path]:
     """Write figs. 9–12 equivalents, the x–y map, Sobol bars, ``sensitivity.json`` (in
-    ``units``, default SI; see :func:`report_dict`) and ``summary.md`` into ``directory``;
-    returns the written paths by name."""
-    from magcilia.report.figures import new_figure
+    ``units``, default SI; see :func:`report_dict`) and ``summary.md`` into ``directory``; with
+    ``style="paper"`` a vector PDF beside each PNG (the summary links the PNGs). Returns the
+    written paths by name."""
+    from magcilia.report import style as st
 
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
-    figures = {fname: sweep_figure(study, params) for fname, params in FIGURES.items()}
-    ncols = 2 if study.xy_map.cost is not None else 1
-    fig, axes = new_figure(ncols=ncols, size=(6.0, 4.8))
-    plot_xy_map(study.xy_map, axes[0, 0])
-    if ncols == 2:
-        plot_xy_map(study.xy_map, axes[0, 1], quantity="cost")
-    figures["xy_map.png"] = fig
-    if sobol is not None:
-        fig, axes = new_figure()
-        plot_sobol(sobol, axes[0, 0])
-        figures["sobol.png"] = fig
-    for fname, fig in figures.items():
-        save_figure(fig, out / fname, dpi=120)
-        written[fname] = out / fname
+    with st.use(style):
+        for fname, fig in sensitivity_figures(study, sobol).items():
+            save_figure(fig, out / fname, dpi=st.dpi())
+            written[fname] = out / fname
+            if style == "paper":
+                pdf = Path(fname).with_suffix(".pdf").name
+                save_figure(fig, out / pdf)
+                written[pdf] = out / pdf
     write_json(out / "sensitivity.json", report_dict(study, sobol, tolerance, units))
     written["sensitivity.json"] = out / "sensitivity.json"
     figs = {k: k for k in written if k.endswith(".png")}
