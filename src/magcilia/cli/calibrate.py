@@ -7,10 +7,12 @@ import click
 from magcilia._atomic import staged_directory
 from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
+    RecordingArgs,
     calibrate_with_progress,
     echo_json,
     load_setup_arg,
     parse_named_ranges,
+    recording_options,
 )
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
@@ -46,9 +48,11 @@ from magcilia.report.calibration import CALIBRATION_FILES, write_calibration_fil
               show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@recording_options
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
-            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool) -> None:
+            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
+            reading: RecordingArgs) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
@@ -57,8 +61,8 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     """
     with staged_directory(out_dir, force=force, names=CALIBRATION_FILES) as tmp:
         initial = load_setup_arg(setup_arg)
-        measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
-                                        saturation=saturation)
+        measurement = reading.read(read_measurements, data, quiet=quiet, sensor=initial.sensor,
+                                   nan_policy=nan_policy, saturation=saturation)
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
                                          rng=seed, bias=bias, bias_degree=bias_degree,

@@ -12,13 +12,16 @@ from magcilia._atomic import write_text
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
+    RecordingArgs,
     bandwidth_option,
     echo_json,
     load_mechanics_setup,
     mechanics_options,
     parse_bandwidth,
+    recording_options,
 )
 from magcilia.device.parameters import MEASURANDS
+from magcilia.io.columns import Columns
 from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.inverse import Readout
@@ -47,9 +50,12 @@ def parse_span(text: str, quantity: str) -> tuple[float, float]:
     return out[0], out[1]
 
 
-def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms with ``voltage_V``)."""
-    cols = read_samples(path, required=("voltage_V",))
+def read_recording(path: str, reading: RecordingArgs | None = None
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``,
+    or the columns that ``reading`` maps)."""
+    reading = reading or RecordingArgs(Columns(), None, ".", None)
+    cols = reading.read(read_samples, path, required=("voltage_V",))
     if cols["voltage_V"].size == 0:
         raise fail("RECORDING", path, "a recording with at least one reading")
     return cols["voltage_V"], cols.get("time_s")
@@ -73,9 +79,11 @@ def read_recording(path: str) -> tuple[np.ndarray, np.ndarray | None]:
                    "covariance adds to each reading's 1-sigma.")
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
+@recording_options
 def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
             bandwidth: str, fluid: str, table_size: int, tip_radius: str | None,
-            modulus: str | None, calibration_path: str | None, as_json: bool) -> None:
+            modulus: str | None, calibration_path: str | None, as_json: bool,
+            reading: RecordingArgs) -> None:
     """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
     or .tdms with a `voltage_V` column and optional `time_s`; see `magcilia calibrate`).
 
@@ -84,7 +92,7 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     """
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     span = parse_span(span_text, quantity)
-    volts, times = read_recording(recording)
+    volts, times = read_recording(recording, reading)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
