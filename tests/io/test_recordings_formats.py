@@ -483,3 +483,49 @@ def test_progress_of_a_read(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kin
         assert done == sorted(done) and 0 <= done[0] <= size
         if kind == "fast":
             assert len(calls) >= ANG.size // 16
+
+
+# -- the command line ---------------------------------------------------------------------------
+def test_readout_reads_mapped_hdf5_and_european_csv(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from magcilia.cli import main
+
+    volts = mc.Setup.paper().output(np.radians([10.0, 30.0, 50.0]))
+    h5 = _h5(tmp_path / "scope.h5", {"run3/ch1": volts * 1e3, "run3/t": [0.0, 0.1, 0.2]},
+             {"run3/ch1": {"units": "mV"}})
+    eu = tmp_path / "eu.csv"
+    eu.write_text("Zeit [ms];U [mV]\n" + "".join(f"{100 * i};{_num(v * 1e3, ',')}\n"
+                                                 for i, v in enumerate(volts)))
+    runs = {h5: ["--group", "run3", "--columns", "voltage=ch1,time=t[s]"],
+            eu: ["--decimal", ",", "--columns", "voltage=U,time=Zeit"]}
+    for path, options in runs.items():
+        out = tmp_path / f"{path.stem}-angles.csv"
+        assert main(["readout", "paper", str(path), "--quantity", "angle", "--span", "0:60",
+                     "--out", str(out), *options]) == 0
+        assert "3/3 readings estimated" in capsys.readouterr().out
+        text = out.read_text().splitlines()
+        angles = [float(line.split(",")[text[0].split(",").index("angle_deg")])
+                  for line in text[1:]]
+        np.testing.assert_allclose(angles, [10.0, 30.0, 50.0], atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [(["--columns", "tilt=Tilt[deg]"], "magcilia: error: --columns must be ROLE=NAME[unit],..."),
+     (["--columns", "voltage=Vout[deg]"], "with a voltage unit (V, mV, uV, µV)"),
+     (["--decimal", ";"], "Invalid value for '--decimal'"),
+     (["--columns", "voltage=Vout[mV]"], "' (header: voltage_V); map the "),
+     (["--group", "run3"], "group must be left out for a CSV file")])
+def test_recording_options_fail_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                            options: list[str], match: str) -> None:
+    from magcilia.cli import main
+
+    rec = tmp_path / "r.csv"
+    rec.write_text("voltage_V\n0.001\n")
+    for args in (["readout", "paper", str(rec), "--quantity", "angle", "--span", "0:60",
+                  "--out", str(tmp_path / "o.csv")],
+                 ["calibrate", str(rec), "--out", str(tmp_path / "cal")]):
+        assert main([*args, *options]) == 2
+        err = capsys.readouterr().err
+        assert match in err and err.count("\n") == 1, err
+    assert not (tmp_path / "o.csv").exists() and not (tmp_path / "cal").exists()

@@ -53,7 +53,7 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
             nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
             reading: RecordingArgs) -> None:
-    """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
+    """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
     and residuals.png into --out, a new folder published in one rename when everything is

@@ -422,7 +422,8 @@ def _parse_csv(reader: Iterator[list[str]], path: Path, columns: tuple[str, ...]
                 try:
                     value = _number(text, decimal)
                 except ValueError:
-                    raise _not_a_number(path, where[0], header[i], text, decimal) from None
+                    raise _not_a_number(path, where[0], names_text([header[i]]), text,
+                                        decimal) from None
             data[col].append(value)
     return {col: np.frombuffer(values, dtype=np.float64).copy() if len(values) else np.zeros(0)
             for col, values in data.items()}
