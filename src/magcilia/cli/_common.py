@@ -6,7 +6,7 @@ import functools
 import math
 import sys
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -156,10 +156,10 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
 class RecordingArgs:
     """The options of :func:`recording_options`, as the readers' keyword arguments."""
 
-    columns: Columns
-    delimiter: str | None
-    decimal: str
-    group: str | None
+    columns: Columns = field(default_factory=Columns)
+    delimiter: str | None = None
+    decimal: str = "."
+    group: str | None = None
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`magcilia.read_measurements` and

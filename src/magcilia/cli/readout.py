@@ -21,7 +21,6 @@ from magcilia.cli._common import (
     recording_options,
 )
 from magcilia.device.parameters import MEASURANDS
-from magcilia.io.columns import Columns
 from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.inverse import Readout
@@ -54,7 +53,7 @@ def read_recording(path: str, reading: RecordingArgs | None = None
                    ) -> tuple[np.ndarray, np.ndarray | None]:
     """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``,
     or the columns that ``reading`` maps)."""
-    reading = reading or RecordingArgs(Columns(), None, ".", None)
+    reading = reading or RecordingArgs()
     cols = reading.read(read_samples, path, required=("voltage_V",))
     if cols["voltage_V"].size == 0:
         raise fail("RECORDING", path, "a recording with at least one reading")

@@ -147,7 +147,7 @@ class Columns:
     @classmethod
     def parse(cls, text: str) -> Columns:
         """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset;
-        others keep their defaults).
+        others keep their defaults; a name with a comma needs the API's mapping).
 
         >>> Columns.parse("voltage=Vout[mV]")
         Columns(angle='angle_deg', voltage='Vout[mV]', time='time_s', setreset='setreset')
