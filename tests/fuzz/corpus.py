@@ -1,4 +1,4 @@
-"""A seeded corpus of mutated recordings (CSV, MATLAB v4/v5/v7.3, TDMS) for the fuzz tests.
+"""A seeded corpus of mutated recordings (CSV, MATLAB v4/v5/v7.3, TDMS, HDF5) for the fuzz tests.
 
 Small valid recordings are made here (nothing binary is stored in the repository); case ``i`` of
 seed ``s`` takes seed recording ``i mod n`` and applies one to four mutations drawn with
@@ -91,6 +91,9 @@ def seeds() -> dict[str, tuple[str, bytes]]:
                        for i, (a, v, s) in enumerate(zip(ANGLES, VOLTS, SETRESET, strict=True)))
     out["csv_quoted"] = (".csv", ("\ufeffangle_deg, voltage_V,note,setreset\r\n" + rows
                                   ).encode())
+    rows = "\n".join(f"{t:g};{a:g};{v * 1e3:.6g};{s:+g}".replace(".", ",")
+                     for a, v, t, s in zip(ANGLES, VOLTS, TIME, SETRESET, strict=True))
+    out["csv_eu"] = (".csv", f"Zeit [s];Winkel [deg];Spannung [mV];SR\n{rows}\n".encode())
     columns = {"angle_deg": ANGLES, "voltage_V": VOLTS, "time_s": TIME, "setreset": SETRESET}
     for name, kwargs in (("mat_v5", {"do_compression": False}),
                          ("mat_v5z", {"do_compression": True}), ("mat_v4", {"format": "4"})):
@@ -119,13 +122,37 @@ def seeds() -> dict[str, tuple[str, bytes]]:
             out["tdms_magcilia"] = (".tdms", re.sub(  # its start time, fixed
                 rb"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", b"2026-01-01T00:00:00+00:00",
                 path.read_bytes()))
-        try:  # without h5py (the extra "hdf5") the v7.3 seed is left out
+        try:  # without h5py (the extra "hdf5") the v7.3 and HDF5 seeds are left out
             write_mat73(Path(tmp) / "v73.mat", columns)
+            write_hdf5(Path(tmp) / "rec.h5")
         except ImportError:
             pass
         else:
             out["mat_v73"] = (".mat", (Path(tmp) / "v73.mat").read_bytes())
+            out["h5"] = (".h5", (Path(tmp) / "rec.h5").read_bytes())
     return out
+
+
+#: How :func:`read_case` reads the seeds that need options (by seed name).
+READ_OPTIONS: dict[str, dict[str, str]] = {
+    "csv_eu": {"decimal": ",", "columns": "time=Zeit,angle=Winkel,voltage=Spannung,setreset=SR"},
+    "h5": {"group": "run", "columns": "angle=Tilt,voltage=Vout,time=t,setreset=SR"},
+}
+
+
+def write_hdf5(path: Path) -> None:
+    """An HDF5 recording: datasets in group ``run``, units in attributes and names (no times
+    stored, so the bytes are the same each time)."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        group = f.create_group("run")
+        for name, values, unit in (("Tilt", ANGLES, "deg"), ("Vout", VOLTS * 1e3, "mV"),
+                                   ("t", TIME, "s"), ("SR", SETRESET.astype(np.int8), None)):
+            data = group.create_dataset(name, data=values, track_times=False)
+            if unit:
+                data.attrs["units"] = unit
+        f.create_dataset("notes", data=np.arange(6.0).reshape(2, 3), track_times=False)
 
 
 # -- byte mutations -----------------------------------------------------------------------------
@@ -307,6 +334,7 @@ FORMAT_MUTATIONS: dict[str, tuple[Mutation, ...]] = {
     "tdms": (tdms_leadin, tdms_leadin, tdms_dtype),
     "tdms_magcilia": (tdms_leadin, tdms_leadin, tdms_dtype),
     "csv_quoted": (csv_text, csv_text, csv_text),
+    "csv_eu": (csv_text, csv_text, csv_text),
 }
 
 
@@ -337,6 +365,9 @@ def cases(n: int, seed: int = 0, suffixes: Sequence[str] | None = None,
 
 
 def read_case(path: Path, index: int) -> None:
-    """Read a mutated recording as ``magcilia calibrate`` does, the policies varied by index."""
+    """Read a mutated recording as ``magcilia calibrate`` does, the policies varied by index
+    (and the options of :data:`READ_OPTIONS` for the seed in the file's name)."""
+    options = next((o for name, o in READ_OPTIONS.items()
+                    if path.stem == name or path.stem.endswith(f"-{name}")), {})
     mc.read_measurements(path, nan_policy=("raise", "omit")[index % 2],
-                         saturation=("raise", "omit", "keep")[index % 3])
+                         saturation=("raise", "omit", "keep")[index % 3], **options)

@@ -31,7 +31,7 @@ import magcilia as mc
 
 LONG = os.environ.get("MAGCILIA_FUZZ", "").lower() == "long"
 SEED = int(os.environ.get("MAGCILIA_FUZZ_SEED", "0"))
-SHORT = {".csv": 800, ".tdms": 800, ".mat": 64}  # cases per format in the default suite
+SHORT = {".csv": 800, ".tdms": 800, ".mat": 64, ".h5": 48}  # cases per format, default suite
 
 
 def _corpus() -> ModuleType:
@@ -67,10 +67,10 @@ def _read(case: object, directory: Path) -> str:
 
 
 def _run(cases: list[object], tmp_path: Path) -> Counter[str]:
-    """Read the cases: MATLAB files in threads (each read waits on its child process), the
-    rest in this thread."""
-    mat = [c for c in cases if c.suffix == ".mat"]  # type: ignore[attr-defined]
-    rest = [c for c in cases if c.suffix != ".mat"]  # type: ignore[attr-defined]
+    """Read the cases: MATLAB and HDF5 files in threads (each read waits on its child process),
+    the rest in this thread."""
+    mat = [c for c in cases if c.suffix in (".mat", ".h5")]  # type: ignore[attr-defined]
+    rest = [c for c in cases if c.suffix not in (".mat", ".h5")]  # type: ignore[attr-defined]
     outcomes = Counter(_read(c, tmp_path) for c in rest)
     with concurrent.futures.ThreadPoolExecutor(max_workers=2 * (os.cpu_count() or 1)) as pool:
         outcomes.update(pool.map(lambda c: _read(c, tmp_path), mat))
@@ -84,6 +84,7 @@ def test_the_seed_recordings_are_read(tmp_path: Path) -> None:
         path.write_bytes(data)
         corpus.read_case(path, 2)
     assert {".csv", ".mat"} <= {s for s, _ in corpus.seeds().values()}
+    assert corpus.seeds()["csv_eu"][1].count(b",") > 25  # decimal commas
 
 
 def test_the_corpus_is_deterministic() -> None:
@@ -153,3 +154,20 @@ def test_csv_reader_on_well_formed_tables(header: list[str], rows: list[tuple[st
     order = [["angle_deg", "voltage_V", "time_s", "setreset", "note"].index(h) for h in header]
     lines = [",".join(header)] + [",".join(row[i] for i in order) for row in rows]
     _read_csv_bytes(("\n".join(lines) + "\n").encode("utf-8", "surrogatepass"))
+
+
+@settings(max_examples=60, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=400), st.sampled_from([None, ";", "tab", "whitespace"]),
+       st.sampled_from(".,"))
+def test_csv_reader_with_delimiters_and_decimal_commas_on_arbitrary_bytes(
+        data: bytes, delimiter: str | None, decimal: str) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "h.csv"
+        path.write_bytes(b"Winkel [deg];Spannung (mV)\n" + data)
+        text = ""
+        try:
+            mc.read_measurements(path, nan_policy="omit", saturation="keep", decimal=decimal,
+                                 delimiter=delimiter, columns="angle=Winkel,voltage=Spannung")
+        except mc.MagciliaError as exc:
+            text = str(exc)
+        assert not text or ("\n" not in text and str(path) in text), text

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from magcilia.calibration import CalibrationResult, calibrate
 from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
+from magcilia.io.columns import Columns, columns_help
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
@@ -251,3 +254,62 @@ def style_option(command: Any) -> Any:
         help="Figure style: screen, or paper (serif, one journal column wide, print-sized "
              "fonts; vector PDF/SVG by the file suffix, a PDF beside each PNG of a folder)."
     )(command)
+
+
+@dataclass(frozen=True)
+class RecordingArgs:
+    """The options of :func:`recording_options`, as the readers' keyword arguments."""
+
+    columns: Columns = field(default_factory=Columns)
+    delimiter: str | None = None
+    decimal: str = "."
+    group: str | None = None
+
+    def kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`magcilia.read_measurements` and
+        :func:`magcilia.read_samples`."""
+        return {"columns": self.columns, "delimiter": self.delimiter, "decimal": self.decimal,
+                "group": self.group}
+
+    def read(self, read: Callable[..., Any], path: str, *, quiet: bool = False,
+             **kwargs: Any) -> Any:
+        """``read(path, **kwargs)`` (read_measurements or read_samples) with these options and a
+        progress bar on stderr for reads longer than a second (not with ``quiet`` or when stderr
+        is not a terminal)."""
+        show = not quiet_requested(quiet) and sys.stderr.isatty()
+        with tqdm(desc=f"reading {Path(path).name}", unit="B", unit_scale=True,
+                  unit_divisor=1024, delay=1.0, leave=False, disable=not show,
+                  file=sys.stderr) as bar:
+            def advance(done: int, total: int) -> None:
+                bar.total = total
+                bar.update(done - bar.n)
+
+            return read(path, progress=advance, **self.kwargs(), **kwargs)
+
+
+def recording_options(command: Any) -> Any:
+    """``--columns``, ``--delimiter``, ``--decimal`` and ``--group`` for a command that reads a
+    recording; the command receives them as one ``reading`` argument (:class:`RecordingArgs`),
+    checked before the command runs."""
+    @functools.wraps(command)
+    def run(*args: Any, columns: str | None, delimiter: str, decimal: str, group: str | None,
+            **kwargs: Any) -> Any:
+        cols = Columns() if columns is None else Columns.parse(columns)
+        reading = RecordingArgs(cols, None if delimiter == "auto" else delimiter, decimal, group)
+        return command(*args, reading=reading, **kwargs)
+
+    options = [
+        click.option("--columns", default=None, metavar="ROLE=NAME[unit],...",
+                     help=columns_help()),
+        click.option("--delimiter", type=click.Choice(["auto", ",", ";", "tab", "whitespace"]),
+                     default="auto", show_default=True,
+                     help="CSV field delimiter; auto: from the header line."),
+        click.option("--decimal", type=click.Choice([".", ","]), default=".",
+                     show_default=True, help="CSV decimal mark (',' for 1,25)."),
+        click.option("--group", default=None, metavar="NAME",
+                     help="HDF5 or TDMS group holding the columns (default: HDF5 root, "
+                          "TDMS any group)."),
+    ]
+    for option in reversed(options):
+        run = option(run)
+    return run

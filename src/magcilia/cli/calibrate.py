@@ -7,10 +7,12 @@ import click
 from magcilia._atomic import staged_directory
 from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
+    RecordingArgs,
     calibrate_with_progress,
     echo_json,
     load_setup_arg,
     parse_named_ranges,
+    recording_options,
     si_option,
     style_option,
 )
@@ -58,11 +60,12 @@ from magcilia.report.calibration import (
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
 @style_option
+@recording_options
 def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
             restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
             nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
-            fix_items: tuple[str, ...], si: bool, style: str) -> None:
-    """Calibrate the model to the recording DATA (CSV, .mat or .tdms).
+            fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs) -> None:
+    """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5).
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
     and residuals.png into --out, a new folder published in one rename when everything is
@@ -70,8 +73,8 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     """
     with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         initial = load_setup_arg(setup_arg)
-        measurement = read_measurements(data, sensor=initial.sensor, nan_policy=nan_policy,
-                                        saturation=saturation)
+        measurement = reading.read(read_measurements, data, quiet=quiet, sensor=initial.sensor,
+                                   nan_policy=nan_policy, saturation=saturation)
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
                                          rng=seed, bias=bias, bias_degree=bias_degree,

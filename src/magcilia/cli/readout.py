@@ -13,11 +13,15 @@ from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
+    RecordingArgs,
     bandwidth_option,
     echo_json,
     load_mechanics_setup,
     mechanics_options,
     parse_bandwidth,
+    quiet_requested,
+    recording_options,
+    si_option,
 )
 from magcilia.device.parameters import MEASURANDS
 from magcilia.io.recordings import read_samples
@@ -40,9 +44,12 @@ def parse_span(text: str, quantity: str) -> tuple[float, float]:
     return lo, hi
 
 
-def read_recording(path: str, option: str = "RECORDING") -> tuple[np.ndarray, np.ndarray | None]:
-    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms with ``voltage_V``)."""
-    cols = read_samples(path, required=("voltage_V",))
+def read_recording(path: str, reading: RecordingArgs | None = None, option: str = "RECORDING",
+                   quiet: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``,
+    or the columns that ``reading`` maps)."""
+    reading = reading or RecordingArgs()
+    cols = reading.read(read_samples, path, quiet=quiet, required=("voltage_V",))
     if cols["voltage_V"].size == 0:
         raise fail(option, path, "a recording with at least one reading")
     return cols["voltage_V"], cols.get("time_s")
@@ -124,15 +131,15 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--tare-file", "tare_file", type=click.Path(dir_okay=False), default=None,
               help="Zero on a separate recording of the unloaded sensor (voltage_V).")
 @mechanics_options
-@click.option("--si", is_flag=True, help="SI units (rad, N, m/s; V) in the CSV, the summary and "
-              "the JSON instead of the display units (deg, mN, m/s; mV).")
+@si_option
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
-@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@recording_options
 def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
             bandwidth: str, fluid: str, table_size: int, calibration_path: str | None,
             edge: str, edge_tolerance: str | None, tare_spec: str | None, tare_file: str | None,
             tip_radius: str | None, modulus: str | None, si: bool, as_json: bool,
-            quiet: bool) -> None:
+            quiet: bool, reading: RecordingArgs) -> None:
     """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
     or .tdms with a `voltage_V` column and optional `time_s`; see `magcilia calibrate`).
 
@@ -149,9 +156,11 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     span = parse_span(span_text, quantity)
     tolerance = parse_edge_tolerance(edge_tolerance, quantity, span)
     band = parse_bandwidth(bandwidth)
-    volts, times = read_recording(recording)
+    quiet = quiet_requested(quiet)
+    volts, times = read_recording(recording, reading, quiet=quiet)
     baseline = (tare_readings(tare_spec, volts, times) if tare_spec is not None else
-                read_recording(tare_file, "--tare-file")[0] if tare_file is not None else None)
+                read_recording(tare_file, reading, "--tare-file", quiet)[0]
+                if tare_file is not None else None)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,

@@ -17,11 +17,13 @@ from magcilia.analysis import STUDY_PARAMETERS, sensitivity_study, sobol_indices
 from magcilia.analysis.tolerance import placement_tolerance
 from magcilia.cli._common import (
     Physical,
+    RecordingArgs,
     bandwidth_option,
     echo_json,
     load_setup_arg,
     parse_bandwidth,
     parse_named_ranges,
+    recording_options,
     si_option,
     style_option,
 )
@@ -74,10 +76,12 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
 @style_option
+@recording_options
 def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[str, ...],
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
-            bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool, style: str) -> None:
+            bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool, style: str,
+            reading: RecordingArgs) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
@@ -104,7 +108,8 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
             except MissingDependencyError as exc:
                 raise MissingDependencyError(
                     f"{exc} (or skip them with --sobol-base 0)") from None
-        measurement = None if data is None else read_measurements(data, sensor=setup.sensor)
+        measurement = None if data is None else reading.read(read_measurements, data,
+                                                             quiet=quiet, sensor=setup.sensor)
         show = not quiet and sys.stderr.isatty()
         with tqdm(total=3, desc="sensitivity", unit="step", disable=not show,
                   file=sys.stderr) as bar:

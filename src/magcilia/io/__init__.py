@@ -1,7 +1,8 @@
 """Files in and out: setup files, recordings, firmware headers.
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
-* :mod:`.recordings`: recordings (CSV, MATLAB, TDMS) reduced to a :class:`Measurement`;
+* :mod:`.recordings`: recordings (CSV, MATLAB, TDMS, HDF5) reduced to a :class:`Measurement`;
+* :mod:`.columns`: which column of a recording holds what, in which unit (:class:`Columns`);
 * :mod:`.recording_file`: crash-safe TDMS recordings streamed in flushed chunks;
 * :mod:`.firmware`: C headers and JSON of read-out approximations;
 * :mod:`.results`: saved JSON results read back with one-line errors.
@@ -9,6 +10,7 @@
 
 from __future__ import annotations
 
+from magcilia.io.columns import Columns
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
 from magcilia.io.recording_file import RecordingWriter, recording_properties
 from magcilia.io.recordings import (
@@ -22,6 +24,7 @@ from magcilia.io.results import read_json
 from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, setup_to_dict
 
 __all__ = [
+    "Columns",
     "Measurement",
     "RecordingWriter",
     "example_path",

@@ -21,6 +21,17 @@ row per sample). Two readers give the same columns:
   wrong in a one-line error. It is about 20 times slower and holds the whole columns.
 
 A header problem (a missing column, one of ours named twice) is the same error from both.
+
+Delimiter and decimal mark
+--------------------------
+Both readers take the ``delimiter`` (``","``, ``";"``, tab, or runs of white space; by default
+sniffed from the header line: a tab if it has one, else a semicolon, else a comma, else white
+space) and the ``decimal`` mark (``"."`` or ``","``: European exports write ``1,25`` with ``;``
+between fields). pandas parses them with its ``sep`` and ``decimal``; the careful reader with
+the ``csv`` module (``str.split`` for white space, whose fields cannot be quoted) and ``float``
+after replacing the comma. With ``decimal=","`` a field with a decimal point is an error, and
+with ``"."`` one that would be a number with a decimal comma is an error that says so: neither
+is read as something else. A comma for both is read carefully only (its numbers are quoted).
 """
 
 from __future__ import annotations
@@ -30,7 +41,7 @@ import csv
 import io
 import itertools
 from array import array
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
@@ -38,19 +49,28 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError
-from magcilia._validate import printable
+from magcilia._validate import fail, printable
 
 F64 = NDArray[np.float64]
 
 SETRESET_TEXT = {"set": 1.0, "reset": -1.0, "+1": 1.0, "1": 1.0, "-1": -1.0, "1.0": 1.0,
                  "-1.0": -1.0, "+1.0": 1.0}
 #: Bytes the fast reader parses after the header; a file with any other byte is read carefully.
-PLAIN_CSV_BYTES = b"0123456789.+-, \t\r\naefinrstyAEFINRSTY"
+PLAIN_CSV_BYTES = b"0123456789.+-,; \t\r\naefinrstyAEFINRSTY"
 #: How ``float`` spells NaN (sign and case): the only fields the fast reader takes as NaN.
 NAN_TEXT = tuple(sign + "".join(c) for sign in ("", "+", "-")
                  for c in itertools.product("nN", "aA", "nN"))
 #: Rows the fast reader parses at a time.
 CSV_BLOCK_ROWS = 1 << 20
+#: Delimiters by the names the readers take (" " stands for runs of white space).
+DELIMITERS = {",": ",", ";": ";", "\t": "\t", "tab": "\t", "whitespace": " ", " ": " "}
+#: Decimal marks the readers take.
+DECIMALS = (".", ",")
+
+#: A header's names -> where each column read is (key -> index); raises for a bad header.
+Locate = Callable[[list[str]], dict[str, int]]
+#: Progress of a read: (bytes read so far, file size).
+Progress = Callable[[int, int], None]
 
 
 class NotPlainCSV(Exception):  # noqa: N818 (a signal between the readers, not an error)
@@ -70,6 +90,42 @@ def too_many_samples(path: Path, what: str, limit: int) -> MagciliaError:
         f"{path}: {what} has more than MAX_SAMPLES = {limit:,} samples; split the "
         "recording, or raise magcilia.io.recordings.MAX_SAMPLES for a genuine long one"
     )
+
+
+def delimiter_of(value: str | None) -> str | None:
+    r"""A ``delimiter`` argument checked: None (sniff it), ``","``, ``";"``, ``"\t"`` or
+    ``" "`` (white space); ``"auto"``, ``"tab"`` and ``"whitespace"`` are the names the CLI
+    takes."""
+    if value is None or value == "auto":
+        return None
+    if not isinstance(value, str) or value not in DELIMITERS:
+        raise fail("delimiter", value, "auto, ',', ';', tab or whitespace")
+    return DELIMITERS[value]
+
+
+def decimal_of(value: str) -> str:
+    """A ``decimal`` argument checked: ``"."`` or ``","``."""
+    if value not in DECIMALS:
+        raise fail("decimal", value, "'.' or ',' (a decimal comma)")
+    return value
+
+
+def sniff_delimiter(header: str) -> str:
+    r"""The delimiter of a header line: a tab if it has one, else ``;``, else ``,``, else white
+    space (``" "``).
+
+    >>> [sniff_delimiter(h) for h in ("a\tb c", "a;b,c", "a,b", "a  b", "a")]
+    ['\t', ';', ',', ' ', ',']
+    """
+    for delim in ("\t", ";", ","):
+        if delim in header:
+            return delim
+    return " " if len(header.split()) > 1 else ","
+
+
+def split_header(text: str, delimiter: str) -> list[str]:
+    """A header line without quotes as its names (stripped)."""
+    return text.split() if delimiter == " " else [h.strip() for h in text.split(delimiter)]
 
 
 def _setreset_value(text: str) -> float | None:
@@ -102,7 +158,9 @@ def _column_index(header: list[str], path: Path, columns: tuple[str, ...],
 
 # -- the fast reader ----------------------------------------------------------------------------
 def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, ...], *,
-                     max_samples: int, max_line_chars: int) -> Iterator[dict[str, F64]]:
+                     max_samples: int, max_line_chars: int, delimiter: str | None = None,
+                     decimal: str = ".", locate: Locate | None = None,
+                     progress: Progress | None = None) -> Iterator[dict[str, F64]]:
     """The columns of a plain CSV recording, block by block (at least one block, possibly empty).
 
     Parameters
@@ -115,6 +173,15 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
         Columns the header must have.
     max_samples, max_line_chars : int
         Most data rows, and most characters per line (with its line end).
+    delimiter : {None, ",", ";", "\\t", " "}
+        Between fields (" ": runs of white space); None sniffs it from the header line.
+    decimal : {".", ","}
+        The decimal mark.
+    locate : callable, optional
+        The header's names -> where each column to return is (key -> index), raising for a bad
+        header; replaces ``columns`` and ``required`` (the column and unit mapping).
+    progress : callable, optional
+        Called as ``progress(bytes_read, file_size)`` after each block.
 
     Yields
     ------
@@ -132,14 +199,19 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
     import pandas as pd
 
     limit = min(max_line_chars, csv.field_size_limit())
+    size = path.stat().st_size
     with path.open("rb") as f:
-        header = _plain_header(f, limit)
-        idx = _column_index(header, path, columns, required)
+        header, delim = _plain_header(f, limit, delimiter)
+        idx = (_column_index(header, path, columns, required) if locate is None
+               else locate(header))
+        if delim == decimal:  # (numbers quoted: the careful reader's)
+            raise NotPlainCSV
         rows = 0
         try:
             for frame in pd.read_csv(
                     _PlainBytes(f, limit), engine="c", header=None,
-                    names=list(range(len(header))),
+                    names=list(range(len(header))), sep=r"\s+" if delim == " " else delim,
+                    decimal=decimal,
                     dtype={i: "category" if i == idx.get("setreset") else np.float64
                            for i in range(len(header))},
                     keep_default_na=False, na_values=list(NAN_TEXT), chunksize=CSV_BLOCK_ROWS):
@@ -149,6 +221,8 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                 rows += len(frame)
                 if rows > max_samples:  # (after the checks of the block's rows, as the careful
                     raise too_many_samples(path, "the file", max_samples)  # reader does)
+                if progress is not None:
+                    progress(min(f.tell(), size), size)
                 yield block
         except MagciliaError:
             raise
@@ -188,8 +262,9 @@ class _PlainBytes(io.RawIOBase):
         return data
 
 
-def _plain_header(f: IO[bytes], limit: int) -> list[str]:
-    """The header's names (stripped) if the lines up to it are plain, ``f`` left after it."""
+def _plain_header(f: IO[bytes], limit: int, delimiter: str | None) -> tuple[list[str], str]:
+    """The header's names (stripped) and the delimiter (``delimiter``, or sniffed) if the lines
+    up to it are plain, ``f`` left after it."""
     line = f.readline(limit + 1).removeprefix(codecs.BOM_UTF8)
     while line and len(line) <= limit and b"\r" not in line.removesuffix(b"\n")[:-1]:
         try:
@@ -200,7 +275,8 @@ def _plain_header(f: IO[bytes], limit: int) -> list[str]:
         if name and not name.startswith("#"):
             if '"' in text or "\0" in text:
                 break
-            return [h.strip() for h in text.split(",")]
+            delim = delimiter or sniff_delimiter(name)
+            return split_header(text, delim), delim
         line = f.readline(limit + 1)
     raise NotPlainCSV  # (an empty file too)
 
@@ -218,15 +294,30 @@ def _plain_values(column: Any, setreset: bool) -> F64:
 
 # -- the careful reader -------------------------------------------------------------------------
 def read_csv_carefully(path: Path, columns: tuple[str, ...], required: tuple[str, ...], *,
-                       max_samples: int, max_line_chars: int) -> dict[str, F64]:
+                       max_samples: int, max_line_chars: int, delimiter: str | None = None,
+                       decimal: str = ".", locate: Locate | None = None,
+                       progress: Progress | None = None) -> dict[str, F64]:
     """The columns of any CSV recording, line by line with the ``csv`` module (the parameters
-    and the columns returned are :func:`plain_csv_blocks`'): a file that is not a recording is a
-    one-line error naming its line."""
-    where = [0]
+    and the columns returned are :func:`plain_csv_blocks`'; ``progress`` is called every 65,536
+    rows with the characters read so far): a file that is not a recording is a one-line error
+    naming its line."""
+    where = [0, 0]  # the number of the line last read, characters read
+    size = path.stat().st_size
     try:
         with path.open(encoding="utf-8-sig", newline="") as f:
             lines = _csv_lines(f, path, where, max_line_chars)
-            return _parse_csv(csv.reader(lines), path, columns, required, where, max_samples)
+            first = next(lines, None)
+            if first is None:
+                raise MagciliaError(f"{path}: the file is empty; expected a header with "
+                                    f"{','.join(required)}")
+            delim = delimiter or sniff_delimiter(first.strip())
+            rows: Iterator[list[str]] = (
+                (line.split() for line in itertools.chain([first], lines)) if delim == " "
+                else csv.reader(itertools.chain([first], lines), delimiter=delim))
+            return _parse_csv(rows, path, columns, required, where, max_samples,
+                              decimal=decimal, locate=locate,
+                              progress=None if progress is None
+                              else lambda: progress(min(where[1], size), size))
     except UnicodeDecodeError:
         raise MagciliaError(f"{path}: not a UTF-8 text file (line {_bad_utf8_line(path)}); "
                             "export the recording as CSV") from None
@@ -244,6 +335,7 @@ def _csv_lines(f: IO[str], path: Path, where: list[int], limit: int) -> Iterator
         if not line:
             return
         where[0] += 1
+        where[1] += len(line)
         if len(line) > limit:
             raise MagciliaError(
                 f"{path}: line {where[0]} is longer than MAX_LINE_CHARS = {limit:,} "
@@ -274,17 +366,44 @@ def _quote(text: str, limit: int = 40) -> str:
     return repr(text if len(text) <= limit else text[:limit] + "…")
 
 
+def _number(text: str, decimal: str) -> float:
+    """A field as a double (``decimal``: the decimal mark); ValueError if it is not a number."""
+    if decimal == ",":
+        if "." in text:
+            raise ValueError(text)
+        text = text.replace(",", ".")
+    return float(text)
+
+
+def _not_a_number(path: Path, row: int, col: str, text: str, decimal: str) -> MagciliaError:
+    """The error for a field that is not a number, with the decimal mark it seems to need."""
+    hint = ""
+    if decimal == "." and "," in text:
+        try:
+            _number(text.strip(), ",")
+            hint = "; a decimal comma? pass decimal=',' (CLI: --decimal ,)"
+        except ValueError:
+            pass
+    elif decimal == "," and "." in text:
+        hint = " with a decimal comma (decimal=','); for a decimal point pass decimal='.'"
+    return MagciliaError(f"{path}: row {row}, column {col}: {_quote(text)} is not a number"
+                         f"{hint}")
+
+
 def _parse_csv(reader: Iterator[list[str]], path: Path, columns: tuple[str, ...],
-               required: tuple[str, ...], where: list[int], max_samples: int
-               ) -> dict[str, F64]:
+               required: tuple[str, ...], where: list[int], max_samples: int, *,
+               decimal: str = ".", locate: Locate | None = None,
+               progress: Callable[[], None] | None = None) -> dict[str, F64]:
     first = next(reader, None)
     if first is None:
         raise MagciliaError(f"{path}: the file is empty; expected a header with "
                             f"{','.join(required)}")
     header = [h.strip() for h in first]
-    idx = _column_index(header, path, columns, required)
+    idx = _column_index(header, path, columns, required) if locate is None else locate(header)
     data = {col: array("d") for col in idx}
     for n, row in enumerate(reader):
+        if progress is not None and not n & 0xFFFF:
+            progress()
         if len(row) != len(header):
             raise MagciliaError(
                 f"{path}: row {where[0]} has {len(row)} fields, the header has {len(header)} "
@@ -301,10 +420,10 @@ def _parse_csv(reader: Iterator[list[str]], path: Path, columns: tuple[str, ...]
                                         f"{_quote(text)} is not set/reset or +1/-1")
             else:
                 try:
-                    value = float(text)
+                    value = _number(text, decimal)
                 except ValueError:
-                    raise MagciliaError(f"{path}: row {where[0]}, column {col}: {_quote(text)} "
-                                        "is not a number") from None
+                    raise _not_a_number(path, where[0], names_text([header[i]]), text,
+                                        decimal) from None
             data[col].append(value)
     return {col: np.frombuffer(values, dtype=np.float64).copy() if len(values) else np.zeros(0)
             for col, values in data.items()}

@@ -13,10 +13,24 @@ Formats (chosen by the file suffix):
   'magcilia[hdf5]'``). Complex, text, cell, struct, sparse or matrix-shaped variables and a
   variable saved twice are errors.
 - **TDMS** (``.tdms``, NI LabVIEW, needs the optional ``npTDMS``: ``pip install
-  'magcilia[tdms]'``): channels named ``angle_deg`` and ``voltage_V`` in any group. A channel we
-  read must appear in one group only (a name in two groups is ambiguous and an error);
-  magcilia's own recordings keep the samples in group ``recording`` and give the further groups
-  (``readout``, ``events``) other channel names (:mod:`magcilia.io.recording_file`).
+  'magcilia[tdms]'``): channels named ``angle_deg`` and ``voltage_V`` in any group (or in the
+  group named by ``group``). A channel we read must appear in one group only (a name in two
+  groups is ambiguous and an error); magcilia's own recordings keep the samples in group
+  ``recording`` and give the further groups (``readout``, ``events``) other channel names
+  (:mod:`magcilia.io.recording_file`).
+- **HDF5** (``.h5``, ``.hdf5``, needs the optional ``h5py``: ``pip install 'magcilia[hdf5]'``):
+  1-D datasets named as the columns, at the root or in the group named by ``group``
+  (:mod:`magcilia.io.hdf5file`).
+
+Other names and units
+---------------------
+``columns`` maps the roles (angle, voltage, time, setreset) to the file's own names with units:
+``columns={"angle": "Tilt[deg]", "voltage": "Vout[mV]"}`` or the CLI's
+``--columns angle=Tilt[deg],voltage=Vout[mV]``; a header ``Vout [mV]`` names its unit itself
+(:mod:`magcilia.io.columns`). Whatever the file's units, the columns read are in deg, V and s.
+CSV files take a ``delimiter`` (sniffed from the header by default: tab, ``;``, ``,`` or white
+space) and a ``decimal`` mark (``","`` for European exports such as ``1,25;0,031``); see
+:mod:`magcilia.io.csvfile`.
 
 With set/reset samples the offset-free reading of an angle is ``(mean(V_set) − mean(V_reset))/2``
 (the bridge flips polarity, the offset does not; HMC1021 datasheet).
@@ -70,13 +84,17 @@ from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
+from magcilia.io.columns import Columns
 from magcilia.io.csvfile import (
     NotPlainCSV,
+    decimal_of,
+    delimiter_of,
     names_text,
     plain_csv_blocks,
     read_csv_carefully,
     too_many_samples,
 )
+from magcilia.io.hdf5file import read_hdf5
 from magcilia.io.matfile import read_mat
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
 
@@ -85,8 +103,11 @@ logger = logging.getLogger(__name__)
 NAN_POLICIES = ("raise", "omit")
 SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
-#: The columns a recording may hold (other columns, variables or channels are ignored).
+#: The columns a recording may hold (other columns, variables or channels are ignored), by
+#: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
 COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset")
+#: A reader's progress: ``progress(bytes_read, file_size)``.
+Progress = Callable[[int, int], None]
 
 #: Largest |tilt angle| accepted, deg; beyond it the column is in the wrong unit or garbage.
 MAX_ANGLE_DEG = 360.0
@@ -468,26 +489,89 @@ def _csv_limits() -> dict[str, int]:
     return {"max_samples": MAX_SAMPLES, "max_line_chars": MAX_LINE_CHARS}
 
 
-def _read_csv(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
+@dataclass(frozen=True)
+class _How:
+    """How to read a recording: the column and unit mapping, the CSV delimiter (None: sniffed)
+    and decimal mark, the group (HDF5, TDMS; "" for any or the root), a progress callback."""
+
+    columns: Columns = field(default_factory=Columns)
+    delimiter: str | None = None
+    decimal: str = "."
+    group: str = ""
+    progress: Progress | None = None
+
+
+def _how(path: Path, columns: Columns | Mapping[str, str] | str | None, delimiter: str | None,
+         decimal: str, group: str | None, progress: Progress | None) -> _How:
+    """The reading options checked (the CSV ones on a CSV file, ``group`` on HDF5 and TDMS)."""
+    how = _How(Columns.coerce(columns), delimiter_of(delimiter), decimal_of(decimal),
+               "" if group is None else str(group), progress)
+    suffix = path.suffix.lower()
+    if READERS[suffix] is not _read_csv and (how.delimiter is not None or how.decimal != "."):
+        raise v.fail("delimiter" if how.delimiter is not None else "decimal",
+                     delimiter if how.delimiter is not None else decimal,
+                     f"left out for a {FORMATS[suffix]} file (delimiter and decimal mark are "
+                     "CSV options)")
+    if how.group.strip("/") and READERS[suffix] not in (_read_hdf5, _read_tdms):
+        raise v.fail("group", group, f"left out for a {FORMATS[suffix]} file (groups are in "
+                                     "HDF5 and TDMS files)")
+    if progress is not None and not callable(progress):
+        raise v.fail("progress", type(progress).__name__, "a callable progress(done, total)")
+    return how
+
+
+class _CSVLocator:
+    """The column mapping for the CSV readers: the header's names -> key -> index, the unit
+    factors kept."""
+
+    def __init__(self, path: Path, how: _How, required: tuple[str, ...]):
+        self.path, self.how, self.required = path, how, required
+        self.factors: dict[str, float] = {}
+
+    def __call__(self, header: list[str]) -> dict[str, int]:
+        found = self.how.columns.locate(header, where=str(self.path), required=self.required)
+        self.factors = {k: f for k, (_, f) in found.items() if f != 1.0}
+        return {k: i for k, (i, _) in found.items()}
+
+    def scaled(self, block: dict[str, F64]) -> dict[str, F64]:
+        """A block's columns in deg, V and s."""
+        for key, factor in self.factors.items():
+            block[key] = block[key] * factor
+        return block
+
+    def options(self) -> dict[str, Any]:
+        """The readers' keyword arguments."""
+        return {"delimiter": self.how.delimiter, "decimal": self.how.decimal, "locate": self,
+                **_csv_limits()}
+
+
+def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
     """A CSV recording's columns: the fast reader's blocks joined, or the careful reader's."""
+    locate = _CSVLocator(path, how, required)
     try:
-        blocks = list(plain_csv_blocks(path, COLUMNS, required, **_csv_limits()))
+        blocks = list(plain_csv_blocks(path, COLUMNS, required, progress=how.progress,
+                                       **locate.options()))
     except NotPlainCSV:
-        return read_csv_carefully(path, COLUMNS, required, **_csv_limits())
-    return {col: np.concatenate([b[col] for b in blocks]) for col in blocks[0]}
+        return locate.scaled(read_csv_carefully(path, COLUMNS, required, progress=how.progress,
+                                                **locate.options()))
+    return locate.scaled({col: np.concatenate([b[col] for b in blocks]) for col in blocks[0]})
 
 
-def _reduce_csv(path: Path, start: Callable[[], _Reduction]) -> _Reduction:
+def _reduce_csv(path: Path, how: _How, start: Callable[[], _Reduction]) -> _Reduction:
     """A CSV recording reduced as it is read: block by block from the fast reader, or, where it
     gives up (even after some blocks), afresh from the careful reader's columns."""
     reduction = start()
+    required = ("angle_deg", "voltage_V")
+    locate = _CSVLocator(path, how, required)
     try:
-        for block in plain_csv_blocks(path, COLUMNS, ("angle_deg", "voltage_V"),
-                                      **_csv_limits()):
+        for piece in plain_csv_blocks(path, COLUMNS, required, progress=how.progress,
+                                      **locate.options()):
+            block = locate.scaled(piece)
             reduction.add(block["angle_deg"], block["voltage_V"], block.get("setreset"))
     except NotPlainCSV:
         reduction = start()
-        cols = read_csv_carefully(path, COLUMNS, ("angle_deg", "voltage_V"), **_csv_limits())
+        cols = locate.scaled(read_csv_carefully(path, COLUMNS, required, progress=how.progress,
+                                                **locate.options()))
         reduction.add(cols["angle_deg"], cols["voltage_V"], cols.get("setreset"))
     return reduction
 
@@ -514,40 +598,46 @@ def quiet_nptdms() -> Iterator[None]:
             log.setLevel(level)
 
 
-def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
+def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
     nptdms = nptdms_module()
     size = path.stat().st_size
     with quiet_nptdms(), path.open("rb") as file, nptdms.TdmsFile.open(file) as tdms:
         places: dict[str, list[tuple[str, Any]]] = {}
-        everything: list[str] = []
-        for group in tdms.groups():
+        groups = tdms.groups()
+        wanted = how.group.strip("/")
+        if wanted:
+            names = [str(g.name) for g in groups]
+            if wanted not in names:
+                raise MagciliaError(f"{path}: no group {printable(wanted)!r} (groups: "
+                                    f"{names_text(names)}); pass one of them as the group")
+            groups = [g for g in groups if str(g.name) == wanted]
+        for group in groups:
             for channel in group.channels():
-                everything.append(str(channel.name))
-                if channel.name in COLUMNS:
-                    places.setdefault(channel.name, []).append((str(group.name), channel))
-        for name, where in places.items():
+                places.setdefault(str(channel.name), []).append((str(group.name), channel))
+        everything = list(places)
+        located = how.columns.locate(everything, where=str(path), required=required,
+                                     kind="channel")
+        chosen: dict[str, tuple[str, float]] = {}
+        for key, (i, factor) in located.items():
+            name, where = everything[i], places[everything[i]]
             if len(where) > 1:
                 raise MagciliaError(
-                    f"{path}: channel {name} appears in {len(where)} groups "
+                    f"{path}: channel {printable(name)} appears in {len(where)} groups "
                     f"({names_text([g for g, _ in where])}); keep it in one group, it is ambiguous "
-                    "which to use"
+                    "which to use (or pass the group)"
                 )
-        missing = [k for k in required if k not in places]
-        if missing:
-            raise MagciliaError(
-                f"{path}: missing channel(s) {', '.join(missing)} (found: "
-                f"{names_text(everything)}); name the channels {' and '.join(required)}"
-            )
+            chosen[key] = (name, factor)
         out: dict[str, F64] = {}
-        for name, ((group_name, channel),) in places.items():
-            what = f"{path}: channel {name} (group {printable(group_name)})"
+        for key, (name, factor) in chosen.items():
+            ((group_name, channel),) = places[name]
+            what = f"{path}: channel {printable(name)} (group {printable(group_name)})"
             dtype = np.dtype(channel.dtype)
             if dtype.kind not in "biuf":
                 raise MagciliaError(f"{what} holds {channel.data_type.__name__} values, not real "
                                     "numbers; store the samples as numbers")
             n = len(channel)
             if n > MAX_SAMPLES:
-                raise too_many_samples(path, f"channel {name}", MAX_SAMPLES)
+                raise too_many_samples(path, f"channel {printable(name)}", MAX_SAMPLES)
             if n * dtype.itemsize > size:
                 raise MagciliaError(f"{what} declares {n:,} values, more than the file's "
                                     f"{size:,} bytes can hold; the file is damaged")
@@ -555,7 +645,7 @@ def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
             if data.size != n:
                 raise MagciliaError(f"{what} holds {data.size:,} of the {n:,} values it "
                                     "declares; the file is damaged")
-            out[name] = data
+            out[key] = data * factor if factor != 1.0 else data
         complete = tdms.properties.get("complete")
     if complete is False and out:  # a magcilia recording cut short (a crash): its last
         # segment may end inside a channel; the samples in every channel are whole
@@ -564,12 +654,25 @@ def _read_tdms(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
     return out
 
 
-def _read_mat(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
-    return read_mat(path, COLUMNS, required)
+def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+    names = how.columns.names()  # key -> variable name (MATLAB names carry no unit)
+    variables = read_mat(path, tuple(dict.fromkeys(names.values())),
+                         tuple(names[k] for k in required))
+    found = list(variables)
+    located = how.columns.locate(found, where=str(path), required=required, kind="variable")
+    return {key: variables[found[i]] * factor if factor != 1.0 else variables[found[i]]
+            for key, (i, factor) in located.items()}
 
 
-READERS = {".csv": _read_csv, ".txt": _read_csv, ".mat": _read_mat, ".tdms": _read_tdms}
-FORMATS = {".csv": "CSV", ".txt": "CSV", ".mat": "MATLAB .mat", ".tdms": "TDMS"}
+def _read_hdf5(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+    return read_hdf5(path, how.columns, required, group=how.group or "/",
+                     max_samples=MAX_SAMPLES)
+
+
+READERS = {".csv": _read_csv, ".txt": _read_csv, ".mat": _read_mat, ".tdms": _read_tdms,
+           ".h5": _read_hdf5, ".hdf5": _read_hdf5}
+FORMATS = {".csv": "CSV", ".txt": "CSV", ".mat": "MATLAB .mat", ".tdms": "TDMS", ".h5": "HDF5",
+           ".hdf5": "HDF5"}
 
 
 def _describe(exc: BaseException) -> str:
@@ -609,23 +712,43 @@ def _reader_boundary(p: Path) -> Iterator[None]:
 
 
 def read_samples(
-    path: str | Path, required: tuple[str, ...] = ("angle_deg", "voltage_V")
+    path: str | Path, required: tuple[str, ...] = ("angle_deg", "voltage_V"), *,
+    columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
+    decimal: str = ".", group: str | None = None, progress: Progress | None = None,
 ) -> dict[str, F64]:
-    """Raw sample columns of a recording (CSV, MATLAB .mat or TDMS), without any reduction.
+    """Raw sample columns of a recording (CSV, MATLAB .mat, TDMS or HDF5), without any reduction.
 
     Parameters
     ----------
     path : str or Path
         The file; its suffix selects the reader (see the module docstring for the formats).
     required : tuple of str
-        Columns that must be present (a one-line error names the file and the missing column).
+        Columns that must be present, by their keys ``angle_deg``, ``voltage_V``, ``time_s``,
+        ``setreset`` (a one-line error names the file, the missing column and those it has).
+    columns : Columns, mapping or str, optional
+        Which of the file's columns holds the angle, voltage, time and setreset, with units:
+        ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
+        :class:`~magcilia.io.columns.Columns` or the CLI's ``"angle=Tilt[deg],voltage=Vout[mV]"``
+        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``).
+    delimiter : {None, ",", ";", "\\t", "tab", " ", "whitespace", "auto"}
+        CSV only: between fields; None or "auto" sniffs it from the header line.
+    decimal : {".", ","}
+        CSV only: the decimal mark (``","`` for ``1,25``; fields are then ``;``-separated, or
+        quoted).
+    group : str, optional
+        HDF5 and TDMS only: the group that holds the columns (HDF5 default: the root; TDMS
+        default: any group).
+    progress : callable, optional
+        Called as ``progress(bytes_read, file_size)`` while the file is read (CSV: after each
+        block; other formats: at the start and the end).
 
     Returns
     -------
     dict of str to ndarray, shape (samples,)
         The columns found among ``angle_deg`` (deg), ``voltage_V`` (V), ``time_s`` (s) and
-        ``setreset`` (+1 set, −1 reset), all of the same length (possibly 0: a recording
-        stopped before its first sample; :func:`read_measurements` rejects it).
+        ``setreset`` (+1 set, −1 reset), whatever the file's names and units, all of the same
+        length (possibly 0: a recording stopped before its first sample;
+        :func:`read_measurements` rejects it).
 
     Raises
     ------
@@ -633,11 +756,15 @@ def read_samples(
         For any file that cannot be read as a recording (one line naming the file and what is
         wrong; an unexpected exception of a third-party parser is its ``__cause__``).
     MissingDependencyError
-        For a TDMS or MATLAB v7.3 file without the optional package that reads it.
+        For a TDMS, HDF5 or MATLAB v7.3 file without the optional package that reads it.
     """
     p = _recording_path(path)
+    how = _how(p, columns, delimiter, decimal, group, progress)
+    unknown = [k for k in required if k not in COLUMNS]
+    if unknown:
+        raise v.fail("required", unknown[0], "keys among " + ", ".join(COLUMNS))
     with _reader_boundary(p):
-        cols = READERS[p.suffix.lower()](p, required)
+        cols = _read(p, required, how)
     lengths = {k: a.size for k, a in cols.items()}
     if len(set(lengths.values())) > 1:
         raise MagciliaError(
@@ -651,14 +778,32 @@ def read_samples(
     return cols
 
 
+def _read(p: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+    """A reader's columns, with the progress at the start and end of a format read at once."""
+    reader = READERS[p.suffix.lower()]
+    if how.progress is None:
+        return reader(p, required, how)
+    size = p.stat().st_size
+    if reader is not _read_csv:
+        how.progress(0, size)
+    cols = reader(p, required, how)
+    how.progress(size, size)
+    return cols
+
+
 def read_measurements(
     path: str | Path,
     *,
     sensor: Sensor | None = None,
     nan_policy: str = "raise",
     saturation: str = "raise",
+    columns: Columns | Mapping[str, str] | str | None = None,
+    delimiter: str | None = None,
+    decimal: str = ".",
+    group: str | None = None,
+    progress: Progress | None = None,
 ) -> Measurement:
-    """Read a recording (CSV, MATLAB .mat or TDMS) and reduce it to per-angle means.
+    """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-angle means.
 
     Parameters
     ----------
@@ -670,21 +815,49 @@ def read_measurements(
         NaN/inf samples: an error, or dropped and counted in ``Measurement.nonfinite``.
     saturation : {"raise", "omit", "keep"}
         Samples beyond the sensor's linear range: an error, dropped, or kept; always counted.
+    columns : Columns, mapping or str, optional
+        Which of the file's columns holds the angle, voltage, time and setreset, with units:
+        ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
+        :class:`~magcilia.io.columns.Columns` or the CLI's ``"angle=Tilt[deg],voltage=Vout[mV]"``
+        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``).
+    delimiter : {None, ",", ";", "\\t", "tab", " ", "whitespace", "auto"}
+        CSV only: between fields; None or "auto" sniffs it from the header line.
+    decimal : {".", ","}
+        CSV only: the decimal mark (``","`` for ``1,25``; fields are then ``;``-separated, or
+        quoted).
+    group : str, optional
+        HDF5 and TDMS only: the group that holds the columns (HDF5 default: the root; TDMS
+        default: any group).
+    progress : callable, optional
+        Called as ``progress(bytes_read, file_size)`` while the file is read (CSV: after each
+        block; other formats: at the start and the end).
 
     Returns
     -------
     Measurement
+
+    Examples
+    --------
+    A European export (``Zeit;Winkel;Spannung`` with ``0,001;-40;12,5``, the voltage in mV)::
+
+        read_measurements("run.csv", decimal=",", columns={
+            "time": "Zeit[s]", "angle": "Winkel[deg]", "voltage": "Spannung[mV]"})
     """
     p = _recording_path(path)
+    how = _how(p, columns, delimiter, decimal, group, progress)
 
     def start() -> _Reduction:
         return _Reduction(sensor, nan_policy, saturation, str(p))
 
     if READERS[p.suffix.lower()] is _read_csv:  # reduced as it is read, in bounded memory
         with _reader_boundary(p):
-            return _reduce_csv(p, start).measurement()
+            reduction = _reduce_csv(p, how, start)
+        if progress is not None:
+            size = p.stat().st_size
+            progress(size, size)
+        return reduction.measurement()
     reduction = start()
-    cols = read_samples(p)
+    cols = read_samples(p, columns=how.columns, group=group, progress=progress)
     reduction.add(cols["angle_deg"], cols["voltage_V"], cols.get("setreset"))
     return reduction.measurement()
 

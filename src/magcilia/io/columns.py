@@ -1,0 +1,308 @@
+"""Which column of a recording holds what, and in which unit: the column and unit mapping.
+
+A recording has up to four *roles*, each read from one column (CSV), variable (MATLAB), channel
+(TDMS) or dataset (HDF5):
+
+========  ===========  ============  ===========================================
+role      default      dimension     becomes (:func:`magcilia.read_samples` key)
+========  ===========  ============  ===========================================
+angle     angle_deg    angle         ``angle_deg``, tilt in degrees
+voltage   voltage_V    voltage       ``voltage_V``, sensor output in volts
+time      time_s       time          ``time_s``, seconds
+setreset  setreset     (none)        ``setreset``, +1 set / −1 reset
+========  ===========  ============  ===========================================
+
+:class:`Columns` maps roles to a file's names, each with an optional unit in brackets:
+``Columns(angle="Tilt[deg]", voltage="Vout[mV]")``, or from the command line's text
+``Columns.parse("angle=Tilt[deg],voltage=Vout[mV]")``. The unit is any unit of
+:data:`magcilia.units.UNITS` of the role's dimension (angle: rad, deg; voltage: V, mV, uV;
+time: s, ms, us). Where the mapping gives none, the unit is taken from the file's own name (a
+header ``Vout [mV]`` or ``Vout (mV)`` matches the name ``Vout``), from a ``units`` attribute
+(HDF5 datasets) or from a unit suffix of the name (``angle_deg``, ``Vout_mV``); a column
+without any is an error rather than a guess. Units that disagree (``Vout[V]`` mapped onto a
+header ``Vout [mV]``, a dataset ``voltage_V`` with ``units="mV"``) are an error too; a unit the
+file spells in a way magcilia does not know (``degrees``) yields to the mapping's.
+
+Examples
+--------
+>>> cols = Columns.parse("angle=Tilt[deg],voltage=Vout[mV]")
+>>> cols.voltage
+'Vout[mV]'
+>>> found = cols.locate(["Time", "Tilt", "Vout"], where="run.csv")
+>>> found["voltage_V"]
+(2, 0.001)
+>>> Columns().locate(["angle_deg", "Vout", "voltage_V"], where="x.csv")["voltage_V"]
+(2, 1.0)
+>>> Columns(voltage="Vout").locate(["angle_deg", "Vout (uV)"], where="x.csv")["voltage_V"][1]
+1e-06
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
+from typing import Any
+
+from magcilia._errors import MagciliaError
+from magcilia._validate import fail, printable
+from magcilia.units import UNITS
+
+#: role -> (key of the columns read, dimension, unit of that key); setreset has no dimension.
+ROLES: dict[str, tuple[str, str | None, str | None]] = {
+    "angle": ("angle_deg", "angle", "deg"),
+    "voltage": ("voltage_V", "voltage", "V"),
+    "time": ("time_s", "time", "s"),
+    "setreset": ("setreset", None, None),
+}
+#: key of the columns read -> role
+KEY_ROLE = {key: role for role, (key, _, _) in ROLES.items()}
+
+_TRAILING_UNIT = re.compile(r"^(.*?)\s*(?:\[([^\[\]]*)\]|\(([^()]*)\))\s*$", re.DOTALL)
+
+
+def split_unit(text: str) -> tuple[str, str | None]:
+    """A name with a trailing unit in brackets or parentheses -> (name, unit); else (text, None).
+
+    >>> split_unit("Vout [mV]"), split_unit("Tilt(deg)"), split_unit("angle_deg")
+    (('Vout', 'mV'), ('Tilt', 'deg'), ('angle_deg', None))
+    """
+    text = text.strip()
+    match = _TRAILING_UNIT.match(text)
+    if match is None or not match.group(1):
+        return text, None
+    unit = match.group(2) if match.group(2) is not None else match.group(3)
+    return match.group(1), unit.strip()
+
+
+def _units_text(dimension: str) -> str:
+    return ", ".join(UNITS[dimension])
+
+
+def _a(dimension: str) -> str:
+    return "an" if dimension[0] in "aeiou" else "a"
+
+
+def _short(name: str) -> str:
+    return printable(name if len(name) <= 40 else name[:40] + "…")
+
+
+@dataclass(frozen=True)
+class Columns:
+    """Where a recording's roles are, each ``"NAME"`` or ``"NAME[unit]"`` (see the module
+    docstring; defaults: magcilia's own names ``angle_deg``, ``voltage_V``, ``time_s``,
+    ``setreset``). Two roles may not name the same column.
+
+    Parameters
+    ----------
+    angle, voltage, time, setreset : str
+        The file's name for each role, with an optional unit in brackets (angle: an angle unit,
+        voltage: a voltage unit, time: a time unit; setreset takes none).
+    """
+
+    angle: str = "angle_deg"
+    voltage: str = "voltage_V"
+    time: str = "time_s"
+    setreset: str = "setreset"
+
+    def __post_init__(self) -> None:
+        seen: dict[str, str] = {}
+        for role in ROLES:
+            text = getattr(self, role)
+            if not isinstance(text, str) or not text.strip():
+                raise fail(f"columns {role}", text, "a column name, e.g. "
+                                                    f"{role}={self.example(role)}")
+            name, unit = self.spec(role)
+            dimension = ROLES[role][1]
+            if unit is not None and dimension is None:
+                raise fail(f"columns {role}", text, f"a column name without a unit (the {role} "
+                                                    "column holds set/reset marks)")
+            if unit is not None and dimension is not None and unit not in UNITS[dimension]:
+                raise fail(f"columns {role}", text,
+                           f"NAME[unit] with {_a(dimension)} {dimension} unit "
+                           f"({_units_text(dimension)})")
+            if name in seen:
+                raise fail(f"columns {role}", text, f"a column other than the {seen[name]}'s "
+                                                    f"({_short(name)}); each role needs its own")
+            seen[name] = role
+
+    @staticmethod
+    def example(role: str) -> str:
+        """An example spec for ``role`` (used in messages)."""
+        return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
+                "setreset": "SR"}[role]
+
+    def spec(self, role: str) -> tuple[str, str | None]:
+        """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
+        counts as a unit only if it is one of the role's dimension (else it is part of the
+        name); a trailing ``[unit]`` always does."""
+        text = getattr(self, role).strip()
+        name, unit = split_unit(text)
+        dimension = ROLES[role][1]
+        if unit is not None and text.endswith(")") and (
+                dimension is None or unit not in UNITS[dimension]):
+            return text, None
+        return name, unit
+
+    @classmethod
+    def parse(cls, text: str) -> Columns:
+        """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset;
+        others keep their defaults; a name with a comma needs the API's mapping).
+
+        >>> Columns.parse("voltage=Vout[mV]")
+        Columns(angle='angle_deg', voltage='Vout[mV]', time='time_s', setreset='setreset')
+        """
+        allowed = ("ROLE=NAME[unit],... with ROLE one of " + ", ".join(ROLES)
+                   + ", e.g. angle=Tilt[deg],voltage=Vout[mV]")
+        items: dict[str, str] = {}
+        for item in text.split(","):
+            role, eq, name = item.partition("=")
+            role = role.strip()
+            if not eq or role not in ROLES or not name.strip():
+                raise fail("--columns", item.strip() or text, allowed)
+            if role in items:
+                raise fail("--columns", text, f"each role once ({role} is given twice)")
+            items[role] = name.strip()
+        return cls(**items)
+
+    @classmethod
+    def coerce(cls, value: Columns | Mapping[str, str] | str | None) -> Columns:
+        """``value`` as a :class:`Columns`: None (the defaults), a Columns, a mapping
+        ``{"voltage": "Vout[mV]"}`` or the command line's text."""
+        if value is None:
+            return cls()
+        if isinstance(value, Columns):
+            return value
+        if isinstance(value, str):
+            return cls.parse(value)
+        if isinstance(value, Mapping):
+            unknown = [k for k in value if k not in ROLES]
+            if unknown:
+                raise fail("columns", unknown[0], "a role: " + ", ".join(ROLES))
+            return cls(**dict(value))
+        raise fail("columns", type(value).__name__,
+                   "a Columns, a mapping {role: 'NAME[unit]'} or 'angle=Tilt[deg],...'")
+
+    @property
+    def is_default(self) -> bool:
+        """Whether every role has magcilia's own name."""
+        return self == Columns()
+
+    def names(self) -> dict[str, str]:
+        """Key of the columns read (``angle_deg``, …) -> the name mapped to it."""
+        return {ROLES[role][0]: self.spec(role)[0] for role in ROLES}
+
+    def locate(self, names: Sequence[str], *, where: str,
+               required: tuple[str, ...] = ("angle_deg", "voltage_V"),
+               units: Mapping[str, Any] | None = None, kind: str = "column"
+               ) -> dict[str, tuple[int, float]]:
+        """Where each role is among a file's ``names`` and the factor to its key's unit.
+
+        Parameters
+        ----------
+        names : sequence of str
+            The file's column (variable, channel, dataset) names, in order.
+        where : str
+            The file, for messages.
+        required : tuple of str
+            Keys (``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``) that must be found.
+        units : mapping of str to str, optional
+            A unit the file gives for a name (an HDF5 ``units`` attribute).
+        kind : str
+            What the names are, for messages ("column", "variable", "channel", "dataset").
+
+        Returns
+        -------
+        dict of str to (int, float)
+            Key -> (index into ``names``, factor to its unit: deg, V, s; 1.0 for setreset), for
+            the roles found.
+
+        Raises
+        ------
+        MagciliaError
+            A required role missing (the names the file has listed), a name matched twice, or a
+            unit missing, of the wrong dimension or in conflict.
+        """
+        from magcilia.io.csvfile import names_text
+
+        stripped = [str(n).strip() for n in names]
+        parts = [split_unit(n) for n in stripped]
+        out: dict[str, tuple[int, float]] = {}
+        for role, (key, dimension, target) in ROLES.items():
+            name, unit = self.spec(role)
+            at = [i for i, n in enumerate(stripped) if n == name]
+            if not at:  # a header that carries its unit: "Vout [mV]" for the name Vout
+                at = [i for i, (base, u) in enumerate(parts) if u is not None and base == name]
+            if not at:
+                if key in required:
+                    raise MagciliaError(self._missing(role, name, where, kind,
+                                                      names_text(stripped), required))
+                continue
+            if len(at) > 1:
+                raise MagciliaError(
+                    f"{where}: {kind} {name!r} appears {len(at)} times in the "
+                    f"{'header' if kind == 'column' else 'file'} ({kind}s "
+                    f"{', '.join(str(i + 1) for i in at)}); keep one, it is ambiguous which to use"
+                )
+            i = at[0]
+            if dimension is None or target is None:
+                out[key] = (i, 1.0)
+                continue
+            attribute = None if units is None else units.get(stripped[i])
+            unit_found = self._unit(role, name, unit, parts[i][1] if stripped[i] != name else None,
+                                    attribute, where, kind)
+            table = UNITS[dimension]
+            out[key] = (i, table[unit_found] / table[target])
+        return out
+
+    def _missing(self, role: str, name: str, where: str, kind: str, listed: str,
+                 required: tuple[str, ...]) -> str:
+        mapping = f"--columns {role}=NAME[unit] (API: columns={{'{role}': 'NAME[unit]'}})"
+        if self.is_default:
+            need = " and ".join(self.names()[k] for k in required)
+            fix = f"the file needs {kind}s {need}, or map the {role} to yours with {mapping}"
+        else:
+            fix = f"map the {role} to one of them with {mapping}"
+        found = "header" if kind == "column" else "found"
+        return f"{where}: missing {kind} {_short(name)!r} ({found}: {listed}); {fix}"
+
+    def _unit(self, role: str, name: str, given: str | None, header: str | None,
+              attribute: Any, where: str, kind: str) -> str:
+        """The unit of ``role``'s column (see the module docstring for the order)."""
+        dimension = ROLES[role][1]
+        assert dimension is not None
+        table = UNITS[dimension]
+        fix = f"give it in the mapping, e.g. --columns {role}={_short(name)}[{ROLES[role][2]}]"
+        what = f"{where}: {kind} {_short(name)!r} ({role})"
+        if header is not None and header not in table:
+            if given is None:
+                raise MagciliaError(f"{what} has the unit {_short(header)!r}, not {_a(dimension)} "
+                                    f"{dimension} unit ({_units_text(dimension)}); {fix}")
+            header = None  # the mapping's unit decides
+        if isinstance(attribute, bytes):
+            attribute = attribute.decode("utf-8", "replace")
+        attribute = attribute.strip() if isinstance(attribute, str) else None
+        if attribute is not None and attribute not in table:
+            if given is None and header is None:
+                raise MagciliaError(f"{what} has units={_short(attribute)!r}, not {_a(dimension)} "
+                                    f"{dimension} unit ({_units_text(dimension)}); {fix}")
+            attribute = None
+        base, _, suffix = name.rpartition("_")
+        said = [(u, how) for u, how in ((given, "the mapping"), (header, "the file's name"),
+                                        (attribute, "its units attribute"),
+                                        (suffix if base and suffix in table else None,
+                                         "its name's suffix")) if u is not None]
+        for u, how in said[1:]:
+            if table[u] != table[said[0][0]]:
+                raise MagciliaError(f"{what}: {said[0][1]} says {said[0][0]}, {how} says {u}; "
+                                    "make them agree")
+        if said:
+            return said[0][0]
+        raise MagciliaError(f"{what} has no unit; {fix} ({_a(dimension)} {dimension} unit: "
+                            f"{_units_text(dimension)})")
+
+def columns_help() -> str:
+    """One line for the CLI's ``--columns`` help."""
+    roles = ", ".join(f.name for f in fields(Columns))
+    return (f"Map roles ({roles}) to the file's names with units, e.g. "
+            "angle=Tilt[deg],voltage=Vout[mV]. Default: angle_deg, voltage_V, time_s, setreset.")
