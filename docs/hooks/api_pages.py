@@ -39,9 +39,10 @@ def _nav_paths(item: Any) -> list[str]:
 def _shadowed(module: str, name: str) -> str | None:
     """The defining path of a public name that a submodule of the same name hides from griffe
     (``magcilia.mechanics.bend``, the function, is also a module), else None."""
-    obj = getattr(importlib.import_module(module), name)
-    if not (inspect.isclass(obj) or inspect.isroutine(obj)):
-        return None
+    parent = importlib.import_module(module)
+    obj = getattr(parent, name)
+    if not (inspect.isclass(obj) or inspect.isroutine(obj)) or not hasattr(parent, "__path__"):
+        return None  # a plain module (magcilia.plot) has no submodules to hide a name
     if importlib.util.find_spec(f"{module}.{name}") is None:
         return None
     return f"{obj.__module__}.{obj.__qualname__}"

@@ -81,8 +81,11 @@ def test_calibrate_is_rendered_with_its_signature_and_parameters(site: Path) -> 
 
 
 def test_every_public_area_has_a_rendered_page(site: Path) -> None:
-    areas = sorted(p.parent.name for p in (ROOT / "src" / "magcilia").glob("*/__init__.py")
-                   if not p.parent.name.startswith("_") and p.parent.name not in NOT_API)
+    src = ROOT / "src" / "magcilia"
+    packages = {p.parent.name for p in src.glob("*/__init__.py")}
+    modules = {p.stem for p in src.glob("*.py") if "\n__all__" in p.read_text(encoding="utf-8")}
+    areas = sorted(a for a in packages | modules
+                   if not a.startswith("_") and a not in NOT_API)
     for area in areas:
         page = site / "api" / f"magcilia.{area}" / "index.html"
         assert page.is_file(), f"add `- magcilia.{area}: api/magcilia.{area}.md` to mkdocs.yml"

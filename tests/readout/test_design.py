@@ -78,7 +78,7 @@ def test_range_ends_at_a_fold() -> None:
 
 def test_table_and_dict(metrics: mc.DesignMetrics) -> None:
     text = metrics.report()
-    assert "V/mN" in text and "m/s" in text and "deg" in text
+    assert "mV/mN" in text and "m/s" in text and "deg" in text
     assert len(text.splitlines()) == 5
     d = metrics.to_dict()
     assert set(d["metrics"]) == {"force", "flow", "angle"}

@@ -74,7 +74,8 @@ class Metric(Display):
     def report(self) -> str:
         """One line in display units."""
         q = MEASURANDS[self.quantity]
-        return (f"{self.quantity}: {self.sensitivity * q.display_factor:.4g} V/{q.display}, "
+        return (f"{self.quantity}: {self.sensitivity * 1e3 * q.display_factor:.4g} "
+                f"mV/{q.display}, "
                 f"minimum {q.to_display(self.minimum):.4g} {q.display}, range "
                 f"{q.to_display(self.range):.4g} {q.display} ({self.limited_by})")
 
@@ -82,7 +83,8 @@ class Metric(Display):
     def _display_items(self) -> list[Item]:
         q = MEASURANDS[self.quantity]
         return [("", self.quantity),
-                ("sensitivity", f"{number(self.sensitivity * q.display_factor)} V/{q.display}"),
+                ("sensitivity",
+                 f"{number(self.sensitivity * 1e3 * q.display_factor)} mV/{q.display}"),
                 ("minimum", q.text(self.minimum)), ("range", q.text(self.range)),
                 ("limited by", self.limited_by)]
 
@@ -116,19 +118,19 @@ class DesignMetrics(Display):
         return self.force, self.flow, self.angle
 
     def table(self) -> list[dict[str, Any]]:
-        """Rows per measurand in display units (mN, m/s, deg; V per display unit); NaN where a
-        metric is not available."""
+        """Rows per measurand in display units (mN, m/s, deg; sensitivity in mV per display
+        unit); NaN where a metric is not available."""
         rows = []
         for m in self.metrics:
             q = MEASURANDS[m.quantity]
             rows.append({"quantity": m.quantity, "unit": q.display,
-                         "sensitivity": m.sensitivity * q.display_factor,
+                         "sensitivity": m.sensitivity * 1e3 * q.display_factor,
                          "minimum": q.to_display(m.minimum), "range": q.to_display(m.range),
                          "limited_by": m.limited_by})
         return rows
 
     def report(self) -> str:
-        """Plain-text table in display units (mN, m/s, deg; V)."""
+        """Plain-text table in display units (mN, m/s, deg; mV)."""
         lo, hi = self.bandwidth
         lines = [
             f"noise {self.noise * 1e6:.4g} µV RMS over {lo:g}–{hi:g} Hz; flow in {self.fluid.name}",
@@ -137,7 +139,7 @@ class DesignMetrics(Display):
         ]
         for r in self.table():
             unit = r["unit"]
-            sens = f"{r['sensitivity']:.4g} V/{unit}" if math.isfinite(r["sensitivity"]) else "-"
+            sens = f"{r['sensitivity']:.4g} mV/{unit}" if math.isfinite(r["sensitivity"]) else "-"
             mini = f"{r['minimum']:.4g} {unit}" if math.isfinite(r["minimum"]) else "-"
             rng = f"{r['range']:.4g} {unit}" if math.isfinite(r["range"]) else "-"
             lines.append(f"{r['quantity']:<8} {sens:>22} {mini:>18} {rng:>14}  {r['limited_by']}")

@@ -155,8 +155,10 @@ class ReadoutResult(Display):
         return self.report()
 
     def report(self) -> str:
-        """One line: counts of estimated and flagged readings, value range, median sigma (SI)."""
-        return summary_line(self, self.unit, 1.0)
+        """One line: counts of estimated and flagged readings, value range, median sigma (display
+        unit: deg, mN, m/s)."""
+        q = MEASURANDS[self.quantity]
+        return summary_line(self, q.display, q.display_factor)
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
@@ -764,7 +766,8 @@ class Readout(Display):
         q = MEASURANDS[self.quantity]
         lo, hi = (q.to_display(x) for x in self.span)
         text = (f"{q.label} read-out over {lo:.4g}…{hi:.4g} {q.display}: outputs "
-                f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V, table error ≤ "
+                f"{min(self.output_range) * 1e3:.6g}…{max(self.output_range) * 1e3:.6g} mV, "
+                "table error ≤ "
                 f"{q.to_display(self.table_error):.2g} {q.display}")
         if self.fold is not None:
             text += f"; folds at {q.to_display(self.fold):.4g} {q.display}"
