@@ -31,14 +31,8 @@ Example (with h5py)::
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import json
-import os
-import signal
-import subprocess
-import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -187,67 +181,28 @@ def _h5_child_code() -> str:
 
 def _run_child(path: Path, group: str, wanted: list[str], max_samples: int
                ) -> tuple[dict[str, Any], dict[str, F64]]:
-    """Parse ``path`` in a child process: its report and arrays (by dataset name)."""
-    if not sys.executable:
-        raise MagciliaError(f"{path}: cannot start the HDF5 reader (no Python interpreter: "
-                            "sys.executable is empty)")
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "MKL_NUM_THREADS": "1"}
-    with tempfile.TemporaryDirectory(prefix="magcilia-h5-") as tmp:
-        out = Path(tmp) / "datasets.npz"
-        argv = [sys.executable, "-P", "-c", _h5_child_code(), str(path.resolve()), str(out),
-                str(int(matfile.MAT_MEMORY_LIMIT)), str(int(max_samples)),
-                str(path.stat().st_size), group, json.dumps(wanted), _TRAILING_UNIT.pattern]
-        try:
-            proc = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True,
-                                  timeout=matfile.MAT_TIMEOUT_S, env=env, cwd=tmp, check=False)
-        except subprocess.TimeoutExpired:
-            raise MagciliaError(
-                f"{path}: the HDF5 reader took longer than MAT_TIMEOUT_S = "
-                f"{matfile.MAT_TIMEOUT_S:g} s and was stopped; the file is damaged, or raise "
-                "magcilia.io.matfile.MAT_TIMEOUT_S for a genuine large file") from None
-        except OSError as exc:
-            raise MagciliaError(f"{path}: cannot start the HDF5 reader "
-                                f"({printable(str(exc))})") from exc
-        report: dict[str, Any] | None = None
-        lines = proc.stdout.decode("utf-8", "replace").strip().splitlines()
-        if proc.returncode == 0 and lines:
-            with contextlib.suppress(ValueError):
-                report = json.loads(lines[-1])
-        memory = (f"{path}: reading this file needs more than MAT_MEMORY_LIMIT = "
-                  f"{matfile.MAT_MEMORY_LIMIT / (1 << 30):g} GiB of memory; the file is "
-                  "damaged, or raise magcilia.io.matfile.MAT_MEMORY_LIMIT for a genuine large "
-                  "file")
-        if not isinstance(report, dict):
-            if b"MemoryError" in proc.stderr:
-                raise MagciliaError(memory)
-            rc = proc.returncode
-            if rc < 0:
-                how = f"signal {-rc}"
-                with contextlib.suppress(ValueError):
-                    how = f"signal {-rc}, {signal.Signals(-rc).name}"
-                raise MagciliaError(f"{path}: the HDF5 reader crashed on this file ({how}); it "
-                                    "is damaged or not an HDF5 file")
-            last = (proc.stderr.decode("utf-8", "replace").strip().splitlines() or [""])[-1]
-            raise MagciliaError(f"{path}: the HDF5 reader failed on this file (exit code {rc}"
-                                f"{': ' + printable(last[:160]) if last else ''}); it is "
-                                "damaged or not an HDF5 file")
-        error = report.get("error")
-        if error == "memory":
-            raise MagciliaError(memory)
-        if isinstance(error, str) and error.startswith("group: "):
-            raise MagciliaError(f"{path}: {printable(error[7:300])}; pass the group that holds "
-                                "the datasets (CLI: --group NAME)")
-        if error:
-            raise MagciliaError(f"{path}: cannot read as an HDF5 file "
-                                f"({printable(str(error)[:200])}); the file is damaged or not "
-                                "HDF5")
-        arrays: dict[str, F64] = {}
+    """Parse ``path`` in a child process (:func:`magcilia.io.matfile.run_child`): its report and
+    arrays (by dataset name)."""
+    def load(out: Path, report: dict[str, Any]) -> dict[str, NDArray[Any]]:
         saved = [str(s) for s in report.get("saved") or []]
-        if saved:
-            with np.load(out, allow_pickle=False) as npz:
-                arrays = {name: np.asarray(npz[f"arr_{i}"], dtype=np.float64)
-                          for i, name in enumerate(saved)}
+        if not saved or report.get("error"):
+            return {}
+        with np.load(out, allow_pickle=False) as npz:
+            return {name: np.asarray(npz[f"arr_{i}"], dtype=np.float64)
+                    for i, name in enumerate(saved)}
+
+    report, arrays = matfile.run_child(
+        path, _h5_child_code(),
+        [str(int(max_samples)), str(path.stat().st_size), group, json.dumps(wanted),
+         _TRAILING_UNIT.pattern],
+        reader="HDF5", what="an HDF5 file", load=load)
+    error = report.get("error")
+    if isinstance(error, str) and error.startswith("group: "):
+        raise MagciliaError(f"{path}: {printable(error[7:300])}; pass the group that holds "
+                            "the datasets (CLI: --group NAME)")
+    if error:
+        raise MagciliaError(f"{path}: cannot read as an HDF5 file "
+                            f"({printable(str(error)[:200])}); the file is damaged or not HDF5")
     return report, arrays
 
 

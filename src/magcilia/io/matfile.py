@@ -39,6 +39,7 @@ import subprocess
 import sys
 import tempfile
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
@@ -218,7 +219,7 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
     """The MATLAB reader's child process (see the module docstring): its source is sent with
     ``python -P -c``, so it is self-contained and imports nothing from magcilia.
 
-    argv: file, output .npz, kind ("v4", "v5", "hdf5"), memory limit (bytes), largest variable
+    argv: file, output .npz, memory limit (bytes), kind ("v4", "v5", "hdf5"), largest variable
     (bytes), the variable names to read (comma-separated). Prints one JSON line: ``found`` (the
     names in the file), ``saved`` (written to the .npz), ``problems`` (name -> what is wrong),
     ``error`` (why the file could not be read, "memory" for a MemoryError, or null).
@@ -230,8 +231,8 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
     import warnings
     from pathlib import Path
 
-    path, out, kind = sys.argv[1:4]
-    memory, max_bytes, wanted = int(sys.argv[4]), int(sys.argv[5]), sys.argv[6].split(",")
+    path, out, memory, kind = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
+    max_bytes, wanted = int(sys.argv[5]), sys.argv[6].split(",")
     found: list[str] = []
     problems: dict[str, str] = {}
     saved: list[str] = []
@@ -322,28 +323,49 @@ def _mat_child_code() -> str:
     return inspect.getsource(_mat_child) + "\n_mat_child()\n"
 
 
-def _run_mat_child(path: Path, kind: str, columns: tuple[str, ...]
-                   ) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
-    """Parse ``path`` in a child process (see the module docstring): its report and arrays."""
+def run_child(path: Path, code: str, args: list[str], *, reader: str, what: str,
+              load: Callable[[Path, dict[str, Any]], dict[str, NDArray[Any]]]
+              ) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+    """Parse ``path`` in a limited child process (see the module docstring); the MATLAB and the
+    HDF5 readers share it.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    code : str
+        The child's program. Its ``sys.argv[1:]`` is ``path`` (resolved), the ``.npz`` file to
+        write the arrays to, the memory limit in bytes, then ``args``; it prints its report as
+        one JSON line, ``"error": "memory"`` when it ran out of memory.
+    reader, what : str
+        For messages: ``"MATLAB"`` and ``"a MAT file"``, ``"HDF5"`` and ``"an HDF5 file"``.
+    load : callable
+        ``load(npz_path, report) -> arrays``, called while the ``.npz`` file exists.
+
+    Returns
+    -------
+    report, arrays
+        The child's report (any ``"error"`` but memory left to the caller) and ``load``'s arrays.
+    """
     if not sys.executable:
-        raise MagciliaError(f"{path}: cannot start the MATLAB reader (no Python interpreter: "
+        raise MagciliaError(f"{path}: cannot start the {reader} reader (no Python interpreter: "
                             "sys.executable is empty)")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1"}
-    with tempfile.TemporaryDirectory(prefix="magcilia-mat-") as tmp:
-        out = Path(tmp) / "variables.npz"
-        argv = [sys.executable, "-P", "-c", _mat_child_code(), str(path.resolve()), str(out),
-                kind, str(int(MAT_MEMORY_LIMIT)), str(int(MAX_DECOMPRESSED)), ",".join(columns)]
+    with tempfile.TemporaryDirectory(prefix="magcilia-reader-") as tmp:
+        out = Path(tmp) / "arrays.npz"
+        argv = [sys.executable, "-P", "-c", code, str(path.resolve()), str(out),
+                str(int(MAT_MEMORY_LIMIT)), *args]
         try:
             proc = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True,
                                   timeout=MAT_TIMEOUT_S, env=env, cwd=tmp, check=False)
         except subprocess.TimeoutExpired:
             raise MagciliaError(
-                f"{path}: the MATLAB reader took longer than MAT_TIMEOUT_S = {MAT_TIMEOUT_S:g} s "
-                "and was stopped; the file is damaged, or raise "
+                f"{path}: the {reader} reader took longer than MAT_TIMEOUT_S = "
+                f"{MAT_TIMEOUT_S:g} s and was stopped; the file is damaged, or raise "
                 "magcilia.io.matfile.MAT_TIMEOUT_S for a genuine large file") from None
         except OSError as exc:
-            raise MagciliaError(f"{path}: cannot start the MATLAB reader "
+            raise MagciliaError(f"{path}: cannot start the {reader} reader "
                                 f"({printable(str(exc))})") from exc
         report: dict[str, Any] | None = None
         lines = proc.stdout.decode("utf-8", "replace").strip().splitlines()
@@ -361,21 +383,32 @@ def _run_mat_child(path: Path, kind: str, columns: tuple[str, ...]
                 how = f"signal {-rc}"
                 with contextlib.suppress(ValueError):
                     how = f"signal {-rc}, {signal.Signals(-rc).name}"
-                raise MagciliaError(f"{path}: the MATLAB reader crashed on this file ({how}); "
-                                    "it is damaged or not a MAT file")
+                raise MagciliaError(f"{path}: the {reader} reader crashed on this file ({how}); "
+                                    f"it is damaged or not {what}")
             last = (proc.stderr.decode("utf-8", "replace").strip().splitlines() or [""])[-1]
-            raise MagciliaError(f"{path}: the MATLAB reader failed on this file (exit code {rc}"
-                                f"{': ' + printable(last[:160]) if last else ''}); it is "
-                                "damaged or not a MAT file")
+            raise MagciliaError(f"{path}: the {reader} reader failed on this file (exit code "
+                                f"{rc}{': ' + printable(last[:160]) if last else ''}); it is "
+                                f"damaged or not {what}")
         if report.get("error") == "memory":
             raise MagciliaError(memory)
-        if report.get("error"):
-            raise MagciliaError(f"{path}: cannot read as a MATLAB .mat file "
-                                f"({printable(str(report['error'])[:200])})")
-        arrays: dict[str, NDArray[Any]] = {}
-        if report.get("saved"):
-            with np.load(out, allow_pickle=False) as npz:
-                arrays = {k: npz[k] for k in npz.files if k in columns}
+        return report, load(out, report)
+
+
+def _run_mat_child(path: Path, kind: str, columns: tuple[str, ...]
+                   ) -> tuple[dict[str, Any], dict[str, NDArray[Any]]]:
+    """Parse ``path`` in a child process (see the module docstring): its report and arrays."""
+    def load(out: Path, report: dict[str, Any]) -> dict[str, NDArray[Any]]:
+        if not report.get("saved") or report.get("error"):
+            return {}
+        with np.load(out, allow_pickle=False) as npz:
+            return {k: npz[k] for k in npz.files if k in columns}
+
+    report, arrays = run_child(path, _mat_child_code(),
+                               [kind, str(int(MAX_DECOMPRESSED)), ",".join(columns)],
+                               reader="MATLAB", what="a MAT file", load=load)
+    if report.get("error"):
+        raise MagciliaError(f"{path}: cannot read as a MATLAB .mat file "
+                            f"({printable(str(report['error'])[:200])})")
     return report, arrays
 
 
