@@ -94,10 +94,12 @@ def _check_bounds(bounds: Mapping[str, tuple[float, float]] | None,
         lo, hi = merged[name]
         tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)  # unit conversions (mm -> m) round off
         if not lo - tol <= init[name] <= hi + tol:
-            raise v.fail(f"initial {name}", init[name],
-                         f"inside its bounds [{lo:.6g}, {hi:.6g}] "
+            p = REGISTRY[name]
+            raise v.fail(f"initial {name}", p.text(init[name], 6),
+                         f"inside its bounds {p.text(lo, 6)}…{p.text(hi, 6)} "
                          "(move the initial value or widen the bounds)")
     return merged
+
 
 def _check_fixed(fixed: Mapping[str, float] | Iterable[str] | str | None,
                  bounds: Mapping[str, tuple[float, float]] | None,
