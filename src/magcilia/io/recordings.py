@@ -144,6 +144,16 @@ class Measurement(Display):
         samples that no angle's counts can hold: ``no_angle`` (samples whose angle was NaN/inf,
         nan_policy 'omit'), ``angles_deg`` (angles left without a usable sample) and ``samples``
         (how many samples those angles had); :meth:`report` says them.
+    azimuths : ndarray, shape (a,)
+        Tilt direction φ of each condition, rad (0: tilt toward +x, the paper's path; the tilt
+        axis is horizontal, perpendicular to φ). Conditions are ordered by azimuth, then angle.
+        Default: all 0.
+    fields : ndarray, shape (a, 3), or None
+        For a 3-axis magnetometer at the sensing point: mean field (B_x, B_y, B_z) per condition,
+        T (axes as in the frame figure); ``volts`` and ``sem`` are then NaN. None for the
+        single-axis sensor's output.
+    field_sem : ndarray, shape (a, 3), or None
+        Standard errors of ``fields``, T (None with ``fields``).
     """
 
     angles: F64
@@ -155,12 +165,34 @@ class Measurement(Display):
     set_reset: bool = False
     source: str = "<array>"
     metadata: dict[str, Any] = field(default_factory=dict)
+    azimuths: F64 = field(default_factory=lambda: np.zeros(0))
+    fields: F64 | None = None
+    field_sem: F64 | None = None
 
     def __post_init__(self) -> None:
-        for name in ("angles", "volts", "sem", "counts", "saturated", "nonfinite"):
-            arr = np.array(getattr(self, name))
+        if np.size(self.azimuths) == 0:
+            object.__setattr__(self, "azimuths", np.zeros(np.shape(self.angles)))
+        if (self.fields is None) != (self.field_sem is None):
+            raise v.fail("field_sem", "given without fields" if self.fields is None
+                         else "missing", "both fields and field_sem, or neither")
+        for name in ("angles", "volts", "sem", "counts", "saturated", "nonfinite", "azimuths",
+                     "fields", "field_sem"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            arr = np.array(value)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
+        a = self.angles.shape
+        if self.azimuths.shape != a or (self.fields is not None and self.field_sem is not None and (
+                self.fields.shape != (*a, 3) or self.field_sem.shape != (*a, 3))):
+            raise v.fail("azimuths / fields", "arrays of other shapes than the angles",
+                         "azimuths of shape (a,) and fields, field_sem of shape (a, 3)")
+
+    @property
+    def observable(self) -> str:
+        """``"output"`` (the single-axis sensor's voltage) or ``"field"`` (3-axis data)."""
+        return "output" if self.fields is None else "field"
 
     def __len__(self) -> int:
         return int(self.angles.size)
@@ -177,7 +209,9 @@ class Measurement(Display):
             "angle_rad": self.angles.tolist(), "voltage_V": self.volts.tolist(),
             "sem_V": self.sem.tolist(), "count": self.counts.tolist(),
             "saturated": self.saturated.tolist(), "nonfinite": self.nonfinite.tolist(),
-            "metadata": dict(self.metadata),
+            "metadata": dict(self.metadata), "azimuth_rad": self.azimuths.tolist(),
+            **({} if self.fields is None or self.field_sem is None else {
+                "field_T": self.fields.tolist(), "field_sem_T": self.field_sem.tolist()}),
         }
 
     @classmethod
@@ -193,6 +227,11 @@ class Measurement(Display):
                 nonfinite=np.asarray(data["nonfinite"], dtype=np.int64),
                 set_reset=bool(data["set_reset"]), source=str(data["source"]),
                 metadata=dict(data.get("metadata") or {}),
+                azimuths=np.asarray(data.get("azimuth_rad") or [], dtype=np.float64),
+                fields=(None if data.get("field_T") is None
+                        else np.asarray(data["field_T"], dtype=np.float64)),
+                field_sem=(None if data.get("field_sem_T") is None
+                           else np.asarray(data["field_sem_T"], dtype=np.float64)),
             )
 
     def report(self) -> str:
