@@ -22,6 +22,7 @@ from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
 from magcilia.device.sensor import Sensor
 from magcilia.model import pose as pose_model
+from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.centreline import Centreline
 from magcilia.model.pose import Pose
 from magcilia.model.spec import ModelSpec
@@ -168,7 +169,7 @@ class Setup(Display):
         )
 
     # -- evaluation ---------------------------------------------------------------------------
-    def field(self, pose: Pose) -> F64:
+    def field(self, pose: Pose, azimuth: float = 0.0) -> F64:
         """Flux density at the sensing element (origin), T, shape (a, 3).
 
         Parameters
@@ -176,18 +177,30 @@ class Setup(Display):
         pose : array-like, shape (a,), or Centreline
             Rigid tilt angles in rad (the paper's experiment), or a batch of ``a`` centrelines
             (e.g. bent shapes from :func:`magcilia.bend`).
+        azimuth : float
+            Direction of the tilt or bending, rad: 0 toward +x (the paper's path), π/2 toward +y
+            (:mod:`magcilia.model.azimuth`).
         """
-        return pose_model.field(self.spec, pose)
+        phi = v.real("azimuth", azimuth, "rad")
+        if phi == 0.0:
+            return pose_model.field(self.spec, pose)
+        x, y = placement_in_tilt_frame(self.position[0], self.position[1], phi)
+        turned = self.replace(position=(float(x), float(y), self.position[2]))
+        return field_from_tilt_frame(pose_model.field(turned.spec, pose), phi)
 
-    def output(self, pose: Pose) -> F64:
+    def output(self, pose: Pose, azimuth: float = 0.0) -> F64:
         """Sensor output, V, shape (a,): ``scale · B_x + offset`` (75 V/T for the paper).
 
         Parameters
         ----------
         pose : array-like, shape (a,), or Centreline
             Tilt angles in rad, or a batch of centrelines.
+        azimuth : float
+            Direction of the tilt or bending, rad (see :meth:`field`).
         """
-        return pose_model.output(self.spec, pose)
+        if v.real("azimuth", azimuth, "rad") == 0.0:
+            return pose_model.output(self.spec, pose)
+        return self.sensor.voltage(self.field(pose, azimuth)[:, 0])
 
     def field_at(self, points: ArrayLike, pose: Pose) -> F64:
         """Flux density at arbitrary points, T, shape (a, o, 3).
