@@ -154,7 +154,7 @@ def calibrate(
     bias_degree: int = 0,
     fit_scale: bool = False,
     restarts: int = 1,
-    starts: int = 256,
+    starts: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     fixed: Mapping[str, float] | Iterable[str] | None = None,
     model: Literal["paper"] = "paper",
@@ -174,7 +174,7 @@ def calibrate(
     bias_degree: int = 0,
     fit_scale: bool = False,
     restarts: int = 1,
-    starts: int = 256,
+    starts: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     fixed: Mapping[str, float] | Iterable[str] | None = None,
     model: Literal["physical"],
@@ -194,7 +194,7 @@ def calibrate(
     bias_degree: int = 0,
     fit_scale: bool = False,
     restarts: int = 1,
-    starts: int = 256,
+    starts: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     fixed: Mapping[str, float] | Iterable[str] | None = None,
     model: str,
@@ -213,7 +213,7 @@ def calibrate(
     bias_degree: int = 0,
     fit_scale: bool = False,
     restarts: int = 1,
-    starts: int = 256,
+    starts: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     fixed: Mapping[str, float] | Iterable[str] | None = None,
     model: str = "paper",
@@ -246,8 +246,10 @@ def calibrate(
         Independent global searches (each from its own sample of starts); the best polished
         result is kept. One finds the best fit of a 33-angle recording in more than 99 % of
         cases; more make a miss rarer still, at proportional cost.
-    starts : int
-        Local fits started by each global search (see :mod:`magcilia.calibration.multistart`).
+    starts : int, optional
+        Local fits started by each global search (see :mod:`magcilia.calibration.multistart`):
+        default 256 for the paper's model, 64 for the physical
+        (:data:`~magcilia.calibration.joint.STARTS`; five continuous parameters only).
     progress : callable(done, total), optional
         Called after each restart (the CLI draws a progress bar with it).
     fixed : mapping of str to float, or sequence of str, optional
@@ -302,7 +304,7 @@ def calibrate(
             fixed = {n: init.get(n, math.nan) for n in names}
         result = calibrate_joint(data, initial, bounds, rng=rng, priors=priors,
                                  fit_scale=fit_scale, fixed=fixed, layout=layout,
-                                 starts=starts if starts != 256 else STARTS)
+                                 starts=STARTS if starts is None else starts)
         if progress is not None:
             progress(1, 1)
         return result
@@ -330,7 +332,7 @@ def calibrate(
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
     restarts = v.integer("restarts", restarts, 1)
-    starts = v.integer("starts", starts, 1)
+    starts = v.integer("starts", 256 if starts is None else starts, 1)
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(

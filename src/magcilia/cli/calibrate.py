@@ -64,8 +64,9 @@ from magcilia.units import parse_values
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
                    "33-angle recording in > 99 % of cases; more make a miss rarer).")
-@click.option("--starts", default=256, show_default=True,
-              help="Local fits started by each global search.")
+@click.option("--starts", type=int, default=None,
+              help="Local fits started by each global search [default: 256; 64 with --model "
+                   "physical].")
 @click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
               show_default=True, help="DC bias model, fitted jointly.")
 @click.option("--bias-degree", default=0, show_default=True,
@@ -83,9 +84,9 @@ from magcilia.units import parse_values
 @style_option
 @recording_options
 def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tuple[str, ...],
-            seed: int, restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
-            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
-            fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
+            seed: int, restarts: int, starts: int | None, bias: str, bias_degree: int,
+            fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
+            force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
             model: str, prior_items: tuple[str, ...]) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
     physical to several recordings (experiments) at once.
