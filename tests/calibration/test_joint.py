@@ -198,3 +198,30 @@ def test_result_report_dict_and_frame(exact: list[np.ndarray]) -> None:
     assert doc["experiments"][0]["offsets_T"] == pytest.approx(list(fit.experiments[0].offsets))
     assert fit.setup.n_loops == 64 and fit.setup.ring == "rms"
     assert fit.setup.params()["height"] == pytest.approx(fit.values["height"])
+
+
+def test_an_equally_good_distant_minimum_is_reported(exact: list[np.ndarray]) -> None:
+    """The single output path has two basins (x ≈ −1.5 mm and the true +1.5 mm) whose χ² differ
+    by less than 1: given both, the check names the parameters that differ."""
+    from magcilia.calibration.joint import _ambiguity
+    from magcilia.calibration.local import levenberg_marquardt
+
+    rng = np.random.default_rng(2)
+    a = ANGLES.size
+    volts = 75.0 * exact[0][:, 0] + 0.01 + rng.normal(0.0, 75.0 * NOISE, a)
+    single = Measurement(angles=ANGLES, volts=volts, sem=np.full(a, 75.0 * NOISE),
+                         counts=np.full(a, 100), saturated=np.zeros(a, np.int64),
+                         nonfinite=np.zeros(a, np.int64), source="single")
+    fit = mc.calibrate(single, model="physical", rng=0, initial=INITIAL, priors=HEIGHT_PRIOR,
+                       layout=LAYOUT)
+    box = {n: mc.calibration.DEFAULT_BOUNDS[n] for n in JOINT_PARAMETERS}
+    prob = JointProblem([single], INITIAL, LAYOUT, box, JOINT_PARAMETERS, HEIGHT_PRIOR)
+    truth = np.array([TRUTH.params()[n] for n in JOINT_PARAMETERS])
+    other = levenberg_marquardt(lambda x, _: prob.residuals(x), truth[None], prob.bounds[:, 0],
+                                prob.bounds[:, 1], maxiter=100)
+    best = np.array([fit.values[n] for n in JOINT_PARAMETERS])
+    assert fit.values["x"] * other.x[0, 2] < 0  # two basins, x of opposite signs
+    assert other.cost[0] <= fit.chi2 + 4.0
+    warning = _ambiguity(prob, best, other.x, other.cost, fit.stderr, y_free=True)
+    assert warning is not None and warning.kind == "ambiguous" and "x" in warning.parameters
+    assert _ambiguity(prob, best, best[None], np.array([fit.chi2]), fit.stderr, True) is None

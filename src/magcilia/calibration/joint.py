@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -78,7 +78,14 @@ SEM_FLOOR = {"output": 1e-7, "field": 1e-10}
 #: Latin-hypercube starts of the global search
 STARTS = 64
 #: Levenberg–Marquardt iterations between halvings, fits left, most iterations at the end
-ROUND, SURVIVORS, MAXITER = 8, 4, 100
+ROUND, SURVIVORS, MAXITER = 8, 6, 100
+#: a local minimum of the search within this χ² of the best, yet more than
+#: :data:`AMBIGUITY_SIGMA` standard errors away in some parameter, is reported as an equally good
+#: alternative (``ambiguous``): the linearised standard errors then describe one mode only
+AMBIGUITY_CHI2 = 4.0
+#: the search keeps distinct basins (more than this fraction of the box apart) to the end
+DIVERSITY = 0.1
+AMBIGUITY_SIGMA = 3.0
 #: the cost of a non-finite model (the element on a dipole): worse than any fit, finite
 NONFINITE_RESIDUAL = 1e50
 
@@ -399,7 +406,9 @@ class JointProblem:
         return np.asarray(num / np.bincount(self.group, w2, minlength=len(self.groups)))
 
 
-def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator, starts: int) -> F64:
+def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
+            starts: int) -> tuple[F64, F64, F64]:
+    """The best parameters (p,) and the search's final local minima (s, p) with their χ² (s,)."""
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
     x = latin_hypercube(starts, lo, hi, rng)
     x[0] = x_init
@@ -410,9 +419,10 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator, starts
     while True:
         fits = levenberg_marquardt(res, x, lo, hi, maxiter=ROUND)
         x, cost = fits.x, fits.cost
-        if x.shape[0] <= SURVIVORS:
+        if x.shape[0] <= 4 * SURVIVORS:
+            x = x[_diverse(x, cost, hi - lo, SURVIVORS)]
             break
-        x = x[np.argsort(cost, kind="stable")[:max(SURVIVORS, x.shape[0] // 2)]]
+        x = x[np.argsort(cost, kind="stable")[:x.shape[0] // 2]]
     fits = levenberg_marquardt(res, x, lo, hi, maxiter=MAXITER)
     best = fits.x[int(np.argmin(fits.cost))]
     width = hi - lo
@@ -427,7 +437,22 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator, starts
             best = sol.x
     except ValueError:
         pass
-    return np.asarray(best, dtype=np.float64)
+    return np.asarray(best, dtype=np.float64), fits.x, fits.cost
+
+
+def _diverse(x: F64, cost: F64, width: F64, count: int) -> NDArray[np.intp]:
+    """Rows of ``x`` (s, p) to keep: the best, then the best of those more than
+    :data:`DIVERSITY` of the box from every kept one (other basins: the ambiguity check needs
+    them), topped up with the next best; ``count`` at most."""
+    order = np.argsort(cost, kind="stable")
+    kept: list[int] = []
+    for i in order:
+        if all(np.abs((x[i] - x[j]) / width).max() > DIVERSITY for j in kept):
+            kept.append(int(i))
+        if len(kept) == count:
+            break
+    kept += [int(i) for i in order if int(i) not in kept][:count - len(kept)]
+    return np.array(kept, dtype=np.intp)
 
 
 def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
@@ -603,14 +628,50 @@ def calibrate_joint(
                             "conditions")
     gen = np.random.default_rng(rng)
     x_init = np.clip([init[n] for n in names], problem.bounds[:, 0], problem.bounds[:, 1])
-    x = _search(problem, x_init, gen, starts) if names else x_init
+    minima, minima_cost = np.zeros((0, len(names))), np.zeros(0)
+    if names:
+        x, minima, minima_cost = _search(problem, x_init, gen, starts)
+    else:
+        x = x_init
     y_free = not y_sign_determined(experiments)
     if y_free and "y" in names:
         k = names.index("y")
         if x[k] * (-1.0 if init["y"] < 0 else 1.0) < 0 and box["y"][0] <= -x[k] <= box["y"][1]:
             x = x.copy()
             x[k] = -x[k]
-    return _joint_result(problem, initial, experiments, box, x, y_free, t0)
+    result = _joint_result(problem, initial, experiments, box, x, y_free, t0)
+    alt = _ambiguity(problem, x, minima, minima_cost, result.stderr, y_free)
+    if alt is None:
+        return result
+    return replace(result, warnings=(*result.warnings, alt.message),
+                   diagnostics=(*result.diagnostics, alt))
+
+
+def _ambiguity(problem: JointProblem, x: F64, minima: F64, cost: F64,
+               stderr: Mapping[str, float], y_free: bool) -> CalibrationWarning | None:
+    """A warning when another local minimum fits within :data:`AMBIGUITY_CHI2` of the best but
+    lies more than :data:`AMBIGUITY_SIGMA` standard errors away (the y mirror excluded when the
+    sign of y is free: that one is warned about already)."""
+    best = float(problem.cost(x)[0])
+    se = np.array([stderr.get(n, math.inf) for n in problem.names])
+    for xi, ci in sorted(zip(minima, cost, strict=True), key=lambda t: t[1]):
+        if not ci <= best + AMBIGUITY_CHI2:
+            continue
+        other = xi.copy()
+        if y_free and "y" in problem.names:
+            k = problem.names.index("y")
+            other[k] = math.copysign(other[k], x[k])
+        far = np.abs(other - x) > AMBIGUITY_SIGMA * se
+        if far.any():
+            names = tuple(n for n, f in zip(problem.names, far, strict=True) if f)
+            shown = ", ".join(f"{n} {REGISTRY[n].text(float(other[problem.names.index(n)]), 4)}"
+                              for n in names)
+            return CalibrationWarning(
+                "ambiguous", f"another solution fits as well (chi2 {ci:.4g} against {best:.4g}) "
+                f"with {shown}, more than {AMBIGUITY_SIGMA:g} standard errors away: the data "
+                "do not choose between them and the standard errors describe one of them only "
+                "(add another azimuth, field components or a prior)", names)
+    return None
 
 
 def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measurement],
