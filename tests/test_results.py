@@ -39,6 +39,13 @@ def _calibration() -> mc.CalibrationResult:
                         bounds={"n_loops": (2, 2), "dipoles_per_loop": (5, 5)})
 
 
+def _joint() -> Any:
+    data = _measurement()
+    shifted = dataclasses.replace(data, azimuths=np.full(len(data), 0.5), source="azimuth 0.5")
+    return mc.calibrate([data, shifted], model="physical", initial=SETUP, rng=0, starts=4,
+                        layout=(8, 5))
+
+
 def _sweep() -> Any:
     from magcilia.acquire import SimulatedSource, record_sweep
 
@@ -69,6 +76,8 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "Measurement": _measurement,
     "CalibrationResult": _calibration,
     "ParameterCovariance": lambda: _calibration().uncertainty,
+    "JointCalibrationResult": _joint,
+    "ExperimentFit": lambda: _joint().experiments[0],
     "OATResult": lambda: mc.oat_sweep(SETUP, "x", [1.2e-3, 1.5e-3], angles=ANGLES),
     "PlacementMap": lambda: placement_map(SETUP, [1.2e-3, 1.6e-3], [1.8e-3, 2.2e-3],
                                           angles=ANGLES),

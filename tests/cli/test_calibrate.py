@@ -148,3 +148,63 @@ def test_calibrate_bad_data_file(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert main(["calibrate", str(bad), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     assert "missing column 'voltage_V'" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_calibrate_physical_with_priors_from_cli_and_setup_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    setup = tmp_path / "setup.toml"
+    setup.write_text(Path("examples/paper.toml").read_text(encoding="utf-8")
+                     + '\n[priors]\nheight = "3.2 mm +- 0.2 mm"\nbase_radius = "180 um ± 30 um"\n',
+                     encoding="utf-8")
+    assert mc.load_setup(setup).cilium.height == pytest.approx(3.2613e-3)  # [priors] ignored
+    out = tmp_path / "cal"
+    code = main(["calibrate", str(example_path()), str(example_path()), "--model", "physical",
+                 "--setup", str(setup), "--prior", "height=3.1:0.1", "--out", str(out),
+                 "--quiet", "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["model"] == "physical" and doc["n_loops"] >= 24
+    assert doc["prior_values"] == pytest.approx({"height_mm": 3.1, "base_radius_mm": 0.18})
+    assert doc["prior_sigmas"] == pytest.approx({"height_mm": 0.1, "base_radius_mm": 0.03})
+    assert len(doc["experiments"]) == 2 and "rms_mV" in doc["experiments"][0]
+    assert {"height_mm", "base_radius_mm", "x_mm", "y_mm", "z_mm"} == set(doc["values"])
+    result = json.loads((out / "result.json").read_text(encoding="utf-8"))
+    assert result["units"] == "SI" and result["priors"]["height"] == pytest.approx([3.1e-3, 1e-4])
+    assert {"fitted_setup.toml", "result.json", "report.md", "fit.png"} <= {
+        p.name for p in out.iterdir()}
+    assert mc.load_setup(out / "fitted_setup.toml").ring == "rms"
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--model", "physical", "--prior", "height=3.0"], "--prior height"),
+        (["--model", "physical", "--prior", "heigth=3:0.2"], "NAME one of height"),
+        (["--model", "physical", "--prior", "height=3:0"], "zero-width prior"),
+        (["--model", "physical", "--prior", "height=9:0.2"], "outside its bounds"),
+        (["--prior", "height=3:0.2"], "need --model physical"),
+        ([str(example_path())], "use --model physical to fit several"),
+    ],
+    ids=["no-sigma", "unknown", "zero-width", "outside", "paper-prior", "paper-several"],
+)
+def test_calibrate_prior_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                args: list[str], match: str) -> None:
+    out = tmp_path / "cal"
+    code = main(["calibrate", str(example_path()), "--out", str(out), "--quiet", *args])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_setup_file_priors_syntax(tmp_path: Path) -> None:
+    from magcilia.io.setup_files import load_priors
+
+    path = tmp_path / "s.toml"
+    path.write_text('[priors]\nz = "0.4 mm +- 50 um"\n', encoding="utf-8")
+    assert load_priors(path)["z"] == pytest.approx((0.4e-3, 50e-6))
+    path.write_text('[priors]\nz = "0.4 mm"\n', encoding="utf-8")
+    with pytest.raises(mc.MagciliaError, match=r"priors.z must be a value and its sigma"):
+        load_priors(path)
+    with pytest.raises(mc.MagciliaError, match=r"priors.z must be a value and its sigma"):
+        mc.load_setup(path)

@@ -72,7 +72,8 @@ def test_pages_exist(site: Path) -> None:
 
 def test_calibrate_is_rendered_with_its_signature_and_parameters(site: Path) -> None:
     text = text_of(site / "api" / "magcilia.calibration" / "index.html")
-    assert "calibrate ( data : Measurement , initial : Setup | None = None" in text
+    assert ("calibrate ( data : Measurement | Sequence [ Measurement ], initial : Setup | None = "
+            "None") in text
     assert "Parameters:" in text and "Returns:" in text
     # a numpy-style parameter entry: name, type, its description with units
     assert re.search(r"bounds mapping of str to \(low, high\) Search bounds in SI", text), text

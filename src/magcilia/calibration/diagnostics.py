@@ -75,7 +75,7 @@ CORRELATION_LIMIT = 0.99
 WARNING_KINDS = (
     "at_bound", "bias_absorbs_signal", "implausible_stderr", "weakly_determined",
     "undetermined", "correlated", "y_sign", "model_not_finite", "no_degrees_of_freedom",
-    "integer_parameters",
+    "integer_parameters", "layout", "chi2", "ambiguous",
 )
 
 

@@ -408,3 +408,252 @@ class CalibrationResult(Display):
             "fitted": [float(self.values[n]) for n in names],
             "stderr": [float(self.stderr.get(n, math.nan)) for n in names],
             "lower": [float(b[0]) for b in bounds], "upper": [float(b[1]) for b in bounds]})
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class ExperimentFit(Display):
+    """One experiment's part of a joint calibration (:class:`JointCalibrationResult`).
+
+    Attributes
+    ----------
+    source : str
+        The recording.
+    observable : {"output", "field"}
+        Sensor output (V) or 3-axis field (T).
+    angles, azimuths : ndarray, shape (a,)
+        Tilt angles and directions, rad.
+    measured, fitted, residuals : ndarray, shape (a,) (output, V) or (a, 3) (field, T)
+        The data, the fitted model with this experiment's offsets, their difference.
+    offsets : ndarray, shape (1,) or (3,)
+        The fitted constant offset (V), or one per field axis (T).
+    rms : float
+        RMS residual, V or T.
+    chi2 : float
+        Sum of squared weighted residuals (÷ the floored standard errors).
+    values : int
+        Data values (a, or 3a).
+    """
+
+    source: str
+    observable: str
+    angles: F64
+    azimuths: F64
+    measured: F64
+    fitted: F64
+    residuals: F64
+    offsets: F64
+    rms: float
+    chi2: float
+    values: int
+
+    def unit(self) -> str:
+        """The SI unit of the data ("V" or "T")."""
+        return "V" if self.observable == "output" else "T"
+
+    def line(self) -> str:
+        """One report line: source, conditions, azimuths, RMS, χ² and the offsets (display
+        units: mV, µT)."""
+        az = ", ".join(f"{d:g}" for d in np.unique(np.round(np.degrees(self.azimuths), 3)))
+        if self.observable == "output":
+            rms, off = f"{self.rms * 1e3:.4g} mV", f"offset {self.offsets[0] * 1e3:.5g} mV"
+        else:
+            rms = f"{self.rms * 1e6:.4g} uT"
+            off = "offsets " + ", ".join(f"{o * 1e6:.4g}" for o in self.offsets) + " uT (x, y, z)"
+        return (f"{self.source}: {self.observable}, {self.angles.size} angles at azimuth {az} "
+                f"deg; RMS {rms}, chi2 {self.chi2:.4g} for {self.values} values; {off}")
+
+    def report(self) -> str:
+        """:meth:`line`: the experiment's fit in one line."""
+        return self.line()
+
+    def _display_items(self) -> list[Item]:
+        return [("source", self.source), ("observable", self.observable),
+                ("", count(self.angles.size, "angle")), ("rms", si(self.rms, self.unit())),
+                ("chi2", number(self.chi2))]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        u = self.unit()
+        return {"source": self.source, "observable": self.observable,
+                "angle_rad": self.angles.tolist(), "azimuth_rad": self.azimuths.tolist(),
+                f"measured_{u}": self.measured.tolist(), f"fitted_{u}": self.fitted.tolist(),
+                f"residual_{u}": self.residuals.tolist(), f"offsets_{u}": self.offsets.tolist(),
+                f"rms_{u}": self.rms, "chi2": self.chi2, "values": self.values}
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class JointCalibrationResult(Display):
+    """The outcome of ``calibrate(..., model="physical")`` (immutable): one cilium and placement
+    fitted to several experiments (:mod:`magcilia.calibration.joint`).
+
+    Attributes
+    ----------
+    setup : Setup
+        The fitted setup, with the physical layout (n, k, rms ring); its sensor offset is the
+        fitted one when there is exactly one output experiment.
+    initial : Setup
+    model : str
+        ``"physical"``.
+    n_loops, dipoles_per_loop : int
+        The layout held during the fit.
+    layout_error : float
+        Its max relative field error against the exact body at the initial setup (NaN if given).
+    chi2 : float
+        Sum of squared weighted residuals, priors included.
+    dof : int
+        Data values − fitted parameters (offsets included).
+    values : dict of str to float
+        Fitted values (SI): height, base_radius, x, y, z, the offsets (``offset``, ``offset_x``…,
+        with ``[i]`` per experiment when there are several) and, with ``fit_scale``, the
+        magnetization scale.
+    uncertainty : ParameterCovariance
+        Standard errors (inf: undetermined), correlations and covariance.
+    experiments : tuple of ExperimentFit
+    priors : dict of str to (float, float)
+        The Gaussian priors (value, σ), SI.
+    warnings : tuple of str
+    diagnostics : tuple of CalibrationWarning
+    bounds : dict of str to (float, float)
+    fixed : dict of str to float
+    evaluations : int
+        Parameter sets evaluated.
+    elapsed : float
+        Wall time, s.
+    """
+
+    setup: Setup
+    initial: Setup
+    model: str
+    n_loops: int
+    dipoles_per_loop: int
+    layout_error: float
+    chi2: float
+    dof: int
+    values: dict[str, float]
+    uncertainty: ParameterCovariance
+    experiments: tuple[ExperimentFit, ...]
+    priors: dict[str, tuple[float, float]]
+    warnings: tuple[str, ...]
+    diagnostics: tuple[CalibrationWarning, ...]
+    bounds: dict[str, tuple[float, float]]
+    fixed: dict[str, float]
+    evaluations: int
+    elapsed: float
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """1-σ standard errors, SI (inf where undetermined)."""
+        return self.uncertainty.stderr
+
+    @property
+    def correlation(self) -> F64:
+        """Correlation matrix of :attr:`correlation_names`."""
+        return self.uncertainty.correlation
+
+    @property
+    def correlation_names(self) -> tuple[str, ...]:
+        """Names of the rows of :attr:`correlation` and :attr:`covariance`."""
+        return self.uncertainty.correlation_names
+
+    @property
+    def covariance(self) -> F64 | None:
+        """Parameter covariance (SI)."""
+        return self.uncertainty.covariance
+
+    def undetermined(self) -> tuple[str, ...]:
+        """Parameters the data (and priors) leave undetermined."""
+        return tuple(dict.fromkeys(n for w in self.diagnostics if w.kind == "undetermined"
+                                   for n in w.parameters))
+
+    def table(self, si: bool = False) -> list[dict[str, Any]]:
+        """Rows: parameter, unit, initial, fitted, stderr (display units; SI with ``si``), fixed,
+        and the prior value and σ (NaN without one)."""
+        init = self.initial.params()
+        rows = []
+        for name in (*GEOMETRY, "magnetization_scale"):
+            if name not in self.values:
+                continue
+            p = REGISTRY[name]
+            unit, factor = (p.unit, 1.0) if si else (p.display, p.display_factor)
+            mu, sig = self.priors.get(name, (math.nan, math.nan))
+            rows.append({"parameter": name, "unit": unit, "initial": init[name] / factor,
+                         "fitted": self.values[name] / factor,
+                         "stderr": self.stderr.get(name, math.nan) / factor,
+                         "fixed": name in self.fixed, "prior": mu / factor,
+                         "prior_sigma": sig / factor})
+        return rows
+
+    def report(self, si: bool = False) -> str:
+        """Plain text: the model and layout, the parameter table with priors, each experiment's
+        fit, what is still undetermined, and the warnings."""
+        err = ("" if not math.isfinite(self.layout_error)
+               else f", {self.layout_error:.2g} max relative field error against the exact body")
+        lines = [(f"joint calibration ({self.model} model: n={self.n_loops}, "
+                  f"k={self.dipoles_per_loop}, rms ring{err}) of {len(self.experiments)} "
+                  "experiment(s)"),
+                 (f"chi2 {self.chi2:.6g} for {self.dof} degrees of freedom (reduced "
+                  f"{self.chi2 / max(self.dof, 1):.3g})"),
+                 (f"{'parameter':<20} {'unit':<4} {'initial':>12} {'fitted':>12} "
+                  f"{'std. error':>12} {'prior':>20}")]
+        for r in self.table(si):
+            se = ("fixed" if r["fixed"] else f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
+                  else "undetermined" if r["stderr"] == math.inf else "-")
+            prior = (f"{r['prior']:.4g} ± {r['prior_sigma']:.3g}" if math.isfinite(r["prior"])
+                     else "-")
+            lines.append(f"{r['parameter']:<20} {r['unit']:<4} {r['initial']:12.6g} "
+                         f"{r['fitted']:12.6g} {se:>12} {prior:>20}")
+        lines.append("experiments:")
+        lines += [f"- {e.line()}" for e in self.experiments]
+        und = self.undetermined()
+        lines.append("still undetermined: " + (", ".join(und) if und else
+                                               "nothing (every fitted parameter is determined)"))
+        lines += [f"warning: {w}" for w in self.warnings]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI)."""
+        return {
+            "model": self.model, "n_loops": self.n_loops,
+            "dipoles_per_loop": self.dipoles_per_loop, "layout_error": self.layout_error,
+            "chi2": self.chi2, "dof": self.dof, "values": dict(self.values),
+            **self.uncertainty.to_dict(),
+            "priors": {k: list(p) for k, p in self.priors.items()},
+            "experiments": [e.to_dict() for e in self.experiments],
+            "warnings": list(self.warnings),
+            "diagnostics": [{"kind": w.kind, "parameters": list(w.parameters),
+                             "message": w.message} for w in self.diagnostics],
+            "bounds": {k: list(b) for k, b in self.bounds.items()}, "fixed": dict(self.fixed),
+            "table": self.table(), "evaluations": self.evaluations, "elapsed_s": self.elapsed,
+        }
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        return [("model", f"{self.model} (n={self.n_loops}, k={self.dipoles_per_loop})"),
+                ("chi2", number(self.chi2)), ("dof", str(self.dof)),
+                ("", count(len(self.experiments), "experiment")),
+                ("", count(len(self.warnings), "warning")),
+                ("elapsed", si(self.elapsed, "s")),
+                *(("experiment", e.line()) for e in self.experiments),
+                *(("warning", w) for w in self.warnings)]
+
+    def _display_table(self) -> Table | None:
+        return rows_table(self.table())
+
+    def to_dataframe(self) -> Any:
+        """The parameter table as a ``pandas.DataFrame`` (SI): ``parameter``, ``unit``,
+        ``initial``, ``fitted``, ``stderr``, ``lower``, ``upper``, ``prior``, ``prior_sigma``."""
+        rows = self.table(si=True)
+        names = [r["parameter"] for r in rows]
+        bounds = [self.bounds.get(n, (math.nan, math.nan)) for n in names]
+        return dataframe({
+            "parameter": names, "unit": [r["unit"] for r in rows],
+            "initial": [float(r["initial"]) for r in rows],
+            "fitted": [float(r["fitted"]) for r in rows],
+            "stderr": [float(r["stderr"]) for r in rows],
+            "lower": [float(b[0]) for b in bounds], "upper": [float(b[1]) for b in bounds],
+            "prior": [float(r["prior"]) for r in rows],
+            "prior_sigma": [float(r["prior_sigma"]) for r in rows]})
+
+
+#: the geometry and placement of the physical model (keys of ``values`` and ``stderr``)
+GEOMETRY = ("height", "base_radius", "x", "y", "z")

@@ -27,7 +27,8 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +37,7 @@ from scipy.optimize import least_squares
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, bias_absorption
+from magcilia.calibration.joint import STARTS, PhysicalLayout, calibrate_joint
 from magcilia.calibration.multistart import Box, search
 from magcilia.calibration.problem import (
     BIASES,
@@ -47,7 +49,11 @@ from magcilia.calibration.problem import (
     Problem,
     named,
 )
-from magcilia.calibration.result import CalibrationResult, ParameterCovariance
+from magcilia.calibration.result import (
+    CalibrationResult,
+    JointCalibrationResult,
+    ParameterCovariance,
+)
 from magcilia.calibration.uncertainty import uncertainty
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_dipoles, check_ranges
@@ -65,6 +71,8 @@ F64 = NDArray[np.float64]
 #: A longer search is legitimate: raise it with
 #: ``magcilia.calibration.search.MAX_FIT_DIPOLES = ...`` before calling :func:`calibrate`.
 MAX_FIT_DIPOLES = 1000
+#: the calibration models: the paper's (n, k searched) and the physical (n, k converged)
+MODELS = ("paper", "physical")
 
 
 def _check_data(data: Measurement) -> None:
@@ -135,8 +143,9 @@ def _check_fixed(fixed: Mapping[str, float] | Iterable[str] | str | None,
     return out
 
 
+@overload
 def calibrate(
-    data: Measurement,
+    data: Measurement | Sequence[Measurement],
     initial: Setup | None = None,
     bounds: Mapping[str, tuple[float, float]] | None = None,
     *,
@@ -145,10 +154,72 @@ def calibrate(
     bias_degree: int = 0,
     fit_scale: bool = False,
     restarts: int = 1,
-    starts: int = 256,
+    starts: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     fixed: Mapping[str, float] | Iterable[str] | None = None,
-) -> CalibrationResult:
+    model: Literal["paper"] = "paper",
+    priors: Mapping[str, tuple[float, float]] | None = None,
+    layout: PhysicalLayout | tuple[int, int] | None = None,
+) -> CalibrationResult: ...
+
+
+@overload
+def calibrate(
+    data: Measurement | Sequence[Measurement],
+    initial: Setup | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    rng: int | np.random.Generator | None = None,
+    bias: str = "offset",
+    bias_degree: int = 0,
+    fit_scale: bool = False,
+    restarts: int = 1,
+    starts: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    fixed: Mapping[str, float] | Iterable[str] | None = None,
+    model: Literal["physical"],
+    priors: Mapping[str, tuple[float, float]] | None = None,
+    layout: PhysicalLayout | tuple[int, int] | None = None,
+) -> JointCalibrationResult: ...
+
+
+@overload
+def calibrate(
+    data: Measurement | Sequence[Measurement],
+    initial: Setup | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    rng: int | np.random.Generator | None = None,
+    bias: str = "offset",
+    bias_degree: int = 0,
+    fit_scale: bool = False,
+    restarts: int = 1,
+    starts: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    fixed: Mapping[str, float] | Iterable[str] | None = None,
+    model: str,
+    priors: Mapping[str, tuple[float, float]] | None = None,
+    layout: PhysicalLayout | tuple[int, int] | None = None,
+) -> CalibrationResult | JointCalibrationResult: ...
+
+
+def calibrate(
+    data: Measurement | Sequence[Measurement],
+    initial: Setup | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    rng: int | np.random.Generator | None = None,
+    bias: str = "offset",
+    bias_degree: int = 0,
+    fit_scale: bool = False,
+    restarts: int = 1,
+    starts: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    fixed: Mapping[str, float] | Iterable[str] | None = None,
+    model: str = "paper",
+    priors: Mapping[str, tuple[float, float]] | None = None,
+    layout: PhysicalLayout | tuple[int, int] | None = None,
+) -> CalibrationResult | JointCalibrationResult:
     """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
     scale) to a recording.
 
@@ -175,8 +246,10 @@ def calibrate(
         Independent global searches (each from its own sample of starts); the best polished
         result is kept. One finds the best fit of a 33-angle recording in more than 99 % of
         cases; more make a miss rarer still, at proportional cost.
-    starts : int
-        Local fits started by each global search (see :mod:`magcilia.calibration.multistart`).
+    starts : int, optional
+        Local fits started by each global search (see :mod:`magcilia.calibration.multistart`):
+        default 256 for the paper's model, 64 for the physical
+        (:data:`~magcilia.calibration.joint.STARTS`; five continuous parameters only).
     progress : callable(done, total), optional
         Called after each restart (the CLI draws a progress bar with it).
     fixed : mapping of str to float, or sequence of str, optional
@@ -187,12 +260,28 @@ def calibrate(
         no bounds (give one or the other), is not searched, has no standard error and is listed
         in ``result.fixed``. Equal bounds ``(v, v)`` hold a parameter too.
 
+    model : {"paper", "physical"}
+        ``"paper"`` (default): the paper's model, n and k searched with the geometry, one output
+        recording tilted toward azimuth 0. ``"physical"``: n and k held at a converged layout
+        (:func:`~magcilia.calibration.joint.converged_layout`), so that height and base radius
+        are the hair's real dimensions; ``data`` may then be several experiments (any azimuth,
+        output or 3-axis field) fitted together
+        (:func:`~magcilia.calibration.joint.calibrate_joint`, which takes ``starts`` and
+        ``fit_scale``; ``bias``, ``restarts`` and ``progress`` are the paper mode's).
+    priors : mapping of str to (value, sigma), optional
+        Gaussian priors from manual measurements, SI, e.g. ``{"height": (3.0e-3, 0.2e-3)}``
+        (``model="physical"``: in the paper's model height and base radius are model
+        parameters, not the hair's dimensions).
+    layout : PhysicalLayout or (n, k), optional
+        The physical model's layout (default: converged at the initial setup).
+
     Returns
     -------
-    CalibrationResult
-        Its ``warnings`` (and ``diagnostics``, with a ``kind`` each) say what the data do not
-        determine: parameters at a bound, a bias that absorbed the signal, implausible standard
-        errors, undetermined combinations (see :mod:`magcilia.calibration.diagnostics`).
+    CalibrationResult or JointCalibrationResult
+        (the latter for ``model="physical"``). Its ``warnings`` (and ``diagnostics``, with a
+        ``kind`` each) say what the data do not determine: parameters at a bound, a bias that
+        absorbed the signal, implausible standard errors, undetermined combinations (see
+        :mod:`magcilia.calibration.diagnostics`).
 
     Examples
     --------
@@ -204,6 +293,38 @@ def calibrate(
     (0.0032613, 2.0, {'height': 0.0032613, 'n_loops': 2.0})
     """
     t0 = time.perf_counter()
+    v.choice("model", model, MODELS)
+    if model == "physical":
+        if bias != "offset":
+            raise v.fail("bias", bias, "'offset' with model='physical' (each experiment has its "
+                                       "own constant offsets)")
+        if fixed is not None and not isinstance(fixed, Mapping):
+            init = (initial or Setup.paper_initial()).params()
+            names = [fixed] if isinstance(fixed, str) else list(fixed)
+            fixed = {n: init.get(n, math.nan) for n in names}
+        result = calibrate_joint(data, initial, bounds, rng=rng, priors=priors,
+                                 fit_scale=fit_scale, fixed=fixed, layout=layout,
+                                 starts=STARTS if starts is None else starts)
+        if progress is not None:
+            progress(1, 1)
+        return result
+    if priors:
+        raise v.fail("priors", ", ".join(priors), "given with model='physical' (in the paper's "
+                                                  "model height and base radius are fitted model "
+                                                  "parameters, not the hair's dimensions)")
+    if layout is not None:
+        raise v.fail("layout", layout, "given with model='physical' only (the paper's model "
+                                       "searches n and k)")
+    if not isinstance(data, Measurement) and isinstance(data, Sequence) and len(data) == 1:
+        data = data[0]
+    if isinstance(data, Measurement) and (data.observable != "output"
+                                          or np.any(np.asarray(data.azimuths) != 0.0)):
+        raise MagciliaError(f"{v.printable(str(data.source))}: model='paper' fits one output "
+                            "recording tilted toward azimuth 0; use model='physical' for other "
+                            "azimuths or 3-axis field data")
+    if not isinstance(data, Measurement) and isinstance(data, Sequence):
+        raise v.fail("data", f"{len(data)} experiments", "one Measurement with model='paper' "
+                                                         "(use model='physical' to fit several)")
     if not isinstance(data, Measurement):
         raise v.fail("data", type(data).__name__, "a magcilia Measurement (use read_measurements)")
     _check_data(data)
@@ -211,7 +332,7 @@ def calibrate(
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
     restarts = v.integer("restarts", restarts, 1)
-    starts = v.integer("starts", starts, 1)
+    starts = v.integer("starts", 256 if starts is None else starts, 1)
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(

@@ -5,7 +5,14 @@ from __future__ import annotations
 import click
 
 from magcilia._atomic import staged_directory
-from magcilia.calibration import PARAMETERS
+from magcilia._errors import MagciliaError
+from magcilia.calibration import (
+    PARAMETERS,
+    CalibrationResult,
+    JointCalibrationResult,
+    calibrate,
+)
+from magcilia.calibration.joint import JOINT_PARAMETERS
 from magcilia.cli._common import (
     RecordingArgs,
     calibrate_with_progress,
@@ -19,15 +26,19 @@ from magcilia.cli._common import (
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
+from magcilia.io.setup_files import load_priors
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
     calibration_json,
+    joint_calibration_json,
     write_calibration_files,
+    write_joint_calibration_files,
 )
+from magcilia.units import parse_values
 
 
 @click.command()
-@click.argument("data", type=click.Path(dir_okay=False))
+@click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
               help="Initial setup: a TOML file or a preset (paper, paper-initial).")
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
@@ -38,13 +49,24 @@ from magcilia.report.calibration import (
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm; n_loops, "
                    f"dipoles_per_loop whole numbers); repeatable. Defaults: {describe_bounds()}.")
+@click.option("--model", type=click.Choice(["paper", "physical"]), default="paper",
+              show_default=True,
+              help="paper: n and k searched, one output recording at azimuth 0 (Fig. 8). "
+                   "physical: n and k at a converged layout, so height and base radius are the "
+                   "hair's dimensions; several recordings (any azimuth, output or 3-axis field) "
+                   "fitted together.")
+@click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SIGMA",
+              help="Gaussian prior from a manual measurement (--model physical), lengths in mm "
+                   "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
+                   "file's [priors] table gives them too (these override it).")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
                    "33-angle recording in > 99 % of cases; more make a miss rarer).")
-@click.option("--starts", default=256, show_default=True,
-              help="Local fits started by each global search.")
+@click.option("--starts", type=int, default=None,
+              help="Local fits started by each global search [default: 256; 64 with --model "
+                   "physical].")
 @click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
               show_default=True, help="DC bias model, fitted jointly.")
 @click.option("--bias-degree", default=0, show_default=True,
@@ -61,11 +83,13 @@ from magcilia.report.calibration import (
 @si_option
 @style_option
 @recording_options
-def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...], seed: int,
-            restarts: int, starts: int, bias: str, bias_degree: int, fit_scale: bool,
-            nan_policy: str, saturation: str, as_json: bool, quiet: bool, force: bool,
-            fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs) -> None:
-    """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5).
+def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tuple[str, ...],
+            seed: int, restarts: int, starts: int | None, bias: str, bias_degree: int,
+            fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
+            force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
+            model: str, prior_items: tuple[str, ...]) -> None:
+    """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
+    physical to several recordings (experiments) at once.
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
     and residuals.png into --out, a new folder published in one rename when everything is
@@ -73,18 +97,58 @@ def command(data: str, setup_arg: str, out_dir: str, bound_items: tuple[str, ...
     """
     with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         initial = load_setup_arg(setup_arg)
-        measurement = reading.read(read_measurements, data, quiet=quiet, sensor=initial.sensor,
-                                   nan_policy=nan_policy, saturation=saturation)
+        if model == "paper" and len(data) > 1:
+            raise MagciliaError(f"{len(data)} recordings given: --model paper fits one; use "
+                                "--model physical to fit several together")
+        measurements = [reading.read(read_measurements, path, quiet=quiet,
+                                     sensor=initial.sensor, nan_policy=nan_policy,
+                                     saturation=saturation) for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
-        result = calibrate_with_progress(measurement, initial, quiet=quiet, bounds=bounds,
-                                         rng=seed, bias=bias, bias_degree=bias_degree,
-                                         fit_scale=fit_scale, restarts=restarts,
-                                         starts=starts, fixed=parse_fixed(fix_items))
-        write_calibration_files(result, tmp, style)
-    if as_json:
+        priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
+                  **parse_priors(prior_items)}
+        if model == "paper" and priors:
+            raise MagciliaError("priors (--prior, a setup file's [priors]) need --model physical "
+                                "(in the paper's model height and base radius are model "
+                                "parameters, not the hair's dimensions)")
+        result: CalibrationResult | JointCalibrationResult
+        if model == "physical":  # one search (no restarts to show progress over)
+            result = calibrate(measurements, initial, bounds, rng=seed, bias=bias,
+                               fit_scale=fit_scale, starts=starts, fixed=parse_fixed(fix_items),
+                               model="physical", priors=priors or None)
+        else:
+            result = calibrate_with_progress(
+                measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
+                bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
+                fixed=parse_fixed(fix_items))
+        if isinstance(result, JointCalibrationResult):
+            write_joint_calibration_files(result, tmp, style)
+        else:
+            write_calibration_files(result, tmp, style)
+    if isinstance(result, JointCalibrationResult):
+        if as_json:
+            echo_json(joint_calibration_json(result, si))
+        else:
+            click.echo(result.report(si))
+            click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png")
+    elif as_json:
         echo_json(calibration_json(result, si))
     else:
         click.echo(result.report(si))
         click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
                    "residuals.png")
+
+
+def parse_priors(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """``--prior NAME=VALUE:SIGMA`` items as SI (value, sigma) (lengths in mm when bare)."""
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or name not in JOINT_PARAMETERS:
+            raise MagciliaError(f"--prior {item!r}: give NAME=VALUE:SIGMA with NAME one of "
+                                f"{', '.join(JOINT_PARAMETERS)}, e.g. height=3.0:0.2 (mm)")
+        mu, sigma = parse_values(text, "length", "mm", f"--prior {name}", (2,),
+                                 "height=3.0:0.2 or height=3mm:200um")
+        out[name] = (mu, sigma)
+    return out
 

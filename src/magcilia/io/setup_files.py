@@ -29,6 +29,16 @@ Example (the paper's setup, shipped as ``examples/paper.toml``)::
     dipoles_per_loop = 5
     ring = "mean"
 
+An optional ``[priors]`` table holds manual measurements of the cilium as Gaussian priors of
+the physical calibration (``magcilia calibrate --model physical``), value ± σ with units::
+
+    [priors]
+    height = "3.0 mm +- 0.2 mm"
+    base_radius = "180 um ± 20 um"
+
+(names among height, base_radius, x, y, z; read by :func:`load_priors`, ignored by
+:func:`load_setup`).
+
 A measured shape replaces ``height``, ``base_radius`` and ``tip_radius`` by two lists, linear in
 between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "0.15 mm",
 "0.03 mm"]``).
@@ -127,6 +137,9 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
                               "(MAX_NESTING); a setup file needs 2 levels: [table] and key = value")
     kwargs: dict[str, Any] = {}
     for table, entries in doc.items():
+        if table == PRIORS_TABLE:
+            priors_from_dict(entries, source)  # checked here too: a bad prior fails on load
+            continue
         if table not in SCHEMA:
             raise _fail(f"{source}: table [{_key(table)}]", table,
                         "one of " + ", ".join(f"[{t}]" for t in SCHEMA))
@@ -205,6 +218,54 @@ def _unpack_position(d: dict[str, Any]) -> dict[str, Any]:
 
 def load_setup(path: str | os.PathLike[str]) -> Setup:
     """Read a setup TOML file (see the module docstring for the format and its limits)."""
+    return setup_from_dict(_read_document(path), source=str(path))
+
+
+#: the setup file's optional table of priors, and the names it may hold
+PRIORS_TABLE = "priors"
+PRIOR_NAMES = ("height", "base_radius", "x", "y", "z")
+
+
+def priors_from_dict(entries: object, source: str = "setup") -> dict[str, tuple[float, float]]:
+    """A ``[priors]`` table (``name = "VALUE +- SIGMA"`` with length units; ``±`` also) as SI
+    (value, sigma) pairs, m.
+
+    Examples
+    --------
+    >>> priors_from_dict({"height": "3.0 mm +- 0.2 mm"})
+    {'height': (0.003, 0.0002)}
+    """
+    source = v.printable(source)
+    if not isinstance(entries, dict):
+        raise _fail(f"{source}: [priors]", entries, 'a table of name = "VALUE +- SIGMA" lines')
+    out: dict[str, tuple[float, float]] = {}
+    for key, value in entries.items():
+        if key not in PRIOR_NAMES:
+            raise _fail(f"{source}: priors.{_key(key)}", key, "one of " + ", ".join(PRIOR_NAMES))
+        text = value.replace("±", "+-") if isinstance(value, str) else None
+        parts = text.split("+-") if text is not None else []
+        if len(parts) != 2:
+            raise _fail(f"{source}: priors.{key}", value,
+                        'a value and its sigma with units, e.g. "3.0 mm +- 0.2 mm"')
+        mu = parse_quantity(parts[0].strip(), "length", f"{source}: priors.{key}")
+        sigma = parse_quantity(parts[1].strip(), "length", f"{source}: priors.{key} sigma")
+        if not sigma > 0.0:
+            raise _fail(f"{source}: priors.{key}", value, "a positive sigma (a zero-width prior "
+                                                           "is a fixed value: use --fix)")
+        out[key] = (mu, sigma)
+    return out
+
+
+def load_priors(path: str | os.PathLike[str]) -> dict[str, tuple[float, float]]:
+    """The ``[priors]`` table of a setup file as SI (value, sigma) pairs ({} without one)."""
+    doc = _read_document(path)
+    if not isinstance(doc, dict) or PRIORS_TABLE not in doc:
+        return {}
+    return priors_from_dict(doc[PRIORS_TABLE], str(path))
+
+
+def _read_document(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A setup file's TOML document, read within the limits."""
     p = Path(path)
     where = v.printable(str(p))
     with p.open("rb") as f:  # a missing file is an OSError, as for every file magcilia reads
@@ -228,7 +289,7 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
     except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise v.MagciliaError(f"setup file {where} is not valid TOML ({_cut(str(exc), 200)}); "
                               "fix the value") from None
-    return setup_from_dict(doc, source=str(p))
+    return doc
 
 
 def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:

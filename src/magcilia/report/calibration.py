@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
-from magcilia.calibration import CalibrationResult
+from magcilia.calibration import CalibrationResult, JointCalibrationResult
 from magcilia.constants import GAUSS
 from magcilia.io.setup_files import save_setup
 from magcilia.report.units import output_units
@@ -309,3 +309,82 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
     """
     with staged_directory(directory, force=force, names=CALIBRATION_NAMES) as tmp:
         write_calibration_files(result, tmp, style)
+
+
+# --- joint calibration (model="physical", several experiments) -----------------------------------
+def joint_fit_figure(result: JointCalibrationResult) -> Figure:
+    """``fit.png`` of a joint calibration: one panel per experiment, the measured values with 1
+    s.e. error bars (output in mV less its offset; field components in µT less their offsets) and
+    the fitted model vs tilt angle (deg)."""
+    from magcilia.report.figures import new_figure
+
+    fig, axes = new_figure(nrows=len(result.experiments), size=(6.4, 2.6))
+    for ax, e in zip(axes[:, 0], result.experiments, strict=True):
+        deg = np.degrees(e.angles)
+        if e.observable == "output":
+            ax.plot(deg, (e.measured - e.offsets[0]) * 1e3, "o", ms=3, color="C0",
+                    label="measured")
+            ax.plot(deg, (e.fitted - e.offsets[0]) * 1e3, "-", color="C1", label="fitted")
+            ax.set_ylabel("output − offset (mV)")
+        else:
+            for c in range(3):
+                ax.plot(deg, (e.measured[:, c] - e.offsets[c]) * 1e6, "o", ms=3, color=f"C{c}",
+                        label=f"B_{'xyz'[c]}")
+                ax.plot(deg, (e.fitted[:, c] - e.offsets[c]) * 1e6, "-", color=f"C{c}")
+            ax.set_ylabel("B − offset (µT)")
+        az = ", ".join(f"{d:g}" for d in np.unique(np.round(np.degrees(e.azimuths), 1)))
+        ax.set_title(f"{e.source} (azimuth {az}°)", fontsize="small")
+        ax.legend(fontsize="x-small")
+    axes[-1, 0].set_xlabel("tilt angle (deg)")
+    return fig
+
+
+def joint_markdown_summary(result: JointCalibrationResult) -> str:
+    """The joint calibration's report as markdown: the plain-text report and the figure."""
+    return (f"# magcilia joint calibration report\n\n```\n{result.report()}\n```\n\n"
+            "![data and fitted model per experiment](fit.png)\n")
+
+
+def write_joint_calibration_files(result: JointCalibrationResult, directory: str | Path,
+                                  style: str = "screen") -> None:
+    """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md`` and ``fit.png`` (and
+    ``fit.pdf`` with ``style="paper"``) of a joint calibration into ``directory``."""
+    from magcilia.report import style as st
+
+    folder = Path(directory)
+    save_setup(result.setup, folder / "fitted_setup.toml")
+    doc = result.to_dict()
+    doc.setdefault("units", "SI")
+    write_json(folder / "result.json", doc)
+    with st.use(style):
+        fig = joint_fit_figure(result)
+        save_figure(fig, folder / "fit.png", dpi=st.dpi())
+        if style == "paper":
+            save_figure(fig, folder / "fit.pdf")
+    write_text(folder / "report.md", joint_markdown_summary(result))
+
+
+def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> dict[str, Any]:
+    """``calibrate --model physical --json``: the parameters, standard errors and priors in the
+    console's display units (mm; SI with ``si``), keys suffixed with their units, with each
+    experiment's RMS and offsets (mV/µT; V/T with ``si``)."""
+    units = output_units(si)
+    names = ("height", "base_radius", "x", "y", "z")
+    geometry: dict[str, object] = {n: result.values[n] for n in names}
+    out: dict[str, Any] = {
+        "model": result.model, "n_loops": result.n_loops,
+        "dipoles_per_loop": result.dipoles_per_loop, "chi2": result.chi2, "dof": result.dof,
+        "values": units.named(geometry),
+        "stderr": units.named({n: result.stderr.get(n, math.nan) for n in geometry}),
+        "prior_values": units.named({k: float(p[0]) for k, p in result.priors.items()}),
+        "prior_sigmas": units.named({k: float(p[1]) for k, p in result.priors.items()}),
+        "warnings": list(result.warnings)}
+    experiments = []
+    for e in result.experiments:
+        unit, factor = ((e.unit(), 1.0) if si else ("mV", 1e3) if e.observable == "output"
+                        else ("uT", 1e6))
+        experiments.append({"source": e.source, "observable": e.observable,
+                            f"rms_{unit}": e.rms * factor, "chi2": e.chi2,
+                            f"offsets_{unit}": (e.offsets * factor).tolist()})
+    out["experiments"] = experiments
+    return out

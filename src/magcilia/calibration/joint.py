@@ -1,0 +1,759 @@
+"""Calibration from several experiments at once, with the physical model and priors.
+
+A calibration dataset is a list of experiments (:class:`~magcilia.io.recordings.Measurement`)
+sharing the cilium and its placement: rigid tilts toward any azimuth φ, each recorded either with
+the single-axis sensor (output, V) or with a 3-axis magnetometer (B_x, B_y, B_z, T). Each
+experiment has its own bias: one constant output offset, or one constant offset per axis (a 3-axis
+magnetometer sees the Earth's field and its own offsets, comparable to the cilium's ~40 µT).
+
+The model (:class:`JointProblem`):
+
+* ``model="physical"``: n and k held at a converged layout (the ``rms`` ring,
+  :func:`converged_layout`), so that height and base radius are the hair's real dimensions; only
+  the continuous parameters height, base radius, x, y, z are fitted (and the magnetization scale
+  with ``fit_scale``);
+* every condition's field comes from the compiled batch model (:class:`~magcilia.model.TiltBatch`),
+  one per distinct azimuth: the base centre turned by −φ, the field turned back by +φ
+  (:mod:`magcilia.model.azimuth`);
+* the offsets (and the magnetization scale) enter linearly and are solved in closed form inside
+  the objective (variable projection), weighted by the standard errors;
+* the residuals are ``(measured − model) / s.e.``, the standard errors floored
+  (:data:`SEM_FLOOR_FRACTION`, :data:`SEM_FLOOR`) so that a zero s.e. cannot dominate; Gaussian
+  priors add the rows ``(p − μ) / σ``.
+
+The search (:func:`calibrate_joint`): Latin-hypercube starts over the bounds, batched
+Levenberg–Marquardt (:mod:`magcilia.calibration.local`) narrowed by successive halving, a
+``least_squares`` polish; the covariance from the SVD of the column-equilibrated Jacobian (as
+:mod:`magcilia.calibration.uncertainty`), scaled by the reduced χ² when that exceeds 1.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from magcilia import _validate as v
+from magcilia._errors import MagciliaError
+from magcilia.calibration.diagnostics import CORRELATION_LIMIT, CalibrationWarning, at_bound
+from magcilia.calibration.local import levenberg_marquardt
+from magcilia.calibration.multistart import latin_hypercube
+from magcilia.calibration.problem import DEFAULT_BOUNDS
+from magcilia.calibration.result import (
+    ExperimentFit,
+    JointCalibrationResult,
+    ParameterCovariance,
+)
+from magcilia.calibration.uncertainty import RANK_TOLERANCE
+from magcilia.device.parameters import PARAMETERS as REGISTRY
+from magcilia.device.parameters import check_ranges
+from magcilia.device.setup import Setup
+from magcilia.io.recordings import Measurement
+from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
+from magcilia.model.batch import TiltBatch
+
+F64 = NDArray[np.float64]
+
+#: the continuous parameters of the physical model, in the order of the search vector
+JOINT_PARAMETERS = ("height", "base_radius", "x", "y", "z")
+#: relative error (max over 0–85° of |B_model − B_exact| / |B_exact|) the physical layout must
+#: meet against the exact Cylinder stack at the initial setup (see docs/convergence.md)
+PHYSICAL_TOLERANCE = 2e-4
+#: rings per slice of the physical layout (the rms ring converges for k ≥ 5: docs/convergence.md)
+PHYSICAL_DIPOLES = 5
+#: slice counts tried by :func:`converged_layout`, smallest first
+LAYOUT_SLICES = (8, 12, 16, 24, 32, 48, 64)
+#: cylinder slices of the exact reference (converged to ~1e-6)
+EXACT_SLICES = 2000
+#: standard errors are floored at this fraction of the experiment's median positive s.e. …
+SEM_FLOOR_FRACTION = 0.1
+#: … and at these absolute values (output V, field T): a zero s.e. (noise-free or single-sample
+#: data) cannot blow the weight up
+SEM_FLOOR = {"output": 1e-7, "field": 1e-10}
+#: Latin-hypercube starts of the global search
+STARTS = 64
+#: Levenberg–Marquardt iterations between halvings, fits left, most iterations at the end
+ROUND, SURVIVORS, MAXITER = 8, 6, 100
+#: a local minimum of the search within this χ² of the best, yet more than
+#: :data:`AMBIGUITY_SIGMA` standard errors away in some parameter, is reported as an equally good
+#: alternative (``ambiguous``): the linearised standard errors then describe one mode only
+AMBIGUITY_CHI2 = 4.0
+#: the search keeps distinct basins (more than this fraction of the box apart) to the end
+DIVERSITY = 0.1
+AMBIGUITY_SIGMA = 3.0
+#: the cost of a non-finite model (the element on a dipole): worse than any fit, finite
+NONFINITE_RESIDUAL = 1e50
+
+
+@dataclass(frozen=True)
+class PhysicalLayout:
+    """The dipole layout of the physical model.
+
+    Attributes
+    ----------
+    n_loops, dipoles_per_loop : int
+        Slices and dipoles per ring.
+    ring : str
+        The ring radius rule (``"rms"``, which converges to the exact body).
+    error : float
+        Max over the tilt range of |B_model − B_exact| / |B_exact| at the setup it was chosen for
+        (NaN when given by hand).
+    tolerance : float
+        The tolerance it was chosen for (NaN when given by hand).
+    """
+
+    n_loops: int
+    dipoles_per_loop: int
+    ring: str = "rms"
+    error: float = math.nan
+    tolerance: float = math.nan
+
+
+_LAYOUTS: dict[tuple[object, ...], PhysicalLayout] = {}
+
+
+def layout_error(setup: Setup, n_loops: int, dipoles_per_loop: int = PHYSICAL_DIPOLES,
+                 angles: F64 | None = None) -> float:
+    """Max over ``angles`` (rad, default 0–85° in 5° steps) of |B_model − B_exact| / |B_exact|
+    for ``setup`` with the rms ring of ``n_loops`` × ``dipoles_per_loop`` (dimensionless)."""
+    from magcilia.model.exact import exact_field
+
+    a = np.radians(np.arange(0.0, 86.0, 5.0)) if angles is None else np.asarray(angles)
+    exact = exact_field(setup, a, n_slices=EXACT_SLICES)
+    model = setup.replace(n_loops=n_loops, dipoles_per_loop=dipoles_per_loop,
+                          ring="rms").field(a)
+    return float(np.max(np.linalg.norm(model - exact, axis=1) / np.linalg.norm(exact, axis=1)))
+
+
+def converged_layout(setup: Setup, tolerance: float = PHYSICAL_TOLERANCE,
+                     strict: bool = True) -> PhysicalLayout:
+    """The smallest rms-ring layout (n of :data:`LAYOUT_SLICES`, k = :data:`PHYSICAL_DIPOLES`)
+    whose field at ``setup`` is within ``tolerance`` of the exact Cylinder stack over 0–85°.
+
+    Parameters
+    ----------
+    setup : Setup
+        Geometry and placement (its n, k and ring are not used).
+    tolerance : float
+        Max relative error |B_model − B_exact| / |B_exact| (dimensionless, > 0).
+    strict : bool
+        Raise when no layout reaches it; else return the largest one tried, its ``error`` above
+        the tolerance (a sensing element very close to the base converges slowly).
+
+    Returns
+    -------
+    PhysicalLayout
+
+    Examples
+    --------
+    >>> import magcilia as mc
+    >>> lay = converged_layout(mc.Setup.paper(), 1e-3)
+    >>> lay.n_loops, lay.dipoles_per_loop, lay.ring, lay.error < 1e-3
+    (32, 5, 'rms', True)
+    >>> converged_layout(mc.Setup.paper()).n_loops  # the default tolerance, 2e-4
+    64
+    """
+    tol = v.real("tolerance", tolerance, "")
+    if tol <= 0.0:
+        raise v.fail("tolerance", tolerance, "a positive relative error, e.g. 1e-3")
+    key = (tuple(setup.params().items()), setup.cilium.profile is None, setup.sensor.depth, tol)
+    if key in _LAYOUTS:
+        return _LAYOUTS[key]
+    error = math.nan
+    for n in LAYOUT_SLICES:
+        error = layout_error(setup, n)
+        if error <= tol or (not strict and n == LAYOUT_SLICES[-1]):
+            _LAYOUTS[key] = PhysicalLayout(n, PHYSICAL_DIPOLES, "rms", error, tol)
+            return _LAYOUTS[key]
+    raise MagciliaError(
+        f"no layout up to {LAYOUT_SLICES[-1]} slices reaches the tolerance {tol:g} at this setup "
+        f"(best {error:.3g}): the sensing element is too close to the cilium; raise the tolerance "
+        "or give layout=(n, k)")
+
+
+def _as_layout(layout: PhysicalLayout | tuple[int, int] | None, initial: Setup,
+               tolerance: float) -> PhysicalLayout:
+    if layout is None:
+        return converged_layout(initial, tolerance, strict=False)
+    if isinstance(layout, PhysicalLayout):
+        return layout
+    try:
+        n, k = (int(layout[0]), int(layout[1]))
+    except (TypeError, ValueError, IndexError):
+        raise v.fail("layout", layout, "(n_loops, dipoles_per_loop), a PhysicalLayout or None "
+                                       "(chosen by converged_layout)") from None
+    if n < 1 or k < 1:
+        raise v.fail("layout", layout, "two whole numbers ≥ 1")
+    return PhysicalLayout(n, k)
+
+
+def check_priors(priors: Mapping[str, tuple[float, float]] | None, names: Sequence[str],
+                 bounds: Mapping[str, tuple[float, float]]) -> dict[str, tuple[float, float]]:
+    """Priors (value, σ), SI, checked: known fitted names, σ > 0, the value inside its bounds;
+    a one-line error naming the parameter otherwise."""
+    out: dict[str, tuple[float, float]] = {}
+    for name, spec in (priors or {}).items():
+        if name not in names:
+            raise v.fail("prior", name, "one of the fitted parameters " + ", ".join(names))
+        try:
+            mu, sigma = (float(spec[0]), float(spec[1]))
+        except (TypeError, ValueError, IndexError):
+            raise v.fail(f"prior {name}", spec, "(value, sigma) in SI") from None
+        p = REGISTRY[name]
+        if not (math.isfinite(mu) and math.isfinite(sigma)):
+            raise v.fail(f"prior {name}", spec, "finite (value, sigma)")
+        if sigma <= 0.0:
+            raise MagciliaError(f"prior {name}: zero-width prior (sigma {p.text(sigma, 4)}); give "
+                                "a positive sigma, or hold the parameter with fixed=")
+        lo, hi = bounds[name]
+        if not lo <= mu <= hi:
+            raise MagciliaError(f"prior {name}: value {p.text(mu, 6)} is outside its bounds "
+                                f"{p.text(lo, 6)}…{p.text(hi, 6)}; move the prior or widen the "
+                                "bounds")
+        out[name] = (mu, sigma)
+    return out
+
+
+def _sigma(values: F64, observable: str) -> F64:
+    """Standard errors with the floors of :data:`SEM_FLOOR_FRACTION` and :data:`SEM_FLOOR`."""
+    s = np.where(np.isfinite(values), values, 0.0)
+    positive = s[s > 0]
+    floor = SEM_FLOOR[observable]
+    if positive.size:
+        floor = max(floor, SEM_FLOOR_FRACTION * float(np.median(positive)))
+    return np.maximum(s, floor)
+
+
+def _check_experiment(i: int, data: object) -> Measurement:
+    if not isinstance(data, Measurement):
+        raise v.fail(f"data[{i}]", type(data).__name__,
+                     "a magcilia Measurement (use read_measurements)")
+    arrays = [("angle_rad", data.angles), ("azimuth_rad", data.azimuths)]
+    arrays += ([("field_T", data.fields)] if data.fields is not None
+               else [("voltage_V", data.volts)])
+    for what, values in arrays:
+        arr = np.asarray(values, dtype=np.float64)
+        if not np.isfinite(arr).all():
+            raise MagciliaError(f"{v.printable(str(data.source))}: {what} is not finite everywhere;"
+                                " clean the recording or read it with nan_policy='omit'")
+    return data
+
+
+class JointProblem:
+    """The weighted least-squares problem of several experiments, the linear parameters (offsets,
+    magnetization scale) projected out.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The fitted continuous parameters, in the order of the columns of ``P``.
+    bounds : ndarray, shape (p, 2)
+        Their bounds, SI.
+    experiments : tuple of Measurement
+    priors : dict of str to (float, float)
+        Gaussian priors (value, σ), SI.
+    size : int
+        Residual rows m: the data values (a per output experiment, 3a per field experiment)
+        followed by one row per prior.
+
+    Notes
+    -----
+    ``residuals(P)`` is vectorised over parameter sets (posterior samplers, design criteria);
+    ``jacobian(p)`` is its central-difference Jacobian at one set.
+    """
+
+    def __init__(self, experiments: Sequence[Measurement], initial: Setup, layout: PhysicalLayout,
+                 bounds: Mapping[str, tuple[float, float]], names: Sequence[str],
+                 priors: Mapping[str, tuple[float, float]] | None = None,
+                 fit_scale: bool = False) -> None:
+        self.experiments = tuple(experiments)
+        self.base = initial.replace(offset=0.0, n_loops=layout.n_loops,
+                                    dipoles_per_loop=layout.dipoles_per_loop, ring=layout.ring)
+        self.layout = layout
+        self.names = tuple(names)
+        self.bounds = np.array([bounds[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
+        self.priors = dict(priors or {})
+        self.fit_scale = fit_scale
+        self.evaluations = 0
+        self.sensor_scale = initial.sensor.scale
+        az = np.concatenate([np.asarray(e.azimuths, dtype=np.float64) for e in self.experiments])
+        self.azimuths = np.unique(np.round(np.mod(az, 2 * np.pi), 12))
+        self.batches: list[TiltBatch] = []
+        starts: list[int] = []
+        total = 0
+        for phi in self.azimuths:
+            angles = np.unique(np.concatenate([
+                e.angles[np.isclose(np.round(np.mod(e.azimuths, 2 * np.pi), 12), phi)]
+                for e in self.experiments]))
+            self.batches.append(TiltBatch(self.base, angles))
+            starts.append(total)
+            total += 3 * angles.size
+        index, factor, y, sig, group = [], [], [], [], []
+        self.groups: list[tuple[int, int]] = []  # (experiment, component or -1 for output)
+        for e_i, e in enumerate(self.experiments):
+            phi = np.round(np.mod(e.azimuths, 2 * np.pi), 12)
+            j = np.searchsorted(self.azimuths, phi)
+            pos = np.array([np.searchsorted(self.batches[jj].angles, a)
+                            for jj, a in zip(j, e.angles, strict=True)], dtype=np.intp)
+            cond = np.asarray(starts, dtype=np.intp)[j] + 3 * pos
+            if e.fields is None:
+                index.append(cond)
+                factor.append(np.full(cond.size, self.sensor_scale))
+                y.append(np.asarray(e.volts, dtype=np.float64))
+                sig.append(_sigma(np.asarray(e.sem, dtype=np.float64), "output"))
+                group.append(np.full(cond.size, len(self.groups)))
+                self.groups.append((e_i, -1))
+            else:
+                fsem = _sigma(np.asarray(e.field_sem, dtype=np.float64).ravel(), "field")
+                fsem = fsem.reshape(-1, 3)
+                for c in range(3):
+                    index.append(cond + c)
+                    factor.append(np.ones(cond.size))
+                    y.append(np.asarray(e.fields, dtype=np.float64)[:, c])
+                    sig.append(fsem[:, c])
+                    group.append(np.full(cond.size, len(self.groups)))
+                    self.groups.append((e_i, c))
+        self.index = np.concatenate(index)
+        self.factor = np.concatenate(factor)
+        self.y = np.concatenate(y)
+        self.sigma = np.concatenate(sig)
+        self.group = np.concatenate(group)
+        self.w = 1.0 / self.sigma
+        q = np.zeros((self.y.size, len(self.groups)))
+        q[np.arange(self.y.size), self.group] = self.w
+        self.q = q / np.linalg.norm(q, axis=0)
+        self.ry = self._project(self.y)
+        self.prior_index = np.array([self.names.index(n) for n in self.priors], dtype=np.intp)
+        self.prior_mu = np.array([m for m, _ in self.priors.values()])
+        self.prior_sigma = np.array([s for _, s in self.priors.values()])
+        self.size = self.y.size + len(self.priors)
+        self._defaults = self.base.params()
+
+    def _project(self, z: F64) -> F64:
+        """Weighted values with each group's weighted mean removed (last axis)."""
+        zw = z * self.w
+        return zw - (zw @ self.q) @ self.q.T
+
+    def params(self, P: F64) -> dict[str, F64]:
+        """Parameter columns by name, each (N,), SI, from rows ``P`` (N, p)."""
+        P = np.atleast_2d(np.asarray(P, dtype=np.float64))
+        out = {n: np.full(P.shape[0], float(self._defaults[n])) for n in JOINT_PARAMETERS}
+        out.update({n: P[:, i] for i, n in enumerate(self.names)})
+        return out
+
+    def model(self, P: F64) -> F64:
+        """Unbiased model values at every data row, shape (N, d): output (V, the sensor scale ×
+        B_x) or field component (T), magnetization scale of the initial setup."""
+        prm = self.params(P)
+        n = prm["x"].size
+        self.evaluations += n
+        parts = []
+        for phi, batch in zip(self.azimuths, self.batches, strict=True):
+            x, y = placement_in_tilt_frame(prm["x"], prm["y"], phi)
+            b = batch.field({**prm, "x": x, "y": y})
+            if phi != 0.0:
+                b = field_from_tilt_frame(b, phi)
+            parts.append(b.reshape(n, -1))
+        full = np.concatenate(parts, axis=1)
+        return full[:, self.index] * self.factor
+
+    def linear(self, u: F64) -> tuple[F64, F64]:
+        """Projected weighted residuals (N, d) and the scale factors (N,) for model values u."""
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            pu = self._project(u)
+            if self.fit_scale:
+                den = np.einsum("nd,nd->n", pu, pu)
+                a = np.where(den > 0, (pu @ self.ry) / np.where(den > 0, den, 1.0), 0.0)
+                a = np.maximum(a, 0.0)
+            else:
+                a = np.ones(u.shape[0])
+            return self.ry - a[:, None] * pu, a
+
+    def residuals(self, P: F64) -> F64:
+        """Weighted residuals, shape (N, m): the data rows ``(measured − model)/s.e.`` with the
+        offsets (and scale) at their best values, then the prior rows ``(p − μ)/σ``; a set whose
+        model is not finite gets large finite rows (:data:`NONFINITE_RESIDUAL`)."""
+        P = np.atleast_2d(np.asarray(P, dtype=np.float64))
+        r, _ = self.linear(self.model(P))
+        bad = ~np.isfinite(r).all(axis=1)
+        r[bad] = NONFINITE_RESIDUAL
+        prior = (P[:, self.prior_index] - self.prior_mu) / self.prior_sigma
+        return np.concatenate([r, prior], axis=1)
+
+    def cost(self, P: F64) -> F64:
+        """Sum of squared weighted residuals (χ² with the priors), shape (N,)."""
+        r = self.residuals(P)
+        return np.einsum("nm,nm->n", r, r)
+
+    def jacobian(self, p: F64) -> F64:
+        """Central-difference Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p),
+        steps 1e-5 of each bound's width (one vectorised call)."""
+        p = np.asarray(p, dtype=np.float64)
+        h = 1e-5 * (self.bounds[:, 1] - self.bounds[:, 0])
+        eye = np.eye(p.size) * h
+        r = self.residuals(np.concatenate([p + eye, p - eye]))
+        return np.asarray(((r[:p.size] - r[p.size:]) / (2 * h[:, None])).T)
+
+    def offsets(self, u: F64, scale: float) -> F64:
+        """Each group's closed-form offset (weighted mean of measured − scale·model), (G,)."""
+        w2 = self.w ** 2
+        num = np.bincount(self.group, w2 * (self.y - scale * u), minlength=len(self.groups))
+        return np.asarray(num / np.bincount(self.group, w2, minlength=len(self.groups)))
+
+
+def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
+            starts: int) -> tuple[F64, F64, F64]:
+    """The best parameters (p,) and the search's final local minima (s, p) with their χ² (s,)."""
+    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
+    x = latin_hypercube(starts, lo, hi, rng)
+    x[0] = x_init
+
+    def res(xs: F64, _: NDArray[np.intp]) -> F64:
+        return problem.residuals(xs)
+
+    while True:
+        fits = levenberg_marquardt(res, x, lo, hi, maxiter=ROUND)
+        x, cost = fits.x, fits.cost
+        if x.shape[0] <= 4 * SURVIVORS:
+            x = x[_diverse(x, cost, hi - lo, SURVIVORS)]
+            break
+        x = x[np.argsort(cost, kind="stable")[:x.shape[0] // 2]]
+    fits = levenberg_marquardt(res, x, lo, hi, maxiter=MAXITER)
+    best = fits.x[int(np.argmin(fits.cost))]
+    width = hi - lo
+    try:
+        def one(z: F64) -> F64:
+            return problem.residuals(z)[0]
+
+        sol = least_squares(one, best, bounds=(lo, hi),
+                            x_scale=width, method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-12,
+                            max_nfev=200)
+        if problem.cost(sol.x)[0] <= problem.cost(best)[0]:
+            best = sol.x
+    except ValueError:
+        pass
+    return np.asarray(best, dtype=np.float64), fits.x, fits.cost
+
+
+def _diverse(x: F64, cost: F64, width: F64, count: int) -> NDArray[np.intp]:
+    """Rows of ``x`` (s, p) to keep: the best, then the best of those more than
+    :data:`DIVERSITY` of the box from every kept one (other basins: the ambiguity check needs
+    them), topped up with the next best; ``count`` at most."""
+    order = np.argsort(cost, kind="stable")
+    kept: list[int] = []
+    for i in order:
+        if all(np.abs((x[i] - x[j]) / width).max() > DIVERSITY for j in kept):
+            kept.append(int(i))
+        if len(kept) == count:
+            break
+    kept += [int(i) for i in order if int(i) not in kept][:count - len(kept)]
+    return np.array(kept, dtype=np.intp)
+
+
+def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
+    """Whether the data fix the sign of y: B_x along tilts toward 0 or π is even in y, so only
+    field data (B_y is odd in y) or another azimuth determine it."""
+    for e in experiments:
+        if e.fields is not None:
+            return True
+        s = np.sin(np.asarray(e.azimuths))
+        if np.any(np.abs(s) > 1e-9):
+            return True
+    return False
+
+
+def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
+                 ) -> tuple[tuple[str, ...], F64, F64, tuple[CalibrationWarning, ...], bool]:
+    """Names, covariance (SI), standard errors, warnings and whether the covariance was scaled
+    by the reduced χ², from the full weighted Jacobian (continuous parameters, the relative
+    scale, the offsets)."""
+    names = list(problem.names)
+    h = 1e-5 * (problem.bounds[:, 1] - problem.bounds[:, 0])
+    eye = np.eye(x.size) * h
+    u2 = problem.model(np.concatenate([x + eye, x - eye]))
+    cols = [scale * (u2[:x.size] - u2[x.size:]).T / (2 * h) * problem.w[:, None]]
+    u = problem.model(x)[0]
+    if problem.fit_scale:
+        cols.append((u * problem.w)[:, None])
+        names.append("magnetization_scale")
+    off = np.zeros((problem.y.size, len(problem.groups)))
+    off[np.arange(problem.y.size), problem.group] = problem.w
+    cols.append(off)
+    names += _offset_names(problem)
+    jac = np.concatenate(cols, axis=1)
+    prior_rows = np.zeros((len(problem.priors), jac.shape[1]))
+    prior_rows[np.arange(len(problem.priors)), problem.prior_index] = 1.0 / problem.prior_sigma
+    jac = np.concatenate([jac, prior_rows], axis=0)
+    p = jac.shape[1]
+    warns: list[CalibrationWarning] = []
+    jac = np.where(np.isfinite(jac), jac, 0.0)
+    dof = problem.y.size - p
+    factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    slopes = np.linalg.norm(jac, axis=0)
+    norms = np.where(slopes > 0, slopes, 1.0)
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    kept = sv >= sv[0] * RANK_TOLERANCE
+    null = vt[~kept]
+    undetermined = np.any(np.abs(null) > 0.1, axis=0) if null.size else np.zeros(p, dtype=bool)
+    cov = factor * ((vt[kept].T / sv[kept] ** 2) @ vt[kept]) / np.outer(norms, norms)
+    units = np.array([problem.base.material.magnetization_scale
+                      if n == "magnetization_scale" else 1.0 for n in names])
+    cov = cov * np.outer(units, units)
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    se[undetermined] = np.inf
+    if null.size:
+        involved = tuple(n for n, un in zip(names, undetermined, strict=True) if un)
+        warns.append(CalibrationWarning(
+            "undetermined",
+            f"the data are (numerically) unchanged along {len(null)} combination(s) of "
+            f"{', '.join(involved)}: these parameters are not determined by these experiments "
+            "and their standard errors are infinite (add another azimuth, 3-axis field data or a "
+            "prior)", involved))
+    if dof <= 0:
+        warns.append(CalibrationWarning(
+            "no_degrees_of_freedom", f"{problem.y.size} data values for {p} parameters: no "
+            "degrees of freedom left; record more conditions"))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se, se)
+    for i in range(p):
+        for j in range(i + 1, p):
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
+                warns.append(CalibrationWarning(
+                    "correlated", f"{names[i]} and {names[j]} are strongly correlated "
+                    f"({corr[i, j]:+.3f}): the data determine a combination of them, not each one",
+                    (names[i], names[j])))
+    return tuple(names), cov, se, tuple(warns), factor > 1.0
+
+
+def _offset_names(problem: JointProblem) -> list[str]:
+    many = len(problem.experiments) > 1
+    out = []
+    for e_i, c in problem.groups:
+        base = "offset" if c < 0 else f"offset_{'xyz'[c]}"
+        out.append(f"{base}[{e_i}]" if many else base)
+    return out
+
+
+def calibrate_joint(
+    data: Measurement | Sequence[Measurement],
+    initial: Setup | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    rng: int | np.random.Generator | None = None,
+    priors: Mapping[str, tuple[float, float]] | None = None,
+    fit_scale: bool = False,
+    fixed: Mapping[str, float] | None = None,
+    layout: PhysicalLayout | tuple[int, int] | None = None,
+    tolerance: float = PHYSICAL_TOLERANCE,
+    starts: int = STARTS,
+) -> JointCalibrationResult:
+    """Fit the physical model to one or several experiments (``calibrate(model="physical")``).
+
+    Parameters
+    ----------
+    data : Measurement or sequence of Measurement
+        The experiments: tilt recordings at any azimuth, output (V) or 3-axis field (T).
+    initial : Setup, optional
+        Starting setup; supplies the material, sensor and everything not fitted (default
+        ``Setup.paper_initial()``).
+    bounds : mapping of str to (low, high), optional
+        Bounds of height, base_radius, x, y, z (m); missing keys take :data:`DEFAULT_BOUNDS`.
+    rng : int, Generator or None
+        Seed of the global search.
+    priors : mapping of str to (value, sigma), optional
+        Gaussian priors, SI, e.g. ``{"height": (3.0e-3, 0.2e-3)}``.
+    fit_scale : bool
+        Also fit the magnetization scale (closed form, shared by all experiments).
+    fixed : mapping of str to float, optional
+        Parameters held at values (SI).
+    layout : PhysicalLayout or (n, k), optional
+        The dipole layout; default :func:`converged_layout` of ``initial`` at ``tolerance``.
+    tolerance : float
+        Layout tolerance (see :func:`converged_layout`).
+    starts : int
+        Latin-hypercube starts of the global search.
+
+    Returns
+    -------
+    JointCalibrationResult
+    """
+    t0 = time.perf_counter()
+    initial = initial if initial is not None else Setup.paper_initial()
+    items = [data] if isinstance(data, Measurement) else list(data) if isinstance(
+        data, Sequence) else None
+    if not items:
+        raise v.fail("data", type(data).__name__, "a Measurement or a non-empty sequence of them")
+    experiments = [_check_experiment(i, e) for i, e in enumerate(items)]
+    starts = v.integer("starts", starts, 1)
+    held = dict(fixed or {})
+    for name, value in held.items():
+        if name not in JOINT_PARAMETERS:
+            raise v.fail("fixed key", name, "one of " + ", ".join(JOINT_PARAMETERS))
+        held[name] = REGISTRY[name].check(value, f"fixed[{name!r}]")
+    extra = set(bounds or {}) - set(JOINT_PARAMETERS)
+    if extra:
+        name = min(extra)
+        hint = " (n and k are held by the physical model's layout)" if name in (
+            "n_loops", "dipoles_per_loop") else ""
+        raise v.fail("bounds key", name, "one of " + ", ".join(JOINT_PARAMETERS) + hint)
+    merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
+    box: dict[str, tuple[float, float]] = {
+        n: (float(merged[n][0]), float(merged[n][1])) for n in JOINT_PARAMETERS}
+    check_ranges(box)
+    for n, val in held.items():
+        box[n] = (val, val)
+    if held:
+        initial = initial.replace(**held)
+    init = initial.params()
+    for name in JOINT_PARAMETERS:
+        lo, hi = box[name]
+        tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)
+        if not lo - tol <= init[name] <= hi + tol:
+            p = REGISTRY[name]
+            raise v.fail(f"initial {name}", p.text(init[name], 6),
+                         f"inside its bounds {p.text(lo, 6)}…{p.text(hi, 6)}")
+    names = tuple(n for n in JOINT_PARAMETERS if box[n][0] < box[n][1])
+    checked = check_priors(priors, names, box)
+    lay = _as_layout(layout, initial, tolerance)
+    problem = JointProblem(experiments, initial, lay, box, names, checked, fit_scale)
+    n_lin = len(problem.groups) + int(fit_scale)
+    if problem.y.size <= n_lin + len(names):
+        raise MagciliaError(f"{problem.y.size} data values cannot determine {n_lin} linear "
+                            f"parameters and {len(names)} geometry parameters; record more "
+                            "conditions")
+    gen = np.random.default_rng(rng)
+    x_init = np.clip([init[n] for n in names], problem.bounds[:, 0], problem.bounds[:, 1])
+    minima, minima_cost = np.zeros((0, len(names))), np.zeros(0)
+    if names:
+        x, minima, minima_cost = _search(problem, x_init, gen, starts)
+    else:
+        x = x_init
+    y_free = not y_sign_determined(experiments)
+    if y_free and "y" in names:
+        k = names.index("y")
+        if x[k] * (-1.0 if init["y"] < 0 else 1.0) < 0 and box["y"][0] <= -x[k] <= box["y"][1]:
+            x = x.copy()
+            x[k] = -x[k]
+    result = _joint_result(problem, initial, experiments, box, x, y_free, t0)
+    alt = _ambiguity(problem, x, minima, minima_cost, result.stderr, y_free)
+    if alt is None:
+        return result
+    return replace(result, warnings=(*result.warnings, alt.message),
+                   diagnostics=(*result.diagnostics, alt))
+
+
+def _ambiguity(problem: JointProblem, x: F64, minima: F64, cost: F64,
+               stderr: Mapping[str, float], y_free: bool) -> CalibrationWarning | None:
+    """A warning when another local minimum fits within :data:`AMBIGUITY_CHI2` of the best but
+    lies more than :data:`AMBIGUITY_SIGMA` standard errors away (the y mirror excluded when the
+    sign of y is free: that one is warned about already)."""
+    best = float(problem.cost(x)[0])
+    se = np.array([stderr.get(n, math.inf) for n in problem.names])
+    for xi, ci in sorted(zip(minima, cost, strict=True), key=lambda t: t[1]):
+        if not ci <= best + AMBIGUITY_CHI2:
+            continue
+        other = xi.copy()
+        if y_free and "y" in problem.names:
+            k = problem.names.index("y")
+            other[k] = math.copysign(other[k], x[k])
+        far = np.abs(other - x) > AMBIGUITY_SIGMA * se
+        if far.any():
+            names = tuple(n for n, f in zip(problem.names, far, strict=True) if f)
+            shown = ", ".join(f"{n} {REGISTRY[n].text(float(other[problem.names.index(n)]), 4)}"
+                              for n in names)
+            return CalibrationWarning(
+                "ambiguous", f"another solution fits as well (chi2 {ci:.4g} against {best:.4g}) "
+                f"with {shown}, more than {AMBIGUITY_SIGMA:g} standard errors away: the data "
+                "do not choose between them and the standard errors describe one of them only "
+                "(add another azimuth, field components or a prior)", names)
+    return None
+
+
+def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measurement],
+                  box: dict[str, tuple[float, float]], x: F64, y_free: bool,
+                  t0: float) -> JointCalibrationResult:
+    u = problem.model(x)
+    if not np.isfinite(u).all():
+        raise MagciliaError("the search found no parameters within the bounds whose model is "
+                            "finite at every condition (the sensing element on a dipole); change "
+                            "the bounds or the initial setup")
+    r, a = problem.linear(u)
+    scale = float(a[0])
+    prior_r = problem.residuals(x)[0, problem.y.size:]
+    chi2_data = float(r[0] @ r[0])
+    chi2 = chi2_data + float(prior_r @ prior_r)
+    offsets = problem.offsets(u[0], scale)
+    values = {n: float(x[i]) if n in problem.names else float(initial.params()[n])
+              for i, n in enumerate(problem.names)}
+    values.update({n: float(initial.params()[n]) for n in JOINT_PARAMETERS if n not in values})
+    fitted_scale = initial.material.magnetization_scale * scale
+    names, cov, se, found, inflated = _uncertainty(problem, x, scale, chi2_data)
+    for k, name in enumerate(_offset_names(problem)):
+        values[name] = float(offsets[k])
+    if problem.fit_scale:
+        values["magnetization_scale"] = fitted_scale
+    stderr = {n: float(s) for n, s in zip(names, se, strict=True)}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se, se)
+    corr = np.where(np.isfinite(corr), corr, np.nan)
+    dof = problem.y.size - len(names)
+    output_offsets = [offsets[g] for g, (_, c) in enumerate(problem.groups) if c < 0]
+    fitted_setup = initial.replace(
+        **{n: values[n] for n in JOINT_PARAMETERS}, n_loops=problem.layout.n_loops,
+        dipoles_per_loop=problem.layout.dipoles_per_loop, ring=problem.layout.ring,
+        magnetization_scale=fitted_scale,
+        offset=float(output_offsets[0]) if len(output_offsets) == 1 else initial.sensor.offset)
+    fits = []
+    model_full = scale * u[0] + offsets[problem.group]
+    for e_i, e in enumerate(experiments):
+        rows = np.nonzero(np.isin(problem.group,
+                                  [g for g, (ei, _) in enumerate(problem.groups) if ei == e_i]))[0]
+        measured, fitted = problem.y[rows], model_full[rows]
+        groups = [g for g, (ei, _) in enumerate(problem.groups) if ei == e_i]
+        if e.fields is not None:
+            measured = measured.reshape(3, -1).T
+            fitted = fitted.reshape(3, -1).T
+        weighted = (problem.y[rows] - model_full[rows]) * problem.w[rows]
+        fits.append(ExperimentFit(
+            source=str(e.source), observable=e.observable, angles=np.asarray(e.angles),
+            azimuths=np.asarray(e.azimuths), measured=measured, fitted=fitted,
+            residuals=measured - fitted, offsets=np.asarray(offsets[groups]),
+            rms=float(np.sqrt(np.mean((problem.y[rows] - model_full[rows]) ** 2))),
+            chi2=float(weighted @ weighted), values=int(rows.size)))
+    notes: list[CalibrationWarning] = list(at_bound(
+        {n: values[n] for n in problem.names}, {n: box[n] for n in problem.names},
+        frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)))
+    notes += list(found)
+    if y_free and "y" in problem.names:
+        notes.append(CalibrationWarning(
+            "y_sign", "B_x along tilts toward azimuth 0 or π is symmetric in y, so the sign of y "
+            "is not determined (the sign of the initial y is kept, + for 0); a tilt toward "
+            "another azimuth or 3-axis field data determine it", ("y",)))
+    lay = problem.layout
+    if math.isfinite(lay.error) and lay.error > lay.tolerance:
+        notes.append(CalibrationWarning(
+            "layout", f"the physical layout n={lay.n_loops}, k={lay.dipoles_per_loop} is "
+            f"{lay.error:.2g} (relative) from the exact body at the initial setup, above the "
+            f"tolerance {lay.tolerance:g} (the sensing element close to the base converges "
+            "slowly): start from a setup near the real placement or give layout=(n, k)"))
+    if inflated:
+        notes.append(CalibrationWarning(
+            "chi2", f"reduced chi-square {chi2_data / max(dof, 1):.3g} "
+                    "> 1: the standard errors are scaled up by its square root (the noise is "
+                    "larger than the stated standard errors, or the model lacks something)"))
+    return JointCalibrationResult(
+        setup=fitted_setup, initial=initial, model="physical", n_loops=problem.layout.n_loops,
+        dipoles_per_loop=problem.layout.dipoles_per_loop, layout_error=problem.layout.error,
+        chi2=chi2, dof=dof,
+        values=values, uncertainty=ParameterCovariance(names, stderr, corr, cov),
+        experiments=tuple(fits), priors=dict(problem.priors),
+        warnings=tuple(w.message for w in notes), diagnostics=tuple(notes),
+        bounds={n: box[n] for n in JOINT_PARAMETERS},
+        fixed={n: values[n] for n in JOINT_PARAMETERS if box[n][0] == box[n][1]},
+        evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
+    )
