@@ -245,7 +245,7 @@ def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None =
     restarts = v.integer("restarts", restarts, 0)
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     nuis = np.array([i for i in range(p) if i not in set(idx.tolist())], dtype=np.int_)
-    ridge = 1e-9 * np.eye(p)  # keeps log det finite while a design is still singular
+    ridge = 1e-13 * budget * np.eye(p)  # keeps log det finite while a design is singular
     starts = [_greedy(info, prior + ridge, budget, nuis)]
     if initial is not None:
         chosen0 = np.asarray(initial, dtype=np.int_).reshape(-1)
@@ -315,6 +315,15 @@ def evaluate_design(jacobian: ArrayLike, chosen: ArrayLike, *, names: Sequence[s
     return _summary(counts, names_t, idx, info, prior, scale, 0)
 
 
+def _stderr(vals: F64, vecs: F64, good: NDArray[np.bool_]) -> F64:
+    """sqrt(diag) of the pseudo-inverse of an information matrix given by its eigenvalues and
+    eigenvectors; inf for a parameter touched by an undetermined direction."""
+    var = np.diag((vecs[:, good] / vals[good]) @ vecs[:, good].T)
+    null = (np.abs(vecs[:, ~good]).max(axis=1) if (~good).any()
+            else np.zeros(vals.size))
+    return np.where(null > NULL_COMPONENT, np.inf, np.sqrt(np.clip(var, 0.0, None)))
+
+
 def _summary(counts: NDArray[np.int_], names: tuple[str, ...], idx: NDArray[np.int_], info: F64,
              prior: F64, scale: F64, exchanges: int) -> Design:
     """Rank, condition and log det of the information about the parameters of interest (the
@@ -325,19 +334,20 @@ def _summary(counts: NDArray[np.int_], names: tuple[str, ...], idx: NDArray[np.i
     S = M[np.ix_(idx, idx)]
     if nuis.size:
         S = S - M[np.ix_(idx, nuis)] @ np.linalg.pinv(M[np.ix_(nuis, nuis)]) @ M[np.ix_(nuis, idx)]
-    vals = np.linalg.eigvalsh(0.5 * (S + S.T))
+    vals, vecs = np.linalg.eigh(0.5 * (S + S.T))
     top = float(vals[-1]) if vals.size else 0.0
-    rank = int(np.sum(vals > RANK_TOLERANCE * top)) if top > 0 else 0
+    good = vals > RANK_TOLERANCE * top if top > 0 else np.zeros(vals.size, dtype=bool)
+    rank = int(good.sum())
     q = idx.size
     condition = math.sqrt(top / float(vals[0])) if rank == q else math.inf
     log_det = (float(np.sum(np.log(vals))) - 2.0 * float(np.sum(np.log(scale[idx])))
                if rank == q else -math.inf)
-    lam, vecs = np.linalg.eigh(M)
-    good = lam > RANK_TOLERANCE * float(lam[-1])
-    var = np.diag((vecs[:, good] / lam[good]) @ vecs[:, good].T)
-    # a parameter touched by an undetermined direction has no finite standard error
-    null = np.abs(vecs[:, ~good]).max(axis=1) if (~good).any() else np.zeros(p)
-    stderr = np.where(null > NULL_COMPONENT, np.inf, np.sqrt(np.clip(var, 0.0, None)) * scale)
+    stderr = np.full(p, np.inf)
+    stderr[idx] = _stderr(vals, vecs, good) * scale[idx]
+    if nuis.size:  # the nuisances' own, from the whole information
+        lam, vec = np.linalg.eigh(0.5 * (M + M.T))
+        whole = _stderr(lam, vec, lam > RANK_TOLERANCE * float(lam[-1])) * scale
+        stderr[nuis] = whole[nuis]
     return Design(chosen=np.repeat(np.arange(counts.size), counts), counts=counts, names=names,
                   interest=tuple(names[i] for i in idx), log_det=log_det, rank=rank,
                   condition=condition, stderr=stderr, exchanges=exchanges)
