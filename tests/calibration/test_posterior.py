@@ -280,3 +280,47 @@ def test_sd_of_a_gaussian_mixture_matches_theory() -> None:
     one = post.samples[post.samples[:, 1] > 0, 1]
     expected = math.sqrt(np.var(one) + np.mean(one) ** 2)
     assert post.sd[1] == pytest.approx(expected, rel=0.03)
+
+
+class _LinearProblem:
+    """The joint calibration's protocol: names, bounds, residuals(P), jacobian(x)."""
+
+    def __init__(self) -> None:
+        prob = _linear_problem(3, 30, seed=9)
+        self.residuals = prob["residuals"]
+        self.mu, self.cov = prob["mu"], prob["cov"]
+        self.names = ("height", "x", "y")
+        self.bounds = np.array([[-50.0, 50.0]] * 3)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        h = 1e-6
+        return np.stack([(self.residuals((x + h * e)[None])[0]  # type: ignore[operator]
+                          - self.residuals((x - h * e)[None])[0]) / (2 * h)  # type: ignore[operator]
+                         for e in np.eye(3)], axis=1)
+
+
+def test_sample_problem_uses_the_jacobian_and_the_mirror() -> None:
+    from magcilia.calibration import sample_problem
+
+    problem = _LinearProblem()
+    post = sample_problem(problem, problem.mu, n_effective=500, rng=0)
+    np.testing.assert_allclose(post.sd, np.sqrt(np.diag(problem.cov)), rtol=0.1)
+    assert post.names == ("height", "x", "y") and len(post.weights) == 1
+    # a symmetric problem in y: the mirror is a second mode of equal weight
+    def sym(P: np.ndarray) -> np.ndarray:
+        return np.concatenate([(P[:, :1] - 1.0) / 0.1, (P[:, 1:2] ** 2 - 4.0) / 0.4,
+                               P[:, 2:] / 0.2], axis=1)
+
+    class Symmetric:
+        names = ("z", "y", "x")
+        bounds = np.array([[-5.0, 5.0]] * 3)
+        residuals = staticmethod(sym)
+
+        def jacobian(self, x: np.ndarray) -> np.ndarray:
+            return np.diag([1 / 0.1, 2 * x[1] / 0.4, 1 / 0.2])
+
+    post = sample_problem(Symmetric(), [1.0, 2.0, 0.0], mirror=["y"], n_effective=300, rng=0)
+    np.testing.assert_allclose(post.weights, [0.5, 0.5], atol=1e-9)
+    assert np.mean(post.samples[:, 1] > 0) == pytest.approx(0.5, abs=0.02)
+    with pytest.raises(MagciliaError, match="mirror"):
+        sample_problem(Symmetric(), [1.0, 2.0, 0.0], mirror=["q"])

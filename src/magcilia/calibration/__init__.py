@@ -26,6 +26,7 @@ from magcilia.calibration.posterior import (
     SamplingWarning,
     least_squares_log_prob,
     sample_posterior,
+    sample_problem,
 )
 from magcilia.calibration.problem import BIASES, CONTINUOUS, DEFAULT_BOUNDS, INTEGER, PARAMETERS
 from magcilia.calibration.result import CalibrationResult, ParameterCovariance
@@ -51,4 +52,5 @@ __all__ = [
     "least_squares_log_prob",
     "plan_calibration",
     "sample_posterior",
+    "sample_problem",
 ]

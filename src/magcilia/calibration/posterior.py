@@ -6,7 +6,10 @@ errors, Gaussian prior terms included: ``−½ Σ r²``, ``−inf`` outside the 
 :func:`least_squares_log_prob` builds it) with the affine-invariant ensemble sampler emcee
 (optional extra ``posterior``), and returns a frozen :class:`Posterior`: the samples, per-parameter
 mean, standard deviation and equal-tailed credible intervals (68 % and 95 %), the effective sample
-size (ESS), the acceptance fraction, and the modes with their weights.
+size (ESS), the acceptance fraction, and the modes with their weights. :func:`sample_problem`
+does the same for a least-squares problem object (``names``, ``bounds``, ``residuals(P)``,
+``jacobian(x)``: the joint calibration's), with the local covariances from its Jacobian and the
+y → −y mirror as a second mode on request.
 
 How it samples
 --------------
@@ -17,7 +20,8 @@ How it samples
   one batched evaluation per step.
 * **Start.** The walkers start from the Laplace approximation at each mode (a Gaussian with the
   inverse of the local Hessian of ``−log_prob``, found by finite differences in one batch), so
-  little burn-in is spent finding the typical set; the first ``2 τ`` steps are still discarded.
+  little burn-in is spent finding the typical set; the first ``2 τ`` steps are discarded and the
+  rest thinned by ``τ / 2``.
 * **Stopping.** After every block of steps the integrated autocorrelation time τ of each parameter
   is estimated with emcee's estimator (:func:`emcee.autocorr.integrated_time`); the ESS of a
   parameter is ``steps × walkers / τ``. A mode is done when its smallest ESS reaches its share of
@@ -369,6 +373,7 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
                      bounds: ArrayLike, modes: Sequence[ArrayLike] | None = None,
                      n_effective: int = 1000, rng: int | np.random.Generator | None = None,
                      max_seconds: float = MAX_SECONDS, walkers: int | None = None,
+                     covariances: Sequence[ArrayLike] | None = None,
                      progress: Callable[[str], None] | None = None) -> Posterior:
     """Sample the posterior ``log_prob`` until every parameter has ``n_effective`` effective
     samples (or ``max_seconds`` pass).
@@ -395,6 +400,11 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
         Wall-clock limit, s; when reached the sampler stops with a :class:`SamplingWarning`.
     walkers : int, optional
         Walkers per mode (default ``max(32, 4 p)``, even).
+    covariances : sequence of array-like, shape (p, p) each, optional
+        The local covariance at ``start`` and at each of ``modes`` (same order), SI: for a least
+        squares problem ``(JᵀJ)⁻¹`` of the weighted Jacobian, more accurate than the finite
+        difference Hessian of :func:`laplace` used without them (:func:`sample_problem` passes
+        them). Directions wider than the bounds are clipped to them as in :func:`laplace`.
     progress : callable, optional
         Called with a one-line status after each block of steps.
 
@@ -427,7 +437,17 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
     for m in points:
         if m.size != p or not np.all((m >= b[:, 0]) & (m <= b[:, 1])):
             raise v.fail("modes", m.tolist(), f"points of {p} values inside the bounds")
-    found = [(m, *laplace(log_prob, m, b)) for m in points]
+    if covariances is None:
+        found = [(m, *laplace(log_prob, m, b)) for m in points]
+    else:
+        if len(covariances) != len(points):
+            raise v.fail("covariances", f"{len(covariances)} matrices",
+                         f"one ({p}, {p}) covariance per point ({len(points)}: start and modes)")
+        found = [(m, float(_call(log_prob, m[None])[0]), _clipped(c, b)) for m, c in
+                 zip(points, covariances, strict=True)]
+        for m, lp, _ in found:
+            if not math.isfinite(lp):
+                raise v.fail("modes", m.tolist(), "points where log_prob is finite")
     found.sort(key=lambda t: -t[1])
     kept: list[tuple[F64, float, F64]] = []
     for m, lp, cov in found:  # merge a mode into a better one it lies within MERGE_SIGMAS of
@@ -446,8 +466,11 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
     taus, accept = [], []
     steps_all = 0
     sampled = [k for k in range(len(kept)) if weights[k] >= MIN_WEIGHT]
-    for k in sampled:
+    for rank, k in enumerate(sampled):
         mode, _, cov = kept[k]
+        # each mode gets an equal share of the time left
+        mode_deadline = time.perf_counter() + (deadline - time.perf_counter()) / (
+            len(sampled) - rank)
         target = max(MIN_MODE_ESS, math.ceil(weights[k] * n_effective))
         sampler = emcee.EnsembleSampler(n_walk, p, lambda P: _call(log_prob, P),
                                         moves=moves, vectorize=True)
@@ -469,24 +492,25 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
             if progress is not None:
                 progress(f"mode {len(chains) + 1}/{len(sampled)}: {n} steps, τ ≤ "
                          f"{float(np.max(tau)):.0f}, ESS {float(np.min(ess)):.0f}/{target}")
-            if done or time.perf_counter() >= deadline:
+            if done or time.perf_counter() >= mode_deadline:
                 break
         if not done:
-            warnings.warn(f"posterior sampling stopped at the time limit ({max_seconds:g} s): "
-                          f"ESS {float(np.min(ess)):.0f} of {target} in mode {len(chains) + 1} "
-                          f"after {sampler.iteration} steps; raise max_seconds or lower "
-                          "n_effective", SamplingWarning, stacklevel=2)
-        chains.append((sampler.get_chain(discard=burn, flat=True),
-                       sampler.get_log_prob(discard=burn, flat=True)))
+            short = (f"ESS {float(np.min(ess)):.0f} of {target}"
+                     if float(np.min(ess)) < target else
+                     f"chain {sampler.iteration - burn} steps, under {TAU_FACTOR} τ "
+                     f"(τ = {float(np.max(tau)):.0f}: the estimate is not yet trustworthy)")
+            warnings.warn(f"posterior sampling stopped at the time limit ({max_seconds:g} s in "
+                          f"all): {short} in mode {len(chains) + 1} after {sampler.iteration} "
+                          f"steps, acceptance {float(np.mean(sampler.acceptance_fraction)):.2f};"
+                          " raise max_seconds or lower n_effective", SamplingWarning,
+                          stacklevel=2)
+        thin = max(1, int(0.5 * float(np.min(tau)))) if np.all(np.isfinite(tau)) else 1
+        chains.append((sampler.get_chain(discard=burn, thin=thin, flat=True),
+                       sampler.get_log_prob(discard=burn, thin=thin, flat=True)))
         ess_modes.append((float(weights[k]), ess))
         taus.append(tau)
         accept.append(float(np.mean(sampler.acceptance_fraction)))
         steps_all += sampler.iteration
-        if time.perf_counter() >= deadline and k != sampled[-1]:
-            warnings.warn("posterior sampling reached the time limit before sampling every mode;"
-                          " the others are left out of the samples", SamplingWarning,
-                          stacklevel=2)
-            break
 
     w_sampled = np.array([w for w, _ in ess_modes])
     share = w_sampled / w_sampled.sum()
@@ -507,6 +531,75 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
         modes=np.array([m for m, _, _ in kept]), weights=weights,
         mode_log_prob=np.array([lp for _, lp, _ in kept]), walkers=n_walk, steps=steps_all,
         seconds=time.perf_counter() - t0, target=n_effective)
+
+
+def sample_problem(problem: Any, start: ArrayLike, *, modes: Sequence[ArrayLike] | None = None,
+                   mirror: Sequence[str] = (), n_effective: int = 1000,
+                   rng: int | np.random.Generator | None = None,
+                   max_seconds: float = MAX_SECONDS,
+                   progress: Callable[[str], None] | None = None) -> Posterior:
+    """Sample the posterior of a weighted least-squares problem object (the joint calibration's).
+
+    Parameters
+    ----------
+    problem : object
+        With ``names`` (p names), ``bounds`` (array-like (p, 2), SI), ``residuals(P: (N, p)) ->
+        (N, m)`` (residuals divided by their standard errors, Gaussian prior terms included) and
+        ``jacobian(x: (p,)) -> (m, p)`` (of those residuals). The log probability is
+        ``−½ Σ r²`` inside the bounds (:func:`least_squares_log_prob`); the local covariance
+        at each mode is ``(JᵀJ)⁻¹`` (directions wider than the bounds clipped to them).
+    start : array-like, shape (p,)
+        The optimum (SI).
+    modes : sequence of array-like, optional
+        Other optima (e.g. distinct solutions of a multi-start search).
+    mirror : sequence of str
+        Parameters whose sign the data may not tell (``("y",)`` for one field component along
+        a path at azimuth 0): ``start`` with each of them negated is added as a mode when inside
+        the bounds (polish it first if the data can tell the sign: the point is taken as given).
+    n_effective, rng, max_seconds, progress
+        As :func:`sample_posterior`.
+
+    Returns
+    -------
+    Posterior
+    """
+    names = tuple(str(n) for n in problem.names)
+    b = np.asarray(problem.bounds, dtype=np.float64)
+    x0 = np.asarray(start, dtype=np.float64).reshape(-1)
+    points = [x0, *(np.asarray(m, dtype=np.float64).reshape(-1) for m in (modes or []))]
+    for name in mirror:
+        if name not in names:
+            raise v.fail("mirror", name, "parameter names among " + ", ".join(names))
+        flipped = x0.copy()
+        i = names.index(name)
+        flipped[i] = -flipped[i]
+        if b[i, 0] <= flipped[i] <= b[i, 1] and flipped[i] != x0[i]:
+            points.append(flipped)
+    covs = []
+    width = b[:, 1] - b[:, 0]
+    for m in points:
+        J = np.asarray(problem.jacobian(m), dtype=np.float64)
+        info = (J.T @ J) * np.outer(width, width)
+        vals, vecs = np.linalg.eigh(0.5 * (info + info.T))
+        covs.append((vecs / np.maximum(vals, 12.0)) @ vecs.T * np.outer(width, width))
+    return sample_posterior(least_squares_log_prob(problem.residuals, b), x0, names=names,
+                            bounds=b, modes=points[1:], n_effective=n_effective, rng=rng,
+                            max_seconds=max_seconds, covariances=covs, progress=progress)
+
+
+def _clipped(cov: ArrayLike, b: F64) -> F64:
+    """A given covariance, symmetric, with directions wider than the bounds (or not positive)
+    clipped to a uniform distribution's over them (as :func:`laplace`)."""
+    c = np.asarray(cov, dtype=np.float64)
+    p = b.shape[0]
+    if c.shape != (p, p) or not np.all(np.isfinite(c)):
+        raise v.fail("covariances", f"shape {c.shape}", f"finite ({p}, {p}) matrices")
+    width = b[:, 1] - b[:, 0]
+    scaled = c / np.outer(width, width)
+    vals, vecs = np.linalg.eigh(0.5 * (scaled + scaled.T))
+    vals = np.clip(vals, 1e-300, 1.0 / 12.0)
+    out = (vecs * vals) @ vecs.T * np.outer(width, width)
+    return np.asarray(0.5 * (out + out.T), dtype=np.float64)
 
 
 def _mahalanobis(d: F64, cov: F64) -> float:
