@@ -104,6 +104,14 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "LiveStatus": lambda: _live().status,
     "Limits": lambda: _live().limits(),
     "Event": lambda: _live().events[0],
+    "Posterior": lambda: importlib.import_module("magcilia.calibration").sample_posterior(
+        lambda P: -0.5 * np.sum(((P - [3e-3, 1e-5]) / [1e-4, 1e-6]) ** 2, axis=1),
+        [3e-3, 1e-5], names=["height", "offset"], bounds=[(2e-3, 4e-3), (-1e-4, 1e-4)],
+        n_effective=100, rng=0),
+    "Design": lambda: mc.calibration.d_optimal(np.stack([np.ones(5), np.linspace(-1, 1, 5)], 1),
+                                               4, names=["offset", "x"]),
+    "CalibrationPlan": lambda: mc.calibration.plan_calibration(SETUP, 6, angles=ANGLES,
+                                                               prior_sd={"height": 1e-4}),
     "TiltMeasurement": lambda: importlib.import_module("magcilia.acquire.photo").measure_tilt(
         np.where(np.abs(np.add.outer(np.arange(120.0) * 0.17, np.arange(160.0) - 80)) < 3,
                  0.9, 0.2)),

@@ -19,6 +19,8 @@ Mechanics and design
     angle).
 Photos
     :func:`plot_measurement` (a tilt measured in a photo).
+Posterior
+    :func:`plot_pairs` (a corner plot of posterior samples: marginals and 2-D histograms).
 Style
     :func:`style` (``"screen"`` or ``"paper"``: serif, one journal column wide, print-sized
     fonts) around the code that builds and saves a figure; :func:`new_figure` sizes figures by
@@ -63,6 +65,7 @@ from magcilia.report.figures import (
 )
 from magcilia.report.mechanics import plot_shapes
 from magcilia.report.photo import plot_measurement
+from magcilia.report.posterior import plot_pairs
 from magcilia.report.sensitivity import (
     plot_sobol,
     plot_sweep_curves,
@@ -82,6 +85,7 @@ __all__ = [
     "plot_initial",
     "plot_measurement",
     "plot_output_vs_tilt",
+    "plot_pairs",
     "plot_residuals",
     "plot_shapes",
     "plot_sobol",

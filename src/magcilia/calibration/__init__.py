@@ -8,7 +8,10 @@
 * :class:`CalibrationResult`, :class:`ParameterCovariance` (:mod:`.result`);
 * :class:`CalibrationWarning` and the thresholds of the warnings (:mod:`.diagnostics`);
 * the least-squares problem with its linear parameters solved in closed form (:mod:`.problem`)
-  and the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`).
+  and the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`);
+* :func:`sample_posterior` and :class:`Posterior` (:mod:`.posterior`): the posterior sampled
+  (emcee, extra ``posterior``), modes weighted by their Laplace evidence;
+* :func:`d_optimal`, :func:`plan_calibration` (:mod:`.plan`): which conditions to measure.
 """
 
 from __future__ import annotations
@@ -19,6 +22,20 @@ from magcilia.calibration.joint import (
     PhysicalLayout,
     calibrate_joint,
     converged_layout,
+)
+from magcilia.calibration.plan import (
+    CalibrationPlan,
+    Design,
+    d_optimal,
+    evaluate_design,
+    plan_calibration,
+)
+from magcilia.calibration.posterior import (
+    Posterior,
+    SamplingWarning,
+    least_squares_log_prob,
+    sample_posterior,
+    sample_problem,
 )
 from magcilia.calibration.problem import BIASES, CONTINUOUS, DEFAULT_BOUNDS, INTEGER, PARAMETERS
 from magcilia.calibration.result import (
@@ -36,14 +53,24 @@ __all__ = [
     "INTEGER",
     "PARAMETERS",
     "WARNING_KINDS",
+    "CalibrationPlan",
     "CalibrationResult",
     "CalibrationWarning",
+    "Design",
     "ExperimentFit",
     "JointCalibrationResult",
     "JointProblem",
     "ParameterCovariance",
     "PhysicalLayout",
+    "Posterior",
+    "SamplingWarning",
     "calibrate",
     "calibrate_joint",
     "converged_layout",
+    "d_optimal",
+    "evaluate_design",
+    "least_squares_log_prob",
+    "plan_calibration",
+    "sample_posterior",
+    "sample_problem",
 ]

@@ -82,6 +82,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("record", "record"),
     ("live", "live"),
     ("dashboard", "dashboard"),
+    ("plan", "plan"),
 )
 
 

@@ -30,6 +30,7 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, column, dataframe, si
 from magcilia._errors import MagciliaError
 from magcilia.calibration import CalibrationResult, ParameterCovariance
+from magcilia.calibration.posterior import Posterior
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
@@ -42,6 +43,9 @@ F64 = NDArray[np.float64]
 QUANTITIES = tuple(MEASURANDS)
 #: readings per block of :meth:`Readout.read` (its temporaries stay in the CPU's cache)
 BLOCK = 65536
+#: posterior samples a :class:`Readout` runs through the model for ``sigma_calibration`` (the
+#: Monte-Carlo error of a standard deviation from n draws is about 1/sqrt(2 n): 6 %)
+POSTERIOR_DRAWS = 128
 
 
 class ReadoutFlag(enum.IntFlag):
@@ -410,8 +414,10 @@ class Readout(Display):
         Quantity at which the output folds back inside the span (None if monotone).
     output_range : (float, float)
         Outputs (V) at the start and the end of the usable branch.
-    calibration : ParameterCovariance or None
-        The calibration uncertainty propagated to the estimates.
+    calibration : ParameterCovariance, Posterior or None
+        The calibration uncertainty propagated to the estimates: a covariance (linearised at
+        the setup) or posterior samples (the spread of the model over
+        :data:`POSTERIOR_DRAWS` of them).
     sigma_calibration : ndarray, shape (t,)
         1-σ output uncertainty (V) from the calibration at the table nodes.
     edge_reach : (float, float)
@@ -432,7 +438,7 @@ class Readout(Display):
     quantity: str
     unit: str
     span: tuple[float, float]
-    calibration: ParameterCovariance | None
+    calibration: ParameterCovariance | Posterior | None
     flow: Flow
     table: InverseTable
     sigma_calibration: F64
@@ -443,7 +449,7 @@ class Readout(Display):
 
     def __init__(self, setup: Setup, quantity: str = "angle",
                  span: tuple[float, float] | None = None,
-                 calibration: CalibrationResult | ParameterCovariance | None = None,
+                 calibration: CalibrationResult | ParameterCovariance | Posterior | None = None,
                  flow: Flow | None = None,
                  table_size: int = 257, edge: str = "extrapolate",
                  edge_tolerance: float | None = None) -> None:
@@ -825,9 +831,12 @@ def _edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: floa
 
 
 def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
-                       calibration: ParameterCovariance | None) -> F64:
-    """1-σ output uncertainty (V) from the calibration covariance at the table ``nodes``."""
+                       calibration: ParameterCovariance | Posterior | None) -> F64:
+    """1-σ output uncertainty (V) from the calibration covariance at the table ``nodes``, or
+    from the spread of the model's output over posterior samples."""
     params = setup.params()
+    if isinstance(calibration, Posterior):
+        return _posterior_sigma(setup, quantity, flow, nodes, calibration)
     names, cov = _parameter_covariance(calibration, params)
     if not names:
         return np.zeros(nodes.size)
@@ -840,6 +849,26 @@ def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
         jac[:, j] = (up - down) / (2.0 * h)
     var = np.einsum("qi,ij,qj->q", jac, cov, jac)
     return np.interp(nodes, q, np.sqrt(np.clip(var, 0.0, None)))
+
+
+def _posterior_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
+                     posterior: Posterior) -> F64:
+    """1-σ output spread (V) at the table ``nodes`` over :data:`POSTERIOR_DRAWS` posterior samples
+    (evenly thinned: deterministic) of the setup's continuous parameters; the others keep the
+    setup's values."""
+    params = setup.params()
+    cols = [i for i, n in enumerate(posterior.names)
+            if n in params and PARAMETERS[n].domain != "integer"]
+    if not cols:
+        raise v.fail("calibration", f"a posterior of {', '.join(posterior.names)}",
+                     "a posterior of setup parameters (height, base_radius, x, y, z, offset)")
+    q = np.linspace(nodes[0], nodes[-1], 33)
+    draws = posterior.draws(POSTERIOR_DRAWS)[:, cols]
+    names = [posterior.names[i] for i in cols]
+    out = np.array([output_at(setup.replace(**dict(zip(names, map(float, d), strict=True))),
+                              quantity, q, flow) for d in draws])
+    spread = out.std(axis=0, ddof=1) if len(out) > 1 else np.zeros(q.size)
+    return np.interp(nodes, q, spread)
 
 
 def _parameter_covariance(cal: ParameterCovariance | None,

@@ -1,0 +1,175 @@
+"""``magcilia plan``: which tilt conditions to measure, D-optimal, next to the paper's sweep."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import click
+
+from magcilia._errors import MagciliaError
+from magcilia._validate import fail
+from magcilia.calibration.plan import PLAN_PARAMETERS, SENSORS, CalibrationPlan, plan_calibration
+from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, si_option
+from magcilia.device.parameters import PARAMETERS
+from magcilia.report.units import output_units
+from magcilia.units import OutputUnits, dimension_words, parse_value, parse_values
+
+
+def _azimuths(text: str) -> list[float]:
+    """``0,90`` (deg, or with an angle unit per item) -> rad."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items:
+        raise fail("--azimuths", text, "a comma-separated list of tilt directions in deg, "
+                                       "e.g. 0,90")
+    return [parse_value(t, "angle", "deg", "--azimuths", "0,90") for t in items]
+
+
+def _priors(items: tuple[str, ...]) -> tuple[dict[str, float], dict[str, float]]:
+    """``NAME=VALUE:SD`` items (display units or with units) -> (values, σ) in SI."""
+    values: dict[str, float] = {}
+    sds: dict[str, float] = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        name = name.strip()
+        if name not in PLAN_PARAMETERS:
+            raise fail("--prior", item, "NAME=VALUE:SD with NAME one of "
+                                        + ", ".join(PLAN_PARAMETERS))
+        p = PARAMETERS[name]
+        try:
+            value, sd = parse_values(text, p.dimension, p.display, "--prior", (2,))
+        except MagciliaError:
+            raise fail("--prior", item, f"NAME=VALUE:SD with VALUE and SD each "
+                                        f"{dimension_words(p.dimension, p.display)}, e.g. "
+                                        f"{name}=3.26:0.1") from None
+        if not sd > 0:
+            raise fail("--prior", item, "a prior with a positive SD (a zero-width prior fixes "
+                                        "the parameter: leave it out of the fit instead)")
+        values[name], sds[name] = value, sd
+    return values, sds
+
+
+def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
+    """The plan as JSON in ``units`` (unit suffixes on every dimensional key)."""
+    noise_what = "output" if plan.sensor == "output" else "field"
+
+    def design(d: Any) -> dict[str, Any]:
+        return {"rank": d.rank, "parameters": len(d.interest),
+                "condition": d.condition if math.isfinite(d.condition) else None,
+                "log_det": d.log_det if math.isfinite(d.log_det) else None,
+                "stderr": {units.key(n, n): (units.value(float(s), n) if math.isfinite(s)
+                                             else None)
+                           for n, s in zip(d.names, d.stderr, strict=True) if n in d.interest}}
+
+    return {
+        "units": units.system, "setup_units": "SI", "sensor": plan.sensor,
+        "budget": plan.design.budget,
+        units.key("noise", noise_what): units.value(plan.noise, noise_what),
+        "conditions": [{units.key("angle", "angle"): units.value(a, "angle"),
+                        units.key("azimuth", "angle"): units.value(phi, "angle"),
+                        "repeats": n} for a, phi, n in plan.conditions()],
+        "plan": design(plan.design),
+        "paper": {**design(plan.reference),
+                  units.key("angles", "angle"): units.value(plan.reference_angles.tolist(),
+                                                            "angle")},
+    }
+
+
+def _table(plan: CalibrationPlan, units: OutputUnits) -> str:
+    d, r = plan.design, plan.reference
+    noise_what = "output" if plan.sensor == "output" else "field"
+    lines = [f"Calibration plan: {d.budget} readings, sensor {plan.sensor} (noise "
+             f"{_shown(units, plan.noise, noise_what):.3g} {units.unit(noise_what)} per reading"
+             + (", 3 components)" if plan.sensor == "field" else ")"),
+             f"  {'':<24}{'paper (1 path)':>16}{'plan':>16}",
+             (f"  {'rank':<24}{f'{r.rank}/{len(r.interest)}':>16}"
+             f"{f'{d.rank}/{len(d.interest)}':>16}"),
+             f"  {'condition number':<24}{_num(r.condition):>16}{_num(d.condition):>16}"]
+    for i, n in enumerate(d.names):
+        if n in d.interest:
+            unit = units.unit(n)
+            lines.append(f"  {f'σ {n} ({unit})':<24}"
+                         f"{_num(_shown(units, float(r.stderr[i]), n)):>16}"
+                         f"{_num(_shown(units, float(d.stderr[i]), n)):>16}")
+    lost = [n for i, n in enumerate(d.names) if n in d.interest and not math.isfinite(d.stderr[i])]
+    if lost:
+        why = (" (at one sensing point the field does not change when the whole cilium and its "
+               "placement scale together, B ∝ M·V/r³)" if set(lost) == set(PLAN_PARAMETERS)
+               else "")
+        lines.append(f"  undetermined by any design here: {', '.join(lost)}{why}: add a prior, "
+                     "e.g. --prior height=3.26:0.1")
+    angle_unit = units.unit("angle")
+    lines.append(f"  planned readings (azimuth: angles in {angle_unit}, ×repeats):")
+    conditions = plan.conditions()
+    for phi in sorted({c[1] for c in conditions}):
+        text = ", ".join(f"{_shown(units, a, 'angle'):.4g}" + (f"×{n}" if n > 1 else "")
+                         for a, az, n in conditions if az == phi)
+        lines.append(f"    {_shown(units, phi, 'angle'):.4g}: {text}")
+    paper = ", ".join(f"{_shown(units, float(a), 'angle'):.4g}" for a in plan.reference_angles)
+    lines.append(f"  paper: {d.budget} equally spaced angles at azimuth "
+                 f"{_shown(units, float(plan.azimuths[0]), 'angle'):.4g}: {paper}")
+    return "\n".join(lines)
+
+
+def _shown(units: OutputUnits, value: float, what: str) -> float:
+    """An SI value in the output unit of ``what``."""
+    return value / units.factor(what)
+
+
+def _num(value: float) -> str:
+    return "undetermined" if not math.isfinite(value) else f"{value:.3g}"
+
+
+@click.command()
+@click.argument("setup_arg", metavar="SETUP")
+@click.option("--budget", required=True, type=int,
+              help="Number of readings N to plan (at least the number of parameters, 5).")
+@click.option("--sensor", type=click.Choice(SENSORS), default="output", show_default=True,
+              help="What each reading measures: the AMR output, or the three field components "
+                   "of a 3-axis magnetometer.")
+@click.option("--azimuths", default="0,90", show_default=True,
+              help="Tilt directions on offer, deg (comma-separated; units allowed).")
+@click.option("--angles", default="0:85:2.5", show_default=True,
+              help="Tilt angles on offer, START:STOP:STEP in deg (units allowed).")
+@click.option("--noise", "noise_text", default=None,
+              help="σ of one reading: mV for --sensor output (default: the sensor's noise model, "
+                   "one raw sample at 1 kHz), gauss per component for --sensor field (default "
+                   "10nT); units allowed (0.01mV, 10nT).")
+@click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SD",
+              help="A manual measurement of a parameter as a Gaussian prior, display units "
+                   "(height=3.26:0.1 in mm) or with units; VALUE also replaces the setup's. "
+                   "Repeatable.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the plan and the comparison as JSON (unit suffixes on the keys).")
+@si_option
+def command(setup_arg: str, budget: int, sensor: str, azimuths: str, angles: str,
+            noise_text: str | None, prior_items: tuple[str, ...], as_json: bool,
+            si: bool) -> None:
+    """Plan a tilt-table calibration of SETUP: the BUDGET readings (tilt angles × azimuths) that
+    pin down height, base radius and x, y, z best (D-optimal, each azimuth one experiment with
+    its own offset), printed next to the paper's equally spaced angles on one path with the same
+    budget: rank, condition number and the expected standard error of each parameter."""
+    setup = load_setup_arg(setup_arg)
+    values, sds = _priors(prior_items)
+    if values:
+        setup = setup.replace(**values)
+    grid = angle_grid(angles)
+    phis = _azimuths(azimuths)
+    noise = None
+    if noise_text is not None:
+        noise = (parse_value(noise_text, "voltage", "mV", "--noise", "0.01mV")
+                 if sensor == "output" else
+                 parse_value(noise_text, "field", "gauss", "--noise", "10nT"))
+        if not noise > 0:
+            raise fail("--noise", noise_text, "a positive noise σ, e.g. "
+                                              + ("0.01mV" if sensor == "output" else "10nT"))
+    if budget < len(PLAN_PARAMETERS) - len(sds):
+        raise fail("--budget", budget, f"at least {len(PLAN_PARAMETERS) - len(sds)} readings "
+                                       f"to determine {', '.join(PLAN_PARAMETERS)}")
+    plan = plan_calibration(setup, budget, sensor=sensor, azimuths=phis, angles=grid,
+                            noise=noise, prior_sd=sds)
+    units = output_units(si)
+    if as_json:
+        echo_json(_document(plan, units))
+    else:
+        click.echo(_table(plan, units))
