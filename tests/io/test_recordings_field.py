@@ -498,3 +498,20 @@ def test_write_samples_csv_checks_its_columns(tmp_path: Path) -> None:
     with pytest.raises(mc.MagciliaError, match="names without commas"):
         write_samples_csv(tmp_path / "x.csv", {"a,b": [1.0]})
     assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"fields": np.zeros((2, 2)), "field_sem": np.zeros((2, 2))},
+      r"Measurement fields must be shape \(2, 3\): one row \(B_x, B_y, B_z\) per angle"),
+     ({"fields": np.zeros((2, 3))}, r"field_sem must be both fields and field_sem, or neither"),
+     ({"azimuths": np.zeros(3)}, r"Measurement azimuths must be shape \(2,\)"),
+     ({"azimuths": [np.nan, 0.0]}, r"Measurement azimuths must be finite angles in rad"),
+     ({"volts": np.zeros(3)}, r"Measurement volts must be shape \(2,\): one value per angle")])
+def test_a_measurement_checks_its_shapes(kwargs: dict[str, Any], match: str) -> None:
+    base: dict[str, Any] = {"angles": np.zeros(2), "volts": np.zeros(2), "sem": np.zeros(2),
+                            "counts": np.ones(2, np.int64), "saturated": np.zeros(2, np.int64),
+                            "nonfinite": np.zeros(2, np.int64)}
+    with pytest.raises(mc.MagciliaError, match=match) as info:
+        mc.Measurement(**(base | kwargs))
+    _one_line(info)

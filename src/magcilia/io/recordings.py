@@ -217,10 +217,16 @@ class Measurement(Display):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         a = self.angles.shape
-        if self.azimuths.shape != a or (self.fields is not None and self.field_sem is not None and (
-                self.fields.shape != (*a, 3) or self.field_sem.shape != (*a, 3))):
-            raise v.fail("azimuths / fields", "arrays of other shapes than the angles",
-                         "azimuths of shape (a,) and fields, field_sem of shape (a, 3)")
+        for name in ("volts", "sem", "counts", "saturated", "nonfinite", "azimuths", "fields",
+                     "field_sem"):
+            value = getattr(self, name)
+            want = (*a, 3) if name in ("fields", "field_sem") else a
+            if value is not None and value.shape != want:
+                raise v.fail(f"Measurement {name}", f"shape {value.shape}",
+                             f"shape {want}: one " + ("row (B_x, B_y, B_z)" if len(want) == 2
+                                                      else "value") + " per angle")
+        if not np.isfinite(self.azimuths).all():
+            raise v.fail("Measurement azimuths", self.azimuths.tolist(), "finite angles in rad")
 
     @property
     def observable(self) -> str:
