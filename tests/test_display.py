@@ -141,8 +141,8 @@ def test_column_names_spell_units_in_ascii() -> None:
 def test_measurement_dataframe_round_trips() -> None:
     m = FACTORIES["Measurement"]()
     df = m.to_dataframe()
-    assert list(df.columns) == ["angle_rad", "output_V", "sem_V", "count", "saturated",
-                                "nonfinite"]
+    assert list(df.columns) == ["angle_rad", "azimuth_rad", "output_V", "sem_V", "count",
+                                "saturated", "nonfinite"]
     np.testing.assert_array_equal(df["angle_rad"].to_numpy(), m.angles)
     np.testing.assert_array_equal(df["output_V"].to_numpy(), m.volts)
     np.testing.assert_array_equal(df["sem_V"].to_numpy(), m.sem)

@@ -36,6 +36,10 @@ ANGLES = np.repeat([-20.0, 0.0, 10.0, 25.0], 4)
 SETRESET = np.tile([1.0, -1.0], 8)
 VOLTS = np.repeat([-2e-3, 0.0, 1e-3, 2.5e-3], 4) * SETRESET + 1e-4
 TIME = np.arange(16) * 1e-3
+#: 3-axis seeds: two samples of each angle at azimuth 0, two at 90 deg; field (16, 3) in T
+AZIMUTHS = np.tile([0.0, 0.0, 90.0, 90.0], 4)
+FIELDS = np.column_stack([4e-5 + 2e-7 * ANGLES, 5e-5 - 1e-7 * AZIMUTHS / 90 + 1e-8 * ANGLES,
+                          8e-6 + 3e-7 * ANGLES]) + 1e-9 * np.tile([1.0, -1.0], 8)[:, None]
 INTERESTING = (0, 1, 2, 7, 8, 0x7F, 0x80, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x10000,
                0x7FFFFFFF, 0x80000000, 0xFFFFFFFF)
 TDMS_TYPES = (0, 1, 5, 8, 9, 0x19, 0x20, 0x21, 0x44, 0x08000C, 0x10000D, 0xFFFFFFFF)
@@ -94,6 +98,22 @@ def seeds() -> dict[str, tuple[str, bytes]]:
     rows = "\n".join(f"{t:g};{a:g};{v * 1e3:.6g};{s:+g}".replace(".", ",")
                      for a, v, t, s in zip(ANGLES, VOLTS, TIME, SETRESET, strict=True))
     out["csv_eu"] = (".csv", f"Zeit [s];Winkel [deg];Spannung [mV];SR\n{rows}\n".encode())
+    rows = "\n".join(f"{a:g},{z:g},{b[0]:.9g},{b[1]:.9g},{b[2]:.9g}"
+                     for a, z, b in zip(ANGLES, AZIMUTHS, FIELDS, strict=True))
+    out["csv_field"] = (".csv", ("angle_deg,azimuth_deg,field_x_T,field_y_T,field_z_T\n"
+                                 f"{rows}\n").encode())
+    rows = "\n".join(f"{np.radians(z):.12g}\t{a:g}\t{b[0] * 1e6:.9g}\t{b[1] / 1e-4:.9g}\t"
+                     f"{b[2] * 1e3:.9g}\t# {i}"
+                     for i, (a, z, b) in enumerate(zip(ANGLES, AZIMUTHS, FIELDS, strict=True)))
+    out["csv_field_mapped"] = (".csv", ("Phi [rad]\tTilt\tBx [uT]\tBy\tBz [mT]\tnote\n"
+                                        f"{rows}\n").encode())
+    field_columns = {"angle_deg": ANGLES, "azimuth_deg": AZIMUTHS, "field_x_T": FIELDS[:, 0],
+                     "field_y_T": FIELDS[:, 1], "field_z_T": FIELDS[:, 2]}
+    buf = io.BytesIO()
+    savemat(buf, field_columns, do_compression=True)
+    data = bytearray(buf.getvalue())
+    data[:116] = MAT_HEADER_5.ljust(116)
+    out["mat_v5z_field"] = (".mat", bytes(data))
     columns = {"angle_deg": ANGLES, "voltage_V": VOLTS, "time_s": TIME, "setreset": SETRESET}
     for name, kwargs in (("mat_v5", {"do_compression": False}),
                          ("mat_v5z", {"do_compression": True}), ("mat_v4", {"format": "4"})):
@@ -115,6 +135,11 @@ def seeds() -> dict[str, tuple[str, bytes]]:
                 writer.write_segment([nptdms.RootObject({"operator": "bench 3"})] + [
                     nptdms.ChannelObject("run", k, a) for k, a in columns.items()])
             out["tdms"] = (".tdms", buf.getvalue())
+            buf = io.BytesIO()
+            with nptdms.TdmsWriter(buf) as writer:
+                writer.write_segment([nptdms.ChannelObject("run", k, a)
+                                      for k, a in field_columns.items()])
+            out["tdms_field"] = (".tdms", buf.getvalue())
             path = Path(tmp) / "rec.tdms"
             with RecordingWriter(path, metadata={"source": "fuzz"}, chunk=6) as rec:
                 rec.write(TIME, VOLTS, angle_deg=ANGLES, setreset=SETRESET)
@@ -125,11 +150,13 @@ def seeds() -> dict[str, tuple[str, bytes]]:
         try:  # without h5py (the extra "hdf5") the v7.3 and HDF5 seeds are left out
             write_mat73(Path(tmp) / "v73.mat", columns)
             write_hdf5(Path(tmp) / "rec.h5")
+            write_hdf5_field(Path(tmp) / "field.h5", field_columns)
         except ImportError:
             pass
         else:
             out["mat_v73"] = (".mat", (Path(tmp) / "v73.mat").read_bytes())
             out["h5"] = (".h5", (Path(tmp) / "rec.h5").read_bytes())
+            out["h5_field"] = (".h5", (Path(tmp) / "field.h5").read_bytes())
     return out
 
 
@@ -137,7 +164,18 @@ def seeds() -> dict[str, tuple[str, bytes]]:
 READ_OPTIONS: dict[str, dict[str, str]] = {
     "csv_eu": {"decimal": ",", "columns": "time=Zeit,angle=Winkel,voltage=Spannung,setreset=SR"},
     "h5": {"group": "run", "columns": "angle=Tilt,voltage=Vout,time=t,setreset=SR"},
+    "csv_field_mapped": {"columns": "azimuth=Phi,angle=Tilt[deg],field_x=Bx,field_y=By[gauss],"
+                                    "field_z=Bz"},
 }
+
+
+def write_hdf5_field(path: Path, columns: dict[str, np.ndarray]) -> None:
+    """An HDF5 3-axis recording at the root (no times stored: the same bytes each time)."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        for name, values in columns.items():
+            f.create_dataset(name, data=values, track_times=False)
 
 
 def write_hdf5(path: Path) -> None:
@@ -305,7 +343,8 @@ def csv_text(data: bytearray, rng: np.random.Generator) -> bytearray:
             m = numbers[int(rng.integers(0, len(numbers)))]
             text = text[:m.start()] + str(rng.choice(TEXT_VALUES)) + text[m.end():]
     elif kind == 1:  # a column name: duplicated, missing or renamed
-        names = ("angle_deg", "voltage_V", "time_s", "setreset", "note", "")
+        names = ("angle_deg", "voltage_V", "time_s", "setreset", "note", "", "azimuth_deg",
+                 "field_x_T", "field_z_T")
         old, new = rng.choice(names, 2)
         text = text.replace(str(old), str(new), 1)
     elif kind == 2:  # a huge field
@@ -335,6 +374,10 @@ FORMAT_MUTATIONS: dict[str, tuple[Mutation, ...]] = {
     "tdms_magcilia": (tdms_leadin, tdms_leadin, tdms_dtype),
     "csv_quoted": (csv_text, csv_text, csv_text),
     "csv_eu": (csv_text, csv_text, csv_text),
+    "csv_field": (csv_text, csv_text, csv_text),
+    "csv_field_mapped": (csv_text, csv_text, csv_text),
+    "tdms_field": (tdms_leadin, tdms_leadin, tdms_dtype),
+    "mat_v5z_field": (mat_inner, mat_inner, mat_inner),
 }
 
 

@@ -60,6 +60,9 @@ def data_angles(data: Measurement | None) -> F64 | None:
         return None
     if not isinstance(data, Measurement):
         raise v.fail("data", type(data).__name__, "a magcilia Measurement (use read_measurements)")
+    data.require_single_path("the sensitivity analysis (data=, CLI: --data)",
+                             "give a recording of the single-axis output at azimuth 0, or "
+                             "leave the data out")
     if len(data) < 2:
         raise v.fail("data", f"{len(data)} angle(s)", "a recording with at least 2 angles")
     return np.asarray(data.angles, dtype=np.float64)

@@ -77,6 +77,8 @@ MODELS = ("paper", "physical")
 
 def _check_data(data: Measurement) -> None:
     """Finite angles and outputs, or a one-line error naming the data, before any search."""
+    data.require_single_path("calibrate(..., model='paper')",
+                             "use calibrate(..., model='physical')")
     for what, values in (("voltage_V", data.volts), ("angle_rad", data.angles)):
         arr = np.asarray(values, dtype=np.float64)
         bad = ~np.isfinite(arr)

@@ -1,6 +1,6 @@
 """Which column of a recording holds what, and in which unit: the column and unit mapping.
 
-A recording has up to four *roles*, each read from one column (CSV), variable (MATLAB), channel
+A recording has up to eight *roles*, each read from one column (CSV), variable (MATLAB), channel
 (TDMS) or dataset (HDF5):
 
 ========  ===========  ============  ===========================================
@@ -10,18 +10,27 @@ angle     angle_deg    angle         ``angle_deg``, tilt in degrees
 voltage   voltage_V    voltage       ``voltage_V``, sensor output in volts
 time      time_s       time          ``time_s``, seconds
 setreset  setreset     (none)        ``setreset``, +1 set / −1 reset
+azimuth   azimuth_deg  angle         ``azimuth_deg``, tilt direction in degrees
+field_x   field_x_T    field         ``field_x_T``, 3-axis field B_x in tesla
+field_y   field_y_T    field         ``field_y_T``, B_y in tesla
+field_z   field_z_T    field         ``field_z_T``, B_z in tesla
 ========  ===========  ============  ===========================================
+
+The observable is either the single-axis output (voltage) or the 3-axis field (all three of
+field_x, field_y, field_z): a file with both, with only some of the field columns, or with set/reset
+marks beside field columns is an error (:meth:`Columns.locate`).
 
 :class:`Columns` maps roles to a file's names, each with an optional unit in brackets:
 ``Columns(angle="Tilt[deg]", voltage="Vout[mV]")``, or from the command line's text
 ``Columns.parse("angle=Tilt[deg],voltage=Vout[mV]")``. The unit is any unit of
 :data:`magcilia.units.UNITS` of the role's dimension (angle: rad, deg; voltage: V, mV, uV;
-time: s, ms, us). Where the mapping gives none, the unit is taken from the file's own name (a
-header ``Vout [mV]`` or ``Vout (mV)`` matches the name ``Vout``), from a ``units`` attribute
-(HDF5 datasets) or from a unit suffix of the name (``angle_deg``, ``Vout_mV``); a column
-without any is an error rather than a guess. Units that disagree (``Vout[V]`` mapped onto a
-header ``Vout [mV]``, a dataset ``voltage_V`` with ``units="mV"``) are an error too; a unit the
-file spells in a way magcilia does not know (``degrees``) yields to the mapping's.
+time: s, ms, us; field: T, mT, uT, nT, gauss, G, mG). Where the mapping gives none, the unit
+is taken from the file's own name (a header ``Vout [mV]`` or ``Vout (mV)`` matches the name
+``Vout``), from a ``units`` attribute (HDF5 datasets) or from a unit suffix of the name
+(``angle_deg``, ``Vout_mV``); a column without any is an error rather than a guess. Units
+that disagree (``Vout[V]`` mapped onto a header ``Vout [mV]``, a dataset ``voltage_V`` with
+``units="mV"``) are an error too; a unit the file spells in a way magcilia does not know
+(``degrees``) yields to the mapping's.
 
 Examples
 --------
@@ -54,7 +63,16 @@ ROLES: dict[str, tuple[str, str | None, str | None]] = {
     "voltage": ("voltage_V", "voltage", "V"),
     "time": ("time_s", "time", "s"),
     "setreset": ("setreset", None, None),
+    "azimuth": ("azimuth_deg", "angle", "deg"),
+    "field_x": ("field_x_T", "field", "T"),
+    "field_y": ("field_y_T", "field", "T"),
+    "field_z": ("field_z_T", "field", "T"),
 }
+#: the keys of a 3-axis field's components (all three, or none)
+FIELD_KEYS = ("field_x_T", "field_y_T", "field_z_T")
+#: a ``required`` key of :meth:`Columns.locate` standing for the observable: ``voltage_V``, or
+#: the three field components :data:`FIELD_KEYS`
+OBSERVABLE = "observable"
 #: key of the columns read -> role
 KEY_ROLE = {key: role for role, (key, _, _) in ROLES.items()}
 
@@ -91,19 +109,25 @@ def _short(name: str) -> str:
 class Columns:
     """Where a recording's roles are, each ``"NAME"`` or ``"NAME[unit]"`` (see the module
     docstring; defaults: magcilia's own names ``angle_deg``, ``voltage_V``, ``time_s``,
-    ``setreset``). Two roles may not name the same column.
+    ``setreset``, ``azimuth_deg``, ``field_x_T``, ``field_y_T``, ``field_z_T``). Two roles may not
+    name the same column.
 
     Parameters
     ----------
-    angle, voltage, time, setreset : str
-        The file's name for each role, with an optional unit in brackets (angle: an angle unit,
-        voltage: a voltage unit, time: a time unit; setreset takes none).
+    angle, voltage, time, setreset, azimuth, field_x, field_y, field_z : str
+        The file's name for each role, with an optional unit in brackets (angle and azimuth: an
+        angle unit, voltage: a voltage unit, time: a time unit, field_x/y/z: a field unit;
+        setreset takes none).
     """
 
     angle: str = "angle_deg"
     voltage: str = "voltage_V"
     time: str = "time_s"
     setreset: str = "setreset"
+    azimuth: str = "azimuth_deg"
+    field_x: str = "field_x_T"
+    field_y: str = "field_y_T"
+    field_z: str = "field_z_T"
 
     def __post_init__(self) -> None:
         seen: dict[str, str] = {}
@@ -130,7 +154,8 @@ class Columns:
     def example(role: str) -> str:
         """An example spec for ``role`` (used in messages)."""
         return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
-                "setreset": "SR"}[role]
+                "setreset": "SR", "azimuth": "Phi[deg]", "field_x": "Bx[uT]",
+                "field_y": "By[uT]", "field_z": "Bz[uT]"}[role]
 
     def spec(self, role: str) -> tuple[str, str | None]:
         """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
@@ -146,11 +171,16 @@ class Columns:
 
     @classmethod
     def parse(cls, text: str) -> Columns:
-        """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset;
-        others keep their defaults; a name with a comma needs the API's mapping).
+        """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset,
+        azimuth, field_x, field_y, field_z; others keep their defaults; a name with a comma needs
+        the API's mapping).
 
-        >>> Columns.parse("voltage=Vout[mV]")
-        Columns(angle='angle_deg', voltage='Vout[mV]', time='time_s', setreset='setreset')
+        >>> Columns.parse("voltage=Vout[mV]").voltage
+        'Vout[mV]'
+        >>> Columns.parse("azimuth=Phi[rad],field_x=Bx[uT]").locate(
+        ...     ["angle_deg", "Phi", "Bx", "field_y_T", "field_z_T"], where="r.csv",
+        ...     required=("observable",))["field_x_T"]
+        (2, 1e-06)
         """
         allowed = ("ROLE=NAME[unit],... with ROLE one of " + ", ".join(ROLES)
                    + ", e.g. angle=Tilt[deg],voltage=Vout[mV]")
@@ -193,7 +223,7 @@ class Columns:
         return {ROLES[role][0]: self.spec(role)[0] for role in ROLES}
 
     def locate(self, names: Sequence[str], *, where: str,
-               required: tuple[str, ...] = ("angle_deg", "voltage_V"),
+               required: tuple[str, ...] = ("angle_deg", OBSERVABLE),
                units: Mapping[str, Any] | None = None, kind: str = "column"
                ) -> dict[str, tuple[int, float]]:
         """Where each role is among a file's ``names`` and the factor to its key's unit.
@@ -205,7 +235,9 @@ class Columns:
         where : str
             The file, for messages.
         required : tuple of str
-            Keys (``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``) that must be found.
+            Keys (``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``, ``azimuth_deg``,
+            ``field_x_T``, …) that must be found; :data:`OBSERVABLE` (``"observable"``) asks for
+            ``voltage_V`` or the three field components.
         units : mapping of str to str, optional
             A unit the file gives for a name (an HDF5 ``units`` attribute).
         kind : str
@@ -214,14 +246,16 @@ class Columns:
         Returns
         -------
         dict of str to (int, float)
-            Key -> (index into ``names``, factor to its unit: deg, V, s; 1.0 for setreset), for
-            the roles found.
+            Key -> (index into ``names``, factor to its unit: deg, V, s, T; 1.0 for setreset),
+            for the roles found.
 
         Raises
         ------
         MagciliaError
-            A required role missing (the names the file has listed), a name matched twice, or a
-            unit missing, of the wrong dimension or in conflict.
+            A required role missing (the names the file has listed), a name matched twice, a
+            unit missing, of the wrong dimension or in conflict; a voltage beside field
+            components (one observable per recording), some but not all three field components,
+            or set/reset marks beside field components.
         """
         from magcilia.io.csvfile import names_text
 
@@ -253,16 +287,50 @@ class Columns:
                                     attribute, where, kind)
             table = UNITS[dimension]
             out[key] = (i, table[unit_found] / table[target])
+        self._check_observable(out, required, where, kind, names_text(stripped))
         return out
+
+    def _check_observable(self, found: Mapping[str, Any], required: tuple[str, ...], where: str,
+                          kind: str, listed: str) -> None:
+        """One observable per recording: the voltage, or all three field components (without
+        set/reset marks); :data:`OBSERVABLE` in ``required`` asks for one of them."""
+        names = self.names()
+        fields = [k for k in FIELD_KEYS if k in found]
+        field_names = ", ".join(_short(names[k]) for k in FIELD_KEYS)
+        if fields and "voltage_V" in found:
+            raise MagciliaError(
+                f"{where}: both a voltage {kind} ({_short(names['voltage_V'])}) and field "
+                f"{kind}s ({', '.join(_short(names[k]) for k in fields)}); a recording holds one "
+                "observable, the single-axis output or the 3-axis field: split the file into one "
+                "recording of each")
+        if fields and len(fields) < len(FIELD_KEYS):
+            missing = [k for k in FIELD_KEYS if k not in found]
+            raise MagciliaError(
+                f"{where}: missing field {kind}(s) {', '.join(_short(names[k]) for k in missing)}"
+                f" ({'header' if kind == 'column' else 'found'}: {listed}); 3-axis data need all "
+                f"three {kind}s {field_names} (map yours with --columns "
+                "field_x=NAME[unit],field_y=...,field_z=...)")
+        if fields and "setreset" in found:
+            raise MagciliaError(
+                f"{where}: a set/reset {kind} ({_short(names['setreset'])}) beside the 3-axis "
+                f"field {kind}s; set/reset differences are for the single-axis AMR output: drop "
+                f"the {kind} (3-axis samples are averaged as they are)")
+        if OBSERVABLE in required and not fields and "voltage_V" not in found:
+            raise MagciliaError(self._missing("voltage", names["voltage_V"], where, kind, listed,
+                                              required))
 
     def _missing(self, role: str, name: str, where: str, kind: str, listed: str,
                  required: tuple[str, ...]) -> str:
         mapping = f"--columns {role}=NAME[unit] (API: columns={{'{role}': 'NAME[unit]'}})"
+        names = self.names()
+        fields = (f" (or the 3-axis {', '.join(names[k] for k in FIELD_KEYS)})"
+                  if role == "voltage" and OBSERVABLE in required else "")
         if self.is_default:
-            need = " and ".join(self.names()[k] for k in required)
-            fix = f"the file needs {kind}s {need}, or map the {role} to yours with {mapping}"
+            need = " and ".join(names["voltage_V" if k == OBSERVABLE else k] for k in required)
+            fix = (f"the file needs {kind}s {need}{fields}, or map the {role} to yours with "
+                   f"{mapping}")
         else:
-            fix = f"map the {role} to one of them with {mapping}"
+            fix = f"map the {role} to one of them with {mapping}{fields}"
         found = "header" if kind == "column" else "found"
         return f"{where}: missing {kind} {_short(name)!r} ({found}: {listed}); {fix}"
 
@@ -305,4 +373,6 @@ def columns_help() -> str:
     """One line for the CLI's ``--columns`` help."""
     roles = ", ".join(f.name for f in fields(Columns))
     return (f"Map roles ({roles}) to the file's names with units, e.g. "
-            "angle=Tilt[deg],voltage=Vout[mV]. Default: angle_deg, voltage_V, time_s, setreset.")
+            "angle=Tilt[deg],voltage=Vout[mV] or azimuth=Phi[deg],field_x=Bx[uT],... Default: "
+            "angle_deg, voltage_V, time_s, setreset, azimuth_deg, field_x_T, field_y_T, "
+            "field_z_T.")

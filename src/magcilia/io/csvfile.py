@@ -41,13 +41,14 @@ import csv
 import io
 import itertools
 from array import array
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
 
@@ -427,3 +428,50 @@ def _parse_csv(reader: Iterator[list[str]], path: Path, columns: tuple[str, ...]
             data[col].append(value)
     return {col: np.frombuffer(values, dtype=np.float64).copy() if len(values) else np.zeros(0)
             for col, values in data.items()}
+
+
+# -- writing ------------------------------------------------------------------------------------
+def write_samples_csv(path: str | Path, columns: Mapping[str, Any], *,
+                      comment: str | None = None) -> Path:
+    """Write raw samples as a CSV recording (atomically): a header of the keys, one row per
+    sample, every value with 17 significant digits (read back as the same doubles).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.csv`` file (replaced only once written in full).
+    columns : mapping of str to array-like, shape (s,)
+        Column name (with its unit: ``angle_deg``, ``field_x_T``) -> values, all of one length.
+    comment : str, optional
+        A first line ``# comment`` (one line: a synthetic recording says so).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     p = Path(tmp) / "r.csv"
+    ...     write_samples_csv(p, {"angle_deg": [0, 10], "voltage_V": [0.5, 1]}).read_text()
+    'angle_deg,voltage_V\\n0,0.5\\n10,1\\n'
+    """
+    names = [str(k) for k in columns]
+    if not names or any(not n or any(c in n for c in ",\"\r\n#") for n in names):
+        raise fail("columns", names, "names without commas, quotes, # or line breaks")
+    arrays = [np.asarray(columns[k], dtype=np.float64).ravel() for k in columns]
+    if len({a.size for a in arrays}) > 1:
+        raise fail("columns", "lengths " + ", ".join(str(a.size) for a in arrays),
+                   "of equal length")
+    if comment is not None and ("\n" in comment or "\r" in comment):
+        raise fail("comment", comment, "one line")
+    buf = io.StringIO()
+    if comment is not None:
+        buf.write(f"# {comment}\n")
+    buf.write(",".join(names) + "\n")
+    if arrays[0].size:
+        np.savetxt(buf, np.column_stack(arrays), fmt="%.17g", delimiter=",")
+    write_text(path, buf.getvalue())
+    return Path(path)

@@ -412,7 +412,8 @@ def _run_mat_child(path: Path, kind: str, columns: tuple[str, ...]
     return report, arrays
 
 
-def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...]) -> dict[str, F64]:
+def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...],
+             alternatives: tuple[str, ...] = ()) -> dict[str, F64]:
     """The variables ``columns`` of a MATLAB file (see the module docstring), as float64 vectors.
 
     Parameters
@@ -423,6 +424,9 @@ def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...]) ->
         The variables to read (others are skipped unread).
     required : tuple of str
         Those that must be there.
+    alternatives : tuple of str
+        Variables that together stand in for the last required one (the three field components
+        for the voltage): it may be missing where any of them is there.
 
     Raises
     ------
@@ -446,12 +450,17 @@ def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...]) ->
         raise MagciliaError(f"{path}: variable {printable(str(name))} "
                             f"{printable(str(problem))}{fix}")
     missing = [k for k in required if k not in arrays]
+    if alternatives and missing[-1:] == list(required[-1:]) and any(
+            k in arrays for k in alternatives):
+        missing = missing[:-1]  # (which of them are missing: the column mapping says)
     if missing:
         found = [str(n) for n in report.get("found", []) if not str(n).startswith("__")]
         shown = ", ".join(v.short(n, 40) for n in found[:12]) or "none"
         more = f", … ({len(found)} in all)" if len(found) > 12 else ""
         raise MagciliaError(f"{path}: missing variable(s) {', '.join(missing)} (found: "
-                            f"{shown}{more}); save vectors named {' and '.join(required)}")
+                            f"{shown}{more}); save vectors named {' and '.join(required)}"
+                            + (f" (or {', '.join(alternatives)} in place of {required[-1]})"
+                               if alternatives else ""))
     out: dict[str, F64] = {}
     for key, value in arrays.items():
         arr = np.squeeze(value)

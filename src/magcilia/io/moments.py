@@ -20,8 +20,9 @@ def runs(values: NDArray[Any]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     return starts, np.diff(starts, append=values.size)
 
 
-def by_value(values: F64) -> tuple[F64, NDArray[np.intp]]:
-    """The distinct values (increasing) and the index of each value among them.
+def by_value(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.intp]]:
+    """The distinct values (increasing; complex values by real, then imaginary part) and the
+    index of each value among them.
 
     A recording keeps each angle's samples together: the runs of equal values are found first
     and only the runs are sorted (``np.unique`` of every sample would sort them all).

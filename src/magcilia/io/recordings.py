@@ -1,12 +1,14 @@
-"""Measured field-vs-tilt recordings: reading files and reducing raw samples to per-angle means.
+"""Measured field-vs-tilt recordings: reading files and reducing raw samples to per-condition
+means.
 
 Formats (chosen by the file suffix):
 
 - **CSV** (``.csv``, ``.txt``): a header row with ``angle_deg`` and ``voltage_V``; one row per raw
   sample, repeated angles are samples of the same angle. Optional ``time_s`` and ``setreset``
   (``set``/``reset`` or ``+1``/``-1``: samples taken after a set or a reset pulse of the AMR
-  strap). Lines starting with ``#`` are comments. Other columns are ignored; a column we read
-  that appears twice in the header is an error (which one is meant is ambiguous).
+  strap), ``azimuth_deg`` and, in place of ``voltage_V``, ``field_x_T``, ``field_y_T``,
+  ``field_z_T`` (below). Lines starting with ``#`` are comments. Other columns are ignored; a
+  column we read that appears twice in the header is an error (which one is meant is ambiguous).
 - **MATLAB** (``.mat``): variables ``angle_deg`` and ``voltage_V`` (real numeric vectors of equal
   length), optionally ``time_s`` and ``setreset``. Versions 4 and 5/7 (SciPy) and 7.3 (MATLAB's
   default for large data: HDF5, read with the optional ``h5py``: ``pip install
@@ -22,12 +24,35 @@ Formats (chosen by the file suffix):
   1-D datasets named as the columns, at the root or in the group named by ``group``
   (:mod:`magcilia.io.hdf5file`).
 
+Tilt azimuths and 3-axis field data
+-----------------------------------
+Every format takes the same optional columns (variables, channels, datasets):
+
+- ``azimuth_deg``: the tilt direction φ of each sample, degrees (0, the default: tilt toward +x,
+  the paper's path; 90: toward +y), finite and within ±:data:`MAX_AZIMUTH_DEG`. Samples are
+  grouped per condition (azimuth, angle), and the conditions come ordered by azimuth, then angle
+  (azimuths are kept as given: −90 and 270 deg are two conditions);
+- ``field_x_T``, ``field_y_T``, ``field_z_T``: a 3-axis magnetometer at the sensing point, T (axes
+  as in the README's frame figure), all three or none, *instead of* ``voltage_V``: a recording
+  holds one observable (a file with both is an error: split it), and set/reset marks go with the
+  single-axis output only. The :class:`Measurement` then has ``fields`` and ``field_sem`` (shape
+  (a, 3)) and NaN ``volts``. The NaN/inf policy applies to every column read; the range check
+  (``saturation``) applies to voltages only: 3-axis data are not range-checked here.
+
+A raw-sample CSV with both (``magcilia.acquire.synthetic.write_field_recording`` makes one)::
+
+    angle_deg,azimuth_deg,field_x_T,field_y_T,field_z_T
+    0,90,3.9275e-05,5.3047e-05,7.6123e-06
+    40,90,3.9834e-05,4.6220e-05,2.0459e-05
+
 Other names and units
 ---------------------
-``columns`` maps the roles (angle, voltage, time, setreset) to the file's own names with units:
+``columns`` maps the roles (angle, voltage, time, setreset, azimuth, field_x, field_y, field_z)
+to the file's own names with units (field: T, mT, uT, nT, gauss, G, mG):
 ``columns={"angle": "Tilt[deg]", "voltage": "Vout[mV]"}`` or the CLI's
 ``--columns angle=Tilt[deg],voltage=Vout[mV]``; a header ``Vout [mV]`` names its unit itself
-(:mod:`magcilia.io.columns`). Whatever the file's units, the columns read are in deg, V and s.
+(:mod:`magcilia.io.columns`). Whatever the file's units, the columns read are in deg, V, s
+and T.
 CSV files take a ``delimiter`` (sniffed from the header by default: tab, ``;``, ``,`` or white
 space) and a ``decimal`` mark (``","`` for European exports such as ``1,25;0,031``); see
 :mod:`magcilia.io.csvfile`.
@@ -53,14 +78,15 @@ A plain CSV file (numbers only after the header) is parsed by pandas' C reader i
 million rows, each reduced as it comes (:mod:`magcilia.io.csvfile`); anything else goes to the
 careful line-by-line reader, which gives the same columns and the errors that name a line. The
 reduction (:func:`measurement_from_samples`, and every reader through it) is one pass over pieces
-of :data:`REDUCE_SAMPLES` samples: the runs of equal angles are grouped, their sums gathered per
-angle with ``np.bincount``, in a two-pass form accurate on a large offset, and the pieces merged
-with Chan's formulas. A 1e7-row CSV recording (300 MB) reads in under a second on one core with
+of :data:`REDUCE_SAMPLES` samples: the runs of equal conditions (the angle; with an azimuth
+column, the pair as one complex key) are grouped, their sums gathered per condition with
+``np.bincount``, in a two-pass form accurate on a large offset, and the pieces merged with
+Chan's formulas. A 1e7-row CSV recording (300 MB) reads in under a second on one core with
 about 100 MB above the interpreter's own (``benchmarks/bench_recordings.py``).
 
 Angles are tilt angles in degrees: a finite ``|angle_deg|`` above :data:`MAX_ANGLE_DEG` (a
 column in the wrong unit, or garbage) is an error rather than grouped, so the grouping by
-rounding to :data:`ANGLE_DECIMALS` decimals never overflows.
+rounding to :data:`ANGLE_DECIMALS` decimals never overflows; azimuths likewise.
 """
 
 from __future__ import annotations
@@ -84,7 +110,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import Columns
+from magcilia.io.columns import FIELD_KEYS, OBSERVABLE, Columns
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
@@ -105,12 +131,14 @@ SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
-COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset")
+COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS)
 #: A reader's progress: ``progress(bytes_read, file_size)``.
 Progress = Callable[[int, int], None]
 
 #: Largest |tilt angle| accepted, deg; beyond it the column is in the wrong unit or garbage.
 MAX_ANGLE_DEG = 360.0
+#: Largest |tilt azimuth| accepted, deg (as the angle).
+MAX_AZIMUTH_DEG = 360.0
 #: Most samples per column in any format (4 columns × 8 bytes × 50 million = 1.6 GB of arrays).
 MAX_SAMPLES = 50_000_000
 #: Longest CSV line, characters (a recording's line is tens of characters).
@@ -119,22 +147,27 @@ MAX_LINE_CHARS = 1 << 20
 
 @dataclass(frozen=True, eq=False, repr=False)
 class Measurement(Display):
-    """Per-angle summary of a recording (SI units).
+    """Per-condition summary of a recording (SI units): a condition is a tilt angle and a tilt
+    azimuth (today's recordings: one azimuth, 0, so one condition per angle).
 
     Attributes
     ----------
     angles : ndarray, shape (a,)
-        Distinct tilt angles, rad, increasing.
+        Tilt angle of each condition, rad (increasing within each azimuth; the distinct angles,
+        increasing, for a recording at one azimuth).
     volts : ndarray, shape (a,)
-        Mean output per angle, V (offset-free when set/reset samples were given).
+        Mean output per condition, V (offset-free when set/reset samples were given; NaN for
+        3-axis field data).
     sem : ndarray, shape (a,)
-        Standard error of each mean, V (sample std / sqrt(count); 0 for a single sample).
+        Standard error of each mean, V (sample std / sqrt(count); 0 for a single sample; NaN for
+        3-axis field data).
     counts : ndarray of int, shape (a,)
-        Samples used per angle.
+        Samples used per condition.
     saturated : ndarray of int, shape (a,)
-        Samples beyond the sensor's linear range at each angle (dropped if the policy was 'omit').
+        Output samples beyond the sensor's linear range per condition (dropped if the policy was
+        'omit'; 3-axis field data are not range-checked: 0).
     nonfinite : ndarray of int, shape (a,)
-        NaN/inf samples dropped at each angle (nan_policy 'omit').
+        NaN/inf samples dropped per condition (nan_policy 'omit').
     set_reset : bool
         Whether the readings are set/reset differences.
     source : str
@@ -184,10 +217,16 @@ class Measurement(Display):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         a = self.angles.shape
-        if self.azimuths.shape != a or (self.fields is not None and self.field_sem is not None and (
-                self.fields.shape != (*a, 3) or self.field_sem.shape != (*a, 3))):
-            raise v.fail("azimuths / fields", "arrays of other shapes than the angles",
-                         "azimuths of shape (a,) and fields, field_sem of shape (a, 3)")
+        for name in ("volts", "sem", "counts", "saturated", "nonfinite", "azimuths", "fields",
+                     "field_sem"):
+            value = getattr(self, name)
+            want = (*a, 3) if name in ("fields", "field_sem") else a
+            if value is not None and value.shape != want:
+                raise v.fail(f"Measurement {name}", f"shape {value.shape}",
+                             f"shape {want}: one " + ("row (B_x, B_y, B_z)" if len(want) == 2
+                                                      else "value") + " per angle")
+        if not np.isfinite(self.azimuths).all():
+            raise v.fail("Measurement azimuths", self.azimuths.tolist(), "finite angles in rad")
 
     @property
     def observable(self) -> str:
@@ -201,6 +240,37 @@ class Measurement(Display):
     def angles_deg(self) -> F64:
         """Angles in degrees, shape (a,)."""
         return np.degrees(self.angles)
+
+    def require_single_path(self, user: str, fix: str) -> None:
+        """A one-line error unless these are single-axis outputs along the paper's path (every
+        azimuth 0), for the consumers that handle only those.
+
+        Parameters
+        ----------
+        user : str
+            Who needs them, e.g. ``"calibrate(..., model='paper')"``.
+        fix : str
+            What to do instead, e.g. ``"use calibrate(..., model='physical')"``.
+
+        Examples
+        --------
+        >>> m = Measurement(np.radians([0.0, 10.0]), np.full(2, np.nan), np.full(2, np.nan),
+        ...                 np.ones(2, np.int64), np.zeros(2, np.int64), np.zeros(2, np.int64),
+        ...                 fields=np.ones((2, 3)), field_sem=np.zeros((2, 3)))
+        >>> try:
+        ...     m.require_single_path("sensitivity", "leave the data out")
+        ... except MagciliaError as exc:
+        ...     print(str(exc).partition("; ")[2])
+        got 3-axis field data; leave the data out
+        """
+        got = []
+        if self.fields is not None:
+            got.append("3-axis field data")
+        if np.any(self.azimuths != 0.0):
+            got.append("azimuths " + ", ".join(f"{a:g}" for a in self._azimuths_deg()) + " deg")
+        if got:
+            raise MagciliaError(f"{printable(str(self.source))}: {user} needs a single-axis "
+                                f"output at azimuth 0; got {' at '.join(got)}; {fix}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (SI: angles in rad, volts in V)."""
@@ -234,32 +304,68 @@ class Measurement(Display):
                            else np.asarray(data["field_sem_T"], dtype=np.float64)),
             )
 
-    def report(self) -> str:
-        """One line: source, angles, samples and what was dropped."""
+    @property
+    def single_azimuth(self) -> bool:
+        """Whether every condition has the same azimuth (one tilt path)."""
+        return bool(self.azimuths.size == 0 or np.all(self.azimuths == self.azimuths[0]))
+
+    def _azimuths_deg(self) -> list[float]:
+        """The distinct azimuths, deg, increasing."""
+        return np.unique(np.degrees(self.azimuths)).tolist()
+
+    def _conditions_text(self) -> str:
+        """``33 angles 0..85 deg``, ``… at azimuth 90 deg``, or ``34 conditions: 2 azimuths
+        (0, 90 deg) × angles -40..40 deg``."""
         deg = self.angles_deg
-        text = (f"{self.source}: {len(self)} angles {deg.min():.4g}..{deg.max():.4g} deg, "
-                f"{int(self.counts.sum())} samples"
+        span = f"{deg.min():.4g}..{deg.max():.4g} deg"
+        if self.single_azimuth:
+            at = np.degrees(self.azimuths[0]) if len(self) else 0.0
+            return f"{len(self)} angles {span}" + (f" at azimuth {at:g} deg" if at else "")
+        az = self._azimuths_deg()
+        return (f"{len(self)} conditions: {count(len(az), 'azimuth')} "
+                f"({', '.join(f'{a:g}' for a in az)} deg) × angles {span}")
+
+    def report(self) -> str:
+        """One line: source, conditions (angles, azimuths), observable, samples and what was
+        dropped."""
+        text = (f"{self.source}: {self._conditions_text()}"
+                + (", 3-axis field" if self.fields is not None else "")
+                + f", {int(self.counts.sum())} samples"
                 + (" (set/reset differences)" if self.set_reset else ""))
         dropped = [f"{int(n.sum())} {what}" for n, what in ((self.saturated, "saturated"),
                                                             (self.nonfinite, "non-finite"))
                    if n.sum()]
         lost = self.metadata.get("dropped") or {}
         if lost.get("no_angle"):
-            dropped.append(f"{lost['no_angle']} without a finite angle")
+            dropped.append(f"{lost['no_angle']} without a finite angle"
+                           + (" or azimuth" if "azimuths_deg" in lost else ""))
         if lost.get("angles_deg"):
-            dropped.append(f"{lost['samples']} at {len(lost['angles_deg'])} angle(s) left with no "
-                           f"usable sample ({', '.join(f'{a:g}' for a in lost['angles_deg'])} deg)")
+            where = [f"{a:g}" for a in lost["angles_deg"]]
+            if "azimuths_deg" in lost:
+                where = [f"{a} at {z:g}" for a, z in zip(where, lost["azimuths_deg"], strict=True)]
+            what = "condition(s)" if "azimuths_deg" in lost else "angle(s)"
+            dropped.append(f"{lost['samples']} at {len(where)} {what} left with no "
+                           f"usable sample ({', '.join(where)} deg)")
         return text + (f"; {', '.join(dropped)}" if dropped else "")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         deg = np.degrees(self.angles)
-        items = [("", count(len(self), "angle")),
-                 ("angles", f"{number(deg.min())}…{number(deg.max())} deg" if len(self) else "-"),
-                 ("output", f"{si(self.volts.min(), 'V')}…{si(self.volts.max(), 'V')}"
-                  if len(self) else "-"),
-                 ("median s.e.", si(float(np.median(self.sem)), "V") if len(self) else "-"),
-                 ("samples", str(int(self.counts.sum())))]
+        n = len(self)
+        items = [("", count(n, "angle" if self.single_azimuth else "condition"))]
+        if not self.single_azimuth or (n and self.azimuths[0] != 0.0):
+            items.append(("azimuths", ", ".join(f"{a:g}" for a in self._azimuths_deg())
+                          + " deg"))
+        items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg" if n else "-"))
+        if self.fields is not None and self.field_sem is not None:
+            norm = np.linalg.norm(self.fields, axis=1)
+            items += [("|B|", f"{si(norm.min(), 'T')}…{si(norm.max(), 'T')}" if n else "-"),
+                      ("median s.e.", si(float(np.median(self.field_sem)), "T") if n else "-")]
+        else:
+            items += [("output", f"{si(self.volts.min(), 'V')}…{si(self.volts.max(), 'V')}"
+                       if n else "-"),
+                      ("median s.e.", si(float(np.median(self.sem)), "V") if n else "-")]
+        items.append(("samples", str(int(self.counts.sum()))))
         if self.saturated.any():
             items.append(("saturated", str(int(self.saturated.sum()))))
         if self.set_reset:
@@ -267,16 +373,34 @@ class Measurement(Display):
         return [*items, ("source", self.source)]
 
     def _display_table(self) -> Table:
-        return (("angle (deg)", "output (mV)", "s.e. (µV)", "samples"),
-                [(number(a, 5), number(v * 1e3, 5), number(e * 1e6), str(int(n)))
-                 for a, v, e, n in zip(self.angles_deg, self.volts, self.sem, self.counts,
-                                       strict=True)])
+        az = [] if self.single_azimuth else ["azimuth (deg)"]
+        azimuths = np.degrees(self.azimuths)
+        if self.fields is not None and self.field_sem is not None:
+            header = (*az, "angle (deg)", "B_x (µT)", "B_y (µT)", "B_z (µT)", "s.e. B_x (nT)",
+                      "s.e. B_y (nT)", "s.e. B_z (nT)", "samples")
+            rows = [[*([number(z, 5)] if az else []), number(a, 5),
+                     *(number(x * 1e6, 5) for x in b), *(number(x * 1e9) for x in e), str(int(n))]
+                    for z, a, b, e, n in zip(azimuths, self.angles_deg, self.fields,
+                                             self.field_sem, self.counts, strict=True)]
+            return header, rows
+        return ((*az, "angle (deg)", "output (mV)", "s.e. (µV)", "samples"),
+                [(*([number(z, 5)] if az else []), number(a, 5), number(v * 1e3, 5),
+                  number(e * 1e6), str(int(n)))
+                 for z, a, v, e, n in zip(azimuths, self.angles_deg, self.volts, self.sem,
+                                          self.counts, strict=True)])
 
     def to_dataframe(self) -> Any:
-        """The reduced measurements as a ``pandas.DataFrame``, one row per angle, SI: columns
-        ``angle_rad``, ``output_V`` (mean), ``sem_V`` (its standard error), ``count``,
-        ``saturated``, ``nonfinite`` (samples per angle)."""
-        return dataframe({"angle_rad": self.angles, "output_V": self.volts, "sem_V": self.sem,
+        """The reduced measurements as a ``pandas.DataFrame``, one row per condition, SI: columns
+        ``angle_rad``, ``azimuth_rad``, then ``output_V`` (mean) and ``sem_V`` (its standard
+        error) for the single-axis output, or ``field_x_T``, ``field_y_T``, ``field_z_T`` and
+        ``sem_field_x_T``, ``sem_field_y_T``, ``sem_field_z_T`` for 3-axis field data, then
+        ``count``, ``saturated``, ``nonfinite`` (samples per condition)."""
+        if self.fields is not None and self.field_sem is not None:
+            values = {**{k: self.fields[:, j] for j, k in enumerate(FIELD_KEYS)},
+                      **{f"sem_{k}": self.field_sem[:, j] for j, k in enumerate(FIELD_KEYS)}}
+        else:
+            values = {"output_V": self.volts, "sem_V": self.sem}
+        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **values,
                           "count": self.counts, "saturated": self.saturated,
                           "nonfinite": self.nonfinite})
 
@@ -332,14 +456,25 @@ REDUCE_SAMPLES = 1 << 20
 
 
 class _Reduction:
-    """A recording's samples reduced to per-angle statistics as they come, block by block.
+    """A recording's samples reduced to per-condition statistics as they come, block by block.
+
+    A condition is a pair (azimuth, angle), held as one complex key ``azimuth_deg + 1j·angle_deg``
+    (both rounded to :data:`ANGLE_DECIMALS` decimals): NumPy sorts complex numbers by their real
+    part, then their imaginary part, so the conditions come ordered by azimuth, then angle, and
+    ``np.union1d``/``np.searchsorted`` merge them as they did the angles alone. Without an azimuth
+    column the samples are grouped by their angle (a real key, as always) and the block's few
+    distinct angles become conditions at azimuth 0.
+
+    The statistics per condition are ``width`` columns: 1 (the output), 2 (set/reset: reset, set)
+    or 3 (the field components B_x, B_y, B_z).
 
     :meth:`add` never raises: the first sample of each kind of problem is noted and
     :meth:`measurement` raises the error the whole recording deserves, in the order the checks
-    have always had (an angle beyond ±:data:`MAX_ANGLE_DEG`, a non-finite or unlabelled sample
-    under nan_policy 'raise', a saturated one under saturation 'raise', then per angle), so that a
-    reader's errors on a later block come first. Blocks are merged with Chan's parallel formulas
-    (Chan, Golub & LeVeque 1983): the result does not depend on where blocks are cut.
+    have always had (an angle beyond ±:data:`MAX_ANGLE_DEG`, an azimuth beyond
+    ±:data:`MAX_AZIMUTH_DEG`, a non-finite or unlabelled sample under nan_policy 'raise', a
+    saturated one under saturation 'raise', then per condition), so that a reader's errors on a
+    later block come first. Blocks are merged with Chan's parallel formulas (Chan, Golub &
+    LeVeque 1983): the result does not depend on where blocks are cut.
     """
 
     def __init__(self, sensor: Sensor | None, nan_policy: str, saturation: str, source: str):
@@ -348,27 +483,45 @@ class _Reduction:
         self.sensor, self.source = sensor or Sensor(), source
         self.samples = self.no_angle = 0
         self.problems: dict[str, str] = {}  # "far", "bad", "saturated" -> message of the first
-        self.angles = np.zeros(0)  # distinct angles (rounded), deg, increasing: shape (a,)
-        self.counts = np.zeros((0, 2), np.int64)  # non-finite and saturated samples per angle
-        self.peak = np.zeros(0)  # largest |V| used per angle
-        self.k = 0  # statistics per angle: 1, or 2 with set/reset (reset, set); 0 before samples
-        self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (a, k)
+        # distinct conditions azimuth_deg + 1j * angle_deg (rounded), increasing: shape (c,)
+        self.conds = np.zeros(0, np.complex128)
+        self.counts = np.zeros((0, 2), np.int64)  # non-finite and saturated samples per condition
+        self.peak = np.zeros(0)  # largest |value| used per condition
+        self.width = 0  # statistics per condition (1, 2 or 3, see above); 0 before samples
+        self.field = self.azimuth = False  # 3-axis field samples; an azimuth column
+        self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (c, w)
 
-    def add(self, ang: F64, volt: F64, sr: F64 | None = None) -> None:
-        """Add samples (shapes (s,): angle in deg, output in V, +1/−1 set/reset or None), in
-        pieces of :data:`REDUCE_SAMPLES`."""
-        if not self.k:
-            self.k = 1 if sr is None else 2
-            self.stats = Moments(np.zeros((0, self.k), np.int64), *np.zeros((3, 0, self.k)))
+    def add_columns(self, cols: Mapping[str, F64]) -> None:
+        """Add a reader's columns (keys as :func:`read_samples` returns them)."""
+        x, y, z = FIELD_KEYS
+        fields = (cols[x], cols[y], cols[z]) if x in cols else None
+        self.add(cols["angle_deg"], cols.get("voltage_V"), cols.get("setreset"),
+                 azimuth=cols.get("azimuth_deg"), fields=fields)
+
+    def add(self, ang: F64, volt: F64 | None, sr: F64 | None = None, *,
+            azimuth: F64 | None = None, fields: tuple[F64, F64, F64] | None = None) -> None:
+        """Add samples (shapes (s,): angle in deg, output in V or None, +1/−1 set/reset or None,
+        azimuth in deg or None (0), the field components in T or None), in pieces of
+        :data:`REDUCE_SAMPLES`. Every block of a recording has the same kinds of columns."""
+        if not self.width:
+            self.field, self.azimuth = fields is not None, azimuth is not None
+            self.width = 3 if self.field else (1 if sr is None else 2)
+            self.stats = Moments(np.zeros((0, self.width), np.int64),
+                                 *np.zeros((3, 0, self.width)))
         for s in range(0, ang.size, REDUCE_SAMPLES):
             part = slice(s, s + REDUCE_SAMPLES)
-            self._add(ang[part], volt[part], None if sr is None else sr[part])
+            self._add(ang[part], None if volt is None else volt[part],
+                      None if sr is None else sr[part],
+                      None if azimuth is None else azimuth[part],
+                      None if fields is None else (fields[0][part], fields[1][part],
+                                                   fields[2][part]))
 
     def _note(self, kind: str, where: NDArray[np.bool_], message: Callable[[int], str]) -> None:
         if kind not in self.problems and where.any():
             self.problems[kind] = message(int(np.argmax(where)))
 
-    def _add(self, ang: F64, volt: F64, sr: F64 | None) -> None:
+    def _add(self, ang: F64, volt: F64 | None, sr: F64 | None, az: F64 | None,
+             fields: tuple[F64, F64, F64] | None) -> None:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
@@ -376,51 +529,94 @@ class _Reduction:
             f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
             f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the column "
             "and its unit)"))
-        bad = ~(finite & np.isfinite(volt))
+        if az is not None:
+            finite_az = np.isfinite(az)
+            self._note("far_azimuth", finite_az & (np.abs(az) > MAX_AZIMUTH_DEG), lambda i: (
+                f"{source}: sample {offset + i + 1} has azimuth_deg={az[i]:.6g}, beyond "
+                f"±{MAX_AZIMUTH_DEG:g} deg; azimuth_deg must be the tilt direction in degrees "
+                "(check the column and its unit)"))
+            finite &= finite_az
+        if fields is None:
+            assert volt is not None
+            bad = ~(finite & np.isfinite(volt))
+        else:
+            bad = ~(finite & np.isfinite(fields[0]) & np.isfinite(fields[1])
+                    & np.isfinite(fields[2]))
         if sr is not None:
             bad |= (sr != 1.0) & (sr != -1.0)
         if self.nan_policy == "raise":
+            def values(i: int) -> str:
+                cols = [("angle_deg", ang), ("azimuth_deg", az), ("voltage_V", volt),
+                        *zip(FIELD_KEYS, fields or (None, None, None), strict=True)]
+                return ", ".join(f"{k}={c[i]}" for k, c in cols if c is not None)
+
             self._note("bad", bad, lambda i: (
                 f"{source}: sample {offset + i + 1} "
-                + (f"is not finite (angle_deg={ang[i]}, voltage_V={volt[i]})"
-                   if not (math.isfinite(ang[i]) and math.isfinite(volt[i])) or sr is None
+                + (f"is not finite ({values(i)})" if sr is None or not finite[i]
+                   or (volt is not None and not math.isfinite(volt[i]))
                    else f"has setreset={sr[i]:g}, neither +1 (set) nor -1 (reset)")
                 + "; clean the file or pass nan_policy='omit' (CLI: --nan-policy omit)"))
-        sat = ~bad & beyond_range(volt, self.sensor)
-        if self.saturation == "raise":
-            self._note("saturated", sat, lambda i: (
-                f"{source}: sample {offset + i + 1} (voltage_V={volt[i]:.6g} at {ang[i]:g} deg) "
-                f"is beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
-                f"gauss = ±{self.sensor.field_range * abs(self.sensor.scale):.4g} V); check gain "
-                "and offset, or pass saturation='omit' (CLI: --saturation omit) to drop such "
-                "samples"))
+        if volt is not None and fields is None:  # (3-axis data are not range-checked here)
+            out = volt
+            sat = ~bad & beyond_range(out, self.sensor)
+            if self.saturation == "raise":
+                self._note("saturated", sat, lambda i: (
+                    f"{source}: sample {offset + i + 1} (voltage_V={out[i]:.6g} at {ang[i]:g} deg) "
+                    f"is beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
+                    f"gauss = ±{self.sensor.field_range * abs(self.sensor.scale):.4g} V); check "
+                    "gain and offset, or pass saturation='omit' (CLI: --saturation omit) to drop "
+                    "such samples"))
+        else:
+            sat = np.zeros(ang.size, dtype=bool)
         if self.problems:  # the recording is refused (and a far angle must not be rounded)
             return
         on: slice | NDArray[np.bool_] = slice(None) if finite.all() else finite  # no copy if all
-        angles, group = by_value(np.round(ang[on], ANGLE_DECIMALS))
+        if az is None:  # grouped by angle alone (the fast path), at azimuth 0
+            angles, group = by_value(np.round(ang[on], ANGLE_DECIMALS))
+            conds = np.zeros(angles.size, np.complex128)
+            conds.imag = angles
+        else:
+            angles = ang[on]
+            key = np.empty(angles.size, np.complex128)
+            key.real, key.imag = az[on], angles
+            conds, group = by_value(np.round(key, ANGLE_DECIMALS))
         self.no_angle += ang.size - group.size  # (nan_policy 'omit')
-        a, k = angles.size, self.k
+        a, k = conds.size, self.width
         counts = np.stack([np.bincount(group[bad[on]], minlength=a),
                            np.bincount(group[sat[on]], minlength=a)], axis=1)
         use = ~bad & ~sat if self.saturation == "omit" else ~bad
         if not use.all():
-            group, volt, sr = (group[use[on]], volt[use & finite],
-                               None if sr is None else sr[use & finite])
-        stats, peak = group_moments(group if sr is None else 2 * group + (sr > 0), volt, a * k)
-        self._merge(angles, counts, stats.reshape(a, k),
-                    peak.reshape(a, k).max(axis=1))
+            keep = use & finite
+            group = group[use[on]]
+            volt = None if volt is None else volt[keep]
+            sr = None if sr is None else sr[keep]
+            fields = None if fields is None else (fields[0][keep], fields[1][keep],
+                                                  fields[2][keep])
+        if fields is not None:  # each component grouped alike: statistics of shape (a, 3)
+            parts = [group_moments(group, f, a) for f in fields]
+            stats = Moments(np.stack([p[0].n for p in parts], axis=1),
+                            np.stack([p[0].hi for p in parts], axis=1),
+                            np.stack([p[0].lo for p in parts], axis=1),
+                            np.stack([p[0].m2 for p in parts], axis=1))
+            peak = np.max([p[1] for p in parts], axis=0)
+        else:
+            assert volt is not None
+            flat, flat_peak = group_moments(group if sr is None else 2 * group + (sr > 0), volt,
+                                            a * k)
+            stats, peak = flat.reshape(a, k), flat_peak.reshape(a, k).max(axis=1)
+        self._merge(conds, counts, stats, peak)
 
-    def _merge(self, angles: F64, counts: NDArray[np.int64], block: Moments, peak: F64
-               ) -> None:
-        """Merge a block's per-angle statistics (shapes (b,), (b, 2) and (b, k)) into ours."""
-        union = np.union1d(self.angles, angles)
-        if union.size > self.angles.size:  # angles not seen before: make room
-            old = np.searchsorted(union, self.angles)
+    def _merge(self, conds: NDArray[np.complex128], counts: NDArray[np.int64], block: Moments,
+               peak: F64) -> None:
+        """Merge a block's per-condition statistics (shapes (b,), (b, 2) and (b, w)) into ours."""
+        union = np.union1d(self.conds, conds)
+        if union.size > self.conds.size:  # conditions not seen before: make room
+            old = np.searchsorted(union, self.conds)
             self.counts, self.peak = (grow_rows(x, old, union.size)
                                       for x in (self.counts, self.peak))
             self.stats = Moments(*(grow_rows(x, old, union.size) for x in self.stats))
-            self.angles = union
-        at = np.searchsorted(self.angles, angles)
+            self.conds = union
+        at = np.searchsorted(self.conds, conds)
         self.counts[at] += counts
         self.peak[at] = np.maximum(self.peak[at], peak)
         n, hi, lo, m2 = self.stats
@@ -433,93 +629,167 @@ class _Reduction:
             m2[at] = np.where(new, block.m2, m2[at] + block.m2 + delta * delta * na * share)
         n[at] = na + block.n
 
+    def _condition(self, i: int) -> str:
+        """Condition ``i`` in words: ``"40 deg"``, ``"40 deg at azimuth 90 deg"``."""
+        c = self.conds[i]
+        return f"{c.imag:g} deg" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
+
+    def _readings(self) -> tuple[F64, F64, NDArray[np.int64], F64 | None, F64 | None]:
+        """Per condition: output and its standard error (V; NaN for field data), samples used,
+        and the field and its standard errors (T, shapes (c, 3); None for output data)."""
+        if not self.field:
+            volts, sem, count = summarize(self.stats)
+            return volts, sem, count, None, None
+        n, hi, lo, m2 = self.stats
+        comps = [summarize(Moments(n[:, j:j + 1], hi[:, j:j + 1], lo[:, j:j + 1], m2[:, j:j + 1]))
+                 for j in range(3)]
+        fields = np.stack([c[0] for c in comps], axis=1)
+        field_sem = np.stack([c[1] for c in comps], axis=1)
+        nan = np.full(self.conds.size, np.nan)
+        return nan, nan.copy(), comps[0][2], fields, field_sem
+
     def measurement(self) -> Measurement:
         """The :class:`Measurement` of the samples added, or the error the recording deserves."""
         source = self.source
         if not self.samples:
             raise v.fail(f"{source}", "no samples", "a recording with at least two angles")
-        for kind in ("far", "bad", "saturated"):
+        for kind in ("far", "far_azimuth", "bad", "saturated"):
             if kind in self.problems:
                 raise MagciliaError(self.problems[kind])
         n, hi, lo, _ = self.stats
-        volts, sem, count = summarize(self.stats)
-        has = count > 0  # angles left with a usable sample
+        volts, sem, count, fields, field_sem = self._readings()
+        has = count > 0  # conditions left with a usable sample
         with np.errstate(over="ignore", invalid="ignore"):  # a sum beyond the doubles overflows
             sums = np.isfinite((hi + lo) * n).all(axis=1)  # (as when summed in one piece)
-        wrong = has & ~(np.isfinite(volts) & np.isfinite(sem) & sums & (n.min(axis=1) > 0))
-        if wrong.any():  # the first angle missing a polarity, or whose reading overflows
+        readings: NDArray[np.bool_] = np.asarray(
+            np.isfinite(volts) & np.isfinite(sem) if fields is None or field_sem is None
+            else np.isfinite(fields).all(axis=1) & np.isfinite(field_sem).all(axis=1))
+        wrong = has & ~(readings & sums & (n.min(axis=1) > 0))
+        if wrong.any():  # the first condition missing a polarity, or whose reading overflows
             i = int(np.argmax(wrong))
             if n[i].min() == 0:
-                raise _polarity_error(f"{source}: angle {self.angles[i]:g} deg", n[i])
+                raise _polarity_error(f"{source}: angle {self._condition(i)}", n[i])
+            unit, need = (("T", "field_x_T, field_y_T and field_z_T must be in tesla")
+                          if self.field else ("V", "voltage_V must be in volts"))
             raise MagciliaError(
-                f"{source}: the reading at {self.angles[i]:g} deg overflows (samples up to "
-                f"{self.peak[i]:.3g} V); voltage_V must be in volts"
+                f"{source}: the reading at {self._condition(i)} overflows (samples up to "
+                f"{self.peak[i]:.3g} {unit}); {need}"
             )
         if has.sum() < 2:
+            what = ("usable condition(s) (azimuth, angle)" if self.azimuth
+                    else "usable angle(s)")
             raise MagciliaError(
-                f"{source}: the recording has {has.sum()} usable angle(s); calibration needs at "
-                "least two distinct angles (rows of angle_deg, voltage_V)"
+                f"{source}: the recording has {has.sum()} {what}; calibration needs at "
+                "least two distinct angles (rows of angle_deg, "
+                + ("field_x_T, field_y_T, field_z_T)" if self.field else "voltage_V)")
             )
-        if np.ptp(volts[has]) == 0.0:
+        if fields is None and np.ptp(volts[has]) == 0.0:
             raise MagciliaError(
                 f"{source}: all readings are equal ({volts[has][0]:.6g} V); the sensor output "
                 "does not vary with the angle (check the wiring, the gain and that the cilium is "
                 "magnetized)"
             )
+        if fields is not None and not np.ptp(fields[has], axis=0).any():
+            b = ", ".join(f"{x:.6g}" for x in fields[has][0])
+            raise MagciliaError(
+                f"{source}: all field readings are equal (B = ({b}) T); the field does not vary "
+                "with the angle (check the magnetometer, its axes and that the cilium is "
+                "magnetized)"
+            )
         nonfinite, saturated = self.counts.T
         metadata: dict[str, Any] = {}
-        if self.no_angle or not has.all():  # dropped samples that no angle's counts can hold
+        if self.no_angle or not has.all():  # dropped samples that no condition's counts can hold
             lost = nonfinite + (saturated if self.saturation == "omit" else 0)
             metadata["dropped"] = {"no_angle": self.no_angle,
-                                   "angles_deg": self.angles[~has].tolist(),
+                                   "angles_deg": self.conds.imag[~has].tolist(),
                                    "samples": int(lost[~has].sum())}
-        logger.info("%s: %d samples reduced to %d angles", source, self.samples, int(has.sum()))
+            if self.azimuth:
+                metadata["dropped"]["azimuths_deg"] = self.conds.real[~has].tolist()
+        logger.info("%s: %d samples reduced to %d conditions", source, self.samples,
+                    int(has.sum()))
         return Measurement(
-            angles=np.radians(self.angles[has]), volts=volts[has], sem=sem[has],
+            angles=np.radians(self.conds.imag[has]), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
-            set_reset=self.k == 2, source=source, metadata=metadata,
+            set_reset=self.width == 2, source=source, metadata=metadata,
+            azimuths=np.radians(self.conds.real[has]),
+            fields=None if fields is None else fields[has],
+            field_sem=None if field_sem is None else field_sem[has],
         )
 
 
 def measurement_from_samples(
     angle_deg: ArrayLike,
-    voltage: ArrayLike,
+    voltage: ArrayLike | None = None,
     *,
     setreset: ArrayLike | None = None,
+    azimuth_deg: ArrayLike | None = None,
+    field: ArrayLike | None = None,
     sensor: Sensor | None = None,
     nan_policy: str = "raise",
     saturation: str = "raise",
     source: str = "<array>",
 ) -> Measurement:
     """Reduce raw samples to a :class:`Measurement`, in one pass over pieces of
-    :data:`REDUCE_SAMPLES` samples (per-angle means and standard errors accurate on a large
+    :data:`REDUCE_SAMPLES` samples (per-condition means and standard errors accurate on a large
     offset; the result does not depend on the pieces).
+
+    Samples are grouped per condition (azimuth, angle); the conditions come ordered by azimuth,
+    then angle.
 
     Parameters
     ----------
     angle_deg : array-like, shape (s,)
         Tilt angle of each sample, degrees (the file convention).
-    voltage : array-like, shape (s,)
-        Sensor output of each sample, V.
+    voltage : array-like, shape (s,), optional
+        Sensor output of each sample, V (the single-axis AMR output; give it or ``field``).
     setreset : array-like, shape (s,), optional
-        +1 for samples after a set pulse, −1 after a reset pulse.
+        +1 for samples after a set pulse, −1 after a reset pulse (with ``voltage`` only).
+    azimuth_deg : array-like, shape (s,), optional
+        Tilt direction of each sample, degrees, finite and within ±:data:`MAX_AZIMUTH_DEG`
+        (default 0: the paper's tilt toward +x).
+    field : array-like, shape (s, 3), optional
+        3-axis magnetometer samples (B_x, B_y, B_z) at the sensing point, T (instead of
+        ``voltage``; not range-checked: ``sensor`` and ``saturation`` apply to voltages only).
     sensor : Sensor, optional
-        Used to flag samples beyond the linear range (|V − offset| / |scale| > field_range);
-        default the HMC1021Z preset at the paper's settings.
+        Used to flag output samples beyond the linear range (|V − offset| / |scale| >
+        field_range); default the HMC1021Z preset at the paper's settings.
     nan_policy : {"raise", "omit"}
-        What to do with NaN/inf samples.
+        What to do with NaN/inf samples (in any column used).
     saturation : {"raise", "omit", "keep"}
-        What to do with samples beyond the sensor's range.
+        What to do with output samples beyond the sensor's range.
     source : str
         Name used in messages.
+
+    Examples
+    --------
+    >>> b = [[1e-5, 0, 2e-5]] * 2 + [[2e-5, 0, 2e-5]] * 2 + [[1e-5, 1e-5, 2e-5]] * 2
+    >>> m = measurement_from_samples([0, 0, 10, 10, 0, 0], field=b,
+    ...                              azimuth_deg=[0, 0, 0, 0, 90, 90])
+    >>> m.observable, len(m), np.degrees(m.azimuths).tolist(), m.fields[:, 1].tolist()
+    ('field', 3, [0.0, 0.0, 90.0], [0.0, 0.0, 1e-05])
     """
     reduction = _Reduction(sensor, nan_policy, saturation, source)
     ang = np.asarray(angle_deg, dtype=np.float64).ravel()
-    volt = np.asarray(voltage, dtype=np.float64).ravel()
+    if (voltage is None) == (field is None):
+        raise v.fail(f"{source}: samples", "both voltage and field" if voltage is not None
+                     else "neither voltage nor field",
+                     "one observable: voltage (V, shape (s,)) or field (T, shape (s, 3))")
+    if field is not None and setreset is not None:
+        raise v.fail(f"{source}: setreset", "given with field samples",
+                     "left out (set/reset differences are for the single-axis output)")
+    volt = None if voltage is None else np.asarray(voltage, dtype=np.float64).ravel()
     sr = None if setreset is None else np.asarray(setreset, dtype=np.float64).ravel()
-    if ang.size != volt.size or (sr is not None and sr.size != ang.size):
-        raise v.fail(f"{source}: columns", f"lengths {ang.size}, {volt.size}", "of equal length")
-    reduction.add(ang, volt, sr)
+    az = None if azimuth_deg is None else np.asarray(azimuth_deg, dtype=np.float64).ravel()
+    b = None if field is None else np.asarray(field, dtype=np.float64)
+    if b is not None and (b.ndim != 2 or b.shape[1] != 3):
+        raise v.fail(f"{source}: field", f"shape {b.shape}", "shape (samples, 3): B_x, B_y, B_z")
+    fields = None if b is None else (b[:, 0], b[:, 1], b[:, 2])
+    sizes = [x.size for x in (ang, volt, sr, az) if x is not None] + (
+        [] if b is None else [b.shape[0]])
+    if len(set(sizes)) > 1:
+        raise v.fail(f"{source}: columns", "lengths " + ", ".join(map(str, sizes)),
+                     "of equal length")
+    reduction.add(ang, volt, sr, azimuth=az, fields=fields)
     return reduction.measurement()
 
 
@@ -578,6 +848,11 @@ class _CSVLocator:
             block[key] = block[key] * factor
         return block
 
+    def header_names(self) -> tuple[str, ...]:
+        """The required keys as the CSV readers name them in messages (the observable as
+        ``voltage_V``)."""
+        return tuple("voltage_V" if k == OBSERVABLE else k for k in self.required)
+
     def options(self) -> dict[str, Any]:
         """The readers' keyword arguments."""
         return {"delimiter": self.how.delimiter, "decimal": self.how.decimal, "locate": self,
@@ -588,11 +863,11 @@ def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64
     """A CSV recording's columns: the fast reader's blocks joined, or the careful reader's."""
     locate = _CSVLocator(path, how, required)
     try:
-        blocks = list(plain_csv_blocks(path, COLUMNS, required, progress=how.progress,
-                                       **locate.options()))
+        blocks = list(plain_csv_blocks(path, COLUMNS, locate.header_names(),
+                                       progress=how.progress, **locate.options()))
     except NotPlainCSV:
-        return locate.scaled(read_csv_carefully(path, COLUMNS, required, progress=how.progress,
-                                                **locate.options()))
+        return locate.scaled(read_csv_carefully(path, COLUMNS, locate.header_names(),
+                                                progress=how.progress, **locate.options()))
     return locate.scaled({col: np.concatenate([b[col] for b in blocks]) for col in blocks[0]})
 
 
@@ -600,18 +875,16 @@ def _reduce_csv(path: Path, how: _How, start: Callable[[], _Reduction]) -> _Redu
     """A CSV recording reduced as it is read: block by block from the fast reader, or, where it
     gives up (even after some blocks), afresh from the careful reader's columns."""
     reduction = start()
-    required = ("angle_deg", "voltage_V")
+    required = ("angle_deg", OBSERVABLE)
     locate = _CSVLocator(path, how, required)
     try:
-        for piece in plain_csv_blocks(path, COLUMNS, required, progress=how.progress,
-                                      **locate.options()):
-            block = locate.scaled(piece)
-            reduction.add(block["angle_deg"], block["voltage_V"], block.get("setreset"))
+        for piece in plain_csv_blocks(path, COLUMNS, locate.header_names(),
+                                      progress=how.progress, **locate.options()):
+            reduction.add_columns(locate.scaled(piece))
     except NotPlainCSV:
         reduction = start()
-        cols = locate.scaled(read_csv_carefully(path, COLUMNS, required, progress=how.progress,
-                                                **locate.options()))
-        reduction.add(cols["angle_deg"], cols["voltage_V"], cols.get("setreset"))
+        reduction.add_columns(locate.scaled(read_csv_carefully(
+            path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options())))
     return reduction
 
 
@@ -695,8 +968,11 @@ def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F6
 
 def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
     names = how.columns.names()  # key -> variable name (MATLAB names carry no unit)
-    variables = read_mat(path, tuple(dict.fromkeys(names.values())),
-                         tuple(names[k] for k in required))
+    need = tuple(names["voltage_V" if k == OBSERVABLE else k] for k in required)
+    if OBSERVABLE in required:  # the voltage (last), or the field components in its place
+        need = (*(n for n in need if n != names["voltage_V"]), names["voltage_V"])
+    variables = read_mat(path, tuple(dict.fromkeys(names.values())), need,
+                         tuple(names[k] for k in FIELD_KEYS) if OBSERVABLE in required else ())
     found = list(variables)
     located = how.columns.locate(found, where=str(path), required=required, kind="variable")
     return {key: variables[found[i]] * factor if factor != 1.0 else variables[found[i]]
@@ -751,7 +1027,7 @@ def _reader_boundary(p: Path) -> Iterator[None]:
 
 
 def read_samples(
-    path: str | Path, required: tuple[str, ...] = ("angle_deg", "voltage_V"), *,
+    path: str | Path, required: tuple[str, ...] = ("angle_deg", OBSERVABLE), *,
     columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
     decimal: str = ".", group: str | None = None, progress: Progress | None = None,
 ) -> dict[str, F64]:
@@ -763,12 +1039,15 @@ def read_samples(
         The file; its suffix selects the reader (see the module docstring for the formats).
     required : tuple of str
         Columns that must be present, by their keys ``angle_deg``, ``voltage_V``, ``time_s``,
-        ``setreset`` (a one-line error names the file, the missing column and those it has).
+        ``setreset``, ``azimuth_deg``, ``field_x_T``, ``field_y_T``, ``field_z_T``, or
+        ``"observable"``: ``voltage_V`` or the three field columns (a one-line error names the
+        file, the missing column and those it has). Default: the angle and the observable.
     columns : Columns, mapping or str, optional
-        Which of the file's columns holds the angle, voltage, time and setreset, with units:
-        ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
+        Which of the file's columns holds the angle, voltage, time, setreset, azimuth and field
+        components, with units: ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
         :class:`~magcilia.io.columns.Columns` or the CLI's ``"angle=Tilt[deg],voltage=Vout[mV]"``
-        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``).
+        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``,
+        ``azimuth_deg``, ``field_x_T``, ``field_y_T``, ``field_z_T``).
     delimiter : {None, ",", ";", "\\t", "tab", " ", "whitespace", "auto"}
         CSV only: between fields; None or "auto" sniffs it from the header line.
     decimal : {".", ","}
@@ -784,10 +1063,12 @@ def read_samples(
     Returns
     -------
     dict of str to ndarray, shape (samples,)
-        The columns found among ``angle_deg`` (deg), ``voltage_V`` (V), ``time_s`` (s) and
-        ``setreset`` (+1 set, −1 reset), whatever the file's names and units, all of the same
+        The columns found among ``angle_deg`` (deg), ``voltage_V`` (V), ``time_s`` (s),
+        ``setreset`` (+1 set, −1 reset), ``azimuth_deg`` (deg) and ``field_x_T``,
+        ``field_y_T``, ``field_z_T`` (T), whatever the file's names and units, all of the same
         length (possibly 0: a recording stopped before its first sample;
-        :func:`read_measurements` rejects it).
+        :func:`read_measurements` rejects it). Never both ``voltage_V`` and the field columns,
+        and the field columns all three or none (one-line errors).
 
     Raises
     ------
@@ -799,9 +1080,9 @@ def read_samples(
     """
     p = _recording_path(path)
     how = _how(p, columns, delimiter, decimal, group, progress)
-    unknown = [k for k in required if k not in COLUMNS]
+    unknown = [k for k in required if k not in (*COLUMNS, OBSERVABLE)]
     if unknown:
-        raise v.fail("required", unknown[0], "keys among " + ", ".join(COLUMNS))
+        raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
     with _reader_boundary(p):
         cols = _read(p, required, how)
     lengths = {k: a.size for k, a in cols.items()}
@@ -842,7 +1123,11 @@ def read_measurements(
     group: str | None = None,
     progress: Progress | None = None,
 ) -> Measurement:
-    """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-angle means.
+    """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-condition means.
+
+    A condition is a tilt angle (``angle_deg``) at a tilt azimuth (``azimuth_deg``, default 0);
+    the observable is the single-axis output (``voltage_V``) or the 3-axis field (``field_x_T``,
+    ``field_y_T``, ``field_z_T``). See the module docstring for the formats and the rules.
 
     Parameters
     ----------
@@ -851,14 +1136,17 @@ def read_measurements(
     sensor : Sensor, optional
         Sensor settings for the range check (default: HMC1021Z at the paper's settings).
     nan_policy : {"raise", "omit"}
-        NaN/inf samples: an error, or dropped and counted in ``Measurement.nonfinite``.
+        NaN/inf samples (in any column read): an error, or dropped and counted in
+        ``Measurement.nonfinite``.
     saturation : {"raise", "omit", "keep"}
-        Samples beyond the sensor's linear range: an error, dropped, or kept; always counted.
+        Output samples beyond the sensor's linear range: an error, dropped, or kept; always
+        counted (3-axis field data are not range-checked).
     columns : Columns, mapping or str, optional
-        Which of the file's columns holds the angle, voltage, time and setreset, with units:
-        ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
+        Which of the file's columns holds the angle, voltage, time, setreset, azimuth and field
+        components, with units: ``{"angle": "Tilt[deg]", "voltage": "Vout[mV]"}``, a
         :class:`~magcilia.io.columns.Columns` or the CLI's ``"angle=Tilt[deg],voltage=Vout[mV]"``
-        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``).
+        (default: the names ``angle_deg``, ``voltage_V``, ``time_s``, ``setreset``,
+        ``azimuth_deg``, ``field_x_T``, ``field_y_T``, ``field_z_T``).
     delimiter : {None, ",", ";", "\\t", "tab", " ", "whitespace", "auto"}
         CSV only: between fields; None or "auto" sniffs it from the header line.
     decimal : {".", ","}
@@ -881,6 +1169,11 @@ def read_measurements(
 
         read_measurements("run.csv", decimal=",", columns={
             "time": "Zeit[s]", "angle": "Winkel[deg]", "voltage": "Spannung[mV]"})
+
+    A 3-axis magnetometer's export in µT with the azimuth in radians::
+
+        read_measurements("run.csv", columns="angle=Tilt[deg],azimuth=Phi[rad],"
+                          "field_x=Bx[uT],field_y=By[uT],field_z=Bz[uT]")
     """
     p = _recording_path(path)
     how = _how(p, columns, delimiter, decimal, group, progress)
@@ -896,8 +1189,7 @@ def read_measurements(
             progress(size, size)
         return reduction.measurement()
     reduction = start()
-    cols = read_samples(p, columns=how.columns, group=group, progress=progress)
-    reduction.add(cols["angle_deg"], cols["voltage_V"], cols.get("setreset"))
+    reduction.add_columns(read_samples(p, columns=how.columns, group=group, progress=progress))
     return reduction.measurement()
 
 
