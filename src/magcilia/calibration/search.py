@@ -319,11 +319,6 @@ def calibrate(
                                        "searches n and k)")
     if not isinstance(data, Measurement) and isinstance(data, Sequence) and len(data) == 1:
         data = data[0]
-    if isinstance(data, Measurement) and (data.observable != "output"
-                                          or np.any(np.asarray(data.azimuths) != 0.0)):
-        raise MagciliaError(f"{v.printable(str(data.source))}: model='paper' fits one output "
-                            "recording tilted toward azimuth 0; use model='physical' for other "
-                            "azimuths or 3-axis field data")
     if not isinstance(data, Measurement) and isinstance(data, Sequence):
         raise v.fail("data", f"{len(data)} experiments", "one Measurement with model='paper' "
                                                          "(use model='physical' to fit several)")
