@@ -2,7 +2,8 @@
 
 * :func:`bend` / :func:`bend_sweep`: static shapes (:class:`BentShape`, a Centreline);
 * :class:`Flow` (uniform, wall shear, custom profiles) and :class:`Fluid` with :data:`AIR`,
-  :data:`WATER`; :func:`drag_coefficient` (Lamb–Oseen / White cylinder drag);
+  :data:`WATER`; :func:`drag_coefficient` (Lamb–Oseen / White cylinder drag) and
+  :func:`slender_log` (the low-Re drag of a finite slender body standing on the wall);
 * :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference.
 """
 
@@ -16,7 +17,15 @@ from magcilia.mechanics.bend import (
     require_tip_radius,
     tip_compliance,
 )
-from magcilia.mechanics.drag import AIR, FLUIDS, WATER, Fluid, drag_coefficient, drag_per_length
+from magcilia.mechanics.drag import (
+    AIR,
+    FLUIDS,
+    WATER,
+    Fluid,
+    drag_coefficient,
+    drag_per_length,
+    slender_log,
+)
 from magcilia.mechanics.exact import cantilever_tip
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.shape import BentShape, Load
@@ -37,5 +46,6 @@ __all__ = [
     "drag_per_length",
     "output_at",
     "require_tip_radius",
+    "slender_log",
     "tip_compliance",
 ]

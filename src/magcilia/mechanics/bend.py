@@ -8,7 +8,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -18,7 +18,7 @@ from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.device.cilium import Cilium
 from magcilia.device.setup import Setup
-from magcilia.mechanics.drag import check_reynolds, drag_per_length
+from magcilia.mechanics.drag import check_reynolds, drag_per_length, free_log, wall_log
 from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.shape import BentShape, Load
@@ -88,15 +88,23 @@ class _Case:
         self.limit = abs(math.remainder(direction, 2.0 * math.pi)) if point_load \
             else 0.5 * math.pi
         self.flow = flow
+        self.length = setup.cilium.height
+
+    @cached_property
+    def free_log(self) -> F64:
+        """The free rod's slender-body logarithm at the nodes (the wall's part is subtracted at
+        each node's current height), dimensionless (N,)."""
+        return free_log(self.grid.s, 0.5 * self.diameter, self.length)
 
     def problem(self, force: float, speed: float) -> Problem:
         drag = None
         if self.flow is not None and speed != 0.0:
             flow = self.flow.with_speed(speed)
-            d = self.diameter
+            d, length = self.diameter, self.length
 
-            def drag(cos_t: F64, z: F64) -> F64:
-                return drag_per_length(flow.velocity(z) * cos_t, d, flow.fluid)
+            def drag(cos_t: F64, z: F64) -> F64:  # a slender body on the wall below Re 0.5
+                return drag_per_length(flow.velocity(z) * cos_t, d, flow.fluid,
+                                       lambda: self.free_log - wall_log(z, 0.5 * d, length))
 
         return Problem(self.grid, self.ei, self.influence, force * self.unit, self.loaded, drag)
 
