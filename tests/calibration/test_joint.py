@@ -225,3 +225,24 @@ def test_an_equally_good_distant_minimum_is_reported(exact: list[np.ndarray]) ->
     warning = _ambiguity(prob, best, other.x, other.cost, fit.stderr, y_free=True)
     assert warning is not None and warning.kind == "ambiguous" and "x" in warning.parameters
     assert _ambiguity(prob, best, best[None], np.array([fit.chi2]), fit.stderr, True) is None
+
+
+def test_posterior_of_the_joint_fit_agrees_with_the_covariance(exact: list[np.ndarray]) -> None:
+    pytest.importorskip("emcee")
+    data = _datasets(exact, 1)
+    fit = mc.calibrate(data, model="physical", rng=0, initial=INITIAL, priors=HEIGHT_PRIOR,
+                       layout=LAYOUT, posterior=True)
+    post = fit.posterior
+    assert post is not None and post.converged and post.names == JOINT_PARAMETERS
+    assert post.ess.min() >= 1000
+    assert len(post.weights) == 1  # B_y data fix the sign of y: no mirror mode
+    truth = TRUTH.params()
+    for i, name in enumerate(post.names):
+        # near-Gaussian here: the posterior's sd is the covariance's standard error, and the
+        # truth lies within the 95 % interval
+        assert post.sd[i] == pytest.approx(fit.stderr[name], rel=0.2), name
+        lo, hi = post.intervals[0.95][i]
+        assert lo <= truth[name] <= hi, name
+    assert "Posterior:" in fit.report() and fit.to_dict()["posterior"]["converged"]
+    with pytest.raises(MagciliaError, match="posterior"):
+        mc.calibrate(data[0], model="paper", posterior=True)

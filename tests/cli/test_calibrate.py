@@ -208,3 +208,34 @@ def test_setup_file_priors_syntax(tmp_path: Path) -> None:
         load_priors(path)
     with pytest.raises(mc.MagciliaError, match=r"priors.z must be a value and its sigma"):
         mc.load_setup(path)
+
+
+def test_calibrate_physical_posterior_from_two_field_recordings(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("emcee")
+    from magcilia.acquire.synthetic import synthetic_field_recording
+
+    # the data from a converged model (the physical model's own layout), not the paper's n=2, k=5
+    truth = mc.Setup.paper(ring="rms", n_loops=64, dipoles_per_loop=5)
+    angles = np.radians(np.linspace(0.0, 80.0, 9))
+    paths = []
+    for i, phi in enumerate((0.0, np.pi / 2)):
+        rec = synthetic_field_recording(truth, angles, (phi,), samples_per_angle=50, noise=1e-6,
+                                        background=(20e-6, -5e-6, 40e-6), rng=i)
+        paths.append(tmp_path / f"az{i}.csv")
+        rec.write_csv(paths[-1])
+    out = tmp_path / "fit"
+    code = main(["calibrate", *map(str, paths), "--model", "physical", "--prior",
+                 "height=3.3:0.15", "--posterior", "--out", str(out), "--json", "--quiet",
+                 "--setup", "paper"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    post = doc["posterior"]
+    assert post["converged"] and min(post["ess"].values()) >= 1000
+    lo, hi = post["interval_95"]["x_mm"]
+    assert lo <= 1.4727 <= hi  # mm
+    assert (out / "pairs.png").stat().st_size > 0
+    assert "pairs.png" in (out / "report.md").read_text()
+    assert json.loads((out / "result.json").read_text())["posterior"]["units"] == "SI"
+    assert main(["calibrate", str(paths[0]), "--posterior", "--out", str(tmp_path / "p")]) == 2
+    assert "--posterior needs --model physical" in capsys.readouterr().err

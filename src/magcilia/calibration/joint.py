@@ -43,6 +43,7 @@ from magcilia._errors import MagciliaError
 from magcilia.calibration.diagnostics import CORRELATION_LIMIT, CalibrationWarning, at_bound
 from magcilia.calibration.local import levenberg_marquardt
 from magcilia.calibration.multistart import latin_hypercube
+from magcilia.calibration.posterior import sample_problem
 from magcilia.calibration.problem import DEFAULT_BOUNDS
 from magcilia.calibration.result import (
     ExperimentFit,
@@ -551,6 +552,7 @@ def calibrate_joint(
     layout: PhysicalLayout | tuple[int, int] | None = None,
     tolerance: float = PHYSICAL_TOLERANCE,
     starts: int = STARTS,
+    posterior: bool | int = False,
 ) -> JointCalibrationResult:
     """Fit the physical model to one or several experiments (``calibrate(model="physical")``).
 
@@ -577,6 +579,14 @@ def calibrate_joint(
         Layout tolerance (see :func:`converged_layout`).
     starts : int
         Latin-hypercube starts of the global search.
+    posterior : bool or int
+        Also sample the posterior of the fitted geometry (the offsets profiled out) with
+        :func:`~magcilia.calibration.posterior.sample_problem` until every parameter has 1000
+        effective samples (an int: that many), within
+        :data:`~magcilia.calibration.posterior.MAX_SECONDS`; the optima the search found within
+        :data:`AMBIGUITY_CHI2` of the best and, when the data cannot tell the sign of y, the
+        mirror ``y → −y`` are sampled as modes and weighted by their evidence. Needs the
+        optional ``emcee`` (``pip install 'magcilia[posterior]'``).
 
     Returns
     -------
@@ -639,12 +649,21 @@ def calibrate_joint(
         if x[k] * (-1.0 if init["y"] < 0 else 1.0) < 0 and box["y"][0] <= -x[k] <= box["y"][1]:
             x = x.copy()
             x[k] = -x[k]
+    target = 0 if posterior is False else 1000 if posterior is True else v.integer(
+        "posterior", posterior, 100)
     result = _joint_result(problem, initial, experiments, box, x, y_free, t0)
     alt = _ambiguity(problem, x, minima, minima_cost, result.stderr, y_free)
-    if alt is None:
-        return result
-    return replace(result, warnings=(*result.warnings, alt.message),
-                   diagnostics=(*result.diagnostics, alt))
+    if alt is not None:
+        result = replace(result, warnings=(*result.warnings, alt.message),
+                         diagnostics=(*result.diagnostics, alt))
+    if target and names:
+        best = float(problem.cost(x)[0])
+        modes = [m for m, c in zip(minima, minima_cost, strict=True)
+                 if c <= best + AMBIGUITY_CHI2 and not np.array_equal(m, x)]
+        result = replace(result, posterior=sample_problem(
+            problem, x, modes=modes, mirror=["y"] if y_free and "y" in names else (),
+            n_effective=target, rng=gen))
+    return result
 
 
 def _ambiguity(problem: JointProblem, x: F64, minima: F64, cost: F64,

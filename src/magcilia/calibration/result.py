@@ -8,7 +8,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +22,9 @@ from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.io.results import read_json
+
+if TYPE_CHECKING:
+    from magcilia.calibration.posterior import Posterior
 
 F64 = NDArray[np.float64]
 
@@ -519,6 +522,9 @@ class JointCalibrationResult(Display):
         Parameter sets evaluated.
     elapsed : float
         Wall time, s.
+    posterior : Posterior or None
+        Samples of the posterior of the fitted geometry (``calibrate(..., posterior=True)``;
+        the offsets profiled out), else None.
     """
 
     setup: Setup
@@ -539,6 +545,7 @@ class JointCalibrationResult(Display):
     fixed: dict[str, float]
     evaluations: int
     elapsed: float
+    posterior: Posterior | None = None
 
     @property
     def stderr(self) -> dict[str, float]:
@@ -608,11 +615,14 @@ class JointCalibrationResult(Display):
         lines.append("still undetermined: " + (", ".join(und) if und else
                                                "nothing (every fitted parameter is determined)"))
         lines += [f"warning: {w}" for w in self.warnings]
+        if self.posterior is not None:
+            lines.append(self.posterior.report())
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
+        """JSON-ready content (SI; the posterior's summary, not its samples)."""
         return {
+            "posterior": None if self.posterior is None else self.posterior.to_dict(),
             "model": self.model, "n_loops": self.n_loops,
             "dipoles_per_loop": self.dipoles_per_loop, "layout_error": self.layout_error,
             "chi2": self.chi2, "dof": self.dof, "values": dict(self.values),

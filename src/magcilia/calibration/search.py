@@ -162,6 +162,7 @@ def calibrate(
     model: Literal["paper"] = "paper",
     priors: Mapping[str, tuple[float, float]] | None = None,
     layout: PhysicalLayout | tuple[int, int] | None = None,
+    posterior: bool | int = False,
 ) -> CalibrationResult: ...
 
 
@@ -182,6 +183,7 @@ def calibrate(
     model: Literal["physical"],
     priors: Mapping[str, tuple[float, float]] | None = None,
     layout: PhysicalLayout | tuple[int, int] | None = None,
+    posterior: bool | int = False,
 ) -> JointCalibrationResult: ...
 
 
@@ -202,6 +204,7 @@ def calibrate(
     model: str,
     priors: Mapping[str, tuple[float, float]] | None = None,
     layout: PhysicalLayout | tuple[int, int] | None = None,
+    posterior: bool | int = False,
 ) -> CalibrationResult | JointCalibrationResult: ...
 
 
@@ -221,6 +224,7 @@ def calibrate(
     model: str = "paper",
     priors: Mapping[str, tuple[float, float]] | None = None,
     layout: PhysicalLayout | tuple[int, int] | None = None,
+    posterior: bool | int = False,
 ) -> CalibrationResult | JointCalibrationResult:
     """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
     scale) to a recording.
@@ -276,6 +280,10 @@ def calibrate(
         parameters, not the hair's dimensions).
     layout : PhysicalLayout or (n, k), optional
         The physical model's layout (default: converged at the initial setup).
+    posterior : bool or int
+        ``model="physical"``: also sample the posterior of the geometry (``result.posterior``,
+        1000 effective samples, or this many; see
+        :func:`~magcilia.calibration.joint.calibrate_joint`).
 
     Returns
     -------
@@ -306,10 +314,14 @@ def calibrate(
             fixed = {n: init.get(n, math.nan) for n in names}
         result = calibrate_joint(data, initial, bounds, rng=rng, priors=priors,
                                  fit_scale=fit_scale, fixed=fixed, layout=layout,
-                                 starts=STARTS if starts is None else starts)
+                                 starts=STARTS if starts is None else starts,
+                                 posterior=posterior)
         if progress is not None:
             progress(1, 1)
         return result
+    if posterior is not False:
+        raise v.fail("posterior", posterior, "given with model='physical' (the posterior of the "
+                                             "hair's geometry; the paper's model searches n, k)")
     if priors:
         raise v.fail("priors", ", ".join(priors), "given with model='physical' (in the paper's "
                                                   "model height and base radius are fitted model "

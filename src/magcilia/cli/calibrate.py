@@ -60,6 +60,10 @@ from magcilia.units import parse_values
                    "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
                    "file's [priors] table gives them too (these override it).")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
+@click.option("--posterior", is_flag=True,
+              help="With --model physical: also sample the posterior of the geometry (emcee, "
+                   "1000 effective samples, at most a minute): credible intervals in the report, "
+                   "pairs.png.")
 @click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
@@ -87,7 +91,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             seed: int, restarts: int, starts: int | None, bias: str, bias_degree: int,
             fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
             force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
-            model: str, prior_items: tuple[str, ...]) -> None:
+            model: str, prior_items: tuple[str, ...], posterior: bool) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
     physical to several recordings (experiments) at once.
 
@@ -106,6 +110,9 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
                   **parse_priors(prior_items)}
+        if model == "paper" and posterior:
+            raise MagciliaError("--posterior needs --model physical (the posterior of the hair's "
+                                "geometry; the paper's model searches n and k)")
         if model == "paper" and priors:
             raise MagciliaError("priors (--prior, a setup file's [priors]) need --model physical "
                                 "(in the paper's model height and base radius are model "
@@ -114,7 +121,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
         if model == "physical":  # one search (no restarts to show progress over)
             result = calibrate(measurements, initial, bounds, rng=seed, bias=bias,
                                fit_scale=fit_scale, starts=starts, fixed=parse_fixed(fix_items),
-                               model="physical", priors=priors or None)
+                               model="physical", priors=priors or None, posterior=posterior)
         else:
             result = calibrate_with_progress(
                 measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
@@ -129,7 +136,8 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             echo_json(joint_calibration_json(result, si))
         else:
             click.echo(result.report(si))
-            click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png")
+            click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png"
+                       + (", pairs.png" if result.posterior is not None else ""))
     elif as_json:
         echo_json(calibration_json(result, si))
     else:

@@ -281,7 +281,7 @@ def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, A
 #: the files ``magcilia calibrate --out`` (and ``demo``) writes into its folder
 CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png", "residuals.png")
 #: every file it may write: :data:`CALIBRATION_FILES` and, in the paper style, the PDF figures
-CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf")
+CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf", "pairs.png", "pairs.pdf")
 
 
 def write_calibration_files(result: CalibrationResult, directory: str | Path,
@@ -340,15 +340,19 @@ def joint_fit_figure(result: JointCalibrationResult) -> Figure:
 
 
 def joint_markdown_summary(result: JointCalibrationResult) -> str:
-    """The joint calibration's report as markdown: the plain-text report and the figure."""
+    """The joint calibration's report as markdown: the plain-text report and the figures (the
+    posterior's pair plot when it was sampled)."""
+    pairs = ("" if result.posterior is None
+             else "![posterior: marginals and 68 %, 95 % contours](pairs.png)\n")
     return (f"# magcilia joint calibration report\n\n```\n{result.report()}\n```\n\n"
-            "![data and fitted model per experiment](fit.png)\n")
+            "![data and fitted model per experiment](fit.png)\n" + pairs)
 
 
 def write_joint_calibration_files(result: JointCalibrationResult, directory: str | Path,
                                   style: str = "screen") -> None:
-    """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md`` and ``fit.png`` (and
-    ``fit.pdf`` with ``style="paper"``) of a joint calibration into ``directory``."""
+    """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
+    posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a joint calibration into
+    ``directory``."""
     from magcilia.report import style as st
 
     folder = Path(directory)
@@ -357,10 +361,15 @@ def write_joint_calibration_files(result: JointCalibrationResult, directory: str
     doc.setdefault("units", "SI")
     write_json(folder / "result.json", doc)
     with st.use(style):
-        fig = joint_fit_figure(result)
-        save_figure(fig, folder / "fit.png", dpi=st.dpi())
-        if style == "paper":
-            save_figure(fig, folder / "fit.pdf")
+        figures = {"fit": joint_fit_figure(result)}
+        if result.posterior is not None:
+            from magcilia.report.posterior import plot_pairs
+
+            figures["pairs"] = plot_pairs(result.posterior)[0, 0].get_figure()
+        for name, fig in figures.items():
+            save_figure(fig, folder / f"{name}.png", dpi=st.dpi())
+            if style == "paper":
+                save_figure(fig, folder / f"{name}.pdf")
     write_text(folder / "report.md", joint_markdown_summary(result))
 
 
@@ -387,4 +396,15 @@ def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> 
                             f"rms_{unit}": e.rms * factor, "chi2": e.chi2,
                             f"offsets_{unit}": (e.offsets * factor).tolist()})
     out["experiments"] = experiments
+    post = result.posterior
+    if post is not None:
+        out["posterior"] = {
+            "mean": units.named(dict(zip(post.names, post.mean.tolist(), strict=True))),
+            "sd": units.named(dict(zip(post.names, post.sd.tolist(), strict=True))),
+            **{f"interval_{round(100 * level)}": units.named(
+                dict(zip(post.names, iv.tolist(), strict=True)))
+               for level, iv in post.intervals.items()},
+            "ess": dict(zip(post.names, post.ess.tolist(), strict=True)),
+            "weights": post.weights.tolist(), "seconds": post.seconds,
+            "converged": post.converged}
     return out
