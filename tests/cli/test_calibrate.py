@@ -239,3 +239,17 @@ def test_calibrate_physical_posterior_from_two_field_recordings(
     assert json.loads((out / "result.json").read_text())["posterior"]["units"] == "SI"
     assert main(["calibrate", str(paths[0]), "--posterior", "--out", str(tmp_path / "p")]) == 2
     assert "--posterior needs --model physical" in capsys.readouterr().err
+
+
+def test_calibrate_both_models_side_by_side(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "both"
+    assert main(["calibrate", str(example_path()), "--model", "both", "--setup", "paper",
+                 "--prior", "height=3.26:0.1", "--out", str(out), "--quiet"]) == 0
+    text = capsys.readouterr().out
+    table = text[text.index("the two models on the same data"):]
+    assert "paper (n=" in table and "physical (n=" in table
+    height = next(line for line in table.splitlines() if line.startswith("height"))
+    assert "(undetermined)" in height  # the paper's model: height is a model parameter
+    assert "## Both models" in (out / "report.md").read_text()
+    assert json.loads((out / "result.json").read_text())["model"] == "physical"

@@ -31,6 +31,7 @@ from magcilia.report.calibration import (
     CALIBRATION_NAMES,
     calibration_json,
     joint_calibration_json,
+    model_comparison,
     write_calibration_files,
     write_joint_calibration_files,
 )
@@ -49,12 +50,13 @@ from magcilia.units import parse_values
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm; n_loops, "
                    f"dipoles_per_loop whole numbers); repeatable. Defaults: {describe_bounds()}.")
-@click.option("--model", type=click.Choice(["paper", "physical"]), default="paper",
+@click.option("--model", type=click.Choice(["paper", "physical", "both"]), default="paper",
               show_default=True,
               help="paper: n and k searched, one output recording at azimuth 0 (Fig. 8). "
                    "physical: n and k at a converged layout, so height and base radius are the "
                    "hair's dimensions; several recordings (any azimuth, output or 3-axis field) "
-                   "fitted together.")
+                   "fitted together. both: the physical fit written, the paper's model fitted to "
+                   "the first recording beside it in the report.")
 @click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SIGMA",
               help="Gaussian prior from a manual measurement (--model physical), lengths in mm "
                    "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
@@ -110,6 +112,10 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
                   **parse_priors(prior_items)}
+        if model == "both" and (measurements[0].observable != "output"
+                                or not measurements[0].single_azimuth):
+            raise MagciliaError(f"{data[0]}: --model both fits the paper's model to the first "
+                                "recording, which must be the output tilted toward azimuth 0")
         if model == "paper" and posterior:
             raise MagciliaError("--posterior needs --model physical (the posterior of the hair's "
                                 "geometry; the paper's model searches n and k)")
@@ -118,17 +124,23 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                                 "(in the paper's model height and base radius are model "
                                 "parameters, not the hair's dimensions)")
         result: CalibrationResult | JointCalibrationResult
-        if model == "physical":  # one search (no restarts to show progress over)
+        comparison = None
+        if model in ("physical", "both"):  # one search (no restarts to show progress over)
             result = calibrate(measurements, initial, bounds, rng=seed, bias=bias,
                                fit_scale=fit_scale, starts=starts, fixed=parse_fixed(fix_items),
                                model="physical", priors=priors or None, posterior=posterior)
+            if model == "both":
+                paper = calibrate_with_progress(
+                    measurements[0], initial, quiet=quiet, rng=seed, restarts=restarts,
+                    starts=None, fixed=parse_fixed(fix_items) or None)
+                comparison = model_comparison(paper, result)
         else:
             result = calibrate_with_progress(
                 measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
                 bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
                 fixed=parse_fixed(fix_items))
         if isinstance(result, JointCalibrationResult):
-            write_joint_calibration_files(result, tmp, style)
+            write_joint_calibration_files(result, tmp, style, comparison)
         else:
             write_calibration_files(result, tmp, style)
     if isinstance(result, JointCalibrationResult):
@@ -136,6 +148,8 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             echo_json(joint_calibration_json(result, si))
         else:
             click.echo(result.report(si))
+            if comparison is not None:
+                click.echo(comparison)
             click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png"
                        + (", pairs.png" if result.posterior is not None else ""))
     elif as_json:

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
 from magcilia.calibration import CalibrationResult, JointCalibrationResult
 from magcilia.constants import GAUSS
+from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.io.setup_files import save_setup
 from magcilia.report.units import output_units
 
@@ -339,17 +340,47 @@ def joint_fit_figure(result: JointCalibrationResult) -> Figure:
     return fig
 
 
-def joint_markdown_summary(result: JointCalibrationResult) -> str:
-    """The joint calibration's report as markdown: the plain-text report and the figures (the
-    posterior's pair plot when it was sampled)."""
+def model_comparison(paper: CalibrationResult, physical: JointCalibrationResult) -> str:
+    """The paper's model and the physical model fitted to the same recording, side by side
+    (display units): each one's geometry ± standard error, its layout and how well it fits."""
+    n, k = int(paper.values["n_loops"]), int(paper.values["dipoles_per_loop"])
+    heads = (f"paper (n={n}, k={k} searched)",
+             f"physical (n={physical.n_loops}, k={physical.dipoles_per_loop})")
+    lines = ["the two models on the same data (geometry ± standard error):",
+             f"{'parameter':<12} {'unit':<4} {heads[0]:>30} {heads[1]:>30}"]
+    for name in ("height", "base_radius", "x", "y", "z"):
+        p = REGISTRY[name]
+        cells = []
+        for fit in (paper, physical):
+            value, se = fit.values[name], fit.stderr.get(name, math.nan)
+            text = (f"{p.to_display(value):.4g} ± {p.to_display(se):.2g}" if math.isfinite(se)
+                    else f"{p.to_display(value):.4g} (undetermined)" if se == math.inf
+                    else f"{p.to_display(value):.4g}")
+            cells.append(text)
+        lines.append(f"{name:<12} {p.display:<4} {cells[0]:>30} {cells[1]:>30}")
+    same = next((e for e in physical.experiments
+                 if e.source == paper.data.source and e.observable == "output"), None)
+    lines.append(f"{'RMS':<12} {'mV':<4} {paper.rms * 1e3:>30.4g} "
+                 f"{format(same.rms * 1e3, '.4g') if same else '-':>30}")
+    lines.append("The paper's model trades its coarse layout against the geometry: its height and "
+                 "base radius are model parameters; the physical model's are the hair's (to the "
+                 "layout's stated accuracy).")
+    return "\n".join(lines)
+
+
+def joint_markdown_summary(result: JointCalibrationResult, comparison: str | None = None) -> str:
+    """The joint calibration's report as markdown: the plain-text report, the figures (the
+    posterior's pair plot when it was sampled) and, with ``comparison``, the paper's model on the
+    same data (:func:`model_comparison`)."""
     pairs = ("" if result.posterior is None
              else "![posterior: marginals and 68 %, 95 % contours](pairs.png)\n")
+    both = "" if comparison is None else f"\n## Both models\n\n```\n{comparison}\n```\n"
     return (f"# magcilia joint calibration report\n\n```\n{result.report()}\n```\n\n"
-            "![data and fitted model per experiment](fit.png)\n" + pairs)
+            "![data and fitted model per experiment](fit.png)\n" + pairs + both)
 
 
 def write_joint_calibration_files(result: JointCalibrationResult, directory: str | Path,
-                                  style: str = "screen") -> None:
+                                  style: str = "screen", comparison: str | None = None) -> None:
     """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
     posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a joint calibration into
     ``directory``."""
@@ -370,7 +401,7 @@ def write_joint_calibration_files(result: JointCalibrationResult, directory: str
             save_figure(fig, folder / f"{name}.png", dpi=st.dpi())
             if style == "paper":
                 save_figure(fig, folder / f"{name}.pdf")
-    write_text(folder / "report.md", joint_markdown_summary(result))
+    write_text(folder / "report.md", joint_markdown_summary(result, comparison))
 
 
 def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> dict[str, Any]:
