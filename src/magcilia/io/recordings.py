@@ -187,6 +187,14 @@ class Measurement(Display):
         single-axis sensor's output.
     field_sem : ndarray, shape (a, 3), or None
         Standard errors of ``fields``, T (None with ``fields``).
+    forces : ndarray, shape (a,), or None
+        A load experiment under known tip forces: the dead force at the tip of each condition, N
+        (a force gauge or weights), perpendicular to the upright cilium toward ``azimuths``;
+        ``angles`` are then 0 (the cilium stands upright and bends). None for tilt experiments.
+    speeds : ndarray, shape (a,), or None
+        A load experiment under known uniform flow speeds, m/s, the flow toward ``azimuths``, in
+        the fluid named by ``metadata["fluid"]`` (``"water"`` when absent; see
+        :data:`magcilia.mechanics.FLUIDS`). At most one of ``forces`` and ``speeds``.
     """
 
     angles: F64
@@ -201,15 +209,20 @@ class Measurement(Display):
     azimuths: F64 = field(default_factory=lambda: np.zeros(0))
     fields: F64 | None = None
     field_sem: F64 | None = None
+    forces: F64 | None = None
+    speeds: F64 | None = None
 
     def __post_init__(self) -> None:
+        if self.forces is not None and self.speeds is not None:
+            raise v.fail("Measurement loads", "both forces and speeds",
+                         "one kind of load per recording (record force and flow separately)")
         if np.size(self.azimuths) == 0:
             object.__setattr__(self, "azimuths", np.zeros(np.shape(self.angles)))
         if (self.fields is None) != (self.field_sem is None):
             raise v.fail("field_sem", "given without fields" if self.fields is None
                          else "missing", "both fields and field_sem, or neither")
         for name in ("angles", "volts", "sem", "counts", "saturated", "nonfinite", "azimuths",
-                     "fields", "field_sem"):
+                     "fields", "field_sem", "forces", "speeds"):
             value = getattr(self, name)
             if value is None:
                 continue
@@ -218,7 +231,7 @@ class Measurement(Display):
             object.__setattr__(self, name, arr)
         a = self.angles.shape
         for name in ("volts", "sem", "counts", "saturated", "nonfinite", "azimuths", "fields",
-                     "field_sem"):
+                     "field_sem", "forces", "speeds"):
             value = getattr(self, name)
             want = (*a, 3) if name in ("fields", "field_sem") else a
             if value is not None and value.shape != want:
@@ -227,6 +240,28 @@ class Measurement(Display):
                                                       else "value") + " per angle")
         if not np.isfinite(self.azimuths).all():
             raise v.fail("Measurement azimuths", self.azimuths.tolist(), "finite angles in rad")
+        loads = self.loads
+        if loads is not None:
+            if not np.isfinite(loads).all():
+                raise v.fail(f"Measurement {self.load_kind}", loads.tolist(), "finite loads")
+            if np.any(self.angles != 0.0):
+                raise v.fail("Measurement angles", "non-zero with loads",
+                             "zeros: a load experiment bends the upright cilium")
+
+    @property
+    def load_kind(self) -> str | None:
+        """``"force"`` or ``"flow"`` for a load experiment, None for a tilt experiment."""
+        return "force" if self.forces is not None else "flow" if self.speeds is not None else None
+
+    @property
+    def loads(self) -> F64 | None:
+        """The loads of a load experiment (forces N or speeds m/s, shape (a,)), else None."""
+        return self.forces if self.forces is not None else self.speeds
+
+    @property
+    def fluid(self) -> str:
+        """The fluid of a flow experiment (``metadata["fluid"]``, default ``"water"``)."""
+        return str(self.metadata.get("fluid", "water"))
 
     @property
     def observable(self) -> str:
@@ -264,6 +299,8 @@ class Measurement(Display):
         got 3-axis field data; leave the data out
         """
         got = []
+        if self.load_kind is not None:
+            got.append(f"{self.load_kind} loads (a load experiment)")
         if self.fields is not None:
             got.append("3-axis field data")
         if np.any(self.azimuths != 0.0):
@@ -282,6 +319,8 @@ class Measurement(Display):
             "metadata": dict(self.metadata), "azimuth_rad": self.azimuths.tolist(),
             **({} if self.fields is None or self.field_sem is None else {
                 "field_T": self.fields.tolist(), "field_sem_T": self.field_sem.tolist()}),
+            **({} if self.forces is None else {"force_N": self.forces.tolist()}),
+            **({} if self.speeds is None else {"speed_m_per_s": self.speeds.tolist()}),
         }
 
     @classmethod
@@ -302,6 +341,10 @@ class Measurement(Display):
                         else np.asarray(data["field_T"], dtype=np.float64)),
                 field_sem=(None if data.get("field_sem_T") is None
                            else np.asarray(data["field_sem_T"], dtype=np.float64)),
+                forces=(None if data.get("force_N") is None
+                        else np.asarray(data["force_N"], dtype=np.float64)),
+                speeds=(None if data.get("speed_m_per_s") is None
+                        else np.asarray(data["speed_m_per_s"], dtype=np.float64)),
             )
 
     @property
@@ -318,6 +361,14 @@ class Measurement(Display):
         (0, 90 deg) × angles -40..40 deg``."""
         deg = self.angles_deg
         span = f"{deg.min():.4g}..{deg.max():.4g} deg"
+        loads = self.loads
+        if loads is not None:
+            scale, unit = (1e3, "mN") if self.forces is not None else (1e3, "mm/s")
+            what = "forces" if self.forces is not None else f"flow speeds ({self.fluid})"
+            span = f"{what} {loads.min() * scale:.4g}..{loads.max() * scale:.4g} {unit}"
+            az = self._azimuths_deg()
+            return (f"{len(self)} loads: {span} toward azimuth "
+                    f"{', '.join(f'{a:g}' for a in az)} deg")
         if self.single_azimuth:
             at = np.degrees(self.azimuths[0]) if len(self) else 0.0
             return f"{len(self)} angles {span}" + (f" at azimuth {at:g} deg" if at else "")
@@ -356,7 +407,15 @@ class Measurement(Display):
         if not self.single_azimuth or (n and self.azimuths[0] != 0.0):
             items.append(("azimuths", ", ".join(f"{a:g}" for a in self._azimuths_deg())
                           + " deg"))
-        items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg" if n else "-"))
+        loads = self.loads
+        if loads is not None:
+            unit = "mN" if self.forces is not None else "mm/s"
+            items.append(("forces" if self.forces is not None else f"speeds ({self.fluid})",
+                          f"{number(loads.min() * 1e3)}…{number(loads.max() * 1e3)} {unit}"
+                          if n else "-"))
+        else:
+            items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg"
+                          if n else "-"))
         if self.fields is not None and self.field_sem is not None:
             norm = np.linalg.norm(self.fields, axis=1)
             items += [("|B|", f"{si(norm.min(), 'T')}…{si(norm.max(), 'T')}" if n else "-"),
@@ -394,13 +453,16 @@ class Measurement(Display):
         ``angle_rad``, ``azimuth_rad``, then ``output_V`` (mean) and ``sem_V`` (its standard
         error) for the single-axis output, or ``field_x_T``, ``field_y_T``, ``field_z_T`` and
         ``sem_field_x_T``, ``sem_field_y_T``, ``sem_field_z_T`` for 3-axis field data, then
-        ``count``, ``saturated``, ``nonfinite`` (samples per condition)."""
+        ``count``, ``saturated``, ``nonfinite`` (samples per condition); a load experiment has
+        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``."""
         if self.fields is not None and self.field_sem is not None:
             values = {**{k: self.fields[:, j] for j, k in enumerate(FIELD_KEYS)},
                       **{f"sem_{k}": self.field_sem[:, j] for j, k in enumerate(FIELD_KEYS)}}
         else:
             values = {"output_V": self.volts, "sem_V": self.sem}
-        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **values,
+        loads = {} if self.forces is None else {"force_N": self.forces}
+        loads.update({} if self.speeds is None else {"speed_m_per_s": self.speeds})
+        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
                           "count": self.counts, "saturated": self.saturated,
                           "nonfinite": self.nonfinite})
 
