@@ -403,7 +403,8 @@ class Measurement(Display):
     def _display_items(self) -> list[Item]:
         deg = np.degrees(self.angles)
         n = len(self)
-        items = [("", count(n, "angle" if self.single_azimuth else "condition"))]
+        items = [("", count(n, "load" if self.loads is not None else "angle"
+                            if self.single_azimuth else "condition"))]
         if not self.single_azimuth or (n and self.azimuths[0] != 0.0):
             items.append(("azimuths", ", ".join(f"{a:g}" for a in self._azimuths_deg())
                           + " deg"))
