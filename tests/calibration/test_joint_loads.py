@@ -143,3 +143,30 @@ def test_one_line_errors(data: dict) -> None:
     with pytest.raises(MagciliaError, match="prior youngs_modulus"):
         calibrate_joint([*data["tilts"], force], INITIAL, layout=LAYOUT,
                         priors={"youngs_modulus": (5e7, 1e5)})
+
+
+def test_load_recordings_from_csv_fit_as_the_arrays(data: dict, tmp_path) -> None:
+    """The force and flow experiments written as CSV recordings (force in µN, speed in mm/s, two
+    samples b ± 0.2 µT per condition: mean b, s.e. 0.2 µT) read back to the same conditions and
+    give the same fit as the arrays."""
+    force, flow = data["force"], data["flow"]
+
+    def rows(loads: np.ndarray, fields: np.ndarray, scale: float) -> list[str]:
+        return [f"{q * scale:.17g}," + ",".join(f"{x + d:.17g}" for x in b)
+                for q, b in zip(loads, fields, strict=True) for d in (NOISE, -NOISE)]
+
+    (tmp_path / "force.csv").write_text("\n".join(
+        ["F [uN],field_x_T,field_y_T,field_z_T", *rows(FORCES, force.fields, 1e6)]) + "\n")
+    (tmp_path / "flow.csv").write_text("\n".join(
+        ["flow_mm_per_s,field_x_T,field_y_T,field_z_T", *rows(SPEEDS, flow.fields, 1e3)]) + "\n")
+    f2 = mc.read_measurements(tmp_path / "force.csv", columns={"force": "F"})
+    u2 = mc.read_measurements(tmp_path / "flow.csv", columns={"flow": "flow_mm_per_s"})
+    np.testing.assert_allclose(f2.forces, FORCES, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(u2.speeds, SPEEDS, rtol=1e-12)
+    np.testing.assert_allclose(f2.fields, force.fields, rtol=1e-12)
+    np.testing.assert_allclose(u2.field_sem, NOISE, rtol=1e-6)
+    assert u2.fluid == "water" and f2.load_kind == "force"
+    arrays = calibrate_joint([*data["tilts"], force, flow], INITIAL, rng=0, layout=LAYOUT)
+    files = calibrate_joint([*data["tilts"], f2, u2], INITIAL, rng=0, layout=LAYOUT)
+    for name in NAMES:
+        assert files.values[name] == pytest.approx(arrays.values[name], rel=1e-4), name

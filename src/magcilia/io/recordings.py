@@ -110,7 +110,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import FIELD_KEYS, OBSERVABLE, Columns
+from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
@@ -131,7 +131,13 @@ SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
-COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS)
+COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
+           *LOAD_KEYS)
+#: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
+#: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
+LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
+#: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
+FLUID_NAMES = ("air", "water")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
 Progress = Callable[[int, int], None]
 
@@ -552,13 +558,20 @@ class _Reduction:
         self.peak = np.zeros(0)  # largest |value| used per condition
         self.width = 0  # statistics per condition (1, 2 or 3, see above); 0 before samples
         self.field = self.azimuth = False  # 3-axis field samples; an azimuth column
+        self.load: str | None = None  # "force" or "flow" for a load recording
+        self.fluid = "water"
         self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (c, w)
 
     def add_columns(self, cols: Mapping[str, F64]) -> None:
         """Add a reader's columns (keys as :func:`read_samples` returns them)."""
         x, y, z = FIELD_KEYS
         fields = (cols[x], cols[y], cols[z]) if x in cols else None
-        self.add(cols["angle_deg"], cols.get("voltage_V"), cols.get("setreset"),
+        condition = cols.get("angle_deg")
+        for kind, (key, factor, _) in LOAD_UNITS.items():
+            if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
+                self.load, condition = kind, cols[key] * factor
+        assert condition is not None  # (the readers require an angle or a load column)
+        self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
                  azimuth=cols.get("azimuth_deg"), fields=fields)
 
     def add(self, ang: F64, volt: F64 | None, sr: F64 | None = None, *,
@@ -588,7 +601,7 @@ class _Reduction:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
-        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG), lambda i: (
+        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG) & (self.load is None), lambda i: (
             f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
             f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the column "
             "and its unit)"))
@@ -609,7 +622,9 @@ class _Reduction:
             bad |= (sr != 1.0) & (sr != -1.0)
         if self.nan_policy == "raise":
             def values(i: int) -> str:
-                cols = [("angle_deg", ang), ("azimuth_deg", az), ("voltage_V", volt),
+                name = "angle_deg" if self.load is None else (
+                    f"{self.load}_{LOAD_UNITS[self.load][2].replace('/', '_per_')}")
+                cols = [(name, ang), ("azimuth_deg", az), ("voltage_V", volt),
                         *zip(FIELD_KEYS, fields or (None, None, None), strict=True)]
                 return ", ".join(f"{k}={c[i]}" for k, c in cols if c is not None)
 
@@ -624,7 +639,8 @@ class _Reduction:
             sat = ~bad & beyond_range(out, self.sensor)
             if self.saturation == "raise":
                 self._note("saturated", sat, lambda i: (
-                    f"{source}: sample {offset + i + 1} (voltage_V={out[i]:.6g} at {ang[i]:g} deg) "
+                    f"{source}: sample {offset + i + 1} (voltage_V={out[i]:.6g} at {ang[i]:g} "
+                    f"{'deg' if self.load is None else LOAD_UNITS[self.load][2]}) "
                     f"is beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
                     f"gauss = ±{self.sensor.field_range * abs(self.sensor.scale):.4g} V); check "
                     "gain and offset, or pass saturation='omit' (CLI: --saturation omit) to drop "
@@ -695,7 +711,8 @@ class _Reduction:
     def _condition(self, i: int) -> str:
         """Condition ``i`` in words: ``"40 deg"``, ``"40 deg at azimuth 90 deg"``."""
         c = self.conds[i]
-        return f"{c.imag:g} deg" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
+        unit = "deg" if self.load is None else LOAD_UNITS[self.load][2]
+        return f"{c.imag:g} {unit}" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
 
     def _readings(self) -> tuple[F64, F64, NDArray[np.int64], F64 | None, F64 | None]:
         """Per condition: output and its standard error (V; NaN for field data), samples used,
@@ -770,13 +787,19 @@ class _Reduction:
                 metadata["dropped"]["azimuths_deg"] = self.conds.real[~has].tolist()
         logger.info("%s: %d samples reduced to %d conditions", source, self.samples,
                     int(has.sum()))
+        loads = None if self.load is None else self.conds.imag[has] / LOAD_UNITS[self.load][1]
+        if self.load == "flow":
+            metadata["fluid"] = self.fluid
         return Measurement(
-            angles=np.radians(self.conds.imag[has]), volts=volts[has], sem=sem[has],
+            angles=(np.radians(self.conds.imag[has]) if loads is None
+                    else np.zeros(int(has.sum()))), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
             set_reset=self.width == 2, source=source, metadata=metadata,
             azimuths=np.radians(self.conds.real[has]),
             fields=None if fields is None else fields[has],
             field_sem=None if field_sem is None else field_sem[has],
+            forces=loads if self.load == "force" else None,
+            speeds=loads if self.load == "flow" else None,
         )
 
 
@@ -1185,6 +1208,7 @@ def read_measurements(
     decimal: str = ".",
     group: str | None = None,
     progress: Progress | None = None,
+    fluid: str = "water",
 ) -> Measurement:
     """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-condition means.
 
@@ -1221,10 +1245,14 @@ def read_measurements(
     progress : callable, optional
         Called as ``progress(bytes_read, file_size)`` while the file is read (CSV: after each
         block; other formats: at the start and the end).
+    fluid : {"water", "air"}
+        A flow recording's fluid (kept as ``metadata["fluid"]``; ignored for other recordings).
 
     Returns
     -------
     Measurement
+        For a load recording (a ``force_N`` or ``flow_m_per_s`` column in place of
+        ``angle_deg``): ``forces`` or ``speeds`` per condition (azimuth, load), angles 0.
 
     Examples
     --------
@@ -1240,9 +1268,12 @@ def read_measurements(
     """
     p = _recording_path(path)
     how = _how(p, columns, delimiter, decimal, group, progress)
+    fluid_name = v.choice("fluid", fluid, FLUID_NAMES)
 
     def start() -> _Reduction:
-        return _Reduction(sensor, nan_policy, saturation, str(p))
+        reduction = _Reduction(sensor, nan_policy, saturation, str(p))
+        reduction.fluid = fluid_name
+        return reduction
 
     if READERS[p.suffix.lower()] is _read_csv:  # reduced as it is read, in bounded memory
         with _reader_boundary(p):
