@@ -125,7 +125,7 @@ class Columns:
 
     Parameters
     ----------
-    angle, voltage, time, setreset, azimuth, field_x, field_y, field_z : str
+    angle, voltage, time, setreset, azimuth, field_x, field_y, field_z, force, flow : str
         The file's name for each role, with an optional unit in brackets (angle and azimuth: an
         angle unit, voltage: a voltage unit, time: a time unit, field_x/y/z: a field unit;
         setreset takes none).
@@ -186,7 +186,7 @@ class Columns:
     @classmethod
     def parse(cls, text: str) -> Columns:
         """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset,
-        azimuth, field_x, field_y, field_z; others keep their defaults; a name with a comma needs
+        azimuth, field_x, field_y, field_z, force, flow; others keep their defaults; a name with a comma needs
         the API's mapping).
 
         >>> Columns.parse("voltage=Vout[mV]").voltage

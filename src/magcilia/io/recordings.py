@@ -39,6 +39,15 @@ Every format takes the same optional columns (variables, channels, datasets):
   (a, 3)) and NaN ``volts``. The NaN/inf policy applies to every column read; the range check
   (``saturation``) applies to voltages only: 3-axis data are not range-checked here.
 
+Load recordings
+---------------
+A ``force_N`` (known tip force) or ``flow_m_per_s`` (known uniform flow speed) column *in place
+of* ``angle_deg`` makes a load recording: the cilium stands upright and bends toward the
+azimuth; samples are grouped per (azimuth, load), and the :class:`Measurement` has ``forces``
+or ``speeds`` (angles 0). One kind of load per file (both columns, or an angle column beside a
+load, are errors); a flow recording's fluid is the reader's ``fluid`` argument (water by
+default), kept as ``metadata["fluid"]``. Units by mapping or name: ``F [mN]``, ``flow_mm_per_s``.
+
 A raw-sample CSV with both (``magcilia.acquire.synthetic.write_field_recording`` makes one)::
 
     angle_deg,azimuth_deg,field_x_T,field_y_T,field_z_T
@@ -47,8 +56,9 @@ A raw-sample CSV with both (``magcilia.acquire.synthetic.write_field_recording``
 
 Other names and units
 ---------------------
-``columns`` maps the roles (angle, voltage, time, setreset, azimuth, field_x, field_y, field_z)
-to the file's own names with units (field: T, mT, uT, nT, gauss, G, mG):
+``columns`` maps the roles (angle, voltage, time, setreset, azimuth, field_x, field_y, field_z,
+force, flow) to the file's own names with units (field: T, mT, uT, nT, gauss, G, mG; force: N,
+mN, uN, nN; flow: m/s, mm/s, cm/s):
 ``columns={"angle": "Tilt[deg]", "voltage": "Vout[mV]"}`` or the CLI's
 ``--columns angle=Tilt[deg],voltage=Vout[mV]``; a header ``Vout [mV]`` names its unit itself
 (:mod:`magcilia.io.columns`). Whatever the file's units, the columns read are in deg, V, s
