@@ -186,8 +186,8 @@ class Columns:
     @classmethod
     def parse(cls, text: str) -> Columns:
         """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset,
-        azimuth, field_x, field_y, field_z, force, flow; others keep their defaults; a name with a comma needs
-        the API's mapping).
+        azimuth, field_x, field_y, field_z, force, flow; others keep their defaults; a name with a
+        comma needs the API's mapping).
 
         >>> Columns.parse("voltage=Vout[mV]").voltage
         'Vout[mV]'
