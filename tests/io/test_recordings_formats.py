@@ -83,7 +83,7 @@ def test_parse_and_coerce() -> None:
      ("angle=x[deg],voltage=x[V]", (r"columns voltage must be a column other than the angle's "
                                    r"\(x\)")),
      ({"tilt": "Tilt"}, (r"columns must be a role: angle, voltage, time, setreset, azimuth, "
-                         r"field_x, field_y, field_z; got 'tilt'")),
+                         r"field_x, field_y, field_z, force, flow; got 'tilt'")),
      (3, r"columns must be a Columns, a mapping")])
 def test_bad_mappings(value: Any, match: str) -> None:
     with pytest.raises(mc.MagciliaError, match=match) as info:
@@ -242,7 +242,8 @@ def test_a_wrong_decimal_mark_or_delimiter_is_never_misread(tmp_path: Path, text
      ({"progress": 3}, ".csv", r"progress must be a callable progress\(done, total\)"),
      ({"required": ("angle",)}, ".csv", (r"required must be keys among angle_deg, voltage_V, "
                                         r"time_s, setreset, azimuth_deg, field_x_T, "
-                                        r"field_y_T, field_z_T, observable; got 'angle'"))])
+                                        r"field_y_T, field_z_T, force_N, flow_m_per_s, "
+                                        r"observable; got 'angle'"))])
 def test_bad_reading_options(tmp_path: Path, kw: dict[str, Any], suffix: str,
                              match: str) -> None:
     path = tmp_path / f"r{suffix}"

@@ -55,6 +55,9 @@ from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_ranges
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
+from magcilia.mechanics.bend import bend_sweep
+from magcilia.mechanics.drag import FLUIDS, Fluid
+from magcilia.mechanics.flow import Flow
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.batch import TiltBatch
 
@@ -62,6 +65,13 @@ F64 = NDArray[np.float64]
 
 #: the continuous parameters of the physical model, in the order of the search vector
 JOINT_PARAMETERS = ("height", "base_radius", "x", "y", "z")
+#: the parameter load experiments add (after :data:`JOINT_PARAMETERS`)
+LOAD_PARAMETER = "youngs_modulus"
+#: default bounds of the Young's modulus, Pa (soft magnetic composites: the paper's polymer reads
+#: 0.37 MPa from its 300 % modulus, small-strain SIS data 2.5 MPa)
+YOUNGS_BOUNDS = (1e5, 1e7)
+#: log-spaced moduli tried at the tilt fit's geometry before the refinement with the loads
+MODULUS_GRID = 17
 #: relative error (max over 0–85° of |B_model − B_exact| / |B_exact|) the physical layout must
 #: meet against the exact Cylinder stack at the initial setup (see docs/convergence.md)
 PHYSICAL_TOLERANCE = 2e-4
@@ -230,6 +240,16 @@ def _sigma(values: F64, observable: str) -> F64:
     return np.maximum(s, floor)
 
 
+def _fluid(e: Measurement) -> Fluid:
+    """The fluid of a flow experiment (``metadata["fluid"]``: a name of
+    :data:`~magcilia.mechanics.drag.FLUIDS`, default water)."""
+    name = e.fluid.strip().lower()
+    if name not in FLUIDS:
+        raise v.fail(f"{v.printable(str(e.source))}: fluid", e.fluid,
+                     "one of " + ", ".join(sorted(FLUIDS)) + " (metadata 'fluid')")
+    return FLUIDS[name]
+
+
 def _check_experiment(i: int, data: object) -> Measurement:
     if not isinstance(data, Measurement):
         raise v.fail(f"data[{i}]", type(data).__name__,
@@ -237,6 +257,10 @@ def _check_experiment(i: int, data: object) -> Measurement:
     arrays = [("angle_rad", data.angles), ("azimuth_rad", data.azimuths)]
     arrays += ([("field_T", data.fields)] if data.fields is not None
                else [("voltage_V", data.volts)])
+    if data.loads is not None:
+        arrays.append(("force_N" if data.forces is not None else "speed_m_per_s", data.loads))
+    if data.speeds is not None:
+        _fluid(data)
     for what, values in arrays:
         arr = np.asarray(values, dtype=np.float64)
         if not np.isfinite(arr).all():
@@ -282,7 +306,9 @@ class JointProblem:
         self.fit_scale = fit_scale
         self.evaluations = 0
         self.sensor_scale = initial.sensor.scale
-        az = np.concatenate([np.asarray(e.azimuths, dtype=np.float64) for e in self.experiments])
+        tilts = [e for e in self.experiments if e.loads is None]
+        az = np.concatenate([np.zeros(0)] + [np.asarray(e.azimuths, dtype=np.float64)
+                                             for e in tilts])
         self.azimuths = np.unique(np.round(np.mod(az, 2 * np.pi), 12))
         self.batches: list[TiltBatch] = []
         starts: list[int] = []
@@ -290,18 +316,30 @@ class JointProblem:
         for phi in self.azimuths:
             angles = np.unique(np.concatenate([
                 e.angles[np.isclose(np.round(np.mod(e.azimuths, 2 * np.pi), 12), phi)]
-                for e in self.experiments]))
+                for e in tilts]))
             self.batches.append(TiltBatch(self.base, angles))
             starts.append(total)
             total += 3 * angles.size
+        #: load blocks (experiment, azimuth, sorted distinct loads, first column of the block)
+        self.load_blocks: list[tuple[int, float, F64, int]] = []
         index, factor, y, sig, group = [], [], [], [], []
         self.groups: list[tuple[int, int]] = []  # (experiment, component or -1 for output)
         for e_i, e in enumerate(self.experiments):
             phi = np.round(np.mod(e.azimuths, 2 * np.pi), 12)
-            j = np.searchsorted(self.azimuths, phi)
-            pos = np.array([np.searchsorted(self.batches[jj].angles, a)
-                            for jj, a in zip(j, e.angles, strict=True)], dtype=np.intp)
-            cond = np.asarray(starts, dtype=np.intp)[j] + 3 * pos
+            loads = e.loads
+            if loads is not None:
+                cond = np.zeros(len(e), dtype=np.intp)
+                for az_b in np.unique(phi):
+                    at = phi == az_b
+                    values = np.unique(loads[at])
+                    self.load_blocks.append((e_i, float(az_b), values, total))
+                    cond[at] = total + 3 * np.searchsorted(values, loads[at])
+                    total += 3 * values.size
+            else:
+                j = np.searchsorted(self.azimuths, phi)
+                pos = np.array([np.searchsorted(self.batches[jj].angles, a)
+                                for jj, a in zip(j, e.angles, strict=True)], dtype=np.intp)
+                cond = np.asarray(starts, dtype=np.intp)[j] + 3 * pos
             if e.fields is None:
                 index.append(cond)
                 factor.append(np.full(cond.size, self.sensor_scale))
@@ -333,7 +371,15 @@ class JointProblem:
         self.prior_mu = np.array([m for m, _ in self.priors.values()])
         self.prior_sigma = np.array([s for _, s in self.priors.values()])
         self.size = self.y.size + len(self.priors)
-        self._defaults = self.base.params()
+        self._defaults = {**self.base.params(), LOAD_PARAMETER: self.base.youngs_modulus}
+        self.fluids = {e_i: _fluid(e) for e_i, e in enumerate(self.experiments)
+                       if e.speeds is not None}
+
+    @property
+    def all_names(self) -> tuple[str, ...]:
+        """Every continuous parameter of the model (fitted or held): the geometry, then the
+        Young's modulus when there are load experiments."""
+        return JOINT_PARAMETERS + ((LOAD_PARAMETER,) if self.load_blocks else ())
 
     def _project(self, z: F64) -> F64:
         """Weighted values with each group's weighted mean removed (last axis)."""
@@ -343,7 +389,7 @@ class JointProblem:
     def params(self, P: F64) -> dict[str, F64]:
         """Parameter columns by name, each (N,), SI, from rows ``P`` (N, p)."""
         P = np.atleast_2d(np.asarray(P, dtype=np.float64))
-        out = {n: np.full(P.shape[0], float(self._defaults[n])) for n in JOINT_PARAMETERS}
+        out = {n: np.full(P.shape[0], float(self._defaults[n])) for n in self.all_names}
         out.update({n: P[:, i] for i, n in enumerate(self.names)})
         return out
 
@@ -353,15 +399,46 @@ class JointProblem:
         prm = self.params(P)
         n = prm["x"].size
         self.evaluations += n
-        parts = []
+        parts = [np.zeros((n, 0))]
+        geometry = {k: prm[k] for k in JOINT_PARAMETERS}
         for phi, batch in zip(self.azimuths, self.batches, strict=True):
             x, y = placement_in_tilt_frame(prm["x"], prm["y"], phi)
-            b = batch.field({**prm, "x": x, "y": y})
+            b = batch.field({**geometry, "x": x, "y": y})
             if phi != 0.0:
                 b = field_from_tilt_frame(b, phi)
             parts.append(b.reshape(n, -1))
+        if self.load_blocks:
+            parts.append(self._load_fields(prm))
         full = np.concatenate(parts, axis=1)
         return full[:, self.index] * self.factor
+
+    def _load_fields(self, prm: Mapping[str, F64]) -> F64:
+        """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of
+        :func:`~magcilia.mechanics.bend.bend_sweep` (sorted loads) and their field; NaN for a set
+        whose bend does not converge or whose geometry is invalid."""
+        n = prm["x"].size
+        width = sum(3 * b[2].size for b in self.load_blocks)
+        out = np.full((n, width), np.nan)
+        for i in range(n):
+            try:
+                setup = self.base.replace(
+                    height=float(prm["height"][i]), base_radius=float(prm["base_radius"][i]),
+                    x=float(prm["x"][i]), y=float(prm["y"][i]), z=float(prm["z"][i]),
+                    youngs_modulus=float(prm[LOAD_PARAMETER][i]))
+                col = 0
+                for e_i, phi, loads, _ in self.load_blocks:
+                    e = self.experiments[e_i]
+                    if e.forces is not None:
+                        shapes = bend_sweep(setup, forces=loads)
+                    else:
+                        top = float(np.max(np.abs(loads))) or 1.0
+                        shapes = bend_sweep(setup, speeds=loads,
+                                            flow=Flow.uniform(top, self.fluids[e_i]))
+                    out[i, col:col + 3 * loads.size] = setup.field(shapes, azimuth=phi).ravel()
+                    col += 3 * loads.size
+            except MagciliaError:
+                out[i] = np.nan
+        return out
 
     def linear(self, u: F64) -> tuple[F64, F64]:
         """Projected weighted residuals (N, d) and the scale factors (N,) for model values u."""
@@ -439,6 +516,55 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
     except ValueError:
         pass
     return np.asarray(best, dtype=np.float64), fits.x, fits.cost
+
+
+def _search_loads(problem: JointProblem, experiments: list[Measurement], initial: Setup,
+                  layout: PhysicalLayout, box: Mapping[str, tuple[float, float]],
+                  priors: Mapping[str, tuple[float, float]], fit_scale: bool, x_init: F64,
+                  rng: np.random.Generator, starts: int) -> tuple[F64, F64, F64]:
+    """The search with load experiments (whose model is a loop over parameter sets): the global
+    search on the tilt experiments alone (when there are any, and enough values), the Young's
+    modulus then chosen on a log grid (:data:`MODULUS_GRID`) at that geometry, and a
+    ``least_squares`` refinement of everything on all experiments. Returns as :func:`_search`,
+    the tilt search's minima re-costed on all experiments at the chosen modulus."""
+    names = problem.names
+    geo = [i for i, n in enumerate(names) if n != LOAD_PARAMETER]
+    tilts = [e for e in experiments if e.loads is None]
+    x = x_init.copy()
+    minima = np.zeros((0, len(names)))
+    sub_names = tuple(names[i] for i in geo)
+    if tilts and sub_names:
+        sub = JointProblem(tilts, initial, layout, box, sub_names,
+                           {k: p for k, p in priors.items() if k in sub_names}, fit_scale)
+        n_lin = len(sub.groups) + int(fit_scale)
+        if sub.y.size > n_lin + len(sub_names):
+            best, found, _ = _search(sub, x_init[geo], rng, starts)
+            problem.evaluations += sub.evaluations
+            x[geo] = best
+            minima = np.repeat(x[None, :], found.shape[0], axis=0)
+            minima[:, geo] = found
+    if LOAD_PARAMETER in names:
+        k = names.index(LOAD_PARAMETER)
+        lo, hi = problem.bounds[k]
+        grid = np.geomspace(lo, hi, MODULUS_GRID)
+        trial = np.repeat(x[None, :], grid.size, axis=0)
+        trial[:, k] = grid
+        x = trial[int(np.argmin(problem.cost(trial)))]
+        if minima.size:
+            minima[:, k] = x[k]
+    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
+    try:
+        def one(z: F64) -> F64:
+            return problem.residuals(z)[0]
+
+        sol = least_squares(one, x, bounds=(lo, hi), x_scale=hi - lo, method="trf",
+                            xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=200)
+        if problem.cost(sol.x)[0] <= problem.cost(x)[0]:
+            x = np.asarray(sol.x, dtype=np.float64)
+    except ValueError:
+        pass
+    cost = problem.cost(minima) if minima.size else np.zeros(0)
+    return x, minima, cost
 
 
 def _diverse(x: F64, cost: F64, width: F64, count: int) -> NDArray[np.intp]:
@@ -599,35 +725,42 @@ def calibrate_joint(
     if not items:
         raise v.fail("data", type(data).__name__, "a Measurement or a non-empty sequence of them")
     experiments = [_check_experiment(i, e) for i, e in enumerate(items)]
+    has_loads = any(e.loads is not None for e in experiments)
+    allowed = JOINT_PARAMETERS + ((LOAD_PARAMETER,) if has_loads else ())
+    if any(e.forces is not None for e in experiments) and initial.cilium.tip_radius == 0.0:
+        raise v.fail("initial tip_radius", 0.0, "positive for force experiments (a tip force on "
+                     "a sharp cone bends it infinitely); give the measured tip radius")
     starts = v.integer("starts", starts, 1)
     held = dict(fixed or {})
     for name, value in held.items():
-        if name not in JOINT_PARAMETERS:
-            raise v.fail("fixed key", name, "one of " + ", ".join(JOINT_PARAMETERS))
+        if name not in allowed:
+            raise v.fail("fixed key", name, "one of " + ", ".join(allowed))
         held[name] = REGISTRY[name].check(value, f"fixed[{name!r}]")
-    extra = set(bounds or {}) - set(JOINT_PARAMETERS)
+    extra = set(bounds or {}) - set(allowed)
     if extra:
         name = min(extra)
         hint = " (n and k are held by the physical model's layout)" if name in (
-            "n_loops", "dipoles_per_loop") else ""
-        raise v.fail("bounds key", name, "one of " + ", ".join(JOINT_PARAMETERS) + hint)
-    merged = v.intervals("bounds", bounds, DEFAULT_BOUNDS)
+            "n_loops", "dipoles_per_loop") else " (only with load experiments)" if (
+            name == LOAD_PARAMETER) else ""
+        raise v.fail("bounds key", name, "one of " + ", ".join(allowed) + hint)
+    merged = v.intervals("bounds", bounds, {**DEFAULT_BOUNDS, **(
+        {LOAD_PARAMETER: YOUNGS_BOUNDS} if has_loads else {})})
     box: dict[str, tuple[float, float]] = {
-        n: (float(merged[n][0]), float(merged[n][1])) for n in JOINT_PARAMETERS}
+        n: (float(merged[n][0]), float(merged[n][1])) for n in allowed}
     check_ranges(box)
     for n, val in held.items():
         box[n] = (val, val)
     if held:
         initial = initial.replace(**held)
-    init = initial.params()
-    for name in JOINT_PARAMETERS:
+    init = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus}
+    for name in allowed:
         lo, hi = box[name]
         tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)
         if not lo - tol <= init[name] <= hi + tol:
             p = REGISTRY[name]
             raise v.fail(f"initial {name}", p.text(init[name], 6),
                          f"inside its bounds {p.text(lo, 6)}…{p.text(hi, 6)}")
-    names = tuple(n for n in JOINT_PARAMETERS if box[n][0] < box[n][1])
+    names = tuple(n for n in allowed if box[n][0] < box[n][1])
     checked = check_priors(priors, names, box)
     lay = _as_layout(layout, initial, tolerance)
     problem = JointProblem(experiments, initial, lay, box, names, checked, fit_scale)
@@ -639,7 +772,10 @@ def calibrate_joint(
     gen = np.random.default_rng(rng)
     x_init = np.clip([init[n] for n in names], problem.bounds[:, 0], problem.bounds[:, 1])
     minima, minima_cost = np.zeros((0, len(names))), np.zeros(0)
-    if names:
+    if names and has_loads:
+        x, minima, minima_cost = _search_loads(problem, experiments, initial, lay, box, checked,
+                                               fit_scale, x_init, gen, starts)
+    elif names:
         x, minima, minima_cost = _search(problem, x_init, gen, starts)
     else:
         x = x_init
@@ -709,7 +845,8 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
     offsets = problem.offsets(u[0], scale)
     values = {n: float(x[i]) if n in problem.names else float(initial.params()[n])
               for i, n in enumerate(problem.names)}
-    values.update({n: float(initial.params()[n]) for n in JOINT_PARAMETERS if n not in values})
+    held_values = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus}
+    values.update({n: float(held_values[n]) for n in problem.all_names if n not in values})
     fitted_scale = initial.material.magnetization_scale * scale
     names, cov, se, found, inflated = _uncertainty(problem, x, scale, chi2_data)
     for k, name in enumerate(_offset_names(problem)):
@@ -723,7 +860,7 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
     dof = problem.y.size - len(names)
     output_offsets = [offsets[g] for g, (_, c) in enumerate(problem.groups) if c < 0]
     fitted_setup = initial.replace(
-        **{n: values[n] for n in JOINT_PARAMETERS}, n_loops=problem.layout.n_loops,
+        **{n: values[n] for n in problem.all_names}, n_loops=problem.layout.n_loops,
         dipoles_per_loop=problem.layout.dipoles_per_loop, ring=problem.layout.ring,
         magnetization_scale=fitted_scale,
         offset=float(output_offsets[0]) if len(output_offsets) == 1 else initial.sensor.offset)
@@ -743,7 +880,8 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
             azimuths=np.asarray(e.azimuths), measured=measured, fitted=fitted,
             residuals=measured - fitted, offsets=np.asarray(offsets[groups]),
             rms=float(np.sqrt(np.mean((problem.y[rows] - model_full[rows]) ** 2))),
-            chi2=float(weighted @ weighted), values=int(rows.size)))
+            chi2=float(weighted @ weighted), values=int(rows.size), load_kind=e.load_kind,
+            loads=None if e.loads is None else np.asarray(e.loads)))
     notes: list[CalibrationWarning] = list(at_bound(
         {n: values[n] for n in problem.names}, {n: box[n] for n in problem.names},
         frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)))
@@ -772,7 +910,7 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
         values=values, uncertainty=ParameterCovariance(names, stderr, corr, cov),
         experiments=tuple(fits), priors=dict(problem.priors),
         warnings=tuple(w.message for w in notes), diagnostics=tuple(notes),
-        bounds={n: box[n] for n in JOINT_PARAMETERS},
-        fixed={n: values[n] for n in JOINT_PARAMETERS if box[n][0] == box[n][1]},
+        bounds={n: box[n] for n in problem.all_names},
+        fixed={n: values[n] for n in problem.all_names if box[n][0] == box[n][1]},
         evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
     )

@@ -435,6 +435,10 @@ class ExperimentFit(Display):
         Sum of squared weighted residuals (÷ the floored standard errors).
     values : int
         Data values (a, or 3a).
+    load_kind : {"force", "flow"} or None
+        A load experiment's kind (None for a tilt experiment).
+    loads : ndarray, shape (a,), or None
+        Its loads: tip forces, N, or flow speeds, m/s (the angles are then 0).
     """
 
     source: str
@@ -448,6 +452,8 @@ class ExperimentFit(Display):
     rms: float
     chi2: float
     values: int
+    load_kind: str | None = None
+    loads: F64 | None = None
 
     def unit(self) -> str:
         """The SI unit of the data ("V" or "T")."""
@@ -462,7 +468,12 @@ class ExperimentFit(Display):
         else:
             rms = f"{self.rms * 1e6:.4g} uT"
             off = "offsets " + ", ".join(f"{o * 1e6:.4g}" for o in self.offsets) + " uT (x, y, z)"
-        return (f"{self.source}: {self.observable}, {self.angles.size} angles at azimuth {az} "
+        what = f"{self.angles.size} angles"
+        if self.loads is not None:
+            unit = "mN" if self.load_kind == "force" else "mm/s"
+            what = (f"{self.loads.size} {'forces' if self.load_kind == 'force' else 'speeds'} "
+                    f"{self.loads.min() * 1e3:.4g}..{self.loads.max() * 1e3:.4g} {unit}")
+        return (f"{self.source}: {self.observable}, {what} at azimuth {az} "
                 f"deg; RMS {rms}, chi2 {self.chi2:.4g} for {self.values} values; {off}")
 
     def report(self) -> str:
@@ -481,7 +492,10 @@ class ExperimentFit(Display):
                 "angle_rad": self.angles.tolist(), "azimuth_rad": self.azimuths.tolist(),
                 f"measured_{u}": self.measured.tolist(), f"fitted_{u}": self.fitted.tolist(),
                 f"residual_{u}": self.residuals.tolist(), f"offsets_{u}": self.offsets.tolist(),
-                f"rms_{u}": self.rms, "chi2": self.chi2, "values": self.values}
+                f"rms_{u}": self.rms, "chi2": self.chi2, "values": self.values,
+                **({} if self.loads is None else {
+                    "force_N" if self.load_kind == "force" else "speed_m_per_s":
+                        self.loads.tolist()})}
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -14,7 +14,14 @@ azimuth   azimuth_deg  angle         ``azimuth_deg``, tilt direction in degrees
 field_x   field_x_T    field         ``field_x_T``, 3-axis field B_x in tesla
 field_y   field_y_T    field         ``field_y_T``, B_y in tesla
 field_z   field_z_T    field         ``field_z_T``, B_z in tesla
+force     force_N      force         ``force_N``, known tip force in newtons
+flow      flow_m_per_s speed         ``flow_m_per_s``, known flow speed in m/s
 ========  ===========  ============  ===========================================
+
+A *load recording* has a ``force`` or a ``flow`` column in place of the angle (one of them, not
+both, and no angle column): the cilium stands upright and bends under the load, toward the
+azimuth (:attr:`magcilia.io.recordings.Measurement.forces`, ``speeds``); force units N, mN, uN,
+nN; speed units m/s, mm/s, cm/s (``flow_mm_per_s`` spells mm/s in a name).
 
 The observable is either the single-axis output (voltage) or the 3-axis field (all three of
 field_x, field_y, field_z): a file with both, with only some of the field columns, or with set/reset
@@ -67,7 +74,11 @@ ROLES: dict[str, tuple[str, str | None, str | None]] = {
     "field_x": ("field_x_T", "field", "T"),
     "field_y": ("field_y_T", "field", "T"),
     "field_z": ("field_z_T", "field", "T"),
+    "force": ("force_N", "force", "N"),
+    "flow": ("flow_m_per_s", "speed", "m/s"),
 }
+#: the keys of a load recording's condition column (in place of ``angle_deg``)
+LOAD_KEYS = ("force_N", "flow_m_per_s")
 #: the keys of a 3-axis field's components (all three, or none)
 FIELD_KEYS = ("field_x_T", "field_y_T", "field_z_T")
 #: a ``required`` key of :meth:`Columns.locate` standing for the observable: ``voltage_V``, or
@@ -114,7 +125,7 @@ class Columns:
 
     Parameters
     ----------
-    angle, voltage, time, setreset, azimuth, field_x, field_y, field_z : str
+    angle, voltage, time, setreset, azimuth, field_x, field_y, field_z, force, flow : str
         The file's name for each role, with an optional unit in brackets (angle and azimuth: an
         angle unit, voltage: a voltage unit, time: a time unit, field_x/y/z: a field unit;
         setreset takes none).
@@ -128,6 +139,8 @@ class Columns:
     field_x: str = "field_x_T"
     field_y: str = "field_y_T"
     field_z: str = "field_z_T"
+    force: str = "force_N"
+    flow: str = "flow_m_per_s"
 
     def __post_init__(self) -> None:
         seen: dict[str, str] = {}
@@ -155,7 +168,8 @@ class Columns:
         """An example spec for ``role`` (used in messages)."""
         return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
                 "setreset": "SR", "azimuth": "Phi[deg]", "field_x": "Bx[uT]",
-                "field_y": "By[uT]", "field_z": "Bz[uT]"}[role]
+                "field_y": "By[uT]", "field_z": "Bz[uT]", "force": "F[mN]",
+                "flow": "U[mm/s]"}[role]
 
     def spec(self, role: str) -> tuple[str, str | None]:
         """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
@@ -172,8 +186,8 @@ class Columns:
     @classmethod
     def parse(cls, text: str) -> Columns:
         """The command line's ``ROLE=NAME[unit],...`` (roles angle, voltage, time, setreset,
-        azimuth, field_x, field_y, field_z; others keep their defaults; a name with a comma needs
-        the API's mapping).
+        azimuth, field_x, field_y, field_z, force, flow; others keep their defaults; a name with a
+        comma needs the API's mapping).
 
         >>> Columns.parse("voltage=Vout[mV]").voltage
         'Vout[mV]'
@@ -262,13 +276,19 @@ class Columns:
         stripped = [str(n).strip() for n in names]
         parts = [split_unit(n) for n in stripped]
         out: dict[str, tuple[int, float]] = {}
-        for role, (key, dimension, target) in ROLES.items():
-            name, unit = self.spec(role)
+
+        def where_is(name: str) -> list[int]:
             at = [i for i, n in enumerate(stripped) if n == name]
             if not at:  # a header that carries its unit: "Vout [mV]" for the name Vout
                 at = [i for i, (base, u) in enumerate(parts) if u is not None and base == name]
+            return at
+
+        loads = [role for role in ("force", "flow") if where_is(self.spec(role)[0])]
+        for role, (key, dimension, target) in ROLES.items():
+            name, unit = self.spec(role)
+            at = where_is(name)
             if not at:
-                if key in required:
+                if key in required and not (key == "angle_deg" and loads):
                     raise MagciliaError(self._missing(role, name, where, kind,
                                                       names_text(stripped), required))
                 continue
@@ -288,6 +308,17 @@ class Columns:
             table = UNITS[dimension]
             out[key] = (i, table[unit_found] / table[target])
         self._check_observable(out, required, where, kind, names_text(stripped))
+        names_of = self.names()
+        if len(loads) == 2:
+            raise MagciliaError(
+                f"{where}: both a force {kind} ({_short(names_of['force_N'])}) and a flow "
+                f"{kind} ({_short(names_of['flow_m_per_s'])}); a load recording holds one kind "
+                "of load: split the file into a force and a flow recording")
+        if loads and "angle_deg" in out:
+            raise MagciliaError(
+                f"{where}: an angle {kind} ({_short(names_of['angle_deg'])}) beside the "
+                f"{loads[0]} {kind}; a load recording bends the upright cilium (no tilt): drop "
+                f"the angle {kind}, or record tilts and loads separately")
         return out
 
     def _check_observable(self, found: Mapping[str, Any], required: tuple[str, ...], where: str,
@@ -356,6 +387,10 @@ class Columns:
                                     f"{dimension} unit ({_units_text(dimension)}); {fix}")
             attribute = None
         base, _, suffix = name.rpartition("_")
+        if not (base and suffix in table):  # a ratio spelled in a name: flow_mm_per_s
+            spelled = [u for u in table
+                       if "/" in u and name.endswith("_" + u.replace("/", "_per_"))]
+            base, suffix = (name, spelled[0]) if spelled else (base, suffix)
         said = [(u, how) for u, how in ((given, "the mapping"), (header, "the file's name"),
                                         (attribute, "its units attribute"),
                                         (suffix if base and suffix in table else None,
@@ -375,4 +410,5 @@ def columns_help() -> str:
     return (f"Map roles ({roles}) to the file's names with units, e.g. "
             "angle=Tilt[deg],voltage=Vout[mV] or azimuth=Phi[deg],field_x=Bx[uT],... Default: "
             "angle_deg, voltage_V, time_s, setreset, azimuth_deg, field_x_T, field_y_T, "
-            "field_z_T.")
+            "field_z_T, force_N, flow_m_per_s (a load recording: force or flow in place of the "
+            "angle).")

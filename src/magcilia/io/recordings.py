@@ -39,6 +39,15 @@ Every format takes the same optional columns (variables, channels, datasets):
   (a, 3)) and NaN ``volts``. The NaN/inf policy applies to every column read; the range check
   (``saturation``) applies to voltages only: 3-axis data are not range-checked here.
 
+Load recordings
+---------------
+A ``force_N`` (known tip force) or ``flow_m_per_s`` (known uniform flow speed) column *in place
+of* ``angle_deg`` makes a load recording: the cilium stands upright and bends toward the
+azimuth; samples are grouped per (azimuth, load), and the :class:`Measurement` has ``forces``
+or ``speeds`` (angles 0). One kind of load per file (both columns, or an angle column beside a
+load, are errors); a flow recording's fluid is the reader's ``fluid`` argument (water by
+default), kept as ``metadata["fluid"]``. Units by mapping or name: ``F [mN]``, ``flow_mm_per_s``.
+
 A raw-sample CSV with both (``magcilia.acquire.synthetic.write_field_recording`` makes one)::
 
     angle_deg,azimuth_deg,field_x_T,field_y_T,field_z_T
@@ -47,8 +56,9 @@ A raw-sample CSV with both (``magcilia.acquire.synthetic.write_field_recording``
 
 Other names and units
 ---------------------
-``columns`` maps the roles (angle, voltage, time, setreset, azimuth, field_x, field_y, field_z)
-to the file's own names with units (field: T, mT, uT, nT, gauss, G, mG):
+``columns`` maps the roles (angle, voltage, time, setreset, azimuth, field_x, field_y, field_z,
+force, flow) to the file's own names with units (field: T, mT, uT, nT, gauss, G, mG; force: N,
+mN, uN, nN; flow: m/s, mm/s, cm/s):
 ``columns={"angle": "Tilt[deg]", "voltage": "Vout[mV]"}`` or the CLI's
 ``--columns angle=Tilt[deg],voltage=Vout[mV]``; a header ``Vout [mV]`` names its unit itself
 (:mod:`magcilia.io.columns`). Whatever the file's units, the columns read are in deg, V, s
@@ -110,7 +120,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError, require
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import FIELD_KEYS, OBSERVABLE, Columns
+from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
@@ -131,7 +141,13 @@ SATURATION_POLICIES = ("raise", "omit", "keep")
 ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
-COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS)
+COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
+           *LOAD_KEYS)
+#: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
+#: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
+LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
+#: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
+FLUID_NAMES = ("air", "water")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
 Progress = Callable[[int, int], None]
 
@@ -187,6 +203,14 @@ class Measurement(Display):
         single-axis sensor's output.
     field_sem : ndarray, shape (a, 3), or None
         Standard errors of ``fields``, T (None with ``fields``).
+    forces : ndarray, shape (a,), or None
+        A load experiment under known tip forces: the dead force at the tip of each condition, N
+        (a force gauge or weights), perpendicular to the upright cilium toward ``azimuths``;
+        ``angles`` are then 0 (the cilium stands upright and bends). None for tilt experiments.
+    speeds : ndarray, shape (a,), or None
+        A load experiment under known uniform flow speeds, m/s, the flow toward ``azimuths``, in
+        the fluid named by ``metadata["fluid"]`` (``"water"`` when absent; see
+        :data:`magcilia.mechanics.FLUIDS`). At most one of ``forces`` and ``speeds``.
     """
 
     angles: F64
@@ -201,15 +225,20 @@ class Measurement(Display):
     azimuths: F64 = field(default_factory=lambda: np.zeros(0))
     fields: F64 | None = None
     field_sem: F64 | None = None
+    forces: F64 | None = None
+    speeds: F64 | None = None
 
     def __post_init__(self) -> None:
+        if self.forces is not None and self.speeds is not None:
+            raise v.fail("Measurement loads", "both forces and speeds",
+                         "one kind of load per recording (record force and flow separately)")
         if np.size(self.azimuths) == 0:
             object.__setattr__(self, "azimuths", np.zeros(np.shape(self.angles)))
         if (self.fields is None) != (self.field_sem is None):
             raise v.fail("field_sem", "given without fields" if self.fields is None
                          else "missing", "both fields and field_sem, or neither")
         for name in ("angles", "volts", "sem", "counts", "saturated", "nonfinite", "azimuths",
-                     "fields", "field_sem"):
+                     "fields", "field_sem", "forces", "speeds"):
             value = getattr(self, name)
             if value is None:
                 continue
@@ -218,7 +247,7 @@ class Measurement(Display):
             object.__setattr__(self, name, arr)
         a = self.angles.shape
         for name in ("volts", "sem", "counts", "saturated", "nonfinite", "azimuths", "fields",
-                     "field_sem"):
+                     "field_sem", "forces", "speeds"):
             value = getattr(self, name)
             want = (*a, 3) if name in ("fields", "field_sem") else a
             if value is not None and value.shape != want:
@@ -227,6 +256,28 @@ class Measurement(Display):
                                                       else "value") + " per angle")
         if not np.isfinite(self.azimuths).all():
             raise v.fail("Measurement azimuths", self.azimuths.tolist(), "finite angles in rad")
+        loads = self.loads
+        if loads is not None:
+            if not np.isfinite(loads).all():
+                raise v.fail(f"Measurement {self.load_kind}", loads.tolist(), "finite loads")
+            if np.any(self.angles != 0.0):
+                raise v.fail("Measurement angles", "non-zero with loads",
+                             "zeros: a load experiment bends the upright cilium")
+
+    @property
+    def load_kind(self) -> str | None:
+        """``"force"`` or ``"flow"`` for a load experiment, None for a tilt experiment."""
+        return "force" if self.forces is not None else "flow" if self.speeds is not None else None
+
+    @property
+    def loads(self) -> F64 | None:
+        """The loads of a load experiment (forces N or speeds m/s, shape (a,)), else None."""
+        return self.forces if self.forces is not None else self.speeds
+
+    @property
+    def fluid(self) -> str:
+        """The fluid of a flow experiment (``metadata["fluid"]``, default ``"water"``)."""
+        return str(self.metadata.get("fluid", "water"))
 
     @property
     def observable(self) -> str:
@@ -264,6 +315,8 @@ class Measurement(Display):
         got 3-axis field data; leave the data out
         """
         got = []
+        if self.load_kind is not None:
+            got.append(f"{self.load_kind} loads (a load experiment)")
         if self.fields is not None:
             got.append("3-axis field data")
         if np.any(self.azimuths != 0.0):
@@ -282,6 +335,8 @@ class Measurement(Display):
             "metadata": dict(self.metadata), "azimuth_rad": self.azimuths.tolist(),
             **({} if self.fields is None or self.field_sem is None else {
                 "field_T": self.fields.tolist(), "field_sem_T": self.field_sem.tolist()}),
+            **({} if self.forces is None else {"force_N": self.forces.tolist()}),
+            **({} if self.speeds is None else {"speed_m_per_s": self.speeds.tolist()}),
         }
 
     @classmethod
@@ -302,6 +357,10 @@ class Measurement(Display):
                         else np.asarray(data["field_T"], dtype=np.float64)),
                 field_sem=(None if data.get("field_sem_T") is None
                            else np.asarray(data["field_sem_T"], dtype=np.float64)),
+                forces=(None if data.get("force_N") is None
+                        else np.asarray(data["force_N"], dtype=np.float64)),
+                speeds=(None if data.get("speed_m_per_s") is None
+                        else np.asarray(data["speed_m_per_s"], dtype=np.float64)),
             )
 
     @property
@@ -318,6 +377,14 @@ class Measurement(Display):
         (0, 90 deg) × angles -40..40 deg``."""
         deg = self.angles_deg
         span = f"{deg.min():.4g}..{deg.max():.4g} deg"
+        loads = self.loads
+        if loads is not None:
+            scale, unit = (1e3, "mN") if self.forces is not None else (1e3, "mm/s")
+            what = "forces" if self.forces is not None else f"flow speeds ({self.fluid})"
+            span = f"{what} {loads.min() * scale:.4g}..{loads.max() * scale:.4g} {unit}"
+            az = self._azimuths_deg()
+            return (f"{len(self)} loads: {span} toward azimuth "
+                    f"{', '.join(f'{a:g}' for a in az)} deg")
         if self.single_azimuth:
             at = np.degrees(self.azimuths[0]) if len(self) else 0.0
             return f"{len(self)} angles {span}" + (f" at azimuth {at:g} deg" if at else "")
@@ -352,11 +419,20 @@ class Measurement(Display):
     def _display_items(self) -> list[Item]:
         deg = np.degrees(self.angles)
         n = len(self)
-        items = [("", count(n, "angle" if self.single_azimuth else "condition"))]
+        items = [("", count(n, "load" if self.loads is not None else "angle"
+                            if self.single_azimuth else "condition"))]
         if not self.single_azimuth or (n and self.azimuths[0] != 0.0):
             items.append(("azimuths", ", ".join(f"{a:g}" for a in self._azimuths_deg())
                           + " deg"))
-        items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg" if n else "-"))
+        loads = self.loads
+        if loads is not None:
+            unit = "mN" if self.forces is not None else "mm/s"
+            items.append(("forces" if self.forces is not None else f"speeds ({self.fluid})",
+                          f"{number(loads.min() * 1e3)}…{number(loads.max() * 1e3)} {unit}"
+                          if n else "-"))
+        else:
+            items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg"
+                          if n else "-"))
         if self.fields is not None and self.field_sem is not None:
             norm = np.linalg.norm(self.fields, axis=1)
             items += [("|B|", f"{si(norm.min(), 'T')}…{si(norm.max(), 'T')}" if n else "-"),
@@ -394,13 +470,16 @@ class Measurement(Display):
         ``angle_rad``, ``azimuth_rad``, then ``output_V`` (mean) and ``sem_V`` (its standard
         error) for the single-axis output, or ``field_x_T``, ``field_y_T``, ``field_z_T`` and
         ``sem_field_x_T``, ``sem_field_y_T``, ``sem_field_z_T`` for 3-axis field data, then
-        ``count``, ``saturated``, ``nonfinite`` (samples per condition)."""
+        ``count``, ``saturated``, ``nonfinite`` (samples per condition); a load experiment has
+        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``."""
         if self.fields is not None and self.field_sem is not None:
             values = {**{k: self.fields[:, j] for j, k in enumerate(FIELD_KEYS)},
                       **{f"sem_{k}": self.field_sem[:, j] for j, k in enumerate(FIELD_KEYS)}}
         else:
             values = {"output_V": self.volts, "sem_V": self.sem}
-        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **values,
+        loads = {} if self.forces is None else {"force_N": self.forces}
+        loads.update({} if self.speeds is None else {"speed_m_per_s": self.speeds})
+        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
                           "count": self.counts, "saturated": self.saturated,
                           "nonfinite": self.nonfinite})
 
@@ -489,13 +568,20 @@ class _Reduction:
         self.peak = np.zeros(0)  # largest |value| used per condition
         self.width = 0  # statistics per condition (1, 2 or 3, see above); 0 before samples
         self.field = self.azimuth = False  # 3-axis field samples; an azimuth column
+        self.load: str | None = None  # "force" or "flow" for a load recording
+        self.fluid = "water"
         self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (c, w)
 
     def add_columns(self, cols: Mapping[str, F64]) -> None:
         """Add a reader's columns (keys as :func:`read_samples` returns them)."""
         x, y, z = FIELD_KEYS
         fields = (cols[x], cols[y], cols[z]) if x in cols else None
-        self.add(cols["angle_deg"], cols.get("voltage_V"), cols.get("setreset"),
+        condition = cols.get("angle_deg")
+        for kind, (key, factor, _) in LOAD_UNITS.items():
+            if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
+                self.load, condition = kind, cols[key] * factor
+        assert condition is not None  # (the readers require an angle or a load column)
+        self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
                  azimuth=cols.get("azimuth_deg"), fields=fields)
 
     def add(self, ang: F64, volt: F64 | None, sr: F64 | None = None, *,
@@ -525,7 +611,7 @@ class _Reduction:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
-        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG), lambda i: (
+        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG) & (self.load is None), lambda i: (
             f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
             f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the column "
             "and its unit)"))
@@ -546,7 +632,9 @@ class _Reduction:
             bad |= (sr != 1.0) & (sr != -1.0)
         if self.nan_policy == "raise":
             def values(i: int) -> str:
-                cols = [("angle_deg", ang), ("azimuth_deg", az), ("voltage_V", volt),
+                name = "angle_deg" if self.load is None else (
+                    f"{self.load}_{LOAD_UNITS[self.load][2].replace('/', '_per_')}")
+                cols = [(name, ang), ("azimuth_deg", az), ("voltage_V", volt),
                         *zip(FIELD_KEYS, fields or (None, None, None), strict=True)]
                 return ", ".join(f"{k}={c[i]}" for k, c in cols if c is not None)
 
@@ -561,7 +649,8 @@ class _Reduction:
             sat = ~bad & beyond_range(out, self.sensor)
             if self.saturation == "raise":
                 self._note("saturated", sat, lambda i: (
-                    f"{source}: sample {offset + i + 1} (voltage_V={out[i]:.6g} at {ang[i]:g} deg) "
+                    f"{source}: sample {offset + i + 1} (voltage_V={out[i]:.6g} at {ang[i]:g} "
+                    f"{'deg' if self.load is None else LOAD_UNITS[self.load][2]}) "
                     f"is beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
                     f"gauss = ±{self.sensor.field_range * abs(self.sensor.scale):.4g} V); check "
                     "gain and offset, or pass saturation='omit' (CLI: --saturation omit) to drop "
@@ -632,7 +721,8 @@ class _Reduction:
     def _condition(self, i: int) -> str:
         """Condition ``i`` in words: ``"40 deg"``, ``"40 deg at azimuth 90 deg"``."""
         c = self.conds[i]
-        return f"{c.imag:g} deg" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
+        unit = "deg" if self.load is None else LOAD_UNITS[self.load][2]
+        return f"{c.imag:g} {unit}" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
 
     def _readings(self) -> tuple[F64, F64, NDArray[np.int64], F64 | None, F64 | None]:
         """Per condition: output and its standard error (V; NaN for field data), samples used,
@@ -707,13 +797,19 @@ class _Reduction:
                 metadata["dropped"]["azimuths_deg"] = self.conds.real[~has].tolist()
         logger.info("%s: %d samples reduced to %d conditions", source, self.samples,
                     int(has.sum()))
+        loads = None if self.load is None else self.conds.imag[has] / LOAD_UNITS[self.load][1]
+        if self.load == "flow":
+            metadata["fluid"] = self.fluid
         return Measurement(
-            angles=np.radians(self.conds.imag[has]), volts=volts[has], sem=sem[has],
+            angles=(np.radians(self.conds.imag[has]) if loads is None
+                    else np.zeros(int(has.sum()))), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
             set_reset=self.width == 2, source=source, metadata=metadata,
             azimuths=np.radians(self.conds.real[has]),
             fields=None if fields is None else fields[has],
             field_sem=None if field_sem is None else field_sem[has],
+            forces=loads if self.load == "force" else None,
+            speeds=loads if self.load == "flow" else None,
         )
 
 
@@ -1122,6 +1218,7 @@ def read_measurements(
     decimal: str = ".",
     group: str | None = None,
     progress: Progress | None = None,
+    fluid: str = "water",
 ) -> Measurement:
     """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-condition means.
 
@@ -1158,10 +1255,14 @@ def read_measurements(
     progress : callable, optional
         Called as ``progress(bytes_read, file_size)`` while the file is read (CSV: after each
         block; other formats: at the start and the end).
+    fluid : {"water", "air"}
+        A flow recording's fluid (kept as ``metadata["fluid"]``; ignored for other recordings).
 
     Returns
     -------
     Measurement
+        For a load recording (a ``force_N`` or ``flow_m_per_s`` column in place of
+        ``angle_deg``): ``forces`` or ``speeds`` per condition (azimuth, load), angles 0.
 
     Examples
     --------
@@ -1177,9 +1278,12 @@ def read_measurements(
     """
     p = _recording_path(path)
     how = _how(p, columns, delimiter, decimal, group, progress)
+    fluid_name = v.choice("fluid", fluid, FLUID_NAMES)
 
     def start() -> _Reduction:
-        return _Reduction(sensor, nan_policy, saturation, str(p))
+        reduction = _Reduction(sensor, nan_policy, saturation, str(p))
+        reduction.fluid = fluid_name
+        return reduction
 
     if READERS[p.suffix.lower()] is _read_csv:  # reduced as it is read, in bounded memory
         with _reader_boundary(p):
