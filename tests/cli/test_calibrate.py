@@ -253,3 +253,39 @@ def test_calibrate_both_models_side_by_side(tmp_path: Path,
     assert "(undetermined)" in height  # the paper's model: height is a model parameter
     assert "## Both models" in (out / "report.md").read_text()
     assert json.loads((out / "result.json").read_text())["model"] == "physical"
+
+
+def test_calibrate_tilt_and_force_recordings_fit_the_modulus(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a tilt recording (3-axis, two azimuths) and a tip-force recording (mN in the header),
+    # synthetic from a converged model with E = 0.5 MPa; a height and a modulus prior on the CLI
+    truth = mc.Setup.paper(ring="rms", tip_radius=5e-5, youngs_modulus=0.5e6, n_loops=64,
+                           dipoles_per_loop=5)
+    rng = np.random.default_rng(0)
+    angles = np.radians(np.linspace(0.0, 80.0, 9))
+    lines = ["angle_deg,azimuth_deg,field_x_T,field_y_T,field_z_T"]
+    for phi in (0.0, 90.0):
+        b = truth.field(angles, azimuth=np.radians(phi))
+        for a, row in zip(np.degrees(angles), b, strict=True):
+            for _ in range(2):
+                noisy = row + rng.normal(0.0, 0.2e-6, 3)
+                lines.append(f"{float(a)!r},{phi!r}," + ",".join(repr(float(c)) for c in noisy))
+    (tmp_path / "tilt.csv").write_text("\n".join(lines) + "\n")
+    forces = np.linspace(0.0, 2e-5, 7)
+    b = truth.field(mc.bend_sweep(truth, forces=forces))
+    lines = ["F [mN],field_x_T,field_y_T,field_z_T"]
+    for f, row in zip(forces, b, strict=True):
+        for _ in range(2):
+            noisy = row + rng.normal(0.0, 0.2e-6, 3)
+            lines.append(f"{float(f) * 1e3!r}," + ",".join(repr(float(c)) for c in noisy))
+    (tmp_path / "force.csv").write_text("\n".join(lines) + "\n")
+    mc.save_setup(truth.replace(height=3.0e-3, youngs_modulus=2.5e6), tmp_path / "setup.toml")
+    code = main(["calibrate", str(tmp_path / "tilt.csv"), str(tmp_path / "force.csv"),
+                 "--columns", "force=F", "--model", "physical", "--setup",
+                 str(tmp_path / "setup.toml"), "--prior", "height=3.3:0.15", "--prior",
+                 "youngs_modulus=1:2", "--out", str(tmp_path / "fit"), "--quiet"])
+    assert code == 0
+    doc = json.loads((tmp_path / "fit" / "result.json").read_text())
+    e, se = doc["values"]["youngs_modulus"], doc["stderr"]["youngs_modulus"]
+    assert abs(e - 0.5e6) < 2.5 * se < 0.5e6  # Pa: determined, and near the truth
+    assert "force" in capsys.readouterr().out

@@ -24,6 +24,7 @@ from magcilia.cli._common import (
     style_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
 from magcilia.io.setup_files import load_priors
@@ -62,6 +63,8 @@ from magcilia.units import parse_values
                    "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
                    "file's [priors] table gives them too (these override it).")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
+@click.option("--fluid", type=click.Choice(["water", "air"]), default="water", show_default=True,
+              help="Fluid of flow recordings (a flow_m_per_s column; --model physical).")
 @click.option("--posterior", is_flag=True,
               help="With --model physical: also sample the posterior of the geometry (emcee, "
                    "1000 effective samples, at most a minute): credible intervals in the report, "
@@ -93,7 +96,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             seed: int, restarts: int, starts: int | None, bias: str, bias_degree: int,
             fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
             force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
-            model: str, prior_items: tuple[str, ...], posterior: bool) -> None:
+            model: str, prior_items: tuple[str, ...], posterior: bool, fluid: str) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
     physical to several recordings (experiments) at once.
 
@@ -108,7 +111,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                                 "--model physical to fit several together")
         measurements = [reading.read(read_measurements, path, quiet=quiet,
                                      sensor=initial.sensor, nan_policy=nan_policy,
-                                     saturation=saturation) for path in data]
+                                     saturation=saturation, fluid=fluid) for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
                   **parse_priors(prior_items)}
@@ -161,15 +164,18 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
 
 
 def parse_priors(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """``--prior NAME=VALUE:SIGMA`` items as SI (value, sigma) (lengths in mm when bare)."""
+    """``--prior NAME=VALUE:SIGMA`` items as SI (value, sigma), bare numbers in the parameter's
+    display unit (lengths in mm, the Young's modulus in MPa)."""
     out: dict[str, tuple[float, float]] = {}
     for item in items:
         name, sep, text = item.partition("=")
         name = name.strip()
-        if not sep or name not in JOINT_PARAMETERS:
+        names = (*JOINT_PARAMETERS, "youngs_modulus")
+        if not sep or name not in names:
             raise MagciliaError(f"--prior {item!r}: give NAME=VALUE:SIGMA with NAME one of "
-                                f"{', '.join(JOINT_PARAMETERS)}, e.g. height=3.0:0.2 (mm)")
-        mu, sigma = parse_values(text, "length", "mm", f"--prior {name}", (2,),
+                                f"{', '.join(names)}, e.g. height=3.0:0.2 (mm)")
+        p = REGISTRY[name]
+        mu, sigma = parse_values(text, p.dimension, p.display, f"--prior {name}", (2,),
                                  "height=3.0:0.2 or height=3mm:200um")
         out[name] = (mu, sigma)
     return out
