@@ -50,7 +50,7 @@ from magcilia.calibration.result import (
     JointCalibrationResult,
     ParameterCovariance,
 )
-from magcilia.calibration.uncertainty import RANK_TOLERANCE
+from magcilia.calibration.uncertainty import equilibrated_pinv
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_ranges
 from magcilia.device.setup import Setup
@@ -621,13 +621,8 @@ def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
     jac = np.where(np.isfinite(jac), jac, 0.0)
     dof = problem.y.size - p
     factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    slopes = np.linalg.norm(jac, axis=0)
-    norms = np.where(slopes > 0, slopes, 1.0)
-    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
-    kept = sv >= sv[0] * RANK_TOLERANCE
-    null = vt[~kept]
-    undetermined = np.any(np.abs(null) > 0.1, axis=0) if null.size else np.zeros(p, dtype=bool)
-    cov = factor * ((vt[kept].T / sv[kept] ** 2) @ vt[kept]) / np.outer(norms, norms)
+    pinv, null, undetermined = equilibrated_pinv(jac)
+    cov = factor * pinv
     units = np.array([problem.base.material.magnetization_scale
                       if n == "magnetization_scale" else 1.0 for n in names])
     cov = cov * np.outer(units, units)

@@ -143,8 +143,38 @@ class ParameterCovariance(Display):
         return frame
 
 
+class _Uncertain:
+    """The standard errors, correlations and covariance of a fit's :class:`ParameterCovariance`
+    (``self.uncertainty``) as attributes of the result."""
+
+    __slots__ = ()
+    uncertainty: ParameterCovariance
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """1-σ standard errors, SI (inf where the data do not determine the parameter; NaN where
+        not defined)."""
+        return self.uncertainty.stderr
+
+    @property
+    def correlation(self) -> F64:
+        """Correlation matrix of :attr:`correlation_names`, shape (p, p)."""
+        return self.uncertainty.correlation
+
+    @property
+    def correlation_names(self) -> tuple[str, ...]:
+        """Names of the rows of :attr:`correlation` and :attr:`covariance`."""
+        return self.uncertainty.correlation_names
+
+    @property
+    def covariance(self) -> F64 | None:
+        """Parameter covariance (SI), shape (p, p): σ² (JᵀJ)⁺, finite also along undetermined
+        combinations, so that J C Jᵀ gives the fitted curve's uncertainty."""
+        return self.uncertainty.covariance
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class CalibrationResult(Display):
+class CalibrationResult(_Uncertain, Display):
     """The outcome of :func:`calibrate` (immutable).
 
     Attributes
@@ -209,28 +239,6 @@ class CalibrationResult(Display):
     diagnostics: tuple[CalibrationWarning, ...] = field(default=())
     fixed: dict[str, float] = field(default_factory=dict)
     truth: dict[str, float] | None = None
-
-    @property
-    def stderr(self) -> dict[str, float]:
-        """1-σ standard errors, SI (inf where the data do not determine the parameter; NaN where
-        not defined)."""
-        return self.uncertainty.stderr
-
-    @property
-    def correlation(self) -> F64:
-        """Correlation matrix of :attr:`correlation_names`, shape (p, p)."""
-        return self.uncertainty.correlation
-
-    @property
-    def correlation_names(self) -> tuple[str, ...]:
-        """Names of the rows of :attr:`correlation` and :attr:`covariance`."""
-        return self.uncertainty.correlation_names
-
-    @property
-    def covariance(self) -> F64 | None:
-        """Parameter covariance (SI), shape (p, p): σ² (JᵀJ)⁺, finite also along undetermined
-        combinations, so that J C Jᵀ gives the fitted curve's uncertainty."""
-        return self.uncertainty.covariance
 
     @property
     def fitted(self) -> F64:
@@ -499,7 +507,7 @@ class ExperimentFit(Display):
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class JointCalibrationResult(Display):
+class JointCalibrationResult(_Uncertain, Display):
     """The outcome of ``calibrate(..., model="physical")`` (immutable): one cilium and placement
     fitted to several experiments (:mod:`magcilia.calibration.joint`).
 
@@ -560,26 +568,6 @@ class JointCalibrationResult(Display):
     evaluations: int
     elapsed: float
     posterior: Posterior | None = None
-
-    @property
-    def stderr(self) -> dict[str, float]:
-        """1-σ standard errors, SI (inf where undetermined)."""
-        return self.uncertainty.stderr
-
-    @property
-    def correlation(self) -> F64:
-        """Correlation matrix of :attr:`correlation_names`."""
-        return self.uncertainty.correlation
-
-    @property
-    def correlation_names(self) -> tuple[str, ...]:
-        """Names of the rows of :attr:`correlation` and :attr:`covariance`."""
-        return self.uncertainty.correlation_names
-
-    @property
-    def covariance(self) -> F64 | None:
-        """Parameter covariance (SI)."""
-        return self.uncertainty.covariance
 
     def undetermined(self) -> tuple[str, ...]:
         """Parameters the data (and priors) leave undetermined."""

@@ -24,6 +24,33 @@ F64 = NDArray[np.float64]
 RANK_TOLERANCE = 1e-7
 
 
+def equilibrated_pinv(jac: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
+    """(JᵀJ)⁺ of a Jacobian (m, p) whose columns have different units, through the SVD of the
+    column-equilibrated matrix (each column divided by its norm): rank, null space and covariance
+    from one decomposition, so a small column (d/dy near y = 0, where B_x is even in y) is judged
+    by its direction, not its size, and is never dropped unseen.
+
+    Returns
+    -------
+    pinv : ndarray, shape (p, p)
+        (JᵀJ)⁺ in the columns' own units (multiply by σ² for a covariance).
+    null : ndarray, shape (r, p)
+        The combinations (of the equilibrated columns) the data do not determine: singular
+        values below :data:`RANK_TOLERANCE` of the largest.
+    undetermined : ndarray of bool, shape (p,)
+        Parameters taking part in a null combination (weight > 0.1).
+    """
+    slopes = np.linalg.norm(jac, axis=0)
+    norms = np.where(slopes > 0, slopes, 1.0)
+    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
+    kept = sv >= sv[0] * RANK_TOLERANCE
+    null = vt[~kept]
+    undetermined = (np.any(np.abs(null) > 0.1, axis=0) if null.size
+                    else np.zeros(jac.shape[1], dtype=bool))
+    pinv = ((vt[kept].T / sv[kept] ** 2) @ vt[kept]) / np.outer(norms, norms)
+    return np.asarray(pinv, dtype=np.float64), null, undetermined
+
+
 def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
                  box: dict[str, tuple[float, float]], values: dict[str, float] | None = None
                  ) -> tuple[tuple[str, ...], dict[str, float], F64, F64,
@@ -60,17 +87,9 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
             tuple(names[k] for k in broken)))
     dof = m - p
     sigma2 = cost / dof if dof > 0 else math.nan
-    # rank, null space and covariance all from the SVD of the column-equilibrated Jacobian
-    # (columns have different units): a small column, e.g. d/dy near y = 0 where B_x is even in
-    # y, is then judged by its direction, not its size, and is never dropped unseen
+    pinv, null, undetermined = equilibrated_pinv(jac)
     slopes = np.linalg.norm(jac, axis=0)
-    norms = np.where(slopes > 0, slopes, 1.0)
-    _, sv, vt = np.linalg.svd(jac / norms, full_matrices=False)
-    kept = sv >= sv[0] * RANK_TOLERANCE
-    null = vt[~kept]
-    undetermined = np.any(np.abs(null) > 0.1, axis=0) if null.size else np.zeros(p, dtype=bool)
-    cov_scaled = (vt[kept].T / sv[kept] ** 2) @ vt[kept]  # (JᵀJ)⁺ of the scaled columns
-    cov = sigma2 * cov_scaled / np.outer(norms, norms)
+    cov = sigma2 * pinv
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
     with np.errstate(invalid="ignore", divide="ignore"):
