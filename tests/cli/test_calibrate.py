@@ -178,7 +178,7 @@ def test_calibrate_physical_with_priors_from_cli_and_setup_file(
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--model", "physical", "--prior", "height=3.0"], "--prior height"),
+        (["--model", "physical", "--prior", "height=3.0"], "VALUE and SIGMA each"),
         (["--model", "physical", "--prior", "heigth=3:0.2"], "NAME one of height"),
         (["--model", "physical", "--prior", "height=3:0"], "zero-width prior"),
         (["--model", "physical", "--prior", "height=9:0.2"], "outside its bounds"),

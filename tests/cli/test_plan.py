@@ -49,7 +49,7 @@ def test_plan_json_in_display_and_si_units(capsys: pytest.CaptureFixture[str]) -
 
 @pytest.mark.parametrize(("argv", "message"), [
     (["--budget", "4"], "--budget must be at least 5 readings"),
-    (["--budget", "10", "--prior", "height=3:0"], "positive SD"),
+    (["--budget", "10", "--prior", "height=3:0"], "positive SIGMA"),
     (["--budget", "10", "--prior", "mass=3:1"], "NAME one of height"),
     (["--budget", "10", "--noise", "-1"], "--noise"),
     (["--budget", "10", "--azimuths", "0,abc"], "--azimuths"),

@@ -313,3 +313,28 @@ def recording_options(command: Any) -> Any:
     for option in reversed(options):
         run = option(run)
     return run
+
+
+def parse_priors(items: tuple[str, ...],
+                 names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """``--prior NAME=VALUE:SIGMA`` items -> SI (value, σ) by name; VALUE and SIGMA in the
+    parameter's display unit (mm, MPa) or with units (``height=3mm:200um``), NAME among
+    ``names``, σ > 0 (a zero-width prior would fix the parameter: --fix does that)."""
+    out: dict[str, tuple[float, float]] = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        name = name.strip()
+        if name not in names:
+            raise fail("--prior", item, "NAME=VALUE:SIGMA with NAME one of " + ", ".join(names))
+        p = PARAMETERS[name]
+        try:
+            value, sigma = parse_values(text, p.dimension, p.display, "--prior", (2,))
+        except MagciliaError:
+            raise fail("--prior", item, "NAME=VALUE:SIGMA with VALUE and SIGMA each "
+                                        f"{dimension_words(p.dimension, p.display)}, e.g. "
+                                        f"{name}=3.26:0.1") from None
+        if not sigma > 0:
+            raise fail("--prior", item, "a prior with a positive SIGMA (a zero-width prior "
+                                        "fixes the parameter: use --fix instead)")
+        out[name] = (value, sigma)
+    return out

@@ -19,12 +19,12 @@ from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     parse_named_ranges,
+    parse_priors,
     recording_options,
     si_option,
     style_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
-from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import read_measurements
 from magcilia.io.setup_files import load_priors
@@ -36,7 +36,6 @@ from magcilia.report.calibration import (
     write_calibration_files,
     write_joint_calibration_files,
 )
-from magcilia.units import parse_values
 
 
 @click.command()
@@ -114,7 +113,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                                      saturation=saturation, fluid=fluid) for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
-                  **parse_priors(prior_items)}
+                  **parse_priors(prior_items, (*JOINT_PARAMETERS, "youngs_modulus"))}
         if model == "both" and (measurements[0].observable != "output"
                                 or not measurements[0].single_azimuth):
             raise MagciliaError(f"{data[0]}: --model both fits the paper's model to the first "
@@ -162,21 +161,4 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
         click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
                    "residuals.png")
 
-
-def parse_priors(items: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """``--prior NAME=VALUE:SIGMA`` items as SI (value, sigma), bare numbers in the parameter's
-    display unit (lengths in mm, the Young's modulus in MPa)."""
-    out: dict[str, tuple[float, float]] = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        name = name.strip()
-        names = (*JOINT_PARAMETERS, "youngs_modulus")
-        if not sep or name not in names:
-            raise MagciliaError(f"--prior {item!r}: give NAME=VALUE:SIGMA with NAME one of "
-                                f"{', '.join(names)}, e.g. height=3.0:0.2 (mm)")
-        p = REGISTRY[name]
-        mu, sigma = parse_values(text, p.dimension, p.display, f"--prior {name}", (2,),
-                                 "height=3.0:0.2 or height=3mm:200um")
-        out[name] = (mu, sigma)
-    return out
 

@@ -7,13 +7,11 @@ from typing import Any
 
 import click
 
-from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration.plan import PLAN_PARAMETERS, SENSORS, CalibrationPlan, plan_calibration
-from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, si_option
-from magcilia.device.parameters import PARAMETERS
+from magcilia.cli._common import angle_grid, echo_json, load_setup_arg, parse_priors, si_option
 from magcilia.report.units import output_units
-from magcilia.units import OutputUnits, dimension_words, parse_value, parse_values
+from magcilia.units import OutputUnits, parse_value
 
 
 def _azimuths(text: str) -> list[float]:
@@ -24,29 +22,6 @@ def _azimuths(text: str) -> list[float]:
                                        "e.g. 0,90")
     return [parse_value(t, "angle", "deg", "--azimuths", "0,90") for t in items]
 
-
-def _priors(items: tuple[str, ...]) -> tuple[dict[str, float], dict[str, float]]:
-    """``NAME=VALUE:SD`` items (display units or with units) -> (values, σ) in SI."""
-    values: dict[str, float] = {}
-    sds: dict[str, float] = {}
-    for item in items:
-        name, _, text = item.partition("=")
-        name = name.strip()
-        if name not in PLAN_PARAMETERS:
-            raise fail("--prior", item, "NAME=VALUE:SD with NAME one of "
-                                        + ", ".join(PLAN_PARAMETERS))
-        p = PARAMETERS[name]
-        try:
-            value, sd = parse_values(text, p.dimension, p.display, "--prior", (2,))
-        except MagciliaError:
-            raise fail("--prior", item, f"NAME=VALUE:SD with VALUE and SD each "
-                                        f"{dimension_words(p.dimension, p.display)}, e.g. "
-                                        f"{name}=3.26:0.1") from None
-        if not sd > 0:
-            raise fail("--prior", item, "a prior with a positive SD (a zero-width prior fixes "
-                                        "the parameter: leave it out of the fit instead)")
-        values[name], sds[name] = value, sd
-    return values, sds
 
 
 def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
@@ -135,7 +110,7 @@ def _num(value: float) -> str:
               help="σ of one reading: mV for --sensor output (default: the sensor's noise model, "
                    "one raw sample at 1 kHz), gauss per component for --sensor field (default "
                    "10nT); units allowed (0.01mV, 10nT).")
-@click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SD",
+@click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SIGMA",
               help="A manual measurement of a parameter as a Gaussian prior, display units "
                    "(height=3.26:0.1 in mm) or with units; VALUE also replaces the setup's. "
                    "Repeatable.")
@@ -150,7 +125,9 @@ def command(setup_arg: str, budget: int, sensor: str, azimuths: str, angles: str
     its own offset), printed next to the paper's equally spaced angles on one path with the same
     budget: rank, condition number and the expected standard error of each parameter."""
     setup = load_setup_arg(setup_arg)
-    values, sds = _priors(prior_items)
+    priors = parse_priors(prior_items, PLAN_PARAMETERS)
+    values = {n: mu for n, (mu, _) in priors.items()}
+    sds = {n: sd for n, (_, sd) in priors.items()}
     if values:
         setup = setup.replace(**values)
     grid = angle_grid(angles)
