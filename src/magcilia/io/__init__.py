@@ -2,6 +2,8 @@
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS, HDF5) reduced to a :class:`Measurement`;
+* :mod:`.measurement`: :class:`Measurement`, the per-condition summary (tilt angle or load,
+  azimuth; output or 3-axis field) that calibration fits;
 * :mod:`.columns`: which column of a recording holds what, in which unit (:class:`Columns`);
 * :mod:`.recording_file`: crash-safe TDMS recordings streamed in flushed chunks;
 * :mod:`.firmware`: C headers and JSON of read-out approximations;
