@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number
-from magcilia.device.parameters import PARAMETERS
+from magcilia.device.parameters import MEASURANDS, PARAMETERS, Quantity
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 
@@ -146,6 +146,11 @@ def _text(name: str, value: float, digits: int = 3) -> str:
     if p is None or not p.display:
         return number(value, digits)
     return "inf" if not math.isfinite(value) else p.text(value, digits)
+
+
+def _condition(value: float) -> str:
+    """A condition number for a table ("undetermined" where infinite)."""
+    return "undetermined" if not math.isfinite(value) else f"{value:.3g}"
 
 
 def _rows(jacobian: ArrayLike) -> F64:
@@ -402,26 +407,53 @@ class CalibrationPlan(Display):
                 "plan": self.design.to_dict(), "paper": self.reference.to_dict(),
                 "paper_angles": self.reference_angles.tolist()}
 
-    def report(self) -> str:
-        """The comparison table (display units) and the planned conditions."""
+    def report(self, si: bool = False) -> str:
+        """The comparison with the paper's sweep (rank, condition number, the expected standard
+        error of each parameter), what no design here determines, and the planned readings; in
+        display units (mm, deg, mV or gauss), SI with ``si``."""
         d, r = self.design, self.reference
-        unit = "mV" if self.sensor == "output" else "nT"
-        noise = self.noise * (1e3 if self.sensor == "output" else 1e9)
-        lines = [(f"Calibration plan: {d.budget} conditions, sensor {self.sensor} "
-                 f"(noise {number(noise)} {unit} per reading)"),
-                 f"  {'':<22}{'paper (1 path)':>16}{'plan':>16}",
-                 (f"  {'rank':<22}{f'{r.rank}/{len(r.interest)}':>16}"
-                 f"{f'{d.rank}/{len(d.interest)}':>16}"),
-                 f"  {'condition number':<22}{number(r.condition):>16}{number(d.condition):>16}"]
+        angle = MEASURANDS["angle"]
+        noise_unit = PARAMETERS["offset" if self.sensor == "output" else "field_range"]
+
+        def unit(q: Quantity) -> tuple[str, float]:
+            return (q.unit, 1.0) if si else (q.display, q.display_factor)
+
+        def shown(value: float, name: str) -> str:
+            f = unit(PARAMETERS[name])[1]
+            return "undetermined" if not math.isfinite(value) else f"{value / f:.3g}"
+
+        a_unit, a_factor = unit(angle)
+        n_unit, n_factor = unit(noise_unit)
+        lines = [f"Calibration plan: {d.budget} readings, sensor {self.sensor} (noise "
+                 f"{self.noise / n_factor:.3g} {n_unit} per reading"
+                 + (", 3 components)" if self.sensor == "field" else ")"),
+                 f"  {'':<24}{'paper (1 path)':>16}{'plan':>16}",
+                 (f"  {'rank':<24}{f'{r.rank}/{len(r.interest)}':>16}"
+                  f"{f'{d.rank}/{len(d.interest)}':>16}"),
+                 (f"  {'condition number':<24}{_condition(r.condition):>16}"
+                  f"{_condition(d.condition):>16}")]
         for i, n in enumerate(d.names):
             if n in d.interest:
-                lines.append(f"  {'σ ' + n:<22}{_text(n, float(r.stderr[i])):>16}"
-                             f"{_text(n, float(d.stderr[i])):>16}")
-        lines.append("  planned conditions (azimuth: angles, ×repeats):")
-        for phi in np.unique([c[1] for c in self.conditions()]):
-            angles = ", ".join(f"{math.degrees(a):g}" + (f"×{n}" if n > 1 else "")
-                               for a, az, n in self.conditions() if az == phi)
-            lines.append(f"    {math.degrees(phi):g} deg: {angles} deg")
+                lines.append(f"  {f'σ {n} ({unit(PARAMETERS[n])[0]})':<24}"
+                             f"{shown(float(r.stderr[i]), n):>16}"
+                             f"{shown(float(d.stderr[i]), n):>16}")
+        lost = [n for i, n in enumerate(d.names)
+                if n in d.interest and not math.isfinite(d.stderr[i])]
+        if lost:
+            why = (" (at one sensing point the field does not change when the whole cilium and "
+                   "its placement scale together, B ∝ M·V/r³)"
+                   if set(lost) == set(PLAN_PARAMETERS) else "")
+            lines.append(f"  undetermined by any design here: {', '.join(lost)}{why}: add a "
+                         "prior, e.g. --prior height=3.26:0.1")
+        lines.append(f"  planned readings (azimuth: angles in {a_unit}, ×repeats):")
+        conditions = self.conditions()
+        for phi in sorted({c[1] for c in conditions}):
+            text = ", ".join(f"{a / a_factor:.4g}" + (f"×{n}" if n > 1 else "")
+                             for a, az, n in conditions if az == phi)
+            lines.append(f"    {phi / a_factor:.4g}: {text}")
+        paper = ", ".join(f"{float(a) / a_factor:.4g}" for a in self.reference_angles)
+        lines.append(f"  paper: {d.budget} equally spaced angles at azimuth "
+                     f"{float(self.azimuths[0]) / a_factor:.4g}: {paper}")
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:

@@ -50,51 +50,6 @@ def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
     }
 
 
-def _table(plan: CalibrationPlan, units: OutputUnits) -> str:
-    d, r = plan.design, plan.reference
-    noise_what = "output" if plan.sensor == "output" else "field"
-    lines = [f"Calibration plan: {d.budget} readings, sensor {plan.sensor} (noise "
-             f"{_shown(units, plan.noise, noise_what):.3g} {units.unit(noise_what)} per reading"
-             + (", 3 components)" if plan.sensor == "field" else ")"),
-             f"  {'':<24}{'paper (1 path)':>16}{'plan':>16}",
-             (f"  {'rank':<24}{f'{r.rank}/{len(r.interest)}':>16}"
-             f"{f'{d.rank}/{len(d.interest)}':>16}"),
-             f"  {'condition number':<24}{_num(r.condition):>16}{_num(d.condition):>16}"]
-    for i, n in enumerate(d.names):
-        if n in d.interest:
-            unit = units.unit(n)
-            lines.append(f"  {f'σ {n} ({unit})':<24}"
-                         f"{_num(_shown(units, float(r.stderr[i]), n)):>16}"
-                         f"{_num(_shown(units, float(d.stderr[i]), n)):>16}")
-    lost = [n for i, n in enumerate(d.names) if n in d.interest and not math.isfinite(d.stderr[i])]
-    if lost:
-        why = (" (at one sensing point the field does not change when the whole cilium and its "
-               "placement scale together, B ∝ M·V/r³)" if set(lost) == set(PLAN_PARAMETERS)
-               else "")
-        lines.append(f"  undetermined by any design here: {', '.join(lost)}{why}: add a prior, "
-                     "e.g. --prior height=3.26:0.1")
-    angle_unit = units.unit("angle")
-    lines.append(f"  planned readings (azimuth: angles in {angle_unit}, ×repeats):")
-    conditions = plan.conditions()
-    for phi in sorted({c[1] for c in conditions}):
-        text = ", ".join(f"{_shown(units, a, 'angle'):.4g}" + (f"×{n}" if n > 1 else "")
-                         for a, az, n in conditions if az == phi)
-        lines.append(f"    {_shown(units, phi, 'angle'):.4g}: {text}")
-    paper = ", ".join(f"{_shown(units, float(a), 'angle'):.4g}" for a in plan.reference_angles)
-    lines.append(f"  paper: {d.budget} equally spaced angles at azimuth "
-                 f"{_shown(units, float(plan.azimuths[0]), 'angle'):.4g}: {paper}")
-    return "\n".join(lines)
-
-
-def _shown(units: OutputUnits, value: float, what: str) -> float:
-    """An SI value in the output unit of ``what``."""
-    return value / units.factor(what)
-
-
-def _num(value: float) -> str:
-    return "undetermined" if not math.isfinite(value) else f"{value:.3g}"
-
-
 @click.command()
 @click.argument("setup_arg", metavar="SETUP")
 @click.option("--budget", required=True, type=int,
@@ -145,8 +100,7 @@ def command(setup_arg: str, budget: int, sensor: str, azimuths: str, angles: str
                                        f"to determine {', '.join(PLAN_PARAMETERS)}")
     plan = plan_calibration(setup, budget, sensor=sensor, azimuths=phis, angles=grid,
                             noise=noise, prior_sd=sds)
-    units = output_units(si)
     if as_json:
-        echo_json(_document(plan, units))
+        echo_json(_document(plan, output_units(si)))
     else:
-        click.echo(_table(plan, units))
+        click.echo(plan.report(si))
