@@ -35,7 +35,7 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -136,6 +136,16 @@ def _widened(name: str, lo: float, hi: float, upper: bool) -> tuple[float, float
 
 def _can_widen(name: str, lo: float, hi: float, upper: bool) -> bool:
     return _widened(name, lo, hi, upper) != (lo, hi)
+
+
+def correlated(names: Sequence[str], corr: NDArray[np.float64]) -> list[CalibrationWarning]:
+    """A ``correlated`` warning for each pair of ``names`` whose correlation (``corr``, (p, p),
+    NaN where undefined) exceeds :data:`CORRELATION_LIMIT` in magnitude."""
+    return [CalibrationWarning(
+        "correlated", f"{names[i]} and {names[j]} are strongly correlated ({corr[i, j]:+.3f}): "
+        "the data determine a combination of them, not each one", (names[i], names[j]))
+        for i in range(len(names)) for j in range(i + 1, len(names))
+        if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT]
 
 
 def at_bound(values: Mapping[str, float], box: Mapping[str, tuple[float, float]],

@@ -40,7 +40,7 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.calibration.diagnostics import CORRELATION_LIMIT, CalibrationWarning, at_bound
+from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, correlated
 from magcilia.calibration.local import levenberg_marquardt
 from magcilia.calibration.multistart import latin_hypercube
 from magcilia.calibration.posterior import sample_problem
@@ -642,13 +642,7 @@ def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
             "degrees of freedom left; record more conditions"))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se, se)
-    for i in range(p):
-        for j in range(i + 1, p):
-            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
-                warns.append(CalibrationWarning(
-                    "correlated", f"{names[i]} and {names[j]} are strongly correlated "
-                    f"({corr[i, j]:+.3f}): the data determine a combination of them, not each one",
-                    (names[i], names[j])))
+    warns += correlated(names, corr)
     return tuple(names), cov, se, tuple(warns), factor > 1.0
 
 

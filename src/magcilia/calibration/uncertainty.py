@@ -9,11 +9,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.diagnostics import (
-    CORRELATION_LIMIT,
-    CalibrationWarning,
-    stderr_checks,
-)
+from magcilia.calibration.diagnostics import CalibrationWarning, correlated, stderr_checks
 from magcilia.calibration.problem import CONTINUOUS, INDEX, INTEGER, Problem, named
 
 F64 = NDArray[np.float64]
@@ -116,13 +112,7 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
         warns += stderr_checks(tuple(names), values, se * units, slopes / units,
                                math.sqrt(sigma2), math.sqrt(cost / m),
                                float(np.max(np.abs(problem.y))), box)
-    for i in range(p):
-        for j in range(i + 1, p):
-            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > CORRELATION_LIMIT:
-                warns.append(CalibrationWarning(
-                    "correlated",
-                    f"{names[i]} and {names[j]} are strongly correlated ({corr[i, j]:+.3f}): the "
-                    "data determine a combination of them, not each one", (names[i], names[j])))
+    warns += correlated(names, corr)
     if box["y"][0] < 0.0 < box["y"][1] or box["y"][0] < -x[INDEX["y"]] < box["y"][1]:
         warns.append(CalibrationWarning(
             "y_sign", "B_x is symmetric in y, so the sign of y is not determined (y and -y fit "
