@@ -29,9 +29,9 @@ import math
 import statistics
 import time
 import warnings
-from collections.abc import Callable
 
 import numpy as np
+from _timing import interleaved
 from scipy.integrate import solve_bvp
 
 import magcilia as mc
@@ -46,17 +46,6 @@ def setup() -> mc.Setup:
     return mc.Setup.paper(height=L, base_radius=R0, tip_radius=R1, youngs_modulus=E,
                           position=(1.4727e-3, 1.9891e-3, 0.3804e-3), n_loops=12,
                           dipoles_per_loop=4)
-
-
-def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str, list[float]]:
-    """Wall times (s) of each callable, ``repeat`` rounds, the callables interleaved."""
-    times: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(repeat):
-        for name, run in runs.items():
-            t0 = time.perf_counter()
-            run()
-            times[name].append(time.perf_counter() - t0)
-    return times
 
 
 def stats(t: list[float]) -> tuple[float, float]:

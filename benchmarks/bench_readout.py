@@ -36,11 +36,11 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _timing import interleaved
 
 import magcilia as mc
 from magcilia.cli import main as cli_main
@@ -79,16 +79,6 @@ def anchor(readout: mc.Readout, rec: Path, out: Path) -> None:
     table = readout.table
     frame["force_mN"] = np.interp(frame["voltage_V"].to_numpy(), table.volts, table.values) * 1e3
     frame.to_csv(out, index=False, float_format="%.10g")
-
-
-def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str, list[float]]:
-    times: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(repeat):
-        for name, run in runs.items():
-            t0 = time.perf_counter()
-            run()
-            times[name].append(time.perf_counter() - t0)
-    return times
 
 
 def stages(setup: Path, rec: Path, out: Path) -> dict[str, float]:

@@ -1,0 +1,17 @@
+"""Timing shared by the benchmarks (run as scripts: ``python benchmarks/bench_*.py``)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+
+def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str, list[float]]:
+    """Wall times (s) of each callable, ``repeat`` rounds, the callables interleaved."""
+    times: dict[str, list[float]] = {name: [] for name in runs}
+    for _ in range(repeat):
+        for name, run in runs.items():
+            t0 = time.perf_counter()
+            run()
+            times[name].append(time.perf_counter() - t0)
+    return times
