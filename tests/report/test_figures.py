@@ -41,6 +41,8 @@ from matplotlib.patches import Patch
 from matplotlib.text import Text
 from matplotlib.transforms import Bbox
 
+import magcilia as mc
+from magcilia.acquire.synthetic import synthetic_field_recording
 from magcilia.cli import main
 from magcilia.io.recordings import example_path
 
@@ -246,6 +248,20 @@ def photo(path: Path, angle_deg: float = -18.0) -> Path:
     return path
 
 
+def field_recordings(tmp: Path) -> list[str]:
+    """Two synthetic 3-axis recordings of the paper's cilium (converged layout), tilted toward
+    azimuths 0 and 90 deg."""
+    truth = mc.Setup.paper(ring="rms", n_loops=64, dipoles_per_loop=5)
+    angles = np.radians(np.linspace(0.0, 80.0, 9))
+    paths = []
+    for i, phi in enumerate((0.0, np.pi / 2)):
+        rec = synthetic_field_recording(truth, angles, (phi,), samples_per_angle=20, noise=1e-6,
+                                        background=(20e-6, -5e-6, 40e-6), rng=i)
+        paths.append(tmp / f"az{i}.csv")
+        rec.write_csv(paths[-1])
+    return [str(p) for p in paths]
+
+
 def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
     """Per case: the argv and the figure files it must write."""
     ext = ".png" if style == "screen" else ".pdf"
@@ -280,11 +296,15 @@ def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
                                         "fig12_geometry.png", "xy_map.png", "sobol.png"])),
         "angle": (["angle", str(photo(tmp / "holder.png")), "--annotate", str(tmp / "ann")],
                   [tmp / "ann" / "holder_angle.png"]),
+        "calibrate-physical": (["calibrate", *field_recordings(tmp), "--model", "physical",
+                                "--setup", "paper", "--prior", "height=3.3:0.15", "--posterior",
+                                "--out", str(tmp / "joint"), "--quiet"],
+                               folder("joint", ["fit.png", "pairs.png"])),
     }
 
 
 CASES = ("demo", "calibrate", "field", "field-svg", "bend-force", "bend-flow", "design",
-         "design-cone", "sensitivity", "angle")
+         "design-cone", "sensitivity", "angle", "calibrate-physical")
 MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".pdf": b"%PDF-", ".svg": b"<?xml"}
 
 

@@ -575,11 +575,12 @@ class JointCalibrationResult(_Uncertain, Display):
                                    for n in w.parameters))
 
     def table(self, si: bool = False) -> list[dict[str, Any]]:
-        """Rows: parameter, unit, initial, fitted, stderr (display units; SI with ``si``), fixed,
-        and the prior value and σ (NaN without one)."""
-        init = self.initial.params()
+        """Rows of the geometry, the Young's modulus (with load experiments) and the magnetization
+        scale (with ``fit_scale``): parameter, unit, initial, fitted, stderr (display units; SI
+        with ``si``), fixed, and the prior value and σ (NaN without one)."""
+        init = {**self.initial.params(), "youngs_modulus": self.initial.youngs_modulus}
         rows = []
-        for name in (*GEOMETRY, "magnetization_scale"):
+        for name in (*GEOMETRY, "youngs_modulus", "magnetization_scale"):
             if name not in self.values:
                 continue
             p = REGISTRY[name]

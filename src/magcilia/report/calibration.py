@@ -314,29 +314,43 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
 
 # --- joint calibration (model="physical", several experiments) -----------------------------------
 def joint_fit_figure(result: JointCalibrationResult) -> Figure:
-    """``fit.png`` of a joint calibration: one panel per experiment, the measured values with 1
-    s.e. error bars (output in mV less its offset; field components in µT less their offsets) and
-    the fitted model vs tilt angle (deg)."""
+    """``fit.png`` of a joint calibration: one panel per experiment, the measured values (output in
+    mV less its offset; field components in µT less their offsets) and the fitted model vs tilt
+    angle (deg), tip force (mN) or flow speed (m/s); one curve per azimuth (line styles)."""
     from magcilia.report.figures import new_figure
 
     fig, axes = new_figure(nrows=len(result.experiments), size=(6.4, 2.6))
     for ax, e in zip(axes[:, 0], result.experiments, strict=True):
-        deg = np.degrees(e.angles)
-        if e.observable == "output":
-            ax.plot(deg, (e.measured - e.offsets[0]) * 1e3, "o", ms=3, color="C0",
-                    label="measured")
-            ax.plot(deg, (e.fitted - e.offsets[0]) * 1e3, "-", color="C1", label="fitted")
-            ax.set_ylabel("output − offset (mV)")
+        if e.loads is None:
+            x, xlabel = np.degrees(e.angles), "tilt angle (deg)"
+        elif e.load_kind == "force":
+            x, xlabel = e.loads * 1e3, "tip force (mN)"
         else:
-            for c in range(3):
-                ax.plot(deg, (e.measured[:, c] - e.offsets[c]) * 1e6, "o", ms=3, color=f"C{c}",
-                        label=f"B_{'xyz'[c]}")
-                ax.plot(deg, (e.fitted[:, c] - e.offsets[c]) * 1e6, "-", color=f"C{c}")
-            ax.set_ylabel("B − offset (µT)")
-        az = ", ".join(f"{d:g}" for d in np.unique(np.round(np.degrees(e.azimuths), 1)))
-        ax.set_title(f"{e.source} (azimuth {az}°)", fontsize="small")
-        ax.legend(fontsize="x-small")
-    axes[-1, 0].set_xlabel("tilt angle (deg)")
+            x, xlabel = e.loads, "flow speed (m/s)"
+        if e.observable == "output":
+            measured = ((e.measured - e.offsets[0]) * 1e3)[:, None]
+            fitted = ((e.fitted - e.offsets[0]) * 1e3)[:, None]
+            names, ylabel = ["output"], "output − offset (mV)"
+        else:
+            measured = (e.measured - e.offsets) * 1e6
+            fitted = (e.fitted - e.offsets) * 1e6
+            names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "B − offset (µT)"
+        azimuths = np.unique(e.azimuths)
+        for k, phi in enumerate(azimuths):  # one curve per tilt direction, never joined
+            rows = np.flatnonzero(e.azimuths == phi)
+            rows = rows[np.argsort(x[rows], kind="stable")]
+            style = ("-", "--", ":", "-.")[k % 4]
+            for c, name in enumerate(names):
+                ax.plot(x[rows], measured[rows, c], "o", ms=3, color=f"C{c}",
+                        label=name if k == 0 else None)
+                ax.plot(x[rows], fitted[rows, c], style, color=f"C{c}",
+                        label=(f"fitted, azimuth {np.degrees(phi):g}°"
+                               if c == 0 and len(azimuths) > 1 else None))
+        az = ", ".join(f"{d:g}" for d in np.round(np.degrees(azimuths), 1))
+        ax.set_title(f"{Path(e.source).name} (azimuth {az}°)", fontsize="small")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.legend(fontsize="x-small", loc="best", ncols=2)
     return fig
 
 
@@ -409,8 +423,8 @@ def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> 
     console's display units (mm; SI with ``si``), keys suffixed with their units, with each
     experiment's RMS and offsets (mV/µT; V/T with ``si``)."""
     units = output_units(si)
-    names = ("height", "base_radius", "x", "y", "z")
-    geometry: dict[str, object] = {n: result.values[n] for n in names}
+    names = ("height", "base_radius", "x", "y", "z", "youngs_modulus")
+    geometry: dict[str, object] = {n: result.values[n] for n in names if n in result.values}
     out: dict[str, Any] = {
         "model": result.model, "n_loops": result.n_loops,
         "dipoles_per_loop": result.dipoles_per_loop, "chi2": result.chi2, "dof": result.dof,
