@@ -34,3 +34,25 @@ def test_control_characters_from_a_file_are_escaped(tmp_path: Path,
     err = capsys.readouterr().err
     assert "\x1b" not in err and err.count("\n") == 1
     assert "\\x1b[2J" in err or "angle_deg" in err
+
+
+def test_a_library_warning_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    import warnings
+
+    import click
+
+    from magcilia import cli as cli_module
+
+    @click.command()
+    def warns() -> None:
+        warnings.warn("sampling stopped\nat the time limit", UserWarning, stacklevel=1)
+
+    cli_module.cli.add_command(warns, name="warns-test")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always")  # the suite turns warnings into errors
+            assert cli_module.main(["warns-test"]) == 0
+    finally:
+        cli_module.cli.commands.pop("warns-test")
+    err = capsys.readouterr().err
+    assert err == "magcilia: warning: sampling stopped at the time limit\n"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import warnings
 from collections.abc import Sequence
 
 import click
@@ -101,8 +102,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI in-process and return the exit code (0 ok, 1 aborted, 2 a usage or input
     error, printed as one line)."""
     try:
-        cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
-                 standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning  # restored on leaving
+            cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
+                     standalone_mode=False)
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.exceptions.Abort:
@@ -119,6 +122,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         name = f" {exc.filename}" if exc.filename else ""
         return _error(f"cannot access{name}: {exc.strerror or exc}")
     return 0
+
+
+def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                  file: object = None, line: str | None = None) -> None:
+    """A library warning (e.g. a posterior stopped at its time limit) as one line on stderr,
+    ``magcilia: warning: MESSAGE``, without Python's file and source line."""
+    del category, filename, lineno, file, line
+    click.echo(f"magcilia: warning: {printable(' '.join(str(message).split()))}", err=True)
 
 
 def _error(message: str) -> int:
