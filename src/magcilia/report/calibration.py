@@ -316,7 +316,8 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
 def joint_fit_figure(result: JointCalibrationResult) -> Figure:
     """``fit.png`` of a joint calibration: one panel per experiment, the measured values (output in
     mV less its offset; field components in µT less their offsets) and the fitted model vs tilt
-    angle (deg), tip force (mN) or flow speed (m/s); one curve per azimuth (line styles)."""
+    angle (deg), tip force (mN) or flow speed (m/s); one curve per azimuth (line styles named in
+    the title)."""
     from magcilia.report.figures import new_figure
 
     fig, axes = new_figure(nrows=len(result.experiments), size=(6.4, 2.6))
@@ -336,21 +337,22 @@ def joint_fit_figure(result: JointCalibrationResult) -> Figure:
             fitted = (e.fitted - e.offsets) * 1e6
             names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "B − offset (µT)"
         azimuths = np.unique(e.azimuths)
+        styles = ("solid", "dashed", "dotted", "dashdot")
         for k, phi in enumerate(azimuths):  # one curve per tilt direction, never joined
             rows = np.flatnonzero(e.azimuths == phi)
             rows = rows[np.argsort(x[rows], kind="stable")]
-            style = ("-", "--", ":", "-.")[k % 4]
             for c, name in enumerate(names):
                 ax.plot(x[rows], measured[rows, c], "o", ms=3, color=f"C{c}",
                         label=name if k == 0 else None)
-                ax.plot(x[rows], fitted[rows, c], style, color=f"C{c}",
-                        label=(f"fitted, azimuth {np.degrees(phi):g}°"
-                               if c == 0 and len(azimuths) > 1 else None))
-        az = ", ".join(f"{d:g}" for d in np.round(np.degrees(azimuths), 1))
-        ax.set_title(f"{Path(e.source).name} (azimuth {az}°)", fontsize="small")
+                ax.plot(x[rows], fitted[rows, c], ls=styles[k % 4], color=f"C{c}")
+        az = ", ".join(f"{np.degrees(phi):.3g}°" + (f" {styles[k % 4]}" if len(azimuths) > 1
+                                                     else "")
+                       for k, phi in enumerate(azimuths))
+        ax.set_title(f"{Path(e.source).name}: azimuth {az}", fontsize="small")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
-        ax.legend(fontsize="x-small", loc="best", ncols=2)
+        ax.margins(y=0.2)
+        ax.legend(fontsize="x-small", loc="best", ncols=len(names))
     return fig
 
 
