@@ -53,7 +53,7 @@ from magcilia.mechanics import (
     bend_sweep,
     drag_coefficient,
 )
-from magcilia.model import Centreline, exact_field
+from magcilia.model import Centreline, SpatialCentreline, exact_field
 
 # -- read-out and design ---------------------------------------------------------------------------
 from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult, design_metrics
@@ -64,6 +64,7 @@ __all__ = [
     "BentShape",
     "CalibrationResult",
     "Centreline",
+    "SpatialCentreline",
     "Cilium",
     "DesignMetrics",
     "Flow",

@@ -18,7 +18,7 @@ object with a ``spec`` attribute (a :class:`magcilia.Setup`).
 from __future__ import annotations
 
 from magcilia.model.batch import TiltBatch, tilt_field_batch, tilt_output_batch
-from magcilia.model.centreline import Centreline
+from magcilia.model.centreline import Centreline, SpatialCentreline
 from magcilia.model.exact import exact_field, single_dipole_field
 from magcilia.model.kernels import dipole_field, dipole_field_batch, pose_field, tilt_fields
 from magcilia.model.layout import pose_dipoles, ring_layout
@@ -27,6 +27,7 @@ from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 __all__ = [
     "Centreline",
+    "SpatialCentreline",
     "ModelSpec",
     "Pose",
     "SupportsSpec",
