@@ -36,7 +36,12 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, bias_absorption
+from magcilia.calibration.diagnostics import (
+    CalibrationWarning,
+    at_bound,
+    bias_absorption,
+    sensor_field,
+)
 from magcilia.calibration.joint import STARTS, PhysicalLayout, calibrate_joint
 from magcilia.calibration.multistart import Box, search
 from magcilia.calibration.problem import (
@@ -455,6 +460,9 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             ("magnetization_scale",)))
     absorbed = bias_absorption(problem.angles, coef, scale * u[0]) if bias == "polynomial" else None
     notes += [absorbed] if absorbed is not None else []
+    for which, placed in (("initial", initial), ("fitted", fitted_setup)):
+        field_note = sensor_field(placed, problem.angles, which)
+        notes += [field_note] if field_note is not None else []
     diagnostics = (*notes, *found)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
