@@ -125,8 +125,8 @@ class Magnetometer(Display):
     Examples
     --------
     >>> m = Magnetometer(field_range=8e-4, resolution=6.25e-9, noise=4e-8, rate=100.0)
-    >>> m.measure([[1e-3, 0.0, 2e-5]], noisy=False).tolist()  # x clips at the 0.8 mT range
-    [[0.0008, 0.0, 2e-05]]
+    >>> (m.measure([[1e-3, 0.0, 2e-5]], noisy=False) * 1e6).round(3).tolist()  # µT: x clips
+    [[800.0, 0.0, 20.0]]
     >>> m.saturated([[1e-3, 0.0, 2e-5]]).tolist()
     [[True, False, False]]
     """
@@ -158,11 +158,11 @@ class Magnetometer(Display):
         return replace(self, **changes)
 
     @classmethod
-    def preset(cls, name: str, **overrides: Any) -> Magnetometer:
+    def preset(cls, part: str, /, **overrides: Any) -> Magnetometer:
         """A preset part by name (a key of :data:`MAGNETOMETERS`, case-insensitive; ``"TLV493D"``
         is the TLV493D-A1B6), with its settings and any field (``position=``, ``rotation=``,
-        ``noise=``, …) given as keywords."""
-        key = _preset_key(name)
+        ``noise=``, ``name=``, …) given as keywords."""
+        key = _preset_key(part)
         return MAGNETOMETERS[key](**overrides)
 
     @classmethod
