@@ -227,3 +227,17 @@ def test_calibration_warns_about_a_fitted_placement_on_the_element(
     assert [t.split(" puts ")[0] for t in texts] == ["the initial placement",
                                                     "the fitted placement"]
     assert "±6 gauss linear range" in texts[1] and "set/reset" in texts[1]
+
+
+def test_joint_calibration_warns_about_its_tilt_experiments(paper_data: mc.Measurement) -> None:
+    import dataclasses
+
+    turned = dataclasses.replace(paper_data, azimuths=np.full(len(paper_data), 0.5),
+                                 source="azimuth 0.5")
+    fit = mc.calibrate([paper_data, turned], model="physical", rng=0, starts=4, layout=(8, 5))
+    notes = [w for w in fit.diagnostics if w.kind == "sensor_field"]
+    assert len(notes) == 1 and notes[0].message.startswith("the initial placement puts |B| = 48")
+    assert notes[0].message in fit.warnings
+    clean = mc.calibrate([paper_data, turned], model="physical", initial=mc.Setup.paper(),
+                         rng=0, starts=4, layout=(8, 5))
+    assert "sensor_field" not in [w.kind for w in clean.diagnostics]

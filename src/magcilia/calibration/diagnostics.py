@@ -291,26 +291,36 @@ def stderr_checks(names: tuple[str, ...], values: Mapping[str, float], stderr: F
     return out
 
 
-def sensor_field(setup: Setup, angles: F64, which: str) -> CalibrationWarning | None:
+def sensor_field(setup: Setup, angles: F64, which: str,
+                 azimuths: F64 | None = None) -> CalibrationWarning | None:
     """A ``"sensor_field"`` warning when ``setup`` (the ``which`` = "initial" or "fitted"
-    placement) puts a field beyond the element's flip field or linear range in any of the
-    ``angles`` (rad), else None; the text names the largest field, where it occurs and the fix."""
-    check = setup.check_sensor(np.asarray(angles, dtype=np.float64))
-    bad = (check.flags & np.uint8(SENSOR_FIELD_FLAGS)) != 0
+    placement) puts a field beyond the element's flip field or linear range at any of the tilt
+    ``angles`` (rad; toward ``azimuths``, rad, one per angle, default 0), else None; the text
+    names the largest field, where it occurs and the fix."""
+    angles = np.asarray(angles, dtype=np.float64).reshape(-1)
+    azim = (np.zeros_like(angles) if azimuths is None
+            else np.broadcast_to(np.asarray(azimuths, dtype=np.float64), angles.shape))
+    fields, flags = np.zeros((angles.size, 3)), np.zeros(angles.size, dtype=np.uint8)
+    for phi in np.unique(azim):
+        at = azim == phi
+        check = setup.check_sensor(angles[at], azimuth=float(phi))
+        fields[at], flags[at] = check.field, check.flags
+    bad = (flags & np.uint8(SENSOR_FIELD_FLAGS)) != 0
     if not bad.any():
         return None
-    mag = np.where(bad, check.magnitude, -1.0)
-    i = int(np.argmax(mag))
+    magnitude = np.linalg.norm(fields, axis=-1)
+    i = int(np.argmax(np.where(bad, magnitude, -1.0)))
     s = setup.sensor
-    b = check.field[i]
-    bx, by, bz = np.where(np.abs(b) > 1e-9 * check.magnitude[i], b, 0.0) / 1e-4  # no round-off
+    b = fields[i]
+    bx, by, bz = np.where(np.abs(b) > 1e-9 * magnitude[i], b, 0.0) / 1e-4  # no round-off
     what = []
-    if int(check.flags[i]) & SensorFlag.FLIPPED_RISK:
+    if int(flags[i]) & SensorFlag.FLIPPED_RISK:
         what.append(f"its {s.flip_field / 1e-4:.3g} gauss flip field")
-    if int(check.flags[i]) & (SensorFlag.BEYOND_RANGE | SensorFlag.TOTAL_BEYOND_RANGE):
+    if int(flags[i]) & (SensorFlag.BEYOND_RANGE | SensorFlag.TOTAL_BEYOND_RANGE):
         what.append(f"its ±{s.field_range / 1e-4:.3g} gauss linear range")
-    where = (f"|B| = {check.magnitude[i] / 1e-4:.3g} gauss on the {s.name}'s element at "
-             f"{math.degrees(check.poses[i]):.3g} deg (B = ({bx:.3g}, {by:.3g}, {bz:.3g}) G; "
+    toward = f" toward {math.degrees(azim[i]):.3g} deg" if azim[i] else ""
+    where = (f"|B| = {magnitude[i] / 1e-4:.3g} gauss on the {s.name}'s element at "
+             f"{math.degrees(angles[i]):.3g} deg{toward} (B = ({bx:.3g}, {by:.3g}, {bz:.3g}) G; "
              f"{int(bad.sum())} of {bad.size} angles), beyond {' and '.join(what)}")
     if which == "initial":
         text = (f"the initial placement puts {where}: a sensor placed so would need a set/reset "
