@@ -36,7 +36,16 @@ from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, p
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
 # -- the device and its field ------------------------------------------------------------------
-from magcilia.device import Cilium, Material, Sensor, Setup
+from magcilia.device import (
+    MAGNETOMETERS,
+    Cilium,
+    Magnetometer,
+    Material,
+    Sensor,
+    SensorCheck,
+    SensorFlag,
+    Setup,
+)
 
 # -- files ---------------------------------------------------------------------------------------
 from magcilia.io import Measurement, load_setup, read_measurements, save_setup, to_c_header
@@ -60,11 +69,11 @@ from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult,
 
 __all__ = [
     "AIR",
+    "MAGNETOMETERS",
     "WATER",
     "BentShape",
     "CalibrationResult",
     "Centreline",
-    "SpatialCentreline",
     "Cilium",
     "DesignMetrics",
     "Flow",
@@ -72,6 +81,7 @@ __all__ = [
     "LiveReadout",
     "LookupTable",
     "MagciliaError",
+    "Magnetometer",
     "Material",
     "Measurement",
     "MissingDependencyError",
@@ -84,8 +94,11 @@ __all__ = [
     "ReadoutResult",
     "SensitivityStudy",
     "Sensor",
+    "SensorCheck",
+    "SensorFlag",
     "Setup",
     "SobolResult",
+    "SpatialCentreline",
     "__version__",
     "bend",
     "bend_sweep",

@@ -28,6 +28,11 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
     Two parameters correlated beyond :data:`CORRELATION_LIMIT`.
 ``"y_sign"``
     y and −y fit equally well (B_x is even in y).
+``"sensor_field"``
+    The initial or the fitted placement puts a field on the single-axis element beyond its flip
+    (disturbing) field or its linear range (of the total field, or on the sensitive axis): a
+    real sensor there needs a set/reset pulse and does not read B_x faithfully
+    (:meth:`magcilia.Setup.check_sensor`).
 ``"model_not_finite"``, ``"no_degrees_of_freedom"``, ``"integer_parameters"``
     No slope next to the optimum; as many parameters as angles; n and k carry no standard error.
 """
@@ -37,11 +42,16 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from magcilia.device.parameters import PARAMETERS as REGISTRY
+from magcilia.device.sensor import SensorFlag
+
+if TYPE_CHECKING:
+    from magcilia.device.setup import Setup
 
 F64 = NDArray[np.float64]
 
@@ -75,8 +85,11 @@ CORRELATION_LIMIT = 0.99
 WARNING_KINDS = (
     "at_bound", "bias_absorbs_signal", "implausible_stderr", "weakly_determined",
     "undetermined", "correlated", "y_sign", "model_not_finite", "no_degrees_of_freedom",
-    "integer_parameters", "layout", "chi2", "ambiguous",
+    "integer_parameters", "layout", "chi2", "ambiguous", "sensor_field",
 )
+#: the sensor flags that make a placement's field a calibration warning (``"sensor_field"``)
+SENSOR_FIELD_FLAGS = (SensorFlag.FLIPPED_RISK | SensorFlag.BEYOND_RANGE
+                      | SensorFlag.TOTAL_BEYOND_RANGE)
 
 
 @dataclass(frozen=True)
@@ -276,3 +289,46 @@ def stderr_checks(names: tuple[str, ...], values: Mapping[str, float], stderr: F
                     f"vs a bound width of {shown(name, width)}); treat its value as arbitrary"),
                     (name,)))
     return out
+
+
+def sensor_field(setup: Setup, angles: F64, which: str,
+                 azimuths: F64 | None = None) -> CalibrationWarning | None:
+    """A ``"sensor_field"`` warning when ``setup`` (the ``which`` = "initial" or "fitted"
+    placement) puts a field beyond the element's flip field or linear range at any of the tilt
+    ``angles`` (rad; toward ``azimuths``, rad, one per angle, default 0), else None; the text
+    names the largest field, where it occurs and the fix."""
+    angles = np.asarray(angles, dtype=np.float64).reshape(-1)
+    azim = (np.zeros_like(angles) if azimuths is None
+            else np.broadcast_to(np.asarray(azimuths, dtype=np.float64), angles.shape))
+    fields, flags = np.zeros((angles.size, 3)), np.zeros(angles.size, dtype=np.uint8)
+    for phi in np.unique(azim):
+        at = azim == phi
+        check = setup.check_sensor(angles[at], azimuth=float(phi))
+        fields[at], flags[at] = check.field, check.flags
+    bad = (flags & np.uint8(SENSOR_FIELD_FLAGS)) != 0
+    if not bad.any():
+        return None
+    magnitude = np.linalg.norm(fields, axis=-1)
+    i = int(np.argmax(np.where(bad, magnitude, -1.0)))
+    s = setup.sensor
+    b = fields[i]
+    bx, by, bz = np.where(np.abs(b) > 1e-9 * magnitude[i], b, 0.0) / 1e-4  # no round-off
+    what = []
+    if int(flags[i]) & SensorFlag.FLIPPED_RISK:
+        what.append(f"its {s.flip_field / 1e-4:.3g} gauss flip field")
+    if int(flags[i]) & (SensorFlag.BEYOND_RANGE | SensorFlag.TOTAL_BEYOND_RANGE):
+        what.append(f"its ±{s.field_range / 1e-4:.3g} gauss linear range")
+    toward = f" toward {math.degrees(azim[i]):.3g} deg" if azim[i] else ""
+    where = (f"|B| = {magnitude[i] / 1e-4:.3g} gauss on the {s.name}'s element at "
+             f"{math.degrees(angles[i]):.3g} deg{toward} (B = ({bx:.3g}, {by:.3g}, {bz:.3g}) G; "
+             f"{int(bad.sum())} of {bad.size} angles), beyond {' and '.join(what)}")
+    if which == "initial":
+        text = (f"the initial placement puts {where}: a sensor placed so would need a set/reset "
+                "pulse and could not have recorded these data; the fit only starts there, but a "
+                "start off the element (x, y of about 1.5, 2 mm as in the paper's fit, "
+                "Setup.paper()) is closer to any real placement")
+    else:
+        text = (f"the fitted placement puts {where}: a sensor so placed needs a set/reset pulse "
+                "and does not read B_x faithfully; check the recording (pulse set/reset before "
+                "recording), the bounds of x, y, z, or the sensor's flip_field and range")
+    return CalibrationWarning("sensor_field", text, ("x", "y", "z"))

@@ -28,6 +28,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import replace
 from typing import Literal, overload
 
 import numpy as np
@@ -36,7 +37,12 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, bias_absorption
+from magcilia.calibration.diagnostics import (
+    CalibrationWarning,
+    at_bound,
+    bias_absorption,
+    sensor_field,
+)
 from magcilia.calibration.joint import STARTS, PhysicalLayout, calibrate_joint
 from magcilia.calibration.multistart import Box, search
 from magcilia.calibration.problem import (
@@ -318,7 +324,7 @@ def calibrate(
                                  posterior=posterior)
         if progress is not None:
             progress(1, 1)
-        return result
+        return _with_sensor_field(result)
     if posterior is not False:
         raise v.fail("posterior", posterior, "given with model='physical' (the posterior of the "
                                              "hair's geometry; the paper's model searches n, k)")
@@ -374,6 +380,22 @@ def calibrate(
     x_best = _y_sign_of(x_best, initial.position[1], box["y"])
     logger.info("best cost %.6g V^2 after %.3g s", min(restart_costs), time.perf_counter() - t0)
     return _result(problem, initial, data, box, x_best, bias, t0, restart_costs)
+
+def _with_sensor_field(result: JointCalibrationResult) -> JointCalibrationResult:
+    """The joint result with ``"sensor_field"`` warnings for its tilt experiments (load
+    experiments bend the cilium: their poses are not checked here)."""
+    tilts = [e for e in result.experiments if e.load_kind is None]
+    if not tilts:
+        return result
+    angles = np.concatenate([e.angles for e in tilts])
+    azimuths = np.concatenate([e.azimuths for e in tilts])
+    notes = [n for which, placed in (("initial", result.initial), ("fitted", result.setup))
+             if (n := sensor_field(placed, angles, which, azimuths)) is not None]
+    if not notes:
+        return result
+    return replace(result, warnings=(*result.warnings, *(n.message for n in notes)),
+                   diagnostics=(*result.diagnostics, *notes))
+
 
 def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
     """B_x is even in y (mirror symmetry about the x-z plane), so y and -y fit exactly equally
@@ -455,6 +477,9 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             ("magnetization_scale",)))
     absorbed = bias_absorption(problem.angles, coef, scale * u[0]) if bias == "polynomial" else None
     notes += [absorbed] if absorbed is not None else []
+    for which, placed in (("initial", initial), ("fitted", fitted_setup)):
+        field_note = sensor_field(placed, problem.angles, which)
+        notes += [field_note] if field_note is not None else []
     diagnostics = (*notes, *found)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),

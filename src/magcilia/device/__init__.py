@@ -2,24 +2,31 @@
 
 * :mod:`.cilium`: the hair's body (cone, frustum or measured profile);
 * :mod:`.material`: the cobalt/polymer composite (the paper's eq. 1);
-* :mod:`.sensor`: the single-axis AMR sensor and its amplifier;
+* :mod:`.sensor`: the single-axis AMR sensor and its amplifier, its limits (cross-axis effect,
+  flipping) and :class:`SensorCheck`;
+* :mod:`.magnetometer`: 3-axis magnetometers with datasheet presets (:data:`MAGNETOMETERS`);
 * :mod:`.setup`: :class:`Setup`, all of them placed over the sensing element.
 """
 
 from __future__ import annotations
 
 from magcilia.device.cilium import Cilium
+from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.material import Material
-from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
+from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck, SensorFlag
 from magcilia.device.setup import PAPER_INITIAL, PAPER_OPTIMIZED, Pose, Setup
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
+    "MAGNETOMETERS",
     "PAPER_INITIAL",
     "PAPER_OPTIMIZED",
     "Cilium",
+    "Magnetometer",
     "Material",
     "Pose",
     "Sensor",
+    "SensorCheck",
+    "SensorFlag",
     "Setup",
 ]

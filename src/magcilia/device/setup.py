@@ -20,7 +20,7 @@ from magcilia._display import Display, Item, number, si
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
-from magcilia.device.sensor import Sensor
+from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck
 from magcilia.model import pose as pose_model
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.centreline import Centreline
@@ -201,6 +201,30 @@ class Setup(Display):
         if _azimuth(azimuth) == 0.0:
             return pose_model.output(self.spec, pose)
         return self.sensor.voltage(self.field(pose, azimuth)[:, 0])
+
+    def check_sensor(self, pose: Pose, azimuth: float = 0.0,
+                     bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH) -> SensorCheck:
+        """The single-axis element's limits in each pose: the field at the element, the
+        :class:`~magcilia.device.sensor.SensorFlag` bits (beyond range, cross-axis error above
+        the noise, risk of a flipped magnetization) and a one-line summary per pose
+        (:meth:`Sensor.check`).
+
+        Parameters
+        ----------
+        pose : array-like, shape (a,), or Centreline
+            Tilt angles in rad, or a batch of centrelines.
+        azimuth : float
+            Direction of the tilt or bending, rad (see :meth:`field`).
+        bandwidth : (float, float)
+            Noise band of one reading, Hz (the cross-axis criterion's noise).
+
+        Examples
+        --------
+        >>> Setup.paper_initial().check_sensor([0.0]).summaries()[0][:42]
+        '0 deg: B = (0, 0, 27.7) G, |B| 27.7 G: bey'
+        """
+        labels = None if isinstance(pose, Centreline) else np.asarray(pose, dtype=np.float64)
+        return SensorCheck.of(self.sensor, self.field(pose, azimuth), labels, azimuth, bandwidth)
 
     def field_at(self, points: ArrayLike, pose: Pose) -> F64:
         """Flux density at arbitrary points, T, shape (a, o, 3).
