@@ -112,3 +112,28 @@ def test_length_is_checked() -> None:
     with pytest.raises(mc.MagciliaError, match="one centreline"):
         setup.to_magpylib(SpatialCentreline.from_planar(
             mc.Centreline.straight(setup.cilium.height, [0.1, 0.2]), 0.0))
+
+
+def test_exact_reference_accepts_shapes_in_space() -> None:
+    from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
+    from magcilia.model.exact import exact_field, single_dipole_field
+
+    setup = _setup(5)
+    planar = _bent(setup)
+    spatial = SpatialCentreline.from_planar(planar, 0.0)
+    np.testing.assert_allclose(exact_field(setup, spatial, n_slices=40),
+                               exact_field(setup, planar, n_slices=40), rtol=1e-10, atol=1e-18)
+    np.testing.assert_allclose(single_dipole_field(setup, spatial),
+                               single_dipole_field(setup, planar), rtol=1e-12, atol=1e-18)
+    phi = 1.2  # turned: the planar shape seen from a placement turned by -phi
+    x, y = placement_in_tilt_frame(setup.position[0], setup.position[1], phi)
+    turned = setup.replace(position=(float(x), float(y), setup.position[2]))
+    expected = field_from_tilt_frame(exact_field(turned, planar, n_slices=40), phi)
+    np.testing.assert_allclose(exact_field(setup, SpatialCentreline.from_planar(planar, phi),
+                                           n_slices=40), expected, rtol=1e-10)
+    # the exact body and the dipole model agree on a shape in space (model accuracy)
+    fine = setup.replace(n_loops=60, dipoles_per_loop=12, ring="rms")
+    helix = _helix(fine)
+    expected = exact_field(fine, helix, n_slices=400)
+    np.testing.assert_allclose(fine.field(helix), expected, rtol=0,
+                               atol=2e-3 * np.linalg.norm(expected))
