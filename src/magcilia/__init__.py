@@ -36,7 +36,7 @@ from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, p
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
 # -- the device and its field ------------------------------------------------------------------
-from magcilia.device import Cilium, Material, Sensor, Setup
+from magcilia.device import CiliaArray, Cilium, Material, Sensor, Setup
 
 # -- files ---------------------------------------------------------------------------------------
 from magcilia.io import Measurement, load_setup, read_measurements, save_setup, to_c_header
@@ -56,16 +56,35 @@ from magcilia.mechanics import (
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
 # -- read-out and design ---------------------------------------------------------------------------
-from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult, design_metrics
+# (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
+from magcilia.readout import (
+    ArrayEstimate,
+    ArrayFlag,
+    ArrayMetrics,
+    ArrayReadout,
+    Crosstalk,
+    DesignMetrics,
+    Readout,
+    ReadoutFlag,
+    ReadoutResult,
+    array_metrics,
+    design_metrics,
+    field_for_loads,
+)
 
 __all__ = [
     "AIR",
     "WATER",
+    "ArrayEstimate",
+    "ArrayFlag",
+    "ArrayMetrics",
+    "ArrayReadout",
     "BentShape",
     "CalibrationResult",
     "Centreline",
-    "SpatialCentreline",
+    "CiliaArray",
     "Cilium",
+    "Crosstalk",
     "DesignMetrics",
     "Flow",
     "Fluid",
@@ -86,13 +105,16 @@ __all__ = [
     "Sensor",
     "Setup",
     "SobolResult",
+    "SpatialCentreline",
     "__version__",
+    "array_metrics",
     "bend",
     "bend_sweep",
     "calibrate",
     "design_metrics",
     "drag_coefficient",
     "exact_field",
+    "field_for_loads",
     "load_setup",
     "lookup_table",
     "oat_sweep",

@@ -603,19 +603,19 @@ class ArrayReadout(Display):
         for c in range(c_n):
             sv = np.linalg.svd(jw[:, 2 * c:2 * c + 2], compute_uv=False)
             if sv[-1] < 1.0:
-                raise v.fail("array", f"cilium {arr.names[c]}, whose load does not reach any "
-                             f"sensor (a full-span load, {si(float(self.span[c]), 'N')}, moves no "
-                             f"reading by more than {sv[-1]:.3g} σ in its weakest direction)",
-                             "cilia that every sensor set can see; move a sensor closer to it "
-                             "or remove it")
+                raise v.fail("array", f"cilium {arr.names[c]}",
+                             f"cilia whose load reaches a sensor; a full-span load "
+                             f"({si(float(self.span[c]), 'N')}) on {arr.names[c]} moves no "
+                             f"reading by more than {sv[-1]:.3g} σ in its weakest direction: "
+                             "move a sensor closer to it, or remove it")
         _, sv, vt = np.linalg.svd(jw, full_matrices=False)
         if sv[-1] < 1.0:
             weights = np.hypot(vt[-1, 0::2], vt[-1, 1::2])
-            worst = np.argsort(weights)[::-1][:2]
-            raise v.fail("array", f"cilia {arr.names[worst[0]]} and {arr.names[worst[1]]}, whose "
-                         f"loads the sensors cannot tell apart (singular value {sv[-1]:.3g} σ per "
-                         "span)", "cilia whose loads reach the sensors differently; add or move "
-                         "sensors")
+            a, b = (arr.names[int(k)] for k in np.argsort(weights)[::-1][:2])
+            raise v.fail("array", f"cilia {a} and {b}",
+                         f"cilia whose loads the sensors can tell apart; the loads of {a} and "
+                         f"{b} differ at the sensors by less than one σ per span (singular "
+                         f"value {sv[-1]:.3g}): add or move sensors, or widen the span")
 
     # -- crosstalk --------------------------------------------------------------------------------
     def crosstalk(self) -> Crosstalk:
