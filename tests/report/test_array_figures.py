@@ -47,3 +47,12 @@ def test_array_figure_passes_the_checks(readout: mc.ArrayReadout, kind: str,
     assert (tmp_path / "array.png").read_bytes()[:4] == b"\x89PNG"
     quivers = [c for c in fig.axes[0].collections if type(c).__name__ == "Quiver"]
     assert len(quivers) == 2  # field and loads
+
+
+def test_plot_functions_draw_on_the_given_axes(readout: mc.ArrayReadout) -> None:
+    from magcilia import plot
+
+    fig, axes = plot.new_figure(2, 1)
+    assert plot.plot_array_map(readout.array, ax=axes[0, 0]) is axes[0, 0]
+    assert plot.plot_crosstalk(readout.crosstalk(), ax=axes[0, 1]) is axes[0, 1]
+    assert axes[0, 1].images and _figures.problems(fig) == []

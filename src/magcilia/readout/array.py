@@ -429,6 +429,8 @@ class ArrayReadout(Display):
         The field at rest on the sensors' axes, T.
     jacobian : ndarray, shape (3 S, 2 C)
         The crosstalk matrix (T/N), see :meth:`crosstalk`.
+    columns : tuple of ndarray
+        Each cilium's slice mid-points as indices into the array layout's ``s_query``.
     """
 
     array: CiliaArray
@@ -442,6 +444,7 @@ class ArrayReadout(Display):
     table_error: F64
     rest: F64
     jacobian: F64
+    columns: tuple[NDArray[np.int64], ...]
 
     def __init__(self, array: CiliaArray, span: float | ArrayLike, *, table_size: int = 33,
                  regularization: float = 1e-6, max_iterations: int = 30,
@@ -483,7 +486,7 @@ class ArrayReadout(Display):
             n = setup.n_loops
             cols.append(np.searchsorted(lay.s_query, setup.cilium.height * (np.arange(n) + 0.5)
                                         / n))
-        set_(self, "_cols", cols)
+        set_(self, "columns", tuple(cols))
         zero = np.zeros((len(array), 2))
         rest = self._fields(zero[None])[0].sum(axis=0)
         set_(self, "rest", array.to_sensor(rest))
@@ -500,7 +503,7 @@ class ArrayReadout(Display):
         mag = np.hypot(force[:, 0], force[:, 1])
         phi = np.arctan2(force[:, 1], force[:, 0])
         x, z, th = np.zeros((c_n, q)), np.zeros((c_n, q)), np.zeros((c_n, q))
-        cols: list[Any] = self._cols  # type: ignore[attr-defined]
+        cols = self.columns
         for kind, table in enumerate(self.tables):
             members = np.nonzero(self.kinds == kind)[0]
             fx, fz, fth = table.frames(mag[members])
@@ -553,7 +556,7 @@ class ArrayReadout(Display):
             # errors at once (x, z and θ), the change of the field at the sensors
             x, z, th, phi = self._frames(np.zeros((len(self.array), 2)))
             base_p, base_m = lay.planar_dipoles(x, z, th, phi)
-            cols: list[Any] = self._cols  # type: ignore[attr-defined]
+            cols = self.columns
             x2, z2, th2 = x.copy(), z.copy(), th.copy()
             x2[c, cols[c]] += table.error[0]
             z2[c, cols[c]] += table.error[1]
