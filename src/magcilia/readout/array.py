@@ -576,10 +576,14 @@ class ArrayReadout(Display):
         b = arr.bases
         reach = np.empty(len(arr))
         shapes = []
+        solved: dict[int, tuple[F64, F64]] = {}  # one shape per kind (the kind holds the span)
         for c, setup in enumerate(arr.cilia):
-            s = np.linspace(0.0, setup.cilium.height, 65)
-            pts, _ = bend(setup, force=float(self.span[c])).frames(s)
-            radius = setup.spec.radius(s)
+            kind = int(self.kinds[c])
+            if kind not in solved:
+                s = np.linspace(0.0, setup.cilium.height, 65)
+                solved[kind] = (bend(setup, force=float(self.span[c])).frames(s)[0],
+                                setup.spec.radius(s))
+            pts, radius = solved[kind]
             shapes.append((pts[0, :, 0], pts[0, :, 2] + b[c, 2], radius))
             reach[c] = float(np.max(pts[0, :, 0] + radius))
         dist = np.hypot(b[:, None, 0] - b[None, :, 0], b[:, None, 1] - b[None, :, 1])
