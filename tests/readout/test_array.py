@@ -193,3 +193,15 @@ def test_loaded_poses_keep_each_cilium_length() -> None:
     assert isinstance(poses, SpatialCentreline) and len(poses) == 2
     np.testing.assert_allclose(poses.normals[:, 0], [[1.0, 0.0, 0.0]] * 2, atol=1e-12)
     assert poses.tip[0, 0] > 0.0 and poses.tip[1, 0] == 0.0
+
+
+def test_sensor_in_reach_of_a_bent_cilium_is_refused() -> None:
+    shape = mc.bend(SETUP, force=SPAN)
+    # a point the cilium passes through when bent toward -y by the span (clear at rest)
+    point = SETUP.base_centre + np.array([0.0, -shape.points[0, 90, 0], shape.points[0, 90, 2]])
+    sensors = (PART.replace(position=(0.0, 0.0, 0.0)),
+               PART.replace(position=(2e-3, 0.0, 0.0)), PART.replace(position=tuple(point)))
+    array = CiliaArray((SETUP,), sensors)  # clear of the upright cilium
+    with pytest.raises(mc.MagciliaError, match=r"cilium c1 bent toward it by .*got 'sensor 3"):
+        ArrayReadout(array, SPAN)
+    ArrayReadout(array, 0.3 * SPAN)  # smaller loads do not reach it

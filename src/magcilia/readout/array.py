@@ -39,7 +39,8 @@ apart (the whitened, span-scaled matrix has a singular value below 1).
 
 Neighbours. Two cilia that could touch when both are bent toward each other by their span's load
 (the distance between their centrelines, point to point, less both radii, below zero anywhere)
-are refused too: the array cannot measure beyond that contact.
+are refused too: the array cannot measure beyond that contact; so is a sensor that a cilium
+reaches under a load up to its span in some direction.
 """
 
 from __future__ import annotations
@@ -586,6 +587,7 @@ class ArrayReadout(Display):
             pts, radius = solved[kind]
             shapes.append((pts[0, :, 0], pts[0, :, 2] + b[c, 2], radius))
             reach[c] = float(np.max(pts[0, :, 0] + radius))
+        self._check_sensor_reach()
         dist = np.hypot(b[:, None, 0] - b[None, :, 0], b[:, None, 1] - b[None, :, 1])
         close = np.argwhere(np.triu(dist < reach[:, None] + reach[None], 1))
         for i, j in close.tolist():
@@ -598,6 +600,42 @@ class ArrayReadout(Display):
                              f"{arr.names[i]} and {arr.names[j]} ({dist[i, j] * 1e3:.4g} mm apart)",
                              "loads the cilia can take without touching: bent toward each "
                              "other by it they meet; use a larger pitch or a smaller span")
+
+    def _check_sensor_reach(self) -> None:
+        """No sensor within the region a cilium sweeps under loads up to its span in any
+        direction: the closest approach of a cilium bent in the vertical plane through a point is
+        when it bends toward the point, so each sensor is tested in that plane against the
+        shapes at 9 loads from 0 to the span (point-to-segment distances less the radius)."""
+        arr = self.array
+        near = arr._within_reach  # (C, S)
+        if not near.any():
+            return
+        pts = np.asarray(arr.sensor_positions)
+        sweeps: dict[int, tuple[F64, F64, F64]] = {}
+        for c in np.nonzero(near.any(axis=1))[0].tolist():
+            setup, kind = arr.cilia[c], int(self.kinds[c])
+            if kind not in sweeps:
+                loads = np.linspace(0.0, float(self.span[c]), 9)
+                s = np.linspace(0.0, setup.cilium.height, 129)
+                shapes = bend_sweep(setup, forces=loads)
+                sweeps[kind] = (shapes.frames(s)[0][..., [0, 2]], setup.spec.radius(s), loads)
+            xz, radius, loads = sweeps[kind]  # (9, 129, 2), (129,), (9,)
+            rel = pts[near[c]] - arr.bases[c]
+            q = np.stack([np.hypot(rel[:, 0], rel[:, 1]), rel[:, 2]], axis=1)  # (o, 2)
+            a, seg = xz[:, :-1], np.diff(xz, axis=1)  # (9, 128, 2)
+            d = q[:, None, None, :] - a[None]
+            t = np.clip(np.einsum("olmi,lmi->olm", d, seg) / np.einsum("lmi,lmi->lm", seg, seg),
+                        0.0, 1.0)
+            gap = np.linalg.norm(d - t[..., None] * seg[None], axis=-1) \
+                - (radius[:-1] + t * np.diff(radius))
+            if gap.min() <= 0.0:
+                o, load, _ = np.unravel_index(int(np.argmin(gap)), gap.shape)
+                s_idx = int(np.nonzero(near[c])[0][o])
+                raise v.fail("sensors", f"sensor {s_idx + 1} at "
+                             f"({', '.join(f'{x * 1e3:.4g}' for x in pts[s_idx])}) mm",
+                             f"sensing points clear of the cilia under load; cilium "
+                             f"{arr.names[c]} bent toward it by {si(float(loads[load]), 'N')} "
+                             "reaches it: move the sensor or use a smaller span")
 
     def _check_singular(self) -> None:
         arr = self.array
