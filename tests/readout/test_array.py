@@ -145,8 +145,8 @@ def test_singular_problems_are_refused() -> None:
             position=(0.0, 0.0, -1e-3))]), SPAN)
     far = SETUP.replace(position=(60e-3, 0.0, 0.0))
     sensors = [PART.replace(position=(x, y, 0.0)) for x in (-1e-3, 1e-3) for y in (-1e-3, 1e-3)]
-    with pytest.raises(mc.MagciliaError,
-                       match=r"whose load reaches a sensor.*on c2 moves no reading.*got 'cilium c2'"):
+    unreached = r"whose load reaches a sensor.*on c2 moves no reading.*got 'cilium c2'"
+    with pytest.raises(mc.MagciliaError, match=unreached):
         ArrayReadout(CiliaArray((SETUP, far), tuple(sensors)), SPAN)
 
 
