@@ -205,3 +205,15 @@ def test_sensor_in_reach_of_a_bent_cilium_is_refused() -> None:
     with pytest.raises(mc.MagciliaError, match=r"cilium c1 bent toward it by .*got 'sensor 3"):
         ArrayReadout(array, SPAN)
     ArrayReadout(array, 0.3 * SPAN)  # smaller loads do not reach it
+
+
+def test_vertical_components_compress_or_stretch() -> None:
+    array = CiliaArray.grid(SETUP, 1, 2, 2e-3, sensor=PART)
+    push, pull = loaded_poses(array, np.array([[1e-5, 0.0, -1e-5], [1e-5, 0.0, 1e-5]])).tip
+    alone = loaded_poses(array, np.array([[1e-5, 0.0], [0.0, 0.0]])).tip[0]
+    assert push[0] > alone[0] > pull[0] > 0.0  # a push down bends further, a pull less
+    straight = loaded_poses(array, np.array([[0.0, 0.0, -1e-6], [0.0, 0.0, 1e-6]]))
+    np.testing.assert_allclose(straight.tip[:, :2], 0.0, atol=1e-15)
+    ro = ArrayReadout(array, SPAN, table_size=9)
+    with pytest.raises(mc.MagciliaError, match="horizontal forces"):
+        ro.field(np.array([[1e-5, 0.0, 1e-6], [0.0, 0.0, 0.0]]))

@@ -532,7 +532,11 @@ class ArrayReadout(Display):
     def field(self, forces: ArrayLike) -> F64:
         """Field at every sensor (T, board frame, shape (S, 3)) with every cilium bent by its
         horizontal force ((C, 2), N), from the tables (:func:`field_for_loads` solves exactly)."""
-        f = _forces(self.array, forces)[:, :2]
+        f = _forces(self.array, forces)
+        if f.shape[1] == 3 and np.any(f[:, 2] != 0.0):
+            raise v.fail("forces", "a vertical component", "horizontal forces (C, 2) for the "
+                         "tables (field_for_loads solves loads with Fz)")
+        f = f[:, :2]
         return np.asarray(self._fields(f[None])[0].sum(axis=0), dtype=np.float64)
 
     def _crosstalk_matrix(self) -> F64:
