@@ -432,6 +432,21 @@ class ArrayReadout(Display):
         The crosstalk matrix (T/N), see :meth:`crosstalk`.
     columns : tuple of ndarray
         Each cilium's slice mid-points as indices into the array layout's ``s_query``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import magcilia as mc
+    >>> from magcilia.device.magnetometer import Magnetometer
+    >>> part = Magnetometer(field_range=5e-3, resolution=1.5e-7, noise=3e-7, rate=100.0)
+    >>> setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6, position=(0, 0, 0))
+    >>> array = mc.CiliaArray.grid(setup, 2, 2, pitch=2e-3, sensor=part)
+    >>> readout = mc.ArrayReadout(array, span=2e-5)
+    >>> forces = np.array([[1e-5, 0.0], [0.0, -5e-6], [3e-6, 3e-6], [0.0, 0.0]])
+    >>> field = mc.field_for_loads(array, forces)  # the exact elastica, N -> T
+    >>> est = readout.read(array.to_sensor(field))  # noise-free readings
+    >>> bool(np.abs(est.force - forces).max() < 1e-6 * 2e-5)
+    True
     """
 
     array: CiliaArray
