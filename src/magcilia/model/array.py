@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from magcilia.model import body, compiled
 from magcilia.model.kernels import _dipole_field_numpy, dipole_field
-from magcilia.model.layout import _rotate, spatial_frames
+from magcilia.model.layout import _rotate, cross, spatial_frames
 from magcilia.model.spec import ModelSpec
 
 F64 = NDArray[np.float64]
@@ -88,7 +88,7 @@ def board_normals(tangents: F64, normals: F64) -> F64:
     ref[along_x] = (0.0, 1.0, 0.0)
     ref = ref - np.einsum("ai,ai->a", ref, t0)[:, None] * t0
     ref /= np.linalg.norm(ref, axis=-1, keepdims=True)
-    psi = np.arctan2(np.einsum("ai,ai->a", np.cross(e0, ref), t0), np.einsum("ai,ai->a", e0, ref))
+    psi = np.arctan2(np.einsum("ai,ai->a", cross(e0, ref), t0), np.einsum("ai,ai->a", e0, ref))
     c = np.broadcast_to(np.cos(psi)[:, None], normals.shape[:2])
     s = np.broadcast_to(np.sin(psi)[:, None], normals.shape[:2])
     out = _rotate(normals, tangents, c, s)
@@ -169,7 +169,7 @@ class ArrayLayout:
         pts, tan, nor = spatial_frames(s, points, tangents, normals, self.s_query)
         c, q = self.cilium, self.slot
         t, e1 = tan[c, q], nor[c, q]
-        e2 = np.cross(t, e1)
+        e2 = cross(t, e1)
         pos = pts[c, q] + self.ring_cos[:, None] * e1 + self.ring_sin[:, None] * e2
         pos += self.bases[c]
         return pos, self.moment[:, None] * t

@@ -141,7 +141,7 @@ def spatial_dipoles(points: F64, tangents: F64, normals: F64, base: F64, radius:
     a = points.shape[0]
     alpha = 2.0 * math.pi * np.arange(k) / k
     ca, sa = np.cos(alpha), np.sin(alpha)
-    e2 = np.cross(tangents, normals)
+    e2 = cross(tangents, normals)
     rc = radius[None, :, None, None] * ca[None, None, :, None]  # (1, n, k, 1)
     rs = radius[None, :, None, None] * sa[None, None, :, None]
     pos = points[:, :, None, :] + rc * normals[:, :, None, :] + rs * e2[:, :, None, :]
@@ -151,9 +151,21 @@ def spatial_dipoles(points: F64, tangents: F64, normals: F64, base: F64, radius:
     return pos.reshape(a, n * k, 3), np.ascontiguousarray(mom).reshape(a, n * k, 3)
 
 
+def cross(a: F64, b: F64) -> F64:
+    """Cross products of vectors (..., 3) (``numpy.cross`` without its overhead)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _dot(a: F64, b: F64) -> F64:
+    """Dot products of vectors (..., 3), shape (...)."""
+    return np.asarray(a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2])
+
+
 def _rotate(vec: F64, axis: F64, cos: F64, sin: F64) -> F64:
     """Vectors (..., 3) perpendicular to the unit ``axis`` (..., 3), turned about it."""
-    return vec * cos[..., None] + np.cross(axis, vec) * sin[..., None]
+    return vec * cos[..., None] + cross(axis, vec) * sin[..., None]
 
 
 def spatial_frames(s: F64, points: F64, tangents: F64, normals: F64,
@@ -191,9 +203,9 @@ def spatial_frames(s: F64, points: F64, tangents: F64, normals: F64,
     t2, t3 = t * t, t * t * t
     pts = ((2 * t3 - 3 * t2 + 1) * p0 + (t3 - 2 * t2 + t) * h * t0
            + (-2 * t3 + 3 * t2) * p1 + (t3 - t2) * h * t1)
-    axis = np.cross(t0, t1)
-    sin_w = np.linalg.norm(axis, axis=-1)
-    omega = np.arctan2(sin_w, np.einsum("aqi,aqi->aq", t0, t1))
+    axis = cross(t0, t1)
+    sin_w = np.sqrt(_dot(axis, axis))
+    omega = np.arctan2(sin_w, _dot(t0, t1))
     safe = np.where(sin_w > 0.0, sin_w, 1.0)[..., None]
     axis = np.where(sin_w[..., None] > 0.0, axis / safe, 0.0)
     turn = tau * omega
@@ -201,11 +213,10 @@ def spatial_frames(s: F64, points: F64, tangents: F64, normals: F64,
     tan = _rotate(t0, axis, cos_t, sin_t)
     e0, e1_next = normals[:, idx], normals[:, idx + 1]
     # e0 turned with the tangent (the axis is perpendicular to t0 but not always to e0)
-    along = np.einsum("aqi,aqi->aq", axis, e0)[..., None] * axis
+    along = _dot(axis, e0)[..., None] * axis
     e_mid = along + _rotate(e0 - along, axis, cos_t, sin_t)
     e_end = along + _rotate(e0 - along, axis, np.cos(omega), np.sin(omega))
-    delta = np.arctan2(np.einsum("aqi,aqi->aq", np.cross(e_end, e1_next), t1),
-                       np.einsum("aqi,aqi->aq", e_end, e1_next))
+    delta = np.arctan2(_dot(cross(e_end, e1_next), t1), _dot(e_end, e1_next))
     rest = tau * delta
     nor = _rotate(e_mid, tan, np.cos(rest), np.sin(rest))
     return pts, tan, nor
