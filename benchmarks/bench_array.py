@@ -131,7 +131,7 @@ def inverse_bench(repeat: int) -> None:
     within = float(np.mean(np.abs(est.force - forces) <= 2.0 * est.sigma))
     print(f"(b) inverse, {n_c} force vectors from {y.size} readings (target <= 20 ms after "
           f"construction): ms per call, min [median], ratio of min times; construction "
-          f"{t_build * 1e3:.0f} ms (first call: tables, crosstalk, checks; tables are cached); "
+          f"{t_build * 1e3:.0f} ms (tables, crosstalk matrix, reach and singularity checks); "
           f"{est.iterations} iterations; components within 2 sigma {within:.0%}; scipy vs "
           f"magcilia max diff {diff:.1e} sigma")
     base = res["magcilia ArrayReadout.read"][0]
