@@ -118,6 +118,23 @@ FACTORIES: dict[str, Callable[[], Any]] = {
         np.where(np.abs(np.add.outer(np.arange(120.0) * 0.17, np.arange(160.0) - 80)) < 3,
                  0.9, 0.2)),
 }
+def _array() -> Any:
+    from magcilia.device.magnetometer import Magnetometer
+
+    part = Magnetometer(field_range=5e-3, resolution=1.5e-7, noise=3e-7, rate=100.0)
+    setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6, position=(0.0, 0.0, 0.0))
+    return mc.ArrayReadout(mc.CiliaArray.grid(setup, 2, 2, 2e-3, sensor=part), 2e-5,
+                           table_size=9)
+
+
+FACTORIES.update({
+    "ArrayReadout": _array,
+    "Crosstalk": lambda: _array().crosstalk(),
+    "ArrayEstimate": lambda: _array().read(_array().rest),
+    "ArrayMetrics": lambda: mc.array_metrics(
+        _array().array.cilia[0], [2e-3, 3e-3], sensor=_array().array.sensors[0], span=2e-5,
+        rows=2, cols=2, table_size=9),
+})
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 

@@ -38,6 +38,7 @@ from magcilia.calibration import CalibrationResult, ParameterCovariance, calibra
 # -- the device and its field ------------------------------------------------------------------
 from magcilia.device import (
     MAGNETOMETERS,
+    CiliaArray,
     Cilium,
     Magnetometer,
     Material,
@@ -65,16 +66,36 @@ from magcilia.mechanics import (
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
 # -- read-out and design ---------------------------------------------------------------------------
-from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult, design_metrics
+# (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
+from magcilia.readout import (
+    ArrayEstimate,
+    ArrayFlag,
+    ArrayMetrics,
+    ArrayReadout,
+    Crosstalk,
+    DesignMetrics,
+    Readout,
+    ReadoutFlag,
+    ReadoutResult,
+    array_metrics,
+    design_metrics,
+    field_for_loads,
+)
 
 __all__ = [
     "AIR",
     "MAGNETOMETERS",
     "WATER",
+    "ArrayEstimate",
+    "ArrayFlag",
+    "ArrayMetrics",
+    "ArrayReadout",
     "BentShape",
     "CalibrationResult",
     "Centreline",
+    "CiliaArray",
     "Cilium",
+    "Crosstalk",
     "DesignMetrics",
     "Flow",
     "Fluid",
@@ -100,12 +121,14 @@ __all__ = [
     "SobolResult",
     "SpatialCentreline",
     "__version__",
+    "array_metrics",
     "bend",
     "bend_sweep",
     "calibrate",
     "design_metrics",
     "drag_coefficient",
     "exact_field",
+    "field_for_loads",
     "load_setup",
     "lookup_table",
     "oat_sweep",

@@ -17,6 +17,9 @@ Sensitivity
 Mechanics and design
     :func:`plot_shapes` (bent centrelines, mm), :func:`plot_design` (three axes: force, flow,
     angle).
+Arrays of cilia
+    :func:`plot_array_map` (cilia, sensors, field and loads seen from above, mm),
+    :func:`plot_crosstalk` (G/mN), :func:`array_figure`.
 Photos
     :func:`plot_measurement` (a tilt measured in a photo).
 Posterior
@@ -49,6 +52,7 @@ A calibration in the paper's style, saved as a vector figure one column wide::
 
 from __future__ import annotations
 
+from magcilia.report.array import array_figure, plot_array_map, plot_crosstalk
 from magcilia.report.calibration import (
     fit_figure,
     measured_field,
@@ -75,10 +79,13 @@ from magcilia.report.sensitivity import (
 from magcilia.report.style import use as style
 
 __all__ = [
+    "array_figure",
     "field_figure",
     "fit_figure",
     "measured_field",
     "new_figure",
+    "plot_array_map",
+    "plot_crosstalk",
     "plot_design",
     "plot_field_vs_tilt",
     "plot_fit",

@@ -5,11 +5,13 @@
 * :mod:`.sensor`: the single-axis AMR sensor and its amplifier, its limits (cross-axis effect,
   flipping) and :class:`SensorCheck`;
 * :mod:`.magnetometer`: 3-axis magnetometers with datasheet presets (:data:`MAGNETOMETERS`);
-* :mod:`.setup`: :class:`Setup`, all of them placed over the sensing element.
+* :mod:`.setup`: :class:`Setup`, all of them placed over the sensing element;
+* :mod:`.array`: :class:`CiliaArray`, many cilia (each a Setup) over many 3-axis sensors.
 """
 
 from __future__ import annotations
 
+from magcilia.device.array import CiliaArray
 from magcilia.device.cilium import Cilium
 from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.material import Material
@@ -21,6 +23,7 @@ __all__ = [
     "MAGNETOMETERS",
     "PAPER_INITIAL",
     "PAPER_OPTIMIZED",
+    "CiliaArray",
     "Cilium",
     "Magnetometer",
     "Material",

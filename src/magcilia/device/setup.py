@@ -2,7 +2,8 @@
 
 :class:`Setup` is the object the rest of magcilia works with. ``setup.field(pose)`` and
 ``setup.output(pose)`` evaluate the distributed-dipole model at the sensing element for a batch of
-poses: rigid tilt angles (the paper's experiment) or a :class:`~magcilia.Centreline` (bent shapes).
+poses: rigid tilt angles (the paper's experiment), a :class:`~magcilia.Centreline` (bent shapes in
+the x–z plane) or a :class:`~magcilia.SpatialCentreline` (shapes in space, any bending direction).
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck
 from magcilia.model import pose as pose_model
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
-from magcilia.model.centreline import Centreline
-from magcilia.model.pose import Pose
+from magcilia.model.centreline import Centreline, SpatialCentreline
+from magcilia.model.pose import Pose, Shapes
 from magcilia.model.spec import ModelSpec
 
 F64 = NDArray[np.float64]
@@ -174,16 +175,21 @@ class Setup(Display):
 
         Parameters
         ----------
-        pose : array-like, shape (a,), or Centreline
-            Rigid tilt angles in rad (the paper's experiment), or a batch of ``a`` centrelines
-            (e.g. bent shapes from :func:`magcilia.bend`).
+        pose : array-like, shape (a,), Centreline or SpatialCentreline
+            Rigid tilt angles in rad (the paper's experiment), a batch of ``a`` centrelines
+            (e.g. bent shapes from :func:`magcilia.bend`), or ``a`` shapes in space.
         azimuth : float
             Direction of the tilt or bending, rad: 0 toward +x (the paper's path), π/2 toward +y
-            (:mod:`magcilia.model.azimuth`).
+            (:mod:`magcilia.model.azimuth`). For a SpatialCentreline, the shapes are turned by it
+            about the vertical axis through the base (so ``field(planar, azimuth=φ)`` equals
+            ``field(SpatialCentreline.from_planar(planar, φ))``, and a SpatialCentreline with
+            ``azimuth=φ`` equals ``from_planar`` of it turned by φ).
         """
         phi = _azimuth(azimuth)
         if phi == 0.0:
             return pose_model.field(self.spec, pose)
+        if isinstance(pose, SpatialCentreline):
+            return pose_model.field(self.spec, pose_model.turn_spatial(pose, phi))
         x, y = placement_in_tilt_frame(self.position[0], self.position[1], phi)
         turned = self.replace(position=(float(x), float(y), self.position[2]))
         return field_from_tilt_frame(pose_model.field(turned.spec, pose), phi)
@@ -193,8 +199,8 @@ class Setup(Display):
 
         Parameters
         ----------
-        pose : array-like, shape (a,), or Centreline
-            Tilt angles in rad, or a batch of centrelines.
+        pose : array-like, shape (a,), Centreline or SpatialCentreline
+            Tilt angles in rad, or a batch of centrelines (planar or in space).
         azimuth : float
             Direction of the tilt or bending, rad (see :meth:`field`).
         """
@@ -233,8 +239,8 @@ class Setup(Display):
         ----------
         points : array-like, shape (o, 3) or (3,)
             Observer positions in the sensor frame, m; they must lie outside the cilium.
-        pose : array-like, shape (a,), or Centreline
-            Tilt angles in rad, or centrelines.
+        pose : array-like, shape (a,), Centreline or SpatialCentreline
+            Tilt angles in rad, or centrelines (planar or in space).
         """
         return pose_model.field_at(self.spec, points, pose)
 
@@ -243,9 +249,9 @@ class Setup(Display):
         A·m², d = n_loops · dipoles_per_loop."""
         return pose_model.dipoles(self.spec, self.centreline(pose))
 
-    def centreline(self, pose: Pose) -> Centreline:
+    def centreline(self, pose: Pose) -> Shapes:
         """The pose as centrelines: tilt angles (rad, shape (a,)) become straight centrelines of
-        the cilium's length; a Centreline is checked to have that length."""
+        the cilium's length; a Centreline or SpatialCentreline is checked to have that length."""
         return pose_model.as_centreline(self.spec, pose)
 
     def check_outside(self, points: ArrayLike, pose: Pose) -> None:
@@ -255,15 +261,16 @@ class Setup(Display):
         pose_model.check_outside(self.spec, pts, self.centreline(pose))
 
     # -- hand-over --------------------------------------------------------------------------------
-    def to_magpylib(self, pose: float | Centreline = 0.0, *, sensor: bool = True) -> Any:
+    def to_magpylib(self, pose: float | Centreline | SpatialCentreline = 0.0, *,
+                    sensor: bool = True) -> Any:
         """The model's dipoles in one pose as a ``magpylib.Collection``, to draw or to compute
         with in magpylib (SI, magpylib ≥ 5): ``magpylib.show(setup.to_magpylib(0.3))``.
 
         Parameters
         ----------
-        pose : float or Centreline
+        pose : float, Centreline or SpatialCentreline
             One rigid tilt angle in rad, or one centreline (a single bent shape from
-            :func:`magcilia.bend`).
+            :func:`magcilia.bend`, or one shape in space).
         sensor : bool
             Add a ``magpylib.Sensor`` at the sensing element (the origin; its x axis is the
             sensitive axis), as the collection's last child.
@@ -284,9 +291,9 @@ class Setup(Display):
         """
         import magpylib as magpy
 
-        if isinstance(pose, Centreline):
-            if pose.angles.ndim == 2 and pose.angles.shape[0] != 1:
-                raise v.fail("pose", f"{pose.angles.shape[0]} centrelines", "one centreline")
+        if isinstance(pose, (Centreline, SpatialCentreline)):
+            if len(pose) != 1:
+                raise v.fail("pose", f"{len(pose)} centrelines", "one centreline")
             shape: Pose = pose
         else:
             shape = np.array([v.real("pose", pose, "rad")])

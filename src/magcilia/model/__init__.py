@@ -27,9 +27,9 @@ from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 __all__ = [
     "Centreline",
-    "SpatialCentreline",
     "ModelSpec",
     "Pose",
+    "SpatialCentreline",
     "SupportsSpec",
     "TiltBatch",
     "as_spec",

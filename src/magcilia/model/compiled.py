@@ -203,11 +203,49 @@ def dipole_batch(observers: F64, positions: F64, moments: F64, out: F64) -> None
                 out[s, i, 2] += MU0_OVER_4PI * bz
 
 
+def segment_batch(observers: F64, positions: F64, moments: F64, starts: NDArray[np.int64],
+                  out: F64) -> None:
+    """Field of consecutive segments of one dipole list at common observers, summed per segment
+    (numba source): the contribution of each cilium of an array at each sensor.
+
+    Parameters
+    ----------
+    observers : ndarray, shape (o, 3)
+        m.
+    positions, moments : ndarray, shape (3, D)
+        All dipoles' positions (m) and moments (A·m²), components first.
+    starts : ndarray, shape (c + 1,), int64
+        Segment c holds dipoles ``starts[c]:starts[c + 1]`` (increasing, ``starts[-1] = D``).
+    out : ndarray, shape (c, o, 3)
+        Receives B of each segment, T (overwritten).
+    """
+    n_seg, n_obs = starts.size - 1, observers.shape[0]
+    px, py, pz = positions[0], positions[1], positions[2]
+    mx, my, mz = moments[0], moments[1], moments[2]
+    for c in range(n_seg):
+        j0, j1 = starts[c], starts[c + 1]
+        for i in range(n_obs):
+            x, y, z = observers[i, 0], observers[i, 1], observers[i, 2]
+            bx, by, bz = 0.0, 0.0, 0.0
+            for j in range(j0, j1):
+                rx, ry, rz = x - px[j], y - py[j], z - pz[j]
+                ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
+                ir3 = ir2 * math.sqrt(ir2)
+                q = 3.0 * (mx[j] * rx + my[j] * ry + mz[j] * rz) * ir3 * ir2
+                bx += q * rx - mx[j] * ir3
+                by += q * ry - my[j] * ir3
+                bz += q * rz - mz[j] * ir3
+            out[c, i, 0] = MU0_OVER_4PI * bx
+            out[c, i, 1] = MU0_OVER_4PI * by
+            out[c, i, 2] = MU0_OVER_4PI * bz
+
+
 class Kernels(NamedTuple):
     """The compiled kernels, with the arguments of the functions of the same name."""
 
     tilt_batch: Callable[[F64, F64, F64, F64, bool, bool, float, F64], bool]
     dipole_batch: Callable[[F64, F64, F64, F64], None]
+    segment_batch: Callable[[F64, F64, F64, NDArray[np.int64], F64], None]
 
 
 @cache
@@ -222,6 +260,8 @@ def _compile() -> Kernels | None:
             tilt_batch=numba.njit(tilt_batch, cache=cache, error_model="numpy", nogil=True),
             dipole_batch=numba.njit(dipole_batch, cache=cache, error_model="numpy", nogil=True,
                                     fastmath={"reassoc", "contract"}),
+            segment_batch=numba.njit(segment_batch, cache=cache, error_model="numpy",
+                                     nogil=True, fastmath={"reassoc", "contract"}),
         )
 
     try:

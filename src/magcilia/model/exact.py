@@ -20,6 +20,8 @@ from scipy.spatial.transform import Rotation
 from magcilia import _validate as v
 from magcilia.constants import MU0
 from magcilia.model import body
+from magcilia.model.centreline import SpatialCentreline
+from magcilia.model.layout import spatial_frames
 from magcilia.model.pose import Pose, as_centreline, check_outside
 from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
@@ -36,8 +38,8 @@ def exact_field(
     ----------
     setup : Setup or ModelSpec
         Geometry, material and placement (its n_loops/dipoles_per_loop are not used).
-    pose : array-like, shape (a,), or Centreline
-        Tilt angles in rad, or centrelines.
+    pose : array-like, shape (a,), Centreline or SpatialCentreline
+        Tilt angles in rad, or centrelines (planar or in space).
     n_slices : int
         Cylinder slices (error O(1/n²): ~1e-4 relative at 200 for hair-like bodies).
     points : array-like, shape (o, 3), optional
@@ -58,9 +60,19 @@ def exact_field(
     mean2, _ = body.slice_means(spec.knots, spec.radii, n)
     r_eq = spec.base_radius * np.sqrt(mean2)  # same volume as each slice
     s_mid = spec.height * (np.arange(n) + 0.5) / n
-    centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
+    if isinstance(centreline, SpatialCentreline):  # the cylinders' axes along the tangents
+        centres, tangents, _ = spatial_frames(centreline.s, centreline.points,
+                                              centreline.tangents, centreline.normals, s_mid)
+        lean = np.arctan2(np.hypot(tangents[..., 0], tangents[..., 1]), tangents[..., 2])
+        axis = np.stack([-tangents[..., 1], tangents[..., 0], np.zeros_like(lean)], axis=-1)
+        norm = np.linalg.norm(axis, axis=-1, keepdims=True)
+        rotvec = np.where(norm > 0.0, axis / np.where(norm > 0.0, norm, 1.0), 0.0) \
+            * lean[..., None]
+    else:
+        centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
+        rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
     centres = centres + spec.base_centre
-    a, o = angles.shape[0], pts.shape[0]
+    a, o = centres.shape[0], pts.shape[0]
     j = MU0 * spec.magnetization
     # one instance per (pose, slice, observer)
     obs = np.broadcast_to(pts[None, None, :, :], (a, n, o, 3)).reshape(-1, 3)
@@ -69,7 +81,6 @@ def exact_field(
         np.stack([2.0 * r_eq, np.full(n, spec.height / n)], axis=-1)[None, :, None, :],
         (a, n, o, 2),
     ).reshape(-1, 2)
-    rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
     rot = Rotation.from_rotvec(np.repeat(rotvec.reshape(-1, 3), o, axis=0))
     b = magpy.func.cylinder_field(
         field="B", observers=obs, dimensions=dims, polarizations=(0.0, 0.0, j),
@@ -88,11 +99,17 @@ def single_dipole_field(setup: ModelSpec | SupportsSpec, pose: Pose) -> F64:
     centreline = as_centreline(spec, pose)
     n = 64
     mean2, _ = body.slice_means(spec.knots, spec.radii, n)
-    pts, ang = centreline.frames(spec.height * (np.arange(n) + 0.5) / n)
     w = mean2 / mean2.sum()
+    s_mid = spec.height * (np.arange(n) + 0.5) / n
+    if isinstance(centreline, SpatialCentreline):
+        pts, tangents, _ = spatial_frames(centreline.s, centreline.points, centreline.tangents,
+                                          centreline.normals, s_mid)
+        direction = np.einsum("n,ani->ai", w, tangents)
+    else:
+        pts, ang = centreline.frames(s_mid)
+        direction = np.stack([np.einsum("n,an->a", w, np.sin(ang)), np.zeros(ang.shape[0]),
+                              np.einsum("n,an->a", w, np.cos(ang))], axis=-1)
     centroid = np.einsum("n,ani->ai", w, pts) + spec.base_centre
-    direction = np.stack([np.einsum("n,an->a", w, np.sin(ang)), np.zeros(ang.shape[0]),
-                          np.einsum("n,an->a", w, np.cos(ang))], axis=-1)
     m = spec.moment * direction
     r = -centroid
     rn = np.linalg.norm(r, axis=-1, keepdims=True)

@@ -1,7 +1,12 @@
 """One sensor's field for a batch of poses: the checked functional layer over the kernels.
 
-A pose is rigid tilt angles (rad, shape (a,)) or a :class:`~magcilia.model.centreline.Centreline`
-of ``a`` (bent) shapes. These functions take a :class:`~magcilia.model.spec.ModelSpec`, check the
+A pose is rigid tilt angles (rad, shape (a,)), a :class:`~magcilia.model.centreline.Centreline`
+of ``a`` (bent) shapes in the x–z plane, or a
+:class:`~magcilia.model.centreline.SpatialCentreline` of ``a`` shapes in space (any bending
+direction; its dipoles follow :func:`magcilia.model.layout.spatial_dipoles`, its frames at the
+slice mid-points :func:`magcilia.model.layout.spatial_frames`). Tilt angles and planar
+centrelines run the same code as before 3-D shapes existed; a SpatialCentreline has a path of its
+own beside them. These functions take a :class:`~magcilia.model.spec.ModelSpec`, check the
 poses (finite angles, the sensing element and any observer outside the cilium) and evaluate the
 dipole model; :class:`magcilia.Setup` calls them with its spec. Rigid tilts run the compiled
 kernel of the batch path (:func:`magcilia.model.batch.evaluate`) for one set; the finiteness
@@ -19,13 +24,15 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia.model import body, compiled
 from magcilia.model.batch import evaluate, pack
-from magcilia.model.centreline import Centreline
+from magcilia.model.centreline import Centreline, SpatialCentreline
 from magcilia.model.kernels import pose_field, tilt_fields
-from magcilia.model.layout import pose_dipoles
+from magcilia.model.layout import pose_dipoles, spatial_dipoles, spatial_frames
 from magcilia.model.spec import ModelSpec
 
 F64 = NDArray[np.float64]
-Pose = ArrayLike | Centreline
+Pose = ArrayLike | Centreline | SpatialCentreline
+#: a pose as centrelines: planar (the x–z plane) or in space
+Shapes = Centreline | SpatialCentreline
 
 #: angles × dipoles (or observers × polyline segments) evaluated in one NumPy block by the inside
 #: check and the NumPy fallback of :func:`field` and :func:`output`: larger batches are split into
@@ -61,10 +68,10 @@ def tilt_angles(spec: ModelSpec, pose: ArrayLike) -> F64:
     return angles
 
 
-def as_centreline(spec: ModelSpec, pose: Pose) -> Centreline:
-    """The pose as centrelines: tilt angles become straight ones; a Centreline must have the
-    cilium's length."""
-    if isinstance(pose, Centreline):
+def as_centreline(spec: ModelSpec, pose: Pose) -> Shapes:
+    """The pose as centrelines: tilt angles become straight ones; a Centreline or
+    SpatialCentreline must have the cilium's length."""
+    if isinstance(pose, (Centreline, SpatialCentreline)):
         if not math.isclose(pose.length, spec.height, rel_tol=1e-9):
             raise v.fail("centreline length", pose.length,
                          f"the cilium height ({spec.height:.6g} m)")
@@ -72,12 +79,12 @@ def as_centreline(spec: ModelSpec, pose: Pose) -> Centreline:
     return Centreline.straight(spec.height, tilt_angles(spec, pose))
 
 
-def check_outside(spec: ModelSpec, points: F64, centreline: Centreline) -> None:
+def check_outside(spec: ModelSpec, points: F64, centreline: Shapes) -> None:
     """Raise if any observer (o, 3), m in the sensor frame, lies inside any posed cilium (checked
-    against a fine polyline of each centreline)."""
+    against a fine polyline of each centreline, planar or in space)."""
     m = max(64, 8 * spec.n_loops)
     s = np.linspace(0.0, centreline.length, m + 1)
-    pts, _ = centreline.frames(s)  # (a, m+1, 3)
+    pts = centreline.frames(s)[0]  # (a, m+1, 3)
     p0 = pts[:, :-1, :] + spec.base_centre
     seg = pts[:, 1:, :] - pts[:, :-1, :]
     seg_len2 = np.einsum("ami,ami->am", seg, seg)
@@ -103,12 +110,18 @@ def _check_outside_block(spec: ModelSpec, points: F64, s: F64, p0: F64, seg: F64
                      "observer positions outside the cilium")
 
 
-def dipoles(spec: ModelSpec, centreline: Centreline) -> tuple[F64, F64]:
+def dipoles(spec: ModelSpec, centreline: Shapes) -> tuple[F64, F64]:
     """Lab-frame dipoles of the model for each centreline: positions (a, d, 3) m, moments
     (a, d, 3) A·m², d = n_loops · dipoles_per_loop."""
     n = spec.n_loops
     radius, share = body.slice_rings(spec.knots, spec.radii, n, spec.ring)
-    points, angles = centreline.frames(centreline.length * (np.arange(n) + 0.5) / n)
+    s_mid = centreline.length * (np.arange(n) + 0.5) / n
+    if isinstance(centreline, SpatialCentreline):
+        c = centreline
+        pts, tan, nor = spatial_frames(c.s, c.points, c.tangents, c.normals, s_mid)
+        return spatial_dipoles(pts, tan, nor, spec.base_centre, spec.base_radius * radius,
+                               share, spec.moment, spec.dipoles_per_loop)
+    points, angles = centreline.frames(s_mid)
     return pose_dipoles(points, angles, spec.base_centre, spec.base_radius * radius, share,
                         spec.moment, spec.dipoles_per_loop)
 
@@ -192,7 +205,7 @@ def field(spec: ModelSpec, pose: Pose) -> F64:
 
     Raises a one-line error naming the pose if the field is not finite (the element on a dipole
     of the model)."""
-    if isinstance(pose, Centreline):
+    if isinstance(pose, (Centreline, SpatialCentreline)):
         return field_at(spec, np.zeros((1, 3)), pose)[:, 0, :]
     angles = tilt_angles(spec, pose)
     out, finite = _tilt(spec, angles, x_only=False)
@@ -204,7 +217,7 @@ def output(spec: ModelSpec, pose: Pose) -> F64:
 
     Raises a one-line error naming the pose if the output is not finite (the element on a dipole
     of the model)."""
-    if isinstance(pose, Centreline):
+    if isinstance(pose, (Centreline, SpatialCentreline)):
         with np.errstate(over="ignore"):
             out = spec.scale * field(spec, pose)[:, 0] + spec.offset
         if not np.isfinite(out).all():
@@ -216,3 +229,12 @@ def output(spec: ModelSpec, pose: Pose) -> F64:
     angles = tilt_angles(spec, pose)
     out, finite = _tilt(spec, angles, x_only=True)
     return out if finite else _check_tilt(spec, "output", angles, out)
+
+
+def turn_spatial(centreline: SpatialCentreline, azimuth: float) -> SpatialCentreline:
+    """Shapes in space turned about the vertical axis through their base by ``azimuth`` (rad):
+    points, tangents and normals alike (exact, no resampling)."""
+    c, s = math.cos(azimuth), math.sin(azimuth)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return SpatialCentreline(centreline.s, centreline.points @ rot.T,
+                             centreline.tangents @ rot.T, centreline.normals @ rot.T)

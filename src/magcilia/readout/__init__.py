@@ -3,22 +3,42 @@
 * :mod:`.inverse`: :class:`Readout`, the inverse tables with 1-σ uncertainties and flags, and
   the read-out just beyond the span's ends;
 * :mod:`.tare`: :class:`Tare`, a zero-load baseline (:meth:`Readout.tare`, the live tare);
-* :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range.
+* :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
+* :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
+  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch).
 """
 
 from __future__ import annotations
 
+from magcilia.readout.array import (
+    ArrayEstimate,
+    ArrayFlag,
+    ArrayMetrics,
+    ArrayReadout,
+    Crosstalk,
+    array_metrics,
+    field_for_loads,
+    loaded_poses,
+)
 from magcilia.readout.design import DesignMetrics, Metric, design_metrics
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
 from magcilia.readout.tare import Tare
 
 __all__ = [
     "QUANTITIES",
+    "ArrayEstimate",
+    "ArrayFlag",
+    "ArrayMetrics",
+    "ArrayReadout",
+    "Crosstalk",
     "DesignMetrics",
     "Metric",
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
     "Tare",
+    "array_metrics",
     "design_metrics",
+    "field_for_loads",
+    "loaded_poses",
 ]
