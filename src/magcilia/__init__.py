@@ -57,11 +57,13 @@ from magcilia.model import Centreline, SpatialCentreline, exact_field
 
 # -- read-out and design ---------------------------------------------------------------------------
 from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult, design_metrics
+from magcilia.readout.biaxial import BiaxialReadout, ForceFlag, ForceVectorResult
 
 __all__ = [
     "AIR",
     "WATER",
     "BentShape",
+    "BiaxialReadout",
     "CalibrationResult",
     "Centreline",
     "SpatialCentreline",
@@ -69,6 +71,8 @@ __all__ = [
     "DesignMetrics",
     "Flow",
     "Fluid",
+    "ForceFlag",
+    "ForceVectorResult",
     "LiveReadout",
     "LookupTable",
     "MagciliaError",
