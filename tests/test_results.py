@@ -102,7 +102,7 @@ FACTORIES: dict[str, Callable[[], Any]] = {
         SETUP.output([0.1, 0.3, 2.0])),
     "Tare": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).tare(
         SETUP.output([0.0, 0.0]) + [1e-5, -1e-5]).baseline,
-    "BiaxialReadout": lambda: _biaxial(),
+    "BiaxialReadout": _biaxial,
     "ForceVectorResult": lambda: _biaxial().read(_biaxial().model([1e-5, 5e-5], [0.0, -3e-5])),
     "ChannelTare": lambda: _biaxial().tare(_biaxial().rest + [[1e-8, 0, 0], [-1e-8, 1e-8, 2e-8],
                                                              [0, -1e-8, 1e-8]]).baseline,
