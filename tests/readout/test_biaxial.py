@@ -302,6 +302,16 @@ def test_result_protocol(readout: BiaxialReadout) -> None:
     assert "force-vector read-out" in readout.report()
 
 
+def test_measured_noise_replaces_the_stated(readout: BiaxialReadout) -> None:
+    b = MAG.to_sensor(truth(SETUP, 0.5 * SPAN, AZIMUTHS[:3]))
+    stated = readout.read(b)
+    twice = readout.read(b, noise=2.0 * MAG.sigma)
+    np.testing.assert_allclose(twice.sigma_fx, 2.0 * stated.sigma_fx, rtol=1e-9)
+    np.testing.assert_allclose(twice.vector, stated.vector, atol=1e-12)
+    with pytest.raises(MagciliaError, match="noise must be a positive RMS noise"):
+        readout.read(b, noise=[1e-8, 0.0, 1e-8])
+
+
 def test_channels_of_a_turned_magnetometer() -> None:
     turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90° about z
     m = MAG.replace(rotation=turn, noise=(1e-8, 2e-8, 3e-8))

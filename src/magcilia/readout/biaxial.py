@@ -654,7 +654,7 @@ class BiaxialReadout(Display):
             out[part, 0], out[part, 1] = fx, fy
         return out.reshape(*x.shape[:-1], 2)
 
-    def read(self, fields: ArrayLike) -> ForceVectorResult:
+    def read(self, fields: ArrayLike, noise: ArrayLike | None = None) -> ForceVectorResult:
         """Estimates with covariance, 1-σ uncertainties and flags (never raises for a reading's
         values: NaN or saturated channels are left out and flagged).
 
@@ -662,6 +662,10 @@ class BiaxialReadout(Display):
         ----------
         fields : array-like, shape (..., c)
             One reading per channel (in order), T; a tare's correction is added first.
+        noise : float or array-like, shape (c,), optional
+            RMS noise of one reading per channel, T, measured (e.g. the spread of unloaded
+            readings, or of averaged windows); replaces the tare's measured spread or the
+            channels' stated noise (:attr:`sigma`) as the weights and for the covariance.
         """
         x = self._check_fields(fields)
         shape = x.shape[:-1]
@@ -673,6 +677,11 @@ class BiaxialReadout(Display):
         use &= np.abs(np.where(use, flat, 0.0)) <= self.field_range
         weight = use.astype(np.float64)
         tare = self._tare_arrays()
+        if noise is not None:
+            sig = np.broadcast_to(v.finite_array("noise", noise, unit="T"), self.sigma.shape)
+            if np.any(sig <= 0.0):
+                raise v.fail("noise", noise, "a positive RMS noise per channel, T")
+            tare = (tare[0], np.array(sig, dtype=np.float64), tare[2])
         y = np.where(use, flat, 0.0) + tare[0]
         outs = [np.empty(n) for _ in range(4)]
         cov = np.empty((n, 2, 2))
@@ -770,7 +779,7 @@ class BiaxialReadout(Display):
         det = a_mat[:, 0, 0] * a_mat[:, 1, 1] - a_mat[:, 0, 1] ** 2
         tr = a_mat[:, 0, 0] + a_mat[:, 1, 1]
         undetermined = ~(det > tr * tr / CONDITION_LIMIT) & ~none
-        safe = np.where(undetermined, 1.0, det)
+        safe = np.where(undetermined | none, 1.0, det)
         inv = np.empty_like(a_mat)
         inv[:, 0, 0] = a_mat[:, 1, 1] / safe
         inv[:, 1, 1] = a_mat[:, 0, 0] / safe
@@ -936,15 +945,13 @@ def _no_tare(c: int) -> tuple[F64, F64, F64]:
 @dataclass(frozen=True, eq=False)
 class _Coarse:
     """The coarse search's candidates (the grid's nodes, thinned): magnitudes and azimuths (K,),
-    readings (K, c), the rest (F = 0) first and once; each node's four neighbours on the polar
-    grid (K, 4: ±φ on its ring, the rings inside and outside; itself where there is none), the
-    first ring's nodes, and which nodes lie far from which (K, K)."""
+    readings (K, c), the rest (F = 0) first and once, then ring after ring of equal magnitude;
+    the first ring's node indices, and which nodes lie far from which (K, K)."""
 
     force: F64
     azimuth: F64
     reading: F64
     square: F64
-    neighbours: NDArray[np.intp]
     ring: NDArray[np.intp]
     far: NDArray[np.bool_]
 
@@ -955,23 +962,26 @@ class _Coarse:
         p = np.concatenate([[0.0], np.tile(azimuths, n_r)])
         y = np.concatenate([table[:1, 0], table[1:].reshape(-1, table.shape[-1])])
         idx = 1 + np.arange(n_r * n_p).reshape(n_r, n_p)
-        inner = np.concatenate([np.zeros((1, n_p), dtype=np.intp), idx[:-1]])
-        outer = np.concatenate([idx[1:], idx[-1:]])
-        nbr = np.stack([np.roll(idx, 1, axis=1), np.roll(idx, -1, axis=1), inner, outer], -1)
-        nbr = np.concatenate([np.zeros((1, 4), dtype=np.intp), nbr.reshape(-1, 4)])
         x, yv = f * np.cos(p), f * np.sin(p)
         far = np.hypot(x[:, None] - x[None, :], yv[:, None] - yv[None, :]) > 0.1 * span
-        return cls(f, p, y, (y * y).T.copy(), nbr, idx[0].copy(), far)
+        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far)
 
     def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
         minimum of χ² at least a tenth of the span from it (−1 where there is none), (b,)."""
         chi = w @ self.square - 2.0 * (w * y) @ self.reading.T  # χ² − Σ w y² (b, K)
         best = np.argmin(chi, axis=1)
-        local = np.ones(chi.shape, dtype=bool)
-        for j in range(4):
-            local &= chi <= chi[:, self.neighbours[:, j]]
-        local[:, 0] = chi[:, 0] <= chi[:, self.ring].min(axis=1)
+        g = chi[:, 1:].reshape(chi.shape[0], -1, self.ring.size)  # (b, rings, φ)
+        loc = np.empty(g.shape, dtype=bool)  # ≤ its four neighbours (slices: no gathers)
+        np.less_equal(g[..., 1:], g[..., :-1], out=loc[..., 1:])
+        np.less_equal(g[..., :1], g[..., -1:], out=loc[..., :1])
+        loc[..., :-1] &= g[..., :-1] <= g[..., 1:]
+        loc[..., -1:] &= g[..., -1:] <= g[..., :1]
+        loc[:, 1:] &= g[:, 1:] <= g[:, :-1]
+        loc[:, :-1] &= g[:, :-1] <= g[:, 1:]
+        loc[:, 0] &= g[:, 0] <= chi[:, :1]
+        local = np.concatenate([(chi[:, 0] <= g[:, 0].min(axis=1))[:, None],
+                                loc.reshape(chi.shape[0], -1)], axis=1)
         local &= self.far[best]
         masked = np.where(local, chi, np.inf)
         second = np.argmin(masked, axis=1)
