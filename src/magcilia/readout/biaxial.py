@@ -86,8 +86,9 @@ class ForceFlag(enum.IntFlag):
     EXTRAPOLATED = 8
     #: the force's magnitude lies beyond the span
     ABOVE_SPAN = 64
-    #: a second, distinct minimum within :data:`AMBIGUITY_CHI2` of the best: the direction (and
-    #: magnitude) are not determined by these readings
+    #: a second, distinct minimum within :data:`AMBIGUITY_CHI2` of the best: the direction is not
+    #: determined by these readings (NaN); Fx, Fy and the magnitude are the better minimum's (a
+    #: mirror image, e.g. φ and −φ, has the same magnitude; other pairs need not)
     AMBIGUOUS = 128
     #: the channels do not determine both components (fewer than two informative channels, or
     #: channels that see only one projection of the force): no estimate
