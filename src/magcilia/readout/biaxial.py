@@ -345,7 +345,8 @@ class ForceVectorResult(Display):
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI; NaN written as null, inf as a string by the JSON writer)."""
+        """JSON-ready content (SI; the JSON writer turns NaN and inf into null: the flags say
+        which, NaN without an estimate, inf ``sigma_direction`` without a direction)."""
         return {"fx": self.fx.tolist(), "fy": self.fy.tolist(),
                 "magnitude": self.magnitude.tolist(), "direction": self.direction.tolist(),
                 "sigma_fx": self.sigma_fx.tolist(), "sigma_fy": self.sigma_fy.tolist(),
@@ -627,7 +628,8 @@ class BiaxialReadout(Display):
         """Force vectors (Fx, Fy), N, shape (..., 2), from readings ``fields`` (T, shape
         (..., c), one per channel in order; a tare's correction is added first): the fast path,
         raising a one-line error for a reading without an estimate (NaN, saturated, beyond the
-        span's reach, or undetermined by the channels)."""
+        span's reach, or undetermined by the channels). An AMBIGUOUS reading gets the better of
+        its two minima and a NEAR_ZERO one its vector: :meth:`read` flags them."""
         x = self._check_fields(fields)
         flat = x.reshape(-1, x.shape[-1])
         if not np.isfinite(flat).all():
@@ -927,7 +929,9 @@ class BiaxialReadout(Display):
                 f"({', '.join(c.name for c in self.channels)}); grid {self.forces.size} × "
                 f"{self.azimuths.size}, table error {err}")
         if len(self.channels) < 2:
-            text += "; one channel sees one projection only: no force vector"
+            text += ("; one channel sees one projection only: no force vector (add a channel: a "
+                     "3-axis sensor or a second element turned 90°; or read the magnitude along "
+                     "a known direction with Readout)")
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"
         return text
@@ -935,7 +939,8 @@ class BiaxialReadout(Display):
     def _display_items(self) -> list[Item]:
         return [("span", scaled(self.span, 1e-3, "mN")), ("channels", str(len(self.channels))),
                 ("grid", f"{self.forces.size}×{self.azimuths.size}"),
-                ("table error", scaled(self.table_error, 1e-3, "mN")),
+                ("table error", scaled(self.table_error, 1e-3, "mN")
+                 if math.isfinite(self.table_error) else "—"),
                 ("tared", "yes" if self.baseline is not None else "no")]
 
 
