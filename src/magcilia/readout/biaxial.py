@@ -742,8 +742,7 @@ class BiaxialReadout(Display):
                ) -> tuple[F64, F64, F64, F64, F64, NDArray[np.uint16]]:
         """Fit readings ``y`` (b, c), T (tare applied), with channel ``weight`` (b, c) in {0, 1}:
         Fx, Fy (b,), χ² (b,), covariance (b, 2, 2), iterations used (b,) and flags (b,)."""
-        _, sigma, tare_se = tare
-        sigma = np.where(sigma > 0.0, sigma, np.min(sigma[sigma > 0.0], initial=1e-12))
+        _, sigma, tare_se = tare  # σ > 0: checked where it is set
         w = weight / sigma**2  # (b, c)
         b = y.shape[0]
         flags = np.zeros(b, dtype=np.uint16)
@@ -942,10 +941,6 @@ class BiaxialReadout(Display):
                 ("table error", scaled(self.table_error, 1e-3, "mN")
                  if math.isfinite(self.table_error) else "—"),
                 ("tared", "yes" if self.baseline is not None else "no")]
-
-
-def _no_tare(c: int) -> tuple[F64, F64, F64]:
-    return np.zeros(c), np.ones(c), np.zeros(c)
 
 
 @dataclass(frozen=True, eq=False)
