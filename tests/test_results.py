@@ -72,6 +72,13 @@ def _live() -> Any:
     return live
 
 
+def _biaxial() -> Any:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer(field_range=1e-3, resolution=1e-9, noise=2e-8, rate=100.0)
+    return mc.BiaxialReadout(TAPERED, sensor, span=1e-4, table_size=(9, 16))
+
+
 FACTORIES: dict[str, Callable[[], Any]] = {
     "Measurement": _measurement,
     "CalibrationResult": _calibration,
@@ -95,6 +102,11 @@ FACTORIES: dict[str, Callable[[], Any]] = {
         SETUP.output([0.1, 0.3, 2.0])),
     "Tare": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).tare(
         SETUP.output([0.0, 0.0]) + [1e-5, -1e-5]).baseline,
+    "BiaxialReadout": _biaxial,
+    "ForceVectorResult": lambda: _biaxial().read(_biaxial().model([1e-5, 5e-5], [0.0, -3e-5])),
+    "ChannelTare": lambda: _biaxial().tare(_biaxial().rest + [[1e-8, 0, 0], [-1e-8, 1e-8, 2e-8],
+                                                             [0, -1e-8, 1e-8]]).baseline,
+    "Channel": lambda: _biaxial().channels[0],
     "DesignMetrics": lambda: mc.design_metrics(TAPERED, points=11),
     "Metric": lambda: mc.design_metrics(TAPERED, points=11).angle,
     "SweepResult": _sweep,

@@ -2,6 +2,9 @@
 
 * :mod:`.inverse`: :class:`Readout`, the inverse tables with 1-σ uncertainties and flags, and
   the read-out just beyond the span's ends;
+* :mod:`.biaxial`: :class:`BiaxialReadout`, the horizontal force vector (Fx, Fy) from several
+  field channels (:class:`Channel`; a 3-axis :class:`~magcilia.device.magnetometer.Magnetometer`
+  gives three), with covariance and :class:`ForceFlag` flags (:class:`ForceVectorResult`);
 * :mod:`.tare`: :class:`Tare`, a zero-load baseline (:meth:`Readout.tare`, the live tare);
 * :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
 * :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
@@ -20,6 +23,13 @@ from magcilia.readout.array import (
     field_for_loads,
     loaded_poses,
 )
+from magcilia.readout.biaxial import (
+    BiaxialReadout,
+    Channel,
+    ChannelTare,
+    ForceFlag,
+    ForceVectorResult,
+)
 from magcilia.readout.design import DesignMetrics, Metric, design_metrics
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
 from magcilia.readout.tare import Tare
@@ -30,8 +40,13 @@ __all__ = [
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",
+    "BiaxialReadout",
+    "Channel",
+    "ChannelTare",
     "Crosstalk",
     "DesignMetrics",
+    "ForceFlag",
+    "ForceVectorResult",
     "Metric",
     "Readout",
     "ReadoutFlag",
