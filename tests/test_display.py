@@ -188,6 +188,7 @@ def test_readout_dataframe_names_quantity_and_unit() -> None:
     ("PlacementMap", ["x_m", "y_m", "rms_change_V"]),
     ("DesignMetrics", ["quantity", "unit", "sensitivity", "minimum", "range", "limited_by"]),
     ("BentShape", ["s_m", "angle_rad", "x_m", "z_m"]),
+    ("SpatialBentShape", ["s_m", "x_m", "y_m", "z_m", "tx", "ty", "tz"]),
     ("SweepResult", ["angle_rad", "output_V", "sem_V", "samples", "saturated"]),
     ("LiveSamples", ["time_s", "raw_V", "angle_rad", "sigma_rad", "flags", "correction_V",
                      "received_s", "published_s"]),

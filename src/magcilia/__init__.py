@@ -36,7 +36,7 @@ from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, p
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
 # -- the device and its field ------------------------------------------------------------------
-from magcilia.device import Cilium, Material, Sensor, Setup
+from magcilia.device import Actuation, Cilium, Material, Sensor, Setup
 
 # -- files ---------------------------------------------------------------------------------------
 from magcilia.io import Measurement, load_setup, read_measurements, save_setup, to_c_header
@@ -49,6 +49,7 @@ from magcilia.mechanics import (
     BentShape,
     Flow,
     Fluid,
+    SpatialBentShape,
     bend,
     bend_sweep,
     drag_coefficient,
@@ -61,6 +62,7 @@ from magcilia.readout import DesignMetrics, Readout, ReadoutFlag, ReadoutResult,
 __all__ = [
     "AIR",
     "WATER",
+    "Actuation",
     "BentShape",
     "CalibrationResult",
     "Centreline",
@@ -86,6 +88,7 @@ __all__ = [
     "Sensor",
     "Setup",
     "SobolResult",
+    "SpatialBentShape",
     "__version__",
     "bend",
     "bend_sweep",
