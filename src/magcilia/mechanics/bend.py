@@ -149,11 +149,15 @@ SHARP_TIP = {
              "the tip)",
     "flow": "a flow load: on a sharp cone the drag on the vanishing tip section (EI ∝ r⁴ → 0 while "
             "the drag per length stays finite) makes the tip rotation singular",
+    "actuation": "a magnetic field: on a sharp cone the field's couple per length (∝ r²) over EI "
+                 "(∝ r⁴) makes the curvature grow as 1/(L − s) toward the tip (the tip rotation is "
+                 "singular)",
 }
 
 
 def require_tip_radius(setup: Setup, load: str) -> None:
-    """Raise unless the cilium has a tip radius, which a tip ``load`` ("force" or "flow") needs."""
+    """Raise unless the cilium has a tip radius, which a tip ``load`` ("force", "flow" or
+    "actuation") needs."""
     if setup.cilium.tip_radius == 0.0:
         below = " or apply the load below the tip (at=, CLI: --at)" if load == "force" else ""
         raise v.fail("tip_radius", 0.0, f"positive for {SHARP_TIP[load]}; set tip_radius > 0 "
@@ -289,9 +293,10 @@ def bend(setup: Setup, force: float | ArrayLike = 0.0, *, at: float | None = Non
     Raises
     ------
     MagciliaError
-        A tip point load on a sharp cone (tip_radius 0), ``at`` outside the cilium, a flow faster
-        than the drag law allows, a field that is not finite at the cilium, or loads beyond what
-        the solver converges for (the message gives the largest converged load or scale).
+        A tip point load, a flow or a field on a sharp cone (tip_radius 0: see
+        :data:`SHARP_TIP`), ``at`` outside the cilium, a flow faster than the drag law allows, a
+        field that is not finite at the cilium, or loads beyond what the solver converges for
+        (the message gives the largest converged load or scale).
 
     Examples
     --------
@@ -393,6 +398,8 @@ def _resolve(setup: Setup, force: float | ArrayLike, at: float | None, direction
         load_azimuth = az
     # at, tip radius, flow and Reynolds checks as for the planar path
     magnitude, at_s, direction = _check(setup, magnitude, at, direction, flow)
+    if actuation is not None and setup.spec.magnetization != 0.0:
+        require_tip_radius(setup, "actuation")
     load = Load(magnitude, direction, at_s, flow, load_azimuth, actuation)
     if not given_vector:
         vec = load.vector

@@ -7,7 +7,9 @@ moment balance is ``E I(s) θ'(s) = M(s)`` with ``M(s) = ∫ₛᴸ (cos θ N_x �
 
 Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − sin θ N_z`` and
 ``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip.
-θ(0) = 0 and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on
+θ(0) = 0 and M(L) = 0 are built in. A distributed couple per length c (a uniform field's
+``μ t × B`` on the magnetized cilium, y-component ``μ (B_x cos θ − B_z sin θ)``) adds to g
+itself, pointwise (M = ∫ₛᴸ (t × N + c)), and not to N: it is a couple, not a force. ``[0, L]`` is split at the load point (where M' jumps); on
 each piece θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the
 integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). With the
 influence matrix ``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's
