@@ -9,11 +9,12 @@ Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − s
 ``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip.
 θ(0) = 0 and M(L) = 0 are built in. A distributed couple per length c (a uniform field's
 ``μ t × B`` on the magnetized cilium, y-component ``μ (B_x cos θ − B_z sin θ)``) adds to g
-itself, pointwise (M = ∫ₛᴸ (t × N + c)), and not to N: it is a couple, not a force. ``[0, L]`` is split at the load point (where M' jumps); on
-each piece θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the
-integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). With the
-influence matrix ``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's
-method with the analytic Jacobian ``I − P diag(g'(θ))`` for the point load (O(N²) per step;
+itself, pointwise (M = ∫ₛᴸ (t × N + c)), and not to N: it is a couple, not a force.
+``[0, L]`` is split at the load point (where M' jumps); on each piece θ is represented by its
+values at Chebyshev (first-kind, interior) nodes, so the integrals are spectrally accurate and
+nodes never sit where EI may vanish (a cone's tip). With the influence matrix
+``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's method with the
+analytic Jacobian ``I − P diag(g'(θ))`` for the point load and the couple (O(N²) per step;
 batched central differences for the shape-dependent drag), started from a guess (the caller's:
 :func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
 predictor and step halving when Newton fails.
