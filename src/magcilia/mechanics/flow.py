@@ -60,7 +60,7 @@ class Flow(Display):
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "speed", v.real("speed", self.speed, "m/s"))
-        if self.azimuth != 0.0:
+        if not (isinstance(self.azimuth, float | int) and self.azimuth == 0.0):
             object.__setattr__(self, "azimuth", v.real("azimuth", self.azimuth, "rad"))
         if not isinstance(self.fluid, Fluid):
             raise v.fail("fluid", type(self.fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")

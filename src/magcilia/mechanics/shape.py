@@ -210,7 +210,7 @@ class SpatialBentShape(SpatialCentreline):
             "load": self.load.describe(), "plane_azimuth_rad": self.plane,
             "tip_m": self.tip.tolist(), "tip_angle_rad": self.tip_angle,
             "tip_azimuth_rad": self.tip_azimuth, "deflection_m": self.deflection,
-            "residual": self.residual, "iterations": self.iterations, "nodes": self.nodes,
+            "residual_rad": self.residual, "iterations": self.iterations, "nodes": self.nodes,
             "centreline_m": {"s": self.s.tolist(), "x": pts[:, 0].tolist(),
                              "y": pts[:, 1].tolist(), "z": pts[:, 2].tolist()},
             "tangents": {"x": tan[:, 0].tolist(), "y": tan[:, 1].tolist(),
