@@ -46,6 +46,8 @@ def test_uniform_field_is_its_vector_everywhere() -> None:
     doc = act.scaled(2.0).to_dict()
     assert doc == {"kind": "uniform", "scale": 2.0, "field_T": (2 * b).tolist()}
     assert "mT" in act.report() and repr(act).startswith("Actuation(uniform")
+    b[0] = 7.0  # the caller's array stays theirs (copied, not frozen)
+    assert act.field(np.zeros(3))[0] == 1e-3
 
 
 def _magnet() -> magpylib.magnet.Cuboid:

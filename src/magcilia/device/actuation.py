@@ -103,7 +103,7 @@ class Actuation(Display):
             raise v.fail("Actuation", "both or neither of vector/source",
                          "built with Actuation.uniform(b) or Actuation.magpylib(source)")
         if self.vector is not None:
-            vec = v.vector3("field", self.vector, "T")
+            vec = v.vector3("field", self.vector, "T").copy()  # never freeze the caller's array
             vec.setflags(write=False)
             object.__setattr__(self, "vector", vec)
         else:
