@@ -217,8 +217,9 @@ class Actuation(Display):
         if self.vector is not None:
             b = self.uniform_field * 1e3
             return "uniform field (" + ", ".join(f"{c:.4g}" for c in b) + ") mT"
-        return f"field of a magpylib {self.source_name}" + ("" if self.scale == 1.0
-                                                            else f" × {self.scale:.6g}")
+        what = f"{len(self.source)} magpylib sources" if isinstance(self.source, tuple) \
+            else f"a magpylib {self.source_name}"
+        return f"field of {what}" + ("" if self.scale == 1.0 else f" × {self.scale:.6g}")
 
     @property
     def source_name(self) -> str:
