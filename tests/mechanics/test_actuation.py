@@ -279,3 +279,24 @@ def test_a_sharp_cone_needs_a_tip_radius_for_a_field() -> None:
     finer = mc.bend(setup, actuation=act, nodes=80)
     assert 0.02 < shape.tip_angle < 0.5
     assert np.linalg.norm(finer.tip - shape.tip) <= 1e-9 * setup.cilium.height
+
+
+def test_sweep_while_actuating_stacks_single_bends() -> None:
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    coil = mc.Actuation.uniform((5e-3, 0.0, 0.0))
+    forces = np.linspace(0.0, 1e-4, 4)
+    flat = mc.bend_sweep(setup, forces, actuation=coil)
+    assert type(flat) is mc.Centreline
+    for row, f in enumerate(forces):
+        np.testing.assert_array_equal(flat.points[row], mc.bend(setup, f, actuation=coil).points[0])
+    across = mc.bend_sweep(setup, forces, azimuth=1.0, actuation=coil)  # force and field: 3-D
+    assert isinstance(across, mc.SpatialCentreline) and len(across) == forces.size
+    np.testing.assert_allclose(across.points[1], mc.bend(setup, forces[1], azimuth=1.0,
+                                                         actuation=coil).points[0], rtol=0,
+                               atol=1e-15)
+    np.testing.assert_allclose(across.points[0], flat.points[0], rtol=0, atol=1e-18)
+    speeds = mc.bend_sweep(setup, speeds=[0.0, 0.2], flow=mc.Flow.uniform(1.0, azimuth=0.5),
+                           actuation=coil)
+    assert speeds.tip[1, 1] > 0.0 and speeds.tip[0, 1] == 0.0
+    with pytest.raises(mc.MagciliaError, match="flow must be a Flow when sweeping speeds"):
+        mc.bend_sweep(setup, speeds=[0.1], actuation=coil)
