@@ -750,10 +750,11 @@ def _sweep_each(setup: Setup, forces: ArrayLike | None, speeds: ArrayLike | None
                          actuation=actuation, nodes=nodes)
         shapes.append(shape)
     s = shapes[0].s
-    if all(isinstance(sh, BentShape) for sh in shapes):
-        return Centreline(s, np.concatenate([sh.angles for sh in shapes]),
-                          np.concatenate([sh.points for sh in shapes]))
-    spatial = [sh if isinstance(sh, SpatialCentreline) else SpatialCentreline.from_planar(sh)
+    planar = [sh for sh in shapes if isinstance(sh, BentShape)]
+    if len(planar) == len(shapes):
+        return Centreline(s, np.concatenate([sh.angles for sh in planar]),
+                          np.concatenate([sh.points for sh in planar]))
+    spatial = [sh if isinstance(sh, SpatialBentShape) else SpatialCentreline.from_planar(sh)
                for sh in shapes]
     return SpatialCentreline(s, *(np.concatenate([getattr(sh, name) for sh in spatial])
                                   for name in ("points", "tangents", "normals")))
