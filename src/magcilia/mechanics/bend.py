@@ -513,11 +513,16 @@ class _PlaneCase:
     def buckled(self, critical: float) -> Solution:
         """The buckled branch toward +x of an unstable axial load (``critical``: the load factor
         at which the straight rod turns unstable): the load tilted by :data:`_BUCKLING_TILT`
-        followed from the straight rod in steps of at most a quarter of the critical load (so
-        that Newton cannot jump to another equilibrium), then the tilt continued to 0."""
+        followed from the straight rod in steps of a quarter of the critical load up to twice it,
+        then of 25 % (so that Newton cannot jump to another equilibrium), then the tilt
+        continued to 0."""
         theta = np.zeros(self.grid.s.size)
         iterations = 0
-        stops = np.unique(np.append(np.arange(0.25, 1.0 / critical, 0.25) * critical, 1.0))
+        steady = np.arange(0.25, 2.0 + 1e-9, 0.25) * critical  # a quarter of it up to twice it
+        beyond = 2.0 * critical * 1.25 ** np.arange(1, 1 + max(0, math.ceil(
+            math.log(1.0 / (2.0 * critical)) / math.log(1.25))))  # then 25 % steps
+        stops = np.unique(np.append(np.concatenate([steady, beyond])[
+            np.concatenate([steady, beyond]) < 1.0], 1.0))
         last = 0.0
         slope: F64 | None = self.guess(_BUCKLING_TILT) * stops[0]
         for stop in stops.tolist():
