@@ -191,6 +191,7 @@ def test_readout_dataframe_names_quantity_and_unit() -> None:
     ("ForceVectorResult", ["fx_N", "fy_N", "magnitude_N", "direction_rad", "sigma_fx_N",
                            "sigma_fy_N", "sigma_magnitude_N", "sigma_direction_rad",
                            "cov_xy_N2", "chi2", "flags"]),
+    ("SpatialBentShape", ["s_m", "x_m", "y_m", "z_m", "tx", "ty", "tz"]),
     ("SweepResult", ["angle_rad", "output_V", "sem_V", "samples", "saturated"]),
     ("LiveSamples", ["time_s", "raw_V", "angle_rad", "sigma_rad", "flags", "correction_V",
                      "received_s", "published_s"]),

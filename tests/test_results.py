@@ -97,6 +97,8 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "FixedPointFormat": lambda: fixed_point_format(mc.piecewise_linear(SETUP, corners=1,
                                                                        grid=101)),
     "BentShape": lambda: mc.bend(TAPERED, force=1e-4),
+    "SpatialBentShape": lambda: mc.bend(TAPERED, force=1e-4, azimuth=0.5),
+    "Actuation": lambda: mc.Actuation.uniform((0.0, 0.0, 5e-3)),
     "Readout": lambda: mc.Readout(SETUP, quantity="angle", span=(0.0, 0.5), table_size=17),
     "ReadoutResult": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).read(
         SETUP.output([0.1, 0.3, 2.0])),

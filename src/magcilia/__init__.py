@@ -38,6 +38,7 @@ from magcilia.calibration import CalibrationResult, ParameterCovariance, calibra
 # -- the device and its field ------------------------------------------------------------------
 from magcilia.device import (
     MAGNETOMETERS,
+    Actuation,
     CiliaArray,
     Cilium,
     Magnetometer,
@@ -59,6 +60,7 @@ from magcilia.mechanics import (
     BentShape,
     Flow,
     Fluid,
+    SpatialBentShape,
     bend,
     bend_sweep,
     drag_coefficient,
@@ -89,6 +91,7 @@ __all__ = [
     "AIR",
     "MAGNETOMETERS",
     "WATER",
+    "Actuation",
     "ArrayEstimate",
     "ArrayFlag",
     "ArrayMetrics",
@@ -125,6 +128,7 @@ __all__ = [
     "SensorFlag",
     "Setup",
     "SobolResult",
+    "SpatialBentShape",
     "SpatialCentreline",
     "__version__",
     "array_metrics",

@@ -7,10 +7,12 @@
 * :mod:`.magnetometer`: 3-axis magnetometers with datasheet presets (:data:`MAGNETOMETERS`);
 * :mod:`.setup`: :class:`Setup`, all of them placed over the sensing element;
 * :mod:`.array`: :class:`CiliaArray`, many cilia (each a Setup) over many 3-axis sensors.
+* :mod:`.actuation`: :class:`Actuation`, an external field (uniform or magpylib) acting on it.
 """
 
 from __future__ import annotations
 
+from magcilia.device.actuation import Actuation
 from magcilia.device.array import CiliaArray
 from magcilia.device.cilium import Cilium
 from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
@@ -23,6 +25,7 @@ __all__ = [
     "MAGNETOMETERS",
     "PAPER_INITIAL",
     "PAPER_OPTIMIZED",
+    "Actuation",
     "CiliaArray",
     "Cilium",
     "Magnetometer",

@@ -1,10 +1,15 @@
 """Large-deflection mechanics of the cilium: static elastica under point loads and fluid flow.
 
-* :func:`bend` / :func:`bend_sweep`: static shapes (:class:`BentShape`, a Centreline);
+* :func:`bend` / :func:`bend_sweep`: static shapes (:class:`BentShape`, a Centreline, for loads in
+  the x–z plane; :class:`SpatialBentShape`, a SpatialCentreline, for any other direction), under a
+  force vector, a flow from any azimuth and magnetic actuation (:class:`~magcilia.Actuation`);
+  :func:`bend_3d` (the 3-D rod, :mod:`.rod`, for loads that leave every plane),
+  :func:`buckling_load` and :func:`flip_field` (axial loads that destabilise the straight rod);
 * :class:`Flow` (uniform, wall shear, custom profiles) and :class:`Fluid` with :data:`AIR`,
   :data:`WATER`; :func:`drag_coefficient` (Lamb–Oseen / White cylinder drag) and
   :func:`slender_log` (the low-Re drag of a finite slender body standing on the wall);
-* :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference.
+* :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference, and
+  :func:`uniform_field_tip` (a uniform rod in a uniform perpendicular field, by quadrature).
 """
 
 from __future__ import annotations
@@ -12,7 +17,10 @@ from __future__ import annotations
 from magcilia.mechanics.bend import (
     SHARP_TIP,
     bend,
+    bend_3d,
     bend_sweep,
+    buckling_load,
+    flip_field,
     output_at,
     require_tip_radius,
     tip_compliance,
@@ -26,9 +34,9 @@ from magcilia.mechanics.drag import (
     drag_per_length,
     slender_log,
 )
-from magcilia.mechanics.exact import cantilever_tip
+from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
 from magcilia.mechanics.flow import Flow
-from magcilia.mechanics.shape import BentShape, Load
+from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 
 __all__ = [
     "AIR",
@@ -39,13 +47,18 @@ __all__ = [
     "Flow",
     "Fluid",
     "Load",
+    "SpatialBentShape",
     "bend",
+    "bend_3d",
     "bend_sweep",
+    "buckling_load",
     "cantilever_tip",
     "drag_coefficient",
     "drag_per_length",
+    "flip_field",
     "output_at",
     "require_tip_radius",
     "slender_log",
     "tip_compliance",
+    "uniform_field_tip",
 ]

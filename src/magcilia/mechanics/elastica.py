@@ -7,11 +7,14 @@ moment balance is ``E I(s) θ'(s) = M(s)`` with ``M(s) = ∫ₛᴸ (cos θ N_x �
 
 Integral form solved here: ``θ = C [ (R g(θ)) / EI ]``, ``g = cos θ N_x − sin θ N_z`` and
 ``N = R f + F H``, where ``C`` integrates from the base and ``R`` from the point to the tip.
-θ(0) = 0 and M(L) = 0 are built in. ``[0, L]`` is split at the load point (where M' jumps); on
-each piece θ is represented by its values at Chebyshev (first-kind, interior) nodes, so the
-integrals are spectrally accurate and nodes never sit where EI may vanish (a cone's tip). With the
-influence matrix ``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's
-method with the analytic Jacobian ``I − P diag(g'(θ))`` for the point load (O(N²) per step;
+θ(0) = 0 and M(L) = 0 are built in. A distributed couple per length c (a uniform field's
+``μ t × B`` on the magnetized cilium, y-component ``μ (B_x cos θ − B_z sin θ)``) adds to g
+itself, pointwise (M = ∫ₛᴸ (t × N + c)), and not to N: it is a couple, not a force.
+``[0, L]`` is split at the load point (where M' jumps); on each piece θ is represented by its
+values at Chebyshev (first-kind, interior) nodes, so the integrals are spectrally accurate and
+nodes never sit where EI may vanish (a cone's tip). With the influence matrix
+``P = C diag(1/EI) R`` (fixed per grid) the residual is ``θ − P g(θ)``; Newton's method with the
+analytic Jacobian ``I − P diag(g'(θ))`` for the point load and the couple (O(N²) per step;
 batched central differences for the shape-dependent drag), started from a guess (the caller's:
 :func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
 predictor and step halving when Newton fails.
@@ -23,6 +26,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Protocol
 
 import numpy as np
 from numpy.polynomial import chebyshev as cheb
@@ -132,6 +136,9 @@ class Problem:
     loaded: F64  # (N,) 1 where s < a (the point force is carried across the section)
     #: (cos θ, z) at the nodes, shape (b, N) each -> drag per length along the normal, N/m
     drag: Callable[[F64, F64], F64] | None = None
+    #: (2, N) μ(s) (B_x, B_z) at the nodes, N: a uniform field's couple per length μ t × B, whose
+    #: y-component μ (B_x cos θ − B_z sin θ) adds to g (no force: it is not in N)
+    couple: F64 | None = None
 
     def moment_density(self, theta: F64, scale: float = 1.0) -> F64:
         """g = cos θ N_x − sin θ N_z at the nodes, N, same shape as ``theta`` ((N,) or (b, N));
@@ -142,6 +149,8 @@ class Problem:
         if self.drag is not None:
             q = self.drag(c, c @ self.grid.C.T)
             g = g + c * ((q * c) @ self.grid.R.T) + s * ((q * s) @ self.grid.R.T)
+        if self.couple is not None:
+            g = g + self.couple[0] * c - self.couple[1] * s
         return np.asarray(g, dtype=np.float64)
 
     def residual(self, theta: F64, scale: float) -> F64:
@@ -176,6 +185,9 @@ class Problem:
             fx, fz = (scale * self.force).tolist()
             jac = _identity(n) + self.influence * (
                 (fx * np.sin(theta) + fz * np.cos(theta)) * self.loaded)
+            if self.couple is not None:  # and μ (B_x sin θ + B_z cos θ) of a field's couple
+                jac = jac + self.influence * (self.couple[0] * np.sin(theta)
+                                              + self.couple[1] * np.cos(theta))
         else:
             h = 1e-7
             res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
@@ -200,7 +212,16 @@ class Solution:
     iterations: int
 
 
-def newton(problem: Problem, scale: float, guess: F64, tol: float = 1e-12,
+class Steppable(Protocol):
+    """What :func:`newton` and :func:`solve` need of a load case: a planar :class:`Problem`, or
+    the 3-D rod's (:mod:`magcilia.mechanics.rod`), on flat arrays of unknowns."""
+
+    def residual(self, theta: F64, scale: float) -> F64: ...
+
+    def newton_step(self, theta: F64, scale: float, tol: float) -> tuple[float, F64 | None]: ...
+
+
+def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
            max_iter: int = 40) -> Solution | None:
     """Newton's method at one load factor; None if it does not converge."""
     theta = guess
@@ -232,8 +253,9 @@ class ContinuationError(RuntimeError):
         self.reached = reached
 
 
-def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, target: float,
-          theta: F64, slope: F64 | None = None, min_step: float = 1e-3) -> tuple[Solution, int]:
+def solve(problem_at: Callable[[float], tuple[Steppable, float]], start: float, target: float,
+          theta: F64, slope: F64 | None = None, min_step: float = 1e-3,
+          tol: float = 1e-12) -> tuple[Solution, int]:
     """Continue the solution from load parameter ``start`` (solved: ``theta``) to ``target``.
 
     ``problem_at(p)`` returns the problem and load factor at parameter p (the same problem object
@@ -242,7 +264,8 @@ def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, ta
     ``start`` (default 0: start from ``theta``) and then the secant of the last two solutions;
     where a predicted start fails, the same step is retried from ``theta``. Returns the solution
     at ``target`` and the number of solves (a solution's iterations are those of all of them).
-    Raises :class:`ContinuationError` with the last converged parameter on failure.
+    Raises :class:`ContinuationError` with the last converged parameter on failure. ``tol`` is
+    Newton's residual tolerance (rad).
     """
     p = start
     span = target - start
@@ -253,7 +276,7 @@ def solve(problem_at: Callable[[float], tuple[Problem, float]], start: float, ta
         trial = target if step >= 1.0 else p + step * (target - p)
         prob, scale = problem_at(trial)
         guess = theta if slope is None else theta + (trial - p) * slope
-        sol = newton(prob, scale, guess)
+        sol = newton(prob, scale, guess) if tol == 1e-12 else newton(prob, scale, guess, tol)
         solves += 1
         if sol is None and slope is not None:  # the prediction misled Newton: retry from theta
             slope = None
