@@ -16,7 +16,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
-from magcilia.mechanics import FLUIDS, bend
+from magcilia.mechanics import FLUIDS, BentShape, bend
 from magcilia.report.mechanics import bend_record, bend_text, shape_figure
 from magcilia.report.units import output_units
 
@@ -64,6 +64,7 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
                                                "cilium's length)")
     shape = bend(setup, force=force if force is not None else 0.0, at=at, direction=direction,
                  flow=make_flow(flow_text, fluid, shear_height))
+    assert isinstance(shape, BentShape)  # for mypy: loads in the x–z plane give planar shapes
     units = output_units(si)
     record = bend_record(setup, shape, setup_label(setup_arg), units)
     if json_file:

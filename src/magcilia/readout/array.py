@@ -143,7 +143,9 @@ def _load_table(cilium: Cilium, modulus: float, n_loops: int, span: float,
     setup = Setup(dataclasses.replace(cilium, youngs_modulus=modulus), n_loops=n_loops)
     s_mid = cilium.height * (np.arange(n_loops) + 0.5) / n_loops
     grid = np.linspace(0.0, span, size)
-    frames = _slice_frames(bend_sweep(setup, forces=grid), s_mid)  # (size, 3n)
+    shapes = bend_sweep(setup, forces=grid)
+    assert isinstance(shapes, Centreline)  # for mypy: loads in the x–z plane give planar shapes
+    frames = _slice_frames(shapes, s_mid)  # (size, 3n)
     n = n_loops
     mirror = frames[:0:-1].copy()  # −F: x and θ change sign, z does not
     mirror[:, :n] *= -1.0
@@ -152,7 +154,9 @@ def _load_table(cilium: Cilium, modulus: float, n_loops: int, span: float,
     forces = np.concatenate([-grid[:0:-1], grid])
     spline = CubicSpline(forces, both, axis=0)
     mids = 0.5 * (grid[:-1] + grid[1:])
-    exact = _slice_frames(bend_sweep(setup, forces=mids), s_mid)
+    mid_shapes = bend_sweep(setup, forces=mids)
+    assert isinstance(mid_shapes, Centreline)  # for mypy (as above)
+    exact = _slice_frames(mid_shapes, s_mid)
     err = np.abs(spline(mids) - exact)
     error = np.array([err[:, :n].max(), err[:, n:2 * n].max(), err[:, 2 * n:].max()])
     coefficients = np.ascontiguousarray(spline.c)
@@ -197,6 +201,7 @@ def loaded_poses(array: CiliaArray, forces: ArrayLike) -> SpatialCentreline | li
         magnitude = math.hypot(fh, fz)
         planar = bend(setup, force=magnitude, direction=math.atan2(fh, fz)) if magnitude \
             else bend(setup)
+        assert isinstance(planar, Centreline)  # for mypy: a load in the x–z plane
         phi = math.atan2(f[c, 1], f[c, 0]) if fh > 0.0 else 0.0
         spatial = SpatialCentreline.from_planar(planar, phi)
         shapes.append(SpatialCentreline(spatial.s, spatial.points, spatial.tangents,
