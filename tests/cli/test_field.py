@@ -76,3 +76,23 @@ def test_bad_setup_file_leaves_no_output(
     assert main(["field", str(bad), "--csv", str(out_csv)]) == 2
     assert "cilium.height must be a length with a unit" in capsys.readouterr().err
     assert not out_csv.exists()
+
+
+def test_field_flags_what_the_element_sees(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    # Table I's initial placement stands the cilium on the element: 28-31 G along z over
+    # 0-40 deg, beyond the HMC1021's 6 G range and 20 G flip field (issue 15)
+    csv_path = tmp_path / "t.csv"
+    assert main(["field", "paper-initial", "paper", "--angles", "0:40:20",
+                 "--csv", str(csv_path)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("magcilia: warning:") == 1 and "paper-initial puts up to 31.2 gauss" in err
+    rows = list(csv.DictReader(csv_path.read_text().splitlines()))
+    flags: dict[str, set[str]] = {}
+    for r in rows:
+        flags.setdefault(r["setup"], set()).add(r["flag"])
+    assert flags["paper-initial"] == {"total-range,flip"}
+    # the optimized placement keeps |B| near 0.6 G: only the cross-axis term shows
+    assert flags["paper"] == {"cross-axis"}
+    b = mc.Setup.paper_initial().field(np.radians([0.0, 20.0, 40.0]))
+    assert b[:, 2].min() > 27.6e-4 and b[:, 2].max() < 31.3e-4

@@ -29,10 +29,12 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
 ``"y_sign"``
     y and −y fit equally well (B_x is even in y).
 ``"sensor_field"``
-    The initial or the fitted placement puts a field on the single-axis element beyond its flip
-    (disturbing) field or its linear range (of the total field, or on the sensitive axis): a
-    real sensor there needs a set/reset pulse and does not read B_x faithfully
-    (:meth:`magcilia.Setup.check_sensor`).
+    The fitted placement puts a field on the single-axis element beyond its flip (disturbing)
+    field or its linear range (of the total field, or on the sensitive axis): a real sensor there
+    needs a set/reset pulse and does not read B_x faithfully (:meth:`magcilia.Setup.check_sensor`).
+    The fit's starting point is a guess, not a placement, so it is not checked: Table I's initial
+    placement puts 28–48 G on the element (``Setup.paper_initial().check_sensor(angles)`` says
+    so; ``magcilia field``/``angle`` print it).
 ``"model_not_finite"``, ``"no_degrees_of_freedom"``, ``"integer_parameters"``
     No slope next to the optimum; as many parameters as angles; n and k carry no standard error.
 """
@@ -322,13 +324,7 @@ def sensor_field(setup: Setup, angles: F64, which: str,
     where = (f"|B| = {magnitude[i] / 1e-4:.3g} gauss on the {s.name}'s element at "
              f"{math.degrees(angles[i]):.3g} deg{toward} (B = ({bx:.3g}, {by:.3g}, {bz:.3g}) G; "
              f"{int(bad.sum())} of {bad.size} angles), beyond {' and '.join(what)}")
-    if which == "initial":
-        text = (f"the initial placement puts {where}: a sensor placed so would need a set/reset "
-                "pulse and could not have recorded these data; the fit only starts there, but a "
-                "start off the element (x, y of about 1.5, 2 mm as in the paper's fit, "
-                "Setup.paper()) is closer to any real placement")
-    else:
-        text = (f"the fitted placement puts {where}: a sensor so placed needs a set/reset pulse "
-                "and does not read B_x faithfully; check the recording (pulse set/reset before "
-                "recording), the bounds of x, y, z, or the sensor's flip_field and range")
+    text = (f"the {which} placement puts {where}: a sensor so placed needs a set/reset pulse "
+            "and does not read B_x faithfully; check the recording (pulse set/reset before "
+            "recording), the bounds of x, y, z, or the sensor's flip_field and range")
     return CalibrationWarning("sensor_field", text, ("x", "y", "z"))

@@ -600,10 +600,12 @@ def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
     by the reduced χ², from the full weighted Jacobian (continuous parameters, the relative
     scale, the offsets)."""
     names = list(problem.names)
-    h = 1e-5 * (problem.bounds[:, 1] - problem.bounds[:, 0])
-    eye = np.eye(x.size) * h
-    u2 = problem.model(np.concatenate([x + eye, x - eye]))
-    cols = [scale * (u2[:x.size] - u2[x.size:]).T / (2 * h) * problem.w[:, None]]
+    cols = [np.zeros((problem.y.size, 0))]  # nothing nonlinear left free: no columns
+    if x.size:
+        h = 1e-5 * (problem.bounds[:, 1] - problem.bounds[:, 0])
+        eye = np.eye(x.size) * h
+        u2 = problem.model(np.concatenate([x + eye, x - eye]))
+        cols = [scale * (u2[:x.size] - u2[x.size:]).T / (2 * h) * problem.w[:, None]]
     u = problem.model(x)[0]
     if problem.fit_scale:
         cols.append((u * problem.w)[:, None])

@@ -382,19 +382,19 @@ def calibrate(
     return _result(problem, initial, data, box, x_best, bias, t0, restart_costs)
 
 def _with_sensor_field(result: JointCalibrationResult) -> JointCalibrationResult:
-    """The joint result with ``"sensor_field"`` warnings for its tilt experiments (load
-    experiments bend the cilium: their poses are not checked here)."""
+    """The joint result with a ``"sensor_field"`` warning when the fitted placement overloads the
+    element in its tilt experiments (load experiments bend the cilium: their poses are not checked
+    here)."""
     tilts = [e for e in result.experiments if e.load_kind is None]
     if not tilts:
         return result
     angles = np.concatenate([e.angles for e in tilts])
     azimuths = np.concatenate([e.azimuths for e in tilts])
-    notes = [n for which, placed in (("initial", result.initial), ("fitted", result.setup))
-             if (n := sensor_field(placed, angles, which, azimuths)) is not None]
-    if not notes:
+    note = sensor_field(result.setup, angles, "fitted", azimuths)
+    if note is None:
         return result
-    return replace(result, warnings=(*result.warnings, *(n.message for n in notes)),
-                   diagnostics=(*result.diagnostics, *notes))
+    return replace(result, warnings=(*result.warnings, note.message),
+                   diagnostics=(*result.diagnostics, note))
 
 
 def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
@@ -477,9 +477,8 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             ("magnetization_scale",)))
     absorbed = bias_absorption(problem.angles, coef, scale * u[0]) if bias == "polynomial" else None
     notes += [absorbed] if absorbed is not None else []
-    for which, placed in (("initial", initial), ("fitted", fitted_setup)):
-        field_note = sensor_field(placed, problem.angles, which)
-        notes += [field_note] if field_note is not None else []
+    field_note = sensor_field(fitted_setup, problem.angles, "fitted")
+    notes += [field_note] if field_note is not None else []
     diagnostics = (*notes, *found)
     return CalibrationResult(
         setup=fitted_setup, initial=initial, cost=cost, rms=math.sqrt(cost / len(data)),
