@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, scaled
+from magcilia.model.layout import spatial_frames
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -352,11 +353,10 @@ class SpatialCentreline(Display):
 
     def frames(self, s_query: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                                    NDArray[np.float64]]:
-        """Positions, tangents and normals at arc lengths ``s_query``.
-
-        Cubic Hermite interpolation of the positions with the tangents as derivatives; tangents
-        and normals interpolated linearly, normalised and kept perpendicular (exact at the grid
-        points, so :meth:`from_planar` shapes give the planar model's frames there).
+        """Positions, tangents and normals at arc lengths ``s_query``
+        (:func:`magcilia.model.layout.spatial_frames`: cubic Hermite positions, tangents and
+        normals turned on the sphere, so that :meth:`from_planar` shapes give the planar model's
+        frames at any arc length).
 
         Parameters
         ----------
@@ -368,20 +368,8 @@ class SpatialCentreline(Display):
         points, tangents, normals : ndarray, shape (a, q, 3)
             m, and unit vectors.
         """
-        sq = np.asarray(s_query, dtype=np.float64)
-        s = self.s
-        idx = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, s.size - 2)
-        h = (s[idx + 1] - s[idx])[:, None]
-        t = ((sq - s[idx]) / h[:, 0])[:, None]
-        t0, t1 = self.tangents[:, idx], self.tangents[:, idx + 1]
-        p0, p1 = self.points[:, idx], self.points[:, idx + 1]
-        t2, t3 = t * t, t * t * t
-        points = ((2 * t3 - 3 * t2 + 1) * p0 + (t3 - 2 * t2 + t) * h * t0
-                  + (-2 * t3 + 3 * t2) * p1 + (t3 - t2) * h * t1)
-        tangents = _unit(t0 + t * (t1 - t0))
-        e1 = self.normals[:, idx] + t * (self.normals[:, idx + 1] - self.normals[:, idx])
-        e1 = _unit(e1 - np.einsum("aqi,aqi->aq", e1, tangents)[..., None] * tangents)
-        return points, tangents, e1
+        return spatial_frames(self.s, self.points, self.tangents, self.normals,
+                              np.asarray(s_query, dtype=np.float64))
 
     def _display_items(self) -> list[Item]:
         tip = self.tip
