@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
 from magcilia.io.columns import Columns
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
 from magcilia.io.recording_file import RecordingWriter, recording_properties
@@ -29,14 +30,18 @@ __all__ = [
     "Columns",
     "Measurement",
     "RecordingWriter",
+    "array_from_dict",
+    "array_to_dict",
     "example_path",
     "fixed_point_format",
+    "load_array",
     "load_setup",
     "measurement_from_samples",
     "read_json",
     "read_measurements",
     "read_samples",
     "recording_properties",
+    "save_array",
     "save_setup",
     "setup_from_dict",
     "setup_to_dict",
