@@ -146,8 +146,8 @@ def _one_line(exc: pytest.ExceptionInfo[mc.MagciliaError]) -> str:
          r"arr\.toml: cilia must be cilia that do not overlap.*'a and b 0\.2 mm apart'"),
         # a sensor inside a cilium
         (('position = ["2.5 mm", "0 mm", "0 mm"]', 'position = ["2.5 mm", "0 mm", "2 mm"]'),
-         r"arr\.toml: sensors must be sensing points outside every cilium \(it is inside "
-         r"cilium b at rest\).*sensor 2 \(s2\)"),
+         (r"arr\.toml: sensors must be sensing points outside every cilium \(it is inside "
+         r"cilium b at rest\).*sensor 2 \(s2\)")),
         # an unknown preset
         (('preset = "MMC5983MA"', 'preset = "HMC5883L"'),
          r"arr\.toml: sensors\[0\] 's1'\.preset: magnetometer preset must be one of 'MLX90393'"),
@@ -196,8 +196,8 @@ def test_bad_input_is_one_line_naming_file_and_entry(tmp_path: Path, change: tup
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        (HEAD, r"arr\.toml: \[\[cilia\]\] must be an array file with \[\[cilia\]\] and "
-               r"\[\[sensors\]\]"),
+        (HEAD, (r"arr\.toml: \[\[cilia\]\] must be an array file with \[\[cilia\]\] and "
+               r"\[\[sensors\]\]")),
         (HEAD + '[array]\nrows = 2\ncols = 2\npitch = "0.2 mm"\nsensor = "MMC5983MA"\n',
          r"arr\.toml: \[array\]: cilia must be cilia that do not overlap"),
         (HEAD + '[array]\nrows = 2\ncols = 2\npitch = "2.5 mm"\n',
