@@ -1,6 +1,8 @@
 """Files in and out: setup files, recordings, firmware headers.
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
+* :mod:`.array_file`: array files (``[[cilia]]``, ``[[sensors]]``, ``[array]``) ↔
+  :class:`~magcilia.CiliaArray`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS, HDF5) reduced to a :class:`Measurement`;
 * :mod:`.measurement`: :class:`Measurement`, the per-condition summary (tilt angle or load,
   azimuth; output or 3-axis field) that calibration fits;

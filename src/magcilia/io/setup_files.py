@@ -43,6 +43,10 @@ A measured shape replaces ``height``, ``base_radius`` and ``tip_radius`` by two 
 between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "0.15 mm",
 "0.03 mm"]``).
 
+The tables of arrays (``[[cilia]]``, ``[[sensors]]``, ``[array]``; read by
+:func:`magcilia.io.array_file.load_array`) and ``[actuation]`` are left to their readers:
+:func:`load_setup` reads the single setup of such a file.
+
 Every quantity needs its unit; a missing table takes the paper's defaults. Unknown keys and values
 without units are errors that name the key.
 
