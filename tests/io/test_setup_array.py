@@ -268,3 +268,45 @@ def test_read_loads(tmp_path: Path) -> None:
         with pytest.raises(mc.MagciliaError, match=match) as exc:
             read_loads(_write(tmp_path, text, "bad.csv"), names)
         _one_line(exc)
+
+
+def test_mixed_cilia_round_trip_with_a_measured_profile(tmp_path: Path) -> None:
+    text = LISTS.replace('tip_radius = "40 um"\n', 'profile_s = ["0 mm", "1 mm", "3 mm"]\n'
+                         'profile_r = ["0.18 mm", "0.12 mm", "0.05 mm"]\n')
+    arr = mc.load_array(_write(tmp_path, text))
+    assert arr.cilia[0].cilium.profile is None and arr.cilia[1].cilium.profile is not None
+    assert arr.cilia[1].cilium.height == pytest.approx(3e-3)
+    mc.save_array(arr, tmp_path / "saved.toml")
+    back = mc.load_array(tmp_path / "saved.toml")
+    assert back.cilia[0].cilium.profile is None
+    np.testing.assert_allclose(back.cilia[1].spec.radii, arr.cilia[1].spec.radii, rtol=1e-11)
+    np.testing.assert_allclose(back.field(), arr.field(), rtol=1e-10, atol=1e-16)
+
+
+@pytest.mark.parametrize(
+    ("change", "match"),
+    [
+        (('name = "a"', 'name = "a\\u001b[31m"'),
+         r"cilia\[0\]\.name must be a name of 1 to 64 printable characters; got 'a\\x1b\[31m'"),
+        (('name = "s1"', f'name = "{"s" * 65}"'), r"sensors\[0\]\.name must be a name of 1 to 64"),
+        (('position = ["2.5 mm", "0 mm", "0 mm"]', 'position = ["1e300 mm", "0 mm", "0 mm"]'),
+         r"sensors\[1\] 's2'\.position must be coordinates within ±1 m"),
+        (('base = ["0 mm", "0 mm", "1 mm"]', 'base = ["0 mm", "0 mm", "2 m"]'),
+         r"cilia\[0\] 'a'\.base must be coordinates within ±1 m"),
+        (('euler = "xyz 0 0 90 deg"', 'euler = "xyz 0 0 1e400 deg"'), r"\.euler must be"),
+        (('euler = "xyz 0 0 90 deg"', f'euler = "{"x" * 300}"'), r"\.euler must be"),
+    ],
+)
+def test_hostile_values_are_refused_and_escaped(tmp_path: Path, change: tuple[str, str],
+                                                match: str) -> None:
+    assert change[0] in LISTS
+    with pytest.raises(mc.MagciliaError, match=match) as exc:
+        mc.load_array(_write(tmp_path, LISTS.replace(change[0], change[1], 1)))
+    assert len(_one_line(exc)) < 600
+
+
+def test_too_many_cilia_are_refused_before_building(tmp_path: Path) -> None:
+    text = HEAD + '[[cilia]]\nbase = ["0 mm", "0 mm", "1 mm"]\n' * 5000
+    with pytest.raises(mc.MagciliaError, match=r"\[\[cilia\]\] must be at most 4096 "
+                                               r"\(MAX_ARRAY_ITEMS\); got '5000 entries'"):
+        mc.load_array(_write(tmp_path, text))

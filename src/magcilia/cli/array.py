@@ -144,7 +144,10 @@ def command(setup_arg: str, span_text: str | None, loads_path: str | None,
         loads = random_loads(random_sets, c_n, span, rng)
     else:
         loads = np.zeros((1, c_n, 2))
-    readout = ArrayReadout(array, span)
+    try:
+        readout = ArrayReadout(array, span)
+    except MagciliaError as exc:  # the array's checks under the span name cilia and sensors
+        raise MagciliaError(f"{setup_arg}: {exc}") from None
     rest = array.field()
     fields, sensor_rows, cilium_rows, estimates = [], [], [], []
     for k, forces in enumerate(loads):

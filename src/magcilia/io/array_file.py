@@ -76,6 +76,8 @@ from magcilia.units import UNITS, format_quantity, parse_quantity
 
 #: most cilia (and most sensors) in an array file: the overlap checks compare every pair
 MAX_ARRAY_ITEMS = 4096
+#: largest |coordinate| of a base or sensor position, m (an array is a few cm across)
+MAX_COORDINATE = 1.0
 #: the tables of a setup file that describe arrays (ignored by load_setup)
 ARRAY_TABLES = ("cilia", "sensors", "array")
 #: the tables whose keys a [[cilia]] entry may override
@@ -136,13 +138,17 @@ def _point(name: str, value: object) -> tuple[float, float, float]:
     if not isinstance(value, list) or len(value) != 3:
         raise _fail(name, value, 'three lengths with units, e.g. ["0 mm", "2 mm", "0.71 mm"]')
     x, y, z = (parse_quantity(p, "length", f"{name}[{i}]") for i, p in enumerate(value))
+    if max(abs(x), abs(y), abs(z)) > MAX_COORDINATE:
+        raise _fail(name, value, f"coordinates within ±{MAX_COORDINATE:g} m of the board's "
+                    "origin (MAX_COORDINATE)")
     return (x, y, z)
 
 
 def _name(where: str, entry: Mapping[str, Any], default: str) -> str:
     name = entry.get("name", default)
-    if not isinstance(name, str) or not name.strip() or len(name) > 64:
-        raise _fail(f"{where}.name", name, "a name of 1 to 64 characters")
+    if not isinstance(name, str) or not name.strip() or len(name) > 64 \
+            or v.printable(name) != name:
+        raise _fail(f"{where}.name", name, "a name of 1 to 64 printable characters")
     return name
 
 
