@@ -50,7 +50,15 @@ from magcilia.device import (
 )
 
 # -- files ---------------------------------------------------------------------------------------
-from magcilia.io import Measurement, load_setup, read_measurements, save_setup, to_c_header
+from magcilia.io import (
+    Measurement,
+    load_array,
+    load_setup,
+    read_measurements,
+    save_array,
+    save_setup,
+    to_c_header,
+)
 
 # -- bending ---------------------------------------------------------------------------------------
 from magcilia.live import LiveReadout
@@ -139,6 +147,7 @@ __all__ = [
     "drag_coefficient",
     "exact_field",
     "field_for_loads",
+    "load_array",
     "load_setup",
     "lookup_table",
     "oat_sweep",
@@ -146,6 +155,7 @@ __all__ = [
     "placement_map",
     "placement_tolerance",
     "read_measurements",
+    "save_array",
     "save_setup",
     "sensitivity_study",
     "sobol_indices",

@@ -1,6 +1,8 @@
 """Files in and out: setup files, recordings, firmware headers.
 
 * :mod:`.setup_files`: setup TOML files with unit-bearing values ↔ :class:`~magcilia.Setup`;
+* :mod:`.array_file`: array files (``[[cilia]]``, ``[[sensors]]``, ``[array]``) ↔
+  :class:`~magcilia.CiliaArray`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS, HDF5) reduced to a :class:`Measurement`;
 * :mod:`.measurement`: :class:`Measurement`, the per-condition summary (tilt angle or load,
   azimuth; output or 3-axis field) that calibration fits;
@@ -12,6 +14,7 @@
 
 from __future__ import annotations
 
+from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
 from magcilia.io.columns import Columns
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
 from magcilia.io.recording_file import RecordingWriter, recording_properties
@@ -29,14 +32,18 @@ __all__ = [
     "Columns",
     "Measurement",
     "RecordingWriter",
+    "array_from_dict",
+    "array_to_dict",
     "example_path",
     "fixed_point_format",
+    "load_array",
     "load_setup",
     "measurement_from_samples",
     "read_json",
     "read_measurements",
     "read_samples",
     "recording_properties",
+    "save_array",
     "save_setup",
     "setup_from_dict",
     "setup_to_dict",

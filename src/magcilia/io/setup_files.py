@@ -43,6 +43,10 @@ A measured shape replaces ``height``, ``base_radius`` and ``tip_radius`` by two 
 between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "0.15 mm",
 "0.03 mm"]``).
 
+The tables of arrays (``[[cilia]]``, ``[[sensors]]``, ``[array]``; read by
+:func:`magcilia.io.array_file.load_array`) and ``[actuation]`` are left to their readers:
+:func:`load_setup` reads the single setup of such a file.
+
 Every quantity needs its unit; a missing table takes the paper's defaults. Unknown keys and values
 without units are errors that name the key.
 
@@ -140,6 +144,8 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
         if table == PRIORS_TABLE:
             priors_from_dict(entries, source)  # checked here too: a bad prior fails on load
             continue
+        if table in OTHER_TABLES:  # read by load_array / the actuation reader, not here
+            continue
         if table not in SCHEMA:
             raise _fail(f"{source}: table [{_key(table)}]", table,
                         "one of " + ", ".join(f"[{t}]" for t in SCHEMA))
@@ -220,6 +226,10 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
     """Read a setup TOML file (see the module docstring for the format and its limits)."""
     return setup_from_dict(_read_document(path), source=str(path))
 
+
+#: tables of a setup file that other readers take (arrays: :mod:`magcilia.io.array_file`;
+#: actuation) and :func:`setup_from_dict` leaves alone
+OTHER_TABLES = ("cilia", "sensors", "array", "actuation")
 
 #: the setup file's optional table of priors, and the names it may hold
 PRIORS_TABLE = "priors"

@@ -6,14 +6,14 @@ Millimetres, gauss and millinewtons appear only here. Every function takes and r
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia.constants import GAUSS
 from magcilia.device.array import CiliaArray
-from magcilia.readout.array import Crosstalk
+from magcilia.readout.array import ArrayEstimate, ArrayMetrics, Crosstalk
 from magcilia.report.figures import axes_or_new, new_figure
 from magcilia.report.style import number
 
@@ -138,6 +138,111 @@ def array_figure(array: CiliaArray, crosstalk: Crosstalk, field: ArrayLike | Non
     return fig
 
 
-__all__ = ["array_figure", "plot_array_map", "plot_crosstalk"]
+# -- display records of `magcilia array` (SI rows with unit-suffixed keys; OutputUnits.convert
+# turns them into display units) ---------------------------------------------------------------
+
+def field_rows(array: CiliaArray, field: ArrayLike, readings: ArrayLike | None = None,
+               load_set: int | None = None) -> list[dict[str, Any]]:
+    """One row per sensor (SI): its position, the board-frame field (T) and, if given, its
+    reading on its own axes (T) and whether an axis saturated.
+
+    Parameters
+    ----------
+    array : CiliaArray
+    field : array-like, shape (S, 3)
+        Board-frame field at the sensors, T.
+    readings : array-like, shape (S, 3), optional
+        The sensors' readings on their axes, T (:meth:`CiliaArray.readings`).
+    load_set : int, optional
+        A ``set`` column (the load set's number).
+    """
+    b = np.asarray(field, dtype=np.float64)
+    r = None if readings is None else np.asarray(readings, dtype=np.float64)
+    sat = None if r is None else np.asarray(array.saturated(r).any(axis=1))
+    rows = []
+    for s, sensor in enumerate(array.sensors):
+        row: dict[str, Any] = {} if load_set is None else {"set": load_set}
+        row.update({"sensor": sensor.name, "x_m": sensor.position[0],
+                    "y_m": sensor.position[1], "z_m": sensor.position[2],
+                    "Bx_T": float(b[s, 0]), "By_T": float(b[s, 1]), "Bz_T": float(b[s, 2])})
+        if r is not None and sat is not None:
+            row.update({"reading_x_T": float(r[s, 0]), "reading_y_T": float(r[s, 1]),
+                        "reading_z_T": float(r[s, 2]), "saturated": bool(sat[s])})
+        rows.append(row)
+    return rows
+
+
+def readout_rows(estimate: ArrayEstimate, truth: ArrayLike,
+                 load_set: int | None = None) -> list[dict[str, Any]]:
+    """One row per cilium (SI): the true load, the estimate with its σ and flags, and the error
+    (``error_N`` = |F̂ − F|; ``error_per_sigma`` = the larger of |F̂x − Fx|/σx, |F̂y − Fy|/σy).
+
+    Parameters
+    ----------
+    estimate : ArrayEstimate
+    truth : array-like, shape (C, 2)
+        The true horizontal loads, N.
+    load_set : int, optional
+        A ``set`` column.
+    """
+    f = np.asarray(truth, dtype=np.float64)[:, :2]
+    rows = []
+    for c, r in enumerate(estimate.table()):
+        err = np.asarray(estimate.force[c]) - f[c]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = float(np.max(np.abs(err) / np.asarray(estimate.sigma[c])))
+        row: dict[str, Any] = {} if load_set is None else {"set": load_set}
+        row.update({"cilium": r["cilium"], "true_Fx_N": float(f[c, 0]),
+                    "true_Fy_N": float(f[c, 1]), "true_force_N": float(np.hypot(*f[c])),
+                    "true_direction_rad": float(np.arctan2(f[c, 1], f[c, 0])),
+                    "Fx_N": r["Fx_N"], "Fy_N": r["Fy_N"], "force_N": r["force_N"],
+                    "direction_rad": r["direction_rad"], "sigma_Fx_N": r["sigma_Fx_N"],
+                    "sigma_Fy_N": r["sigma_Fy_N"], "sigma_force_N": r["sigma_force_N"],
+                    "sigma_direction_rad": r["sigma_direction_rad"],
+                    "error_N": float(np.hypot(*err)), "error_per_sigma": z,
+                    "flags": r["flag_names"]})
+        rows.append(row)
+    return rows
+
+
+def crosstalk_rows(crosstalk: Crosstalk) -> list[dict[str, Any]]:
+    """:meth:`Crosstalk.table` (SI; the response in T/N)."""
+    return crosstalk.table()
+
+
+def metrics_rows(metrics: ArrayMetrics) -> list[dict[str, Any]]:
+    """:meth:`ArrayMetrics.table` (SI: pitch in m, forces in N)."""
+    return metrics.table()
+
+
+def rows_text(rows: list[dict[str, Any]], columns: list[str] | None = None,
+              digits: int = 4) -> str:
+    """A fixed-width text table of display rows: one column per key (the key, with its unit
+    suffix, as the header), numbers with ``digits`` significant digits."""
+    if not rows:
+        return "(none)"
+    keys = columns or list(rows[0])
+
+    def cell(x: Any) -> str:
+        if isinstance(x, bool):
+            return "yes" if x else ""
+        if isinstance(x, float):
+            return "inf" if x == float("inf") else f"{x:.{digits}g}"
+        return str(x)
+
+    cells = [[cell(r.get(k, "")) for k in keys] for r in rows]
+    widths = [max(len(k), *(len(c[i]) for c in cells)) for i, k in enumerate(keys)]
+    numeric = [all(isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
+                   for r in rows) for k in keys]
+
+    def line(values: list[str]) -> str:
+        return "  ".join(x.rjust(w) if n else x.ljust(w)
+                         for x, w, n in zip(values, widths, numeric, strict=True)).rstrip()
+
+    return "\n".join([line(keys), *(line(c) for c in cells)])
+
+
+__all__ = ["array_figure", "crosstalk_rows", "field_rows", "metrics_rows", "plot_array_map",
+           "plot_crosstalk", "readout_rows", "rows_text"]
 
 
