@@ -140,6 +140,8 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
         if table == PRIORS_TABLE:
             priors_from_dict(entries, source)  # checked here too: a bad prior fails on load
             continue
+        if table == "actuation":  # read by magcilia.io.actuation_file (magcilia bend, readout)
+            continue
         if table not in SCHEMA:
             raise _fail(f"{source}: table [{_key(table)}]", table,
                         "one of " + ", ".join(f"[{t}]" for t in SCHEMA))
