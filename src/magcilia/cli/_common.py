@@ -386,6 +386,7 @@ def make_actuation(setup_arg: str, field_text: str | None, file: str | None,
     from magcilia.device.actuation import Actuation
     from magcilia.io.actuation_file import load_actuation, read_actuation
 
+    act: Actuation | None
     if field_text is not None and file is not None:
         raise fail("--actuation-field", field_text, "either --actuation-field or --actuation "
                                                     "FILE, not both")

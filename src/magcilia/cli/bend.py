@@ -22,8 +22,8 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
-from magcilia.mechanics import FLUIDS, BentShape, bend
 from magcilia.device.parameters import MEASURANDS
+from magcilia.mechanics import FLUIDS, BentShape, bend
 from magcilia.report.mechanics import (
     bend_record,
     bend_text,
@@ -106,7 +106,7 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
             raise fail("--direction", f"{direction * 180.0 / math.pi:g} deg", "left out with "
                        "--force-vector (the vector gives the direction)")
         q = MEASURANDS["force"]
-        vector = parse_vector(force_vector, q.dimension, q.display, "--force-vector",
+        vector = parse_vector(force_vector, "force", q.display, "--force-vector",
                               "0.1,0.05,0 or 0.1,0,0mN")
     if at is not None and not 0.0 < at <= setup.cilium.height:  # echoed in mm, not m
         length = setup.cilium.height * 1e3
@@ -122,10 +122,10 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
                or actuation is not None)
     units = output_units(si)
     if not spatial:  # today's planar command, unchanged
-        shape = bend(setup, force=force if force is not None else 0.0, at=at,
-                     direction=direction, flow=flow)
-        assert isinstance(shape, BentShape)  # for mypy: loads in the x–z plane are planar
-        record = bend_record(setup, shape, setup_label(setup_arg), units)
+        any_shape = bend(setup, force=force if force is not None else 0.0, at=at,
+                         direction=direction, flow=flow)
+        assert isinstance(any_shape, BentShape)  # for mypy: loads in the x–z plane are planar
+        record = bend_record(setup, any_shape, setup_label(setup_arg), units)
         text = bend_text(record, units)
     else:
         load = vector if vector is not None else (force if force is not None else 0.0)
@@ -140,8 +140,9 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
         from magcilia.report import style as st
 
         with st.use(style):
-            fig = shape_figure(setup, shape) if not spatial else \
-                spatial_figure(setup, any_shape)
+            fig = (shape_figure(setup, any_shape)
+                   if not spatial and isinstance(any_shape, BentShape)
+                   else spatial_figure(setup, any_shape))
             save_figure(fig, plot_path, dpi=st.dpi())
     if as_json:
         echo_json(record)

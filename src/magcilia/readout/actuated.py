@@ -276,8 +276,8 @@ class ActuatedReadout(Display):
                 parts.append(self.readouts[j].read(shifted, bandwidth, noise))
             a, b = parts
             wi = w[idx]
-            for name in out:
-                out[name][idx] = (1.0 - wi) * getattr(a, name) + wi * getattr(b, name)
+            for name, arr in out.items():
+                arr[idx] = (1.0 - wi) * getattr(a, name) + wi * getattr(b, name)
             flags[idx] = a.flags | b.flags
         if tare_se:
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -379,7 +379,7 @@ class ActuatedReadout(Display):
     def _display_items(self) -> list[Item]:
         q = MEASURANDS[self.quantity]
         return [("", self.quantity), ("span", f"{q.text(self.span[0])}…{q.text(self.span[1])}"),
-                ("levels", f"{self.levels.size} ({number(float(self.levels[0]))}…"
-                           f"{number(float(self.levels[-1]))})"),
+                ("levels", (f"{self.levels.size} ({number(float(self.levels[0]))}…"
+                           f"{number(float(self.levels[-1]))})")),
                 ("coupling", f"{number(self.coupling * 1e3)} mV/level"),
                 ("level error", q.text(self.level_error))]

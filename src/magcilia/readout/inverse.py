@@ -986,8 +986,7 @@ def check_actuated(setup: Setup, fields: F64, actuation: Actuation) -> int:
     flags = sensor.check(fields)
     union = int(np.bitwise_or.reduce(flags)) if flags.size else 0
     direct = direct_field(actuation) / 1e-4
-    what = f"{actuation.describe()} (direct field (" + ", ".join(
-        f"{c:.4g}" for c in direct) + ") G at the element)"
+    what = "a direct field of (" + ", ".join(f"{c:.4g}" for c in direct) + ") G at the element"
     if union & SensorFlag.FLIPPED_RISK:
         peak = float(np.max(np.linalg.norm(fields, axis=-1))) / 1e-4
         raise v.fail("actuation", what, f"a field that keeps |B| at the element within the "
@@ -1007,9 +1006,10 @@ def compensation_text(setup: Setup, actuation: Actuation, flags: int) -> str:
     """One line: the actuation compensated, its direct field at the element (gauss) and output
     (mV), and the sensor's flags under it."""
     b = direct_field(actuation)
-    text = (f"compensating {actuation.describe()}: direct field (" + ", ".join(
-        f"{c / 1e-4:.4g}" for c in b) + f") G at the element ({setup.sensor.scale * b[0] * 1e3:+.4g}"
-        " mV), its bending modelled")
+    volts = setup.sensor.scale * b[0]
+    text = (f"compensating {actuation.describe()}: direct field ("
+            + ", ".join(f"{c / 1e-4:.4g}" for c in b)
+            + f") G at the element ({volts * 1e3:+.4g} mV), its bending modelled")
     if flags:
         text += f"; sensor flags {flag_names(flags)}"
     return text

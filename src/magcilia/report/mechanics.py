@@ -199,10 +199,10 @@ def spatial_text(record: dict[str, Any], units: OutputUnits | None = None) -> st
     b = record[u.key("B", "field")]
     flags = record["sensor_flag_names"]
     note = "" if flags == "ok" else f"  (sensor: {flags})"
-    lines = [f"tip position  x {x:.6g} {mm}, y {y:.6g} {mm}, z {z:.6g} {mm} (from the base "
-             "centre)",
-             f"deflection    {record[u.key('deflection', 'length')]:.6g} {mm} toward azimuth "
-             f"{record[u.key('tip_azimuth', 'angle')]:.6g} {deg}",
+    lines = [(f"tip position  x {x:.6g} {mm}, y {y:.6g} {mm}, z {z:.6g} {mm} (from the base "
+             "centre)"),
+             (f"deflection    {record[u.key('deflection', 'length')]:.6g} {mm} toward azimuth "
+             f"{record[u.key('tip_azimuth', 'angle')]:.6g} {deg}"),
              f"tip angle     {record[u.key('tip_angle', 'angle')]:.6g} {deg}",
              (f"output        {record[u.key('output', 'voltage')]:.9g} {volt} (B = ("
               + ", ".join(f"{c:.6g}" for c in b) + f") {gauss} at the element){note}")]
