@@ -81,8 +81,9 @@ def _magnet(where: str, entry: object) -> Any:
     pos = _vector(f"{where}.position", entry.get("position", ["0 mm"] * 3), "length", 3,
                   '["15 mm", "0 mm", "0 mm"]')
     cls = getattr(magpylib.magnet, name)
-    size = dim[0] if count == 1 else tuple(dim)
-    return cls(polarization=tuple(pol), dimension=size, position=tuple(pos))
+    if count == 1:
+        return cls(polarization=tuple(pol), diameter=dim[0], position=tuple(pos))
+    return cls(polarization=tuple(pol), dimension=tuple(dim), position=tuple(pos))
 
 
 def actuation_from_dict(table: object, source: str = "actuation") -> Actuation:
