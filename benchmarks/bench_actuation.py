@@ -16,8 +16,10 @@ volts (noise-free: the errors are the read-outs', not the noise's). The readings
 
 Cases: Helmholtz fields of 2 G along x and 5 G along z (a few tenths of a mT: the HMC1021Z's
 range is ±6 G of total field, 20 G flips it), a magpylib cuboid magnet 15 mm beside the element,
-and a coil current varying per reading (2 G along x per ampere, −1…1 A). Prints the RMS and
-largest force errors (mN) of each read-out and the ratio uncompensated / compensated.
+and a coil current varying per reading (2 G along x per ampere, −1…1 A; the coupling M also
+measured on the clamped cilium from 21 currents, each averaged over 2000 noisy samples). Prints
+the RMS and largest force errors (mN) of each read-out and the ratio uncompensated /
+compensated.
 
 Run: python benchmarks/bench_actuation.py [--quick]
 """
@@ -89,10 +91,12 @@ def varying(forces: np.ndarray, table_size: int, plain: mc.Readout,
                            table_size=table_size)
     built = time.perf_counter() - t0
     # the practical coupling: readings against the current with the cilium clamped (its field
-    # does not change), 21 currents with 0.5 µV of noise
+    # does not change): 21 currents, each the mean of 2000 samples at 1 kHz with the sensor's
+    # white + 1/f noise (as the paper averages each angle)
     clamped_i = np.linspace(-1.0, 1.0, 21)
     rest = float(SETUP.output([0.0])[0])
-    clamped = rest + comp.model_coupling * clamped_i + rng.normal(0.0, 5e-7, clamped_i.size)
+    noise = SETUP.sensor.noise(2000, 1000.0, rng=rng, size=clamped_i.size).mean(axis=1)
+    clamped = rest + comp.model_coupling * clamped_i + noise
     coupling = measure_coupling(clamped_i, clamped)
     measured = ActuatedReadout(SETUP, "force", SPAN, coil, levels=np.linspace(-1.0, 1.0, 9),
                                coupling=coupling, table_size=table_size)

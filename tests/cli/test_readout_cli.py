@@ -280,7 +280,8 @@ def test_readout_biaxial_force_vectors(tmp_path: Path,
         ([], "--sensor must be a 3-axis magnetometer preset with --biaxial"),
         (["--sensor", "MLX90393"], "--sensor-noise must be the RMS noise per axis"),
         (["--sensor", "LIS3MDL", "--quantity", "angle"], "--quantity must be force"),
-        (["--sensor", "LIS3MDL", "--actuation-field", "0,0,1"], "--biaxial must be no actuation"),
+        (["--sensor", "LIS3MDL", "--actuation-field", "0,0,50"],
+         "actuation must be within its range ±4 G"),
         (["--sensor", "LIS3MDL", "--sensor-noise", "-1mG"], "--sensor-noise must be"),
     ],
 )
@@ -304,3 +305,28 @@ def test_readout_needs_a_quantity_without_biaxial(tmp_path: Path,
     assert main(["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
                  "--sensor", "LIS3MDL", "--out", str(tmp_path / "f.csv")]) == 2
     assert "--sensor must be given with --biaxial only" in capsys.readouterr().err
+
+
+def test_readout_biaxial_while_actuating(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer.preset("MMC5983MA")
+    act = mc.Actuation.uniform((0.0, 0.0, 5e-4))  # 5 G along z
+    truth = np.array([[1e-4, 0.0], [0.0, -1.5e-4], [-5e-5, 5e-5]])
+    rows = []
+    for fx, fy in truth:
+        shape = mc.bend(FORCE_SENSOR, float(np.hypot(fx, fy)),
+                        azimuth=float(np.arctan2(fy, fx)), actuation=act)
+        b = sensor.to_sensor(FORCE_SENSOR.field(shape)[0] + [0.0, 0.0, 5e-4])
+        rows.append(",".join(repr(float(x)) for x in b) + "\n")
+    rec = tmp_path / "b.csv"
+    rec.write_text("field_x_T,field_y_T,field_z_T\n" + "".join(rows))
+    out = tmp_path / "v.csv"
+    assert main(["readout", "force-sensor", str(rec), "--biaxial", "--sensor", "MMC5983MA",
+                 "--span", "0.2", "--out", str(out), "--actuation-field", "0,0,5"]) == 0
+    text = capsys.readouterr().out
+    assert "compensating the actuation: its direct field on the sensor's axes (0, 0, 5) gauss" \
+        in text
+    est = np.array([[float(r["fx_mN"]), float(r["fy_mN"])] for r in _rows(out)])
+    np.testing.assert_allclose(est, truth * 1e3, rtol=0, atol=1e-4)

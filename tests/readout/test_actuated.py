@@ -219,3 +219,45 @@ def test_levels_outside_the_table() -> None:
         measure_coupling([1.0, 1.0, 1.0], [0.0, 1.0, 2.0])
     assert "level -1…1 (2 levels)" in r.report()
     assert r.to_dict()["model_coupling_V"] == pytest.approx(SETUP.sensor.scale * 1e-4)
+
+
+# -- the force vector while actuating (BiaxialReadout(actuation=)) -------------------------------
+
+
+@pytest.mark.parametrize(("field", "grid"), [((0.0, 0.0, 5e-4), (33, 64)),
+                                             ((2e-4, 1e-4, 3e-4), (9, 16))])
+def test_biaxial_compensation_is_at_least_ten_times_better(
+        field: tuple[float, float, float], grid: tuple[int, int]) -> None:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer.preset("MMC5983MA")
+    act = mc.Actuation.uniform(field)
+    rng = np.random.default_rng(7)
+    f, phi = rng.uniform(0.2e-4, 1.8e-4, 6), rng.uniform(-np.pi, np.pi, 6)
+    truth = np.stack([f * np.cos(phi), f * np.sin(phi)], -1)
+
+    def reading(force: float, azimuth: float) -> np.ndarray:
+        shape = mc.bend(SETUP, force, azimuth=azimuth, actuation=act)
+        return np.asarray(sensor.to_sensor(SETUP.field(shape)[0] + np.asarray(field)))
+
+    b = np.array([reading(fi, p) for fi, p in zip(f, phi, strict=True)])
+    comp = mc.BiaxialReadout(SETUP, sensor, 2e-4, table_size=grid, actuation=act)
+    np.testing.assert_allclose(comp.direct, sensor.to_sensor(np.asarray(field)), rtol=1e-12)
+    rest = reading(0.0, 0.0)
+    plain = mc.BiaxialReadout(SETUP, sensor, 2e-4, table_size=grid).tare(
+        np.stack([rest + 1e-12, rest - 1e-12]))
+    err = [float(np.sqrt(np.mean(np.sum((np.stack([r.fx, r.fy], -1) - truth) ** 2, -1))))
+           for r in (plain.read(b), comp.read(b))]
+    print(f"biaxial {field} T: RMS vector error tared {err[0] * 1e3:.3e} mN, compensated "
+          f"{err[1] * 1e3:.3e} mN, ratio {err[0] / err[1]:.3g}")
+    assert err[0] >= 10.0 * err[1]
+    assert "compensating" in comp.report() and "actuation" in comp.to_dict()
+
+
+def test_biaxial_refuses_a_direct_field_beyond_a_channel() -> None:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer.preset("LIS3MDL")  # ±4 G
+    with pytest.raises(MagciliaError, match=r"a direct field of 5 G on LIS3MDL \(±4 G\)\.z"):
+        mc.BiaxialReadout(SETUP, sensor, 2e-4, table_size=(9, 16),
+                          actuation=mc.Actuation.uniform((0.0, 0.0, 5e-4)))

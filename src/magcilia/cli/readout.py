@@ -193,11 +193,8 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
         if quantity not in (None, "force"):
             raise fail("--quantity", quantity, "force, or left out, with --biaxial (it reads a "
                                                "force vector)")
-        if actuation is not None:
-            raise fail("--biaxial", "an actuation", "no actuation: the biaxial read-out does not "
-                       "compensate one yet (read one axis with --quantity force instead)")
         _biaxial(setup, recording, span_text, sensor_name, sensor_noise, out_path, tare_spec,
-                 tare_file, si, as_json, quiet, reading)
+                 tare_file, si, as_json, quiet, reading, actuation)
         return
     if quantity is None:
         raise click.UsageError("Missing option '--quantity' (or --biaxial).")
@@ -279,8 +276,10 @@ def parse_span_value(text: str, key: str) -> float:
 def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | None,
              sensor_noise: str | None, out_path: str, tare_spec: str | None,
              tare_file: str | None, si: bool, as_json: bool, quiet: bool,
-             reading: RecordingArgs) -> None:
-    """``magcilia readout --biaxial``: force vectors from 3-axis field columns."""
+             reading: RecordingArgs, actuation: Actuation | None) -> None:
+    """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
+    constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
+    field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
     if sensor_name is None:
         raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
                    + ", ".join(sorted(MAGNETOMETERS)))
@@ -309,7 +308,10 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
         return b, cols.get("time_s")
 
     fields, times = fields_of(recording, "RECORDING")
-    readout = BiaxialReadout(setup, sensor, hi)
+    axial = actuation is None or (actuation.is_uniform
+                                  and not np.any(actuation.uniform_field[:2]))
+    readout = BiaxialReadout(setup, sensor, hi, table_size=(65, 128) if axial else (17, 32),
+                             actuation=actuation)
     if tare_spec is not None:
         count = tare_readings(tare_spec, fields[:, 0], times).size
         readout = readout.tare(fields[:count])
@@ -322,8 +324,16 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     good = result.estimated
     mags = result.magnitude[good] / factor
     median = float(np.median(result.sigma_magnitude[good])) / factor if good.any() else None
+    compensation = None
+    if actuation is not None:
+        fu, ff = ("T", 1.0) if si else ("gauss", 1e-4)
+        direct = [float(d) / ff for d in readout.direct]
+        compensation = {"kind": actuation.kind, "scale": actuation.scale,
+                        f"direct_{fu}": direct, "grid": [int(readout.forces.size),
+                                                         int(readout.azimuths.size)]}
     if as_json:
         echo_json({"quantity": "force vector", "units": "SI" if si else "display",
+                   **({} if compensation is None else {"actuation": compensation}),
                    "sensor": sensor.name, f"span_{unit}": hi / factor,
                    f"table_error_{unit}": readout.table_error / factor, **c,
                    f"range_{unit}": [float(mags.min()), float(mags.max())] if mags.size
@@ -341,4 +351,8 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     text += f"; table error ≤ {readout.table_error / factor:.2g} {unit}"
     if readout.baseline is not None:
         text += f"; tared on {int(readout.baseline.count.min())} readings"
+    if compensation is not None:
+        click.echo("compensating the actuation: its direct field on the sensor's axes ("
+                   + ", ".join(f"{d:.6g}" for d in direct) + f") {fu} and its bending of the "
+                   f"cilium, in a {readout.forces.size} x {readout.azimuths.size} grid")
     click.echo(f"{Path(out_path).name}: {text}")
