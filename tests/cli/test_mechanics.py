@@ -254,23 +254,17 @@ def test_bend_under_an_actuation(tmp_path: Path, capsys: pytest.CaptureFixture[s
         (["--force-vector", "0.1,0,0", "--azimuth", "30"], "--azimuth must be left out"),
         (["--force-vector", "0.1,0,0", "--direction", "45"], "--direction must be left out"),
         (["--flow-azimuth", "30"], "--flow-azimuth must be given with --flow"),
-        (["--actuation-field", "0,0,5mm"], "--actuation-field must be X,Y,Z, each a number in "
-                                           "gauss"),
+        (["--actuation-field", "0,0,5mm"], "--actuation-field must be X,Y,Z, each a number"),
         (["--actuation-field", "0,0,5", "--actuation", "x.toml"], "either --actuation-field or"),
         (["--actuation-scale", "2"], "--actuation-scale must be given with an actuation"),
         (["--actuation", "missing.toml"], "missing.toml"),
     ],
 )
 def test_bend_any_direction_errors(args: list[str], match: str, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch,
                                    capsys: pytest.CaptureFixture[str]) -> None:
-    import os
-
-    here = os.getcwd()
-    os.chdir(tmp_path)  # relative files resolve in tmp_path
-    try:
-        assert main(["bend", "force-sensor", *args]) == 2
-    finally:
-        os.chdir(here)
+    monkeypatch.chdir(tmp_path)  # relative files resolve in tmp_path
+    assert main(["bend", "force-sensor", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: ") and match in err and err.count("\n") == 1
     assert "Traceback" not in err

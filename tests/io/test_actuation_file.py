@@ -12,6 +12,10 @@ import magcilia as mc
 from magcilia._errors import MagciliaError
 from magcilia.io.actuation_file import load_actuation, read_actuation
 
+SPHERE = '[[actuation.magnets]]\nkind = "sphere"\npolarization = ["0 T", "0 T", "1 T"]\n'
+CUBE = ('[[actuation.magnets]]\nkind = "cuboid"\npolarization = ["0 T", "0 T", "1 T"]\n'
+        'dimension = ["2 mm", "2 mm", "2 mm"]\n')
+
 
 def _write(tmp_path: Path, text: str) -> Path:
     p = tmp_path / "act.toml"
@@ -80,10 +84,8 @@ def test_a_setup_file_may_carry_an_actuation(tmp_path: Path) -> None:
         ('[actuation]\ncurrent = "1 A"\n', "must be one of field, magnets, scale"),
         ('[actuation]\nfield = ["0 G", "0 G", "5 G"]\nscale = "x"\n', "scale must be a finite"),
         ('[[actuation.magnets]]\nkind = "horseshoe"\n', "kind must be one of cuboid"),
-        ('[[actuation.magnets]]\nkind = "sphere"\npolarization = ["0 T", "0 T", "1 T"]\n'
-         'dimension = "-2 mm"\n', "dimension must be positive lengths"),
-        ('[[actuation.magnets]]\nkind = "cuboid"\npolarization = ["0 T", "0 T", "1 T"]\n'
-         'dimension = ["2 mm", "2 mm", "2 mm"]\ncolour = "red"\n', "must be one of kind"),
+        (SPHERE + 'dimension = "-2 mm"\n', "dimension must be positive lengths"),
+        (CUBE + 'colour = "red"\n', "must be one of kind"),
     ],
 )
 def test_bad_actuation_files(tmp_path: Path, text: str, match: str) -> None:
