@@ -116,9 +116,9 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), default=None,
               help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s). "
                    "Required, except with --biaxial (a force vector).")
-@click.option("--span", "span_text", required=True,
-              help="Range LO:HI in deg (angle), mN (force) or m/s (flow); units allowed. With "
-                   "--biaxial: the largest force magnitude (0.2mN, or 0:0.2mN).")
+@click.option("--span", "span_text", default=None,
+              help="Required: range LO:HI in deg (angle), mN (force) or m/s (flow), units "
+                   "allowed; with --biaxial: the largest force magnitude (0.2mN, or 0:0.2mN).")
 @click.option("--biaxial", is_flag=True,
               help="Read the horizontal force vector (Fx, Fy) from a 3-axis sensor at the "
                    "element: RECORDING has field columns field_x_T, field_y_T, field_z_T (or "
@@ -130,8 +130,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--sensor-noise", "sensor_noise", default=None, metavar="B or BX,BY,BZ",
               help="With --biaxial: RMS noise of one reading per axis, gauss or with a unit "
                    "(2mG, or 2mG,2mG,3mG); required for the MLX90393 and TLV493D presets.")
-@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
-              help="Output CSV (estimates, 1-sigma, flags), written atomically.")
+@click.option("--out", "out_path", default=None, type=click.Path(dir_okay=False),
+              help="Output CSV (estimates, 1-sigma, flags), written atomically. Required.")
 @bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
                   "(with --tare or --tare-file the baseline's measured spread is used instead).")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
@@ -159,8 +159,9 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @recording_options
-def command(setup_arg: str, recording: str, quantity: str | None, span_text: str,
-            biaxial: bool, sensor_name: str | None, sensor_noise: str | None, out_path: str,
+def command(setup_arg: str, recording: str, quantity: str | None, span_text: str | None,
+            biaxial: bool, sensor_name: str | None, sensor_noise: str | None,
+            out_path: str | None,
             bandwidth: str, fluid: str, table_size: int, calibration_path: str | None,
             edge: str, edge_tolerance: str | None, tare_spec: str | None, tare_file: str | None,
             actuation_field: str | None, actuation_file: str | None,
@@ -185,6 +186,13 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
     and each row gets the horizontal force vector: fx, fy, magnitude (mN), direction (deg from
     +x toward +y), their 1-sigma, chi2 and flags.
     """
+    # the required options, in the order of --help (--quantity only without --biaxial)
+    if quantity is None and not biaxial:
+        raise click.UsageError("Missing option '--quantity' (or --biaxial).")
+    if span_text is None:
+        raise click.UsageError("Missing option '--span'.")
+    if out_path is None:
+        raise click.UsageError("Missing option '--out'.")
     if tare_spec is not None and tare_file is not None:
         raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
@@ -196,8 +204,7 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
         _biaxial(setup, recording, span_text, sensor_name, sensor_noise, out_path, tare_spec,
                  tare_file, si, as_json, quiet, reading, actuation)
         return
-    if quantity is None:
-        raise click.UsageError("Missing option '--quantity' (or --biaxial).")
+    assert quantity is not None  # for mypy: checked above
     for name, value in (("--sensor", sensor_name), ("--sensor-noise", sensor_noise)):
         if value is not None:
             raise fail(name, value, "given with --biaxial only")
