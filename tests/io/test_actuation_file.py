@@ -62,6 +62,15 @@ position = ["-10 mm", "5 mm", "0 mm"]
                                rtol=1e-12, atol=1e-18)
 
 
+def test_the_example_files_load() -> None:
+    folder = Path(__file__).resolve().parents[2] / "examples" / "actuation"
+    acts = {p.stem: load_actuation(p) for p in sorted(folder.glob("*.toml"))}
+    assert set(acts) == {"coil", "magnet"}
+    assert acts["coil"].uniform_field.tolist() == pytest.approx([0.0, 0.0, 5e-4])
+    b = acts["magnet"].field(np.zeros(3))
+    assert b[2] == pytest.approx(-1.886e-4, rel=1e-3) and abs(b[0]) < 1e-12
+
+
 def test_a_setup_file_may_carry_an_actuation(tmp_path: Path) -> None:
     p = tmp_path / "setup.toml"
     mc.save_setup(mc.Setup.paper(), p)
