@@ -53,8 +53,8 @@ from magcilia.report.units import output_units
               help="Dead point force as a vector in the board frame: mN, or with a unit "
                    "(e.g. 0.1,0.05,0mN); instead of --force/--direction/--azimuth.")
 @click.option("--flow", "flow_text", default=None,
-              help="Flow speed along +x: m/s, or with a unit (e.g. 0.1m/s, 100mm/s); uniform "
-                   "unless --shear-height.")
+              help="Flow speed along +x (or --flow-azimuth): m/s, or with a unit (e.g. 0.1m/s, "
+                   "100mm/s); uniform unless --shear-height.")
 @click.option("--shear-height", default=None,
               help="Linear wall shear: --flow is the speed at this height: mm, or with a unit "
                    "(e.g. 3mm).")
