@@ -23,6 +23,7 @@ from magcilia._atomic import json_text
 from magcilia.acquire.synthetic import synthetic_recording
 from magcilia.analysis import placement_map
 from magcilia.io import Measurement, fixed_point_format, measurement_from_samples
+from magcilia.readout.actuated import measure_coupling
 
 SETUP = mc.Setup.paper()
 TAPERED = mc.Setup.paper(tip_radius=5e-5, n_loops=8, dipoles_per_loop=4)
@@ -148,6 +149,12 @@ FACTORIES.update({
     "ArrayMetrics": lambda: mc.array_metrics(
         _array().array.cilia[0], [2e-3, 3e-3], sensor=_array().array.sensors[0], span=2e-5,
         rows=2, cols=2, table_size=9),
+})
+FACTORIES.update({  # issue 15: sensing while actuating
+    "ActuatedReadout": lambda: mc.ActuatedReadout(
+        TAPERED, "force", (0.0, 1e-4), mc.Actuation.uniform((1e-4, 0.0, 0.0)), [0.0, 1.0],
+        table_size=9),
+    "Coupling": lambda: measure_coupling([0.0, 0.5, 1.0], [1e-3, 1.5e-3, 2.1e-3]),
 })
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")

@@ -78,6 +78,7 @@ from magcilia.model import Centreline, SpatialCentreline, exact_field
 # -- read-out and design ---------------------------------------------------------------------------
 # (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
 from magcilia.readout import (
+    ActuatedReadout,
     ArrayEstimate,
     ArrayFlag,
     ArrayMetrics,
@@ -99,6 +100,7 @@ __all__ = [
     "AIR",
     "MAGNETOMETERS",
     "WATER",
+    "ActuatedReadout",
     "Actuation",
     "ArrayEstimate",
     "ArrayFlag",

@@ -169,3 +169,114 @@ def test_the_force_sensor_preset_is_the_bundled_example() -> None:
 
     example = mc.load_setup(Path(__file__).resolve().parents[2] / "examples" / "force-sensor.toml")
     assert PRESETS["force-sensor"]().params() == pytest.approx(example.params())
+
+
+# -- bending in any direction and actuation (issue 15) -------------------------------------------
+
+FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+
+
+def test_bend_toward_an_azimuth(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30deg", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    shape = mc.bend(FORCE_SENSOR, 1e-4, azimuth=math.radians(30.0))
+    np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12, atol=1e-15)
+    assert doc["tip_azimuth_deg"] == pytest.approx(30.0, abs=1e-9)
+    assert doc["deflection_mm"] == pytest.approx(math.hypot(*shape.tip[:2]) * 1e3, rel=1e-12)
+    b = FORCE_SENSOR.field(shape)[0]
+    np.testing.assert_allclose(doc["B_gauss"], b / 1e-4, rtol=1e-12)
+    assert doc["output_mV"] == pytest.approx(FORCE_SENSOR.output(shape)[0] * 1e3, rel=1e-12)
+    assert doc["direct_field_gauss"] is None and doc["solver"] == "planar"
+    assert len(doc["centreline_mm"]["y"]) == shape.s.size
+    # the text names the azimuth; --si renames every key
+    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30"]) == 0
+    out = capsys.readouterr().out
+    assert "toward azimuth 30 deg" in out and "y 0.55" in out
+    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30", "--json",
+                 "--si"]) == 0
+    si = json.loads(capsys.readouterr().out)
+    assert si["tip_azimuth_rad"] == pytest.approx(math.radians(30.0))
+    assert si["B_T"] == pytest.approx(list(b), rel=1e-12)
+
+
+def test_bend_with_a_force_vector_and_a_flow_azimuth(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bend", "force-sensor", "--force-vector", "0.05,0.05,0mN", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    shape = mc.bend(FORCE_SENSOR, (5e-5, 5e-5, 0.0))
+    np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12, atol=1e-15)
+    assert doc["tip_azimuth_deg"] == pytest.approx(45.0)
+    assert doc["load"]["force_mN"] == pytest.approx([0.05, 0.05, 0.0])
+    assert main(["bend", "force-sensor", "--flow", "0.1", "--flow-azimuth", "90", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    flow = mc.bend(FORCE_SENSOR, flow=mc.Flow.uniform(0.1, azimuth=math.pi / 2))
+    np.testing.assert_allclose(doc["tip_mm"], flow.tip * 1e3, rtol=1e-10, atol=1e-12)
+    assert doc["tip_azimuth_deg"] == pytest.approx(90.0)
+
+
+def test_bend_under_an_actuation(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["bend", "force-sensor", "--force", "0.1", "--actuation-field", "0,0,5", "--json"]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    act = mc.Actuation.uniform((0.0, 0.0, 5e-4))
+    shape = mc.bend(FORCE_SENSOR, 1e-4, actuation=act)
+    np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12, atol=1e-15)
+    assert doc["direct_field_gauss"] == pytest.approx([0.0, 0.0, 5.0])
+    total = FORCE_SENSOR.field(shape)[0] + [0.0, 0.0, 5e-4]
+    np.testing.assert_allclose(doc["B_gauss"], total / 1e-4, rtol=1e-12)
+    assert doc["load"]["actuation"]["field_gauss"] == pytest.approx([0.0, 0.0, 5.0])
+    # the same field in mT, from a file and from the setup file's own [actuation] table
+    assert main([*args[:5], "0,0,0.5mT", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["tip_mm"] == doc["tip_mm"]
+    coil = tmp_path / "coil.toml"
+    coil.write_text('[actuation]\nfield = ["0 G", "0 G", "2.5 G"]\nscale = 2.0\n')
+    assert main(["bend", "force-sensor", "--force", "0.1", "--actuation", str(coil),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["tip_mm"] == doc["tip_mm"]
+    setup_file = tmp_path / "setup.toml"
+    mc.save_setup(FORCE_SENSOR, setup_file)
+    setup_file.write_text(setup_file.read_text() + '\n[actuation]\nfield = ["0 G", "0 G", '
+                          '"10 G"]\n')
+    assert main(["bend", str(setup_file), "--force", "0.1", "--actuation-scale", "0.5",
+                 "--json"]) == 0
+    from_setup = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(from_setup["tip_mm"], doc["tip_mm"], rtol=1e-12)
+    # the text says what the actuation adds at the element
+    assert main(["bend", "force-sensor", "--force", "0.1", "--actuation-field", "2,1,0"]) == 0
+    out = capsys.readouterr().out
+    assert "direct field (2, 1, 0) gauss at the element" in out and "3-D rod" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--force", "0.1", "--force-vector", "0.1,0,0"], "either --force or --force-vector"),
+        (["--force-vector", "0.1,0"], "--force-vector must be X,Y,Z, each a number in mN"),
+        (["--force-vector", "0.1,0,0", "--azimuth", "30"], "--azimuth must be left out"),
+        (["--force-vector", "0.1,0,0", "--direction", "45"], "--direction must be left out"),
+        (["--flow-azimuth", "30"], "--flow-azimuth must be given with --flow"),
+        (["--actuation-field", "0,0,5mm"], "--actuation-field must be X,Y,Z, each a number"),
+        (["--actuation-field", "0,0,5", "--actuation", "x.toml"], "either --actuation-field or"),
+        (["--actuation-scale", "2"], "--actuation-scale must be given with an actuation"),
+        (["--actuation", "missing.toml"], "missing.toml"),
+    ],
+)
+def test_bend_any_direction_errors(args: list[str], match: str, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)  # relative files resolve in tmp_path
+    assert main(["bend", "force-sensor", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("magcilia: error: ") and match in err and err.count("\n") == 1
+    assert "Traceback" not in err
+
+
+def test_bend_spatial_plot_and_json_file(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    png, out = tmp_path / "bend.png", tmp_path / "bend.json"
+    assert main(["bend", "force-sensor", "--force-vector", "0.1,-0.08,0", "--actuation-field",
+                 "2,-1,0", "--plot", str(png), "--json-file", str(out)]) == 0
+    capsys.readouterr()
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    doc = json.loads(out.read_text())
+    assert doc["units"] == "display" and doc["solver"] == "3-D rod"
+    assert doc["tip_azimuth_deg"] < 0.0

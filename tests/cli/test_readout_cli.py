@@ -181,3 +181,152 @@ def test_progress_on_a_terminal_unless_quiet(quiet: bool, tmp_path: Path,
                  "--out", str(tmp_path / "e.csv"), *(["--quiet"] if quiet else [])]) == 0
     err = capsys.readouterr().err
     assert ("readout" in err and "400/400" in err) != quiet
+
+
+# -- sensing while actuating, force vectors from a 3-axis sensor (issue 15) ----------------------
+
+FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+
+
+def test_readout_compensates_an_actuation(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    from magcilia.readout.inverse import model_output
+
+    forces = np.linspace(0.0, 2e-4, 9)
+    act = mc.Actuation.uniform((2e-4, 0.0, 0.0))
+    rec = _record(tmp_path / "rec.csv", model_output(FORCE_SENSOR, "force", forces, None, act))
+    out = tmp_path / "f.csv"
+    base = ["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
+            "--out", str(out)]
+    assert main([*base, "--actuation-field", "2,0,0"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("compensating the actuation (uniform field): direct field (2, 0, 0) "
+                           "gauss at the element (+15 mV)")
+    est = np.array([float(r["force_mN"]) for r in _rows(out)])
+    np.testing.assert_allclose(est, forces * 1e3, rtol=0, atol=1e-5)
+    # without the compensation nothing is read (15 mV of direct field: beyond the span)
+    assert main(base) == 0
+    capsys.readouterr()
+    assert all(r["force_mN"] == "" for r in _rows(out))
+    assert main([*base, "--actuation-field", "0.2,0,0mT", "--json", "--si"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["actuation"]["direct_field_T"] == pytest.approx([2e-4, 0.0, 0.0])
+    assert doc["actuation"]["direct_output_V"] == pytest.approx(0.015)
+    assert doc["estimated"] == forces.size
+
+
+@pytest.mark.parametrize(
+    ("field", "match"),
+    [("30,0,0", "within the HMC1021Z's 20 G flip field"),
+     ("8,0,0", "keeps B_x within the HMC1021Z's ±6 G range")],
+)
+def test_readout_refuses_an_actuation_beyond_the_sensor(
+        field: str, match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rec = _record(tmp_path / "rec.csv", np.full(4, 3e-3))
+    out = tmp_path / "f.csv"
+    assert main(["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
+                 "--out", str(out), "--actuation-field", field]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("magcilia: error: actuation must be a field") and match in err
+    assert not out.exists()
+
+
+def _field_recording(path: Path, seed: int = 4) -> tuple[Path, np.ndarray]:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer.preset("MMC5983MA")
+    rng = np.random.default_rng(seed)
+    f = rng.uniform(0.3e-4, 1.8e-4, 12)
+    phi = rng.uniform(-np.pi, np.pi, 12)
+    rows = []
+    for fi, p in zip(f, phi, strict=True):
+        b = sensor.to_sensor(FORCE_SENSOR.field(mc.bend(FORCE_SENSOR, fi, azimuth=p)))[0]
+        rows.append(",".join(repr(float(x)) for x in (len(rows) / RATE, *(b / 1e-4))) + "\n")
+    path.write_text("time_s,Bx,By,Bz\n" + "".join(rows))
+    return path, np.stack([f * np.cos(phi), f * np.sin(phi)], -1)
+
+
+def test_readout_biaxial_force_vectors(tmp_path: Path,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    rec, truth = _field_recording(tmp_path / "b.csv")
+    out = tmp_path / "vec.csv"
+    args = ["readout", "force-sensor", str(rec), "--biaxial", "--sensor", "mmc5983ma", "--span",
+            "0.2mN", "--columns", "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--out", str(out)]
+    assert main(args) == 0
+    assert "12/12 force vectors estimated from the MMC5983MA" in capsys.readouterr().out
+    rows = _rows(out)
+    assert list(rows[0]) == ["time_s", "fx_mN", "fy_mN", "magnitude_mN", "direction_deg",
+                             "sigma_fx_mN", "sigma_fy_mN", "sigma_magnitude_mN",
+                             "sigma_direction_deg", "chi2", "flags", "flag_names"]
+    est = np.array([[float(r["fx_mN"]), float(r["fy_mN"])] for r in rows])
+    np.testing.assert_allclose(est, truth * 1e3, rtol=0, atol=1e-3 * 0.2)
+    direction = np.array([float(r["direction_deg"]) for r in rows])
+    np.testing.assert_allclose(direction, np.degrees(np.arctan2(truth[:, 1], truth[:, 0])),
+                               atol=0.1)
+    assert all(r["flags"] == "0" and r["flag_names"] == "" for r in rows)
+    # SI and JSON
+    assert main([*args, "--si", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["units"] == "SI" and doc["span_N"] == pytest.approx(2e-4)
+    assert doc["estimated"] == 12 and "fx_N" in _rows(out)[0]
+    # tare on the first readings is accepted (they are loaded here: only the plumbing)
+    assert main([*args, "--tare", "3"]) == 0
+    assert "tared on 3 readings" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ([], "--sensor must be a 3-axis magnetometer preset with --biaxial"),
+        (["--sensor", "MLX90393"], "--sensor-noise must be the RMS noise per axis"),
+        (["--sensor", "LIS3MDL", "--quantity", "angle"], "--quantity must be force"),
+        (["--sensor", "LIS3MDL", "--actuation-field", "0,0,50"],
+         "actuation must be within its range ±4 G"),
+        (["--sensor", "LIS3MDL", "--sensor-noise", "-1mG"], "--sensor-noise must be"),
+    ],
+)
+def test_readout_biaxial_errors(extra: list[str], match: str, tmp_path: Path,
+                                capsys: pytest.CaptureFixture[str]) -> None:
+    rec, _ = _field_recording(tmp_path / "b.csv")
+    assert main(["readout", "force-sensor", str(rec), "--biaxial", "--span", "0.2", "--columns",
+                 "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--out",
+                 str(tmp_path / "v.csv"), *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("magcilia: error: ") and match in err
+    assert not (tmp_path / "v.csv").exists()
+
+
+def test_readout_needs_a_quantity_without_biaxial(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    rec = _record(tmp_path / "rec.csv", np.full(4, 3e-3))
+    assert main(["readout", "force-sensor", str(rec), "--span", "0:0.2", "--out",
+                 str(tmp_path / "f.csv")]) == 2
+    assert "Missing option '--quantity'" in capsys.readouterr().err
+    assert main(["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
+                 "--sensor", "LIS3MDL", "--out", str(tmp_path / "f.csv")]) == 2
+    assert "--sensor must be given with --biaxial only" in capsys.readouterr().err
+
+
+def test_readout_biaxial_while_actuating(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    from magcilia.device.magnetometer import Magnetometer
+
+    sensor = Magnetometer.preset("MMC5983MA")
+    act = mc.Actuation.uniform((0.0, 0.0, 5e-4))  # 5 G along z
+    truth = np.array([[1e-4, 0.0], [0.0, -1.5e-4], [-5e-5, 5e-5]])
+    rows = []
+    for fx, fy in truth:
+        shape = mc.bend(FORCE_SENSOR, float(np.hypot(fx, fy)),
+                        azimuth=float(np.arctan2(fy, fx)), actuation=act)
+        b = sensor.to_sensor(FORCE_SENSOR.field(shape)[0] + [0.0, 0.0, 5e-4])
+        rows.append(",".join(repr(float(x)) for x in b) + "\n")
+    rec = tmp_path / "b.csv"
+    rec.write_text("field_x_T,field_y_T,field_z_T\n" + "".join(rows))
+    out = tmp_path / "v.csv"
+    assert main(["readout", "force-sensor", str(rec), "--biaxial", "--sensor", "MMC5983MA",
+                 "--span", "0.2", "--out", str(out), "--actuation-field", "0,0,5"]) == 0
+    text = capsys.readouterr().out
+    assert "compensating the actuation: its direct field on the sensor's axes (0, 0, 5) gauss" \
+        in text
+    est = np.array([[float(r["fx_mN"]), float(r["fy_mN"])] for r in _rows(out)])
+    np.testing.assert_allclose(est, truth * 1e3, rtol=0, atol=1e-4)

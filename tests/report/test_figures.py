@@ -286,6 +286,11 @@ def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
                         str(tmp / f"bend{ext}")], [tmp / f"bend{ext}"]),
         "bend-flow": (["bend", "force-sensor", "--flow", "0.1m/s", "--plot",
                        str(tmp / f"flow{ext}")], [tmp / f"flow{ext}"]),
+        "bend-spatial": (["bend", "force-sensor", "--force-vector", "0.1,-0.08,0",
+                          "--actuation-field", "2,-1,0", "--plot", str(tmp / f"spatial{ext}")],
+                         [tmp / f"spatial{ext}"]),
+        "bend-azimuth": (["bend", "force-sensor", "--force", "0.2mN", "--azimuth", "120deg",
+                          "--plot", str(tmp / f"azimuth{ext}")], [tmp / f"azimuth{ext}"]),
         "design": (["design", "force-sensor", "--plot", str(tmp / f"design{ext}")],
                    [tmp / f"design{ext}"]),
         "design-cone": (["design", "paper", "--plot", str(tmp / f"cone{ext}")],
@@ -305,6 +310,7 @@ def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
 
 CASES = ("demo", "calibrate", "field", "field-svg", "bend-force", "bend-flow", "design",
          "design-cone", "sensitivity", "angle", "calibrate-physical")
+CASES += ("bend-spatial", "bend-azimuth")  # issue 15: bending in any direction, actuation
 MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".pdf": b"%PDF-", ".svg": b"<?xml"}
 
 

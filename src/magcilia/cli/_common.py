@@ -338,3 +338,73 @@ def parse_priors(items: tuple[str, ...],
                                         "fixes the parameter: use --fix instead)")
         out[name] = (value, sigma)
     return out
+
+
+# --- bending in any direction and actuation (issue 15) ----------------------------------------
+
+def parse_vector(text: str, dimension: str, unit: str, key: str, example: str) -> tuple[float,
+                                                                                      float, float]:
+    """``X,Y,Z`` with optional units (``0.1,0,0mN``, ``0,0,5mT``; a bare part takes the unit of
+    the last part that has one, or ``unit``) -> an SI triple (errors are one line)."""
+    words = dimension_words(dimension, unit)
+    allowed = f"X,Y,Z, each {words}, e.g. {example}"
+    if not isinstance(text, str) or text.count(",") != 2:
+        raise fail(key, text, allowed)
+    try:
+        x, y, z = parse_values(text.replace(",", ":"), dimension, unit, key, (3,))
+    except MagciliaError:
+        raise fail(key, text, allowed) from None
+    return x, y, z
+
+
+def actuation_options(command: Any) -> Any:
+    """``--actuation-field``, ``--actuation`` (a TOML file's ``[actuation]`` table) and
+    ``--actuation-scale``; the command receives ``actuation_field``, ``actuation_file`` and
+    ``actuation_scale`` (see :func:`make_actuation`)."""
+    options = [
+        click.option("--actuation-field", "actuation_field", default=None, metavar="BX,BY,BZ",
+                     help="A uniform actuation field (Helmholtz coils) in the board frame: "
+                          "gauss, or with a unit (0,0,5mT). Replaces the setup file's "
+                          "[actuation]."),
+        click.option("--actuation", "actuation_file", default=None,
+                     type=click.Path(dir_okay=False),
+                     help="A TOML file with an [actuation] table (field = [...] or "
+                          "[[actuation.magnets]]). Default: the setup file's [actuation], if "
+                          "any."),
+        click.option("--actuation-scale", "actuation_scale", default=None, type=float,
+                     help="Factor on the actuation field (a coil current ratio)."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def make_actuation(setup_arg: str, field_text: str | None, file: str | None,
+                   scale: float | None) -> Any:
+    """The actuation of the options (``--actuation-field`` or ``--actuation FILE``, else the
+    setup file's ``[actuation]`` table), times ``--actuation-scale``; None without any."""
+    from magcilia.device.actuation import Actuation
+    from magcilia.io.actuation_file import load_actuation, read_actuation
+
+    act: Actuation | None
+    if field_text is not None and file is not None:
+        raise fail("--actuation-field", field_text, "either --actuation-field or --actuation "
+                                                    "FILE, not both")
+    if field_text is not None:
+        p = PARAMETERS["field_range"]
+        act = Actuation.uniform(parse_vector(field_text, "field", p.display,
+                                             "--actuation-field", "0,0,50 or 0,0,5mT"))
+    elif file is not None:
+        act = load_actuation(file)
+    elif setup_arg not in PRESETS or Path(setup_arg).exists():
+        act = read_actuation(setup_arg)
+    else:
+        act = None
+    if scale is not None:
+        if act is None:
+            raise fail("--actuation-scale", scale, "given with an actuation (--actuation-field, "
+                                                  "--actuation FILE or the setup's [actuation])")
+        if not math.isfinite(scale):
+            raise fail("--actuation-scale", scale, "a finite number")
+        act = act.scaled(scale)
+    return act

@@ -9,24 +9,34 @@ import click
 import numpy as np
 from tqdm import tqdm
 
+from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
     RecordingArgs,
+    actuation_options,
     bandwidth_option,
     echo_json,
     load_mechanics_setup,
+    make_actuation,
     mechanics_options,
     parse_bandwidth,
+    parse_vector,
     quiet_requested,
     recording_options,
     si_option,
 )
-from magcilia.device.parameters import MEASURANDS
+from magcilia.device.actuation import Actuation
+from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
+from magcilia.device.parameters import MEASURANDS, PARAMETERS
+from magcilia.device.setup import Setup
+from magcilia.io.columns import FIELD_KEYS
 from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout.inverse import EDGES, Readout
+from magcilia.readout.biaxial import BiaxialReadout
+from magcilia.readout.inverse import EDGES, Readout, direct_field
+from magcilia.report.biaxial import vector_csv
 from magcilia.report.readout import readout_line, readout_summary, write_readout_csv
 from magcilia.units import parse_quantity, parse_value, parse_values
 
@@ -103,12 +113,25 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.command()
 @click.argument("setup_arg", metavar="SETUP")
 @click.argument("recording", type=click.Path(dir_okay=False))
-@click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), required=True,
-              help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s).")
-@click.option("--span", "span_text", required=True,
-              help="Range LO:HI in deg (angle), mN (force) or m/s (flow); units allowed.")
-@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
-              help="Output CSV (estimates, 1-sigma, flags), written atomically.")
+@click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), default=None,
+              help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s). "
+                   "Required, except with --biaxial (a force vector).")
+@click.option("--span", "span_text", default=None,
+              help="Required: range LO:HI in deg (angle), mN (force) or m/s (flow), units "
+                   "allowed; with --biaxial: the largest force magnitude (0.2mN, or 0:0.2mN).")
+@click.option("--biaxial", is_flag=True,
+              help="Read the horizontal force vector (Fx, Fy) from a 3-axis sensor at the "
+                   "element: RECORDING has field columns field_x_T, field_y_T, field_z_T (or "
+                   "--columns field_x=Bx[G],...); needs --sensor.")
+@click.option("--sensor", "sensor_name", default=None,
+              type=click.Choice(sorted(MAGNETOMETERS), case_sensitive=False),
+              help="With --biaxial: the 3-axis magnetometer preset at the element (its axes "
+                   "along the board's x, y, z).")
+@click.option("--sensor-noise", "sensor_noise", default=None, metavar="B or BX,BY,BZ",
+              help="With --biaxial: RMS noise of one reading per axis, gauss or with a unit "
+                   "(2mG, or 2mG,2mG,3mG); required for the MLX90393 and TLV493D presets.")
+@click.option("--out", "out_path", default=None, type=click.Path(dir_okay=False),
+              help="Output CSV (estimates, 1-sigma, flags), written atomically. Required.")
 @bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
                   "(with --tare or --tare-file the baseline's measured spread is used instead).")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
@@ -130,14 +153,19 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
                    "(0.5s) or a count (500). Their spread is then the noise of one reading.")
 @click.option("--tare-file", "tare_file", type=click.Path(dir_okay=False), default=None,
               help="Zero on a separate recording of the unloaded sensor (voltage_V).")
+@actuation_options
 @mechanics_options
 @si_option
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @recording_options
-def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_path: str,
+def command(setup_arg: str, recording: str, quantity: str | None, span_text: str | None,
+            biaxial: bool, sensor_name: str | None, sensor_noise: str | None,
+            out_path: str | None,
             bandwidth: str, fluid: str, table_size: int, calibration_path: str | None,
             edge: str, edge_tolerance: str | None, tare_spec: str | None, tare_file: str | None,
+            actuation_field: str | None, actuation_file: str | None,
+            actuation_scale: float | None,
             tip_radius: str | None, modulus: str | None, si: bool, as_json: bool,
             quiet: bool, reading: RecordingArgs) -> None:
     """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
@@ -149,10 +177,37 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     fold, saturated, extrapolated, clipped, below_span, above_span). Readings within the edge
     tolerance beyond the span are extrapolated or clipped; only rows without an estimate
     (outside_span, fold, saturated) have empty fields.
+
+    While actuating (--actuation-field, --actuation FILE or the setup file's [actuation]), the
+    read-out is compensated: its table includes the actuation's bending of the cilium and its
+    direct field at the element, so a constant actuation reads the external load alone.
+
+    With --biaxial, RECORDING holds the three field components of a 3-axis sensor (--sensor)
+    and each row gets the horizontal force vector: fx, fy, magnitude (mN), direction (deg from
+    +x toward +y), their 1-sigma, chi2 and flags.
     """
+    # the required options, in the order of --help (--quantity only without --biaxial)
+    if quantity is None and not biaxial:
+        raise click.UsageError("Missing option '--quantity' (or --biaxial).")
+    if span_text is None:
+        raise click.UsageError("Missing option '--span'.")
+    if out_path is None:
+        raise click.UsageError("Missing option '--out'.")
     if tare_spec is not None and tare_file is not None:
         raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    actuation = make_actuation(setup_arg, actuation_field, actuation_file, actuation_scale)
+    if biaxial:
+        if quantity not in (None, "force"):
+            raise fail("--quantity", quantity, "force, or left out, with --biaxial (it reads a "
+                                               "force vector)")
+        _biaxial(setup, recording, span_text, sensor_name, sensor_noise, out_path, tare_spec,
+                 tare_file, si, as_json, quiet, reading, actuation)
+        return
+    assert quantity is not None  # for mypy: checked above
+    for name, value in (("--sensor", sensor_name), ("--sensor-noise", sensor_noise)):
+        if value is not None:
+            raise fail(name, value, "given with --biaxial only")
     span = parse_span(span_text, quantity)
     tolerance = parse_edge_tolerance(edge_tolerance, quantity, span)
     band = parse_bandwidth(bandwidth)
@@ -164,7 +219,8 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
-                      table_size=table_size, edge=edge, edge_tolerance=tolerance)
+                      table_size=table_size, edge=edge, edge_tolerance=tolerance,
+                      actuation=actuation)
     if baseline is not None:
         readout = readout.tare(baseline)
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
@@ -172,7 +228,138 @@ def command(setup_arg: str, recording: str, quantity: str, span_text: str, out_p
               disable=not show, file=sys.stderr) as bar:
         result = readout.read(volts, bandwidth=band)
         write_readout_csv(out_path, result, volts, times, si=si, progress=bar.update)
+    compensation = None if actuation is None else _compensation(setup, actuation,
+                                                                 readout.sensor_flags, si)
     if as_json:
-        echo_json({**readout_summary(readout, result, si), "out": out_path})
+        extra = {} if compensation is None else {"actuation": compensation[1]}
+        echo_json({**readout_summary(readout, result, si), **extra, "out": out_path})
         return
+    if compensation is not None:
+        click.echo(compensation[0])
     click.echo(f"{Path(out_path).name}: {readout_line(readout, result, si)}")
+
+
+def _compensation(setup: Setup, actuation: Actuation, flags: int,
+                  si: bool) -> tuple[str, dict[str, object]]:
+    """The compensation used, as a line and a JSON entry (gauss and mV; T and V with si)."""
+    from magcilia.device.sensor import flag_names
+
+    b = direct_field(actuation)
+    volts = float(setup.sensor.scale * b[0])
+    (fu, ff), (vu, vf) = ((("T", 1.0), ("V", 1.0)) if si else (("gauss", 1e-4), ("mV", 1e-3)))
+    what = "uniform field" if actuation.is_uniform else actuation.source_name
+    if actuation.scale != 1.0:
+        what += f" x {actuation.scale:.6g}"
+    line = (f"compensating the actuation ({what}): direct field ("
+            + ", ".join(f"{c / ff:.6g}" for c in b) + f") {fu} at the element ({volts / vf:+.6g} "
+            f"{vu}) and its bending of the cilium, in the read-out table")
+    if flags:
+        line += f"; sensor flags under it: {flag_names(flags)}"
+    return line, {"kind": actuation.kind, "scale": actuation.scale,
+                  f"direct_field_{fu}": [float(c) / ff for c in b],
+                  f"direct_output_{vu}": volts / vf, "sensor_flags": flags,
+                  "sensor_flag_names": flag_names(flags)}
+
+
+def _sensor_noise(text: str) -> tuple[float, float, float]:
+    """``--sensor-noise``: one value or BX,BY,BZ, gauss or with units -> T (3,)."""
+    p = PARAMETERS["field_range"]
+    if "," in text:
+        noise = parse_vector(text, "field", p.display, "--sensor-noise", "2mG,2mG,3mG")
+    else:
+        one = parse_span_value(text, "--sensor-noise")
+        noise = (one, one, one)
+    if not all(n > 0.0 for n in noise):
+        raise fail("--sensor-noise", text, "a positive RMS noise per axis, gauss or with a unit")
+    return noise
+
+
+def parse_span_value(text: str, key: str) -> float:
+    """One field value, gauss or with a unit -> T."""
+    p = PARAMETERS["field_range"]
+    return parse_value(text, "field", p.display, key, "2mG")
+
+
+def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | None,
+             sensor_noise: str | None, out_path: str, tare_spec: str | None,
+             tare_file: str | None, si: bool, as_json: bool, quiet: bool,
+             reading: RecordingArgs, actuation: Actuation | None) -> None:
+    """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
+    constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
+    field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
+    if sensor_name is None:
+        raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
+                   + ", ".join(sorted(MAGNETOMETERS)))
+    key = next(k for k in MAGNETOMETERS if k.lower() == sensor_name.lower())
+    overrides = {} if sensor_noise is None else {"noise": _sensor_noise(sensor_noise)}
+    if sensor_noise is None and key in ("MLX90393", "TLV493D-A1B6"):
+        raise fail("--sensor-noise", None, f"the RMS noise per axis of the {key} at your "
+                   "settings, gauss or with a unit (e.g. 5mG or 5mG,5mG,8mG): magcilia does "
+                   "not guess it")
+    sensor = Magnetometer.preset(key, **overrides)
+    if ":" in span_text:
+        lo, hi = parse_span(span_text, "force")
+        if lo != 0.0:
+            raise fail("--span", span_text, "0:HIGH or HIGH with --biaxial (the force "
+                                            "magnitude's range starts at 0)")
+    else:
+        q = MEASURANDS["force"]
+        hi = parse_value(span_text, q.dimension, q.display, "--span", "0.2mN")
+    quiet = quiet_requested(quiet)
+
+    def fields_of(path: str, option: str) -> tuple[np.ndarray, np.ndarray | None]:
+        cols = reading.read(read_samples, path, quiet=quiet, required=FIELD_KEYS)
+        b = np.stack([cols[k] for k in FIELD_KEYS], axis=-1)
+        if b.shape[0] == 0:
+            raise fail(option, path, "a recording with at least one reading")
+        return b, cols.get("time_s")
+
+    fields, times = fields_of(recording, "RECORDING")
+    axial = actuation is None or (actuation.is_uniform
+                                  and not np.any(actuation.uniform_field[:2]))
+    readout = BiaxialReadout(setup, sensor, hi, table_size=(65, 128) if axial else (17, 32),
+                             actuation=actuation)
+    if tare_spec is not None:
+        count = tare_readings(tare_spec, fields[:, 0], times).size
+        readout = readout.tare(fields[:count])
+    elif tare_file is not None:
+        readout = readout.tare(fields_of(tare_file, "--tare-file")[0])
+    result = readout.read(fields)
+    write_text(out_path, vector_csv(result, times, si))
+    c = result.counts()
+    unit, factor = ("N", 1.0) if si else ("mN", 1e-3)
+    good = result.estimated
+    mags = result.magnitude[good] / factor
+    median = float(np.median(result.sigma_magnitude[good])) / factor if good.any() else None
+    compensation = None
+    if actuation is not None:
+        fu, ff = ("T", 1.0) if si else ("gauss", 1e-4)
+        direct = [float(d) / ff for d in readout.direct]
+        compensation = {"kind": actuation.kind, "scale": actuation.scale,
+                        f"direct_{fu}": direct, "grid": [int(readout.forces.size),
+                                                         int(readout.azimuths.size)]}
+    if as_json:
+        echo_json({"quantity": "force vector", "units": "SI" if si else "display",
+                   **({} if compensation is None else {"actuation": compensation}),
+                   "sensor": sensor.name, f"span_{unit}": hi / factor,
+                   f"table_error_{unit}": readout.table_error / factor, **c,
+                   f"range_{unit}": [float(mags.min()), float(mags.max())] if mags.size
+                   else None, f"median_sigma_magnitude_{unit}": median,
+                   "tared": readout.baseline is not None, "out": out_path})
+        return
+    flagged = ", ".join(f"{c[k]} {k.replace('_', ' ')}" for k in
+                        ("outside_span", "undetermined", "ambiguous", "near_zero", "saturated",
+                         "missing", "extrapolated") if c[k])
+    text = (f"{c['estimated']}/{c['readings']} force vectors estimated from the {sensor.name}"
+            + (f" ({flagged})" if flagged else ""))
+    if mags.size:
+        text += (f"; |F| {mags.min():.4g}…{mags.max():.4g} {unit}, median 1-sigma {median:.3g} "
+                 f"{unit}")
+    text += f"; table error ≤ {readout.table_error / factor:.2g} {unit}"
+    if readout.baseline is not None:
+        text += f"; tared on {int(readout.baseline.count.min())} readings"
+    if compensation is not None:
+        click.echo("compensating the actuation: its direct field on the sensor's axes ("
+                   + ", ".join(f"{d:.6g}" for d in direct) + f") {fu} and its bending of the "
+                   f"cilium, in a {readout.forces.size} x {readout.azimuths.size} grid")
+    click.echo(f"{Path(out_path).name}: {text}")

@@ -5,6 +5,9 @@
 * :mod:`.biaxial`: :class:`BiaxialReadout`, the horizontal force vector (Fx, Fy) from several
   field channels (:class:`Channel`; a 3-axis :class:`~magcilia.device.magnetometer.Magnetometer`
   gives three), with covariance and :class:`ForceFlag` flags (:class:`ForceVectorResult`);
+* :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
+  compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
+  ``Readout(..., actuation=)`` for a constant one;
 * :mod:`.tare`: :class:`Tare`, a zero-load baseline (:meth:`Readout.tare`, the live tare);
 * :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
 * :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
@@ -13,6 +16,7 @@
 
 from __future__ import annotations
 
+from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
 from magcilia.readout.array import (
     ArrayEstimate,
     ArrayFlag,
@@ -36,6 +40,7 @@ from magcilia.readout.tare import Tare
 
 __all__ = [
     "QUANTITIES",
+    "ActuatedReadout",
     "ArrayEstimate",
     "ArrayFlag",
     "ArrayMetrics",
@@ -43,6 +48,7 @@ __all__ = [
     "BiaxialReadout",
     "Channel",
     "ChannelTare",
+    "Coupling",
     "Crosstalk",
     "DesignMetrics",
     "ForceFlag",
@@ -56,4 +62,5 @@ __all__ = [
     "design_metrics",
     "field_for_loads",
     "loaded_poses",
+    "measure_coupling",
 ]

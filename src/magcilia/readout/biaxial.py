@@ -45,10 +45,12 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, column, dataframe, scaled
 from magcilia._errors import MagciliaError
+from magcilia.device.actuation import Actuation
 from magcilia.device.magnetometer import Magnetometer
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
 from magcilia.device.setup import Setup
-from magcilia.mechanics import bend_sweep, require_tip_radius
+from magcilia.mechanics import bend, bend_sweep, require_tip_radius
+from magcilia.model.centreline import SpatialCentreline
 from magcilia.model.kernels import pose_field
 from magcilia.readout.inverse import EDGE_TOLERANCE
 
@@ -456,6 +458,14 @@ class BiaxialReadout(Display):
     edge_tolerance : float, optional
         How far beyond the span magnitudes are still estimated (flag EXTRAPOLATED), N;
         default :data:`~magcilia.readout.inverse.EDGE_TOLERANCE` of the span.
+    actuation : Actuation, optional
+        A known, constant actuation field acting while the readings are taken (compensation):
+        the grid is built from the cilium bent by each force *and* the actuation, and every
+        channel also sees the actuation's direct field at its point. A uniform field along z
+        keeps the problem symmetric about the vertical axis (one bend sweep, turned, as
+        without); any other field needs one 3-D bend per grid node (~15 ms each: a
+        ``table_size`` of (17, 32) takes ~30 s). A direct field that puts a channel beyond its
+        range is refused.
 
     Attributes
     ----------
@@ -472,6 +482,10 @@ class BiaxialReadout(Display):
         and direction midway between nodes), read back without noise.
     baseline : ChannelTare or None
         The tare (:meth:`tare`).
+    actuation : Actuation or None
+        As given.
+    direct : ndarray, shape (c,)
+        Each channel's reading of the actuation's direct field, T (zeros without one).
 
     Examples
     --------
@@ -496,12 +510,15 @@ class BiaxialReadout(Display):
     rest: F64
     table_error: float
     baseline: ChannelTare | None
+    actuation: Actuation | None
+    direct: F64
     _coef: F64
     _coarse: _Coarse
 
     def __init__(self, setup: Setup, sensors: ChannelLike | Sequence[ChannelLike],
                  span: float, table_size: tuple[int, int] = (65, 128),
-                 edge_tolerance: float | None = None) -> None:
+                 edge_tolerance: float | None = None,
+                 actuation: Actuation | None = None) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
         chans = channels(sensors)
@@ -517,7 +534,11 @@ class BiaxialReadout(Display):
         # a grid twice as dense: even nodes are the table, odd ones check it
         dense_f = np.linspace(0.0, f_max, 2 * n_f - 1)
         dense_phi = np.arange(2 * n_phi, dtype=np.float64) * (math.pi / n_phi)
-        fields = _model(setup, chans, dense_f, dense_phi)  # (2nF−1, 2nφ, c)
+        direct = np.zeros(len(chans))
+        if actuation is None:
+            fields = _model(setup, chans, dense_f, dense_phi)  # (2nF−1, 2nφ, c)
+        else:
+            fields, direct = _actuated_model(setup, chans, dense_f, dense_phi, actuation)
         table = fields[::2, ::2].copy()
         table[0] = table[0].mean(axis=0)
         forces, azimuths = dense_f[::2], dense_phi[::2]
@@ -525,7 +546,8 @@ class BiaxialReadout(Display):
                             ("edge_tolerance", edge), ("forces", forces),
                             ("azimuths", azimuths), ("table", table),
                             ("rest", table[0, 0].copy()), ("baseline", None),
-                            ("table_error", 0.0)):
+                            ("table_error", 0.0), ("actuation", actuation),
+                            ("direct", direct)):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "_coef", _build_coefficients(forces, table))
         step = max(1, (n_f - 1) // COARSE[0])
@@ -916,6 +938,8 @@ class BiaxialReadout(Display):
                 "table_error": self.table_error, "rest": self.rest.tolist(),
                 "channels": [c.to_dict() for c in self.channels],
                 "tare": None if self.baseline is None else self.baseline.to_dict(),
+                **({} if self.actuation is None else {
+                    "actuation": self.actuation.to_dict(), "direct": self.direct.tolist()}),
                 "units": "SI"}
 
     def report(self) -> str:
@@ -933,6 +957,9 @@ class BiaxialReadout(Display):
                      "a known direction with Readout)")
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"
+        if self.actuation is not None:
+            text += (f"; compensating {self.actuation.describe()} (direct field per channel "
+                     + ", ".join(f"{d / 1e-4:.4g}" for d in self.direct) + " G)")
         return text
 
     def _display_items(self) -> list[Item]:
@@ -1020,7 +1047,12 @@ def _model(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuths: F64)
     """Each channel's reading (T) for horizontal tip forces ``forces`` (nF,) toward ``azimuths``
     (nφ,): (nF, nφ, c). The planar shapes' dipoles observed at the channels' points turned by
     −φ about the vertical axis through the base, the field turned back by +φ."""
-    shapes = bend_sweep(setup, forces=forces)
+    return _model_shapes(setup, chans, forces, azimuths, bend_sweep(setup, forces=forces))
+
+
+def _model_shapes(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuths: F64,
+                  shapes: Any) -> F64:
+    """:func:`_model` of the planar ``shapes`` (a Centreline of nF shapes in the x–z plane)."""
     base = setup.base_centre
     points = np.array([c.position for c in chans])
     unique, which = np.unique(points, axis=0, return_inverse=True)
@@ -1058,3 +1090,48 @@ def _model(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuths: F64)
     board[..., 2] = b[..., 2]
     axes = np.array([c.axis for c in chans])  # (c, 3)
     return np.einsum("fpcx,cx->fpc", board[:, :, which], axes)
+
+
+def _actuated_model(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuths: F64,
+                    actuation: Actuation) -> tuple[F64, F64]:
+    """:func:`_model` while ``actuation`` acts: each channel's reading (T), (nF, nφ, c), of the
+    cilium bent by the force and the actuation plus the actuation's direct field, and the direct
+    field's reading per channel (c,). A uniform field along z keeps the axial symmetry (the
+    planar sweep under it, turned); any other needs a 3-D bend per (F, φ)."""
+    if not isinstance(actuation, Actuation):
+        raise v.fail("actuation", type(actuation).__name__,
+                     "a magcilia Actuation (Actuation.uniform(b), Actuation.magpylib(source))")
+    points = np.array([c.position for c in chans])
+    axes = np.array([c.axis for c in chans])
+    direct_b = actuation.field(points)  # (c, 3)
+    if not np.all(np.isfinite(direct_b)):
+        raise v.fail("actuation", "a field that is not finite at a channel",
+                     "a source away from the sensors")
+    direct = np.einsum("cx,cx->c", direct_b, axes)
+    rng = np.array([c.field_range for c in chans])
+    beyond = np.flatnonzero(np.abs(direct) > rng)
+    if beyond.size:
+        i = int(beyond[0])
+        raise v.fail("actuation", f"a direct field of {direct[i] / 1e-4:.4g} G on "
+                     f"{chans[i].name}", f"within its range ±{rng[i] / 1e-4:.4g} G (lower the "
+                     "field or its scale, or pick a wider range)")
+    uniform = actuation.uniform_field if actuation.is_uniform else None
+    if uniform is not None and uniform[0] == 0.0 and uniform[1] == 0.0:
+        # symmetric about the vertical axis: the planar sweep under the field, turned
+        bent = _model_shapes(setup, chans, forces, azimuths,
+                             bend_sweep(setup, forces=forces, actuation=actuation))
+        return bent + direct, direct
+    shapes = [bend(setup, float(f), azimuth=float(p), actuation=actuation)
+              for f in forces for p in azimuths]
+    spatial = SpatialCentreline(shapes[0].s, *(np.concatenate([
+        getattr(sh if isinstance(sh, SpatialCentreline) else SpatialCentreline.from_planar(sh),
+                name) for sh in shapes]) for name in ("points", "tangents", "normals")))
+    unique, which = np.unique(points, axis=0, return_inverse=True)
+    which = np.asarray(which).reshape(-1)
+    try:
+        b = setup.field_at(unique, spatial)  # (a, P, 3)
+    except MagciliaError:
+        raise v.fail("sensors", "a point inside the bent cilium", f"sensors outside the "
+                     f"cilium bent by up to {forces[-1]:.4g} N and the actuation") from None
+    b = b.reshape(forces.size, azimuths.size, -1, 3)[:, :, which]
+    return np.einsum("fpcx,cx->fpc", b, axes) + direct, direct

@@ -31,10 +31,11 @@ from magcilia._display import Display, Item, Table, column, dataframe, si
 from magcilia._errors import MagciliaError
 from magcilia.calibration import CalibrationResult, ParameterCovariance
 from magcilia.calibration.posterior import Posterior
+from magcilia.device.actuation import Actuation
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
-from magcilia.device.sensor import DEFAULT_BANDWIDTH
+from magcilia.device.sensor import DEFAULT_BANDWIDTH, SensorFlag, flag_names
 from magcilia.device.setup import Setup
-from magcilia.mechanics import Flow, output_at
+from magcilia.mechanics import Flow, bend_sweep, output_at
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
@@ -393,6 +394,16 @@ class Readout(Display):
         noise over :data:`~magcilia.device.sensor.DEFAULT_BANDWIDTH` within it (a flow speed
         from rest, where drag ∝ U²): then as far as it takes (doubling), up to the span's
         width.
+    actuation : Actuation, optional
+        A known, constant actuation field (:class:`~magcilia.Actuation`) acting while the readings
+        are taken: the table is then built from the cilium bent by the quantity *and* the
+        actuation (its couple and force on the magnetization, :func:`magcilia.bend`) plus the
+        actuation's direct field at the element, so that readings taken under it invert to the
+        external load (compensation; :func:`model_output`). A field that flips the element or
+        saturates it over the whole span is refused (:attr:`sensor_flags` keeps the rest of
+        :meth:`Sensor.check`'s flags); for a varying actuation (a coil current per reading) see
+        :class:`magcilia.readout.actuated.ActuatedReadout`. Without one, every result is
+        exactly today's.
 
     Attributes
     ----------
@@ -424,6 +435,11 @@ class Readout(Display):
         How far (SI, ≥ 0) the model is continued below the span's low end and above its high
         end: ``edge_tolerance``, less where the output turns or the model fails, 0 at a fold
         end or with ``edge="blank"``.
+    actuation : Actuation or None
+        As given.
+    sensor_flags : int
+        :class:`~magcilia.device.sensor.SensorFlag` bits of the total field at the element over
+        the table (union; 0 without an actuation: not checked).
 
     Examples
     --------
@@ -446,13 +462,16 @@ class Readout(Display):
     edge_tolerance: tuple[float, float]
     edge_tables: tuple[InverseTable | None, InverseTable | None]
     baseline: Tare | None
+    actuation: Actuation | None
+    sensor_flags: int
 
     def __init__(self, setup: Setup, quantity: str = "angle",
                  span: tuple[float, float] | None = None,
                  calibration: CalibrationResult | ParameterCovariance | Posterior | None = None,
                  flow: Flow | None = None,
                  table_size: int = 257, edge: str = "extrapolate",
-                 edge_tolerance: float | None = None) -> None:
+                 edge_tolerance: float | None = None,
+                 actuation: Actuation | None = None) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
         quantity = v.choice("quantity", quantity, QUANTITIES)
@@ -465,6 +484,9 @@ class Readout(Display):
             raise v.fail("span", (lo, hi), "a pair (low, high) with high > low")
         if flow is not None and not isinstance(flow, Flow):
             raise v.fail("flow", type(flow).__name__, "a magcilia.Flow")
+        if actuation is not None and not isinstance(actuation, Actuation):
+            raise v.fail("actuation", type(actuation).__name__,
+                         "a magcilia Actuation (Actuation.uniform(b), Actuation.magpylib(source))")
         edge = v.choice("edge", edge, EDGES)
         given = (None if edge_tolerance is None else
                  v.non_negative("edge_tolerance", edge_tolerance, unit, "tolerance"))
@@ -472,17 +494,23 @@ class Readout(Display):
             calibration = calibration.uncertainty
         flow = flow if flow is not None else Flow.uniform(1.0)
         grid = np.linspace(lo, hi, 2 * v.integer("table_size", table_size, 9) - 1)
-        table = InverseTable.build(grid, output_at(setup, quantity, grid, flow),
-                                   f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
+        flags = 0
+        if actuation is None:
+            volts_grid = output_at(setup, quantity, grid, flow)
+        else:
+            fields = model_fields(setup, quantity, grid, flow, actuation)
+            flags = check_actuated(setup, fields, actuation)
+            volts_grid = setup.sensor.voltage(fields[:, 0])
+        table = InverseTable.build(grid, volts_grid, f"{quantity} {lo:.6g}…{hi:.6g} {unit}")
         base = EDGE_TOLERANCE * (hi - lo) if given is None else given
         tolerance = (base, base)
         if given is None and edge != "blank":
             volts = EDGE_SIGMAS * setup.sensor.output_noise_rms(*DEFAULT_BANDWIDTH)
             tolerance = (_noise_reach(setup, quantity, flow, lo, -1.0, table.output[0], base,
-                                      hi - lo, volts),
+                                      hi - lo, volts, actuation),
                          base if table.fold is not None else
                          _noise_reach(setup, quantity, flow, hi, 1.0, table.output[-1], base,
-                                      hi - lo, volts))
+                                      hi - lo, volts, actuation))
         edges: list[InverseTable | None] = [None, None]
         step = (hi - lo) / (grid.size - 1)
         for i, (end, sign, volts_end) in enumerate(((lo, -1.0, table.output[0]),
@@ -491,14 +519,15 @@ class Readout(Display):
                 continue
             points = int(min(max(2 * math.ceil(tolerance[i] / step) + 1, 9), grid.size))
             edges[i] = _edge_table(setup, quantity, flow, end, sign * tolerance[i], points,
-                                   volts_end)
+                                   volts_end, actuation)
         for name, value in (("setup", setup), ("quantity", quantity), ("unit", unit),
                             ("span", (lo, hi)), ("calibration", calibration), ("flow", flow),
                             ("table", table), ("edge", edge), ("edge_tolerance", tolerance),
-                            ("edge_tables", tuple(edges)), ("baseline", None)):
+                            ("edge_tables", tuple(edges)), ("baseline", None),
+                            ("actuation", actuation), ("sensor_flags", flags)):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "sigma_calibration", _calibration_sigma(
-            setup, quantity, flow, table.quantity, calibration))
+            setup, quantity, flow, table.quantity, calibration, actuation))
 
     # -- the table --------------------------------------------------------------------------------
     @property
@@ -569,7 +598,8 @@ class Readout(Display):
         >>> round(float(tared.estimate(drifted[2:])[0]), 4)
         0.2
         """
-        rest = float(output_at(self.setup, self.quantity, np.zeros(1), self.flow)[0])
+        rest = float(model_output(self.setup, self.quantity, np.zeros(1), self.flow,
+                                  self.actuation)[0])
         new = copy.copy(self)
         object.__setattr__(new, "baseline", Tare.from_readings(baseline_volts, rest))
         return new
@@ -765,7 +795,12 @@ class Readout(Display):
                 "table_error": self.table_error, "table_size": int(self.table_quantity.size),
                 "edge": self.edge, "edge_tolerance": list(self.edge_tolerance),
                 "edge_reach": list(self.edge_reach), "edge_error": self.edge_error,
-                "tare": None if self.baseline is None else self.baseline.to_dict()}
+                "tare": None if self.baseline is None else self.baseline.to_dict(),
+                **({} if self.actuation is None else {
+                    "actuation": self.actuation.to_dict(),
+                    "direct_field_T": direct_field(self.actuation).tolist(),
+                    "sensor_flags": self.sensor_flags,
+                    "sensor_flag_names": flag_names(self.sensor_flags)})}
 
     def report(self) -> str:
         """One line: the span, its output range, the fold if any and the table's error."""
@@ -786,6 +821,8 @@ class Readout(Display):
                      f"{q.display} above the span")
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"
+        if self.actuation is not None:
+            text += f"; {compensation_text(self.setup, self.actuation, self.sensor_flags)}"
         return text
 
     # -- display --------------------------------------------------------------------------------
@@ -799,14 +836,16 @@ class Readout(Display):
 
 
 def _noise_reach(setup: Setup, quantity: str, flow: Flow, end: float, sign: float,
-                 end_volts: float, start: float, cap: float, volts: float) -> float:
+                 end_volts: float, start: float, cap: float, volts: float,
+                 actuation: Actuation | None = None) -> float:
     """How far (SI, from ``start`` doubling up to ``cap``) beyond a span's ``end`` in the
     direction ``sign`` the model's output moves by ``volts`` (V) from ``end_volts``; where the
     model cannot be solved, the reach reached so far."""
     reach = start
     while reach < cap:
         try:
-            out = output_at(setup, quantity, np.array([end + sign * reach]), flow)[0]
+            out = model_output(setup, quantity, np.array([end + sign * reach]), flow,
+                               actuation)[0]
         except MagciliaError:
             return reach
         if abs(out - end_volts) >= volts:
@@ -816,14 +855,14 @@ def _noise_reach(setup: Setup, quantity: str, flow: Flow, end: float, sign: floa
 
 
 def _edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: float, points: int,
-                end_volts: float) -> InverseTable | None:
+                end_volts: float, actuation: Actuation | None = None) -> InverseTable | None:
     """The model continued from a span's ``end`` (SI) by ``reach`` (signed, SI) over ``points``
     directly solved points, as a table whose output at ``end`` is ``end_volts`` (V, the span
     table's, so that no reading falls between the two); it ends where the output turns. None
     where the model cannot be solved there or its output does not change."""
     grid = end + np.linspace(0.0, reach, points)
     try:
-        volts = output_at(setup, quantity, grid, flow)
+        volts = model_output(setup, quantity, grid, flow, actuation)
         volts[0] = end_volts
         return InverseTable.build(grid, volts, f"{quantity} beyond {end:.6g}")
     except MagciliaError:
@@ -831,12 +870,13 @@ def _edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: floa
 
 
 def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
-                       calibration: ParameterCovariance | Posterior | None) -> F64:
+                       calibration: ParameterCovariance | Posterior | None,
+                       actuation: Actuation | None = None) -> F64:
     """1-σ output uncertainty (V) from the calibration covariance at the table ``nodes``, or
     from the spread of the model's output over posterior samples."""
     params = setup.params()
     if isinstance(calibration, Posterior):
-        return _posterior_sigma(setup, quantity, flow, nodes, calibration)
+        return _posterior_sigma(setup, quantity, flow, nodes, calibration, actuation)
     names, cov = _parameter_covariance(calibration, params)
     if not names:
         return np.zeros(nodes.size)
@@ -844,15 +884,17 @@ def _calibration_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
     jac = np.empty((q.size, len(names)))
     for j, name in enumerate(names):  # outputs are linear in the offset: any step is exact
         h = 1.0 if name == "offset" else 1e-3 * max(abs(params[name]), math.sqrt(cov[j, j]))
-        up = output_at(setup.replace(**{name: params[name] + h}), quantity, q, flow)
-        down = output_at(setup.replace(**{name: params[name] - h}), quantity, q, flow)
+        up = model_output(setup.replace(**{name: params[name] + h}), quantity, q, flow,
+                          actuation)
+        down = model_output(setup.replace(**{name: params[name] - h}), quantity, q, flow,
+                            actuation)
         jac[:, j] = (up - down) / (2.0 * h)
     var = np.einsum("qi,ij,qj->q", jac, cov, jac)
     return np.interp(nodes, q, np.sqrt(np.clip(var, 0.0, None)))
 
 
 def _posterior_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
-                     posterior: Posterior) -> F64:
+                     posterior: Posterior, actuation: Actuation | None = None) -> F64:
     """1-σ output spread (V) at the table ``nodes`` over :data:`POSTERIOR_DRAWS` posterior samples
     (evenly thinned: deterministic) of the setup's continuous parameters; the others keep the
     setup's values."""
@@ -865,8 +907,8 @@ def _posterior_sigma(setup: Setup, quantity: str, flow: Flow, nodes: F64,
     q = np.linspace(nodes[0], nodes[-1], 33)
     draws = posterior.draws(POSTERIOR_DRAWS)[:, cols]
     names = [posterior.names[i] for i in cols]
-    out = np.array([output_at(setup.replace(**dict(zip(names, map(float, d), strict=True))),
-                              quantity, q, flow) for d in draws])
+    out = np.array([model_output(setup.replace(**dict(zip(names, map(float, d), strict=True))),
+                                 quantity, q, flow, actuation) for d in draws])
     spread = out.std(axis=0, ddof=1) if len(out) > 1 else np.zeros(q.size)
     return np.interp(nodes, q, spread)
 
@@ -884,3 +926,90 @@ def _parameter_covariance(cal: ParameterCovariance | None,
             and math.isfinite(full[i, i]) and full[i, i] > 0.0]
     sub = full[np.ix_(keep, keep)]
     return [all_names[i] for i in keep], np.where(np.isfinite(sub), sub, 0.0)
+
+
+# -- readings under a known actuation (compensation) ---------------------------------------------
+
+#: the sensing element in the board frame, m (the README's sensor frame: the origin)
+ELEMENT = (0.0, 0.0, 0.0)
+
+
+def direct_field(actuation: Actuation) -> F64:
+    """The actuation's own field at the sensing element (the origin), T, shape (3,): what it adds
+    to the reading whatever the cilium does."""
+    b = np.asarray(actuation.field(np.array(ELEMENT)), dtype=np.float64)
+    if not np.all(np.isfinite(b)):
+        raise v.fail("actuation", "a field that is not finite at the sensing element",
+                     "a source away from the element (the origin)")
+    return b
+
+
+def model_fields(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None,
+                 actuation: Actuation) -> F64:
+    """The total field at the element, T, shape (a, 3), for ``values`` (shape (a,), SI) of a
+    measurand read while ``actuation`` acts: the cilium's field in the shape that the load and
+    the actuation together bend it to (:func:`magcilia.bend_sweep` with ``actuation=``; a rigid
+    tilt, ``"angle"``, is not bent by it) plus the actuation's :func:`direct_field`."""
+    q = v.finite_array("values", values, ndim=1)
+    direct = direct_field(actuation)
+    if quantity == "angle":
+        cilium = setup.field(q)
+    elif quantity == "force":
+        cilium = setup.field(bend_sweep(setup, forces=q, actuation=actuation))
+    elif quantity == "flow":
+        shapes = bend_sweep(setup, speeds=q, flow=flow or Flow.uniform(1.0),
+                            actuation=actuation)
+        cilium = setup.field(shapes)
+    else:
+        raise v.fail("quantity", quantity, "one of 'angle', 'force', 'flow'")
+    return np.asarray(cilium + direct, dtype=np.float64)
+
+
+def model_output(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None = None,
+                 actuation: Actuation | None = None) -> F64:
+    """The model's sensor output (V), shape (a,), at ``values`` (shape (a,), SI) of a measurand:
+    :func:`magcilia.mechanics.output_at` without an actuation (exactly), else
+    ``sensor.voltage(B_x)`` of :func:`model_fields` (the actuation's bending and direct field
+    included)."""
+    if actuation is None:
+        return output_at(setup, quantity, values, flow)
+    return np.asarray(setup.sensor.voltage(
+        model_fields(setup, quantity, values, flow, actuation)[:, 0]), dtype=np.float64)
+
+
+def check_actuated(setup: Setup, fields: F64, actuation: Actuation) -> int:
+    """:meth:`Sensor.check` of the total fields ``fields`` (a, 3), T, at the element under
+    ``actuation``: raises where the element's magnetization may flip (FLIPPED_RISK anywhere) or
+    where B_x is beyond the range over every value (the read-out would see nothing); returns the
+    union of the flags (int) otherwise."""
+    sensor = setup.sensor
+    flags = sensor.check(fields)
+    union = int(np.bitwise_or.reduce(flags)) if flags.size else 0
+    direct = direct_field(actuation) / 1e-4
+    what = "a direct field of (" + ", ".join(f"{c:.4g}" for c in direct) + ") G at the element"
+    if union & SensorFlag.FLIPPED_RISK:
+        peak = float(np.max(np.linalg.norm(fields, axis=-1))) / 1e-4
+        raise v.fail("actuation", what, f"a field that keeps |B| at the element within the "
+                     f"{sensor.name}'s {sensor.flip_field / 1e-4:.3g} G flip field (it reaches "
+                     f"{peak:.4g} G): lower the field or its scale, or pulse set/reset and use a "
+                     "sensor with a wider range")
+    if np.all(flags & np.uint8(SensorFlag.BEYOND_RANGE)):
+        bx = float(np.min(np.abs(fields[:, 0]))) / 1e-4
+        raise v.fail("actuation", what, f"a field that keeps B_x within the {sensor.name}'s "
+                     f"±{sensor.field_range / 1e-4:.3g} G range (|B_x| ≥ {bx:.4g} G over the "
+                     "whole span): lower the field along x, buck it with the offset strap, or "
+                     "use a sensor with a wider range")
+    return union
+
+
+def compensation_text(setup: Setup, actuation: Actuation, flags: int) -> str:
+    """One line: the actuation compensated, its direct field at the element (gauss) and output
+    (mV), and the sensor's flags under it."""
+    b = direct_field(actuation)
+    volts = setup.sensor.scale * b[0]
+    text = (f"compensating {actuation.describe()}: direct field ("
+            + ", ".join(f"{c / 1e-4:.4g}" for c in b)
+            + f") G at the element ({volts * 1e3:+.4g} mV), its bending modelled")
+    if flags:
+        text += f"; sensor flags {flag_names(flags)}"
+    return text

@@ -182,3 +182,47 @@ def force_vector_figure(truth: ArrayLike, result: ForceVectorResult,
                + (f", {no_dir} without a direction" if no_dir else ""))
     fig.suptitle(title if title is not None else default)
     return fig
+
+
+# -- the CSV of ``magcilia readout --biaxial`` -------------------------------------------------
+
+#: the CSV's estimate columns: (name, attribute of ForceVectorResult, dimension)
+VECTOR_COLUMNS = (("fx", "fx", "force"), ("fy", "fy", "force"),
+                  ("magnitude", "magnitude", "force"), ("direction", "direction", "angle"),
+                  ("sigma_fx", "sigma_fx", "force"), ("sigma_fy", "sigma_fy", "force"),
+                  ("sigma_magnitude", "sigma_magnitude", "force"),
+                  ("sigma_direction", "sigma_direction", "angle"))
+
+
+def vector_flag_names(flags: int) -> str:
+    """The names of a force-vector reading's flags, ``|``-separated (empty for a good one)."""
+    from magcilia.readout.biaxial import ForceFlag
+
+    return "|".join(str(f.name).lower() for f in ForceFlag if f and flags & f)
+
+
+def vector_csv(result: ForceVectorResult, times: Any = None, si: bool = False) -> str:
+    """CSV text, one row per reading: [time_s,] fx, fy, magnitude, direction and their 1-σ in
+    display units (``fx_mN``, ``direction_deg``; SI with ``si``: ``fx_N``, ``direction_rad``),
+    χ², the flag bits and their names; empty fields where there is no value (NaN; an undefined
+    direction's σ, inf, is written ``inf``)."""
+    from magcilia.report import csvtext
+
+    force_unit, force_factor = ("N", 1.0) if si else ("mN", 1e-3)
+    angle_unit, angle_factor = ("rad", 1.0) if si else ("deg", math.pi / 180.0)
+    head = [] if times is None else ["time_s"]
+    cols = [] if times is None else [csvtext.shortest(np.asarray(times, dtype=np.float64)
+                                                      .reshape(-1))]
+    for name, attr, dim in VECTOR_COLUMNS:
+        unit, factor = (force_unit, force_factor) if dim == "force" else (angle_unit,
+                                                                          angle_factor)
+        head.append(f"{name}_{unit}")
+        cols.append(csvtext.significant(np.asarray(getattr(result, attr)).reshape(-1) / factor,
+                                        10 if not name.startswith("sigma") else 4))
+    flags = np.asarray(result.flags).reshape(-1)
+    codes, inverse = np.unique(flags, return_inverse=True)
+    head += ["chi2", "flags", "flag_names"]
+    cols += [csvtext.significant(np.asarray(result.chi2).reshape(-1), 6),
+             csvtext.table(inverse.reshape(-1), [str(int(c)) for c in codes]),
+             csvtext.table(inverse.reshape(-1), [vector_flag_names(int(c)) for c in codes])]
+    return ",".join(head) + "\n" + csvtext.rows(cols).decode("ascii")
