@@ -149,6 +149,21 @@ FACTORIES.update({
         _array().array.cilia[0], [2e-3, 3e-3], sensor=_array().array.sensors[0], span=2e-5,
         rows=2, cols=2, table_size=9),
 })
+
+
+def _batch() -> Any:
+    from magcilia.batch import calibrate_batch
+
+    folder = Path(tempfile.mkdtemp())
+    rec = synthetic_recording(SETUP, ANGLES, samples_per_angle=3, rng=2)
+    for name in ("a", "b"):
+        (folder / f"{name}.csv").write_text("angle_deg,voltage_V\n" + "".join(
+            f"{a!r},{v!r}\n" for a, v in zip(rec.angle_deg, rec.voltage, strict=True)))
+    return calibrate_batch(str(folder / "*.csv"), folder / "out", workers=1, starts=8,
+                           figures=False, progress=False)
+
+
+FACTORIES["BatchResult"] = _batch
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 
