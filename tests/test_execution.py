@@ -126,3 +126,17 @@ def test_workers_hold_blas_and_openmp_to_one_thread() -> None:
              "or [1]), __import__('os').environ['OMP_NUM_THREADS']]")
     results = run_tasks(eval, [("a", probe), ("b", probe)], workers=2, progress=False)
     assert [r.value for r in results] == [[1, "1"], [1, "1"]]
+
+
+def test_a_failing_callback_stops_the_run() -> None:
+    calls: list[str] = []
+
+    def fail(result: TaskResult) -> None:
+        calls.append(result.key)
+        raise RuntimeError("disk full")
+
+    t0 = time.perf_counter()
+    tasks = [(f"s{i}", range(2_000_000)) for i in range(40)]
+    with pytest.raises(RuntimeError, match="disk full"):
+        run_tasks(sum, tasks, workers=2, progress=False, on_result=fail)
+    assert calls == calls[:1] and time.perf_counter() - t0 < 20.0

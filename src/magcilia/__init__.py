@@ -32,6 +32,9 @@ from magcilia.analysis import (
 # -- firmware approximations ---------------------------------------------------------------------
 from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
 
+# -- many recordings at once, on one machine or a Dask cluster -------------------------------------
+from magcilia.batch import BatchResult, calibrate_batch
+
 # -- calibration -----------------------------------------------------------------------------------
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
@@ -96,6 +99,7 @@ __all__ = [
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",
+    "BatchResult",
     "BentShape",
     "BiaxialReadout",
     "CalibrationResult",
@@ -135,6 +139,7 @@ __all__ = [
     "bend",
     "bend_sweep",
     "calibrate",
+    "calibrate_batch",
     "design_metrics",
     "drag_coefficient",
     "exact_field",

@@ -16,7 +16,8 @@ One function, :func:`run_tasks`, runs ``fn(argument)`` for every task and return
 Every worker runs its tasks with BLAS/OpenMP limited to one thread (threadpoolctl, and
 ``OMP_NUM_THREADS=1`` and the like for libraries loaded later): the tasks are the parallelism,
 and several workers each starting a thread per core only fight over the cores (measured on
-2 cores: 4.4 s with the limit, 14.9 s without, slower than one process).
+2 cores: 4.4 s with the limit, 14.9 s without, slower than one process). The environment
+variable ``MAGCILIA_WORKER_THREADS`` changes it (a number of threads, or ``none``).
 
 Faults: an exception in a task is kept as that task's result (``error``, one line) and the task
 is tried ``retries`` more times; a worker process that dies (killed, out of memory) takes none of
@@ -112,25 +113,44 @@ def one_line(exc: BaseException) -> str:
     return line if len(line) <= 500 else line[:497] + "..."
 
 
+#: environment variable: BLAS/OpenMP threads per worker (default 1; ``none``: leave the
+#: libraries' own choice, one thread per core in every worker)
+THREADS_ENV = "MAGCILIA_WORKER_THREADS"
 _LIMITED = False
 
 
+def worker_threads() -> int | None:
+    """BLAS/OpenMP threads per worker: :data:`THREADS_ENV` (a whole number, or ``none`` for no
+    limit), default 1."""
+    text = os.environ.get(THREADS_ENV, "1").strip().lower()
+    if text in ("none", "0", ""):
+        return None
+    try:
+        return max(1, int(text))
+    except ValueError:
+        raise v.fail(THREADS_ENV, text, "a whole number of threads per worker, or none") from None
+
+
 def limit_threads() -> None:
-    """Limit BLAS/OpenMP thread pools of this process to one thread (threadpoolctl, for the
-    libraries already loaded) and set :data:`THREAD_VARIABLES` to 1 (for those loaded later).
-    Idempotent; the workers call it before their first task."""
+    """Limit BLAS/OpenMP thread pools of this process to :func:`worker_threads` threads (1 by
+    default; threadpoolctl, for the libraries already loaded) and set :data:`THREAD_VARIABLES`
+    likewise (for those loaded later). Idempotent; the workers call it before their first
+    task."""
     global _LIMITED  # noqa: PLW0603 (once per worker process)
     if _LIMITED:
         return
+    _LIMITED = True
+    threads = worker_threads()
+    if threads is None:
+        return
     for name in THREAD_VARIABLES:
-        os.environ[name] = "1"
+        os.environ[name] = str(threads)
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # pragma: no cover - threadpoolctl is a core dependency
         pass
     else:
-        threadpool_limits(limits=1)
-    _LIMITED = True
+        threadpool_limits(limits=threads)
 
 
 def _call(fn: Callable[[Any], Any], argument: Any, where: str) -> tuple[bool, Any, float, str]:
@@ -265,6 +285,7 @@ def run_tasks(
     retries = v.integer("retries", retries, 0)
     timeout = v.positive("timeout", timeout, "s", "time")
     address = resolve_scheduler(scheduler)
+    worker_threads()  # a bad MAGCILIA_WORKER_THREADS fails here, not in every worker
     results: dict[str, TaskResult] = {}
     bar = _Progress(len(items), progress, label)
 
@@ -322,35 +343,13 @@ def _run_pool(fn: Callable[[Any], Any], items: list[tuple[str, Any]], n: int, re
                 attempts[key] += 1
                 running[pool.submit(_call, fn, pending[key], "local")] = key  # noqa: B023
 
-            for key in pending:
-                submit(key)
-            while running:
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
-                for future in done:
-                    key = running.pop(future)
-                    try:
-                        outcome = future.result()
-                    except BrokenProcessPool as exc:
-                        broken = exc
-                        attempts[key] -= 1  # lost with the pool, not failed by itself
-                        continue
-                    except Exception as exc:  # noqa: BLE001 (an unpicklable value, say)
-                        outcome = (False, one_line(exc), 0.0, "local")
-                    if not outcome[0] and attempts[key] <= retries:
-                        logger.info("task %s failed (%s); retrying", key, outcome[1])
-                        try:
-                            submit(key)
-                            continue
-                        except BrokenProcessPool as exc:
-                            broken = exc
-                            attempts[key] -= 1
-                            continue
-                    finish(_result(key, outcome, attempts[key]))
-                    del pending[key]
-                if broken is not None:
-                    for future in running:
-                        future.cancel()
-                    break
+            try:
+                for key in pending:
+                    submit(key)
+                broken = _drain(running, pending, attempts, retries, submit, finish)
+            except BaseException:  # on_result raised, or Ctrl-C: drop the queue, then leave
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
         if broken is None or not pending:
             return
         logger.warning("a worker process died (%s); %s %d unfinished task(s)", one_line(broken),
@@ -359,6 +358,42 @@ def _run_pool(fn: Callable[[Any], Any], items: list[tuple[str, Any]], n: int, re
         finish(TaskResult(key, None, "BrokenProcessPool: the worker process running it died "
                                      "twice (killed, or out of memory)",
                           max(attempts[key], 1), "local", 0.0))
+
+
+def _drain(running: dict[Future[Any], str], pending: dict[str, Any], attempts: dict[str, int],
+           retries: int, submit: Callable[[str], None],
+           finish: Callable[[TaskResult], None]) -> BaseException | None:
+    """Collect the pool's results as they finish (retrying failed tasks); returns the
+    BrokenProcessPool when a worker died (the unfinished tasks stay in ``pending``)."""
+    while running:
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        broken: BaseException | None = None
+        for future in done:
+            key = running.pop(future)
+            try:
+                outcome = future.result()
+            except BrokenProcessPool as exc:
+                broken = exc
+                attempts[key] -= 1  # lost with the pool, not failed by itself
+                continue
+            except Exception as exc:  # noqa: BLE001 (an unpicklable value, say)
+                outcome = (False, one_line(exc), 0.0, "local")
+            if not outcome[0] and attempts[key] <= retries:
+                logger.info("task %s failed (%s); retrying", key, outcome[1])
+                try:
+                    submit(key)
+                    continue
+                except BrokenProcessPool as exc:
+                    broken = exc
+                    attempts[key] -= 1
+                    continue
+            finish(_result(key, outcome, attempts[key]))
+            del pending[key]
+        if broken is not None:
+            for future in running:
+                future.cancel()
+            return broken
+    return None
 
 
 @contextlib.contextmanager
@@ -372,9 +407,13 @@ def dask_client(scheduler: str, workers: int | None = None,
     with contextlib.ExitStack() as stack:
         if scheduler == LOCAL_CLUSTER:
             n = workers or default_workers()
+            threads = worker_threads()
+            env = {THREADS_ENV: "none" if threads is None else str(threads),
+                   **({} if threads is None else dict.fromkeys(THREAD_VARIABLES, str(threads)))}
             cluster = stack.enter_context(distributed.LocalCluster(
                 n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                silence_logs=logging.ERROR, env=dict.fromkeys(THREAD_VARIABLES, "1")))
+                silence_logs=logging.ERROR,
+                env=env))
             client = stack.enter_context(distributed.Client(cluster, timeout=timeout))
         else:
             try:

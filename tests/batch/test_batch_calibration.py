@@ -158,6 +158,9 @@ def test_a_hundred_recordings_resume(tmp_path: Path) -> None:
     third = calibrate_batch(pattern, tmp_path / "out", workers=1, **FAST)
     assert third.computed == ("hair007", "hair050", "hair099")
     _same(third, first)
+    # a glob over the parent folder does not take the batch's own CSV files for recordings
+    parent = calibrate_batch(str(tmp_path / "**" / "*.csv"), tmp_path / "out", **FAST)
+    assert parent.computed == () and len(parent.rows) == 100
     # a changed recording runs again too
     path = tmp_path / "rec" / "hair010.csv"
     path.write_text(path.read_text())

@@ -71,16 +71,17 @@ BATCH_FILES = ("manifest.json", "results.csv", "results.parquet", "summary.md")
 SUMMARISED = ("height", "base_radius", "x", "y", "z")
 #: modified z-score above which a value is an outlier (Iglewicz and Hoaglin)
 OUTLIER_Z = 3.5
-#: the table's columns, SI: lengths m, cost V², rms and offset V, seconds s
+#: the table's columns, SI (:data:`UNITS`): lengths and their standard errors (``*_stderr``;
+#: NaN where held or undetermined) m, cost V², rms and offset V, seconds s
 COLUMNS = ("recording", "error", "cost", "rms", *PARAMETERS, "offset", "magnetization_scale",
-           *(f"{n}_stderr" for n in PARAMETERS), "offset_stderr", "warnings", "warning_text",
+           *(f"{n}_stderr" for n in SUMMARISED), "offset_stderr", "warnings", "warning_text",
            "attempts", "seconds", "worker", "path")
 #: the unit of each numeric column of the table (``COLUMNS``; the rest are text or counts)
 UNITS: dict[str, str] = {
     "cost": "V^2", "rms": "V", "offset": "V", "offset_stderr": "V", "magnetization_scale": "1",
     "seconds": "s",
     **{n: REGISTRY[n].unit or "1" for n in PARAMETERS},
-    **{f"{n}_stderr": REGISTRY[n].unit or "1" for n in PARAMETERS},
+    **{f"{n}_stderr": REGISTRY[n].unit or "1" for n in SUMMARISED},
 }
 _FIGURES = ("fit.png", "residuals.png")
 
@@ -104,7 +105,7 @@ def calibrate_recording(task: Mapping[str, Any]) -> dict[str, Any]:
     row.update({n: float(result.values[n]) for n in (*PARAMETERS, "offset",
                                                      "magnetization_scale")})
     row.update({f"{n}_stderr": float(result.stderr.get(n, math.nan))
-                for n in (*PARAMETERS, "offset")})
+                for n in (*SUMMARISED, "offset")})
     row.update(warnings=len(result.warnings), warning_text="; ".join(result.warnings))
     with tempfile.TemporaryDirectory(prefix="magcilia-batch-") as tmp:
         if task["figures"]:
@@ -195,10 +196,11 @@ class BatchResult(Display):
                            for r in self.rows], 4)
 
 
-def _recordings(paths_or_glob: str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
-                ) -> list[Path]:
-    """The recordings a glob (or several globs, or paths) names, sorted, checked: at least one,
-    no two with the same name (file name without its suffix)."""
+def _recordings(paths_or_glob: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+                out: Path) -> list[Path]:
+    """The recordings a glob (or several globs, or paths) names, sorted, less the files inside
+    the batch folder ``out`` (a glob over a parent folder matches its results.csv), checked: at
+    least one, no two with the same name (file name without its suffix)."""
     patterns = ([paths_or_glob] if isinstance(paths_or_glob, str | os.PathLike)
                 else list(paths_or_glob))
     found: dict[Path, None] = {}
@@ -206,7 +208,10 @@ def _recordings(paths_or_glob: str | os.PathLike[str] | Sequence[str | os.PathLi
         text = os.fspath(pattern)
         matches = (sorted(glob.glob(text, recursive=True))  # noqa: PTH207 (str patterns)
                    if glob.has_magic(text) else [text])
+        inside = out.resolve()
         for m in matches:
+            if inside in Path(m).resolve().parents:
+                continue
             if Path(m).is_file() or not glob.has_magic(text):
                 found[Path(m)] = None
     if not found:
@@ -474,7 +479,8 @@ def calibrate_batch(
     if isinstance(rng, bool) or not isinstance(rng, int):
         raise v.fail("rng", rng, "an int seed (every recording's search starts from it)")
     v.choice("style", style, ("screen", "paper"))
-    recordings = _recordings(paths_or_glob)
+    out = Path(out_dir)
+    recordings = _recordings(paths_or_glob, out)
     cols = Columns.coerce(columns)
     read = {"nan_policy": nan_policy, "saturation": saturation, "columns": cols,
             "delimiter": delimiter, "decimal": decimal, "group": group}
@@ -490,7 +496,6 @@ def calibrate_batch(
                "setup": setup_to_dict(initial)}
     options = json.loads(json.dumps(options, default=str))
     digest = _options_hash(options)
-    out = Path(out_dir)
     _check_folder(out, digest, options, force)
     manifest = {"format": FORMAT, "options_hash": digest, "options": options,
                 "recordings": [{"recording": p.stem, "path": str(p.resolve())}
