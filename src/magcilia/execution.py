@@ -401,7 +401,8 @@ def dask_client(scheduler: str, workers: int | None = None,
                 timeout: float = 10.0) -> Iterator[Any]:
     """A ``dask.distributed.Client`` connected to ``scheduler`` (an address, or ``"local"``: a
     ``LocalCluster`` of ``workers`` processes with one thread each, closed on leaving). A
-    scheduler that does not answer within ``timeout`` s is a one-line :class:`MagciliaError`."""
+    scheduler that does not answer within ``timeout`` s, or has no worker by then, is a one-line
+    :class:`MagciliaError`."""
     distributed: Any = require("distributed", package="dask[distributed]", extra="cluster",
                                purpose="Running tasks on a Dask cluster")
     with contextlib.ExitStack() as stack:
@@ -425,6 +426,13 @@ def dask_client(scheduler: str, workers: int | None = None,
                     f"address, or leave out --scheduler (and {SCHEDULER_ENV}) to run on this "
                     "machine") from None
             stack.enter_context(client)
+            try:
+                client.wait_for_workers(1, timeout=timeout)
+            except (OSError, TimeoutError) as exc:
+                raise MagciliaError(
+                    f"the Dask scheduler at {v.printable(scheduler)} has no workers (none joined "
+                    f"within {timeout:g} s: {one_line(exc)}); start some (dask worker "
+                    f"{v.printable(scheduler)}) or leave out --scheduler") from None
         yield client
 
 

@@ -56,3 +56,12 @@ def test_sensitivity_cli_workers_give_the_serial_indices(tmp_path: Path,
                      *extra]) == 0
         docs.append(json.loads(capsys.readouterr().out)["sobol"]["table"])
     assert docs[0] == docs[1]
+
+
+def test_a_scheduler_without_workers_is_a_one_line_error() -> None:
+    distributed = pytest.importorskip("distributed")
+    from magcilia.execution import run_tasks
+
+    with (distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as c,
+          pytest.raises(mc.MagciliaError, match="has no workers")):
+        run_tasks(abs, [("a", -1)], scheduler=c.scheduler_address, timeout=0.5, progress=False)
