@@ -59,6 +59,21 @@ from typing import Any
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
 
+__all__ = [
+    "LOCAL_CLUSTER",
+    "SCHEDULER_ENV",
+    "THREADS_ENV",
+    "THREAD_VARIABLES",
+    "TaskResult",
+    "dask_client",
+    "default_workers",
+    "limit_threads",
+    "one_line",
+    "resolve_scheduler",
+    "run_tasks",
+    "worker_threads",
+]
+
 logger = logging.getLogger(__name__)
 
 #: environment variable naming the Dask scheduler when no ``scheduler`` is given
@@ -256,8 +271,9 @@ def run_tasks(
         The tasks by unique key; each argument is pickled to the worker (keep it small: paths,
         seeds, parameter arrays).
     workers : int, optional
-        Worker processes: None (default) one per core, 1 in this process (no pool). With
-        ``scheduler="local"`` the LocalCluster's workers; ignored with a scheduler address.
+        Worker processes: None (default) one per core, 1 in this process (no pool; a single
+        task runs in this process too). With ``scheduler="local"`` the LocalCluster's workers;
+        ignored with a scheduler address.
     scheduler : str, optional
         A Dask scheduler address (``tcp://HOST:PORT``) or ``"local"`` (a Dask LocalCluster for
         the call); default the environment variable ``MAGCILIA_SCHEDULER``, else the local pool.
@@ -266,8 +282,7 @@ def run_tasks(
     retries : int
         Further attempts of a task that raised (default 1: one retry).
     timeout : float
-        Seconds to connect to the scheduler (and to start a LocalCluster) before a one-line
-        error.
+        Seconds to connect to a scheduler, and for its first worker, before a one-line error.
     on_result : callable(TaskResult), optional
         Called in this process with each task's final result as it finishes (any order); an
         exception raised by it stops the run.
