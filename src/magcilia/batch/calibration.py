@@ -375,8 +375,12 @@ def summary_lines(result: BatchResult, si: bool = False) -> list[str]:
 
 
 def _summary_markdown(result: BatchResult, options: Mapping[str, Any]) -> str:
+    shown = {("seed" if k == "rng" else k): val for k, val in options.items()
+             if k not in ("setup", "columns") and val not in (None, {}, [])}
     lines = ["# magcilia batch calibration", "",
-             f"Options: `{json.dumps(options, sort_keys=True)}`", "",
+             "Options (SI; the initial setup and the column names in manifest.json): "
+             + ", ".join(f"{k} `{json.dumps(val, sort_keys=True)}`" for k, val in shown.items())
+             + ".", "",
              ("The table (results.csv, results.parquet) holds one row per recording in SI units: "
              "height, base_radius, x, y, z and their standard errors (`*_stderr`) in m, cost in "
              "V^2, rms and offset in V, seconds in s; `error` is empty when the calibration "
