@@ -65,3 +65,17 @@ def test_a_scheduler_without_workers_is_a_one_line_error() -> None:
     with (distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as c,
           pytest.raises(mc.MagciliaError, match="has no workers")):
         run_tasks(abs, [("a", -1)], scheduler=c.scheduler_address, timeout=0.5, progress=False)
+
+
+def test_scheduler_local_starts_a_local_cluster_for_the_call() -> None:
+    pytest.importorskip("distributed")
+    import math
+
+    from magcilia.execution import run_tasks
+
+    tasks = [(f"t{i}", float(i) - 1.0) for i in range(6)]
+    dask = run_tasks(math.sqrt, tasks, scheduler="local", workers=2, progress=False)
+    serial = run_tasks(math.sqrt, tasks, workers=1, progress=False)
+    assert [(r.value, r.error, r.attempts) for r in dask] == [
+        (r.value, r.error, r.attempts) for r in serial]
+    assert all(r.worker.startswith("tcp://") for r in dask)
