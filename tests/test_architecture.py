@@ -25,6 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("calibration",),
     ("analysis", "readout", "acquire"),
     ("report",),  # figures and written reports
+    ("batch",),  # many recordings through the execution layer (magcilia.execution)
     ("live",),  # the streaming read-out and its views (terminal, browser)
     ("api",),  # magcilia/__init__.py: the public names
     ("cli",),

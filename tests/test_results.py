@@ -156,6 +156,21 @@ FACTORIES.update({  # issue 15: sensing while actuating
         table_size=9),
     "Coupling": lambda: measure_coupling([0.0, 0.5, 1.0], [1e-3, 1.5e-3, 2.1e-3]),
 })
+
+
+def _batch() -> Any:
+    from magcilia.batch import calibrate_batch
+
+    folder = Path(tempfile.mkdtemp())
+    rec = synthetic_recording(SETUP, ANGLES, samples_per_angle=3, rng=2)
+    for name in ("a", "b"):
+        (folder / f"{name}.csv").write_text("angle_deg,voltage_V\n" + "".join(
+            f"{a!r},{v!r}\n" for a, v in zip(rec.angle_deg, rec.voltage, strict=True)))
+    return calibrate_batch(str(folder / "*.csv"), folder / "out", workers=1, starts=8,
+                           figures=False, progress=False)
+
+
+FACTORIES["BatchResult"] = _batch
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 

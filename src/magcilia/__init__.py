@@ -32,6 +32,9 @@ from magcilia.analysis import (
 # -- firmware approximations ---------------------------------------------------------------------
 from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
 
+# -- many recordings at once, on one machine or a Dask cluster -------------------------------------
+from magcilia.batch import BatchResult, calibrate_batch
+
 # -- calibration -----------------------------------------------------------------------------------
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
@@ -106,6 +109,7 @@ __all__ = [
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",
+    "BatchResult",
     "BentShape",
     "BiaxialReadout",
     "CalibrationResult",
@@ -145,6 +149,7 @@ __all__ = [
     "bend",
     "bend_sweep",
     "calibrate",
+    "calibrate_batch",
     "design_metrics",
     "drag_coefficient",
     "exact_field",

@@ -4,6 +4,7 @@ magcilia's batch evaluation (:func:`magcilia.model.tilt_output_batch`)."""
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import time
@@ -28,6 +29,7 @@ from magcilia.analysis.measures import (
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import SWEEPABLE, check_ranges, default_bounds
 from magcilia.device.setup import Setup
+from magcilia.execution import run_tasks
 from magcilia.io.recordings import Measurement
 from magcilia.model.batch import tilt_output_batch
 
@@ -139,6 +141,10 @@ def sobol_analysis(
     num_resamples: int = 100,
     chunk: int = 32768,
     measure: str = "function",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    timeout: float = 10.0,
+    progress: bool = False,
 ) -> SobolResult:
     """Sobol indices of any vectorised function over a box (the routine behind
     :func:`sobol_indices`).
@@ -165,6 +171,15 @@ def sobol_analysis(
         Samples per call of ``func`` (bounds memory).
     measure : str
         Label stored in the result.
+    workers, scheduler, timeout : optional
+        Given either of them, the evaluations run through the execution layer
+        (:func:`magcilia.execution.run_tasks`) in chunks of at most ``chunk`` samples (at least
+        four per worker): ``workers`` processes on this machine, or a Dask ``scheduler``
+        address (``"local"``: a LocalCluster). ``func`` must then be picklable (a top-level
+        function or a ``functools.partial`` of one). The indices equal the serial run's: each
+        sample's output depends on that sample alone.
+    progress : bool
+        A progress bar over the chunks on stderr (with ``workers`` or ``scheduler``).
 
     Returns
     -------
@@ -207,9 +222,12 @@ def sobol_analysis(
             X[:, j] = np.clip(np.rint(X[:, j]), box[name][0], box[name][1])
     Y = np.empty(X.shape[0])
     logger.info("Sobol: %d evaluations of %d parameters (N = %d)", X.shape[0], len(names), n_base)
-    for start in range(0, X.shape[0], chunk):
-        stop = min(start + chunk, X.shape[0])
-        Y[start:stop] = np.asarray(func(X[start:stop]), dtype=np.float64).reshape(-1)
+    if workers is None and scheduler is None:
+        for start in range(0, X.shape[0], chunk):
+            stop = min(start + chunk, X.shape[0])
+            Y[start:stop] = np.asarray(func(X[start:stop]), dtype=np.float64).reshape(-1)
+    else:
+        Y[:] = _evaluate_in_chunks(func, X, chunk, workers, scheduler, timeout, progress)
     if not np.isfinite(Y).all():
         bad = X[int(np.argmax(~np.isfinite(Y)))]
         raise MagciliaError(
@@ -231,6 +249,43 @@ def sobol_analysis(
     )
 
 
+def _apply(func: Callable[[F64], ArrayLike], X: F64) -> F64:
+    """One chunk of a sweep (a task of the execution layer): ``func(X)`` as float64, shape
+    (m,)."""
+    return np.asarray(func(X), dtype=np.float64).reshape(-1)
+
+
+def _evaluate_in_chunks(func: Callable[[F64], ArrayLike], X: F64, chunk: int,
+                        workers: int | None, scheduler: str | None, timeout: float,
+                        progress: bool) -> F64:
+    """``func`` over the rows of ``X`` (m, p) through :func:`magcilia.execution.run_tasks`, in
+    chunks of at most ``chunk`` rows and at least four chunks per worker; the outputs (m,) in
+    row order. A chunk that fails (after its retry) is a one-line error."""
+    parts = 4 * (workers or (8 if scheduler is not None else 2))
+    size = max(1, min(chunk, math.ceil(X.shape[0] / parts)))
+    tasks = [(f"{start}", X[start:start + size]) for start in range(0, X.shape[0], size)]
+    results = run_tasks(functools.partial(_apply, func), tasks, workers=workers,
+                        scheduler=scheduler, timeout=timeout, progress=progress,
+                        label="model evaluations")
+    for r in results:
+        if r.error:
+            raise MagciliaError(f"a chunk of the sweep failed (rows {r.key}.., on {r.worker}): "
+                                f"{r.error}")
+    return np.concatenate([r.value for r in results])
+
+
+def _sweep_measure(setup: Setup, names: Sequence[str], angles: F64, measure: str, target: F64,
+                   X: F64) -> F64:
+    """The scalar output of each parameter set (rows of X, columns ``names``) of
+    :func:`sobol_indices` (top level, so that sweeps can run in other processes)."""
+    curves = tilt_output_batch(setup, {n: X[:, j] for j, n in enumerate(names)}, angles)
+    if measure == "cost":
+        return offset_cost(curves, target)
+    if measure == "shape":
+        return shape_change(curves, target)
+    return rms_change(curves, target)
+
+
 def sobol_indices(
     setup: Setup,
     bounds: Mapping[str, tuple[float, float]] | None = None,
@@ -242,6 +297,10 @@ def sobol_indices(
     *,
     conf_level: float = 0.95,
     num_resamples: int = 100,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    timeout: float = 10.0,
+    progress: bool = False,
 ) -> SobolResult:
     """Global Sobol sensitivity of the output curve to the calibration parameters.
 
@@ -275,6 +334,9 @@ def sobol_indices(
         Seed (sampling and bootstrap); None (default) draws fresh entropy.
     conf_level, num_resamples : float, int
         Bootstrap confidence intervals.
+    workers, scheduler, timeout, progress : optional
+        Run the model evaluations in chunks through the execution layer (worker processes, or
+        a Dask cluster; see :func:`sobol_analysis`); the indices equal the serial run's.
 
     Returns
     -------
@@ -297,15 +359,10 @@ def sobol_indices(
         ang = check_angles(angles)
         target = setup.output(ang)
 
-    def evaluate(X: F64) -> F64:
-        curves = tilt_output_batch(setup, {n: X[:, j] for j, n in enumerate(names)}, ang)
-        if measure == "cost":
-            return offset_cost(curves, target)
-        if measure == "shape":
-            return shape_change(curves, target)
-        return rms_change(curves, target)
-
+    evaluate = functools.partial(_sweep_measure, setup, tuple(names), ang, measure,
+                                 np.asarray(target, dtype=np.float64))
     return sobol_analysis(evaluate, box, n_base,
                           integer=[n for n in names if REGISTRY[n].domain == "integer"],
                           rng=rng, conf_level=conf_level, num_resamples=num_resamples,
-                          measure=measure)
+                          measure=measure, workers=workers, scheduler=scheduler,
+                          timeout=timeout, progress=progress)

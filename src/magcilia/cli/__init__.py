@@ -85,6 +85,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("dashboard", "dashboard"),
     ("plan", "plan"),
     ("array", "array"),
+    ("batch", "batch"),
 )
 
 

@@ -408,3 +408,29 @@ def make_actuation(setup_arg: str, field_text: str | None, file: str | None,
             raise fail("--actuation-scale", scale, "a finite number")
         act = act.scaled(scale)
     return act
+
+
+# --- the execution layer's options (batch calibrate, sensitivity; magcilia.execution) ------------
+
+def execution_options(default: str = "one per core; 1: in this process") -> Any:
+    """A decorator: ``--workers N``, ``--scheduler ADDRESS`` and ``--timeout S`` for a command
+    whose work runs through :func:`magcilia.execution.run_tasks` (``default``: what runs without
+    them, for the help); the command receives ``workers``, ``scheduler`` and ``timeout``."""
+    options = [
+        click.option("--workers", type=click.IntRange(min=1), default=None,
+                     help=f"Worker processes on this machine [default: {default}]; with "
+                          "--scheduler local, the Dask LocalCluster's."),
+        click.option("--scheduler", default=None, metavar="ADDRESS",
+                     help="Run the tasks on a Dask cluster: its scheduler's address "
+                          "(tcp://HOST:8786; default the MAGCILIA_SCHEDULER variable), or "
+                          "'local' for a Dask LocalCluster on this machine (magcilia[cluster])."),
+        click.option("--timeout", type=click.FloatRange(min=0.0, min_open=True), default=10.0,
+                     show_default=True, help="Seconds to reach the scheduler before an error."),
+    ]
+
+    def decorate(command: Any) -> Any:
+        for option in reversed(options):
+            command = option(command)
+        return command
+
+    return decorate

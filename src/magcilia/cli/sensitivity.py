@@ -20,6 +20,7 @@ from magcilia.cli._common import (
     RecordingArgs,
     bandwidth_option,
     echo_json,
+    execution_options,
     load_setup_arg,
     parse_bandwidth,
     parse_named_ranges,
@@ -74,6 +75,7 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 @bandwidth_option("Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")
 @click.option("--json", "as_json", is_flag=True, help="Print sensitivity.json to stdout too.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@execution_options("the Sobol evaluations in this process")
 @si_option
 @style_option
 @recording_options
@@ -81,7 +83,8 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
             points: int, map_points: int, sobol_base: int, sobol_measure: str, seed: int,
             accuracy: float,
             bandwidth: str, as_json: bool, quiet: bool, force: bool, si: bool, style: str,
-            reading: RecordingArgs) -> None:
+            reading: RecordingArgs, workers: int | None, scheduler: str | None,
+            timeout: float) -> None:
     """Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, paper-initial).
 
     Writes the paper's figs. 9-12 equivalents (fig09_xy.png ... fig12_geometry.png), an x-y map
@@ -117,7 +120,9 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
                                       map_points=map_points)
             bar.update()
             sobol = (sobol_indices(setup, n_base=sobol_base, measure=sobol_measure,
-                                   data=measurement, rng=seed) if sobol_base else None)
+                                   data=measurement, rng=seed, workers=workers,
+                                   scheduler=scheduler, timeout=timeout)
+                     if sobol_base else None)
             bar.update()
             tolerance = placement_tolerance(setup, accuracy, bandwidth=band)
             bar.update()

@@ -1,0 +1,117 @@
+"""``magcilia batch calibrate``: calibrate many recordings into one resumable batch folder, on
+this machine or a Dask cluster."""
+
+from __future__ import annotations
+
+import click
+
+from magcilia.batch import calibrate_batch
+from magcilia.calibration import PARAMETERS
+from magcilia.cli._common import (
+    RecordingArgs,
+    echo_json,
+    execution_options,
+    load_setup_arg,
+    parse_named_ranges,
+    quiet_requested,
+    recording_options,
+    si_option,
+    style_option,
+)
+from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.device.parameters import describe_bounds
+
+
+@click.group()
+def command() -> None:
+    """Many recordings at once (on this machine, or a Dask cluster with --scheduler)."""
+
+
+@command.command("calibrate")
+@click.argument("patterns", nargs=-1, required=True, metavar="GLOB...")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
+              help="Batch folder: results.csv, results.parquet, summary.md, manifest.json and "
+                   "one report folder per recording. A rerun into it skips what finished.")
+@click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
+              help="Initial setup: a TOML file or a preset (paper, paper-initial).")
+@click.option("--force", is_flag=True,
+              help="Start over a folder that holds a batch with other options (its results "
+                   "are removed).")
+@click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
+              help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm); "
+                   f"repeatable. Defaults: {describe_bounds()}.")
+@click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
+@click.option("--seed", default=0, show_default=True,
+              help="Random seed of every recording's global search.")
+@click.option("--restarts", default=1, show_default=True,
+              help="Independent global searches per recording, the best kept.")
+@click.option("--starts", type=int, default=None,
+              help="Local fits started by each global search [default: 256].")
+@click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
+              show_default=True, help="DC bias model, fitted jointly.")
+@click.option("--bias-degree", default=0, show_default=True,
+              help="Degree of the polynomial bias in the angle (with --bias polynomial).")
+@click.option("--fit-scale", is_flag=True, help="Also fit the magnetization scale.")
+@click.option("--nan-policy", type=click.Choice(["raise", "omit"]), default="raise",
+              show_default=True, help="NaN/inf samples: error or drop.")
+@click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]), default="raise",
+              show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
+@click.option("--figures/--no-figures", default=True, show_default=True,
+              help="fit.png and residuals.png in each recording's folder (most of a quick "
+                   "fit's time).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the summary as JSON (mm; SI with --si); the table files are SI.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@execution_options()
+@si_option
+@style_option
+@recording_options
+def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, force: bool,
+                      bound_items: tuple[str, ...], fix_items: tuple[str, ...], seed: int,
+                      restarts: int, starts: int | None, bias: str, bias_degree: int,
+                      fit_scale: bool, nan_policy: str, saturation: str, figures: bool,
+                      as_json: bool, quiet: bool, workers: int | None, scheduler: str | None,
+                      timeout: float, si: bool, style: str, reading: RecordingArgs) -> None:
+    """Calibrate every recording GLOB matches (quote it: 'recordings/*.tdms'; ** for subfolders),
+    each as `magcilia calibrate` does, into the batch folder --out.
+
+    Each recording's report folder (--out/NAME/, NAME its file name without the suffix) is
+    published in one rename as its fit finishes; results.csv and results.parquet hold one row
+    per recording in SI units (height, base_radius, x, y, z and their *_stderr in m, cost in
+    V^2, error empty on success); summary.md the spread over the batch and its outliers. A
+    recording that cannot be read or fitted is a row with its error; the batch goes on. Run it
+    again after a crash or a failure: only the failed, missing or changed recordings run.
+    """
+    initial = load_setup_arg(setup_arg)
+    bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
+    result = calibrate_batch(
+        list(patterns), out_dir, setup=initial, workers=workers, scheduler=scheduler,
+        timeout=timeout, force=force, figures=figures, style=style,
+        progress=not quiet_requested(quiet), nan_policy=nan_policy, saturation=saturation,
+        **reading.kwargs(), rng=seed, bounds=bounds or None,
+        fixed=parse_fixed(fix_items) or None, bias=bias, bias_degree=bias_degree,
+        fit_scale=fit_scale, restarts=restarts, starts=starts)
+    if as_json:
+        doc = result.to_dict()
+        factor, unit = (1.0, "m") if si else (1e3, "mm")
+        echo_json({"units": "SI" if si else "display", "out": doc["out"],
+                   "recordings": len(result.rows), "computed": doc["computed"],
+                   "skipped": doc["skipped"], "failed": doc["failed"],
+                   "statistics": {(f"{k}_{unit}" if k != "cost" else "cost_V2"): {
+                       s: (val if s == "n" or k == "cost" else val * factor)
+                       for s, val in stats.items()} for k, stats in doc["statistics"].items()},
+                   "outliers": [{"recording": o["recording"], "parameter": o["parameter"],
+                                 ("value_V2" if o["parameter"] == "cost" else f"value_{unit}"):
+                                 o["value"] * (1.0 if o["parameter"] == "cost" else factor),
+                                 "z": o["z"]} for o in doc["outliers"]],
+                   "parquet": result.parquet})
+        return
+    click.echo(result.report(si))
+    tables = "results.csv" + (", results.parquet" if result.parquet else
+                              " (no results.parquet: it needs pyarrow, magcilia[cluster])")
+    click.echo(f"wrote {out_dir}/{tables}, summary.md and {len(result.computed)} report "
+               "folder(s)")
+    if result.failed:
+        click.echo(f"magcilia: warning: {len(result.failed)} of {len(result.rows)} recordings "
+                   "failed (their error in the table); run the command again to retry them",
+                   err=True)

@@ -1,0 +1,142 @@
+"""The execution layer (magcilia.execution): the same results in this process, in a local pool of
+processes and after a worker is killed; errors kept as results; one retry; one-line errors."""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import signal
+import socket
+import time
+
+import pytest
+
+from magcilia._errors import MagciliaError
+from magcilia.execution import TaskResult, one_line, resolve_scheduler, run_tasks
+
+TASKS = [(f"t{i}", float(i) - 2.0) for i in range(8)]  # two negative: math.sqrt fails
+
+
+def _values(results: list[TaskResult]) -> list[tuple[str, object, str, int]]:
+    return [(r.key, r.value, r.error, r.attempts) for r in results]
+
+
+def test_serial_keeps_order_errors_and_retries() -> None:
+    results = run_tasks(math.sqrt, TASKS, workers=1, progress=False)
+    assert [r.key for r in results] == [k for k, _ in TASKS]
+    assert [r.value for r in results[2:]] == [math.sqrt(x) for _, x in TASKS[2:]]
+    for r in results[:2]:
+        assert (r.value, r.error, r.attempts, r.ok) == (
+            None, "ValueError: math domain error", 2, False)
+    assert all(r.attempts == 1 and r.ok and r.worker == "in-process" for r in results[2:])
+    assert run_tasks(math.sqrt, {"x": -1.0}, workers=1, retries=0, progress=False)[0].attempts == 1
+
+
+def test_pool_equals_serial_and_calls_back_once_per_task() -> None:
+    seen: list[str] = []
+    pooled = run_tasks(math.sqrt, dict(TASKS), workers=2, progress=False,
+                       on_result=lambda r: seen.append(r.key))
+    assert _values(pooled) == _values(run_tasks(math.sqrt, TASKS, workers=1, progress=False))
+    assert sorted(seen) == sorted(k for k, _ in TASKS)
+    assert {r.worker.split("-")[0] for r in pooled} == {"local"}
+    assert {r.worker for r in pooled} != {f"local-{os.getpid()}"}
+
+
+def test_a_killed_worker_loses_and_duplicates_nothing() -> None:
+    """SIGKILL one pool process as the first result arrives: the pool is started afresh for the
+    unfinished tasks; every task has its one correct result and one callback."""
+    tasks = [(f"s{i}", range(i * 1000, i * 1000 + 3_000_000)) for i in range(12)]
+    seen: list[str] = []
+    killed: list[int] = []
+
+    def kill_one(result: TaskResult) -> None:
+        seen.append(result.key)
+        if not killed:
+            child = multiprocessing.active_children()[0]
+            os.kill(child.pid, signal.SIGKILL)  # type: ignore[arg-type]
+            killed.append(child.pid)  # type: ignore[arg-type]
+
+    results = run_tasks(sum, tasks, workers=2, progress=False, on_result=kill_one)
+    assert killed
+    assert [r.value for r in results] == [sum(r) for _, r in tasks]
+    assert all(r.ok for r in results)
+    assert sorted(seen) == sorted(k for k, _ in tasks)  # once each
+    assert len({r.worker for r in results}) >= 3  # the fresh pool's processes ran some
+
+
+def test_a_worker_that_always_dies_is_reported_failed() -> None:
+    results = run_tasks(os._exit, [("a", 3), ("b", 4)], workers=2, progress=False)
+    assert [r.ok for r in results] == [False, False]
+    assert all(r.error.startswith("BrokenProcessPool: ") and "\n" not in r.error for r in results)
+
+
+def test_unreachable_scheduler_is_a_one_line_error_within_the_timeout() -> None:
+    pytest.importorskip("distributed")
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.perf_counter()
+    with pytest.raises(MagciliaError, match=r"cannot reach the Dask scheduler at "
+                                            rf"tcp://127\.0\.0\.1:{port} within 1 s") as err:
+        run_tasks(math.sqrt, TASKS, scheduler=f"tcp://127.0.0.1:{port}", timeout=1.0,
+                  progress=False)
+    assert time.perf_counter() - t0 < 8.0
+    assert "\n" not in str(err.value)
+
+
+def test_scheduler_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("MAGCILIA_SCHEDULER", "tcp://10.0.0.1:8786")
+    assert resolve_scheduler(None) == "tcp://10.0.0.1:8786"
+    assert resolve_scheduler("local") == "local"
+    monkeypatch.delenv("MAGCILIA_SCHEDULER")
+    assert resolve_scheduler(None) is None
+    with pytest.raises(MagciliaError, match="scheduler must be a Dask scheduler address"):
+        resolve_scheduler("nonsense")
+
+
+@pytest.mark.parametrize(("tasks", "message"), [
+    ([("a", 1), ("a", 2)], "task key must be unique"),
+    ([(1, 1)], "task key 0 must be a str"),
+    ([("a",)], r"tasks\[0\] must be a \(key, argument\) pair"),
+])
+def test_bad_tasks(tasks: list[tuple[object, ...]], message: str) -> None:
+    with pytest.raises(MagciliaError, match=message):
+        run_tasks(math.sqrt, tasks, workers=1, progress=False)  # type: ignore[arg-type]
+
+
+def test_bad_workers() -> None:
+    with pytest.raises(MagciliaError, match="workers must be an integer >= 1; got 0"):
+        run_tasks(math.sqrt, TASKS, workers=0)
+
+
+def test_no_tasks_no_work() -> None:
+    assert run_tasks(math.sqrt, [], progress=False) == []
+
+
+def test_one_line() -> None:
+    assert one_line(ValueError("a\n  b")) == "ValueError: a b"
+    assert one_line(KeyError()) == "KeyError"
+    assert len(one_line(ValueError("x" * 2000))) == 500
+
+
+def test_workers_hold_blas_and_openmp_to_one_thread() -> None:
+    pytest.importorskip("threadpoolctl")
+    probe = ("[max([i['num_threads'] for i in __import__('threadpoolctl').threadpool_info()] "
+             "or [1]), __import__('os').environ['OMP_NUM_THREADS']]")
+    results = run_tasks(eval, [("a", probe), ("b", probe)], workers=2, progress=False)
+    assert [r.value for r in results] == [[1, "1"], [1, "1"]]
+
+
+def test_a_failing_callback_stops_the_run() -> None:
+    calls: list[str] = []
+
+    def fail(result: TaskResult) -> None:
+        calls.append(result.key)
+        raise RuntimeError("disk full")
+
+    t0 = time.perf_counter()
+    tasks = [(f"s{i}", range(2_000_000)) for i in range(40)]
+    with pytest.raises(RuntimeError, match="disk full"):
+        run_tasks(sum, tasks, workers=2, progress=False, on_result=fail)
+    assert calls == calls[:1] and time.perf_counter() - t0 < 20.0
