@@ -86,6 +86,7 @@ from magcilia.readout import (
     design_metrics,
     field_for_loads,
 )
+from magcilia.readout.optimise import DesignOptimum, optimise_design
 
 __all__ = [
     "AIR",
@@ -104,6 +105,7 @@ __all__ = [
     "Cilium",
     "Crosstalk",
     "DesignMetrics",
+    "DesignOptimum",
     "Flow",
     "Fluid",
     "ForceFlag",
@@ -142,6 +144,7 @@ __all__ = [
     "load_setup",
     "lookup_table",
     "oat_sweep",
+    "optimise_design",
     "piecewise_linear",
     "placement_map",
     "placement_tolerance",

@@ -84,6 +84,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("live", "live"),
     ("dashboard", "dashboard"),
     ("plan", "plan"),
+    ("optimise", "optimise"),
 )
 
 
