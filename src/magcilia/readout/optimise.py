@@ -661,14 +661,18 @@ def _curve_range(q: F64, reading: F64, choice: SensorChoice, weights: F64, end: 
 
 def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64],
             choices: tuple[SensorChoice, ...], quantity: str, speed: float,
-            bandwidth: tuple[float, float], fluid: Fluid) -> _Screen:
-    """Proxy minimum and range of every design (see the module docstring)."""
+            bandwidth: tuple[float, float], fluid: Fluid, max_field: float = math.inf
+            ) -> _Screen:
+    """Proxy minimum and range of every design (see the module docstring); designs whose proxy
+    |B| over the range passes 1.2 times the flip field or ``max_field`` (T; the proxy's margin)
+    are marked."""
     n = values["height"].size
     compliance = _compliance(setup, values)
     length = values["height"]
     minimum = np.full(n, math.inf)
     rng_ = np.zeros(n)
     peak = np.full(n, math.inf)
+    flip = np.full(n, math.inf)
     finite = np.zeros(n, dtype=bool)
     u_grid = _SCREEN_U
     angles = np.concatenate([[0.0, _SLOPE_TILT], np.arctan(u_grid[1:])])
@@ -714,16 +718,18 @@ def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64
         mags = np.linalg.norm(b_curve[sel], axis=2) if quantity == "force" else \
             np.linalg.norm(_flow_curve(q, d, h, c, b_curve[sel], fluid), axis=2)
         idx = np.arange(q.shape[1])[None, :]
-        peak[sel] = np.max(np.where(idx <= last[:, None], mags, 0.0), axis=1) / choice.flip \
-            if math.isfinite(choice.flip) else 0.0
+        peak[sel] = np.max(np.where(idx <= last[:, None], mags, 0.0), axis=1)
+        flip[sel] = choice.flip
     violated = []
     for i in range(n):
         if not finite[i]:
             violated.append("element outside the cilium")
         elif rng_[i] <= 0.0:
             violated.append("sensor range at zero load")
-        elif peak[i] > 1.0:
+        elif peak[i] > 1.2 * flip[i]:
             violated.append("flip field")
+        elif peak[i] > 1.2 * max_field:
+            violated.append("field")
         else:
             violated.append("")
     return _Screen(minimum, rng_, tuple(violated))
@@ -911,7 +917,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     if setup.cilium.profile is None:
         geometry_ok &= values["tip_radius"] > 0.0
     screen = _screen(setup, values, index, choices, quantity, fixed_c.get("speed", 0.0),
-                     bandwidth, fluid)
+                     bandwidth, fluid, fixed_c.get("field", math.inf))
     why = ["tip_radius <= base_radius" if not geometry_ok[i] else screen.violated[i]
            for i in range(total)]
     for w in why:
