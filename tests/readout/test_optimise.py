@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import json
-import math
 
 import numpy as np
 import pytest
@@ -137,10 +136,14 @@ def test_a_three_axis_sensor_can_be_chosen() -> None:
                         **FAST)  # type: ignore[arg-type]
     assert {d.sensor for d in r.designs} == {"HMC1021Z", "MMC5983MA"}
     part = mc.Magnetometer.preset("MMC5983MA")
+    sigma = np.sqrt(np.asarray(part.noise) ** 2 + np.asarray(part.resolution) ** 2 / 12.0)
+    single = REFERENCE.sensor.noise_rms(0.5, 500.0)
     for d in r.designs:
-        if d.sensor == "MMC5983MA" and d.feasible:
-            sigma = math.sqrt(part.noise[0] ** 2 + part.resolution[0] ** 2 / 12.0)
-            assert d.minimum >= sigma / (d.sensitivity * math.sqrt(3.0)) * (1 - 1e-9)
+        if d.sensor == "MMC5983MA":  # three axes: between the best and the worst axis alone
+            assert sigma.min() / d.sensitivity * (1 - 1e-9) <= d.minimum
+            assert d.minimum <= sigma.max() / d.sensitivity * (1 + 1e-9)
+        else:  # one axis: noise over slope
+            assert d.minimum == pytest.approx(single / d.sensitivity, rel=1e-12)
 
 
 def test_flow_objective_resolves_at_the_speed() -> None:
@@ -156,6 +159,9 @@ def test_flow_objective_resolves_at_the_speed() -> None:
     ({"bounds": {"x": (0.0, 0.0), "y": (0.0, 0.0), "z": (0.0, 0.0),
                  "base_radius": (4e-4, 4e-4)}},
      "the 'flip field' constraint eliminated all 256 screened designs"),
+    ({"bounds": {"x": (1e-3, 1e-3), "y": (0.0, 0.0), "z": (0.0, 0.0),
+                 "magnetization_scale": (20.0, 20.0)}},
+     "the 'sensor range at zero load' constraint eliminated all 256 screened designs"),
     ({"objective": "flow-sensitivity"}, "speed must be a flow speed"),
     ({"objective": "pressure"}, "objective must be one of"),
     ({"bounds": {"colour": (1.0, 2.0)}}, "bounds key must be one of"),

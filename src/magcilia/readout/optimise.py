@@ -29,10 +29,11 @@ The *range* runs from zero load to the first of
 **Constraints.** Every returned design lies within ``bounds`` (fabrication limits: the registry's
 calibration bounds by default, :data:`DEFAULT_BOUNDS`), has ``tip_radius ≤ base_radius``, keeps
 the sensing element outside the cilium, starts within the sensor's range at zero load, keeps
-|B| below the single-axis part's flip (disturbing) field over its whole range, and meets the
-objective's resolution constraint (``min_force``; for flow, a range that reaches ``speed``) and
-any of ``constraints``: ``{"range": lowest range, "minimum": largest minimum detectable value,
-"field": largest |B| at the element over the range}`` (SI: N for force, m/s for flow, T).
+|B| below the single-axis part's flip (disturbing) field over its whole range, and meets any of
+``constraints``: ``{"range": lowest range, "minimum": largest minimum detectable value,
+"field": largest |B| at the element over the range}`` (SI: N for force, m/s for flow, T). The
+Pareto front is that of these feasible designs; the chosen design also meets the objective's
+own requirement (``min_force``; for flow, a range that reaches ``speed``): it is *eligible*.
 
 **Algorithm.** A scrambled Sobol' sample (``scipy.stats.qmc``, seeded by ``rng``) of ``n``
 designs over the bounds (rounded up to a power of two), screened with cheap, vectorised
@@ -242,8 +243,8 @@ class Candidate(Display):
     sensor : str
         The sensor choice's name.
     sensitivity : float
-        Zero-load (force) or at-``speed`` (flow) slope of the read-out, T per N or T per m/s
-        (the norm over the read axes, noise-weighted direction).
+        Zero-load (force) or at-``speed`` (flow) slope of the field on the read axes, T per N
+        or T per m/s (the norm over a 3-axis part's axes; the single axis's |dB_x/dF|).
     minimum : float
         Minimum detectable force (N) or speed change at ``speed`` (m/s).
     range : float
@@ -299,7 +300,8 @@ class Candidate(Display):
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI)."""
         return {"params": dict(self.params), "sensor": self.sensor,
-                "sensitivity": self.sensitivity, "minimum": self.minimum, "range": self.range,
+                "sensitivity_T_per_unit": self.sensitivity, "minimum": self.minimum,
+                "range": self.range,
                 "limited_by": self.limited_by, "peak_field_T": self.peak_field,
                 "violated": self.violated, "rank": self.rank, "eligible": self.eligible}
 
@@ -528,8 +530,9 @@ def _evaluate(task: _Task) -> dict[str, Any]:
             slope = (b_pm[1] - b_pm[0]) / (2.0 * h)
     info = _information(slope, sigma)
     minimum = 1.0 / math.sqrt(info) if info > 0.0 else math.inf
+    sensitivity = float(np.linalg.norm(slope[np.isfinite(sigma)]))
     if q.size < 2:
-        return {"sensitivity": math.sqrt(info), "minimum": minimum, "range": 0.0,
+        return {"sensitivity": sensitivity, "minimum": minimum, "range": 0.0,
                 "limited_by": note or "no sweep", "peak_field": math.nan}
     weights = np.nan_to_num(slope / sigma**2, nan=0.0, posinf=0.0, neginf=0.0)
     if not np.any(weights):  # no slope at the operating point: read the largest axis
@@ -537,7 +540,7 @@ def _evaluate(task: _Task) -> dict[str, Any]:
                                           / np.where(np.isfinite(sigma), sigma, np.inf)))]
     rng, why, last = _range(q, b, choice, weights, end)
     peak = float(np.max(np.linalg.norm(b[:last + 1], axis=1)))
-    return {"sensitivity": math.sqrt(info) if math.isfinite(info) else math.nan,
+    return {"sensitivity": sensitivity,
             "minimum": minimum, "range": rng, "limited_by": why, "peak_field": peak}
 
 
