@@ -550,7 +550,8 @@ def _evaluate_many(tasks: Sequence[_Task]) -> list[dict[str, Any]]:
     for task in tasks:
         try:
             out.append(_evaluate(task))
-        except MagciliaError as exc:  # a design the model refuses: infeasible, not fatal
+        except (ValueError, ArithmeticError) as exc:  # MagciliaError, a singular solve: a
+            # design the model refuses is infeasible, not the end of the search
             out.append({"sensitivity": math.nan, "minimum": math.inf, "range": 0.0,
                         "limited_by": f"model error ({exc})", "peak_field": math.nan})
     return out
@@ -1014,7 +1015,7 @@ def _design(params: dict[str, float], sensor: str, m: dict[str, Any],
 def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice) -> str:
     """The first constraint an exactly measured design breaks ("" for none)."""
     if str(m["limited_by"]).startswith("model error"):
-        return "element outside the cilium"
+        return "model error"
     if m["range"] <= 0.0:
         return "sensor range at zero load"
     if not math.isfinite(m["minimum"]):
