@@ -71,6 +71,7 @@ def test_flow_objective(capsys: pytest.CaptureFixture[str]) -> None:
     (["--bound", "colour=1:2"], "--bound must be NAME=LOW:HIGH with NAME one of"),
     (["--sensor", "HMC1021Z,NOPE"], "sensor must be HMC1021Z"),
     (["--min-force", "1mm"], "--min-force"),
+    (["--plot", "pareto.nope"], "--plot must be a figure file"),
 ])
 def test_errors_are_one_line(argv: list[str], message: str, tmp_path: Path,
                              capsys: pytest.CaptureFixture[str]) -> None:

@@ -10,7 +10,7 @@ from typing import Any
 
 import click
 
-from magcilia._atomic import save_figure, write_json, write_text
+from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
 from magcilia._validate import fail
 from magcilia.cli._common import (
     Physical,
@@ -111,6 +111,8 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
     from magcilia.units import parse_value
 
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    if plot_path:
+        figure_format(plot_path)  # a suffix matplotlib cannot write fails before the search
     quantity = "force" if objective == "force-range" else "flow"
     constraints: dict[str, float] = {}
     if min_range is not None:
@@ -130,21 +132,22 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
         fluid=FLUIDS[fluid], progress=not quiet_requested(quiet))
     units = output_units(si)
     doc = optimise_doc(result, setup_label(setup_arg), units)
-    files_csv = front_csv(doc) if csv_path else None
-    if setup_out:
-        from magcilia.io.setup_files import save_setup
-
-        save_setup(result.best_setup, setup_out)
-    if files_csv is not None and csv_path:
-        write_text(csv_path, files_csv)
+    files: dict[str, str | bytes] = {}  # every file computed first, then written together
+    if csv_path:
+        files[csv_path] = front_csv(doc)
     if json_file:
-        write_json(json_file, doc)
+        files[json_file] = json_text(doc)
     if plot_path:
         from magcilia.report import style as st
         from magcilia.report.optimise import pareto_figure
 
         with st.use(style):
-            save_figure(pareto_figure(result), plot_path, dpi=st.dpi())
+            files[plot_path] = figure_bytes(pareto_figure(result), plot_path, dpi=st.dpi())
+    if setup_out:  # checked by reading it back before it is written
+        from magcilia.io.setup_files import save_setup
+
+        save_setup(result.best_setup, setup_out)
+    write_files(files)
     if as_json:
         echo_json(doc)
         return
