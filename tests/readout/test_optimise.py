@@ -172,3 +172,15 @@ def test_infeasible_or_bad_input_is_one_line(kwargs: dict, message: str) -> None
     with pytest.raises(mc.MagciliaError, match=message) as info:
         optimise_design(REFERENCE, **{**FAST, **kwargs})
     assert "\n" not in str(info.value)
+
+
+def test_a_measured_profile_scales_with_its_base_radius() -> None:
+    cilium = mc.Cilium.from_profile([0.0, 1.5e-3, 3.2e-3], [2e-4, 1.2e-4, 5e-5])
+    setup = mc.Setup.paper(cilium=cilium, n_loops=12, dipoles_per_loop=4, ring="rms")
+    r = optimise_design(setup, n=64, refine=8, rng=0, workers=1, points=61)
+    assert "tip_radius" not in r.best.params
+    best = r.best_setup.cilium
+    assert best.profile == cilium.profile  # the measured shape, scaled
+    assert best.tip_radius == pytest.approx(best.base_radius * 0.25)
+    with pytest.raises(mc.MagciliaError, match="bounds key must be left out"):
+        optimise_design(setup, bounds={"tip_radius": (1e-5, 2e-5)}, n=64)

@@ -764,6 +764,9 @@ def _bounds(setup: Setup, bounds: Mapping[str, Sequence[float]] | None
     given = dict(bounds or {})
     for name in given:
         v.choice("bounds key", name, VARIABLES)
+        if name == "tip_radius" and setup.cilium.profile is not None:
+            raise v.fail("bounds key", name, "left out for a cilium with a measured profile "
+                         "(height and base_radius scale the measured shape)")
     out: dict[str, tuple[float, float]] = {}
     for name in VARIABLES:
         if name in given:
@@ -908,7 +911,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     # the reference: the given setup with the first sensor choice
     base = _task(setup, choices[0], quantity, fixed_c, bandwidth, fluid, points)
     ref_metrics = _evaluate_many([base])[0]
-    ref_params = {k: float(setup.value(k)) for k in VARIABLES if k in searched or k in fixed}
+    # a measured profile's tip scales with its base radius: no tip_radius of its own
+    shown = [k for k in VARIABLES if not (k == "tip_radius" and setup.cilium.profile is not None)]
+    ref_params = {k: float(setup.value(k)) for k in shown}
     reference = _design(ref_params, choices[0].name, ref_metrics, "")
     if quantity == "force" and "min_force" not in fixed_c:
         fixed_c["min_force"] = reference.minimum
@@ -917,9 +922,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     values, index = _sample(searched, fixed, n, len(choices), gen)
     total = values["height"].size
     eliminated: dict[str, int] = {}
-    geometry_ok = values["tip_radius"] <= values["base_radius"]
-    if setup.cilium.profile is None:
-        geometry_ok &= values["tip_radius"] > 0.0
+    geometry_ok = np.ones(total, dtype=bool)
+    if setup.cilium.profile is None:  # a measured profile scales with the base radius
+        geometry_ok = (values["tip_radius"] <= values["base_radius"]) & (values["tip_radius"] > 0)
     screen = _screen(setup, values, index, choices, quantity, fixed_c.get("speed", 0.0),
                      bandwidth, fluid, fixed_c.get("field", math.inf))
     why = ["tip_radius <= base_radius" if not geometry_ok[i] else screen.violated[i]
@@ -949,7 +954,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     tasks = []
     setups = []
     for i in chosen:
-        params = {k: float(values[k][i]) for k in VARIABLES if k in values}
+        params = {k: float(values[k][i]) for k in shown}
         try:
             s = _design_setup(setup, params)
         except MagciliaError:
