@@ -184,3 +184,23 @@ def test_a_measured_profile_scales_with_its_base_radius() -> None:
     assert best.tip_radius == pytest.approx(best.base_radius * 0.25)
     with pytest.raises(mc.MagciliaError, match="bounds key must be left out"):
         optimise_design(setup, bounds={"tip_radius": (1e-5, 2e-5)}, n=64)
+
+
+def test_a_screen_in_chunks_gives_the_same_result(result: DesignOptimum,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """Past SCREEN_CHUNK designs the screen runs as tasks, chunk by chunk: same result."""
+    from magcilia.readout import optimise
+
+    monkeypatch.setattr(optimise, "SCREEN_CHUNK", 64)
+    chunked = optimise_design(REFERENCE, min_force=5e-7, rng=3, **FAST)  # type: ignore[arg-type]
+    assert json_text(chunked.to_dict() | {"seconds": 0}) == json_text(
+        result.to_dict() | {"seconds": 0})
+
+
+def test_polishing_only_adds_designs(result: DesignOptimum) -> None:
+    plain = optimise_design(REFERENCE, min_force=5e-7, rng=3, polish=0,
+                            **FAST)  # type: ignore[arg-type]
+    assert len(result.designs) > len(plain.designs)
+    assert [d.params for d in result.designs[:len(plain.designs)]] == [
+        d.params for d in plain.designs]
+    assert result.best.range >= plain.best.range

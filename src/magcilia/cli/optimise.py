@@ -72,6 +72,9 @@ def _defaults() -> str:
               help="Designs screened (rounded up to a power of two).")
 @click.option("--refine", type=click.IntRange(4, 4096), default=32, show_default=True,
               help="Screened designs measured with the exact (large-deflection) metrics.")
+@click.option("--polish", type=click.IntRange(0, 10), default=2, show_default=True,
+              help="Rounds of exact polishing: 16 designs around the chosen one, in a box of "
+                   "±10 %% of each bound's width, halved each round.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the sample.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
               help="Worker processes of the exact refinement (default: one per core; 1: none).")
@@ -94,11 +97,11 @@ def _defaults() -> str:
 @style_option
 def command(setup_arg: str, objective: str, min_force: float | None, speed: float | None,
             min_range: str | None, max_field: float | None, bound_items: tuple[str, ...],
-            sensor_text: str, designs: int, refine: int, seed: int, workers: int | None,
-            scheduler: str | None, fluid: str, bandwidth: str, tip_radius: str | None,
-            modulus: str | None, plot_path: str | None, csv_path: str | None, as_json: bool,
-            json_file: str | None, setup_out: str | None, quiet: bool, si: bool,
-            style: str) -> None:
+            sensor_text: str, designs: int, refine: int, polish: int, seed: int,
+            workers: int | None, scheduler: str | None, fluid: str, bandwidth: str,
+            tip_radius: str | None, modulus: str | None, plot_path: str | None,
+            csv_path: str | None, as_json: bool, json_file: str | None, setup_out: str | None,
+            quiet: bool, si: bool, style: str) -> None:
     """Search the cilium's height, base and tip radius (and, given bounds, magnetization scale or
     cobalt mass), its placement and the sensor for the largest force range at a minimum
     detectable force (force-range) or the best flow sensitivity at a speed (flow-sensitivity);
@@ -127,7 +130,7 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
     bounds = parse_named_ranges("--bound", bound_items, VARIABLES)
     result = optimise_design(
         setup, objective, min_force=min_force, speed=speed, constraints=constraints or None,
-        bounds=bounds or None, sensors=sensors, n=designs, refine=refine, rng=seed,
+        bounds=bounds or None, sensors=sensors, n=designs, refine=refine, polish=polish, rng=seed,
         workers=workers, scheduler=scheduler, bandwidth=parse_bandwidth(bandwidth),
         fluid=FLUIDS[fluid], progress=not quiet_requested(quiet))
     units = output_units(si)

@@ -214,6 +214,8 @@ def pareto_ranks(objectives: Any, limit: int | None = None) -> NDArray[np.int64]
         raise v.fail("objectives", f"an array of shape {f.shape}", "shape (N, m)")
     ranks = np.full(f.shape[0], -1, dtype=np.int64)
     left = np.nonzero(~np.isnan(f).any(axis=1))[0]
+    if f.shape[1] == 2:
+        return _ranks_2d(f, left, ranks, limit)
     rank, ranked = 0, 0
     while left.size and (limit is None or ranked < limit):
         g = f[left]
@@ -228,6 +230,29 @@ def pareto_ranks(objectives: Any, limit: int | None = None) -> NDArray[np.int64]
         ranked += front.size
         left = left[dominated]
         rank += 1
+    return ranks
+
+
+def _ranks_2d(f: F64, left: NDArray[np.int64], ranks: NDArray[np.int64], limit: int | None
+              ) -> NDArray[np.int64]:
+    """:func:`pareto_ranks` of two goals in O(N log N) per front: the distinct points sorted by
+    the first goal, then the second; a point is dominated exactly when an earlier one is no worse
+    in the second goal (equal points share their rank)."""
+    points, inverse = np.unique(f[left], axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    counts = np.bincount(inverse, minlength=points.shape[0])
+    point_rank = np.full(points.shape[0], -1, dtype=np.int64)
+    rest = np.arange(points.shape[0])  # lexicographic order, kept by every selection
+    rank, ranked = 0, 0
+    while rest.size and (limit is None or ranked < limit):
+        second = points[rest, 1]
+        before = np.concatenate([[np.inf], np.minimum.accumulate(second)[:-1]])
+        front = second < before
+        point_rank[rest[front]] = rank
+        ranked += int(counts[rest[front]].sum())
+        rest = rest[~front]
+        rank += 1
+    ranks[left] = point_rank[inverse]
     return ranks
 
 
@@ -580,11 +605,25 @@ def _run(fn: Callable[[Any], Any], tasks: list[tuple[str, Any]], workers: int | 
 # -- the screen -----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Screen:
-    """Proxy metrics of the screened designs (arrays over N)."""
+    """Proxy metrics of the screened designs (arrays over N); ``violated`` indexes
+    :data:`_REASONS` (0: none)."""
 
     minimum: F64
     range: F64
-    violated: tuple[str, ...]
+    violated: NDArray[np.int64]
+
+
+#: why the screen drops a design, by code (0: it does not)
+_REASONS = ("", "tip_radius <= base_radius", "element outside the cilium",
+            "sensor range at zero load", "flip field", "field")
+#: designs per screening chunk: ~30 MB of fields each; more chunks run as tasks through the
+#: execution layer
+SCREEN_CHUNK = 16384
+
+
+def _screen_chunk(arg: tuple[Any, ...]) -> _Screen:
+    """:func:`_screen` of one chunk (a top-level function: runs in worker processes)."""
+    return _screen(*arg)
 
 
 def _compliance(setup: Setup, values: dict[str, F64]) -> F64:
@@ -724,19 +763,9 @@ def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64
         idx = np.arange(q.shape[1])[None, :]
         peak[sel] = np.max(np.where(idx <= last[:, None], mags, 0.0), axis=1)
         flip[sel] = choice.flip
-    violated = []
-    for i in range(n):
-        if not finite[i]:
-            violated.append("element outside the cilium")
-        elif rng_[i] <= 0.0:
-            violated.append("sensor range at zero load")
-        elif peak[i] > 1.2 * flip[i]:
-            violated.append("flip field")
-        elif peak[i] > 1.2 * max_field:
-            violated.append("field")
-        else:
-            violated.append("")
-    return _Screen(minimum, rng_, tuple(violated))
+    violated = np.select([~finite, rng_ <= 0.0, peak > 1.2 * flip, peak > 1.2 * max_field],
+                         [2, 3, 4, 5], 0).astype(np.int64)
+    return _Screen(minimum, rng_, violated)
 
 
 def _mean_radius(values: dict[str, F64], sel: NDArray[np.int64]) -> F64:
@@ -749,12 +778,13 @@ def _flow_curve(q: F64, d: F64, h: F64, c: F64, reading: F64, fluid: Fluid) -> F
     (3/8 of the total on an upright rod) turned into the equivalent tilt, interpolated on the
     screen's curve ``reading`` (N, a, 3) over :data:`_SCREEN_U`."""
     per_length = drag_per_length(q, d[:, None], fluid)
-    u_eq = np.minimum(0.375 * per_length * h[:, None] * (c / h)[:, None], DEFLECTION_LIMIT)
-    out = np.empty((*q.shape, 3))
-    for i in range(q.shape[0]):
-        for k in range(3):
-            out[i, :, k] = np.interp(u_eq[i], _SCREEN_U, reading[i, :, k])
-    return out
+    u_eq = np.clip(0.375 * per_length * h[:, None] * (c / h)[:, None], 0.0, DEFLECTION_LIMIT)
+    hi = np.clip(np.searchsorted(_SCREEN_U, u_eq, side="right"), 1, _SCREEN_U.size - 1)
+    lo = hi - 1
+    t = (u_eq - _SCREEN_U[lo]) / (_SCREEN_U[hi] - _SCREEN_U[lo])  # linear, as np.interp
+    r_lo = np.take_along_axis(reading, lo[:, :, None], axis=1)
+    r_hi = np.take_along_axis(reading, hi[:, :, None], axis=1)
+    return np.asarray(r_lo + t[:, :, None] * (r_hi - r_lo), dtype=np.float64)
 
 
 # -- the search -----------------------------------------------------------------------------------
@@ -816,7 +846,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
                     constraints: Mapping[str, float] | None = None,
                     bounds: Mapping[str, Sequence[float]] | None = None,
                     sensors: Sequence[str | Sensor | Magnetometer] = (SINGLE_AXIS,),
-                    n: int = 1024, refine: int = 32,
+                    n: int = 1024, refine: int = 32, polish: int = 2,
                     rng: int | np.random.Generator | None = None,
                     workers: int | None = None, scheduler: str | None = None,
                     bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH, fluid: Fluid = WATER,
@@ -851,6 +881,10 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     refine : int
         Screened designs measured exactly (≥ 4): the screen's fronts rank by rank, plus the
         screen's best candidates for the choice.
+    polish : int
+        Rounds of exact polishing (≥ 0): 16 designs in a Sobol' box around the chosen design,
+        ±10 % of each bound's width, half that in each further round (the box clipped to the
+        bounds); they join the refined designs.
     rng : int, Generator or None
         Seed of the Sobol' sample: an int repeats the result exactly.
     workers, scheduler
@@ -884,6 +918,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     quantity = "force" if objective == "force-range" else "flow"
     n = v.integer("n", n, 16)
     refine = v.integer("refine", refine, 4)
+    polish = v.integer("polish", polish, 0)
     points = v.integer("points", points, 11)
     if not isinstance(fluid, Fluid):
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
@@ -925,14 +960,22 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     geometry_ok = np.ones(total, dtype=bool)
     if setup.cilium.profile is None:  # a measured profile scales with the base radius
         geometry_ok = (values["tip_radius"] <= values["base_radius"]) & (values["tip_radius"] > 0)
-    screen = _screen(setup, values, index, choices, quantity, fixed_c.get("speed", 0.0),
-                     bandwidth, fluid, fixed_c.get("field", math.inf))
-    why = ["tip_radius <= base_radius" if not geometry_ok[i] else screen.violated[i]
-           for i in range(total)]
-    for w in why:
-        if w:
-            eliminated[w] = eliminated.get(w, 0) + 1
-    ok = np.array([not w for w in why])
+    args = (setup, choices, quantity, fixed_c.get("speed", 0.0), bandwidth, fluid,
+            fixed_c.get("field", math.inf))
+    if total <= SCREEN_CHUNK:
+        screen = _screen(setup, values, index, *args[1:])
+    else:  # chunks, as tasks through the execution layer
+        tasks = [(f"screen-{k:08d}", (setup, {name: a[k:k + SCREEN_CHUNK]
+                                               for name, a in values.items()},
+                                      index[k:k + SCREEN_CHUNK], *args[1:]))
+                 for k in range(0, total, SCREEN_CHUNK)]
+        parts = _run(_screen_chunk, tasks, workers, scheduler, progress)
+        screen = _Screen(*(np.concatenate([getattr(p, f) for p in parts])
+                           for f in ("minimum", "range", "violated")))
+    codes = np.where(geometry_ok, screen.violated, 1)
+    tally = np.bincount(codes, minlength=len(_REASONS))
+    eliminated.update({_REASONS[c]: int(tally[c]) for c in range(1, len(_REASONS)) if tally[c]})
+    ok = codes == 0
     if not ok.any():
         worst = max(eliminated, key=lambda k: eliminated[k])
         share = (f"all {total}" if eliminated[worst] == total else
@@ -951,25 +994,27 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
                 int(ok.sum()), len(chosen))
 
     # the exact refinement, in chunks of designs per task
-    tasks = []
-    setups = []
-    for i in chosen:
-        params = {k: float(values[k][i]) for k in shown}
-        try:
-            s = _design_setup(setup, params)
-        except MagciliaError:
-            continue
-        setups.append((params, choices[int(index[i])], s))
-    per = max(1, math.ceil(len(setups) / 32))
-    for k in range(0, len(setups), per):
-        tasks.append((f"designs-{k:05d}", [_task(s, ch, quantity, fixed_c, bandwidth, fluid,
-                                                 points) for _, ch, s in setups[k:k + per]]))
-    chunks = _run(_evaluate_many, tasks, workers, scheduler, progress)
-    measured = [m for chunk in chunks for m in chunk]
-    designs = [_design(p, ch.name, m, _violation(m, fixed_c, ch))
-               for (p, ch, _), m in zip(setups, measured, strict=True)]
-    designs = [replace(d, eligible=d.feasible and _eligible(d, quantity, fixed_c))
-               for d in designs]
+    measure = _Measure(setup, quantity, fixed_c, (float(bandwidth[0]), float(bandwidth[1])),
+                       fluid, points, workers, scheduler, progress)
+    designs = measure([({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
+                       for i in chosen])
+    # polish: small exact Sobol' boxes around the chosen design, each half the last's size
+    by_name = {c.name: c for c in choices}
+    for level in range(polish):
+        if not any(d.eligible for d in designs):
+            break
+        centre = _best(designs, quantity)
+        half = 0.1 / 2**level
+        u = _qmc_sample(len(searched), 4, gen)
+        entries = []
+        for row in u:
+            params = dict(centre.params)
+            for j, (name, (lo, hi)) in enumerate(searched.items()):
+                params[name] = float(np.clip(params[name] + (2.0 * row[j] - 1.0) * half
+                                             * (hi - lo), lo, hi))
+            if "tip_radius" not in params or 0.0 < params["tip_radius"] <= params["base_radius"]:
+                entries.append((params, by_name[centre.sensor]))
+        designs += measure(entries)
     feasible = [d for d in designs if d.feasible]
     if not feasible:
         counts: dict[str, int] = {}
@@ -1001,6 +1046,54 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         reference=reference, best_setup=_design_setup(setup, best.params), bounds=searched,
         fixed=fixed_c, screened=total, eliminated=eliminated,
         seconds=time.perf_counter() - start, _unit=_token(MEASURANDS[quantity].unit))
+
+
+@dataclass(frozen=True)
+class _Measure:
+    """The exact metrics of designs, as tasks through the execution layer (chunks of designs
+    per task), with each design's constraint verdict and eligibility."""
+
+    setup: Setup
+    quantity: str
+    fixed: dict[str, float]
+    bandwidth: tuple[float, float]
+    fluid: Fluid
+    points: int
+    workers: int | None
+    scheduler: str | None
+    progress: bool
+
+    def __call__(self, entries: Sequence[tuple[dict[str, float], SensorChoice]]
+                 ) -> list[Candidate]:
+        setups = []
+        for params, choice in entries:
+            try:
+                setups.append((params, choice, _design_setup(self.setup, params)))
+            except MagciliaError:  # a design the setup refuses (the element inside): skipped
+                continue
+        per = max(1, math.ceil(len(setups) / 32))
+        tasks: list[tuple[str, Any]] = []
+        for k in range(0, len(setups), per):
+            chunk = [_task(s, ch, self.quantity, self.fixed, self.bandwidth, self.fluid,
+                           self.points) for _, ch, s in setups[k:k + per]]
+            tasks.append((f"designs-{k:05d}", chunk))
+        chunks = _run(_evaluate_many, tasks, self.workers, self.scheduler, self.progress) \
+            if tasks else []
+        measured = [m for chunk in chunks for m in chunk]
+        designs = [_design(p, ch.name, m, _violation(m, self.fixed, ch))
+                   for (p, ch, _), m in zip(setups, measured, strict=True)]
+        return [replace(d, eligible=d.feasible and _eligible(d, self.quantity, self.fixed))
+                for d in designs]
+
+
+def _qmc_sample(dims: int, log2: int, gen: np.random.Generator) -> F64:
+    """A scrambled Sobol' sample of 2**log2 points in the unit cube, shape (2**log2, dims)."""
+    from scipy.stats import qmc
+
+    if dims == 0:
+        return np.zeros((2**log2, 0))
+    return np.asarray(qmc.Sobol(dims, scramble=True, rng=gen).random_base2(log2),
+                      dtype=np.float64)
 
 
 def _task(setup: Setup, choice: SensorChoice, quantity: str, fixed: dict[str, float],
@@ -1046,15 +1139,22 @@ def _eligible(d: Candidate, quantity: str, fixed: dict[str, float]) -> bool:
 
 def _candidates(screen: _Screen, ok: NDArray[np.bool_], quantity: str,
                 fixed: dict[str, float], count: int) -> list[int]:
-    """The screen's best candidates for the choice (with a margin for the proxy's error)."""
-    if quantity == "force":
-        good = ok & (screen.minimum <= 1.5 * fixed["min_force"])
-        key = -screen.range
-    else:
-        good = ok & (screen.range >= 0.7 * fixed["speed"])
-        key = screen.minimum
-    idx = np.nonzero(good)[0]
-    return [int(i) for i in idx[np.argsort(key[idx], kind="stable")][:count]]
+    """The screen's best candidates for the choice, spread over the proxy's error: for each of
+    ``count`` requirements from half to 1.5 times the objective's (``min_force``; for flow,
+    from 0.7 to 1.5 times ``speed`` as the range), the best proxy design meeting it."""
+    out: list[int] = []
+    for factor in np.geomspace(0.5, 1.5, count) if quantity == "force" else \
+            np.geomspace(0.7, 1.5, count):
+        if quantity == "force":
+            good = ok & (screen.minimum <= factor * fixed["min_force"])
+            key = -screen.range
+        else:
+            good = ok & (screen.range >= factor * fixed["speed"])
+            key = screen.minimum
+        idx = np.nonzero(good)[0]
+        if idx.size:
+            out.append(int(idx[np.argmin(key[idx])]))
+    return out
 
 
 def _best(designs: list[Candidate], quantity: str) -> Candidate:
