@@ -45,7 +45,9 @@ designs by the objective's two goals (:func:`pareto_ranks`) picks the fronts' de
 rank, ``refine`` of them) and the screen's best candidates for the chosen design; each is
 then measured with the exact metrics (large-deflection :func:`magcilia.bend_sweep` and the full
 field model), as tasks through :mod:`magcilia.execution` (a local pool, or a Dask cluster with
-``scheduler``), and the exact fronts and the chosen design come from those. NSGA-II (pymoo)
+``scheduler``); ``polish`` rounds then measure 16 designs each in a shrinking Sobol' box around
+the chosen design, and the exact fronts and the chosen design come from all of those. Screens
+of more than :data:`SCREEN_CHUNK` designs run in chunks, as tasks too. NSGA-II (pymoo)
 was not used: for two goals a dense quasi-random screen covers the front, and the exact
 refinement decides; no heavy dependency is needed.
 """
