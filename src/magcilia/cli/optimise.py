@@ -77,7 +77,8 @@ def _defaults() -> str:
                    "±10 %% of each bound's width, halved each round.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the sample.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
-              help="Worker processes of the exact refinement (default: one per core; 1: none).")
+              help="Worker processes of the exact refinement (default: one per core from 256 "
+                   "designs, else none; 1: none).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Dask scheduler (tcp://HOST:PORT) to run the refinement on.")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
