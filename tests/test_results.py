@@ -171,6 +171,14 @@ def _batch() -> Any:
 
 
 FACTORIES["BatchResult"] = _batch
+
+
+def _optimum() -> Any:
+    return mc.optimise_design(TAPERED, n=32, refine=4, rng=0, workers=1, points=31,
+                              min_force=1e-5)
+
+
+FACTORIES.update({"DesignOptimum": _optimum, "Candidate": lambda: _optimum().best})
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 

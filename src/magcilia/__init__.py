@@ -98,6 +98,7 @@ from magcilia.readout import (
     design_metrics,
     field_for_loads,
 )
+from magcilia.readout.optimise import DesignOptimum, optimise_design
 
 __all__ = [
     "AIR",
@@ -118,6 +119,7 @@ __all__ = [
     "Cilium",
     "Crosstalk",
     "DesignMetrics",
+    "DesignOptimum",
     "Flow",
     "Fluid",
     "ForceFlag",
@@ -158,6 +160,7 @@ __all__ = [
     "load_setup",
     "lookup_table",
     "oat_sweep",
+    "optimise_design",
     "piecewise_linear",
     "placement_map",
     "placement_tolerance",

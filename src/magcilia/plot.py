@@ -16,7 +16,7 @@ Sensitivity
     :func:`plot_xy_map`, :func:`plot_sobol`.
 Mechanics and design
     :func:`plot_shapes` (bent centrelines, mm), :func:`plot_design` (three axes: force, flow,
-    angle).
+    angle), :func:`plot_pareto` (a design optimisation's front of range against resolution).
 Arrays of cilia
     :func:`plot_array_map` (cilia, sensors, field and loads seen from above, mm),
     :func:`plot_crosstalk` (G/mN), :func:`array_figure`.
@@ -68,6 +68,7 @@ from magcilia.report.figures import (
     plot_output_vs_tilt,
 )
 from magcilia.report.mechanics import plot_shapes
+from magcilia.report.optimise import pareto_figure, plot_pareto
 from magcilia.report.photo import plot_measurement
 from magcilia.report.posterior import plot_pairs
 from magcilia.report.sensitivity import (
@@ -84,6 +85,7 @@ __all__ = [
     "fit_figure",
     "measured_field",
     "new_figure",
+    "pareto_figure",
     "plot_array_map",
     "plot_crosstalk",
     "plot_design",
@@ -93,6 +95,7 @@ __all__ = [
     "plot_measurement",
     "plot_output_vs_tilt",
     "plot_pairs",
+    "plot_pareto",
     "plot_residuals",
     "plot_shapes",
     "plot_sobol",

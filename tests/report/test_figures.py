@@ -301,6 +301,9 @@ def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
                                         "fig12_geometry.png", "xy_map.png", "sobol.png"])),
         "angle": (["angle", str(photo(tmp / "holder.png")), "--annotate", str(tmp / "ann")],
                   [tmp / "ann" / "holder_angle.png"]),
+        "optimise": (["optimise", "force-sensor", "--designs", "128", "--refine", "12",
+                      "--workers", "1", "--sensor", "HMC1021Z,MMC5983MA", "--quiet", "--plot",
+                      str(tmp / f"pareto{ext}")], [tmp / f"pareto{ext}"]),
         "calibrate-physical": (["calibrate", *field_recordings(tmp), "--model", "physical",
                                 "--setup", "paper", "--prior", "height=3.3:0.15", "--posterior",
                                 "--out", str(tmp / "joint"), "--quiet"],
@@ -309,7 +312,7 @@ def _commands(tmp: Path, style: str) -> dict[str, tuple[list[str], list[Path]]]:
 
 
 CASES = ("demo", "calibrate", "field", "field-svg", "bend-force", "bend-flow", "design",
-         "design-cone", "sensitivity", "angle", "calibrate-physical")
+         "design-cone", "sensitivity", "angle", "calibrate-physical", "optimise")
 CASES += ("bend-spatial", "bend-azimuth")  # issue 15: bending in any direction, actuation
 MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".pdf": b"%PDF-", ".svg": b"<?xml"}
 

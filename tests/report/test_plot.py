@@ -72,12 +72,14 @@ def inputs(result: mc.CalibrationResult, study: mc.SensitivityStudy) -> dict[str
         "plot_sobol": (mc.sobol_indices(mc.Setup.paper(), n_base=32, rng=0),),
         "plot_shapes": (mc.bend_sweep(tapered, forces=[1e-5, 1e-4]),),
         "plot_measurement": (measure_tilt(photo), photo),
+        "plot_pareto": (mc.optimise_design(tapered, n=32, refine=4, min_force=1e-5, rng=0,
+                                           workers=1, points=31),),
     }
 
 
 ONE_AXES = ("plot_fit", "plot_initial", "plot_residuals", "plot_field_vs_tilt",
             "plot_output_vs_tilt", "plot_sweep_curves", "plot_sweep_measure", "plot_xy_map",
-            "plot_sobol", "plot_shapes", "plot_measurement")
+            "plot_sobol", "plot_shapes", "plot_measurement", "plot_pareto")
 
 
 def test_every_plot_function_is_covered() -> None:

@@ -86,6 +86,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("plan", "plan"),
     ("array", "array"),
     ("batch", "batch"),
+    ("optimise", "optimise"),
 )
 
 

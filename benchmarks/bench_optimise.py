@@ -1,0 +1,72 @@
+"""``optimise_design``: where the time goes, and the screen against the exact metrics it spares.
+
+Times, on the README's example (the force-sensor preset, ``min_force`` 0.5 uN, seed 0):
+
+* **screen**: the proxy metrics of N designs at once (``TiltBatch`` over 73 tilt angles, closed-form
+  compliance, vectorised range) per design;
+* **anchor**: the exact force metric of one design (``bend_sweep`` over 151 forces and the field
+  model: what ``design_metrics`` does for the force), per design;
+* the whole search in process (``workers=1``) for N designs screened and 64 refined.
+
+Run: python benchmarks/bench_optimise.py [--designs N]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ[_var] = "1"  # single thread, before NumPy loads BLAS
+
+import argparse
+import time
+
+import numpy as np
+
+import magcilia as mc
+from magcilia.readout.optimise import (
+    _bounds,
+    _evaluate,
+    _sample,
+    _screen,
+    _Task,
+    sensor_choices,
+)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--designs", type=int, default=4096)
+    args = parser.parse_args()
+    setup = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+    choices = sensor_choices(("HMC1021Z",), setup)
+    searched, fixed = _bounds(setup, None)
+    values, index = _sample(searched, fixed, args.designs, 1, np.random.default_rng(0))
+    n = values["height"].size
+    _screen(setup, {k: a[:16] for k, a in values.items()}, index[:16], choices, "force", 0.0,
+            (0.5, 500.0), mc.WATER)  # compile and warm up
+    t = time.perf_counter()
+    _screen(setup, values, index, choices, "force", 0.0, (0.5, 500.0), mc.WATER)
+    screen = (time.perf_counter() - t) / n
+    task = _Task(setup, choices[0], "force", 0.0, (0.5, 500.0), mc.WATER, 151)
+    _evaluate(task)
+    runs = []
+    for _ in range(5):
+        t = time.perf_counter()
+        _evaluate(task)
+        runs.append(time.perf_counter() - t)
+    exact = min(runs)
+    print(f"screen: {screen * 1e6:.1f} us per design ({n} designs)")
+    print(f"anchor, exact force metric: {exact * 1e3:.1f} ms per design")
+    print(f"ratio: the screen is {exact / screen:.0f}x cheaper per design")
+    t = time.perf_counter()
+    result = mc.optimise_design(setup, min_force=5e-7, n=args.designs, refine=64, rng=0,
+                                workers=1)
+    total = time.perf_counter() - t
+    print(f"whole search, in process: {total:.2f} s ({result.screened} screened, "
+          f"{len(result.designs)} refined; chosen range {result.best.range * 1e3:.4g} mN, "
+          f"minimum {result.best.minimum * 1e3:.4g} mN)")
+
+
+if __name__ == "__main__":
+    main()
