@@ -427,7 +427,7 @@ def dask_client(scheduler: str, workers: int | None = None,
             env = {THREADS_ENV: "none" if threads is None else str(threads),
                    **({} if threads is None else dict.fromkeys(THREAD_VARIABLES, str(threads)))}
             cluster = stack.enter_context(distributed.LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",  # a free port: never "8787 in use"
                 silence_logs=logging.ERROR,
                 env=env))
             client = stack.enter_context(distributed.Client(cluster, timeout=timeout))

@@ -36,5 +36,5 @@ def write_recordings(folder: Path, n: int, *, first_seed: int = 0,
 def cluster() -> Iterator[Any]:
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=logging.CRITICAL) as c:
+                                  dashboard_address=":0", silence_logs=logging.CRITICAL) as c:
         yield c

@@ -72,6 +72,7 @@ from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
 from magcilia.device.setup import Setup
+from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
@@ -586,15 +587,8 @@ def _evaluate_many(tasks: Sequence[_Task]) -> list[dict[str, Any]]:
 
 def _run(fn: Callable[[Any], Any], tasks: list[tuple[str, Any]], workers: int | None,
          scheduler: str | None, progress: bool) -> list[Any]:
-    """Run ``tasks`` through the execution layer (:func:`magcilia.execution.run_tasks`), or in
-    process where it is not available; the values in order, a failed task re-raised."""
-    try:
-        from magcilia.execution import run_tasks  # type: ignore[import-not-found,unused-ignore]
-    except ImportError:  # pragma: no cover - the execution layer lands beside this module
-        if scheduler is not None:
-            raise v.fail("scheduler", scheduler, "None: this installation has no execution "
-                         "layer (magcilia.execution)") from None
-        return [fn(arg) for _, arg in tasks]
+    """Run ``tasks`` through the execution layer (:func:`magcilia.execution.run_tasks`); the
+    values in order, a failed task re-raised."""
     results = run_tasks(fn, tasks, workers=workers, scheduler=scheduler, progress=progress)
     values = []
     for r in results:
