@@ -140,3 +140,33 @@ def test_a_failing_callback_stops_the_run() -> None:
     with pytest.raises(RuntimeError, match="disk full"):
         run_tasks(sum, tasks, workers=2, progress=False, on_result=fail)
     assert calls == calls[:1] and time.perf_counter() - t0 < 20.0
+
+
+@pytest.mark.parametrize("method", sorted(set(multiprocessing.get_all_start_methods())
+                                          & {"fork", "forkserver", "spawn"}))
+def test_every_start_method_gives_the_serial_results(method: str,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    from magcilia.execution import START_ENV, start_method
+
+    monkeypatch.setenv(START_ENV, method)
+    assert start_method() == method
+    tasks = [(f"t{i}", float(i) - 2.0) for i in range(6)]
+    pool = run_tasks(math.sqrt, tasks, workers=2, progress=False)
+    serial = run_tasks(math.sqrt, tasks, workers=1, progress=False)
+    assert [(r.value, r.error) for r in pool] == [(r.value, r.error) for r in serial]
+
+
+def test_the_default_start_method_and_a_bad_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    import sys
+
+    from magcilia.execution import START_ENV, start_method
+
+    monkeypatch.delenv(START_ENV, raising=False)
+    if sys.platform.startswith("linux") and sys.version_info < (3, 12):
+        assert start_method() == "fork"  # the workers inherit imports and kernels: fast start
+    else:
+        assert start_method() in ("forkserver", "spawn")
+    monkeypatch.setenv(START_ENV, "teleport")
+    with pytest.raises(MagciliaError, match=r"^MAGCILIA_START_METHOD must be one of") as err:
+        start_method()
+    assert "\n" not in str(err.value)

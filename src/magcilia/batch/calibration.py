@@ -53,7 +53,7 @@ from magcilia.calibration.problem import PARAMETERS
 from magcilia.calibration.search import calibrate
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
-from magcilia.execution import TaskResult, run_tasks
+from magcilia.execution import TaskResult, resolve_scheduler, run_tasks
 from magcilia.io.columns import Columns
 from magcilia.io.recordings import read_measurements
 from magcilia.io.setup_files import setup_to_dict
@@ -410,6 +410,13 @@ def _tables(rows: list[dict[str, Any]]) -> tuple[str, bytes | None]:
     return csv_text, buf.getvalue()
 
 
+def _warm_kernels() -> None:
+    """Load the compiled tilt kernel that every fit runs (from numba's disk cache, or compile
+    it) in this process, before a local pool forks its workers from it: each worker then starts
+    with it loaded instead of loading it for its first fit."""
+    Setup.paper().output(np.zeros(1))
+
+
 def calibrate_batch(
     paths_or_glob: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
     out_dir: str | os.PathLike[str],
@@ -539,6 +546,8 @@ def calibrate_batch(
 
     tasks = [(p.stem, {"path": str(p), "setup": initial, "calibrate": cal, "read": read,
                        "figures": figures, "style": style}) for p in todo]
+    if len(tasks) > 1 and workers != 1 and resolve_scheduler(scheduler) is None:
+        _warm_kernels()  # forked workers inherit the loaded kernels (execution.start_method)
     run_tasks(calibrate_recording, tasks, workers=workers, scheduler=scheduler,
               progress=progress, timeout=timeout, on_result=publish, label="calibrating")
     open_folder()
