@@ -434,3 +434,25 @@ def execution_options(default: str = "one per core; 1: in this process") -> Any:
         return command
 
     return decorate
+
+
+def fit_options(command: Any) -> Any:
+    """The options of one paper-model fit that ``calibrate`` and ``batch calibrate`` share:
+    ``--bias``, ``--bias-degree``, ``--fit-scale``, ``--nan-policy`` and ``--saturation`` (the
+    command receives ``bias``, ``bias_degree``, ``fit_scale``, ``nan_policy``, ``saturation``)."""
+    options = [
+        click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]),
+                     default="offset", show_default=True,
+                     help="DC bias model, fitted jointly."),
+        click.option("--bias-degree", default=0, show_default=True,
+                     help="Degree of the polynomial bias in the angle (with --bias polynomial)."),
+        click.option("--fit-scale", is_flag=True, help="Also fit the magnetization scale."),
+        click.option("--nan-policy", type=click.Choice(["raise", "omit"]), default="raise",
+                     show_default=True, help="NaN/inf samples: error or drop."),
+        click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]),
+                     default="raise", show_default=True,
+                     help="Samples beyond the sensor's ±6 gauss range."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command

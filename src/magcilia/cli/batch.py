@@ -11,6 +11,7 @@ from magcilia.cli._common import (
     RecordingArgs,
     echo_json,
     execution_options,
+    fit_options,
     load_setup_arg,
     parse_named_ranges,
     quiet_requested,
@@ -47,15 +48,7 @@ def command() -> None:
               help="Independent global searches per recording, the best kept.")
 @click.option("--starts", type=int, default=None,
               help="Local fits started by each global search [default: 256].")
-@click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
-              show_default=True, help="DC bias model, fitted jointly.")
-@click.option("--bias-degree", default=0, show_default=True,
-              help="Degree of the polynomial bias in the angle (with --bias polynomial).")
-@click.option("--fit-scale", is_flag=True, help="Also fit the magnetization scale.")
-@click.option("--nan-policy", type=click.Choice(["raise", "omit"]), default="raise",
-              show_default=True, help="NaN/inf samples: error or drop.")
-@click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]), default="raise",
-              show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
+@fit_options
 @click.option("--figures/--no-figures", default=True, show_default=True,
               help="fit.png and residuals.png in each recording's folder (most of a quick "
                    "fit's time).")

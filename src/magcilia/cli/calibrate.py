@@ -17,6 +17,7 @@ from magcilia.cli._common import (
     RecordingArgs,
     calibrate_with_progress,
     echo_json,
+    fit_options,
     load_setup_arg,
     parse_named_ranges,
     parse_priors,
@@ -75,15 +76,7 @@ from magcilia.report.calibration import (
 @click.option("--starts", type=int, default=None,
               help="Local fits started by each global search [default: 256; 64 with --model "
                    "physical].")
-@click.option("--bias", type=click.Choice(["offset", "polynomial", "none"]), default="offset",
-              show_default=True, help="DC bias model, fitted jointly.")
-@click.option("--bias-degree", default=0, show_default=True,
-              help="Degree of the polynomial bias in the angle (with --bias polynomial).")
-@click.option("--fit-scale", is_flag=True, help="Also fit the magnetization scale.")
-@click.option("--nan-policy", type=click.Choice(["raise", "omit"]), default="raise",
-              show_default=True, help="NaN/inf samples: error or drop.")
-@click.option("--saturation", type=click.Choice(["raise", "omit", "keep"]), default="raise",
-              show_default=True, help="Samples beyond the sensor's ±6 gauss range.")
+@fit_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print the result as JSON, in the units of the console table (mm, mV, deg; SI "
                    "with --si; result.json in --out is always SI).")

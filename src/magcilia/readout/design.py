@@ -200,11 +200,21 @@ def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]
     return float(q[-1]), end_note
 
 
-def _sweep(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
-    """Outputs along an increasing sweep of forces (flow None) or speeds, in chunks; stops at the
-    first load the solver does not converge for."""
+def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
+    """The field at the element along an increasing sweep of tip forces (``flow`` None, N) or
+    flow speeds (m/s), in chunks, stopping at the first load the solver does not converge for.
+
+    Returns
+    -------
+    values : ndarray, shape (c,)
+        The loads reached (c ≤ the loads given).
+    fields : ndarray, shape (c, 3)
+        B at the element, T.
+    note : str
+        Why the sweep stopped early ("" if it did not).
+    """
     done_q: list[F64] = []
-    done_v: list[F64] = []
+    done_b: list[F64] = []
     note = ""
     for chunk in np.array_split(values, max(1, values.size // 25)):
         try:
@@ -214,10 +224,16 @@ def _sweep(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]
             note = f"solver limit ({exc})"
             break
         done_q.append(chunk)
-        done_v.append(setup.output(shapes))
+        done_b.append(setup.field(shapes))
     if not done_q:
-        return np.zeros(0), np.zeros(0), note
-    return np.concatenate(done_q), np.concatenate(done_v), note
+        return np.zeros(0), np.zeros((0, 3)), note
+    return np.concatenate(done_q), np.concatenate(done_b), note
+
+
+def _sweep(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
+    """:func:`sweep_fields` as sensor outputs, V (c,)."""
+    q, b, note = sweep_fields(setup, values, flow)
+    return q, setup.sensor.voltage(b[:, 0]), note
 
 
 def _unavailable(quantity: str, unit: str, why: str) -> Metric:

@@ -76,6 +76,7 @@ from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
+from magcilia.readout.design import sweep_fields
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -473,26 +474,6 @@ class _Task:
     points: int
 
 
-def _sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
-    """Fields (c, 3) at the element along an increasing sweep of forces or speeds, in chunks;
-    stops at the first load the solver does not converge for (as design_metrics)."""
-    done_q: list[F64] = []
-    done_b: list[F64] = []
-    note = ""
-    for chunk in np.array_split(values, max(1, values.size // 25)):
-        try:
-            shapes = bend_sweep(setup, forces=chunk) if flow is None else \
-                bend_sweep(setup, speeds=chunk, flow=flow)
-        except MagciliaError as exc:
-            note = f"solver limit ({exc})"
-            break
-        done_q.append(chunk)
-        done_b.append(setup.field(shapes))
-    if not done_q:
-        return np.zeros(0), np.zeros((0, 3)), note
-    return np.concatenate(done_q), np.concatenate(done_b), note
-
-
 def _range(q: F64, b: F64, choice: SensorChoice, weights: F64, end_note: str
            ) -> tuple[float, str, int]:
     """Range from q[0] (first saturation, interpolated, or fold of the weighted reading, else
@@ -537,7 +518,7 @@ def _evaluate(task: _Task) -> dict[str, Any]:
         delta = 1e-6 * f_max
         b_pm = choice.reading(setup.field(bend_sweep(setup, forces=[-delta, delta])))
         slope = (b_pm[1] - b_pm[0]) / (2.0 * delta)
-        q, b, note = _sweep_fields(setup, np.linspace(0.0, f_max, task.points), None)
+        q, b, note = sweep_fields(setup, np.linspace(0.0, f_max, task.points), None)
         end = note or "end of sweep (tip deflection ≈ L)"
     else:
         fluid, u = task.fluid, task.speed
@@ -547,7 +528,7 @@ def _evaluate(task: _Task) -> dict[str, Any]:
         u_max = min(u_drag, u_re)
         flow = Flow.uniform(1.0, fluid)
         speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, task.points - 1)])
-        q, b, note = _sweep_fields(setup, speeds, flow)
+        q, b, note = sweep_fields(setup, speeds, flow)
         end = note or ("drag law (Re 2e5)" if u_re <= u_drag else "end of sweep (strongly bent)")
         if u * 1.01 >= u_max or (q.size and u * 1.01 >= q[-1]):
             slope = np.full(3, math.nan)
