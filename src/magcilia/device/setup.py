@@ -189,7 +189,7 @@ class Setup(Display):
         if phi == 0.0:
             return pose_model.field(self.spec, pose)
         if isinstance(pose, SpatialCentreline):
-            return pose_model.field(self.spec, pose_model.turn_spatial(pose, phi))
+            return pose_model.field(self.spec, pose.turned(phi))
         x, y = placement_in_tilt_frame(self.position[0], self.position[1], phi)
         turned = self.replace(position=(float(x), float(y), self.position[2]))
         return field_from_tilt_frame(pose_model.field(turned.spec, pose), phi)

@@ -330,6 +330,13 @@ class SpatialCentreline(Display):
             normals[:, i + 1] = _unit(r_next)
         return cls(s_arr, pts, t, normals)
 
+    def turned(self, azimuth: float) -> SpatialCentreline:
+        """The shapes turned about the vertical axis through their base by ``azimuth`` (rad):
+        points, tangents and normals alike (exact, no resampling)."""
+        phi = np.full(len(self), v.real("azimuth", azimuth, "rad"))
+        return SpatialCentreline(self.s, _turn_z(self.points, phi), _turn_z(self.tangents, phi),
+                                 _turn_z(self.normals, phi))
+
     # -- queries ------------------------------------------------------------------------------
     @property
     def length(self) -> float:

@@ -21,7 +21,6 @@ from magcilia import _validate as v
 from magcilia.constants import MU0
 from magcilia.model import body
 from magcilia.model.centreline import SpatialCentreline
-from magcilia.model.layout import spatial_frames
 from magcilia.model.pose import Pose, as_centreline, check_outside
 from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
@@ -61,8 +60,7 @@ def exact_field(
     r_eq = spec.base_radius * np.sqrt(mean2)  # same volume as each slice
     s_mid = spec.height * (np.arange(n) + 0.5) / n
     if isinstance(centreline, SpatialCentreline):  # the cylinders' axes along the tangents
-        centres, tangents, _ = spatial_frames(centreline.s, centreline.points,
-                                              centreline.tangents, centreline.normals, s_mid)
+        centres, tangents, _ = centreline.frames(s_mid)
         lean = np.arctan2(np.hypot(tangents[..., 0], tangents[..., 1]), tangents[..., 2])
         axis = np.stack([-tangents[..., 1], tangents[..., 0], np.zeros_like(lean)], axis=-1)
         norm = np.linalg.norm(axis, axis=-1, keepdims=True)
@@ -102,8 +100,7 @@ def single_dipole_field(setup: ModelSpec | SupportsSpec, pose: Pose) -> F64:
     w = mean2 / mean2.sum()
     s_mid = spec.height * (np.arange(n) + 0.5) / n
     if isinstance(centreline, SpatialCentreline):
-        pts, tangents, _ = spatial_frames(centreline.s, centreline.points, centreline.tangents,
-                                          centreline.normals, s_mid)
+        pts, tangents, _ = centreline.frames(s_mid)
         direction = np.einsum("n,ani->ai", w, tangents)
     else:
         pts, ang = centreline.frames(s_mid)

@@ -26,7 +26,7 @@ from magcilia.model import body, compiled
 from magcilia.model.batch import evaluate, pack
 from magcilia.model.centreline import Centreline, SpatialCentreline
 from magcilia.model.kernels import pose_field, tilt_fields
-from magcilia.model.layout import pose_dipoles, spatial_dipoles, spatial_frames
+from magcilia.model.layout import pose_dipoles, spatial_dipoles
 from magcilia.model.spec import ModelSpec
 
 F64 = NDArray[np.float64]
@@ -117,8 +117,7 @@ def dipoles(spec: ModelSpec, centreline: Shapes) -> tuple[F64, F64]:
     radius, share = body.slice_rings(spec.knots, spec.radii, n, spec.ring)
     s_mid = centreline.length * (np.arange(n) + 0.5) / n
     if isinstance(centreline, SpatialCentreline):
-        c = centreline
-        pts, tan, nor = spatial_frames(c.s, c.points, c.tangents, c.normals, s_mid)
+        pts, tan, nor = centreline.frames(s_mid)
         return spatial_dipoles(pts, tan, nor, spec.base_centre, spec.base_radius * radius,
                                share, spec.moment, spec.dipoles_per_loop)
     points, angles = centreline.frames(s_mid)
@@ -229,12 +228,3 @@ def output(spec: ModelSpec, pose: Pose) -> F64:
     angles = tilt_angles(spec, pose)
     out, finite = _tilt(spec, angles, x_only=True)
     return out if finite else _check_tilt(spec, "output", angles, out)
-
-
-def turn_spatial(centreline: SpatialCentreline, azimuth: float) -> SpatialCentreline:
-    """Shapes in space turned about the vertical axis through their base by ``azimuth`` (rad):
-    points, tangents and normals alike (exact, no resampling)."""
-    c, s = math.cos(azimuth), math.sin(azimuth)
-    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return SpatialCentreline(centreline.s, centreline.points @ rot.T,
-                             centreline.tangents @ rot.T, centreline.normals @ rot.T)
