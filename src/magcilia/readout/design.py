@@ -177,27 +177,60 @@ class DesignMetrics(Display):
                           "limited_by": [m.limited_by for m in metrics]})
 
 
-def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]:
-    """Range from q[0]: first saturation (interpolated) or fold, else the end of the sweep."""
-    sensor = setup.sensor
-    bx = sensor.field(volts)
-    sat = np.nonzero(np.abs(bx) > sensor.field_range)[0]
-    dv = np.diff(volts)
-    sign = np.sign(dv[np.nonzero(dv)[0][0]]) if np.any(dv) else 0.0
-    turns = np.nonzero(np.sign(dv) * sign < 0.0)[0]
+def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
+    """Where a sweep's range ends, from q[0]: the first load whose reading leaves the sensor's
+    range (interpolated where ``ratio`` crosses 1) or the first fold of ``signal``, whichever
+    comes first, else the sweep's end.
+
+    Parameters
+    ----------
+    q : ndarray, shape (c,)
+        The loads, increasing.
+    ratio : ndarray, shape (c,)
+        The reading over its full scale (the largest over a sensor's axes); beyond 1: saturated.
+    signal : ndarray, shape (c,)
+        What the read-out inverts (an output, or a weighted 3-axis reading): its first turn is
+        the fold.
+
+    Returns
+    -------
+    value : float
+        The range's end (the unit of ``q``).
+    kind : {"zero", "saturated", "fold", "end"}
+        What ends it ("zero": the first load is saturated already, the value is 0).
+    index : int
+        The last sweep index within the range.
+    """
+    sat = np.nonzero(ratio > 1.0)[0]
+    dp = np.diff(signal)
+    sign = np.sign(dp[np.nonzero(dp)[0][0]]) if np.any(dp) else 0.0
+    turns = np.nonzero(np.sign(dp) * sign < 0.0)[0]
     i_fold = int(turns[0]) if turns.size else None
     i_sat = int(sat[0]) if sat.size else None
     if i_sat is not None and (i_fold is None or i_sat <= i_fold):
         if i_sat == 0:
-            return 0.0, "sensor range (saturated at zero load)"
-        b0, b1 = abs(bx[i_sat - 1]), abs(bx[i_sat])
-        t = (sensor.field_range - b0) / (b1 - b0)
-        gauss = sensor.field_range / GAUSS
-        return (float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])),
-                f"sensor range (±{gauss:g} gauss)")
+            return 0.0, "zero", 0
+        r0, r1 = ratio[i_sat - 1], ratio[i_sat]
+        t = (1.0 - r0) / (r1 - r0)
+        return float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), "saturated", i_sat - 1
     if i_fold is not None:
-        return float(q[i_fold]), "fold (output turns back)"
-    return float(q[-1]), end_note
+        return float(q[i_fold]), "fold", i_fold
+    return float(q[-1]), "end", q.size - 1
+
+
+#: the note of a range that ends in a fold of the output
+FOLD_NOTE = "fold (output turns back)"
+#: the note of a range that ends at zero load (saturated there already)
+SATURATED_AT_ZERO = "sensor range (saturated at zero load)"
+
+
+def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]:
+    """Range from q[0]: first saturation (interpolated) or fold, else the end of the sweep."""
+    sensor = setup.sensor
+    value, kind, _ = range_end(q, np.abs(sensor.field(volts)) / sensor.field_range, volts)
+    notes = {"zero": SATURATED_AT_ZERO, "fold": FOLD_NOTE, "end": end_note,
+             "saturated": f"sensor range (±{sensor.field_range / GAUSS:g} gauss)"}
+    return value, notes[kind]
 
 
 def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:

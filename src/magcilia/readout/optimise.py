@@ -76,7 +76,7 @@ from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
-from magcilia.readout.design import sweep_fields
+from magcilia.readout.design import FOLD_NOTE, SATURATED_AT_ZERO, range_end, sweep_fields
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -480,27 +480,14 @@ def _range(q: F64, b: F64, choice: SensorChoice, weights: F64, end_note: str
     the end of the sweep), what ends it, and the last sweep index within it."""
     reading = choice.reading(b)
     scale = choice.full_scale
-    ratio = np.max(np.abs(reading) / scale, axis=1)
-    sat = np.nonzero(ratio > 1.0)[0]
-    proj = reading[:, :] @ np.where(np.isfinite(weights), weights, 0.0)
-    dp = np.diff(proj)
-    sign = np.sign(dp[np.nonzero(dp)[0][0]]) if np.any(dp) else 0.0
-    turns = np.nonzero(np.sign(dp) * sign < 0.0)[0]
-    i_fold = int(turns[0]) if turns.size else None
-    i_sat = int(sat[0]) if sat.size else None
-    if i_sat is not None and (i_fold is None or i_sat <= i_fold):
-        if i_sat == 0:
-            return 0.0, "sensor range (saturated at zero load)", 0
-        r0, r1 = ratio[i_sat - 1], ratio[i_sat]
-        t = (1.0 - r0) / (r1 - r0)
-        axis = int(np.argmax(np.abs(reading[i_sat]) / scale))
+    proj = reading @ np.where(np.isfinite(weights), weights, 0.0)
+    value, kind, last = range_end(q, np.max(np.abs(reading) / scale, axis=1), proj)
+    if kind == "saturated":
+        axis = int(np.argmax(np.abs(reading[last + 1]) / scale))
         full = f"±{number(scale[axis] / GAUSS)} gauss" + (f" on {'xyz'[axis]}"
                                                           if choice.axes == 3 else "")
-        return (float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), f"sensor range ({full})",
-                i_sat - 1)
-    if i_fold is not None:
-        return float(q[i_fold]), "fold (output turns back)", i_fold
-    return float(q[-1]), end_note, q.size - 1
+        return value, f"sensor range ({full})", last
+    return value, {"zero": SATURATED_AT_ZERO, "fold": FOLD_NOTE, "end": end_note}[kind], last
 
 
 def _information(slope: F64, sigma: F64) -> float:
