@@ -22,6 +22,7 @@ from magcilia.mechanics.bend import (
     buckling_load,
     flip_field,
     output_at,
+    poses_at,
     require_tip_radius,
     tip_compliance,
 )
@@ -57,6 +58,7 @@ __all__ = [
     "drag_per_length",
     "flip_field",
     "output_at",
+    "poses_at",
     "require_tip_radius",
     "slender_log",
     "tip_compliance",

@@ -27,6 +27,7 @@ from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.rod import FieldError, Rod, RodLoads, RodProblem, linear_guess, straight
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.model.centreline import Centreline, SpatialCentreline
+from magcilia.model.pose import Pose
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -851,20 +852,36 @@ def tip_compliance(setup: Setup) -> float:
     return c.height**3 / (3.0 * setup.youngs_modulus * i0 * c.taper)
 
 
+def poses_at(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None = None,
+             actuation: Actuation | None = None) -> tuple[Pose, float]:
+    """The cilium's poses at ``values`` (shape (a,), SI) of a measurand, and the azimuth (rad)
+    to evaluate them at (:meth:`magcilia.Setup.field`): rigid tilt angles (``"angle"``, rad; an
+    actuation does not bend a rigid tilt), dead tip forces along +x (``"force"``, N) or flow
+    speeds (``"flow"``, m/s, the profile of ``flow`` scaled to each speed, from its azimuth;
+    default uniform water flow), as sweeps continued from one load to the next (increasing
+    values are cheapest), bent by ``actuation`` too when one is given."""
+    q = v.finite_array("values", values, ndim=1)
+    if quantity == "angle":
+        return q, 0.0
+    if quantity not in ("force", "flow"):
+        raise v.fail("quantity", quantity, "one of 'angle', 'force', 'flow'")
+    if quantity == "force":
+        if actuation is not None:
+            return bend_sweep(setup, forces=q, actuation=actuation), 0.0
+        return _sweep_plane(setup, forces=q), 0.0
+    flow = flow or Flow.uniform(1.0)
+    if actuation is not None:
+        return bend_sweep(setup, speeds=q, flow=flow, actuation=actuation), 0.0
+    if flow.azimuth != 0.0:  # the x–z sweep turned: the model's azimuth (Setup.output)
+        return _sweep_plane(setup, speeds=q, flow=flow.with_azimuth(0.0)), flow.azimuth
+    return _sweep_plane(setup, speeds=q, flow=flow), 0.0
+
+
 def output_at(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None = None) -> F64:
     """Sensor output (V), shape (a,), at ``values`` (shape (a,), SI) of a measurand: rigid tilt
     angles (``"angle"``, rad), dead tip forces along +x (``"force"``, N; a sweep continued from
     one load to the next, so increasing values are cheapest) or flow speeds (``"flow"``, m/s, the
-    profile of ``flow`` scaled to each speed, from its azimuth; default uniform water flow)."""
-    q = v.finite_array("values", values, ndim=1)
-    if quantity == "angle":
-        return setup.output(q)
-    if quantity == "force":
-        return setup.output(_sweep_plane(setup, forces=q))
-    if quantity == "flow":
-        flow = flow or Flow.uniform(1.0)
-        if flow.azimuth != 0.0:  # the x–z sweep turned: the model's azimuth (Setup.output)
-            return setup.output(_sweep_plane(setup, speeds=q, flow=flow.with_azimuth(0.0)),
-                                azimuth=flow.azimuth)
-        return setup.output(_sweep_plane(setup, speeds=q, flow=flow))
-    raise v.fail("quantity", quantity, "one of 'angle', 'force', 'flow'")
+    profile of ``flow`` scaled to each speed, from its azimuth; default uniform water flow):
+    :func:`poses_at` through :meth:`magcilia.Setup.output`."""
+    pose, azimuth = poses_at(setup, quantity, values, flow)
+    return setup.output(pose, azimuth=azimuth)

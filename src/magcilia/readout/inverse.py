@@ -35,7 +35,7 @@ from magcilia.device.actuation import Actuation
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, SensorFlag, flag_names
 from magcilia.device.setup import Setup
-from magcilia.mechanics import Flow, bend_sweep, output_at
+from magcilia.mechanics import Flow, output_at, poses_at
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
@@ -950,19 +950,9 @@ def model_fields(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | No
     measurand read while ``actuation`` acts: the cilium's field in the shape that the load and
     the actuation together bend it to (:func:`magcilia.bend_sweep` with ``actuation=``; a rigid
     tilt, ``"angle"``, is not bent by it) plus the actuation's :func:`direct_field`."""
-    q = v.finite_array("values", values, ndim=1)
     direct = direct_field(actuation)
-    if quantity == "angle":
-        cilium = setup.field(q)
-    elif quantity == "force":
-        cilium = setup.field(bend_sweep(setup, forces=q, actuation=actuation))
-    elif quantity == "flow":
-        shapes = bend_sweep(setup, speeds=q, flow=flow or Flow.uniform(1.0),
-                            actuation=actuation)
-        cilium = setup.field(shapes)
-    else:
-        raise v.fail("quantity", quantity, "one of 'angle', 'force', 'flow'")
-    return np.asarray(cilium + direct, dtype=np.float64)
+    pose, azimuth = poses_at(setup, quantity, values, flow, actuation)
+    return np.asarray(setup.field(pose, azimuth=azimuth) + direct, dtype=np.float64)
 
 
 def model_output(setup: Setup, quantity: str, values: ArrayLike, flow: Flow | None = None,
