@@ -21,7 +21,10 @@ round trip on one clock is an upper bound of sample-to-screen (it includes the a
 :meth:`Dashboard.screen_latency` keeps the last 1000.
 
 The HTTP API: ``GET /api/info`` (what is measured, limits, setup, calibration), ``GET
-/api/status``, ``POST /api/tare``, ``POST /api/record`` (start/stop a recording).
+/api/status``, ``POST /api/tare``, ``POST /api/record`` (start/stop a recording: a JSON body
+``{"action": "start" | "stop" | "toggle"}``, no body: toggle). The app obeys only its own page
+(:mod:`magcilia.live.guard`): a foreign ``Host`` (DNS rebinding) or ``Origin`` (another site) is
+refused, and commands carry the per-run token that the served page holds.
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.io.setup_files import setup_to_dict
+from magcilia.live.guard import LOOPBACK, TOKEN_META, Guard, OwnPageOnly
 from magcilia.live.history import LiveSamples
 from magcilia.live.pipeline import LiveReadout
 
@@ -76,7 +80,9 @@ STATUS_PERIOD = 0.25
 #: screen latencies kept
 LATENCIES = 1000
 #: hosts that only this computer reaches
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+LOCAL_HOSTS = tuple(sorted(LOOPBACK))
+#: what ``POST /api/record`` can be asked to do
+RECORD_ACTIONS = ("start", "stop", "toggle")
 _PURPOSE = "The browser dashboard"
 
 
@@ -184,7 +190,8 @@ def exposure_warning(host: str) -> str | None:
     if host.strip().strip("[]").lower() in LOCAL_HOSTS:
         return None
     return (f"--host {host} makes the dashboard (with its tare and record buttons, and no "
-            "authentication) reachable by anyone on the network")
+            "authentication) reachable by anyone on the network: its token keeps other web "
+            "sites out, not people who can open the page")
 
 
 def _jsonable(obj: Any) -> Any:
@@ -252,6 +259,7 @@ class Dashboard:
         self._frames = itertools.count(1)
         self._status: dict[str, Any] = {}
         self._status_at = -math.inf
+        self._record_lock = threading.Lock()
         self.clients = 0
 
     # -- what the page asks for ---------------------------------------------------------------
@@ -305,15 +313,40 @@ class Dashboard:
         self.live.tare()
         return {"tare": "started"}
 
+    def record(self, action: str = "toggle") -> dict[str, Any]:
+        """Start or stop the recording, one request at a time (blocking: opens or closes a file).
+
+        Parameters
+        ----------
+        action : {"start", "stop", "toggle"}
+            ``start`` keeps a recording that is open (many starts at once make one recording),
+            ``stop`` closes it (complete), ``toggle`` does what the button shows.
+
+        Returns
+        -------
+        dict
+            ``{"recording": path or None, "stopped": path or None, "started": bool}``: the file
+            open now, the file this request closed, and whether this request opened it.
+        """
+        if action not in RECORD_ACTIONS:
+            raise v.fail("action", action, " or ".join(RECORD_ACTIONS))
+        with self._record_lock:
+            open_now = self.live.recording
+            if action == "toggle":
+                action = "stop" if open_now is not None else "start"
+            if action == "stop":
+                stopped = self.live.stop_recording()
+                return {"recording": None, "stopped": None if stopped is None else str(stopped),
+                        "started": False}
+            if open_now is not None:
+                return {"recording": str(open_now), "stopped": None, "started": False}
+            self.record_dir.mkdir(parents=True, exist_ok=True)
+            path = self.live.start_recording(directory=self.record_dir)
+            return {"recording": str(path), "stopped": None, "started": True}
+
     def toggle_recording(self) -> dict[str, Any]:
-        """Stop the recording if one is open, else start one in ``record_dir`` (blocking: opens
-        or closes a file). Returns ``{"recording": path or None, "stopped": path or None}``."""
-        stopped = self.live.stop_recording()
-        if stopped is not None:
-            return {"recording": None, "stopped": str(stopped)}
-        self.record_dir.mkdir(parents=True, exist_ok=True)
-        path = self.live.start_recording(directory=self.record_dir)
-        return {"recording": str(path), "stopped": None}
+        """Stop the recording if one is open, else start one (:meth:`record` ``("toggle")``)."""
+        return self.record("toggle")
 
     # -- the WebSocket --------------------------------------------------------------------------
     async def stream(self, websocket: WebSocket) -> None:
@@ -413,9 +446,10 @@ class Dashboard:
 
 
 def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | Path = ".",
-                  fps: float = 30.0) -> Starlette:
+                  fps: float = 30.0, host: str = "127.0.0.1") -> Starlette:
     """The dashboard as an ASGI app (Starlette); its :class:`Dashboard` is
-    ``app.state.dashboard``.
+    ``app.state.dashboard``, its :class:`~magcilia.live.guard.Guard` (the Host names it answers
+    to and this run's token) ``app.state.guard``.
 
     Parameters
     ----------
@@ -427,19 +461,29 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
         Where the record button writes ``live-DATE-TIME.tdms``.
     fps : float
         Frames per second sent to each browser, Hz.
+    host : str
+        The address the server listens on (which Host names are its own:
+        :meth:`Guard.serving <magcilia.live.guard.Guard.serving>`).
     """
     require("starlette", package="starlette", extra="dashboard", purpose=_PURPOSE)
     from starlette.applications import Starlette
     from starlette.concurrency import run_in_threadpool
+    from starlette.middleware import Middleware
     from starlette.responses import JSONResponse, Response
     from starlette.routing import Route, WebSocketRoute
 
     dashboard = Dashboard(live, window=window, record_dir=record_dir, fps=fps)
+    guard = Guard.serving(host)
     files = _static_files()
+    marker = f'<meta name="{TOKEN_META}" content="">'.encode()
+    if files["index.html"].count(marker) != 1:
+        raise MagciliaError(f"the dashboard page lacks its token tag {marker.decode()}")
+    page = files["index.html"].replace(
+        marker, f'<meta name="{TOKEN_META}" content="{guard.token}">'.encode())
 
     async def index(_: Request) -> Response:
-        return Response(files["index.html"], media_type=_MEDIA[".html"],
-                        headers={"Cache-Control": "no-cache"})
+        # the token is this run's: the page must never come from a cache
+        return Response(page, media_type=_MEDIA[".html"], headers={"Cache-Control": "no-store"})
 
     async def static(request: Request) -> Response:
         name = request.path_params["name"]
@@ -457,9 +501,17 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
     async def tare(_: Request) -> Response:
         return JSONResponse(dashboard.tare())
 
-    async def record(_: Request) -> Response:
+    async def record(request: Request) -> Response:
+        body = await request.body()
         try:
-            result = await run_in_threadpool(dashboard.toggle_recording)
+            action = json.loads(body).get("action", "toggle") if body.strip() else "toggle"
+        except (ValueError, AttributeError):
+            action = None
+        if action not in RECORD_ACTIONS:
+            return JSONResponse({"error": "the body must be {\"action\": \"start\"}, "
+                                 "\"stop\" or \"toggle\" (or empty: toggle)"}, status_code=400)
+        try:
+            result = await run_in_threadpool(dashboard.record, action)
         except (MagciliaError, OSError) as exc:
             return JSONResponse({"error": str(exc)}, status_code=500)
         return JSONResponse(result)
@@ -468,8 +520,9 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
         Route("/", index), Route("/static/{name:str}", static), Route("/api/info", info),
         Route("/api/status", status), Route("/api/tare", tare, methods=["POST"]),
         Route("/api/record", record, methods=["POST"]), WebSocketRoute("/ws", dashboard.stream),
-    ])
+    ], middleware=[Middleware(OwnPageOnly, guard=guard)])
     app.state.dashboard = dashboard
+    app.state.guard = guard
     return app
 
 
@@ -534,7 +587,9 @@ class DashboardServer:
         The read-out shown (started and stopped by the caller).
     host : str
         Address to listen on; anything but this computer's (127.0.0.1, localhost, ::1) exposes
-        the dashboard's buttons to the network (:func:`exposure_warning`).
+        the dashboard's buttons to the network (:func:`exposure_warning`). Requests whose Host
+        names another server, or that come from another page, are refused
+        (:mod:`magcilia.live.guard`).
     port : int
         TCP port (0: a free one; :attr:`url` tells which).
     window, record_dir, fps
@@ -552,13 +607,19 @@ class DashboardServer:
     def __init__(self, live: LiveReadout, host: str = "127.0.0.1", port: int = 8050, *,
                  window: float = 10.0, record_dir: str | Path = ".",
                  fps: float = 30.0) -> None:
-        self.app = dashboard_app(live, window=window, record_dir=record_dir, fps=fps)
+        self.app = dashboard_app(live, window=window, record_dir=record_dir, fps=fps, host=host)
         self.dashboard: Dashboard = self.app.state.dashboard
+        self.guard: Guard = self.app.state.guard
         self.host = host
         self.port = port
         self._socket: socket.socket | None = None
         self._server: Any = None
         self._thread: threading.Thread | None = None
+
+    @property
+    def token(self) -> str:
+        """This run's token: commands (``POST``) carry it in the ``X-Magcilia-Token`` header."""
+        return self.guard.token
 
     @property
     def url(self) -> str:
