@@ -11,7 +11,8 @@ Reported: samples delivered, dropped and overrun; pipeline latency (sample in ->
 screen latency (sample in -> drawn, the browsers' acknowledgements over the last 1000 frames);
 step response (``set_value`` -> the page's value past half the step, wall clock); the server
 process's CPU time per second of wall time, without browsers and with them.
-Targets: 0 overruns, screen latency median <= 100 ms and p99 <= 250 ms.
+Targets: 0 overruns, screen latency median <= 100 ms and p99 <= 250 ms, step response
+median <= 100 ms and max <= 250 ms (the tests only guard against a hang; speed is checked here).
 
 Run: python benchmarks/bench_live.py [--seconds 20] [--quick]
 """
@@ -219,7 +220,9 @@ def main() -> None:
               "screen latency p99 <= 250 ms": bool(screen.size)
               and np.quantile(screen, 0.99) <= 0.250,
               "step response median <= 100 ms": bool(response.size)
-              and np.median(response) <= 0.100}
+              and np.median(response) <= 0.100,
+              "step response max <= 250 ms": bool(response.size)
+              and np.max(response) <= 0.250}
     for name, ok in checks.items():
         print(f"  {'PASS' if ok else 'FAIL'}  {name}")
     print("all targets met" if all(checks.values()) else "SOME TARGETS MISSED")

@@ -8,7 +8,7 @@ import click
 
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
-from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options, signals_interrupt
 
 
 @click.command()
@@ -16,7 +16,9 @@ from magcilia.cli._live import LIVE_KEYS, build_live, live_options
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to listen on. Anything but 127.0.0.1/localhost/::1 lets anyone on "
                    "the network see the page and press its tare and record buttons (there is "
-                   "no authentication).")
+                   "no authentication). Whatever the address, requests naming another host "
+                   "(DNS rebinding) or coming from another web page are refused, and commands "
+                   "need the token of the page this server served.")
 @click.option("--port", default=8050, show_default=True, type=click.IntRange(0, 65535),
               help="TCP port (0: any free one).")
 @click.option("--window", default="10", show_default=True, type=Physical.of("time", "10s"),
@@ -25,8 +27,9 @@ from magcilia.cli._live import LIVE_KEYS, build_live, live_options
 def command(host: str, port: int, window: float, open_browser: bool, **kwargs: Any) -> None:
     """Serve a browser dashboard of the live read-out: the value with its σ, flags, plots of
     the estimate (σ band, range, minimum detectable) and of the raw output, tare and record
-    buttons, the setup and calibration in use. Stop with Ctrl-C (a recording is closed
-    complete)."""
+    buttons, the setup and calibration in use. Stop with Ctrl-C, SIGTERM or a closed SSH session
+    (SIGHUP): a recording is closed complete. The server obeys only its own page: a foreign Host
+    or Origin is refused, and tare and record carry a token that only the served page holds."""
     from magcilia.live.dashboard import bind_socket, exposure_warning, require_server, serve
 
     if not window > 0:
@@ -37,14 +40,18 @@ def command(host: str, port: int, window: float, open_browser: bool, **kwargs: A
     require_server()  # before anything opens
     bind_socket(host, port).close()  # a port in use fails before the source is opened
     live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
-    live.start()
-    try:
-        serve(live, host, port, window=window, record_dir=kwargs["record_dir"],
-              open_browser=open_browser,
-              on_ready=lambda url: click.echo(f"magcilia dashboard: {url}  (Ctrl-C to stop)"))
-    finally:
-        recording = live.status.recording
-        live.stop()
+    recording = None
+    with signals_interrupt():
+        try:
+            live.start()
+            serve(live, host, port, window=window, record_dir=kwargs["record_dir"],
+                  open_browser=open_browser,
+                  on_ready=lambda url: click.echo(f"magcilia dashboard: {url}  (Ctrl-C to stop)"))
+        except KeyboardInterrupt:
+            pass
+        finally:
+            recording = live.recording
+            live.stop()
     if recording:
         click.echo(f"recording closed: {recording}")
     click.echo("magcilia dashboard: stopped")

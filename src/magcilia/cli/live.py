@@ -2,12 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
-import signal
 import sys
-import threading
-from collections.abc import Iterator
-from types import FrameType
 from typing import Any
 
 import click
@@ -15,28 +10,8 @@ import click
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
-from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options, signals_interrupt
 from magcilia.live.pipeline import LiveStatus
-
-
-@contextlib.contextmanager
-def _signals_interrupt() -> Iterator[None]:
-    """While inside, SIGTERM and SIGHUP (a closed SSH session) interrupt like Ctrl-C, so that
-    the read-out stops cleanly and a recording is closed complete (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def interrupt(_signum: int, _frame: FrameType | None) -> None:
-        raise KeyboardInterrupt
-
-    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    saved = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
-    try:
-        yield
-    finally:
-        for n, handler in saved.items():
-            signal.signal(getattr(signal, n), handler)
 
 
 @click.command()
@@ -69,7 +44,7 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
         require("rich", package="rich", extra="live", purpose="The terminal view")
     live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
     status: LiveStatus | None = None
-    with _signals_interrupt():
+    with signals_interrupt():
         try:
             live.start()
             from magcilia.live import terminal

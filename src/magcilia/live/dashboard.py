@@ -12,7 +12,7 @@ connected browser gets its own loop that runs ``fps`` times per second: it takes
 samples that came since its own cursor (:meth:`History.since`; nothing is queued for it by the
 read-out, so a slow or vanished browser costs the acquisition nothing), averages them into display
 bins so that a ``window``-second trace has at most :data:`MAX_POINTS` points, and sends one
-binary frame (:func:`encode_frame`). A few times per second it also sends the status as JSON.
+binary frame (:func:`encode_frame`; both in :mod:`magcilia.live.frames`). A few times per second it also sends the status as JSON.
 
 **Screen latency**: after drawing a frame (uPlot's ``setData`` inside ``requestAnimationFrame``,
 then a task after the paint) the page answers ``{"drawn": frame_id}``; the server takes
@@ -21,7 +21,10 @@ round trip on one clock is an upper bound of sample-to-screen (it includes the a
 :meth:`Dashboard.screen_latency` keeps the last 1000.
 
 The HTTP API: ``GET /api/info`` (what is measured, limits, setup, calibration), ``GET
-/api/status``, ``POST /api/tare``, ``POST /api/record`` (start/stop a recording).
+/api/status``, ``POST /api/tare``, ``POST /api/record`` (start/stop a recording: a JSON body
+``{"action": "start" | "stop" | "toggle"}``, no body: toggle). The app obeys only its own page
+(:mod:`magcilia.live.guard`): a foreign ``Host`` (DNS rebinding) or ``Origin`` (another site) is
+refused, and commands carry the per-run token that the served page holds.
 """
 
 from __future__ import annotations
@@ -51,7 +54,17 @@ from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.io.setup_files import setup_to_dict
-from magcilia.live.history import LiveSamples
+from magcilia.live.frames import (
+    FRAME_COLUMNS,
+    FRAME_HEADER,
+    FRAME_VERSION,
+    MAX_POINTS,
+    decimate,
+    decode_frame,
+    display_factor,
+    encode_frame,
+)
+from magcilia.live.guard import LOOPBACK, TOKEN_META, Guard, OwnPageOnly
 from magcilia.live.pipeline import LiveReadout
 
 if TYPE_CHECKING:
@@ -61,130 +74,31 @@ if TYPE_CHECKING:
     from starlette.websockets import WebSocket
 
 F64 = NDArray[np.float64]
+__all__ = ["FRAME_COLUMNS", "FRAME_HEADER", "FRAME_VERSION", "LOCAL_HOSTS", "MAX_POINTS",
+           "RECORD_ACTIONS", "Dashboard", "DashboardServer", "bind_socket", "dashboard_app",
+           "decimate", "decode_frame", "display_factor", "encode_frame", "exposure_warning",
+           "require_server", "serve"]
 
-#: most points per trace over the whole window
-MAX_POINTS = 2000
-#: columns of a frame, in order: s since the start, raw output in mV, the estimate and its σ
-#: in display units, flag bits (ReadoutFlag, OR over the bin)
-FRAME_COLUMNS = ("time", "raw_mV", "value", "sigma", "flags")
-#: header of a frame (float64 each): format version, frame id, points, wall time at which the
-#: newest sample arrived (s, time.time()), wall time sent, seconds per point, samples lost
-FRAME_HEADER = ("version", "frame", "points", "received", "sent", "bin_seconds", "lost")
-FRAME_VERSION = 1
 #: seconds between status messages to each browser
 STATUS_PERIOD = 0.25
 #: screen latencies kept
 LATENCIES = 1000
 #: hosts that only this computer reaches
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+LOCAL_HOSTS = tuple(sorted(LOOPBACK))
+#: what ``POST /api/record`` can be asked to do
+RECORD_ACTIONS = ("start", "stop", "toggle")
 _PURPOSE = "The browser dashboard"
 
 
-# -- pure helpers: decimation and frames -----------------------------------------------------
-def display_factor(window: float, rate: float, points: int = MAX_POINTS) -> int:
-    """Output samples per display point so that ``window`` s at ``rate`` Hz fit in ``points``.
-
-    Parameters
-    ----------
-    window : float
-        Seconds shown, s.
-    rate : float
-        Output samples per second, Hz.
-    points : int
-        Most points per trace.
-    """
-    return max(1, math.ceil(window * rate / points - 1e-9))
-
-
-def decimate(samples: LiveSamples, factor: int, start: int = 0) -> F64:
-    """Average consecutive samples into display bins.
-
-    Parameters
-    ----------
-    samples : LiveSamples
-        Output samples (m of them).
-    factor : int
-        Samples per bin.
-    start : int
-        Index of the first sample of the first bin; a trailing partial bin is left out.
-
-    Returns
-    -------
-    ndarray, shape (5, k)
-        Rows ``time`` (s, mean), ``raw`` (V, mean), ``value`` and ``sigma`` (SI, mean of the
-        unflagged samples; NaN where all are flagged), ``flags`` (bitwise OR of the bin's
-        flags, so the worst flag stays), with ``k = (m − start) // factor``.
-    """
-    factor = v.integer("factor", factor, 1)
-    k = max(0, (len(samples) - start) // factor)
-    stop = start + k * factor
-    out = np.empty((5, k))
-    if k == 0:
-        return out
-
-    def bins(x: NDArray[Any]) -> NDArray[Any]:
-        return np.asarray(x[start:stop]).reshape(k, factor)
-
-    out[0] = bins(samples.time).mean(axis=1)
-    out[1] = bins(samples.raw).mean(axis=1)
-    value, sigma = bins(samples.value), bins(samples.sigma)
-    good = np.isfinite(value)
-    count = good.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out[2] = np.where(good, value, 0.0).sum(axis=1) / count
-        out[3] = np.where(good, sigma, 0.0).sum(axis=1) / count
-    out[2:4, count == 0] = np.nan
-    out[4] = np.bitwise_or.reduce(bins(samples.flags).astype(np.uint8), axis=1)
-    return out
-
-
-def encode_frame(frame: int, columns: F64, *, received: float, sent: float,
-                 bin_seconds: float, lost: int = 0) -> bytes:
-    """A binary frame: little-endian float64, the :data:`FRAME_HEADER` then the columns.
-
-    Parameters
-    ----------
-    frame : int
-        Frame id (the browser sends it back once drawn).
-    columns : ndarray, shape (5, k)
-        :data:`FRAME_COLUMNS` in display units.
-    received : float
-        Wall time at which the newest sample arrived, s (:func:`time.time`).
-    sent : float
-        Wall time of sending, s.
-    bin_seconds : float
-        Seconds per point, s.
-    lost : int
-        Output samples this browser missed since the last frame (it fell behind).
-    """
-    columns = np.asarray(columns, dtype="<f8")
-    if columns.ndim != 2 or columns.shape[0] != len(FRAME_COLUMNS):
-        raise v.fail("columns", columns.shape, f"an array of shape ({len(FRAME_COLUMNS)}, k)")
-    header = np.array([FRAME_VERSION, frame, columns.shape[1], received, sent, bin_seconds,
-                       lost], dtype="<f8")
-    return header.tobytes() + columns.tobytes()
-
-
-def decode_frame(data: bytes) -> tuple[dict[str, float], F64]:
-    """The header (:data:`FRAME_HEADER` names) and columns (shape (5, k)) of a frame."""
-    raw = np.frombuffer(data, dtype="<f8")
-    n = len(FRAME_HEADER)
-    if raw.size < n or raw[0] != FRAME_VERSION:
-        raise v.fail("frame", f"{len(data)} bytes", f"a version-{FRAME_VERSION} dashboard frame")
-    header = dict(zip(FRAME_HEADER, (float(x) for x in raw[:n]), strict=True))
-    k = int(header["points"])
-    if raw.size != n + len(FRAME_COLUMNS) * k:
-        raise v.fail("frame", f"{len(data)} bytes", f"{n + len(FRAME_COLUMNS) * k} float64")
-    return header, raw[n:].reshape(len(FRAME_COLUMNS), k).astype(np.float64)
-
-
+# -- small helpers ---------------------------------------------------------------------------
 def exposure_warning(host: str) -> str | None:
     """The warning to print when ``host`` makes the dashboard reachable from other computers
     (None for this computer only)."""
     if host.strip().strip("[]").lower() in LOCAL_HOSTS:
         return None
     return (f"--host {host} makes the dashboard (with its tare and record buttons, and no "
-            "authentication) reachable by anyone on the network")
+            "authentication) reachable by anyone on the network: its token keeps other web "
+            "sites out, not people who can open the page")
 
 
 def _jsonable(obj: Any) -> Any:
@@ -252,6 +166,7 @@ class Dashboard:
         self._frames = itertools.count(1)
         self._status: dict[str, Any] = {}
         self._status_at = -math.inf
+        self._record_lock = threading.Lock()
         self.clients = 0
 
     # -- what the page asks for ---------------------------------------------------------------
@@ -305,15 +220,40 @@ class Dashboard:
         self.live.tare()
         return {"tare": "started"}
 
+    def record(self, action: str = "toggle") -> dict[str, Any]:
+        """Start or stop the recording, one request at a time (blocking: opens or closes a file).
+
+        Parameters
+        ----------
+        action : {"start", "stop", "toggle"}
+            ``start`` keeps a recording that is open (many starts at once make one recording),
+            ``stop`` closes it (complete), ``toggle`` does what the button shows.
+
+        Returns
+        -------
+        dict
+            ``{"recording": path or None, "stopped": path or None, "started": bool}``: the file
+            open now, the file this request closed, and whether this request opened it.
+        """
+        if action not in RECORD_ACTIONS:
+            raise v.fail("action", action, " or ".join(RECORD_ACTIONS))
+        with self._record_lock:
+            open_now = self.live.recording
+            if action == "toggle":
+                action = "stop" if open_now is not None else "start"
+            if action == "stop":
+                stopped = self.live.stop_recording()
+                return {"recording": None, "stopped": None if stopped is None else str(stopped),
+                        "started": False}
+            if open_now is not None:
+                return {"recording": str(open_now), "stopped": None, "started": False}
+            self.record_dir.mkdir(parents=True, exist_ok=True)
+            path = self.live.start_recording(directory=self.record_dir)
+            return {"recording": str(path), "stopped": None, "started": True}
+
     def toggle_recording(self) -> dict[str, Any]:
-        """Stop the recording if one is open, else start one in ``record_dir`` (blocking: opens
-        or closes a file). Returns ``{"recording": path or None, "stopped": path or None}``."""
-        stopped = self.live.stop_recording()
-        if stopped is not None:
-            return {"recording": None, "stopped": str(stopped)}
-        self.record_dir.mkdir(parents=True, exist_ok=True)
-        path = self.live.start_recording(directory=self.record_dir)
-        return {"recording": str(path), "stopped": None}
+        """Stop the recording if one is open, else start one (:meth:`record` ``("toggle")``)."""
+        return self.record("toggle")
 
     # -- the WebSocket --------------------------------------------------------------------------
     async def stream(self, websocket: WebSocket) -> None:
@@ -413,9 +353,10 @@ class Dashboard:
 
 
 def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | Path = ".",
-                  fps: float = 30.0) -> Starlette:
+                  fps: float = 30.0, host: str = "127.0.0.1") -> Starlette:
     """The dashboard as an ASGI app (Starlette); its :class:`Dashboard` is
-    ``app.state.dashboard``.
+    ``app.state.dashboard``, its :class:`~magcilia.live.guard.Guard` (the Host names it answers
+    to and this run's token) ``app.state.guard``.
 
     Parameters
     ----------
@@ -427,19 +368,29 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
         Where the record button writes ``live-DATE-TIME.tdms``.
     fps : float
         Frames per second sent to each browser, Hz.
+    host : str
+        The address the server listens on (which Host names are its own:
+        :meth:`Guard.serving <magcilia.live.guard.Guard.serving>`).
     """
     require("starlette", package="starlette", extra="dashboard", purpose=_PURPOSE)
     from starlette.applications import Starlette
     from starlette.concurrency import run_in_threadpool
+    from starlette.middleware import Middleware
     from starlette.responses import JSONResponse, Response
     from starlette.routing import Route, WebSocketRoute
 
     dashboard = Dashboard(live, window=window, record_dir=record_dir, fps=fps)
+    guard = Guard.serving(host)
     files = _static_files()
+    marker = f'<meta name="{TOKEN_META}" content="">'.encode()
+    if files["index.html"].count(marker) != 1:
+        raise MagciliaError(f"the dashboard page lacks its token tag {marker.decode()}")
+    page = files["index.html"].replace(
+        marker, f'<meta name="{TOKEN_META}" content="{guard.token}">'.encode())
 
     async def index(_: Request) -> Response:
-        return Response(files["index.html"], media_type=_MEDIA[".html"],
-                        headers={"Cache-Control": "no-cache"})
+        # the token is this run's: the page must never come from a cache
+        return Response(page, media_type=_MEDIA[".html"], headers={"Cache-Control": "no-store"})
 
     async def static(request: Request) -> Response:
         name = request.path_params["name"]
@@ -457,9 +408,17 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
     async def tare(_: Request) -> Response:
         return JSONResponse(dashboard.tare())
 
-    async def record(_: Request) -> Response:
+    async def record(request: Request) -> Response:
+        body = await request.body()
         try:
-            result = await run_in_threadpool(dashboard.toggle_recording)
+            action = json.loads(body).get("action", "toggle") if body.strip() else "toggle"
+        except (ValueError, AttributeError):
+            action = None
+        if action not in RECORD_ACTIONS:
+            return JSONResponse({"error": "the body must be {\"action\": \"start\"}, "
+                                 "\"stop\" or \"toggle\" (or empty: toggle)"}, status_code=400)
+        try:
+            result = await run_in_threadpool(dashboard.record, action)
         except (MagciliaError, OSError) as exc:
             return JSONResponse({"error": str(exc)}, status_code=500)
         return JSONResponse(result)
@@ -468,8 +427,9 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
         Route("/", index), Route("/static/{name:str}", static), Route("/api/info", info),
         Route("/api/status", status), Route("/api/tare", tare, methods=["POST"]),
         Route("/api/record", record, methods=["POST"]), WebSocketRoute("/ws", dashboard.stream),
-    ])
+    ], middleware=[Middleware(OwnPageOnly, guard=guard)])
     app.state.dashboard = dashboard
+    app.state.guard = guard
     return app
 
 
@@ -534,7 +494,9 @@ class DashboardServer:
         The read-out shown (started and stopped by the caller).
     host : str
         Address to listen on; anything but this computer's (127.0.0.1, localhost, ::1) exposes
-        the dashboard's buttons to the network (:func:`exposure_warning`).
+        the dashboard's buttons to the network (:func:`exposure_warning`). Requests whose Host
+        names another server, or that come from another page, are refused
+        (:mod:`magcilia.live.guard`).
     port : int
         TCP port (0: a free one; :attr:`url` tells which).
     window, record_dir, fps
@@ -552,13 +514,19 @@ class DashboardServer:
     def __init__(self, live: LiveReadout, host: str = "127.0.0.1", port: int = 8050, *,
                  window: float = 10.0, record_dir: str | Path = ".",
                  fps: float = 30.0) -> None:
-        self.app = dashboard_app(live, window=window, record_dir=record_dir, fps=fps)
+        self.app = dashboard_app(live, window=window, record_dir=record_dir, fps=fps, host=host)
         self.dashboard: Dashboard = self.app.state.dashboard
+        self.guard: Guard = self.app.state.guard
         self.host = host
         self.port = port
         self._socket: socket.socket | None = None
         self._server: Any = None
         self._thread: threading.Thread | None = None
+
+    @property
+    def token(self) -> str:
+        """This run's token: commands (``POST``) carry it in the ``X-Magcilia-Token`` header."""
+        return self.guard.token
 
     @property
     def url(self) -> str:

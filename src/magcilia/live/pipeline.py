@@ -309,6 +309,7 @@ class LiveReadout:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._lock = threading.RLock()  # the writer, the events, the status fields
+        self._recording_lock = threading.Lock()  # starting and stopping a recording
         self._writer: RecordingWriter | None = None
         self._state = "starting"
         self._message = ""
@@ -482,31 +483,46 @@ class LiveReadout:
         directory : str or Path
             Where a default-named file goes.
         """
-        if path is None:
-            path = _new_recording_path(Path(directory))
-        r = self.readout
-        metadata = {**self.source.metadata(), "live": True, "readout": r.to_dict(),
-                    "setup": setup_to_dict(r.setup), "output_rate_Hz": self.rate,
-                    "factor": self.factor, "event_codes": EVENTS,
-                    "tare_correction_V": self.zero.correction}
-        writer = RecordingWriter(path, metadata=metadata,
-                                 chunk=max(1, round(self.source.rate * 0.5)))
-        writer.open()
-        with self._lock:
-            self._close_writer(complete=True)
-            self._writer = writer
-            self._event("recording", f"started {writer.path}")
-        return writer.path
+        with self._recording_lock:  # one start or stop at a time; each file its own name
+            reserved = path is None
+            if path is None:
+                path = _new_recording_path(Path(directory))
+            r = self.readout
+            metadata = {**self.source.metadata(), "live": True, "readout": r.to_dict(),
+                        "setup": setup_to_dict(r.setup), "output_rate_Hz": self.rate,
+                        "factor": self.factor, "event_codes": EVENTS,
+                        "tare_correction_V": self.zero.correction}
+            writer = RecordingWriter(path, metadata=metadata,
+                                     chunk=max(1, round(self.source.rate * 0.5)))
+            try:
+                writer.open()
+            except BaseException:
+                if reserved and Path(path).is_file() and Path(path).stat().st_size == 0:
+                    Path(path).unlink(missing_ok=True)  # the name reserved, never written
+                raise
+            with self._lock:
+                if self._writer is not None:  # the one open is closed, and says so
+                    self._event("recording", f"stopped {self._writer.path}")
+                self._close_writer(complete=True)
+                self._writer = writer
+                self._event("recording", f"started {writer.path}")
+            return writer.path
 
     def stop_recording(self) -> Path | None:
         """Close the recording (complete); returns its path (None if none was open)."""
-        with self._lock:
+        with self._recording_lock, self._lock:
             if self._writer is None:
                 return None
             path = self._writer.path
             self._event("recording", f"stopped {path}")
             self._close_writer(complete=True)
             return path
+
+    @property
+    def recording(self) -> Path | None:
+        """The file being recorded (None: none is open)."""
+        with self._lock:
+            return self._writer.path if self._writer is not None else None
 
     def _close_writer(self, complete: bool, stopped: str | None = None) -> None:
         writer, self._writer = self._writer, None
@@ -676,12 +692,18 @@ class LiveReadout:
 
 
 def _new_recording_path(directory: Path) -> Path:
-    """``live-YYYYmmdd-HHMMSS.tdms`` in ``directory``, made unique with ``-2``, ``-3`` …."""
+    """``live-YYYYmmdd-HHMMSS.tdms`` in ``directory``, made unique with ``-2``, ``-3`` …, and
+    reserved: created empty at once (exclusively), so that no other recording takes the name."""
+    directory.mkdir(parents=True, exist_ok=True)
     base = directory / f"live-{dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
     path, k = base.with_suffix(".tdms"), 2
-    while path.exists():
-        path, k = Path(f"{base}-{k}.tdms"), k + 1
-    return path
+    while True:
+        try:
+            path.open("xb").close()
+        except FileExistsError:
+            path, k = Path(f"{base}-{k}.tdms"), k + 1
+        else:
+            return path
 
 
 def _first(samples: LiveSamples, count: int) -> dict[str, Any]:

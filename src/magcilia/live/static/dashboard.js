@@ -4,6 +4,9 @@
  * time s, raw mV, value, sigma (display units), flags) and JSON status messages over /ws.
  * After drawing a frame the page answers {"drawn": [frame ids]} so that the server can measure
  * sample-to-screen latency. window.magcilia exposes what is shown (for tests and curious users).
+ * Commands (tare, record) carry the run's token, which the server wrote into the page's
+ * <meta name="magcilia-token">, in the X-Magcilia-Token header: the server takes commands only
+ * from the page it served.
  */
 (function () {
   "use strict";
@@ -391,19 +394,32 @@
     };
   }
 
-  async function post(path) {
-    const resp = await fetch(path, { method: "POST" });
-    const body = await resp.json();
-    if (!resp.ok) throw new Error(body.error || resp.statusText);
-    return body;
+  const tokenTag = document.querySelector('meta[name="magcilia-token"]');
+  const token = tokenTag ? tokenTag.content : "";
+
+  async function post(path, body) {
+    const resp = await fetch(path, {
+      method: "POST",
+      headers: { "Content-Type": "application/json", "X-Magcilia-Token": token },
+      body: JSON.stringify(body || {}),
+    });
+    let answer = {};
+    try {
+      answer = await resp.json();
+    } catch (err) {
+      // not JSON: the status text says enough
+    }
+    if (!resp.ok) throw new Error(answer.error || resp.statusText);
+    return answer;
   }
 
-  function button(id, path, done) {
+  // body(): what to send, asked at the click (the record button says start or stop)
+  function button(id, path, body, done) {
     const b = $(id);
     b.addEventListener("click", async () => {
       b.disabled = true;
       try {
-        done(await post(path));
+        done(await post(path, body()));
       } catch (err) {
         $("message").textContent = `${id}: ${err.message}`;
       } finally {
@@ -424,8 +440,10 @@
     }
     showInfo();
     makePlots();
-    button("tare", "api/tare", () => { $("tared").textContent = "taring…"; });
-    button("record", "api/record", (r) => {
+    button("tare", "api/tare", () => ({}), () => { $("tared").textContent = "taring…"; });
+    // start or stop as the button shows it, so that repeated clicks never open two recordings
+    const recordAction = () => ({ action: M.status && M.status.recording ? "stop" : "start" });
+    button("record", "api/record", recordAction, (r) => {
       $("recfile").textContent = r.recording ? `recording to ${r.recording}` : `saved ${r.stopped}`;
     });
     $("fit").addEventListener("click", () => {
