@@ -220,7 +220,8 @@ class BackgroundReader:
 
     def stop(self) -> None:
         """Stop the thread and close the source (idempotent). A thread stuck in a source's read
-        for longer than ``stall`` s is left to end when the source closes under it."""
+        for longer than ``stall`` s (at least 1 s) is left to end when the source closes under
+        it."""
         self._stop.set()
         self.buffer.close()
         if self._thread is not None:
