@@ -31,9 +31,6 @@ MAX_BUFFER_BYTES = 256 * 2**20
 #: reads of a paced source per second of samples when no chunk is given (how soon the consumer
 #: sees samples and the thread notices a stop)
 READS_PER_SECOND = 50.0
-#: fewest samples per read of a source that is not paced (a simulation run as fast as it goes:
-#: larger reads cost less per sample, and nobody waits for them)
-UNPACED_CHUNK = 4096
 
 
 def buffer_capacity(seconds: float, rate: float, channels: int) -> int:
@@ -166,7 +163,7 @@ class BackgroundReader:
         Buffer length, s of samples at the source's rate (at most :data:`MAX_BUFFER_BYTES`).
     chunk : int, optional
         Samples per read of the source (default: 1/50 s of samples at the rate the source has
-        once open, at least 1; at least :data:`UNPACED_CHUNK` for a source that is not paced).
+        once open, at least 1).
     stall : float
         Seconds :meth:`read` waits for samples before raising (a device that stopped sending).
 
@@ -199,8 +196,6 @@ class BackgroundReader:
         rate = float(self.source.rate)
         channels = len(self.source.channels)
         auto = max(1, round(rate / READS_PER_SECOND)) if math.isfinite(rate) and rate > 0 else 1
-        if not self.source.realtime:
-            auto = max(auto, UNPACED_CHUNK)
         capacity = buffer_capacity(self.seconds, rate, channels)
         self.chunk = min(self._given_chunk or auto, max(1, capacity // 2))
         capacity = max(capacity, 2 * self.chunk)

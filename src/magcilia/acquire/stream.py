@@ -18,6 +18,10 @@ from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.io.recording_file import RecordingWriter, chunk_for
 from magcilia.io.recordings import nptdms_module
 
+#: samples per read of a source that is not paced (a simulation run as fast as it goes: larger
+#: reads cost less per sample, and nobody waits for them); a paced one is read 1/50 s at a time
+UNPACED_CHUNK = 4096
+
 
 @dataclass(frozen=True, repr=False)
 class StreamResult(Display):
@@ -111,7 +115,8 @@ def record_stream(source: Source, path: str | Path, seconds: float, *,
     seconds = v.positive("seconds", seconds, "s", "duration")
     given_chunk = None if chunk is None else v.integer("chunk", chunk, 1)
     nptdms_module("Recording to TDMS files")  # imported before the source starts delivering
-    reader = BackgroundReader(source, seconds=buffer_seconds, stall=stall)
+    unpaced = None if source.realtime else max(UNPACED_CHUNK, round(float(source.rate) / 50.0))
+    reader = BackgroundReader(source, seconds=buffer_seconds, chunk=unpaced, stall=stall)
     written = 0
     total = 0
     t0 = time.perf_counter()
