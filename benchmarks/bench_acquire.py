@@ -7,6 +7,11 @@ time and the overruns (samples the buffer had to overwrite because the writer fe
 Target: >= 1e6 samples/s sustained with zero overruns. Also: the recording writer alone, and the
 simulated source alone, to show where the time goes.
 
+Then ``magcilia record --duration`` as a user runs it (issue 25: a recording took twice its
+duration, and stopped short past 65,536 samples): ``record --source sim --duration 15 --rate
+5000`` must write all 75,000 samples in <= 1.3 x 15 s from the shell (<= 1.1 x for the recording
+itself, the time the command reports); the full run adds 10 s at 100 Hz, 1 kHz and 10 kHz.
+
 Run: python benchmarks/bench_acquire.py [--quick]
 """
 
@@ -18,6 +23,9 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse
+import json
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -67,6 +75,29 @@ def source_alone(samples: int) -> None:
           f"{source.counters.samples / (time.perf_counter() - t0):.4g} samples/s")
 
 
+def record_command(seconds: float, rate: float, folder: Path, shell_target: bool) -> bool:
+    """``magcilia record --source sim --duration S --rate HZ`` in a fresh interpreter: samples in
+    the file, the command's own time and the time from the shell (interpreter start-up
+    included), each over the duration; ``shell_target``: hold the shell time to 1.3 x too."""
+    path = folder / f"record-{rate:g}.tdms"
+    t0 = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "magcilia", "record", "--source", "sim",
+                          "--duration", f"{seconds:g}", "--rate", f"{rate:g}", "--out", str(path),
+                          "--json", "--si"], capture_output=True, text=True, check=True)
+    shell = time.perf_counter() - t0
+    own = float(json.loads(run.stdout)["elapsed_s"])
+    n_file = read_samples(path, required=("voltage_V",))["voltage_V"].size
+    asked = round(seconds * rate)
+    ok = n_file == asked and own <= 1.1 * seconds and (shell <= 1.3 * seconds or not shell_target)
+    targets = "all samples, <= 1.1 x" + (" / <= 1.3 x" if shell_target else "")
+    print(f"  record --source sim --duration {seconds:g} --rate {rate:g}: {n_file} of {asked} "
+          f"samples in the file; recording {own:.2f} s = {own / seconds:.3f} x the duration, "
+          f"from the shell {shell:.2f} s = {shell / seconds:.3f} x   "
+          f"{'ok' if ok else 'TOO SLOW OR SHORT'} (targets: {targets})")
+    path.unlink()
+    return ok
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short smoke run")
@@ -79,9 +110,15 @@ def main() -> None:
         writer_alone(2_000_000 if args.quick else 20_000_000, folder)
         kept = [rate for rate in ((1e6, 2e6) if args.quick else (1e6, 2e6, 4e6))
                 if sustained(rate, seconds, folder)]
+        print("magcilia record --duration, as a user runs it")
+        runs = [(15.0, 5000.0)] + ([] if args.quick else [(10.0, 100.0), (10.0, 1000.0),
+                                                           (10.0, 10_000.0)])
+        recorded = [record_command(s, r, folder, shell_target=i == 0)
+                    for i, (s, r) in enumerate(runs)]
     best = f"{max(kept):.3g} samples/s" if kept else "none"
     print(f"highest paced rate sustained with zero overruns: {best} "
           "(target: >= 1e6 samples/s with zero overruns)")
+    print(f"record --duration within its targets: {sum(recorded)} of {len(recorded)} runs")
 
 
 if __name__ == "__main__":

@@ -258,7 +258,7 @@ def test_the_sweep_through_the_serial_emulator_matches_with_one_percent_corrupt(
                 device.set_value(float(angle))
             return angle
 
-        serial = record_sweep(SerialSource(emulator.port), tmp_path / "serial.tdms",
+        serial = record_sweep(SerialSource(emulator.port, stall=10.0), tmp_path / "serial.tdms",
                               ask=tilt_the_device, samples=2000, settle=0.2)
     for a, b in zip(direct.points, serial.points, strict=True):
         assert b.mean == pytest.approx(a.mean, abs=5 * math.hypot(a.sem, b.sem))

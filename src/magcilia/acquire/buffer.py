@@ -5,10 +5,15 @@ When the consumer falls behind a real-time source, the oldest unread samples are
 counted as *overruns* (never silently): :attr:`BackgroundReader.counters` reports them with the
 source's own drops. A source that is not paced by a clock (a simulation run as fast as it goes)
 instead waits for room, since nothing is lost by waiting.
+
+The buffer is sized when the reader starts, from the rate and channels the source then reports
+(a serial device announces them in its first frame), and never takes more than
+:data:`MAX_BUFFER_BYTES` of memory, whatever a device announces.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from types import TracebackType
@@ -19,6 +24,22 @@ import numpy as np
 from magcilia import _validate as v
 from magcilia._errors import AcquisitionError
 from magcilia.acquire.source import Block, Channel, Counters, Source
+
+#: most memory a background reader's ring buffer takes, bytes (its length in seconds shrinks at
+#: rates and channel counts that would need more)
+MAX_BUFFER_BYTES = 256 * 2**20
+#: reads of a paced source per second of samples when no chunk is given (how soon the consumer
+#: sees samples and the thread notices a stop)
+READS_PER_SECOND = 50.0
+
+
+def buffer_capacity(seconds: float, rate: float, channels: int) -> int:
+    """Samples a ring buffer of ``seconds`` at ``rate`` (Hz) holds, within
+    :data:`MAX_BUFFER_BYTES` for ``channels`` channels (at least 2)."""
+    per_sample = 8 * channels + 25  # data, time, first index, received time, set/reset
+    cap = max(2, MAX_BUFFER_BYTES // per_sample)
+    want = seconds * rate if math.isfinite(rate) and rate > 0.0 else 2.0
+    return int(max(2, min(cap, math.ceil(want))))
 
 
 class RingBuffer:
@@ -55,9 +76,12 @@ class RingBuffer:
 
     def write(self, block: Block) -> None:
         """Append a block's samples (waits for room only when ``overwrite`` is False); each is
-        stamped with the block's ``received`` time, or the wall-clock time now."""
+        stamped with the block's ``received`` time, or the wall-clock time now. After
+        :meth:`close` nobody reads: a block is dropped, not counted as overruns."""
         received = time.time() if block.received is None else block.received
         n = len(block)
+        if self._closed:
+            return
         if n > self.capacity:  # keep the newest that fit
             lost = n - self.capacity
             with self._lock:
@@ -70,6 +94,8 @@ class RingBuffer:
             if not self.overwrite:
                 while self.capacity - self._size < n and not self._closed:
                     self._lock.wait(0.1)
+            if self._closed:
+                return
             free = self.capacity - self._size
             if n > free:  # overwrite the oldest
                 lost = n - free
@@ -134,9 +160,10 @@ class BackgroundReader:
     source : Source
         Opened when the reader starts, closed when it stops.
     seconds : float
-        Buffer length, s of samples at the source's rate.
+        Buffer length, s of samples at the source's rate (at most :data:`MAX_BUFFER_BYTES`).
     chunk : int, optional
-        Samples per read of the source (default: 1/50 s of samples, at least 1).
+        Samples per read of the source (default: 1/50 s of samples at the rate the source has
+        once open, at least 1).
     stall : float
         Seconds :meth:`read` waits for samples before raising (a device that stopped sending).
 
@@ -155,32 +182,45 @@ class BackgroundReader:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
         self.source = source
-        seconds = v.positive("seconds", seconds, "s", "duration")
-        self.chunk = v.integer("chunk", chunk, 1) if chunk is not None else max(
-            1, round(source.rate / 50.0))
+        self.seconds = v.positive("seconds", seconds, "s", "duration")
+        self._given_chunk = None if chunk is None else v.integer("chunk", chunk, 1)
         self.stall = v.positive("stall", stall, "s", "duration")
-        capacity = max(self.chunk * 2, round(seconds * source.rate))
-        self.buffer = RingBuffer(len(source.channels), capacity, overwrite=source.realtime)
+        self.chunk = 1
+        self.buffer = self._size()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
         self._error: Exception | None = None
 
+    def _size(self) -> RingBuffer:
+        """A ring buffer (and the chunk) for the source's rate and channels as they are now."""
+        rate = float(self.source.rate)
+        channels = len(self.source.channels)
+        auto = max(1, round(rate / READS_PER_SECOND)) if math.isfinite(rate) and rate > 0 else 1
+        capacity = buffer_capacity(self.seconds, rate, channels)
+        self.chunk = min(self._given_chunk or auto, max(1, capacity // 2))
+        capacity = max(capacity, 2 * self.chunk)
+        return RingBuffer(channels, capacity, overwrite=self.source.realtime)
+
     # -- life cycle -------------------------------------------------------------------------------
     def start(self) -> Self:
-        """Open the source and start the reader thread (idempotent)."""
+        """Open the source, size the buffer for the rate and channels it reports, and start the
+        reader thread (idempotent)."""
         if self._thread is None:
             self.source.open()
+            self.buffer = self._size()
             self._thread = threading.Thread(target=self._run, name="magcilia-reader",
                                             daemon=True)
             self._thread.start()
         return self
 
     def stop(self) -> None:
-        """Stop the thread and close the source (idempotent)."""
+        """Stop the thread and close the source (idempotent). A thread stuck in a source's read
+        for longer than ``stall`` s (at least 1 s) is left to end when the source closes under
+        it."""
         self._stop.set()
         self.buffer.close()
         if self._thread is not None:
-            self._thread.join()
+            self._thread.join(timeout=max(1.0, self.stall))
         self.source.close()
 
     def __enter__(self) -> Self:
@@ -211,6 +251,9 @@ class BackgroundReader:
         n = v.integer("n", n, 1)
         if self._thread is None:
             self.start()
+        if n > self.buffer.capacity:
+            raise v.fail("samples per read", n, f"at most the buffer's {self.buffer.capacity} "
+                         "samples")
         block = self.buffer.read(n, self.stall + n / self.source.rate, self.source.channels)
         if block is not None:
             return block

@@ -66,6 +66,9 @@ class DeviceEmulator:
         a burst that does not end in 0x00 runs into the frame and damages it.
     garbage_size : int
         Longest burst, bytes (each is 1 to ``garbage_size`` bytes long).
+    rate : float, optional
+        The sample rate the frames announce, Hz (default: the source's, which paces them); any
+        finite value, even outside the protocol's limits, to play a faulty device.
     first : int
         Index of the first sample sent (as if the device had been running; tests of the
         2**32 wrap-around start just below it).
@@ -107,7 +110,7 @@ class DeviceEmulator:
     def __init__(self, source: Source, *, samples_per_frame: int = 32,
                  volts_per_count: float = VOLTS_PER_COUNT, realtime: bool = True,
                  corrupt: float = 0.0, garbage: float = 0.0, garbage_size: int = 64,
-                 first: int = 0, sequence: int = 0,
+                 rate: float | None = None, first: int = 0, sequence: int = 0,
                  rng: int | np.random.Generator | None = None) -> None:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia Source")
@@ -118,6 +121,7 @@ class DeviceEmulator:
         self.corrupt = self._probability("corrupt", corrupt)
         self.garbage = self._probability("garbage", garbage)
         self.garbage_size = v.integer("garbage_size", garbage_size, 1)
+        self.rate = None if rate is None else v.real("rate", rate, "Hz")
         self._index = v.integer("first", first, 0)
         self._sequence = v.integer("sequence", sequence, 0)
         self._gen = np.random.default_rng(rng)
@@ -242,8 +246,9 @@ class DeviceEmulator:
     def _wire(self, counts: np.ndarray, setreset: int) -> bytes:
         """One frame's bytes on the wire, faults included."""
         n, c = counts.shape
+        rate = float(self.source.rate) if self.rate is None else self.rate
         frame = _encode(counts.tobytes(), n, c, self._sequence, self._index, _flags(setreset),
-                        float(self.source.rate), self.volts_per_count)
+                        rate, self.volts_per_count)
         gen = self._gen
         damaged = False
         if self.corrupt and gen.random() < self.corrupt:

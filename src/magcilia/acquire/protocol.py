@@ -20,15 +20,24 @@ Decoded frame (all fields little-endian; offsets in bytes)::
     8   uint32   sequence           frame counter, +1 per frame sent, wraps at 2**32
     12  uint32   first              index of the frame's first sample since the device
                                     started, wraps at 2**32
-    16  float32  rate               sample rate, Hz (0: unknown)
-    20  float32  volts per count    V per ADC count (> 0)
+    16  float32  rate               sample rate, Hz: 0 (unknown) or MIN_RATE .. MAX_RATE
+    20  float32  volts per count    V per ADC count, MIN_VOLTS_PER_COUNT .. MAX_VOLTS_PER_COUNT
     24  int32    counts[n][c]       sample-major: s0c0 s0c1 ... s1c0 s1c1 ...
     24+4nc uint32 crc               CRC-32 (zlib / ISO-HDLC) of bytes 0 .. 23+4nc
 
 On the wire: ``COBS(decoded frame)`` followed by one 0x00. Empty frames (two 0x00 in a row) are
 idle filler and ignored. A frame is *corrupt* when COBS decoding fails, it is shorter than a
 header + CRC or longer than :data:`MAX_FRAME`, its version is not :data:`VERSION`, its length
-disagrees with ``n`` and ``c``, its header values are impossible, or its CRC does not match.
+disagrees with ``n`` and ``c``, its header values are impossible (n or c = 0, unknown flag bits, a
+rate or volts per count outside the limits above, −0 or not finite), its format (channels,
+rate, volts per count) differs from the session's, or its CRC does not match.
+
+A *session* is the stream from the first good frame after the parser starts (the port opens)
+until the device restarts (``first`` goes backwards): its first frame sets the format, and a
+CRC-valid frame in another format within it is rejected as corrupt (counted in
+:attr:`FrameParser.implausible` too), so a device cannot change its rate or gain under a
+recording; a restarted device may announce a new format (the serial source then stops with one
+line).
 
 The host numbers samples by ``first`` (unwrapped to 64 bits): a frame whose ``first`` is ahead of
 where the previous good frame ended means the samples in between were lost (dropped frames or
@@ -70,6 +79,15 @@ MAX_FRAME = 16384
 MAX_ENCODED = MAX_FRAME + MAX_FRAME // 254 + 1
 #: the frame delimiter
 DELIMITER = b"\x00"
+#: slowest sample rate a frame may announce, Hz (one sample per 10 s; 0 means unknown)
+MIN_RATE = 0.1
+#: fastest sample rate a frame may announce, Hz (a USB full-speed link carries about 3e5 int32
+#: values per second; 1 MHz leaves room for high-speed links)
+MAX_RATE = 1e6
+#: smallest ADC step a frame may announce, V per count (a 32-bit converter spanning ±2 µV)
+MIN_VOLTS_PER_COUNT = 1e-15
+#: largest ADC step a frame may announce, V per count (a converter with a 1 V step)
+MAX_VOLTS_PER_COUNT = 1.0
 
 _OVERHEAD = HEADER.size + CRC_SIZE
 _WRAP = 1 << 32
@@ -147,6 +165,25 @@ class Frame:
         return np.multiply(self.counts.T, self.volts_per_count, dtype=np.float64)
 
 
+def header_problem(channels: int, samples: int, flags: int, rate: float,
+                   volts_per_count: float) -> str | None:
+    """Why a frame's header values are impossible (one phrase), or None when they are within
+    the protocol's limits (see the module docstring)."""
+    if not 1 <= channels <= 255:
+        return f"{channels} channels (1 to 255)"
+    if not (1 <= samples <= 0xFFFF and _OVERHEAD + 4 * samples * channels <= MAX_FRAME):
+        return f"{samples} samples of {channels} channels (28 + 4 n c <= {MAX_FRAME} bytes)"
+    if flags & ~(FLAG_SETRESET_VALID | FLAG_SET):
+        return f"flags 0x{flags:02x} (bits 2-7 must be 0)"
+    if not (rate == 0.0 and math.copysign(1.0, rate) > 0.0) and not (
+            MIN_RATE <= rate <= MAX_RATE):
+        return f"rate {rate:g} Hz (0 = unknown, or {MIN_RATE:g} Hz to {MAX_RATE:g} Hz)"
+    if not MIN_VOLTS_PER_COUNT <= volts_per_count <= MAX_VOLTS_PER_COUNT:
+        return (f"{volts_per_count:g} V per count ({MIN_VOLTS_PER_COUNT:g} to "
+                f"{MAX_VOLTS_PER_COUNT:g} V)")
+    return None
+
+
 def _flags(setreset: int | None) -> int:
     if setreset is None or setreset == 0:
         return 0
@@ -175,9 +212,9 @@ def encode_frame(counts: ArrayLike, *, sequence: int, first: int, rate: float,
     first : int
         Index of the first sample since the device started (taken modulo 2**32).
     rate : float
-        Sample rate, Hz (0: unknown).
+        Sample rate, Hz: 0 (unknown) or :data:`MIN_RATE` to :data:`MAX_RATE`.
     volts_per_count : float
-        V per ADC count.
+        V per ADC count, :data:`MIN_VOLTS_PER_COUNT` to :data:`MAX_VOLTS_PER_COUNT`.
     setreset : {None, 1, -1}
         The strap's state: +1 after a set pulse, −1 after a reset pulse, None unknown.
 
@@ -212,6 +249,10 @@ def encode_frame(counts: ArrayLike, *, sequence: int, first: int, rate: float,
     volts_per_count = v.positive("volts_per_count", volts_per_count, "V", "step")
     if setreset not in (None, 1, -1):
         raise v.fail("setreset", setreset, "None, 1 (set) or -1 (reset)")
+    wire_rate, wire_vpc = struct.unpack("<ff", struct.pack("<ff", rate, volts_per_count))
+    problem = header_problem(c, n, 0, wire_rate, wire_vpc)
+    if problem is not None:
+        raise v.fail("frame header", problem, "within the protocol's limits")
     payload = np.ascontiguousarray(arr, dtype="<i4").tobytes()
     return _encode(payload, n, c, sequence, first, _flags(setreset), rate, volts_per_count)
 
@@ -245,6 +286,11 @@ class FrameParser:
         Good frames of other types than :data:`FRAME_SAMPLES`, ignored.
     restarts : int
         Times the sample index went backwards (the device restarted).
+    implausible : int
+        Of the corrupt frames, those with a good CRC but impossible header values or a format
+        (channels, rate, volts per count) other than the session's.
+    rejected : str or None
+        Why the last such frame was rejected (one phrase), for messages.
     """
 
     def __init__(self, *, midstream: bool = False) -> None:
@@ -254,6 +300,9 @@ class FrameParser:
         self.lost_frames = 0
         self.skipped = 0
         self.restarts = 0
+        self.implausible = 0
+        self.rejected: str | None = None
+        self._format: tuple[int, float, float] | None = None  # the session's c, rate, V/count
         self._pending = b""
         self._overflow = False
         self._synced = not midstream
@@ -348,17 +397,27 @@ class FrameParser:
         if kind != FRAME_SAMPLES:
             self.skipped += 1
             return None
-        if n == 0 or c == 0 or flags > 3 or not (math.isfinite(rate) and rate >= 0.0) or not (
-                math.isfinite(vpc) and vpc > 0.0):
+        problem = header_problem(c, n, flags, rate, vpc)
+        delta = 0 if self._next is None else (first - self._next_raw) % _WRAP
+        restart = delta >= _HALF
+        fmt = (c, float(rate), float(vpc))
+        if problem is None and self._format is not None and fmt != self._format and not restart:
+            problem = (f"a format change without a restart ({self._format[0]} channels at "
+                       f"{self._format[1]:g} Hz, {self._format[2]:g} V per count, now {c} at "
+                       f"{rate:g} Hz, {vpc:g} V per count)")
+        if problem is not None:
+            if synced:
+                self.implausible += 1
+                self.rejected = problem
             self._reject(synced)
             return None
+        self._format = fmt
         counts = np.frombuffer(raw, dtype="<i4", count=n * c, offset=HEADER.size).reshape(n, c)
         gap = 0
         if self._next is None:
             index = first
         else:
-            delta = (first - self._next_raw) % _WRAP
-            if delta < _HALF:
+            if not restart:
                 index = self._next + delta
                 gap = delta if self._count_gap else 0
             else:

@@ -23,7 +23,7 @@ import numpy as np
 
 from magcilia import _validate as v
 from magcilia._errors import AcquisitionError, require
-from magcilia.acquire.protocol import VERSION, Frame, FrameParser
+from magcilia.acquire.protocol import MAX_RATE, MIN_RATE, VERSION, Frame, FrameParser
 from magcilia.acquire.source import OUTPUT, Block, Channel, Source
 
 #: relative difference between a given rate and the device's above which they disagree
@@ -61,8 +61,9 @@ class SerialSource(Source):
         one frame takes: 32 samples at 20 Hz take 1.6 s).
     rate : float or None
         The sample rate, Hz, when known better than the device reports it (a clock measured
-        against a reference); it must agree with a reported rate within 1 %. None takes the
-        device's rate; a device that reports 0 (unknown) needs it.
+        against a reference), within the protocol's limits (:data:`~.protocol.MIN_RATE` to
+        :data:`~.protocol.MAX_RATE`); it must agree with a reported rate within 1 %. None takes
+        the device's rate; a device that reports 0 (unknown) needs it.
 
     Examples
     --------
@@ -80,6 +81,8 @@ class SerialSource(Source):
         self.baudrate = v.integer("baudrate", baudrate, 1)
         self.stall = v.positive("stall", stall, "s", "time")
         self._given_rate = None if rate is None else v.positive("rate", rate, "Hz", "frequency")
+        if self._given_rate is not None and not MIN_RATE <= self._given_rate <= MAX_RATE:
+            raise v.fail("rate", rate, f"a sample rate from {MIN_RATE:g} Hz to {MAX_RATE:g} Hz")
         self.rate = self._given_rate or 0.0
         self.channels = (Channel(OUTPUT, "V"),)
         self.realtime = True
@@ -94,6 +97,7 @@ class SerialSource(Source):
         self._last_good = 0.0
         self._bytes_since_good = 0
         self._corrupt_since_good = 0
+        self._implausible_since_good = 0
 
     @property
     def device_first(self) -> int | None:
@@ -187,6 +191,7 @@ class SerialSource(Source):
         self._last_good = time.monotonic()
         self._bytes_since_good = 0
         self._corrupt_since_good = 0
+        self._implausible_since_good = 0
 
     def _fill(self) -> None:
         """Read what the port has (waiting at most ``_POLL`` s) and parse it."""
@@ -200,7 +205,7 @@ class SerialSource(Source):
         except (serial.SerialException, OSError) as exc:
             raise self._vanished(exc) from None
         now = time.monotonic()
-        corrupt = self._parser.corrupt
+        corrupt, implausible = self._parser.corrupt, self._parser.implausible
         frames = self._parser.feed(data) if data else []
         if frames:
             if self._origin is None:
@@ -213,6 +218,7 @@ class SerialSource(Source):
             return
         self._bytes_since_good += len(data)
         self._corrupt_since_good += self._parser.corrupt - corrupt
+        self._implausible_since_good += self._parser.implausible - implausible
         if now - self._last_good > self.stall:
             raise self._stalled()
 
@@ -232,10 +238,11 @@ class SerialSource(Source):
         self._origin = frame.index
 
     def _check(self, frame: Frame) -> None:
-        """A frame must keep the format the source learnt."""
+        """A frame must keep the format the source learnt (the parser rejects other formats
+        within a session; a device that restarts may announce a new one)."""
         if frame.channels != len(self.channels) or frame.rate != self._device_rate:
             raise AcquisitionError(
-                f"serial port {self.port}: the device changed its format mid-stream "
+                f"serial port {self.port}: the device restarted in another format "
                 f"({len(self.channels)} channels at {self._device_rate:g} Hz, now "
                 f"{frame.channels} at {frame.rate:g} Hz); close and reopen the source")
 
@@ -263,6 +270,11 @@ class SerialSource(Source):
         if not self._bytes_since_good:
             return AcquisitionError(f"serial port {port}: the device stopped sending (nothing "
                                     f"for {stall:g} s)")
+        if self._implausible_since_good:
+            return AcquisitionError(
+                f"serial port {port}: the device sends no frames within the protocol's limits "
+                f"({self._implausible_since_good} frames in {stall:g} s rejected, the last for "
+                f"{self._parser.rejected}; see docs/serial-protocol.md)")
         return AcquisitionError(
             f"serial port {port}: the device stopped sending valid frames "
             f"({self._bytes_since_good} bytes, {self._corrupt_since_good} corrupt frames in "

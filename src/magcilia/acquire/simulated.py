@@ -137,6 +137,10 @@ class SimulatedSource(Source):
     realtime : bool
         Pace the samples by the wall clock at ``rate`` (for live views); False delivers them as
         fast as they are computed (tests, demos, benchmarks).
+    speed : float
+        With ``realtime``: how many times faster than the wall clock the samples come (1: a
+        device's pace). Tests run long paced recordings through the same path at a higher speed;
+        sample times stay ``index / rate``.
     flow : Flow, optional
         Flow profile for a ``"flow"`` script (scaled to the scripted speed); default uniform water.
     rng : int, Generator or None
@@ -154,7 +158,7 @@ class SimulatedSource(Source):
 
     def __init__(self, setup: Setup, script: Script | float = 0.0, *, rate: float = 1000.0,
                  readout_noise: float = 2e-4, drift: float = 0.0, bias: float = 0.0,
-                 set_reset: int | None = None, realtime: bool = False,
+                 set_reset: int | None = None, realtime: bool = False, speed: float = 1.0,
                  flow: Flow | None = None,
                  rng: int | np.random.Generator | None = None) -> None:
         super().__init__()
@@ -168,6 +172,7 @@ class SimulatedSource(Source):
         self.bias = v.real("bias", bias, "V")
         self.set_reset = None if set_reset is None else v.integer("set_reset", set_reset, 1)
         self.realtime = bool(realtime)
+        self.speed = v.positive("speed", speed, "", "factor")
         self.flow = flow
         self.channels = (Channel(OUTPUT, "V"),)
         self.name = "sim"
@@ -194,7 +199,9 @@ class SimulatedSource(Source):
 
     # -- Source ---------------------------------------------------------------------------------
     def _open(self) -> None:
-        self._started = time.monotonic() - self._index / self.rate
+        if self._index == 0:  # the model's first evaluation loads compiled code: before the pace
+            self._clean(self.script.values(np.zeros(1)))
+        self._started = time.monotonic() - self._index / (self.rate * self.speed)
 
     def _close(self) -> None:
         return
@@ -213,7 +220,7 @@ class SimulatedSource(Source):
                  + self.readout_noise * self._gen.standard_normal(n))
         self._index += n
         if self.realtime:
-            wait = self._started + self._index / self.rate - time.monotonic()
+            wait = self._started + self._index / (self.rate * self.speed) - time.monotonic()
             if wait > 0.0:
                 time.sleep(wait)
         return Block(time=t, data=volts[None, :], channels=self.channels, first=int(index[0]),
@@ -223,7 +230,8 @@ class SimulatedSource(Source):
         """The source's settings, marked simulated."""
         return {**super().metadata(), "simulated": True, "script": self.script.describe(),
                 "readout_noise_V": self.readout_noise, "drift_V_per_s": self.drift,
-                "bias_V": self.bias, "set_reset_samples": self.set_reset, "seed": self._seed}
+                "bias_V": self.bias, "set_reset_samples": self.set_reset, "seed": self._seed,
+                "speed": self.speed}
 
     # -- the signal -----------------------------------------------------------------------------
     def _clean(self, values: F64) -> F64:

@@ -15,7 +15,12 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, si
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Counters, Source
-from magcilia.io.recording_file import RecordingWriter
+from magcilia.io.recording_file import RecordingWriter, chunk_for
+from magcilia.io.recordings import nptdms_module
+
+#: samples per read of a source that is not paced (a simulation run as fast as it goes: larger
+#: reads cost less per sample, and nobody waits for them); a paced one is read 1/50 s at a time
+UNPACED_CHUNK = 4096
 
 
 @dataclass(frozen=True, repr=False)
@@ -67,9 +72,17 @@ class StreamResult(Display):
 
 
 def record_stream(source: Source, path: str | Path, seconds: float, *,
-                  metadata: dict[str, Any] | None = None, chunk: int = 65536,
-                  buffer_seconds: float = 10.0) -> StreamResult:
+                  metadata: dict[str, Any] | None = None, chunk: int | None = None,
+                  buffer_seconds: float = 10.0, stall: float = 5.0,
+                  overwrite: bool = True) -> StreamResult:
     """Record ``seconds`` of the source's samples into a crash-safe TDMS recording.
+
+    The source is opened first (a serial device announces its rate in its first frame: the
+    number of samples is ``seconds`` times that rate); the recording is created only once it
+    delivers, so a source that fails to open leaves no file and an existing one as it was. The
+    consumer takes the samples from the ring buffer in pieces of about
+    :data:`~magcilia.io.recording_file.FLUSH_SECONDS` s and the file flushes them at least that
+    often: a crash loses at most about a second of samples.
 
     Parameters
     ----------
@@ -81,29 +94,46 @@ def record_stream(source: Source, path: str | Path, seconds: float, *,
         Duration, s of samples at the source's rate.
     metadata : dict, optional
         More to store in the recording, added to the source's.
-    chunk : int
-        Samples per read of the buffer and per flushed chunk of the file.
+    chunk : int, optional
+        Most samples per flushed chunk of the file (default: half a second of samples,
+        :func:`~magcilia.io.recording_file.chunk_for`).
     buffer_seconds : float
         Ring buffer length, s.
+    stall : float
+        Seconds without samples after which the source counts as stopped, s (the recording
+        then ends, kept, saying where).
+    overwrite : bool
+        Replace an existing ``path`` (once the new recording holds its first chunk); False
+        refuses it.
 
     Raises
     ------
     AcquisitionError
-        When the source or the disk fails; the recording so far is kept.
+        When the source or the disk fails; the recording so far is kept and says where it
+        stopped (with no sample recorded, no file is left and an existing one is untouched).
     """
     seconds = v.positive("seconds", seconds, "s", "duration")
-    total = max(1, round(seconds * source.rate))
-    writer = RecordingWriter(path, chunk=chunk, metadata={**source.metadata(), **(metadata or {})})
-    reader = BackgroundReader(source, seconds=buffer_seconds, chunk=min(chunk, total))
+    given_chunk = None if chunk is None else v.integer("chunk", chunk, 1)
+    nptdms_module("Recording to TDMS files")  # imported before the source starts delivering
+    unpaced = None if source.realtime else max(UNPACED_CHUNK, round(float(source.rate) / 50.0))
+    reader = BackgroundReader(source, seconds=buffer_seconds, chunk=unpaced, stall=stall)
     written = 0
+    total = 0
     t0 = time.perf_counter()
-    with writer.keeping(lambda: f"after {written} of {total} samples"), reader:
-        writer.open()
-        while written < total:
-            block = reader.read(min(chunk, total - written))
-            writer.write(block.time, block[OUTPUT], setreset=block.setreset,
-                         extra=block.extra())
-            written += len(block)
-    elapsed = time.perf_counter() - t0
+    with reader:  # opens the source: a failure here leaves no file
+        rate = float(source.rate)
+        total = max(1, round(seconds * rate))
+        step = min(chunk_for(rate), reader.buffer.capacity // 2 or 1)
+        writer = RecordingWriter(path, chunk=given_chunk or chunk_for(rate),
+                                 metadata={**source.metadata(), **(metadata or {}),
+                                           "planned_samples": total},
+                                 overwrite=overwrite).open()
+        with writer.keeping(lambda: f"after {written} of {total} samples"):
+            while written < total:
+                block = reader.read(min(step, total - written))
+                writer.write(block.time, block[OUTPUT], setreset=block.setreset,
+                             extra=block.extra())
+                written += len(block)
     writer.close(complete=True)
+    elapsed = time.perf_counter() - t0
     return StreamResult(str(path), written, reader.counters, reader.overruns, elapsed)

@@ -26,10 +26,10 @@ from numpy.typing import ArrayLike
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, count, dataframe, rows_table, si
 from magcilia.acquire.simulated import SimulatedSource
-from magcilia.acquire.source import OUTPUT, Counters, Source
+from magcilia.acquire.source import OUTPUT, Block, Counters, Source
 from magcilia.device.sensor import Sensor
-from magcilia.io.recording_file import RecordingWriter
-from magcilia.io.recordings import beyond_range, reading
+from magcilia.io.recording_file import RecordingWriter, chunk_for
+from magcilia.io.recordings import beyond_range, nptdms_module, reading
 
 #: asked for each new angle (0, 1, …): the tilt in rad, or None to end the sweep
 AskAngle = Callable[[int], float | None]
@@ -145,7 +145,8 @@ def record_sweep(
     settle: float = 0.0,
     sensor: Sensor | None = None,
     metadata: dict[str, Any] | None = None,
-    chunk: int = 4096,
+    chunk: int | None = None,
+    overwrite: bool = True,
     on_point: Callable[[SweepPoint], None] | None = None,
 ) -> SweepResult:
     """Record a calibration sweep into one crash-safe TDMS recording.
@@ -171,8 +172,14 @@ def record_sweep(
         For the saturation count (default: the HMC1021Z at the paper's settings).
     metadata : dict, optional
         More to store in the recording (the setup, the sensor…), added to the source's.
-    chunk : int
-        Samples per flushed chunk of the file.
+    chunk : int, optional
+        Most samples per flushed chunk of the file (default: half a second of samples,
+        :func:`~magcilia.io.recording_file.chunk_for`); the file is flushed at least every half
+        second as well, and each angle's samples reach it in pieces of that size, so a crash
+        loses at most about a second of samples.
+    overwrite : bool
+        Replace an existing ``path`` (once the new recording holds its first chunk; a source that
+        fails to open leaves it as it was); False refuses it.
     on_point : callable, optional
         Called with each angle's :class:`SweepPoint` as soon as it is recorded.
 
@@ -184,7 +191,8 @@ def record_sweep(
     ------
     AcquisitionError
         When the source or the disk fails: the message says where the sweep stopped; the
-        recording made so far is kept.
+        recording made so far is kept (with no sample recorded, no file is left and an existing
+        one is untouched).
     """
     if not isinstance(source, Source):
         raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
@@ -192,40 +200,57 @@ def record_sweep(
         raise v.fail("sweep", "both or neither of angles and ask",
                      "given a list of angles or a function that asks for them")
     samples = v.integer("samples", samples, 2)
-    settle_samples = round(v.non_negative("settle", settle, "s", "duration") * source.rate)
+    settle = v.non_negative("settle", settle, "s", "duration")
     sensor = sensor or Sensor()
     planned = None if angles is None else [
         float(a) for a in v.finite_array("angles", angles, ndim=1, unit="rad")]
     tilt = source.set_value if (isinstance(source, SimulatedSource)
                                 and source.script.quantity == "angle") else None
-    writer = RecordingWriter(path, chunk=chunk, metadata={
-        **source.metadata(), **(metadata or {}), "samples_per_angle": samples,
-        "planned_angles_deg": None if planned is None else [math.degrees(a) for a in planned]})
     points: list[SweepPoint] = []
     t0 = time.perf_counter()
     where = "before the first angle"
-    with writer.keeping(lambda: where), source:
-        writer.open()
-        for i, angle in enumerate(_angles(planned, ask)):
-            where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
-            if tilt is not None:
-                tilt(angle)
-            source.discard()
-            if settle_samples:
-                source.read(settle_samples)
-            block = source.read(samples)
-            volts = block[OUTPUT]
-            writer.write(block.time, volts, angle_deg=np.full(len(block), math.degrees(angle)),
-                         setreset=block.setreset, extra=block.extra())
-            mean, sem, count = reading(volts, block.setreset, where)
-            point = SweepPoint(angle, mean, sem, count, int(beyond_range(volts, sensor).sum()))
-            points.append(point)
-            if on_point is not None:
-                on_point(point)
-            where = f"after angle {i + 1}"
+    nptdms_module("Recording to TDMS files")  # imported before the source starts delivering
+    with source:  # opened first: a serial device announces its rate, and a failure leaves no file
+        piece = chunk_for(source.rate)
+        settle_samples = round(settle * source.rate)
+        writer = RecordingWriter(path, chunk=chunk or piece, overwrite=overwrite, metadata={
+            **source.metadata(), **(metadata or {}), "samples_per_angle": samples,
+            "planned_angles_deg": None if planned is None else [
+                math.degrees(a) for a in planned]}).open()
+        with writer.keeping(lambda: where):
+            for i, angle in enumerate(_angles(planned, ask)):
+                where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
+                if tilt is not None:
+                    tilt(angle)
+                source.discard()
+                for n in _pieces(settle_samples, piece):
+                    source.read(n)
+                blocks = []
+                for n in _pieces(samples, piece):  # each piece reaches the file at once
+                    block = source.read(n)
+                    writer.write(block.time, block[OUTPUT],
+                                 angle_deg=np.full(n, math.degrees(angle)),
+                                 setreset=block.setreset, extra=block.extra())
+                    blocks.append(block)
+                block = Block.concatenate(blocks)
+                volts = block[OUTPUT]
+                mean, sem, count = reading(volts, block.setreset, where)
+                point = SweepPoint(angle, mean, sem, count,
+                                   int(beyond_range(volts, sensor).sum()))
+                points.append(point)
+                if on_point is not None:
+                    on_point(point)
+                where = f"after angle {i + 1}"
     writer.close(complete=True)
     return SweepResult(path=str(path), points=tuple(points), counters=source.counters,
                        elapsed=time.perf_counter() - t0)
+
+
+def _pieces(total: int, piece: int) -> Iterator[int]:
+    """Sizes of the reads that make ``total`` samples, at most ``piece`` each."""
+    while total > 0:
+        yield min(piece, total)
+        total -= piece
 
 
 def _angles(planned: list[float] | None, ask: AskAngle | None) -> Iterator[float]:

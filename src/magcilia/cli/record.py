@@ -3,10 +3,12 @@ TDMS file that ``magcilia calibrate`` reads as it is."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
 
+from magcilia._atomic import _exists_message
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.acquire import record_stream, record_sweep, source_from_spec
@@ -83,23 +85,31 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
+@click.option("--force", is_flag=True,
+              help="Replace an existing --out: only once the new recording holds its first "
+                   "flushed chunk (a source that fails leaves it as it was).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the result as JSON (the console's units: deg, mV; SI with --si).")
 @click.option("--quiet", is_flag=True, help="Print only the closing line.")
 @si_option
 def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
-            out_path: str, as_json: bool, quiet: bool, si: bool) -> None:
+            out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
     angle's mean ± standard error and a saturation flag; the recording ends in OUT, which
     `magcilia calibrate OUT` fits as it is. With --duration, record continuously instead
     (for `magcilia readout`). A failure keeps the recording made so far and says where it
-    stopped. The recording itself is in SI (angle_rad, voltage_V); the console and --json are in
-    deg and mV (SI with --si).
+    stopped. An existing OUT is refused without --force, and never lost: with --force it is
+    replaced only once the new recording holds its first flushed chunk. The recording itself is
+    in SI (angle_rad, voltage_V); the console and --json are in deg and mV (SI with --si).
     """
     units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
         raise fail("--out", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
+    if Path(out_path).is_dir():
+        raise MagciliaError(f"{out_path} is a folder, not a recording file; choose another --out")
+    if os.path.lexists(out_path) and not force:
+        raise MagciliaError(_exists_message(Path(out_path)))
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
                               set_reset=set_reset, realtime=duration is not None)
@@ -107,7 +117,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     if duration is not None:
         if angles is not None:
             raise fail("--duration", duration, "used without --angles (a continuous recording)")
-        stream = record_stream(source, out_path, duration, metadata=metadata)
+        stream = record_stream(source, out_path, duration, metadata=metadata, overwrite=force)
         if as_json:
             echo_json({"units": units.system, **stream.to_dict()})
         else:
@@ -121,8 +131,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     plan = None if angles is None else angle_grid(angles)
     result = record_sweep(source, out_path, angles=plan, ask=None if plan is not None else
                           ask_angle(), samples=samples, settle=settle, sensor=setup.sensor,
-                          metadata=metadata,
-                          on_point=show)
+                          metadata=metadata, overwrite=force, on_point=show)
     if as_json:
         echo_json({"units": units.system, **units.convert(result.to_dict())})  # type: ignore[dict-item]
         return

@@ -1,11 +1,24 @@
 """Recordings that survive a crash: samples streamed to a TDMS file in flushed chunks.
 
-Every ``chunk`` samples the writer appends one TDMS segment (all channels) and flushes it to the
-operating system, so a ``kill -9`` at any moment loses at most the chunk in progress and leaves a
-file that :func:`magcilia.read_samples` and ``magcilia calibrate`` open (``tests/acquire`` kills
-recorders to prove it; npTDMS reads a file cut inside its last segment). The file's properties
-hold the metadata (source, rate, sensor, setup, start time, software version) and, once closed,
-``complete`` and, if it ended early, ``stopped`` (why and where).
+The writer appends one TDMS segment (all channels) and flushes it to the operating system every
+``chunk`` samples, or sooner, once the oldest sample waiting has waited ``flush_interval``
+seconds (checked at each write): a ``kill -9`` at any moment loses at most the samples not yet
+flushed — about half a second of them with :func:`chunk_for` — and leaves a file that
+:func:`magcilia.read_samples` and ``magcilia calibrate`` open (``tests/acquire`` kills recorders to
+prove it; npTDMS reads a file cut inside its last segment).
+
+The first segment, written when the file opens, holds the file's properties: the metadata
+(source, rate, channels and their units, sensor, setup, planned angles of a sweep, start time,
+software version, ``chunk_samples`` and ``flush_interval_s``) and ``complete = False``. So a file
+killed before its first chunk of samples still opens and says what it was meant to hold; it has
+no ``recording`` channels yet. Closing appends ``complete`` (True, or False with ``stopped``: why
+and where it ended early) and ``samples``.
+
+An existing file is never destroyed before the new recording holds something: with
+``overwrite=True`` the new file is written beside it under a hidden temporary name (``.NAME-XXXXXXXX
+.tdms``, the convention of :mod:`magcilia._atomic`, locked while written) and renamed over it
+when its first chunk of samples is flushed; a recording that fails before that removes its
+temporary file and leaves the old one as it was. ``overwrite=False`` refuses an existing file.
 
 Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V), and where given
 ``angle_deg`` (the tilt of each sample, deg), ``setreset`` (+1 set, −1 reset) and any extra
@@ -18,10 +31,16 @@ from __future__ import annotations
 
 import contextlib
 import datetime as dt
+import errno
+import io
 import json
+import math
 import os
+import sys
+import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
+from time import monotonic
 from types import TracebackType
 from typing import IO, Any, Self
 
@@ -29,13 +48,24 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._atomic import jsonable
+from magcilia._atomic import _exists_message, _umask, jsonable
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia._validate import printable
 from magcilia.io.recordings import nptdms_module, quiet_nptdms
 
+if sys.platform != "win32":
+    import fcntl
+
 F64 = NDArray[np.float64]
 GROUP = "recording"
+#: seconds of samples per flushed chunk (:func:`chunk_for`), and the longest a sample waits
+#: unflushed (``flush_interval``), s: together they bound what a crash loses
+FLUSH_SECONDS = 0.5
+
+
+def chunk_for(rate: float) -> int:
+    """Samples per flushed chunk at ``rate`` (Hz): :data:`FLUSH_SECONDS` of them, at least 1."""
+    return max(1, round(FLUSH_SECONDS * rate)) if math.isfinite(rate) and rate > 0.0 else 1
 
 
 def _property(value: Any) -> Any:
@@ -51,14 +81,21 @@ class RecordingWriter:
     Parameters
     ----------
     path : str or Path
-        The file to write (``.tdms``); replaced if it exists.
+        The file to write (``.tdms``).
     metadata : mapping
         What the recording should remember (source, rate, sensor, setup, …); JSON-ready values.
     chunk : int
-        Samples per flushed segment: at most this many are lost in a crash.
+        Most samples per flushed segment.
+    flush_interval : float or None
+        Longest time a written sample waits before it is flushed, s (checked at each write; a
+        crash loses at most the samples of ``chunk`` and of this interval); None: flush by
+        ``chunk`` only.
     fsync : bool
         Also ask the disk to store each chunk (survives a power cut, not only a killed process;
         slower).
+    overwrite : bool
+        Replace an existing ``path`` (only once the new recording holds its first flushed chunk,
+        see the module notes); False refuses it with a one-line error when the file opens.
 
     Examples
     --------
@@ -71,38 +108,122 @@ class RecordingWriter:
     """
 
     def __init__(self, path: str | Path, *, metadata: Mapping[str, Any] | None = None,
-                 chunk: int = 4096, fsync: bool = False) -> None:
+                 chunk: int = 4096, flush_interval: float | None = FLUSH_SECONDS,
+                 fsync: bool = False,
+                 overwrite: bool = True) -> None:
         self.path = Path(path)
         self.metadata = dict(metadata or {})
         self.chunk = v.integer("chunk", chunk, 1)
+        self.flush_interval = None if flush_interval is None else v.non_negative(
+            "flush_interval", flush_interval, "s", "time")
         self.fsync = bool(fsync)
+        self.overwrite = bool(overwrite)
         self.samples = 0
         self.chunks = 0
+        self._oldest: float | None = None  # monotonic time the oldest pending sample came
+        self._temp: Path | None = None  # the hidden file written until it replaces ``path``
+        self._owns_path = False  # whether ``path`` is this writer's file (created or replaced)
         self._pending: dict[str, list[F64]] = {}
         self._names: tuple[str, ...] | None = None
         self._groups: dict[str, dict[str, list[F64]]] = {}  # further groups' pending columns
         self._units: dict[tuple[str, str], str] = {}
-        self._file: IO[bytes] | None = None
+        self._file: IO[bytes] | None = None  # unbuffered: each segment goes out in one piece
+        self._size = 0  # bytes of whole segments in the file
+        self._staging = io.BytesIO()  # a segment is built here, then written out
         self._writer: Any = None
 
     # -- life cycle -------------------------------------------------------------------------------
     def open(self) -> Self:
-        """Create the file and write its properties (idempotent)."""
+        """Create the file and write its first segment: the properties (idempotent).
+
+        Raises
+        ------
+        MagciliaError
+            If ``path`` does not end in ``.tdms``, is a folder, exists while ``overwrite`` is
+            False, or cannot be created (one line).
+        """
         if self._writer is not None:
             return self
         nptdms = nptdms_module("Recording to TDMS files")
         if self.path.suffix.lower() != ".tdms":
             raise v.fail("recording file", str(self.path), "a path ending in .tdms")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
         from magcilia._version import __version__
 
         props = {key: _property(val) for key, val in self.metadata.items() if val is not None}
         props.update(magcilia_version=__version__, complete=False,
-                     start_time=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"))
-        self._file = self.path.open("wb")
-        self._writer = nptdms.TdmsWriter(self._file)
-        self._segment([nptdms.RootObject(props), nptdms.GroupObject(GROUP)])
+                     start_time=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+                     chunk_samples=self.chunk)
+        if self.flush_interval is not None:
+            props["flush_interval_s"] = self.flush_interval
+        self._file = self._create()
+        self._size = 0
+        self._writer = nptdms.TdmsWriter(self._staging)
+        try:
+            self._segment([nptdms.RootObject(props), nptdms.GroupObject(GROUP)])
+        except MagciliaError:
+            self._discard()
+            raise
         return self
+
+    def _create(self) -> IO[bytes]:
+        """Open the file to write: ``path`` itself when it does not exist (created exclusively),
+        else a locked temporary file beside it that replaces it at the first flushed chunk."""
+        path = self.path
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if path.is_dir():
+                raise MagciliaError(f"{path} is a folder, not a recording file; choose another "
+                                    "--out")
+            try:
+                file = path.open("xb", buffering=0)
+            except FileExistsError:
+                if not self.overwrite:
+                    raise MagciliaError(_exists_message(path)) from None
+            else:
+                self._owns_path = True
+                return file
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix,
+                                       dir=path.parent)
+        except OSError as exc:
+            raise MagciliaError(f"cannot write the recording {path}: "
+                                f"{exc.strerror or exc}") from None
+        self._temp = Path(tmp)
+        self._temp.chmod(0o666 & ~_umask())  # mkstemp makes 0600 files; recordings follow the umask
+        if sys.platform != "win32":  # a later run's clean-up leaves a locked temporary file alone
+            with contextlib.suppress(OSError):
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return os.fdopen(fd, "wb", buffering=0)
+
+    def _publish(self, *, final: bool = False) -> None:
+        """Rename the temporary file over ``path`` (on POSIX the open file goes on under its new
+        name). Where an open file cannot be renamed (Windows) it is renamed when it closes
+        (``final``); a final rename that fails keeps the recording under its temporary name and
+        says so."""
+        if self._temp is None:
+            return
+        try:
+            self._temp.replace(self.path)
+        except OSError as exc:
+            if not final:
+                return
+            raise MagciliaError(f"{self.path}: cannot replace it with the new recording "
+                                f"({exc.strerror or exc}); the recording is kept in "
+                                f"{self._temp}") from None
+        self._temp = None
+        self._owns_path = True
+
+    def _discard(self) -> None:
+        """Close and remove the file this writer made (the old ``path`` stays as it was)."""
+        file, self._file, self._writer = self._file, None, None
+        if file is not None:
+            with contextlib.suppress(OSError):
+                file.close()
+        if self._temp is not None:
+            self._temp.unlink(missing_ok=True)
+            self._temp = None
+        elif self._owns_path:
+            self.path.unlink(missing_ok=True)
+            self._owns_path = False
 
     def close(self, *, complete: bool = True, stopped: str | None = None) -> None:
         """Write what is pending and the closing properties, and close the file (idempotent).
@@ -128,15 +249,23 @@ class RecordingWriter:
             self._writer = None
             self._file.close()
             self._file = None
+            if self._temp is not None and not (complete or self.samples):
+                self._temp.unlink(missing_ok=True)  # nothing recorded: the old file stays
+                self._temp = None
+            self._publish(final=True)  # a complete recording without samples replaces it too
 
     def abort(self, stopped: str) -> bool:
         """Close after a failure, saying why and where (``stopped``); returns whether a recording
-        is kept. A file without a single chunk of samples is removed; a failure to write the last
-        note (the disk is what failed) is ignored: the chunks written so far stay readable."""
+        is kept. A file this writer made that holds no samples is removed (an existing file it was
+        to replace stays as it was); a failure to write the last note (the disk is what failed) is
+        ignored: the chunks written so far stay readable."""
+        if self.samples == 0 and not self._pending_size():
+            self._discard()
+            return False
         with contextlib.suppress(MagciliaError):
             self.close(complete=False, stopped=stopped)
         if self.samples == 0:
-            self.path.unlink(missing_ok=True)
+            self._discard()
             return False
         return True
 
@@ -214,10 +343,17 @@ class RecordingWriter:
         elif tuple(arrays) != self._names:
             raise v.fail("recording channels", tuple(arrays), f"the channels {self._names} "
                          "of the first write")
+        now = monotonic()
+        if self._oldest is None and n:
+            self._oldest = now
         for k, a in arrays.items():
             self._pending[k].append(a)
         while self._pending_size() >= self.chunk:
             self._flush_pending(self.chunk)
+            self._oldest = now if self._pending_size() else None
+        if (self._oldest is not None and self.flush_interval is not None
+                and now - self._oldest >= self.flush_interval):
+            self._flush_pending()
 
     def write_group(self, group: str, columns: Mapping[str, ArrayLike],
                     units: Mapping[str, str] | None = None) -> None:
@@ -283,16 +419,34 @@ class RecordingWriter:
         self._segment(objects + self._group_objects())
         self.samples += n
         self.chunks += n > 0
+        if limit is None:
+            self._oldest = None
+        if n:
+            self._publish()  # the new recording holds a chunk: it may replace the old file now
 
     def _segment(self, objects: list[Any]) -> None:
-        """Write one TDMS segment and flush it to the operating system (and the disk)."""
+        """Write one TDMS segment to the operating system (and the disk, with ``fsync``); a
+        segment that fails half-way (a full disk) is cut off again, so the file holds whole
+        segments only."""
         assert self._file is not None
+        staging = self._staging
+        staging.seek(0)
+        staging.truncate()
+        self._writer.write_segment(objects)
+        data = memoryview(staging.getvalue())
         try:
-            self._writer.write_segment(objects)
-            self._file.flush()
+            while data:
+                written = self._file.write(data)
+                if not written:
+                    raise OSError(errno.EIO, "the file took no bytes")
+                data = data[written:]
             if self.fsync:
                 os.fsync(self._file.fileno())
+            self._size = self._file.tell()
         except OSError as exc:
+            with contextlib.suppress(OSError):
+                os.ftruncate(self._file.fileno(), self._size)
+                self._file.seek(self._size)
             raise MagciliaError(
                 f"{self.path}: writing failed after {self.samples} samples "
                 f"({exc.strerror or exc}); the recording so far is kept") from None
