@@ -96,6 +96,9 @@ class RecordingWriter:
     overwrite : bool
         Replace an existing ``path`` (only once the new recording holds its first flushed chunk,
         see the module notes); False refuses it with a one-line error when the file opens.
+    reserved : bool
+        ``path`` is an empty file the caller created (exclusively) to hold the name: it is
+        written in place, not through a temporary file (a live view's default file names).
 
     Examples
     --------
@@ -110,7 +113,7 @@ class RecordingWriter:
     def __init__(self, path: str | Path, *, metadata: Mapping[str, Any] | None = None,
                  chunk: int = 4096, flush_interval: float | None = FLUSH_SECONDS,
                  fsync: bool = False,
-                 overwrite: bool = True) -> None:
+                 overwrite: bool = True, reserved: bool = False) -> None:
         self.path = Path(path)
         self.metadata = dict(metadata or {})
         self.chunk = v.integer("chunk", chunk, 1)
@@ -118,6 +121,7 @@ class RecordingWriter:
             "flush_interval", flush_interval, "s", "time")
         self.fsync = bool(fsync)
         self.overwrite = bool(overwrite)
+        self.reserved = bool(reserved)
         self.samples = 0
         self.chunks = 0
         self._oldest: float | None = None  # monotonic time the oldest pending sample came
@@ -177,6 +181,9 @@ class RecordingWriter:
             try:
                 file = path.open("xb", buffering=0)
             except FileExistsError:
+                if self.reserved and path.is_file() and path.stat().st_size == 0:
+                    self._owns_path = True
+                    return path.open("r+b", buffering=0)
                 if not self.overwrite:
                     raise MagciliaError(_exists_message(path)) from None
             else:

@@ -492,7 +492,7 @@ class LiveReadout:
                         "setup": setup_to_dict(r.setup), "output_rate_Hz": self.rate,
                         "factor": self.factor, "event_codes": EVENTS,
                         "tare_correction_V": self.zero.correction}
-            writer = RecordingWriter(path, metadata=metadata,
+            writer = RecordingWriter(path, metadata=metadata, reserved=reserved,
                                      chunk=max(1, round(self.source.rate * 0.5)))
             try:
                 writer.open()
