@@ -12,7 +12,8 @@ connected browser gets its own loop that runs ``fps`` times per second: it takes
 samples that came since its own cursor (:meth:`History.since`; nothing is queued for it by the
 read-out, so a slow or vanished browser costs the acquisition nothing), averages them into display
 bins so that a ``window``-second trace has at most :data:`MAX_POINTS` points, and sends one
-binary frame (:func:`encode_frame`; both in :mod:`magcilia.live.frames`). A few times per second it also sends the status as JSON.
+binary frame (:func:`encode_frame`; both in :mod:`magcilia.live.frames`). A few times per second
+it also sends the status as JSON.
 
 **Screen latency**: after drawing a frame (uPlot's ``setData`` inside ``requestAnimationFrame``,
 then a task after the paint) the page answers ``{"drawn": frame_id}``; the server takes
