@@ -53,8 +53,8 @@ def main() -> None:
     write_text(OUT / "example_recording.csv", buf.getvalue())
     meta = {
         "synthetic": True,
-        "description": ("Synthetic field-vs-tilt recording of the paper's cilium "
-                        "for demos and tests"),
+        "description": ("Synthetic field-vs-tilt recording of the paper's cilium (Table I, "
+                        "the exact body) for demos and tests"),
         "generator": "scripts/make_example_recording.py",
         "seed": SEED,
         "truth": {n: truth.params()[n] for n in BODY},
