@@ -199,11 +199,20 @@ def test_result_report_dict_and_frame(exact: list[np.ndarray]) -> None:
     assert fit.setup.params()["height"] == pytest.approx(fit.values["height"])
 
 
-def test_the_mirrored_basin_is_found_and_reported_as_ambiguous(exact: list[np.ndarray]) -> None:
+def test_the_mirrored_basin_is_found_and_reported_as_ambiguous(
+        exact: list[np.ndarray], monkeypatch: pytest.MonkeyPatch) -> None:
     """The single output path has two basins, x ≈ −1.5 mm and the true +1.5 mm, whose χ² differ
     by less than 1 with this seed: the search lands in the mirrored one, looks on the other side
-    by itself and says "ambiguous", naming x and the alternative's χ²; the posterior samples it
-    as a mode."""
+    by itself and says "ambiguous", naming x and the alternative's χ²; the posterior is handed
+    the alternative and the y mirrors of both as modes (the sampler itself: test_posterior)."""
+    from magcilia.calibration import joint
+
+    handed: dict[str, object] = {}
+
+    def spy(problem: object, start: np.ndarray, **kwargs: object) -> None:
+        handed.update(kwargs, start=start)
+
+    monkeypatch.setattr(joint, "sample_problem", spy)
     rng = np.random.default_rng(2)
     a = ANGLES.size
     volts = 75.0 * exact[0][:, 0] + 0.01 + rng.normal(0.0, 75.0 * NOISE, a)
@@ -211,7 +220,10 @@ def test_the_mirrored_basin_is_found_and_reported_as_ambiguous(exact: list[np.nd
                          counts=np.full(a, 100), saturated=np.zeros(a, np.int64),
                          nonfinite=np.zeros(a, np.int64), source="single")
     fit = mc.calibrate(single, model="physical", rng=0, initial=INITIAL, priors=HEIGHT_PRIOR,
-                       layout=LAYOUT)
+                       layout=LAYOUT, posterior=True)
+    modes = np.array(handed["modes"])
+    assert handed["mirror"] == ["y"] and modes.shape == (2, 5)
+    assert modes[0, 2] * fit.values["x"] < 0 and modes[1, 3] == -modes[0, 3]
     notes = [w for w in fit.diagnostics if w.kind == "ambiguous"]
     assert len(notes) == 1 and "x" in notes[0].parameters
     text = notes[0].message

@@ -811,8 +811,12 @@ def calibrate_joint(
         result = replace(result, warnings=(*result.warnings, alt.message),
                          diagnostics=(*result.diagnostics, alt))
     if target and names:
+        modes = [a.point for a in found]
+        if y_free and "y" in names:  # each alternative has its y mirror too
+            modes += [a.point * np.where(np.array(names) == "y", -1.0, 1.0) for a in found]
         result = replace(result, posterior=sample_problem(
-            problem, x, modes=[a.point for a in found],
+            problem, x, modes=[m for m in modes if np.all((problem.bounds[:, 0] <= m)
+                                                          & (m <= problem.bounds[:, 1]))],
             mirror=["y"] if y_free and "y" in names else (), n_effective=target, rng=gen))
     return result
 
