@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.diagnostics import CalibrationWarning, shown
+from magcilia.calibration.diagnostics import LENGTHS, CalibrationWarning, shown
 
 F64 = NDArray[np.float64]
 
@@ -96,8 +96,26 @@ def best_of(points: F64, chi2: F64) -> tuple[F64, float]:
     return np.asarray(points[i], dtype=np.float64), float(cost[i])
 
 
+def at_size_of(point: F64, best: F64, names: Sequence[str], depth: float) -> F64:
+    """``point`` (p,) moved along the scale symmetry to ``best``'s height: every length (height,
+    base radius, x, y, and z + ``depth``, the base's height above the element) times
+    h_best / h_point. The field, hence the fit to tilt data, does not change (NOTES §8)."""
+    if "height" not in names:
+        return point
+    k = names.index("height")
+    factor = best[k] / point[k]
+    out = np.array(point, dtype=np.float64)
+    for i, n in enumerate(names):
+        if n == "z":
+            out[i] = (point[i] + depth) * factor - depth
+        elif n in LENGTHS:
+            out[i] = point[i] * factor
+    return out
+
+
 def alternatives(best: F64, best_chi2: float, points: F64, chi2: F64, names: Sequence[str],
-                 stderr: Mapping[str, float], fold_y: bool = False) -> list[Alternative]:
+                 stderr: Mapping[str, float], fold_y: bool = False,
+                 depth: float | None = None) -> list[Alternative]:
     """The distinct optima among ``points`` (s, p) that fit as well as ``best`` (p,).
 
     Parameters
@@ -115,6 +133,11 @@ def alternatives(best: F64, best_chi2: float, points: F64, chi2: F64, names: Seq
     fold_y : bool
         The data cannot tell the sign of y: compare y by its magnitude (the y mirror is reported
         by its own warning).
+    depth : float, optional
+        The sensor depth (m), given when nothing fixes the size (no length held or given a
+        prior): each optimum is first moved along the scale symmetry to the best's height
+        (:func:`at_size_of`), so that where a local fit stopped along that exactly flat
+        direction does not decide whether it counts as another solution.
 
     Returns
     -------
@@ -132,6 +155,8 @@ def alternatives(best: F64, best_chi2: float, points: F64, chi2: F64, names: Seq
         if not c <= best_chi2 + AMBIGUITY_CHI2:
             break
         point = np.array(points[i], dtype=np.float64)
+        if depth is not None:
+            point = at_size_of(point, best, names, depth)
         if k >= 0:
             point[k] = math.copysign(point[k], best[k])
         far = np.abs(point - best) > AMBIGUITY_SIGMA * se

@@ -41,13 +41,13 @@ from scipy.optimize import least_squares
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.calibration.ambiguity import (
-    AMBIGUITY_CHI2,
     alternatives,
     ambiguity_warning,
     best_of,
     mirror_starts,
 )
 from magcilia.calibration.diagnostics import (
+    LENGTHS,
     CalibrationWarning,
     at_bound,
     correlated,
@@ -500,8 +500,9 @@ class JointProblem:
 def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
             starts: int) -> tuple[F64, F64, F64]:
     """The best parameters (p,) and the search's final local minima (s, p) with their χ² (s,):
-    the survivors of the halving, and the fits started in the mirrored basins of the best of
-    them (:func:`~magcilia.calibration.ambiguity.mirror_starts`); those near the best polished."""
+    the survivors of the halving and the fits started in the mirrored basins of the best of
+    them (:func:`~magcilia.calibration.ambiguity.mirror_starts`), all run to convergence, the
+    best of them polished."""
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
     x = latin_hypercube(starts, lo, hi, rng)
     x[0] = x_init
@@ -523,12 +524,10 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
     if mirrors.size:
         more = levenberg_marquardt(res, mirrors, lo, hi, maxiter=MAXITER)
         minima, cost = np.concatenate([minima, more.x]), np.concatenate([cost, more.cost])
-    best_cost = best_of(minima, cost)[1]
-    for i in np.flatnonzero(cost <= best_cost + 2.0 * AMBIGUITY_CHI2):
-        minima[i] = polish(problem, minima[i])
-        cost[i] = problem.cost(minima[i])[0]
-    best, _ = best_of(minima, cost)
-    return best, minima, cost
+    i = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))
+    minima[i] = polish(problem, minima[i])
+    cost[i] = problem.cost(minima[i])[0]
+    return minima[i].copy(), minima, cost
 
 
 def polish(problem: JointProblem, x: F64) -> F64:
@@ -724,10 +723,10 @@ def calibrate_joint(
         Also sample the posterior of the fitted geometry (the offsets profiled out) with
         :func:`~magcilia.calibration.posterior.sample_problem` until every parameter has 1000
         effective samples (an int: that many), within
-        :data:`~magcilia.calibration.posterior.MAX_SECONDS`; the optima the search found within
-        :data:`AMBIGUITY_CHI2` of the best and, when the data cannot tell the sign of y, the
-        mirror ``y → −y`` are sampled as modes and weighted by their evidence. Needs the
-        optional ``emcee`` (``pip install 'magcilia[posterior]'``).
+        :data:`~magcilia.calibration.posterior.MAX_SECONDS`; the alternatives the ``ambiguous``
+        warning names (:mod:`magcilia.calibration.ambiguity`) and, when the data cannot tell the
+        sign of y, the mirrors ``y → −y`` of each are sampled as modes and weighted by their
+        evidence. Needs the optional ``emcee`` (``pip install 'magcilia[posterior]'``).
 
     Returns
     -------
@@ -803,8 +802,10 @@ def calibrate_joint(
     target = 0 if posterior is False else 1000 if posterior is True else v.integer(
         "posterior", posterior, 100)
     result = _joint_result(problem, initial, experiments, box, x, y_free, t0)
+    free = all(n in names and n not in checked for n in LENGTHS)  # nothing fixes the size
     found = alternatives(x, float(problem.cost(x)[0]), minima, minima_cost, names,
-                         result.stderr, fold_y=y_free)
+                         result.stderr, fold_y=y_free,
+                         depth=initial.sensor.depth if free else None)
     alt = ambiguity_warning(found, float(problem.cost(x)[0]), names,
                             placement_remedy(not y_free))
     if alt is not None:
