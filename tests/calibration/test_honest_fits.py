@@ -78,7 +78,10 @@ def test_a_prior_only_direction_keeps_the_priors_sigma(
     assert example_fit.chi2 / example_fit.dof > 1.0
     assert any(w.kind == "chi2" for w in example_fit.diagnostics)
     assert example_fit.stderr["height"] == pytest.approx(HEIGHT_SIGMA, rel=1e-3)
-    assert not example_fit.undetermined()  # the prior determines the scale
+    assert not example_fit.undetermined()  # the prior determines the scale, and it alone
+    note = next(w for w in example_fit.diagnostics if w.kind == "prior_only")
+    assert "height" in note.parameters and "scale symmetry" in note.message
+    assert "through the priors alone" in example_fit.report()
 
 
 def test_understated_noise_inflates_the_data_not_the_prior() -> None:

@@ -27,6 +27,9 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
     determine them for these data (:func:`undetermined_warning`): for the scale symmetry (every
     length scaled together leaves the field unchanged, NOTES §8) a measured size or load data,
     never another tilt.
+``"prior_only"``
+    Combinations the data alone leave open and only the priors determine (the size, by the scale
+    symmetry, given a measured height): their standard errors rest on the priors' σ.
 ``"correlated"``
     Two parameters correlated beyond :data:`CORRELATION_LIMIT`.
 ``"y_sign"``
@@ -98,7 +101,7 @@ SCALE_TOLERANCE = 0.05
 WARNING_KINDS = (
     "at_bound", "bias_absorbs_signal", "implausible_stderr", "weakly_determined",
     "undetermined", "correlated", "y_sign", "model_not_finite", "no_degrees_of_freedom",
-    "integer_parameters", "layout", "chi2", "ambiguous", "sensor_field",
+    "integer_parameters", "layout", "chi2", "ambiguous", "sensor_field", "prior_only",
 )
 #: the sensor flags that make a placement's field a calibration warning (``"sensor_field"``)
 SENSOR_FIELD_FLAGS = (SensorFlag.FLIPPED_RISK | SensorFlag.BEYOND_RANGE
@@ -429,3 +432,19 @@ def placement_remedy(y_sign_known: bool) -> str:
         return ("a tilt toward another azimuth, 3-axis field data or a prior on the placement "
                 "(a measured x) would decide")
     return "a prior on the placement (a measured x, y or z) or another experiment would decide"
+
+
+def prior_only_warning(jac: F64, null: F64, open_: NDArray[np.bool_], names: Sequence[str],
+                       values: Mapping[str, float], depth: float,
+                       priors: Sequence[str]) -> CalibrationWarning:
+    """The ``"prior_only"`` note: the data's Jacobian ``jac`` (m, p), without the prior rows,
+    leaves the combinations ``null`` (r, p) of the parameters ``open_`` (p,) open, and the
+    priors on ``priors`` determine them."""
+    involved = tuple(n for n, u in zip(names, open_, strict=True) if u)
+    scale = (" (the scale symmetry: every length scaled together leaves the field unchanged)"
+             if is_scale_symmetry(jac, null, names, values, depth) else "")
+    return CalibrationWarning("prior_only", (
+        f"the data alone leave {len(null)} combination(s) of {', '.join(involved)} open{scale}; "
+        f"the prior on {', '.join(priors)} determines {'it' if len(null) == 1 else 'them'}, so "
+        "the standard errors along it rest on the prior's σ, not on the data"), involved)
+

@@ -52,6 +52,7 @@ from magcilia.calibration.diagnostics import (
     at_bound,
     correlated,
     placement_remedy,
+    prior_only_warning,
     scale_remedy,
     undetermined_remedy,
     undetermined_warning,
@@ -653,8 +654,13 @@ def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
     cov = cov * np.outer(units, units)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
+    values = dict(zip(problem.names, x.tolist(), strict=True))
+    if not null.size and problem.priors:  # determined, but perhaps by the priors alone
+        _, data_null, data_open = equilibrated_pinv(data_jac)
+        if data_null.size:
+            warns.append(prior_only_warning(data_jac, data_null, data_open, names, values,
+                                            problem.base.sensor.depth, tuple(problem.priors)))
     if null.size:
-        values = dict(zip(problem.names, x.tolist(), strict=True))
         warns.append(undetermined_warning(
             jac, null, undetermined, names, values, problem.base.sensor.depth,
             "these experiments", scale_remedy(

@@ -653,8 +653,11 @@ class JointCalibrationResult(_Uncertain, Display):
         lines.append("experiments:")
         lines += [f"- {e.line()}" for e in self.experiments]
         und = self.undetermined()
-        lines.append("still undetermined: " + (", ".join(und) if und else
-                                               "nothing (every fitted parameter is determined)"))
+        by_prior = tuple(dict.fromkeys(n for w in self.diagnostics if w.kind == "prior_only"
+                                       for n in w.parameters))
+        lines.append("still undetermined: " + (", ".join(und) if und else (
+            "nothing (every fitted parameter is determined"
+            + (f"; {', '.join(by_prior)} through the priors alone)" if by_prior else ")"))))
         lines += [f"warning: {w}" for w in self.warnings]
         if self.posterior is not None:
             lines.append(self.posterior.report())
