@@ -222,3 +222,34 @@ def test_robust_outliers() -> None:
     assert stats["height"]["n"] == 5 and stats["height"]["median"] == 3.0
     assert stats["height"]["iqr"] == pytest.approx(0.1) and stats["height"]["max"] == 9.0
     assert [(o["recording"], o["parameter"]) for o in outliers] == [("r4", "height")]
+
+
+def test_outliers_only_among_the_values_the_data_determine(reference: BatchResult) -> None:
+    """Issue 24: recordings of one sensor give any height on an equally good fit (the scale
+    symmetry leaves it undetermined): the outlier test skips it and says so, and flags a
+    determined value only when its own standard errors say it differs."""
+    fitted = [r for r in reference.rows if not r["error"]]
+    assert all(not math.isfinite(r["height_stderr"]) for r in fitted)
+    assert np.ptp([r["height"] for r in fitted]) > 0.5e-3  # a spread that says nothing
+    assert not any(o["parameter"] == "height" for o in reference.outliers)
+    assert reference.statistics["height"]["checked"] == 0.0
+    assert reference.statistics["height"]["determined"] == 0
+    summary = (Path(reference.out) / "summary.md").read_text()
+    assert "not checked (undetermined in too many recordings" in summary
+    assert "height (6 of 6 undetermined or held)" in summary
+
+    def row(i: int, height: float, h_se: float, x: float, x_se: float) -> dict[str, object]:
+        return {"recording": f"r{i}", "error": "", "cost": 1.0, "height": height,
+                "height_stderr": h_se, "base_radius": 1.0, "base_radius_stderr": 0.1,
+                "x": x, "x_stderr": x_se, "y": 0.0, "y_stderr": 0.1, "z": 0.0, "z_stderr": 0.1}
+
+    # the issue's three recordings: heights 2.03-3.04 mm, undetermined; x determined
+    rows = [row(0, 2.03e-3, math.inf, 1.0, 0.01), row(1, 2.5e-3, math.inf, 1.01, 0.01),
+            row(2, 3.04e-3, math.nan, 0.99, 0.01), row(3, 2.9e-3, math.inf, 1.0, 0.01),
+            row(4, 9.0e-3, math.inf, 1.02, 0.01), row(5, 2.2e-3, math.inf, 1.5, 0.01),
+            row(6, 2.4e-3, math.inf, 1.5, 1.0)]
+    stats, outliers = batch_statistics(rows)
+    assert stats["height"]["checked"] == 0.0 and stats["x"]["checked"] == 1.0
+    # r5 lies 50 of its standard errors from the median: flagged; r6 as far by z-score, but
+    # its own standard error (1.0) covers the distance: not flagged
+    assert [(o["recording"], o["parameter"]) for o in outliers] == [("r5", "x")]

@@ -5,6 +5,10 @@ tilt angle and adding what a real bench adds: the sensor's white + 1/f noise (``
 white read-out noise of the amplifier and DAQ, a slow drift over the whole run and a DC bias
 (earth's and lab fields, bridge offset).
 
+The clean signal comes from the setup's dipole layout, or, with ``exact_slices=n``, from the
+exact body (:func:`magcilia.model.exact_field`, a stack of ``n`` magpylib cylinders: what a real
+hair of that shape gives), so that a fit with any dipole layout meets its own model error.
+
 :func:`synthetic_field_recording` makes the 3-axis kind: a magnetometer at the sensing point read
 while the cilium is tilted toward several azimuths (``Setup.field(angles, azimuth=φ)``), with
 white noise per component and an optional constant background field;
@@ -33,6 +37,8 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia.device.setup import Setup
 from magcilia.io.csvfile import write_samples_csv
+from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
+from magcilia.model.exact import exact_field
 
 F64 = NDArray[np.float64]
 
@@ -56,6 +62,22 @@ class Recording:
     time: F64
 
 
+def clean_field(setup: Setup, angles: F64, azimuth: float = 0.0,
+                exact_slices: int | None = None) -> F64:
+    """The noise-free field at the sensing element, T, shape (a, 3), for tilts by ``angles``
+    (rad) toward ``azimuth`` (rad): the setup's dipole layout (``exact_slices=None``,
+    :meth:`Setup.field`), or the exact body as a stack of ``exact_slices`` magpylib cylinders
+    (:func:`magcilia.model.exact_field`; error O(1/n²), ~1e-6 relative at 2000)."""
+    if exact_slices is None:
+        return setup.field(angles, azimuth=azimuth)
+    n = v.integer("exact_slices", exact_slices, 1)
+    if azimuth == 0.0:
+        return exact_field(setup, angles, n_slices=n)
+    x, y = placement_in_tilt_frame(setup.position[0], setup.position[1], azimuth)
+    turned = setup.replace(position=(float(x), float(y), setup.position[2]))
+    return field_from_tilt_frame(exact_field(turned, angles, n_slices=n), azimuth)
+
+
 def synthetic_recording(
     setup: Setup,
     angles: ArrayLike,
@@ -66,6 +88,7 @@ def synthetic_recording(
     readout_noise: float = 2e-4,
     drift: float = 2e-5,
     bias: float = 2.0e-3,
+    exact_slices: int | None = None,
     rng: int | np.random.Generator | None = None,
 ) -> Recording:
     """Simulate the paper's measurement of ``setup`` at the given tilt angles.
@@ -88,6 +111,9 @@ def synthetic_recording(
         Linear output drift over the whole run, V.
     bias : float
         DC bias added to every sample, V.
+    exact_slices : int, optional
+        None (default): the clean output from the setup's dipole layout; an int: from the exact
+        body, a stack of that many magpylib cylinders (see :func:`clean_field`).
     rng : int, Generator or None
         Randomness; None (default) draws fresh entropy, an int repeats the recording.
     """
@@ -95,7 +121,8 @@ def synthetic_recording(
     n = v.integer("samples_per_angle", samples_per_angle, 2)
     rate = v.positive("rate", rate, "Hz", "frequency")
     gen = np.random.default_rng(rng)
-    clean = setup.output(ang)
+    clean = (setup.output(ang) if exact_slices is None
+             else setup.sensor.voltage(clean_field(setup, ang, 0.0, exact_slices)[:, 0]))
     block = n / rate + settle
     t = (np.arange(ang.size)[:, None] * block + np.arange(n)[None, :] / rate).ravel()
     total = max(float(t[-1]), 1.0 / rate)
@@ -148,6 +175,7 @@ def synthetic_field_recording(
     samples_per_angle: int = 200,
     noise: float = 1e-7,
     background: ArrayLike = (0.0, 0.0, 0.0),
+    exact_slices: int | None = None,
     rng: int | np.random.Generator | None = None,
 ) -> FieldRecording:
     """Simulate a 3-axis magnetometer at the sensing point while ``setup``'s cilium is tilted to
@@ -168,6 +196,9 @@ def synthetic_field_recording(
         magnetometer: about 0.1 µT).
     background : array-like, shape (3,)
         Constant field added to every sample (the earth's and the lab's), T.
+    exact_slices : int, optional
+        None (default): the clean field from the setup's dipole layout; an int: from the exact
+        body, a stack of that many magpylib cylinders (see :func:`clean_field`).
     rng : int, Generator or None
         Randomness; None (default) draws fresh entropy, an int repeats the recording.
 
@@ -187,7 +218,8 @@ def synthetic_field_recording(
     if bg.shape != (3,):
         raise v.fail("background", f"shape {bg.shape}", "3 components (B_x, B_y, B_z) in T")
     gen = np.random.default_rng(rng)
-    clean = np.concatenate([setup.field(ang, azimuth=float(phi)) for phi in phis])  # (z·a, 3)
+    clean = np.concatenate([clean_field(setup, ang, float(phi), exact_slices)
+                            for phi in phis])  # (z·a, 3)
     field = np.repeat(clean, n, axis=0) + bg + sigma * gen.standard_normal((clean.shape[0] * n,
                                                                              3))
     return FieldRecording(np.tile(np.repeat(np.degrees(ang), n), phis.size),

@@ -22,7 +22,12 @@ options is an error (``force`` starts it over).
 
 Outliers: the modified z-score of Iglewicz and Hoaglin, ``z = 0.6745 (v − median) / MAD``
 (MAD the median absolute deviation), flagged when ``|z| > 3.5``, for each fitted geometry and
-placement value and the cost (high costs only), over the recordings that succeeded.
+placement value and the cost (high costs only), over the recordings that succeeded. A value is
+compared only where its recording's data determine it (a finite standard error), and is flagged
+only when it also lies more than :data:`OUTLIER_SIGMAS` of its own standard errors from the
+median: a parameter a tilt path leaves undetermined (the size, by the scale symmetry) takes any
+value on an equally good fit, and its spread says nothing about the chips. The summary says
+which parameters were checked and which were not.
 """
 
 from __future__ import annotations
@@ -71,6 +76,9 @@ BATCH_FILES = ("manifest.json", "results.csv", "results.parquet", "summary.md")
 SUMMARISED = ("height", "base_radius", "x", "y", "z")
 #: modified z-score above which a value is an outlier (Iglewicz and Hoaglin)
 OUTLIER_Z = 3.5
+#: … and its distance from the median, in its own standard errors, above which the recording's
+#: data say it differs
+OUTLIER_SIGMAS = 3.0
 #: the table's columns, SI (:data:`UNITS`): lengths and their standard errors (``*_stderr``;
 #: NaN where held or undetermined) m, cost V², rms and offset V, seconds s
 COLUMNS = ("recording", "error", "cost", "rms", *PARAMETERS, "offset", "magnetization_scale",
@@ -325,8 +333,15 @@ def robust_z(values: ArrayLike) -> NDArray[np.float64]:
 def batch_statistics(rows: Sequence[Mapping[str, Any]]
                      ) -> tuple[dict[str, dict[str, float]], tuple[dict[str, Any], ...]]:
     """The spread (n, median, IQR, min, max; SI) of :data:`SUMMARISED` and the cost over the
-    rows that succeeded, and their outliers (|modified z| > :data:`OUTLIER_Z`; the cost's high
-    side only), by recording."""
+    rows that succeeded, and their outliers (|modified z| > :data:`OUTLIER_Z`, the cost's high
+    side only), by recording.
+
+    A parameter's outliers are sought among the rows whose data determine it (``<name>_stderr``
+    finite; a row without that column counts as determined), with the median and MAD of those
+    rows, and a flagged value must also lie more than :data:`OUTLIER_SIGMAS` of its standard
+    errors from that median. Each statistic carries ``"determined"``, the count of those rows;
+    ``"checked"`` is 1.0 when the outlier test ran on it (at least 3 determined rows), else 0.0.
+    """
     ok = [r for r in rows if not r["error"]]
     stats: dict[str, dict[str, float]] = {}
     outliers: list[dict[str, Any]] = []
@@ -334,11 +349,23 @@ def batch_statistics(rows: Sequence[Mapping[str, Any]]
         x = np.array([float(r[name]) for r in ok], dtype=np.float64)
         if x.size == 0:
             continue
+        se = np.array([float(r.get(f"{name}_stderr", 0.0)) for r in ok], dtype=np.float64)
+        determined = np.isfinite(se)
         q25, q50, q75 = np.percentile(x, [25.0, 50.0, 75.0])
+        checked = int(determined.sum()) >= 3
         stats[name] = {"n": int(x.size), "median": float(q50), "iqr": float(q75 - q25),
-                       "min": float(x.min()), "max": float(x.max())}
-        z = robust_z(x)
-        flagged = z > OUTLIER_Z if name == "cost" else np.abs(z) > OUTLIER_Z
+                       "min": float(x.min()), "max": float(x.max()),
+                       "determined": int(determined.sum()), "checked": float(checked)}
+        if not checked:
+            continue
+        z = np.zeros_like(x)
+        z[determined] = robust_z(x[determined])
+        centre = float(np.median(x[determined]))
+        if name == "cost":
+            flagged = determined & (z > OUTLIER_Z)
+        else:
+            flagged = (determined & (np.abs(z) > OUTLIER_Z)
+                       & (np.abs(x - centre) > OUTLIER_SIGMAS * se))
         outliers += [{"recording": ok[i]["recording"], "parameter": name, "value": float(x[i]),
                       "z": float(z[i])} for i in np.flatnonzero(flagged)]
     outliers.sort(key=lambda o: (o["recording"], o["parameter"]))
@@ -358,9 +385,20 @@ def summary_lines(result: BatchResult, si: bool = False) -> list[str]:
         unit, factor = ("V^2", 1.0) if name == "cost" else (("m", 1.0) if si else ("mm", 1e3))
         lines.append(f"{name:<12} {unit:>4} {s['n']:5d} " + " ".join(
             f"{s[k] * factor:11.5g}" for k in ("median", "iqr", "min", "max")))
+    checked = [n for n, st in result.statistics.items() if st.get("checked", 1.0)]
+    skipped = [f"{n} ({int(st['n'] - st['determined'])} of {int(st['n'])} undetermined or held)"
+               for n, st in result.statistics.items() if not st.get("checked", 1.0)]
+    if result.statistics:
+        lines += ["", "outlier check on the values the data determine: "
+                  + (", ".join(checked) or "none")
+                  + ("; not checked (undetermined in too many recordings, e.g. the size by the "
+                     "scale symmetry: their spread says nothing about the chips): "
+                     + ", ".join(skipped) if skipped else "")]
     if result.outliers:
         lines += ["", (f"outliers (modified z-score |z| > {OUTLIER_Z:g}, Iglewicz-Hoaglin: "
-                      "0.6745 (value - median) / MAD):")]
+                      "0.6745 (value - median) / MAD, over the recordings that determine the "
+                      f"value, and more than {OUTLIER_SIGMAS:g} of its standard errors from the "
+                      "median):")]
         for o in result.outliers:
             unit, factor = ("V^2", 1.0) if o["parameter"] == "cost" else (
                 ("m", 1.0) if si else ("mm", 1e3))

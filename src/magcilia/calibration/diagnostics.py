@@ -23,11 +23,20 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
     A standard error above :data:`LOOSE_FRACTION` of the bound width.
 ``"undetermined"``
     Combinations of parameters along which the output does not change (the null space of the
-    Jacobian): these parameters' standard errors are infinite.
+    Jacobian): these parameters' standard errors are infinite. The text names what would
+    determine them for these data (:func:`undetermined_warning`): for the scale symmetry (every
+    length scaled together leaves the field unchanged, NOTES §8) a measured size or load data,
+    never another tilt.
+``"prior_only"``
+    Combinations the data alone leave open and only the priors determine (the size, by the scale
+    symmetry, given a measured height): their standard errors rest on the priors' σ.
 ``"correlated"``
     Two parameters correlated beyond :data:`CORRELATION_LIMIT`.
 ``"y_sign"``
     y and −y fit equally well (B_x is even in y).
+``"ambiguous"``
+    Another optimum fits as well (Δχ² ≤ 4) yet lies more than 3 standard errors away
+    (:mod:`magcilia.calibration.ambiguity`): the mirrored placement, another basin.
 ``"sensor_field"``
     The fitted placement puts a field on the single-axis element beyond its flip (disturbing)
     field or its linear range (of the total field, or on the sensitive axis): a real sensor there
@@ -82,12 +91,17 @@ NOISE_FLOOR = 1e-9
 LOOSE_FRACTION = 0.25
 #: |correlation| beyond which two parameters are reported as strongly correlated
 CORRELATION_LIMIT = 0.99
+#: the lengths that scale together in the scale symmetry (NOTES §8), with the sensor depth
+LENGTHS = ("height", "base_radius", "x", "y", "z")
+#: a null space holds the scale direction when the part of that (unit) direction outside it is
+#: below this (finite-difference noise tilts the null vectors slightly)
+SCALE_TOLERANCE = 0.05
 
 #: every kind a :class:`CalibrationWarning` can have (see the module docstring)
 WARNING_KINDS = (
     "at_bound", "bias_absorbs_signal", "implausible_stderr", "weakly_determined",
     "undetermined", "correlated", "y_sign", "model_not_finite", "no_degrees_of_freedom",
-    "integer_parameters", "layout", "chi2", "ambiguous", "sensor_field",
+    "integer_parameters", "layout", "chi2", "ambiguous", "sensor_field", "prior_only",
 )
 #: the sensor flags that make a placement's field a calibration warning (``"sensor_field"``)
 SENSOR_FIELD_FLAGS = (SensorFlag.FLIPPED_RISK | SensorFlag.BEYOND_RANGE
@@ -328,3 +342,109 @@ def sensor_field(setup: Setup, angles: F64, which: str,
             "and does not read B_x faithfully; check the recording (pulse set/reset before "
             "recording), the bounds of x, y, z, or the sensor's flip_field and range")
     return CalibrationWarning("sensor_field", text, ("x", "y", "z"))
+
+
+def scale_direction(names: Sequence[str], values: Mapping[str, float], depth: float) -> F64:
+    """The change of each parameter of ``names`` when every length grows by a factor 1 + ε,
+    per ε (SI): the length itself (the base's height above the element, z + ``depth``, for z),
+    0 for the others (offsets, scales, a modulus). Shape (p,)."""
+    return np.array([(values[n] + depth if n == "z" else values[n]) if n in LENGTHS else 0.0
+                     for n in names], dtype=np.float64)
+
+
+def is_scale_symmetry(jac: F64, null: F64, names: Sequence[str], values: Mapping[str, float],
+                      depth: float) -> bool:
+    """Whether the combinations ``null`` (r, p) that the Jacobian ``jac`` (m, p) does not see
+    (from :func:`magcilia.calibration.uncertainty.equilibrated_pinv`: rows in the columns'
+    equilibrated units) include the scale direction (:func:`scale_direction`; its non-length
+    parts free, e.g. a Young's modulus that trades against the size)."""
+    s = scale_direction(names, values, depth)
+    lengths = s != 0.0
+    if not null.size or not lengths.any():
+        return False
+    slopes = np.linalg.norm(jac, axis=0)
+    target = (s * np.where(slopes > 0, slopes, 1.0))[lengths]
+    target /= np.linalg.norm(target)
+    part = null[:, lengths]
+    coef, *_ = np.linalg.lstsq(part.T, target, rcond=None)
+    return bool(float(np.linalg.norm(part.T @ coef - target)) <= SCALE_TOLERANCE)
+
+
+def undetermined_warning(jac: F64, null: F64, undetermined: NDArray[np.bool_],
+                         names: Sequence[str], values: Mapping[str, float], depth: float,
+                         data: str, scale_remedy: str, other_remedy: str) -> CalibrationWarning:
+    """The ``"undetermined"`` warning for the null combinations ``null`` (r, p) of ``jac``
+    (m, p), naming the parameters involved (``undetermined``, (p,)) and what determines them:
+    ``scale_remedy`` when the scale symmetry is among them (:func:`is_scale_symmetry`; no tilt
+    recording fixes the size), ``other_remedy`` for the rest; ``data`` names the data ("this
+    tilt path")."""
+    involved = tuple(n for n, u in zip(names, undetermined, strict=True) if u)
+    count = len(null)
+    head = (f"the data are (numerically) unchanged along {count} combination(s) of "
+            f"{', '.join(involved)}: these parameters are not determined by {data} and their "
+            "standard errors are infinite")
+    if not is_scale_symmetry(jac, null, names, values, depth):
+        return CalibrationWarning("undetermined", f"{head} ({other_remedy})", involved)
+    text = (f"{head}. {'One of them is' if count > 1 else 'It is'} the scale symmetry: every "
+            "length scaled together (height, base radius and the placement x, y, z + sensor "
+            "depth) leaves the field unchanged, so no tilt recording, at any azimuth or with any "
+            f"field component, fixes the size; what fixes it is {scale_remedy}")
+    if count > 1:
+        text += f"; for the other combination(s), {other_remedy}"
+    return CalibrationWarning("undetermined", text, involved)
+
+
+#: what fixes the size of a paper-model fit (the scale symmetry, NOTES §8)
+PAPER_SCALE_REMEDY = ("a size measured by hand: hold it (--fix height=VALUE; API "
+                      "fixed={'height': value}), or calibrate with --model physical and give it as "
+                      "a prior (--prior height=VALUE:SIGMA) or add load (force or flow) data")
+
+
+def scale_remedy(load_kinds: frozenset[str], modulus_free: bool) -> str:
+    """What fixes the size of a physical-model fit whose experiments include loads of
+    ``load_kinds`` (``"force"``, ``"flow"``; empty for tilts only), with the Young's modulus
+    fitted without a prior (``modulus_free``): a tip force bends as F/(E·size²), a flow as
+    U/(E·size), so one kind with a free modulus fixes only their product."""
+    if load_kinds and modulus_free:
+        other = ("flow" if load_kinds == {"force"} else "force" if load_kinds == {"flow"}
+                 else None)
+        load = ("the Young's modulus held at a measured value or given a prior"
+                + (f", or a {other} recording beside the {min(load_kinds)} one" if other else ""))
+    else:
+        load = ("load data: a force or flow recording (with the Young's modulus known, or both "
+                "kinds together)")
+    return ("a size measured by hand as a prior (--prior height=VALUE:SIGMA, or base_radius; "
+            f"API priors={{'height': (value, sigma)}}), or {load}")
+
+
+def undetermined_remedy(y_sign_known: bool) -> str:
+    """What determines undetermined combinations other than the scale, for experiments that do
+    (``y_sign_known``: another azimuth or field data) or do not go beyond one output path."""
+    if not y_sign_known:
+        return "a tilt toward another azimuth, 3-axis field data or a prior determine them"
+    return "a prior (a measured value) or another kind of experiment determines them"
+
+
+def placement_remedy(y_sign_known: bool) -> str:
+    """What decides between equally good placements (the ``"ambiguous"`` warning), for
+    experiments that do (``y_sign_known``) or do not go beyond one output path."""
+    if not y_sign_known:
+        return ("a tilt toward another azimuth, 3-axis field data or a prior on the placement "
+                "(a measured x) would decide")
+    return "a prior on the placement (a measured x, y or z) or another experiment would decide"
+
+
+def prior_only_warning(jac: F64, null: F64, open_: NDArray[np.bool_], names: Sequence[str],
+                       values: Mapping[str, float], depth: float,
+                       priors: Sequence[str]) -> CalibrationWarning:
+    """The ``"prior_only"`` note: the data's Jacobian ``jac`` (m, p), without the prior rows,
+    leaves the combinations ``null`` (r, p) of the parameters ``open_`` (p,) open, and the
+    priors on ``priors`` determine them."""
+    involved = tuple(n for n, u in zip(names, open_, strict=True) if u)
+    scale = (" (the scale symmetry: every length scaled together leaves the field unchanged)"
+             if is_scale_symmetry(jac, null, names, values, depth) else "")
+    return CalibrationWarning("prior_only", (
+        f"the data alone leave {len(null)} combination(s) of {', '.join(involved)} open{scale}; "
+        f"the prior on {', '.join(priors)} determines {'it' if len(null) == 1 else 'them'}, so "
+        "the standard errors along it rest on the prior's σ, not on the data"), involved)
+

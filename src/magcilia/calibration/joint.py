@@ -40,7 +40,23 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.calibration.diagnostics import CalibrationWarning, at_bound, correlated
+from magcilia.calibration.ambiguity import (
+    alternatives,
+    ambiguity_warning,
+    best_of,
+    mirror_starts,
+)
+from magcilia.calibration.diagnostics import (
+    LENGTHS,
+    CalibrationWarning,
+    at_bound,
+    correlated,
+    placement_remedy,
+    prior_only_warning,
+    scale_remedy,
+    undetermined_remedy,
+    undetermined_warning,
+)
 from magcilia.calibration.local import levenberg_marquardt
 from magcilia.calibration.multistart import latin_hypercube
 from magcilia.calibration.posterior import sample_problem
@@ -90,13 +106,11 @@ SEM_FLOOR = {"output": 1e-7, "field": 1e-10}
 STARTS = 64
 #: Levenberg–Marquardt iterations between halvings, fits left, most iterations at the end
 ROUND, SURVIVORS, MAXITER = 8, 6, 100
-#: a local minimum of the search within this χ² of the best, yet more than
-#: :data:`AMBIGUITY_SIGMA` standard errors away in some parameter, is reported as an equally good
-#: alternative (``ambiguous``): the linearised standard errors then describe one mode only
-AMBIGUITY_CHI2 = 4.0
-#: the search keeps distinct basins (more than this fraction of the box apart) to the end
+#: the search keeps distinct basins (more than this fraction of the box apart) to the end (a
+#: local minimum within :data:`~magcilia.calibration.ambiguity.AMBIGUITY_CHI2` of the best, more
+#: than :data:`~magcilia.calibration.ambiguity.AMBIGUITY_SIGMA` standard errors away, is reported
+#: as an equally good alternative: ``ambiguous``)
 DIVERSITY = 0.1
-AMBIGUITY_SIGMA = 3.0
 #: the cost of a non-finite model (the element on a dipole): worse than any fit, finite
 NONFINITE_RESIDUAL = 1e50
 
@@ -486,7 +500,10 @@ class JointProblem:
 
 def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
             starts: int) -> tuple[F64, F64, F64]:
-    """The best parameters (p,) and the search's final local minima (s, p) with their χ² (s,)."""
+    """The best parameters (p,) and the search's final local minima (s, p) with their χ² (s,):
+    the survivors of the halving and the fits started in the mirrored basins of the best of
+    them (:func:`~magcilia.calibration.ambiguity.mirror_starts`), all run to convergence, the
+    best of them polished."""
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
     x = latin_hypercube(starts, lo, hi, rng)
     x[0] = x_init
@@ -502,20 +519,34 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
             break
         x = x[np.argsort(cost, kind="stable")[:x.shape[0] // 2]]
     fits = levenberg_marquardt(res, x, lo, hi, maxiter=MAXITER)
-    best = fits.x[int(np.argmin(fits.cost))]
-    width = hi - lo
-    try:
-        def one(z: F64) -> F64:
-            return problem.residuals(z)[0]
+    minima, cost = fits.x, fits.cost
+    mirrors = mirror_starts(best_of(minima, cost)[0], problem.names, problem.bounds,
+                            y_sign_determined(problem.experiments))
+    if mirrors.size:
+        more = levenberg_marquardt(res, mirrors, lo, hi, maxiter=MAXITER)
+        minima, cost = np.concatenate([minima, more.x]), np.concatenate([cost, more.cost])
+    i = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))
+    minima[i] = polish(problem, minima[i])
+    cost[i] = problem.cost(minima[i])[0]
+    return minima[i].copy(), minima, cost
 
-        sol = least_squares(one, best, bounds=(lo, hi),
-                            x_scale=width, method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-12,
-                            max_nfev=200)
-        if problem.cost(sol.x)[0] <= problem.cost(best)[0]:
-            best = sol.x
-    except ValueError:
-        pass
-    return np.asarray(best, dtype=np.float64), fits.x, fits.cost
+
+def polish(problem: JointProblem, x: F64) -> F64:
+    """A ``least_squares`` polish of ``x`` (p,) on ``problem`` within its bounds (200 residual
+    evaluations at most); ``x`` itself when the polish does not lower the χ²."""
+    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
+
+    def one(z: F64) -> F64:
+        return problem.residuals(z)[0]
+
+    try:
+        sol = least_squares(one, x, bounds=(lo, hi), x_scale=hi - lo, method="trf",
+                            xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=200)
+    except ValueError:  # a start on a bound face of zero width
+        return x
+    if problem.cost(sol.x)[0] <= problem.cost(x)[0]:
+        return np.asarray(sol.x, dtype=np.float64)
+    return x
 
 
 def _search_loads(problem: JointProblem, experiments: list[Measurement], initial: Setup,
@@ -552,17 +583,7 @@ def _search_loads(problem: JointProblem, experiments: list[Measurement], initial
         x = trial[int(np.argmin(problem.cost(trial)))]
         if minima.size:
             minima[:, k] = x[k]
-    lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
-    try:
-        def one(z: F64) -> F64:
-            return problem.residuals(z)[0]
-
-        sol = least_squares(one, x, bounds=(lo, hi), x_scale=hi - lo, method="trf",
-                            xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=200)
-        if problem.cost(sol.x)[0] <= problem.cost(x)[0]:
-            x = np.asarray(sol.x, dtype=np.float64)
-    except ValueError:
-        pass
+    x = polish(problem, x)
     cost = problem.cost(minima) if minima.size else np.zeros(0)
     return x, minima, cost
 
@@ -596,9 +617,13 @@ def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
 
 def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
                  ) -> tuple[tuple[str, ...], F64, F64, tuple[CalibrationWarning, ...], bool]:
-    """Names, covariance (SI), standard errors, warnings and whether the covariance was scaled
-    by the reduced χ², from the full weighted Jacobian (continuous parameters, the relative
-    scale, the offsets)."""
+    """Names, covariance (SI), standard errors, warnings and whether the data's standard errors
+    were scaled by the reduced χ², from the full weighted Jacobian (continuous parameters, the
+    relative scale, the offsets).
+
+    When the reduced χ² exceeds 1 the data's rows are down-weighted by its square root (their
+    stated standard errors were too small), the priors' rows are not: a prior is a measurement
+    with its own σ, so a direction that only a prior determines keeps that σ."""
     names = list(problem.names)
     cols = [np.zeros((problem.y.size, 0))]  # nothing nonlinear left free: no columns
     if x.size:
@@ -614,30 +639,34 @@ def _uncertainty(problem: JointProblem, x: F64, scale: float, chi2: float
     off[np.arange(problem.y.size), problem.group] = problem.w
     cols.append(off)
     names += _offset_names(problem)
-    jac = np.concatenate(cols, axis=1)
-    prior_rows = np.zeros((len(problem.priors), jac.shape[1]))
-    prior_rows[np.arange(len(problem.priors)), problem.prior_index] = 1.0 / problem.prior_sigma
-    jac = np.concatenate([jac, prior_rows], axis=0)
-    p = jac.shape[1]
-    warns: list[CalibrationWarning] = []
-    jac = np.where(np.isfinite(jac), jac, 0.0)
+    data_jac = np.concatenate(cols, axis=1)
+    p = data_jac.shape[1]
+    data_jac = np.where(np.isfinite(data_jac), data_jac, 0.0)
     dof = problem.y.size - p
     factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    pinv, null, undetermined = equilibrated_pinv(jac)
-    cov = factor * pinv
+    prior_rows = np.zeros((len(problem.priors), p))
+    prior_rows[np.arange(len(problem.priors)), problem.prior_index] = 1.0 / problem.prior_sigma
+    jac = np.concatenate([data_jac / math.sqrt(factor), prior_rows], axis=0)
+    warns: list[CalibrationWarning] = []
+    cov, null, undetermined = equilibrated_pinv(jac)
     units = np.array([problem.base.material.magnetization_scale
                       if n == "magnetization_scale" else 1.0 for n in names])
     cov = cov * np.outer(units, units)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
+    values = dict(zip(problem.names, x.tolist(), strict=True))
+    if not null.size and problem.priors:  # determined, but perhaps by the priors alone
+        _, data_null, data_open = equilibrated_pinv(data_jac)
+        if data_null.size:
+            warns.append(prior_only_warning(data_jac, data_null, data_open, names, values,
+                                            problem.base.sensor.depth, tuple(problem.priors)))
     if null.size:
-        involved = tuple(n for n, un in zip(names, undetermined, strict=True) if un)
-        warns.append(CalibrationWarning(
-            "undetermined",
-            f"the data are (numerically) unchanged along {len(null)} combination(s) of "
-            f"{', '.join(involved)}: these parameters are not determined by these experiments "
-            "and their standard errors are infinite (add another azimuth, 3-axis field data or a "
-            "prior)", involved))
+        warns.append(undetermined_warning(
+            jac, null, undetermined, names, values, problem.base.sensor.depth,
+            "these experiments", scale_remedy(
+                frozenset(str(problem.experiments[e].load_kind) for e, *_ in problem.load_blocks),
+                LOAD_PARAMETER in problem.names and LOAD_PARAMETER not in problem.priors),
+            undetermined_remedy(y_sign_determined(problem.experiments))))
     if dof <= 0:
         warns.append(CalibrationWarning(
             "no_degrees_of_freedom", f"{problem.y.size} data values for {p} parameters: no "
@@ -700,10 +729,10 @@ def calibrate_joint(
         Also sample the posterior of the fitted geometry (the offsets profiled out) with
         :func:`~magcilia.calibration.posterior.sample_problem` until every parameter has 1000
         effective samples (an int: that many), within
-        :data:`~magcilia.calibration.posterior.MAX_SECONDS`; the optima the search found within
-        :data:`AMBIGUITY_CHI2` of the best and, when the data cannot tell the sign of y, the
-        mirror ``y → −y`` are sampled as modes and weighted by their evidence. Needs the
-        optional ``emcee`` (``pip install 'magcilia[posterior]'``).
+        :data:`~magcilia.calibration.posterior.MAX_SECONDS`; the alternatives the ``ambiguous``
+        warning names (:mod:`magcilia.calibration.ambiguity`) and, when the data cannot tell the
+        sign of y, the mirrors ``y → −y`` of each are sampled as modes and weighted by their
+        evidence. Needs the optional ``emcee`` (``pip install 'magcilia[posterior]'``).
 
     Returns
     -------
@@ -779,45 +808,24 @@ def calibrate_joint(
     target = 0 if posterior is False else 1000 if posterior is True else v.integer(
         "posterior", posterior, 100)
     result = _joint_result(problem, initial, experiments, box, x, y_free, t0)
-    alt = _ambiguity(problem, x, minima, minima_cost, result.stderr, y_free)
+    free = all(n in names and n not in checked for n in LENGTHS)  # nothing fixes the size
+    found = alternatives(x, float(problem.cost(x)[0]), minima, minima_cost, names,
+                         result.stderr, fold_y=y_free,
+                         depth=initial.sensor.depth if free else None)
+    alt = ambiguity_warning(found, float(problem.cost(x)[0]), names,
+                            placement_remedy(not y_free))
     if alt is not None:
         result = replace(result, warnings=(*result.warnings, alt.message),
                          diagnostics=(*result.diagnostics, alt))
     if target and names:
-        best = float(problem.cost(x)[0])
-        modes = [m for m, c in zip(minima, minima_cost, strict=True)
-                 if c <= best + AMBIGUITY_CHI2 and not np.array_equal(m, x)]
+        modes = [a.point for a in found]
+        if y_free and "y" in names:  # each alternative has its y mirror too
+            modes += [a.point * np.where(np.array(names) == "y", -1.0, 1.0) for a in found]
         result = replace(result, posterior=sample_problem(
-            problem, x, modes=modes, mirror=["y"] if y_free and "y" in names else (),
-            n_effective=target, rng=gen))
+            problem, x, modes=[m for m in modes if np.all((problem.bounds[:, 0] <= m)
+                                                          & (m <= problem.bounds[:, 1]))],
+            mirror=["y"] if y_free and "y" in names else (), n_effective=target, rng=gen))
     return result
-
-
-def _ambiguity(problem: JointProblem, x: F64, minima: F64, cost: F64,
-               stderr: Mapping[str, float], y_free: bool) -> CalibrationWarning | None:
-    """A warning when another local minimum fits within :data:`AMBIGUITY_CHI2` of the best but
-    lies more than :data:`AMBIGUITY_SIGMA` standard errors away (the y mirror excluded when the
-    sign of y is free: that one is warned about already)."""
-    best = float(problem.cost(x)[0])
-    se = np.array([stderr.get(n, math.inf) for n in problem.names])
-    for xi, ci in sorted(zip(minima, cost, strict=True), key=lambda t: t[1]):
-        if not ci <= best + AMBIGUITY_CHI2:
-            continue
-        other = xi.copy()
-        if y_free and "y" in problem.names:
-            k = problem.names.index("y")
-            other[k] = math.copysign(other[k], x[k])
-        far = np.abs(other - x) > AMBIGUITY_SIGMA * se
-        if far.any():
-            names = tuple(n for n, f in zip(problem.names, far, strict=True) if f)
-            shown = ", ".join(f"{n} {REGISTRY[n].text(float(other[problem.names.index(n)]), 4)}"
-                              for n in names)
-            return CalibrationWarning(
-                "ambiguous", f"another solution fits as well (chi2 {ci:.4g} against {best:.4g}) "
-                f"with {shown}, more than {AMBIGUITY_SIGMA:g} standard errors away: the data "
-                "do not choose between them and the standard errors describe one of them only "
-                "(add another azimuth, field components or a prior)", names)
-    return None
 
 
 def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measurement],
@@ -892,8 +900,9 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
     if inflated:
         notes.append(CalibrationWarning(
             "chi2", f"reduced chi-square {chi2_data / max(dof, 1):.3g} "
-                    "> 1: the standard errors are scaled up by its square root (the noise is "
-                    "larger than the stated standard errors, or the model lacks something)"))
+                    "> 1: the data's standard errors are scaled up by its square root (the "
+                    "noise is larger than stated, or the model lacks something); the priors "
+                    "keep their own"))
     return JointCalibrationResult(
         setup=fitted_setup, initial=initial, model="physical", n_loops=problem.layout.n_loops,
         dipoles_per_loop=problem.layout.dipoles_per_loop, layout_error=problem.layout.error,

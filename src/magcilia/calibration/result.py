@@ -27,6 +27,8 @@ if TYPE_CHECKING:
     from magcilia.calibration.posterior import Posterior
 
 F64 = NDArray[np.float64]
+#: the parameters that carry the size (undetermined together by the scale symmetry)
+SIZES = frozenset(("height", "base_radius"))
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -43,8 +45,12 @@ class ParameterCovariance(Display):
     correlation : ndarray, shape (p, p)
         Correlation matrix of ``correlation_names`` (NaN where undefined).
     covariance : ndarray, shape (p, p), or None
-        The covariance itself (SI), finite along undetermined combinations (see
-        :class:`CalibrationResult`); None if only standard errors and correlations are known.
+        σ² (JᵀJ)⁺ (SI): the covariance of the combinations the data determine, zero along the
+        undetermined ones, so that J C Jᵀ gives the uncertainty of anything that does not change
+        along them (the fitted tilt curve); None if only standard errors and correlations are
+        known. Where a parameter is undetermined (standard error inf) its row and column are not
+        that parameter's variance: :meth:`to_dict` writes them as null under ``"covariance"``
+        (the matrix for propagation under ``"propagation_covariance"``).
     """
 
     correlation_names: tuple[str, ...]
@@ -64,15 +70,32 @@ class ParameterCovariance(Display):
         with np.errstate(invalid="ignore"):
             return np.asarray(np.nan_to_num(corr) * np.outer(se, se), dtype=np.float64)
 
+    def undetermined(self) -> tuple[str, ...]:
+        """The parameters whose standard error is infinite (the data do not determine them)."""
+        return tuple(n for n in self.correlation_names if self.stderr.get(n) == math.inf)
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI; inf and NaN become null when written)."""
+        """JSON-ready content (SI; inf and NaN become null when written). ``"covariance"`` has
+        null rows and columns for the undetermined parameters (they have no variance); when
+        there are any, ``"propagation_covariance"`` holds σ² (JᵀJ)⁺ whole (see
+        :attr:`covariance`), which :meth:`from_dict` reads back."""
         names = list(self.correlation_names)
-        return {
-            "stderr": dict(self.stderr),
-            "covariance": {"names": names,
-                           "matrix": None if self.covariance is None else self.covariance.tolist()},
-            "correlation": {"names": names, "matrix": self.correlation.tolist()},
-        }
+        doc: dict[str, Any] = {"stderr": dict(self.stderr)}
+        if self.covariance is None:
+            doc["covariance"] = {"names": names, "matrix": None}
+        else:
+            gone = np.array([n in self.undetermined() for n in names], dtype=bool)
+            shown = np.where(gone[:, None] | gone[None, :], np.nan, self.covariance)
+            doc["covariance"] = {"names": names, "matrix": shown.tolist()}
+            if gone.any():
+                doc["propagation_covariance"] = {
+                    "names": names, "matrix": self.covariance.tolist(),
+                    "note": ("sigma^2 (J^T J)^+: the covariance of the combinations the data "
+                             "determine, zero along the undetermined ones; propagate it only "
+                             "through quantities that do not change along them (the tilt "
+                             "output), never read an undetermined parameter's variance from it")}
+        doc["correlation"] = {"names": names, "matrix": self.correlation.tolist()}
+        return doc
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any], source: str = "calibration") -> ParameterCovariance:
@@ -84,7 +107,8 @@ class ParameterCovariance(Display):
             matrix = np.array(doc["correlation"]["matrix"], dtype=np.float64)  # null -> nan
             stderr = {str(k): math.inf if val is None else float(val)
                       for k, val in doc["stderr"].items()}
-            stored = (doc.get("covariance") or {}).get("matrix")
+            stored = (doc.get("propagation_covariance") or doc.get("covariance") or {}).get(
+                "matrix")
             covariance = None if stored is None else np.array(stored, dtype=np.float64)
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
             raise MagciliaError(f"{source}: not a calibration result ({type(exc).__name__}: "
@@ -168,8 +192,9 @@ class _Uncertain:
 
     @property
     def covariance(self) -> F64 | None:
-        """Parameter covariance (SI), shape (p, p): σ² (JᵀJ)⁺, finite also along undetermined
-        combinations, so that J C Jᵀ gives the fitted curve's uncertainty."""
+        """Parameter covariance (SI), shape (p, p): σ² (JᵀJ)⁺, zero along undetermined
+        combinations, so that J C Jᵀ gives the fitted curve's uncertainty (an undetermined
+        parameter's row is not its variance: see :class:`ParameterCovariance`)."""
         return self.uncertainty.covariance
 
 
@@ -313,11 +338,13 @@ class CalibrationResult(_Uncertain, Display):
                 continue
             z = (self.values[name] - self.truth[name]) / se if se > 0 else math.inf
             (agree if abs(z) <= 3.0 else differ).append(f"{name} ({z:+.1f} s.e.)")
+        size = bool(SIZES & set(undetermined))
         if undetermined:
-            lines.append(f"- {', '.join(undetermined)} differ from the truth yet fit as well: one "
-                         "field component along one tilt path leaves them undetermined (the "
-                         "output does not change along a combination of them), so the search "
-                         "returned one of many equally good sets")
+            why = ("every length scaled together leaves the field unchanged (the scale symmetry)"
+                   if size else "one field component along one tilt path leaves them "
+                   "undetermined (the output does not change along a combination of them)")
+            lines.append(f"- {', '.join(undetermined)} differ from the truth yet fit as well: "
+                         f"{why}, so the search returned one of many equally good sets")
         if agree:
             lines.append(f"- within 3 standard errors of the truth: {', '.join(agree)}")
         if differ:
@@ -328,7 +355,18 @@ class CalibrationResult(_Uncertain, Display):
         if ints:
             pairs = ", ".join(f"{n} {self.values[n]:g} (truth {self.truth[n]:g})" for n in ints)
             lines.append(f"- {pairs}: modelling choices of the search, not measured quantities")
-        if undetermined:
+        elif any(n not in self.truth and n not in self.fixed for n in INTEGER):
+            lines.append("- the recording comes from a body without a dipole layout (the exact "
+                         "body): n_loops and dipoles_per_loop are modelling choices of the search, "
+                         "and the paper model's lengths are effective values that absorb its "
+                         "model error (calibrate --model physical fits the hair's dimensions)")
+        if undetermined and size:
+            lines.append("- what pins them down is a size: no second tilt path or field "
+                         "component can (the scale symmetry); a measured height held with --fix "
+                         "height=VALUE (API fixed=...), or --model physical with it as a prior "
+                         "(--prior height=VALUE:SIGMA) or load data; see the README's "
+                         "Calibration section")
+        elif undetermined:
             lines.append("- what pins them down is information this tilt path lacks: another "
                          "experiment (a second tilt path or field component) or prior knowledge, "
                          f"e.g. a measured {undetermined[0]} held with --fix "
@@ -370,9 +408,9 @@ class CalibrationResult(_Uncertain, Display):
         for r in self.table(si):
             se = ("fixed" if r["fixed"] else f"{r['stderr']:.4g}" if math.isfinite(r["stderr"])
                   else "undetermined" if r["stderr"] == math.inf else "-")
+            known = f"{r['truth']:12.6g}" if truth and math.isfinite(r["truth"]) else f"{'-':>12}"
             lines.append(f"{r['parameter']:<20} {r['unit']:<4} {r['initial']:12.6g} "
-                         f"{r['fitted']:12.6g} {se:>12}"
-                         + (f" {r['truth']:12.6g}" if truth else ""))
+                         f"{r['fitted']:12.6g} {se:>12}" + (f" {known}" if truth else ""))
         lines += [f"warning: {w}" for w in self.warnings]
         lines += self.truth_comparison()
         return "\n".join(lines)
@@ -615,8 +653,11 @@ class JointCalibrationResult(_Uncertain, Display):
         lines.append("experiments:")
         lines += [f"- {e.line()}" for e in self.experiments]
         und = self.undetermined()
-        lines.append("still undetermined: " + (", ".join(und) if und else
-                                               "nothing (every fitted parameter is determined)"))
+        by_prior = tuple(dict.fromkeys(n for w in self.diagnostics if w.kind == "prior_only"
+                                       for n in w.parameters))
+        lines.append("still undetermined: " + (", ".join(und) if und else (
+            "nothing (every fitted parameter is determined"
+            + (f"; {', '.join(by_prior)} through the priors alone)" if by_prior else ")"))))
         lines += [f"warning: {w}" for w in self.warnings]
         if self.posterior is not None:
             lines.append(self.posterior.report())

@@ -37,14 +37,16 @@ from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
+from magcilia.calibration.ambiguity import alternatives, ambiguity_warning, mirror_starts
 from magcilia.calibration.diagnostics import (
+    LENGTHS,
     CalibrationWarning,
     at_bound,
     bias_absorption,
     sensor_field,
 )
 from magcilia.calibration.joint import STARTS, PhysicalLayout, calibrate_joint
-from magcilia.calibration.multistart import Box, search
+from magcilia.calibration.multistart import MAXITER, Box, local_fits, search
 from magcilia.calibration.problem import (
     BIASES,
     DEFAULT_BOUNDS,
@@ -376,10 +378,45 @@ def calibrate(
         if progress is not None:
             progress(i + 1, restarts)
     restart_costs = tuple(c for c, _ in candidates)
+    # the mirrored basin (x -> -x) of the best, which a search on one side never looks at:
+    # local fits to convergence, polished only if one fits better than the best
     _, x_best = min(candidates, key=lambda c: c[0])
+    mirrors = mirror_starts(x_best, PARAMETERS, np.stack([lower, upper], axis=1), y_sign=False)
+    if mirrors.size:
+        x_mirror, cost_mirror = local_fits(problem, space, mirrors, MAXITER)
+        candidates += [(float(c), xm) for c, xm in zip(cost_mirror, x_mirror, strict=True)
+                       if np.isfinite(c)]
+    cost_best, x_best = min(candidates, key=lambda c: c[0])
+    if not any(x_best is x for _, x in candidates[:restarts]):
+        candidates.append(_polish(problem, x_best, lower, upper, integrality))
+        cost_best, x_best = min(candidates, key=lambda c: c[0])
     x_best = _y_sign_of(x_best, initial.position[1], box["y"])
-    logger.info("best cost %.6g V^2 after %.3g s", min(restart_costs), time.perf_counter() - t0)
-    return _result(problem, initial, data, box, x_best, bias, t0, restart_costs)
+    logger.info("best cost %.6g V^2 after %.3g s", cost_best, time.perf_counter() - t0)
+    return _with_alternatives(_result(problem, initial, data, box, x_best, bias, t0,
+                                      restart_costs), x_best, cost_best, candidates)
+
+
+def _with_alternatives(result: CalibrationResult, x: F64, cost: float,
+                       candidates: Sequence[tuple[float, F64]]) -> CalibrationResult:
+    """The result with an ``"ambiguous"`` warning when another polished optimum (a restart's,
+    the mirrored basin's) fits as well: costs in χ² units of the residual variance
+    (cost / degrees of freedom), the y sign folded (the ``"y_sign"`` warning says it)."""
+    dof = len(result.data) - len(result.stderr)
+    if dof <= 0 or not cost > 0.0:
+        return result
+    scale = cost / dof
+    points = np.array([c[1] for c in candidates])
+    chi2 = np.array([c[0] for c in candidates]) / scale
+    free = all(result.bounds[n][0] < result.bounds[n][1] for n in LENGTHS)
+    found = alternatives(x, cost / scale, points, chi2, PARAMETERS, result.stderr, fold_y=True,
+                         depth=result.initial.sensor.depth if free else None)
+    note = ambiguity_warning(found, cost / scale, PARAMETERS, (
+        "a measured x held with --fix x=VALUE, or --model physical with a tilt toward another "
+        "azimuth or 3-axis field data, would decide"))
+    if note is None:
+        return result
+    return replace(result, warnings=(*result.warnings, note.message),
+                   diagnostics=(*result.diagnostics, note))
 
 def _with_sensor_field(result: JointCalibrationResult) -> JointCalibrationResult:
     """The joint result with a ``"sensor_field"`` warning when the fitted placement overloads the

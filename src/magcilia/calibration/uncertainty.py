@@ -9,7 +9,13 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.diagnostics import CalibrationWarning, correlated, stderr_checks
+from magcilia.calibration.diagnostics import (
+    PAPER_SCALE_REMEDY,
+    CalibrationWarning,
+    correlated,
+    stderr_checks,
+    undetermined_warning,
+)
 from magcilia.calibration.problem import CONTINUOUS, INDEX, INTEGER, Problem, named
 
 F64 = NDArray[np.float64]
@@ -102,12 +108,12 @@ def uncertainty(problem: Problem, x: F64, scale: float, cost: float,
             f"{m} angles for {p} continuous parameters: no degrees of freedom left, so no "
             "standard errors; record more angles"))
     if null.size:
-        involved = tuple(n for n, u in zip(names, undetermined, strict=True) if u)
-        warns.append(CalibrationWarning(
-            "undetermined",
-            f"the output is (numerically) unchanged along {len(null)} combination(s) of "
-            f"{', '.join(involved)}: these parameters are not determined by this tilt path and "
-            "their standard errors are infinite", involved))
+        warns.append(undetermined_warning(
+            jac, null, undetermined, names, {n: float(x[INDEX[n]]) for n in CONTINUOUS},
+            problem.base.sensor.depth, "this tilt path", PAPER_SCALE_REMEDY,
+            "this tilt path cannot: hold a measured value (--fix NAME=VALUE; API fixed=...), "
+            "or calibrate with --model physical and a tilt toward another azimuth or 3-axis "
+            "field data"))
     if values is not None and dof > 0:
         warns += stderr_checks(tuple(names), values, se * units, slopes / units,
                                math.sqrt(sigma2), math.sqrt(cost / m),

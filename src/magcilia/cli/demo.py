@@ -32,11 +32,13 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[
     """Calibrate the paper's model to the bundled SYNTHETIC recording and write a report.
 
     The recording (33 angles, 2000 samples at 1 kHz each) was generated from the paper's Table I
-    parameters with the sensor's noise, drift and a DC bias (scripts/make_example_recording.py).
-    The fit starts from Table I's initial values, as in the paper, and is shown beside the
-    recording's known truth, with what the data determine and what they leave open. The --out
-    folder is published in one rename when everything is written (see `magcilia calibrate
-    --help`).
+    cilium as an exact body (a stack of magpylib cylinders, not the model's dipoles) with the
+    sensor's noise, drift and a DC bias (scripts/make_example_recording.py). The fit starts from
+    Table I's initial values, as in the paper, and is shown beside the recording's known truth,
+    with what the data determine and what they leave open: the paper's model meets its own model
+    error here, so its lengths are effective values (calibrate --model physical fits the hair's).
+    The --out folder is published in one rename when everything is written (see `magcilia
+    calibrate --help`).
     """
     with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         path = example_path()

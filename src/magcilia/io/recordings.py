@@ -976,6 +976,6 @@ def read_measurements(
 
 def example_path() -> Path:
     """Path of the bundled SYNTHETIC example recording (CSV; made by
-    ``scripts/make_example_recording.py`` from the paper's Table I, truth and seed in the JSON
-    beside it)."""
+    ``scripts/make_example_recording.py`` from the paper's Table I cilium as an exact body, truth,
+    body and seed in the JSON beside it)."""
     return Path(str(resources.files("magcilia") / "data" / "example_recording.csv"))

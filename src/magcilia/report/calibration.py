@@ -210,7 +210,8 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
         se_text = ("fixed" if r.get("fixed") else f"{se:.4g}" if math.isfinite(se)
                    else "undetermined" if se == math.inf else "–")
         lines.append(f"| {r['parameter']} | {r['unit']} | {r['initial']:.6g} | {r['fitted']:.6g} "
-                     f"| {se_text} |" + (f" {r['truth']:.6g} |" if "truth" in r else ""))
+                     f"| {se_text} |" + ((f" {r['truth']:.6g} |" if math.isfinite(r["truth"])
+                                          else " – |") if "truth" in r else ""))
     lines += ["", "## Warnings", ""]
     lines += [f"- {w}" for w in result.warnings] or ["- none"]
     comparison = result.truth_comparison()
@@ -256,19 +257,20 @@ def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, A
     doc: dict[str, Any] = units.convert(  # type: ignore[assignment]
         {k: v for k, v in raw.items()
          if k not in ("values", "stderr", "bounds", "fixed", "truth", "table", "covariance",
-                      "bias_coefficients")})
+                      "propagation_covariance", "bias_coefficients")})
     for key in ("values", "stderr", "bounds", "fixed"):
         doc[key] = units.named(raw[key])
     if result.truth is not None:
         doc["truth"] = units.named(dict(result.truth))
-    covariance = raw.get("covariance")
-    if covariance and covariance.get("matrix") is not None:
+    for key in ("covariance", "propagation_covariance"):  # null rows: undetermined parameters
+        covariance = raw.get(key)
+        if not covariance or covariance.get("matrix") is None:
+            continue
         names = list(covariance["names"])
         f = [units.factor(n) for n in names]
-        doc["covariance"] = {
-            "names": names, "units": [units.unit(n) for n in names],
-            "matrix": [[None if c is None else c / (f[i] * f[j]) for j, c in enumerate(row)]
-                       for i, row in enumerate(covariance["matrix"])]}
+        doc[key] = {**covariance, "units": [units.unit(n) for n in names], "matrix": [
+            [None if c is None or not math.isfinite(c) else c / (f[i] * f[j])
+             for j, c in enumerate(row)] for i, row in enumerate(covariance["matrix"])]}
     volt, angle = units.factor("voltage"), units.factor("angle")
     v, a = units.unit("voltage"), units.unit("angle")
     coefficients = raw["bias_coefficients"]
