@@ -161,3 +161,20 @@ def array_scale_covariance(force: F64, moduli: Sequence[Modulus]) -> F64:
 def scale_notes(moduli: Sequence[Modulus]) -> str:
     """The notes of the distinct moduli (:meth:`~magcilia.Modulus.note`), joined by ``"; "``."""
     return "; ".join(dict.fromkeys(m.note() for m in moduli))
+
+
+# -- single values (design metrics) --------------------------------------------------------------
+
+def fixed_output_rate(output: Callable[[Setup, F64], F64], setup: Setup, values: F64) -> F64:
+    """∂q/∂ln E at a fixed output, SI, at the measurand's ``values`` (shape (a,), > 0): the
+    model's ``output(setup, q)`` (V) differentiated by central differences in ln E
+    (:data:`MODULUS_STEP`) and in q (a relative step of 1e-4),
+    ``−(∂V/∂ln E) / (∂V/∂q)``."""
+    q = np.asarray(values, dtype=np.float64)
+    e = setup.youngs_modulus
+    dv_de = (output(setup.replace(youngs_modulus=e * (1.0 + MODULUS_STEP)), q)
+             - output(setup.replace(youngs_modulus=e * (1.0 - MODULUS_STEP)), q)) \
+        / (2.0 * MODULUS_STEP)
+    h = 1e-4 * q
+    dv_dq = (output(setup, q + h) - output(setup, q - h)) / (2.0 * h)
+    return np.asarray(-dv_de / dv_dq, dtype=np.float64)
