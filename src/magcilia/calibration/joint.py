@@ -820,6 +820,19 @@ def _ambiguity(problem: JointProblem, x: F64, minima: F64, cost: F64,
     return None
 
 
+def _fitted_modulus(problem: JointProblem, initial: Setup, values: Mapping[str, float],
+                    stderr: Mapping[str, float]) -> dict[str, float]:
+    """The fitted setup's modulus σ: the fit's standard error where load data determined E (a
+    later read-out takes it as measured), else the initial setup's relative σ carried over to
+    the fitted value (held or undetermined: still an assumption); nothing without load data."""
+    if LOAD_PARAMETER not in problem.all_names:
+        return {}
+    se = stderr.get(LOAD_PARAMETER, math.nan)
+    if math.isfinite(se) and se > 0.0:
+        return {"youngs_modulus_sigma": se}
+    return {"youngs_modulus_sigma": initial.youngs_modulus_uncertainty * values[LOAD_PARAMETER]}
+
+
 def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measurement],
                   box: dict[str, tuple[float, float]], x: F64, y_free: bool,
                   t0: float) -> JointCalibrationResult:
@@ -851,7 +864,8 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
     dof = problem.y.size - len(names)
     output_offsets = [offsets[g] for g, (_, c) in enumerate(problem.groups) if c < 0]
     fitted_setup = initial.replace(
-        **{n: values[n] for n in problem.all_names}, n_loops=problem.layout.n_loops,
+        **{n: values[n] for n in problem.all_names},
+        **_fitted_modulus(problem, initial, values, stderr), n_loops=problem.layout.n_loops,
         dipoles_per_loop=problem.layout.dipoles_per_loop, ring=problem.layout.ring,
         magnetization_scale=fitted_scale,
         offset=float(output_offsets[0]) if len(output_offsets) == 1 else initial.sensor.offset)

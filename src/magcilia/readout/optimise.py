@@ -445,6 +445,8 @@ class DesignOptimum(Display):
         lines.append("front (minimum, range):")
         lines += [f"  {q.text(d.minimum, 4):>12} {q.text(d.range, 4):>12}  {d.sensor}"
                   for d in self.front]
+        lines.append(f"{self.best_setup.modulus.note()}: every range and minimum above scales "
+                     "with it")
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
