@@ -819,7 +819,8 @@ class BiaxialReadout(Display):
         assert self.actuation is not None
         setup, chans = self.setup, self.channels
         mags = np.linspace(0.0, f_max, VECTOR_RATE_GRID[0])
-        dirs = np.arange(VECTOR_RATE_GRID[1]) * (2.0 * math.pi / VECTOR_RATE_GRID[1])
+        step = 2.0 * math.pi / VECTOR_RATE_GRID[1]
+        dirs = np.arange(VECTOR_RATE_GRID[1], dtype=np.float64) * step
         e = setup.youngs_modulus
         up, down = (_actuated_model(
             setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP)), chans, mags, dirs,
