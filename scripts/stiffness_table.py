@@ -77,10 +77,10 @@ def block() -> str:
         "",
         f"Mooney–Rivlin readings stay inside the span up to C₂/C₁ = {ratio_inside:.2f}.",
         "",
-        f"Span {mpa(min(readings.values()))}–{mpa(max(readings.values()))} MPa: centre "
+        (f"Span {mpa(min(readings.values()))}–{mpa(max(readings.values()))} MPa: centre "
         f"{mpa(centre, 4)} MPa, half the span {100 * half:.3g} % of it. Default "
         f"`polymer_modulus` **{mpa(st.POLYMER_MODULUS)} MPa**, "
-        f"`polymer_modulus_uncertainty` **{st.POLYMER_UNCERTAINTY:g}** (rounded).",
+        f"`polymer_modulus_uncertainty` **{st.POLYMER_UNCERTAINTY:g}** (rounded)."),
         "",
         f"**Filled composite** (30 mg cobalt + 30 mg polymer: φ = {phi:.4f}):",
         "",
@@ -89,23 +89,23 @@ def block() -> str:
         f"| Einstein 1 + 2.5φ | {einstein:.4f} | {mpa(st.POLYMER_MODULUS * einstein)} |",
         f"| Guth–Gold 1 + 2.5φ + 14.1φ² | {guth:.4f} | {mpa(st.POLYMER_MODULUS * guth)} |",
         "",
-        f"Guth–Gold is the presets' law; Einstein lies {100 * filler:.2g} % below it (the "
-        "filler law's relative 1 σ).",
+        (f"Guth–Gold is the presets' law; Einstein lies {100 * filler:.2g} % below it (the "
+        "filler law's relative 1 σ)."),
         "",
-        f"**The presets' modulus**: E = {mpa(modulus.value)} MPa ± "
+        (f"**The presets' modulus**: E = {mpa(modulus.value)} MPa ± "
         f"{100 * modulus.relative:.2g} % (1 σ = {mpa(modulus.sigma, 2)} MPa; "
         f"√({st.POLYMER_UNCERTAINTY:g}² + {filler:.3f}²) = {modulus.relative:.3f}). Every "
         f"reading of the neat polymer times every filler law lies within "
-        f"{mpa(lo)}–{mpa(hi)} MPa.",
+        f"{mpa(lo)}–{mpa(hi)} MPa."),
         "",
-        f"The old default, Guth–Gold of an unsourced {mpa(OLD_POLYMER, 2)} MPa polymer, was "
+        (f"The old default, Guth–Gold of an unsourced {mpa(OLD_POLYMER, 2)} MPa polymer, was "
         f"{mpa(st.composite_modulus(OLD_POLYMER, phi))} MPa: "
         f"{st.composite_modulus(OLD_POLYMER, phi) / modulus.value:.3g} times the sourced one, "
-        "so every absolute force figure made with it was as many times too large.",
+        "so every absolute force figure made with it was as many times too large."),
         "",
-        "**Flow speeds** share 1/n of the modulus's relative σ (n: the drag law's local exponent, "
+        ("**Flow speeds** share 1/n of the modulus's relative σ (n: the drag law's local exponent, "
         "averaged over the force sensor's hair with the weight of each element's moment about "
-        "the base; water, uniform flow):",
+        "the base; water, uniform flow):"),
         "",
         "| speed (m/s) | 1/n | σ_U/U |",
         "|---|---|---|",

@@ -222,3 +222,34 @@ def test_array_cilia_of_one_modulus_share_its_error() -> None:
     np.testing.assert_allclose(est.covariance_scale, rel**2 * np.outer(vec, vec), rtol=1e-12)
     np.testing.assert_allclose(est.sigma_scale, rel * est.magnitude, rtol=1e-12)
     assert est.report().endswith(cilium.modulus.note())
+
+
+def test_bend_and_design_carry_the_force_scale(setup: mc.Setup) -> None:
+    """Under a small tip force the tip deflects by F·L³/(3 E I₀ λ) (the closed-form compliance of
+    a frustum), ∝ 1/E: its σ is the deflection times σ_E/E. Design metrics: a force's minimum
+    and range scale exactly with E; a flow's with the drag law's 1/n."""
+    from magcilia.mechanics import tip_compliance
+    from magcilia.report.mechanics import bend_scale
+
+    rel = setup.youngs_modulus_uncertainty
+    force = 1e-8  # N: linear
+    shape = mc.bend(setup, force)
+    c = setup.cilium
+    closed = c.height**3 / (3.0 * setup.youngs_modulus * math.pi * c.base_radius**4 / 4.0
+                            * c.taper)
+    assert tip_compliance(setup) == pytest.approx(closed, rel=1e-12)
+    assert shape.tip[0] == pytest.approx(force * closed, rel=1e-4)
+    scale = bend_scale(setup, shape)
+    assert scale["sigma_tip_m"][0] == pytest.approx(force * closed * rel, rel=1e-4)
+    assert scale["scale_note"] == setup.modulus.note()
+    exact = bend_scale(setup.replace(youngs_modulus=6e5), shape)
+    assert exact["sigma_tip_m"] == [0.0, 0.0, 0.0] and "taken as exact" in exact["scale_note"]
+    metrics = mc.design_metrics(setup, points=31)
+    f = metrics.force
+    assert f.sigma_minimum == pytest.approx(rel * f.minimum, rel=1e-12)
+    assert f.sigma_range == pytest.approx(rel * f.range, rel=1e-12)
+    u = metrics.flow
+    assert 0.5 * rel * u.minimum < u.sigma_minimum < rel * u.minimum
+    assert metrics.angle.sigma_minimum == 0.0
+    assert metrics.scale_note.startswith(setup.modulus.note() + ": force minimum ±27 %")
+    assert metrics.to_dict()["modulus"]["source"] == "assumed"
