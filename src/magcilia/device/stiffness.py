@@ -138,6 +138,9 @@ POLYMER_UNCERTAINTY = float(f"{_HALF:.2g}")
 class Modulus(Display):
     """A setup's Young's modulus with its 1 σ and where it comes from (SI).
 
+    Every force and flow figure scales with it, so its uncertainty (the force scale's) is
+    systematic: one relative error shared by every reading of the setup (fully correlated).
+
     Parameters
     ----------
     value : float
@@ -148,9 +151,6 @@ class Modulus(Display):
         ``"assumed"``: derived from the material (the polymer's 300 % modulus and a filler law,
         :mod:`magcilia.device.stiffness`); ``"measured"``: given with its σ, or fitted from load
         data; ``"exact"``: given without a σ, taken as exact.
-
-    Every force and flow figure scales with it: the force-scale uncertainty is systematic, one
-    relative error shared by every reading of the setup (fully correlated).
     """
 
     value: float
