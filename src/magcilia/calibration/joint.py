@@ -67,8 +67,9 @@ F64 = NDArray[np.float64]
 JOINT_PARAMETERS = ("height", "base_radius", "x", "y", "z")
 #: the parameter load experiments add (after :data:`JOINT_PARAMETERS`)
 LOAD_PARAMETER = "youngs_modulus"
-#: default bounds of the Young's modulus, Pa (soft magnetic composites: the paper's polymer reads
-#: 0.37 MPa from its 300 % modulus, small-strain SIS data 2.5 MPa)
+#: default bounds of the Young's modulus, Pa (soft magnetic composites: the paper's composite
+#: reads 0.45–0.84 MPa from its 300 % modulus, 0.669 MPa ± 27 % by default, docs/stiffness.md;
+#: small-strain data of stiffer SIS grades reach a few MPa)
 YOUNGS_BOUNDS = (1e5, 1e7)
 #: log-spaced moduli tried at the tilt fit's geometry before the refinement with the loads
 MODULUS_GRID = 17
