@@ -1,10 +1,11 @@
 """Sensing while actuating (issue 15): force read-out errors with and without compensation.
 
 The paper's cilium with a 0.05 mm tip radius (the ``force-sensor`` preset) over its HMC1021Z; an
-external tip force sweep 0…0.2 mN along +x while an actuation field acts. Each reading goes
-through the full model: the cilium bent by the force *and* the actuation (:func:`magcilia.bend`
-with ``actuation=``), its field at the element plus the actuation's direct field, the sensor's
-volts (noise-free: the errors are the read-outs', not the noise's). The readings are then read
+external tip force sweep 0…0.04 mN along +x (tip deflections up to about L/2 with the presets'
+0.669 MPa modulus) while an actuation field acts. Each reading goes through the full model: the
+cilium bent by the force *and* the actuation (:func:`magcilia.bend` with ``actuation=``), its
+field at the element plus the actuation's direct field, the sensor's volts (noise-free: the
+errors are the read-outs', not the noise's). The readings are then read
 
 * **raw**: with the plain ``Readout`` (no knowledge of the actuation);
 * **tared**: with the plain ``Readout`` zeroed on unloaded readings taken under the actuation
@@ -41,7 +42,7 @@ from magcilia.readout.actuated import ActuatedReadout, measure_coupling
 from magcilia.readout.inverse import model_output
 
 SETUP = PRESETS["force-sensor"]()
-SPAN = (0.0, 2e-4)
+SPAN = (0.0, 4e-5)
 
 
 def errors(estimate: np.ndarray, truth: np.ndarray) -> tuple[float, float, int]:

@@ -173,7 +173,7 @@ def test_readout_dataframe_names_quantity_and_unit() -> None:
                     * (r.table.output_range[1] - r.table.output_range[0]))
     df = result.to_dataframe()
     assert list(df.columns) == ["force_N", "sigma_N", "sigma_noise_N", "sigma_calibration_N",
-                                "sigma_edge_N", "flags"]
+                                "sigma_edge_N", "sigma_scale_N", "flags"]
     np.testing.assert_array_equal(df["force_N"].to_numpy(), result.value)
     np.testing.assert_array_equal(df["flags"].to_numpy(), result.flags)
 

@@ -128,6 +128,7 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "CalibrationPlan": lambda: mc.calibration.plan_calibration(SETUP, 6, angles=ANGLES,
                                                                prior_sd={"height": 1e-4}),
     "Magnetometer": lambda: mc.Magnetometer.preset("LIS3MDL", position=(1e-3, 0.0, 0.0)),
+    "Modulus": lambda: SETUP.modulus,
     "SensorCheck": lambda: mc.Setup.paper_initial().check_sensor(ANGLES),
     "TiltMeasurement": lambda: importlib.import_module("magcilia.acquire.photo").measure_tilt(
         np.where(np.abs(np.add.outer(np.arange(120.0) * 0.17, np.arange(160.0) - 80)) < 3,

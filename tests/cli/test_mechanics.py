@@ -177,9 +177,9 @@ FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, r
 
 
 def test_bend_toward_an_azimuth(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30deg", "--json"]) == 0
+    assert main(["bend", "force-sensor", "--force", "0.02", "--azimuth", "30deg", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    shape = mc.bend(FORCE_SENSOR, 1e-4, azimuth=math.radians(30.0))
+    shape = mc.bend(FORCE_SENSOR, 2e-5, azimuth=math.radians(30.0))
     np.testing.assert_allclose(doc["tip_mm"], shape.tip * 1e3, rtol=1e-12, atol=1e-15)
     assert doc["tip_azimuth_deg"] == pytest.approx(30.0, abs=1e-9)
     assert doc["deflection_mm"] == pytest.approx(math.hypot(*shape.tip[:2]) * 1e3, rel=1e-12)
@@ -189,10 +189,13 @@ def test_bend_toward_an_azimuth(capsys: pytest.CaptureFixture[str]) -> None:
     assert doc["direct_field_gauss"] is None and doc["solver"] == "planar"
     assert len(doc["centreline_mm"]["y"]) == shape.s.size
     # the text names the azimuth; --si renames every key
-    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30"]) == 0
+    assert main(["bend", "force-sensor", "--force", "0.02", "--azimuth", "30"]) == 0
     out = capsys.readouterr().out
-    assert "toward azimuth 30 deg" in out and "y 0.55" in out
-    assert main(["bend", "force-sensor", "--force", "0.1", "--azimuth", "30", "--json",
+    assert "toward azimuth 30 deg" in out and "y 0.55" in out  # 0.02 mN on 0.669 MPa
+    assert "force scale from an assumed modulus ±27 % (E 0.669 MPa): under this load tip" in out
+    assert doc["scale_note"].startswith("force scale from an assumed modulus")
+    assert doc["sigma_output_mV"] > 0 and len(doc["sigma_tip_mm"]) == 3
+    assert main(["bend", "force-sensor", "--force", "0.02", "--azimuth", "30", "--json",
                  "--si"]) == 0
     si = json.loads(capsys.readouterr().out)
     assert si["tip_azimuth_rad"] == pytest.approx(math.radians(30.0))

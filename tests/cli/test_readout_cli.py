@@ -15,8 +15,12 @@ from magcilia.cli import main
 from magcilia.cli import readout as readout_cli
 from magcilia.mechanics import output_at
 
-TIP = ["--tip-radius", "0.05mm"]
-SETUP = mc.Setup.paper(tip_radius=5e-5)
+#: these tests exercise the command with the loads they were written for (0–0.2 mN) on a given
+#: modulus of 3.4 MPa (taken as exact: no force scale in σ); the presets' assumed modulus and its
+#: force scale: test_the_summary_names_the_force_scale
+PINNED = ["--modulus", "3.4"]
+TIP = ["--tip-radius", "0.05mm", *PINNED]
+SETUP = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=3.4e6)
 RATE = 1000.0
 
 
@@ -185,7 +189,8 @@ def test_progress_on_a_terminal_unless_quiet(quiet: bool, tmp_path: Path,
 
 # -- sensing while actuating, force vectors from a 3-axis sensor (issue 15) ----------------------
 
-FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms",
+                              youngs_modulus=3.4e6)
 
 
 def test_readout_compensates_an_actuation(tmp_path: Path,
@@ -197,7 +202,7 @@ def test_readout_compensates_an_actuation(tmp_path: Path,
     rec = _record(tmp_path / "rec.csv", model_output(FORCE_SENSOR, "force", forces, None, act))
     out = tmp_path / "f.csv"
     base = ["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
-            "--out", str(out)]
+            "--out", str(out), *PINNED]
     assert main([*base, "--actuation-field", "2,0,0"]) == 0
     text = capsys.readouterr().out
     assert text.startswith("compensating the actuation (uniform field): direct field (2, 0, 0) "
@@ -251,7 +256,8 @@ def test_readout_biaxial_force_vectors(tmp_path: Path,
     rec, truth = _field_recording(tmp_path / "b.csv")
     out = tmp_path / "vec.csv"
     args = ["readout", "force-sensor", str(rec), "--biaxial", "--sensor", "mmc5983ma", "--span",
-            "0.2mN", "--columns", "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--out", str(out)]
+            "0.2mN", "--columns", "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--out", str(out),
+            *PINNED]
     assert main(args) == 0
     assert "12/12 force vectors estimated from the MMC5983MA" in capsys.readouterr().out
     rows = _rows(out)
@@ -324,9 +330,35 @@ def test_readout_biaxial_while_actuating(tmp_path: Path,
     rec.write_text("field_x_T,field_y_T,field_z_T\n" + "".join(rows))
     out = tmp_path / "v.csv"
     assert main(["readout", "force-sensor", str(rec), "--biaxial", "--sensor", "MMC5983MA",
-                 "--span", "0.2", "--out", str(out), "--actuation-field", "0,0,5"]) == 0
+                 "--span", "0.2", "--out", str(out), "--actuation-field", "0,0,5", *PINNED]) == 0
     text = capsys.readouterr().out
     assert "compensating the actuation: its direct field on the sensor's axes (0, 0, 5) gauss" \
         in text
     est = np.array([[float(r["fx_mN"]), float(r["fy_mN"])] for r in _rows(out)])
     np.testing.assert_allclose(est, truth * 1e3, rtol=0, atol=1e-4)
+
+
+def test_the_summary_names_the_force_scale(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """The presets' modulus is assumed (±27 %: in every force's σ, said in the summary); a
+    --modulus without a σ is taken as exact, one with a σ is measured."""
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    forces = np.array([0.0, 1e-5, 2e-5, 4e-5])
+    rec = _record(tmp_path / "rec.csv", output_at(setup, "force", forces))
+    out = tmp_path / "est.csv"
+    base = ["readout", "paper", str(rec), "--quantity", "force", "--span", "0:0.04",
+            "--tip-radius", "0.05mm", "--out", str(out)]
+    assert main(base) == 0
+    assert "; force scale from an assumed modulus ±27 % (E 0.669 MPa)" in capsys.readouterr().out
+    got = np.array([float(r["force_mN"]) for r in _rows(out)])
+    sigma = np.array([float(r["sigma_force_mN"]) for r in _rows(out)])
+    np.testing.assert_allclose(got, forces * 1e3, rtol=1e-6, atol=1e-9)
+    rel = setup.youngs_modulus_uncertainty
+    assert (sigma >= rel * np.abs(got)).all() and sigma[-1] == pytest.approx(rel * got[-1],
+                                                                             rel=1e-3)
+    assert main([*base, "--modulus", "0.6"]) == 0
+    assert "force scale: modulus given, taken as exact (E 0.6 MPa)" in capsys.readouterr().out
+    assert main([*base, "--modulus", "0.6MPa:60kPa"]) == 0
+    assert "force scale from a measured modulus ±10 % (E 0.6 MPa)" in capsys.readouterr().out
+    assert main([*base, "--modulus", "0.6:-0.1"]) == 2
+    assert "--modulus must be" in capsys.readouterr().err

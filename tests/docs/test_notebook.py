@@ -109,12 +109,13 @@ def test_tutorial_notebook_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
     live = next(c for c in nb.cells if c.get("id") == "live")
     text = "".join(o.get("text", "") for o in live.outputs)
     assert "tared" in text and "0 overruns" in text, text
-    # the live estimate follows the simulated force: plateau means within 10 µN of it
+    # the live estimate follows the simulated force: plateau means within 2 µN of it (steps of
+    # 0.02-0.04 mN: the presets' 0.669 MPa modulus bends the hair as 0.1-0.2 mN did at 3.39 MPa)
     plot = next(c for c in nb.cells if c.get("id") == "live-plot")
     rows = [line.split() for line in "".join(o.get("text", "") for o in plot.outputs).splitlines()
             if line.strip() and line.split()[0][0] in "+-"]
     assert len(rows) == 5, rows
     for applied, mean, *_ in rows:
-        assert abs(float(mean) - float(applied)) < 0.01, rows
+        assert abs(float(mean) - float(applied)) < 0.002, rows
     # nothing was written beside the notebook
     assert not list(NOTEBOOK.parent.glob("*.tdms"))

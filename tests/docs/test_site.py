@@ -65,7 +65,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_pages_exist(site: Path) -> None:
     for page in ("index.html", "tutorial/index.html", "api/magcilia/index.html",
                  "ARCHITECTURE/index.html", "convergence/index.html", "mechanics/index.html",
-                 "serial-protocol/index.html"):
+                 "serial-protocol/index.html", "stiffness/index.html"):
         assert (site / page).is_file(), page
     assert (site / "tutorial" / "tutorial.ipynb").is_file()  # the notebook, to download
 

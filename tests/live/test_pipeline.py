@@ -3,6 +3,7 @@ and recordings made while watching."""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,9 @@ from magcilia.io.recordings import read_samples
 from magcilia.live import EVENTS, LiveReadout
 from magcilia.readout.inverse import ReadoutFlag
 
-SETUP = mc.Setup.paper(tip_radius=5e-5)
+#: a given modulus, taken as exact: σ is the noise's, which the spread of the estimates checks
+#: (the presets' assumed modulus adds the force scale: test_sigma_carries_the_force_scale)
+SETUP = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=3.4e6)
 SPAN = (-3e-4, 3e-4)
 
 
@@ -47,6 +50,23 @@ def test_estimates_follow_the_simulated_force_with_honest_sigma(readout: mc.Read
     assert np.mean(s.value) == pytest.approx(1e-4, abs=3 * np.median(s.sigma) / np.sqrt(50))
     assert np.std(s.value) == pytest.approx(np.median(s.sigma), rel=0.25)
     assert live.status.state == "stopped"
+
+
+def test_sigma_carries_the_force_scale() -> None:
+    """With the presets' assumed modulus the live σ holds the force scale too: the noise's σ
+    and |F| σ_E/E in quadrature, and the limits say so."""
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    assumed = mc.Readout(setup, "force", span=(-6e-5, 6e-5))
+    source = SimulatedSource(setup, Script.constant(2e-5, "force"), rate=10000.0, rng=0,
+                             readout_noise=2e-5)
+    with LiveReadout(source, assumed, rate=1000, tracking=None) as live:
+        s = live.wait(500)
+        limits = live.limits()
+    rel = setup.youngs_modulus_uncertainty
+    noise = float(np.std(s.value))
+    assert np.median(s.sigma) == pytest.approx(math.hypot(noise, rel * 2e-5), rel=0.05)
+    assert "± σ includes the force scale from an assumed modulus ±27 %" in limits.report()
+    assert limits.to_dict()["scale_note"] == setup.modulus.note()
 
 
 def test_sigma_before_a_tare_includes_the_benchs_own_noise(readout: mc.Readout) -> None:

@@ -168,7 +168,8 @@ def test_estimate_result_protocol(readout: ArrayReadout) -> None:
     frame = est.to_dataframe()
     assert list(frame.columns)[:3] == ["cilium", "Fx_N", "Fy_N"]
     np.testing.assert_allclose(frame["force_N"], est.magnitude)
-    assert est.report().count("\n") == 17
+    assert est.report().count("\n") == 18  # a title, a header, 16 cilia, the force scale
+    assert est.report().endswith("force scale: modulus given, taken as exact (E 1 MPa)")
     assert np.all(est.sigma_direction > 0.0)
     with pytest.raises(mc.MagciliaError, match="readings"):
         readout.read(np.zeros((3, 3)))

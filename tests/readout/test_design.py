@@ -79,7 +79,8 @@ def test_range_ends_at_a_fold() -> None:
 def test_table_and_dict(metrics: mc.DesignMetrics) -> None:
     text = metrics.report()
     assert "mV/mN" in text and "m/s" in text and "deg" in text
-    assert len(text.splitlines()) == 5
+    assert len(text.splitlines()) == 6  # noise, header, 3 quantities, the force scale
+    assert text.splitlines()[-1].startswith(metrics.setup.modulus.note())
     d = metrics.to_dict()
     assert set(d["metrics"]) == {"force", "flow", "angle"}
     cone = mc.design_metrics(mc.Setup.paper(), bandwidth=BANDWIDTH, points=21)

@@ -83,8 +83,9 @@ F64 = NDArray[np.float64]
 JOINT_PARAMETERS = ("height", "base_radius", "x", "y", "z")
 #: the parameter load experiments add (after :data:`JOINT_PARAMETERS`)
 LOAD_PARAMETER = "youngs_modulus"
-#: default bounds of the Young's modulus, Pa (soft magnetic composites: the paper's polymer reads
-#: 0.37 MPa from its 300 % modulus, small-strain SIS data 2.5 MPa)
+#: default bounds of the Young's modulus, Pa (soft magnetic composites: the paper's composite
+#: reads 0.45–0.84 MPa from its 300 % modulus, 0.669 MPa ± 27 % by default, docs/stiffness.md;
+#: small-strain data of stiffer SIS grades reach a few MPa)
 YOUNGS_BOUNDS = (1e5, 1e7)
 #: log-spaced moduli tried at the tilt fit's geometry before the refinement with the loads
 MODULUS_GRID = 17
@@ -828,6 +829,19 @@ def calibrate_joint(
     return result
 
 
+def _fitted_modulus(problem: JointProblem, initial: Setup, values: Mapping[str, float],
+                    stderr: Mapping[str, float]) -> dict[str, float]:
+    """The fitted setup's modulus σ: the fit's standard error where load data determined E (a
+    later read-out takes it as measured), else the initial setup's relative σ carried over to
+    the fitted value (held or undetermined: still an assumption); nothing without load data."""
+    if LOAD_PARAMETER not in problem.all_names:
+        return {}
+    se = stderr.get(LOAD_PARAMETER, math.nan)
+    if math.isfinite(se) and se > 0.0:
+        return {"youngs_modulus_sigma": se}
+    return {"youngs_modulus_sigma": initial.youngs_modulus_uncertainty * values[LOAD_PARAMETER]}
+
+
 def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measurement],
                   box: dict[str, tuple[float, float]], x: F64, y_free: bool,
                   t0: float) -> JointCalibrationResult:
@@ -859,7 +873,8 @@ def _joint_result(problem: JointProblem, initial: Setup, experiments: list[Measu
     dof = problem.y.size - len(names)
     output_offsets = [offsets[g] for g, (_, c) in enumerate(problem.groups) if c < 0]
     fitted_setup = initial.replace(
-        **{n: values[n] for n in problem.all_names}, n_loops=problem.layout.n_loops,
+        **{n: values[n] for n in problem.all_names},
+        **_fitted_modulus(problem, initial, values, stderr), n_loops=problem.layout.n_loops,
         dipoles_per_loop=problem.layout.dipoles_per_loop, ring=problem.layout.ring,
         magnetization_scale=fitted_scale,
         offset=float(output_offsets[0]) if len(output_offsets) == 1 else initial.sensor.offset)

@@ -145,17 +145,38 @@ def _checked_override(name: str, option: str, text: str, example: str) -> float:
 
 
 def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) -> Setup:
-    """SETUP argument with the optional --tip-radius (bare: mm) / --modulus (bare: MPa) overrides
-    applied."""
+    """SETUP argument with the optional --tip-radius (bare: mm) / --modulus (bare: MPa; VALUE or
+    VALUE:SIGMA) overrides applied."""
     setup = load_setup_arg(arg)
     changes: dict[str, float] = {}
     if tip_radius is not None:
         changes["tip_radius"] = _checked_override("tip_radius", "--tip-radius", tip_radius,
                                                   "0.05mm or 50um")
     if modulus is not None:
-        changes["youngs_modulus"] = _checked_override("youngs_modulus", "--modulus", modulus,
-                                                      "2MPa")
+        changes.update(parse_modulus(modulus))
     return setup.replace(**changes) if changes else setup
+
+
+def parse_modulus(text: str) -> dict[str, float]:
+    """``--modulus VALUE[:SIGMA]`` (bare numbers in MPa, or with units: ``0.5MPa:50kPa``) as
+    setup keywords: ``youngs_modulus`` and, with a σ, ``youngs_modulus_sigma`` (a modulus given
+    without one is taken as exact)."""
+    p, ps = PARAMETERS["youngs_modulus"], PARAMETERS["youngs_modulus_sigma"]
+    example = "0.5 (MPa, taken as exact) or 0.5:0.05 (a measured modulus and its 1-sigma)"
+    try:
+        parts = parse_values(text, p.dimension, p.display, "--modulus", (1, 2))
+    except MagciliaError:
+        raise fail("--modulus", text, f"VALUE or VALUE:SIGMA, each "
+                                      f"{dimension_words(p.dimension, p.display)}, e.g. "
+                                      f"{example}") from None
+    if p.outside(parts[:1]) is not None or not p.within(parts[0]):
+        raise fail("--modulus", text, _display_domain(p, plural=False))
+    out = {"youngs_modulus": parts[0]}
+    if len(parts) == 2:
+        if ps.outside(parts[1:]) is not None or not ps.within(parts[1]):
+            raise fail("--modulus", text, "a SIGMA " + _display_domain(ps, plural=False))
+        out["youngs_modulus_sigma"] = parts[1]
+    return out
 
 
 def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow | None:
@@ -173,9 +194,12 @@ def make_flow(speed: str | None, fluid: str, shear_height: str | None) -> Flow |
 
 def mechanics_options(command: Any) -> Any:
     """``--tip-radius`` and ``--modulus``: override the setup's mechanics on the command line."""
-    command = click.option("--modulus", default=None,
-                           help="Override Young's modulus: MPa, or with a unit (e.g. 2MPa)."
-                           )(command)
+    command = click.option("--modulus", default=None, metavar="VALUE[:SIGMA]",
+                           help="Override Young's modulus: MPa, or with a unit (e.g. 0.5MPa); "
+                                "without a SIGMA it is taken as exact, VALUE:SIGMA is a "
+                                "measured modulus and its 1-sigma (0.5:0.05). Default: the "
+                                "setup's (the material's assumed modulus, +-27 %, until "
+                                "fitted from load data).")(command)
     return click.option("--tip-radius", default=None,
                         help="Override the setup's tip radius: mm, or with a unit (e.g. 0.05mm, "
                              "50um).")(command)

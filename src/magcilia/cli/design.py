@@ -73,7 +73,12 @@ def design_doc(metrics: DesignMetrics, label: str, units: OutputUnits) -> dict[s
         unit = ascii_unit(entry.pop("unit"))  # the SI unit of the measurand
         raw["metrics"][name] = {f"sensitivity_V_per_{unit}": entry.pop("sensitivity_V_per_unit"),
                                 f"minimum_{unit}": entry.pop("minimum"),
-                                f"range_{unit}": entry.pop("range"), **entry}
+                                f"range_{unit}": entry.pop("range"),
+                                f"sigma_minimum_{unit}": entry.pop("sigma_minimum"),
+                                f"sigma_range_{unit}": entry.pop("sigma_range"), **entry}
+    modulus = raw.pop("modulus")
+    raw["modulus"] = {"source": modulus["source"], "relative": modulus["relative"],
+                      "value_Pa": modulus["value"], "sigma_Pa": modulus["sigma"]}
     doc = units.convert({"setup": label, **raw})
     return {"units": units.system, **doc}  # type: ignore[dict-item]
 
@@ -96,4 +101,5 @@ def design_text(doc: dict[str, Any], units: OutputUnits) -> str:
         sens = show(entry[f"sensitivity_{ascii_unit(volt)}_per_{token}"], f"{volt}/{unit}")
         lines.append(f"{name:<8} {sens:>24} {show(entry[f'minimum_{token}'], unit):>18} "
                      f"{show(entry[f'range_{token}'], unit):>14}  {entry['limited_by']}")
+    lines.append(doc["scale_note"])
     return "\n".join(lines)

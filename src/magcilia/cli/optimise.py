@@ -183,6 +183,7 @@ def optimise_doc(result: DesignOptimum, label: str, units: OutputUnits) -> dict[
         "beats_reference": result.beats_reference,
         "reference": _row(result.reference, q, units), "best": _row(result.best, q, units),
         "front": [_row(d, q, units) for d in result.front],
+        "scale_note": result.best_setup.modulus.note(),
     }
 
 
@@ -223,4 +224,5 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
                  + ("yes" if doc["beats_reference"] else "no"))
     lines.append(f"Pareto front ({k_min}, {k_rng}, sensor):")
     lines += [f"  {show(r[k_min]):>14} {show(r[k_rng]):>14}  {r['sensor']}" for r in doc["front"]]
+    lines.append(f"{doc['scale_note']}: every range and minimum above scales with it")
     return "\n".join(lines)

@@ -345,6 +345,7 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
                    f"table_error_{unit}": readout.table_error / factor, **c,
                    f"range_{unit}": [float(mags.min()), float(mags.max())] if mags.size
                    else None, f"median_sigma_magnitude_{unit}": median,
+                   "scale_note": result.scale_note,
                    "tared": readout.baseline is not None, "out": out_path})
         return
     flagged = ", ".join(f"{c[k]} {k.replace('_', ' ')}" for k in
@@ -358,6 +359,7 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     text += f"; table error ≤ {readout.table_error / factor:.2g} {unit}"
     if readout.baseline is not None:
         text += f"; tared on {int(readout.baseline.count.min())} readings"
+    text += f"; {result.scale_note}"
     if compensation is not None:
         click.echo("compensating the actuation: its direct field on the sensor's axes ("
                    + ", ".join(f"{d:.6g}" for d in direct) + f") {fu} and its bending of the "

@@ -2,6 +2,8 @@
 
 * :mod:`.cilium`: the hair's body (cone, frustum or measured profile);
 * :mod:`.material`: the cobalt/polymer composite (the paper's eq. 1);
+* :mod:`.stiffness`: its Young's modulus from the paper's 300 % modulus, with an uncertainty, and
+  :class:`Modulus` (a setup's modulus, its σ and source);
 * :mod:`.sensor`: the single-axis AMR sensor and its amplifier, its limits (cross-axis effect,
   flipping) and :class:`SensorCheck`;
 * :mod:`.magnetometer`: 3-axis magnetometers with datasheet presets (:data:`MAGNETOMETERS`);
@@ -19,6 +21,7 @@ from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.material import Material
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck, SensorFlag
 from magcilia.device.setup import PAPER_INITIAL, PAPER_OPTIMIZED, Pose, Setup
+from magcilia.device.stiffness import Modulus
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
@@ -30,6 +33,7 @@ __all__ = [
     "Cilium",
     "Magnetometer",
     "Material",
+    "Modulus",
     "Pose",
     "Sensor",
     "SensorCheck",

@@ -41,6 +41,9 @@ class Cilium(Display):
     youngs_modulus : float or None
         Young's modulus, Pa, for mechanics; None means "derive it from the material" (see
         :attr:`magcilia.Setup.youngs_modulus`).
+    youngs_modulus_sigma : float or None
+        1 σ of a measured or fitted ``youngs_modulus``, Pa; None (or 0) takes the given modulus
+        as exact (:attr:`magcilia.Setup.modulus`). Only with ``youngs_modulus``.
     profile : (tuple of float, tuple of float) or None
         A measured shape, normalised: knots ``u`` (0 … 1 along the length, increasing) and radii
         ``rho`` relative to ``base_radius`` (``rho[0]`` = 1), linear in between. With a profile,
@@ -53,6 +56,7 @@ class Cilium(Display):
     tip_radius: float = 0.0
     youngs_modulus: float | None = None
     profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    youngs_modulus_sigma: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("height", "base_radius"):
@@ -69,10 +73,18 @@ class Cilium(Display):
         if self.youngs_modulus is not None:
             modulus = PARAMETERS["youngs_modulus"].check(self.youngs_modulus)
             object.__setattr__(self, "youngs_modulus", modulus)
+        if self.youngs_modulus_sigma is not None:
+            if self.youngs_modulus is None:
+                raise v.fail("youngs_modulus_sigma", self.youngs_modulus_sigma,
+                             "left out without a youngs_modulus (the material's modulus "
+                             "carries its own uncertainty)")
+            sigma = PARAMETERS["youngs_modulus_sigma"].check(self.youngs_modulus_sigma)
+            object.__setattr__(self, "youngs_modulus_sigma", sigma)
 
     @classmethod
     def from_profile(cls, s: ArrayLike, radius: ArrayLike,
-                     youngs_modulus: float | None = None) -> Cilium:
+                     youngs_modulus: float | None = None,
+                     youngs_modulus_sigma: float | None = None) -> Cilium:
         """A cilium with a measured radius profile, linear between the points.
 
         Parameters
@@ -83,6 +95,8 @@ class Cilium(Display):
             Radii at ``s``, m (≥ 0; the base radius ``radius[0]`` must be positive).
         youngs_modulus : float, optional
             Pa (None: from the material).
+        youngs_modulus_sigma : float, optional
+            Its 1 σ, Pa (None: exact).
         """
         s_arr = v.finite_array("profile s", s, ndim=1, unit="m")
         r_arr = v.finite_array("profile radius", radius, ndim=1, unit="m")
@@ -99,7 +113,8 @@ class Cilium(Display):
                          "positive radii in m (only the tip may be 0)")
         _check_profile_radii(r_arr)
         return cls(height=height, base_radius=base, youngs_modulus=youngs_modulus,
-                   profile=(tuple((s_arr / height).tolist()), tuple((r_arr / base).tolist())))
+                   profile=(tuple((s_arr / height).tolist()), tuple((r_arr / base).tolist())),
+                   youngs_modulus_sigma=youngs_modulus_sigma)
 
     @property
     def shape(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -156,7 +171,10 @@ class Cilium(Display):
         items = [(n, PARAMETERS[n].text(getattr(self, n)))
                  for n in ("height", "base_radius", "tip_radius")]
         if self.youngs_modulus is not None:
-            items.append(("youngs_modulus", PARAMETERS["youngs_modulus"].text(self.youngs_modulus)))
+            text = PARAMETERS["youngs_modulus"].text(self.youngs_modulus)
+            if self.youngs_modulus_sigma:
+                text += f" ± {PARAMETERS['youngs_modulus'].text(self.youngs_modulus_sigma)}"
+            items.append(("youngs_modulus", text))
         if self.profile is not None:
             items.append(("profile", count(len(self.profile[0]), "point")))
         return [*items, ("volume", scaled(self.volume, 1e-9, "mm³"))]

@@ -1,10 +1,13 @@
-"""The magnetic composite: cobalt particles in an elastomer (the paper's eq. 1).
+"""The magnetic composite: cobalt particles in an elastomer (the paper's eq. 1) and its stiffness.
 
-``m_c = phi * V_c * M_Co`` with ``phi = V_Co / (V_Co + V_p)`` and ``M_Co = n_Co * mu_bar``.
+``m_c = phi * V_c * M_Co`` with ``phi = V_Co / (V_Co + V_p)`` and ``M_Co = n_Co * mu_bar``; the
+Young's modulus of the composite from the neat polymer's by Guth–Gold, with its uncertainty
+(:mod:`magcilia.device.stiffness`, ``docs/stiffness.md``).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 from magcilia._display import Display, Item, number, scaled
@@ -16,6 +19,13 @@ from magcilia.constants import (
     SIS_DENSITY,
 )
 from magcilia.device.parameters import PARAMETERS
+from magcilia.device.stiffness import (
+    POLYMER_MODULUS,
+    POLYMER_UNCERTAINTY,
+    composite_modulus,
+    filler_uncertainty,
+    percent,
+)
 
 
 @dataclass(frozen=True, repr=False)
@@ -36,7 +46,13 @@ class Material(Display):
         Effective fraction of the saturation magnetization actually present (remanence of the
         multi-domain particles); 1 is the paper's assumption. Scales the moment linearly.
     polymer_modulus : float
-        Young's modulus of the neat polymer, Pa (SIS: ~2.4–2.7 MPa small strain; default 2.5e6).
+        Small-strain Young's modulus of the neat polymer, Pa. Default 0.493 MPa: the centre of
+        the readings of Kraton D1163P's 300 % modulus (0.483 MPa, the paper) through the
+        neo-Hookean, Mooney–Rivlin and Martin–Roth–Stiehler laws
+        (:data:`~magcilia.device.stiffness.POLYMER_MODULUS`, ``docs/stiffness.md``).
+    polymer_modulus_uncertainty : float
+        Relative 1 σ of ``polymer_modulus`` (default 0.25: half the readings' span); set it with
+        a polymer modulus you measured (0: exact).
 
     Examples
     --------
@@ -45,6 +61,8 @@ class Material(Display):
     0.0937
     >>> f"{m.cobalt_magnetization:.4g}"
     '1.45e+06'
+    >>> round(m.composite_modulus / 1e6, 3), round(m.composite_modulus_uncertainty, 2)
+    (0.669, 0.27)
     """
 
     cobalt_mass: float = 30e-6
@@ -54,7 +72,8 @@ class Material(Display):
     atom_density: float = COBALT_ATOM_DENSITY
     moment_per_atom: float = COBALT_MOMENT_PER_ATOM * MU_B
     magnetization_scale: float = 1.0
-    polymer_modulus: float = 2.5e6
+    polymer_modulus: float = POLYMER_MODULUS
+    polymer_modulus_uncertainty: float = POLYMER_UNCERTAINTY
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -81,14 +100,24 @@ class Material(Display):
     def composite_modulus(self) -> float:
         """Young's modulus of the filled elastomer by Guth–Gold, Pa.
 
-        ``E_c = E_p (1 + 2.5 phi + 14.1 phi^2)`` (Guth, J. Appl. Phys. 16, 20 (1945)).
+        ``E_c = E_p (1 + 2.5 phi + 14.1 phi^2)`` (Guth, J. Appl. Phys. 16, 20 (1945);
+        :func:`magcilia.device.stiffness.composite_modulus`).
         """
-        phi = self.volume_fraction
-        return self.polymer_modulus * (1.0 + 2.5 * phi + 14.1 * phi**2)
+        return float(composite_modulus(self.polymer_modulus, self.volume_fraction))
+
+    @property
+    def composite_modulus_uncertainty(self) -> float:
+        """Relative 1 σ of :attr:`composite_modulus`: the polymer's and the filler law's
+        (:func:`~magcilia.device.stiffness.filler_uncertainty`) in quadrature (0.27 for the
+        paper's recipe)."""
+        return math.hypot(self.polymer_modulus_uncertainty,
+                          filler_uncertainty(self.volume_fraction))
 
     def _display_items(self) -> list[Item]:
         names = ("cobalt_mass", "polymer_mass", "magnetization_scale", "cobalt_density",
                  "polymer_density", "polymer_modulus")
         items = [(n, PARAMETERS[n].text(getattr(self, n))) for n in names]
+        items[-1] = (items[-1][0],
+                     f"{items[-1][1]} ±{percent(self.polymer_modulus_uncertainty)}")
         return [*items[:3], ("magnetization", scaled(self.magnetization, 1e3, "kA/m")),
                 ("volume_fraction", number(self.volume_fraction)), *items[3:]]

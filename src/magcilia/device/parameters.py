@@ -309,6 +309,10 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     _p("youngs_modulus", "Young's modulus", dimension="pressure", unit="Pa", display="MPa",
        domain="positive", what="modulus", part="cilium", file=("cilium", "youngs_modulus"),
        minimum=1.0, maximum=1e13),
+    # its 1 σ when measured or fitted (left out: a given modulus is taken as exact)
+    _p("youngs_modulus_sigma", "Young's modulus 1-sigma", dimension="pressure", unit="Pa",
+       display="MPa", domain="non_negative", what="modulus", part="cilium",
+       file=("cilium", "youngs_modulus_sigma"), maximum=1e13),
     # material: the composite (eq. 1)
     _p("cobalt_mass", "cobalt mass", dimension="mass", unit="kg", display="mg",
        domain="positive", what="mass", part="material", file=("material", "cobalt_mass"),
@@ -333,6 +337,9 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     _p("polymer_modulus", "polymer modulus", dimension="pressure", unit="Pa", display="MPa",
        domain="positive", what="modulus", part="material", file=("material", "polymer_modulus"),
        minimum=1.0, maximum=1e13),
+    _p("polymer_modulus_uncertainty", "polymer modulus relative 1-sigma", domain="non_negative",
+       what="fraction", part="material", file=("material", "polymer_modulus_uncertainty"),
+       maximum=1.0),
     # placement: the paper's (x_f, y_f, z_f)
     _p("x", "x", **_MM, part="setup", file=("placement", "x"), bound=(-3e-3, 3e-3),
        span=Span("around", -1e-3, 1e-3), figure=9, model=True),

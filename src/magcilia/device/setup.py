@@ -22,6 +22,7 @@ from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck
+from magcilia.device.stiffness import Modulus, percent
 from magcilia.model import pose as pose_model
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.centreline import Centreline, SpatialCentreline
@@ -106,8 +107,9 @@ class Setup(Display):
 
         Any keyword overrides a field of the setup (``position``, ``n_loops``,
         ``dipoles_per_loop``, ``ring``), of the cilium (``height``, ``base_radius``,
-        ``tip_radius``, ``youngs_modulus``), the material (``cobalt_mass``, …,
-        ``magnetization_scale``, ``polymer_modulus``) or the sensor (``bridge_voltage``, ``gain``,
+        ``tip_radius``, ``youngs_modulus``, ``youngs_modulus_sigma``), the material
+        (``cobalt_mass``, …, ``magnetization_scale``, ``polymer_modulus``,
+        ``polymer_modulus_uncertainty``) or the sensor (``bridge_voltage``, ``gain``,
         ``offset``, ``depth``, …), or a position component ``x``, ``y``, ``z``. SI units.
         A whole ``cilium=`` (e.g. :meth:`Cilium.from_profile`), ``material=`` or ``sensor=`` is
         taken as given, without the paper's values for its fields.
@@ -121,7 +123,9 @@ class Setup(Display):
         return _build(_defaults(PAPER_INITIAL, overrides))
 
     def replace(self, **changes: Any) -> Setup:
-        """A copy with some parameters changed (same keywords as :meth:`paper`)."""
+        """A copy with some parameters changed (same keywords as :meth:`paper`). A new
+        ``youngs_modulus`` without a ``youngs_modulus_sigma`` is taken as exact (the old σ
+        belonged to the old value)."""
         return _build(changes, base=self)
 
     # -- derived quantities ---------------------------------------------------------------------
@@ -137,9 +141,46 @@ class Setup(Display):
 
     @property
     def youngs_modulus(self) -> float:
-        """Young's modulus for mechanics, Pa: the cilium's, else Guth–Gold from the material."""
+        """Young's modulus for mechanics, Pa: the cilium's, else Guth–Gold from the material
+        (0.669 MPa for the paper's recipe; ``docs/stiffness.md``)."""
         e = self.cilium.youngs_modulus
         return self.material.composite_modulus if e is None else e
+
+    @property
+    def modulus(self) -> Modulus:
+        """The Young's modulus with its 1 σ and its source (:class:`~magcilia.device.stiffness.
+        Modulus`): ``"assumed"`` from the material (σ from
+        :attr:`Material.composite_modulus_uncertainty`), ``"measured"`` for a cilium's modulus
+        given with a σ (or fitted from load data), ``"exact"`` for one given without.
+
+        Examples
+        --------
+        >>> Setup.paper().modulus.note()
+        'force scale from an assumed modulus ±27 % (E 0.669 MPa)'
+        >>> Setup.paper(youngs_modulus=1e6).modulus.note()
+        'force scale: modulus given, taken as exact (E 1 MPa)'
+        >>> Setup.paper(youngs_modulus=5e5, youngs_modulus_sigma=3e4).modulus.note()
+        'force scale from a measured modulus ±6 % (E 0.5 MPa)'
+        """
+        c, m = self.cilium, self.material
+        if c.youngs_modulus is None:
+            e = m.composite_modulus
+            return Modulus(e, e * m.composite_modulus_uncertainty, "assumed")
+        if not c.youngs_modulus_sigma:
+            return Modulus(c.youngs_modulus, 0.0, "exact")
+        return Modulus(c.youngs_modulus, c.youngs_modulus_sigma, "measured")
+
+    @property
+    def youngs_modulus_sigma(self) -> float:
+        """1 σ of :attr:`youngs_modulus`, Pa (0 for a modulus taken as exact)."""
+        return self.modulus.sigma
+
+    @property
+    def youngs_modulus_uncertainty(self) -> float:
+        """Relative 1 σ of :attr:`youngs_modulus`, the force scale's: every tip force (and,
+        through the drag law, every flow speed) read from this setup shares it (0 for a modulus
+        taken as exact)."""
+        return self.modulus.relative
 
     def params(self) -> dict[str, float]:
         """The model's parameters in SI by name: the paper's seven (height, base_radius, x, y, z,
@@ -323,8 +364,16 @@ class Setup(Display):
         if p["magnetization_scale"] != 1.0:
             items.append(("magnetization_scale", number(p["magnetization_scale"])))
         return [*items, ("moment", si(self.moment, "A·m²")),
-                ("youngs_modulus", par["youngs_modulus"].text(self.youngs_modulus)),
+                ("youngs_modulus", _modulus_text(self.modulus)),
                 ("depth", par["depth"].text(self.sensor.depth))]
+
+
+def _modulus_text(modulus: Modulus) -> str:
+    """``0.67 MPa ±27 % assumed``, ``1 MPa exact``."""
+    text = PARAMETERS["youngs_modulus"].text(modulus.value)
+    if modulus.source == "exact":
+        return f"{text} exact"
+    return f"{text} ±{percent(modulus.relative)} {modulus.source}"
 
 
 def _azimuth(azimuth: object) -> float:
@@ -360,6 +409,8 @@ def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:
                 known = sorted(setup_fields | {"x", "y", "z"} | set().union(*_PART_FIELDS.values()))
                 raise v.fail("keyword", key, "a setup parameter (" + ", ".join(known) + ")")
             parts[owner][key] = value
+    if "youngs_modulus" in parts["cilium"]:  # a new modulus without its σ is taken as exact
+        parts["cilium"].setdefault("youngs_modulus_sigma", None)
     built: dict[str, Any] = {}
     for name, cls in _PARTS.items():
         current = top.pop(name, None) or (getattr(base, name) if base is not None else None)

@@ -211,8 +211,9 @@ def _with_profile(overrides: dict[str, Any], given: dict[str, Any]) -> dict[str,
         raise v.fail(f"cilium.{clash[0]}", given[clash[0]],
                      "left out when a profile is given (the profile sets the shape)")
     cilium = Cilium.from_profile(given["profile_s"], given["profile_r"],
-                                 youngs_modulus=given.get("youngs_modulus"))
-    dropped = (*_PROFILE_SHAPED, "youngs_modulus", *_PROFILE_KEYS)
+                                 youngs_modulus=given.get("youngs_modulus"),
+                                 youngs_modulus_sigma=given.get("youngs_modulus_sigma"))
+    dropped = (*_PROFILE_SHAPED, "youngs_modulus", "youngs_modulus_sigma", *_PROFILE_KEYS)
     return {**{k: val for k, val in overrides.items() if k not in dropped}, "cilium": cilium}
 
 

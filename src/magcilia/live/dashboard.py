@@ -181,7 +181,7 @@ class Dashboard:
             "span": [q.to_display(x) for x in r.span],
             "range": [q.to_display(x) for x in limits.range],
             "minimum": q.to_display(limits.minimum), "limited_by": limits.limited_by,
-            "readout": r.report(), "setup": setup_to_dict(r.setup),
+            "readout": r.report(), "scale_note": r.scale_note, "setup": setup_to_dict(r.setup),
             "calibration": r.calibration.report() if r.calibration is not None else None,
             "source": {"name": live.source.name, "rate_Hz": live.source.rate},
             "rate_Hz": live.rate, "window_s": self.window, "fps": self.fps,

@@ -197,6 +197,9 @@ class Limits(Display):
         Minimum detectable change at rest: the noise of one reading through the slope there.
     limited_by : str
         What ends the range ("span", "sensor range", "fold").
+    scale_note : str
+        Where a force's or flow's scale comes from (:meth:`magcilia.Modulus.note`: its σ is in
+        every reading's ± σ); "" for an angle.
     """
 
     quantity: str
@@ -205,19 +208,21 @@ class Limits(Display):
     range: tuple[float, float]
     minimum: float
     limited_by: str
+    scale_note: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI)."""
         return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
                 "range": list(self.range), "minimum": self.minimum,
-                "limited_by": self.limited_by}
+                "limited_by": self.limited_by, "scale_note": self.scale_note}
 
     def report(self) -> str:
-        """One line in display units."""
+        """One line in display units (and the force scale's note for a force or flow)."""
         q = MEASURANDS[self.quantity]
         lo, hi = (q.to_display(x) for x in self.range)
+        note = f"; ± σ includes the {self.scale_note}" if self.scale_note else ""
         return (f"{q.label} range {lo:.4g}…{hi:.4g} {q.display} ({self.limited_by}), minimum "
-                f"detectable {q.to_display(self.minimum):.3g} {q.display}")
+                f"detectable {q.to_display(self.minimum):.3g} {q.display}{note}")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
@@ -456,7 +461,7 @@ class LiveReadout:
         inside = q[ok] if ok.any() else q[:1]
         rest_slope = abs(float(np.interp(self.zero.rest, table.volts, table.slope)))
         return Limits(r.quantity, r.unit, r.span, (float(inside.min()), float(inside.max())),
-                      self.noise * rest_slope, limited)
+                      self.noise * rest_slope, limited, r.scale_note)
 
     @property
     def noise(self) -> float:

@@ -333,6 +333,35 @@ def drag_per_length(normal_speed: F64, diameter: F64, fluid: Fluid,
     return 0.5 * fluid.viscosity * normal_speed * re_cd
 
 
+#: step in ln U of :func:`drag_exponent`'s central difference
+_EXPONENT_STEP = 1e-4
+
+
+def drag_exponent(normal_speed: ArrayLike, diameter: ArrayLike, fluid: Fluid,
+                  slender: ArrayLike | None = None) -> F64:
+    """The drag law's local exponent ``n = d ln f / d ln U_n`` (dimensionless; any shape that
+    broadcasts): 1 where the drag is linear in the speed (creeping flow, the slender-body law),
+    2 for form drag at a constant C_D, between for Lamb's and White's laws
+    (:func:`drag_per_length`, a central difference in ln U_n). At a fixed bent shape the drag
+    must scale with the Young's modulus E, so a flow speed read at a fixed output scales as
+    ``E^(1/n)``: its share of E's uncertainty is ``σ_U/U = (σ_E/E)/n``
+    (:mod:`magcilia.readout.scale`).
+
+    Examples
+    --------
+    >>> float(drag_exponent(1e-6, 1e-4, WATER, slender=10.0).round(6))   # Re = 1e-4: creeping
+    1.0
+    >>> float(drag_exponent(10.0, 1e-3, AIR).round(3))   # Re = 665: White's 1 + 10 Re^(-2/3)
+    1.923
+    """
+    u = np.abs(np.asarray(normal_speed, dtype=np.float64))
+    d = np.asarray(diameter, dtype=np.float64)
+    lam = None if slender is None else np.asarray(slender, dtype=np.float64)
+    up, down = (np.abs(drag_per_length(u * math.exp(sign * _EXPONENT_STEP), d, fluid, lam))
+                for sign in (1.0, -1.0))
+    return np.asarray(np.log(up / down) / (2.0 * _EXPONENT_STEP), dtype=np.float64)
+
+
 def max_speed(diameter: float, fluid: Fluid) -> float:
     """Fastest flow (m/s) past a cylinder of ``diameter`` (m) within the drag law (Re ≤ RE_MAX)."""
     return RE_MAX * fluid.viscosity / (fluid.density * diameter)

@@ -265,7 +265,7 @@ class ActuatedReadout(Display):
         lo = np.clip(np.searchsorted(self.levels, k, side="right") - 1, 0, n - 2)
         w = (k - self.levels[lo]) / (self.levels[lo + 1] - self.levels[lo])
         out = {name: np.full(x.size, np.nan) for name in
-               ("value", "sigma_noise", "sigma_calibration", "sigma_edge")}
+               ("value", "sigma_noise", "sigma_calibration", "sigma_edge", "sigma_scale")}
         flags = np.full(x.size, np.uint8(ReadoutFlag.OUTSIDE_SPAN))
         for i in np.unique(lo[inside]).tolist():
             idx = np.flatnonzero(inside & (lo == i))
@@ -285,15 +285,16 @@ class ActuatedReadout(Display):
                 slope = out["sigma_noise"] / noise_v
             out["sigma_calibration"] = np.hypot(out["sigma_calibration"], slope * tare_se)
         sigma = np.sqrt(out["sigma_noise"] ** 2 + out["sigma_calibration"] ** 2
-                        + out["sigma_edge"] ** 2)
+                        + out["sigma_edge"] ** 2 + out["sigma_scale"] ** 2)
         none = (flags & np.uint8(NO_ESTIMATE)) != 0
         for arr in (*out.values(), sigma):
             arr[none] = np.nan
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=out["value"], sigma=sigma,
             sigma_noise=out["sigma_noise"], sigma_calibration=out["sigma_calibration"],
-            sigma_edge=out["sigma_edge"], flags=flags,
-            table_error=max(r.table_error for r in self.readouts) + self.level_error)
+            sigma_edge=out["sigma_edge"], sigma_scale=out["sigma_scale"], flags=flags,
+            table_error=max(r.table_error for r in self.readouts) + self.level_error,
+            scale_note=self.readouts[0].scale_note)
 
     def read(self, volts: ArrayLike, level: ArrayLike,
              bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
@@ -311,8 +312,9 @@ class ActuatedReadout(Display):
             quantity=res.quantity, unit=res.unit, value=res.value.reshape(shape),
             sigma=res.sigma.reshape(shape), sigma_noise=res.sigma_noise.reshape(shape),
             sigma_calibration=res.sigma_calibration.reshape(shape),
-            sigma_edge=res.sigma_edge.reshape(shape), flags=res.flags.reshape(shape),
-            table_error=res.table_error)
+            sigma_edge=res.sigma_edge.reshape(shape), sigma_scale=res.sigma_scale.reshape(shape),
+            flags=res.flags.reshape(shape), table_error=res.table_error,
+            scale_note=res.scale_note)
 
     def estimate(self, volts: ArrayLike, level: ArrayLike) -> F64:
         """The quantity (SI) for each reading at its level, same shape as ``volts``; raises a
@@ -362,7 +364,8 @@ class ActuatedReadout(Display):
                 "units": "SI"}
 
     def report(self) -> str:
-        """One line: span, levels, the coupling used and the errors (display units)."""
+        """One line: span, levels, the coupling used, the errors (display units) and the force
+        scale's note."""
         q = MEASURANDS[self.quantity]
         lo, hi = (q.to_display(x) for x in self.span)
         source = "measured" if self.coupling != self.model_coupling else "modelled"
@@ -374,6 +377,8 @@ class ActuatedReadout(Display):
                 f"level interpolation ≤ {q.to_display(self.level_error):.2g} {q.display}")
         if self.baseline is not None:
             text += f"; {self.baseline.report()}"
+        if self.readouts[0].scale_note:
+            text += f"; {self.readouts[0].scale_note}"
         return text
 
     def _display_items(self) -> list[Item]:

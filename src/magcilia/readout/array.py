@@ -29,8 +29,10 @@ default 1e-6) acts as a prior of span/√α (1000 spans) on each component: it s
 solve and biases an estimate by about α / (α + (span · response / σ)²) of itself, ~1e-12 for a
 cilium whose full-span load moves its readings by 1000 σ. Saturated readings are left out of the
 fit (and flag the cilia they inform). Covariance: ``A⁻¹ JᵀWJ A⁻¹``, A = JᵀWJ + α/span², at
-the solution (the sensors' white noise through the linearised model); σ of |F| and of the direction
-from it.
+the solution (the sensors' white noise through the linearised model), plus the force scale's: each
+force scales with its cilium's Young's modulus at a fixed shape, so the modulus's relative 1 σ
+adds along the force, shared by the cilia of one modulus (:mod:`magcilia.readout.scale`); σ of
+|F| and of the direction from it.
 
 A problem is refused as singular (one-line error, at construction) when the readings are fewer
 than the unknowns (3S < 2C), when a cilium's full-span load moves no reading by one σ in some
@@ -65,6 +67,7 @@ from magcilia.device.setup import Setup
 from magcilia.mechanics import bend, bend_sweep
 from magcilia.model.array import board_normals, segment_field
 from magcilia.model.centreline import Centreline, SpatialCentreline
+from magcilia.readout.scale import array_scale_covariance, scale_notes
 
 F64 = NDArray[np.float64]
 
@@ -319,7 +322,7 @@ class ArrayEstimate(Display):
     direction, sigma_direction : ndarray, shape (C,)
         atan2(Fy, Fx) and its 1-σ, rad (σ infinite for a zero estimate).
     covariance : ndarray, shape (2 C, 2 C)
-        Of (Fx1, Fy1, Fx2, …), N².
+        Of (Fx1, Fy1, Fx2, …), N²: the noise's plus the force scale's (:attr:`covariance_scale`).
     flags : ndarray of uint8, shape (C,)
         :class:`ArrayFlag` bits.
     span : ndarray, shape (C,)
@@ -333,6 +336,13 @@ class ArrayEstimate(Display):
         unknowns under the noise model).
     readings_used : int
         Readings in the fit (not saturated).
+    covariance_scale : ndarray, shape (2 C, 2 C)
+        The force scale's share of the covariance, N²: each cilium's Young's modulus's relative
+        1 σ along its force, fully correlated between the cilia of one modulus (systematic:
+        :func:`magcilia.readout.scale.array_scale_covariance`); zeros for moduli taken as exact.
+    scale_note : str
+        Where the force scale comes from (:meth:`magcilia.Modulus.note` of each distinct
+        modulus).
     """
 
     names: tuple[str, ...]
@@ -349,6 +359,14 @@ class ArrayEstimate(Display):
     converged: bool
     chi2: float
     readings_used: int
+    covariance_scale: F64
+    scale_note: str
+
+    @property
+    def sigma_scale(self) -> F64:
+        """The force scale's 1 σ of each cilium's force, N, (C,) (``|F| · σ_E/E``)."""
+        d = np.clip(np.diag(self.covariance_scale), 0.0, None).reshape(-1, 2)
+        return np.asarray(np.sqrt(d.sum(axis=1)), dtype=np.float64)
 
     def table(self) -> list[dict[str, Any]]:
         """One row per cilium (SI)."""
@@ -366,7 +384,9 @@ class ArrayEstimate(Display):
         return {"cilia": self.table(), "span_N": self.span.tolist(),
                 "covariance_N2": self.covariance.tolist(), "iterations": self.iterations,
                 "converged": self.converged, "chi2": self.chi2,
-                "readings_used": self.readings_used}
+                "readings_used": self.readings_used,
+                "covariance_scale_N2": self.covariance_scale.tolist(),
+                "scale_note": self.scale_note}
 
     def to_dataframe(self) -> Any:
         """One row per cilium, SI columns (:meth:`table`)."""
@@ -386,6 +406,8 @@ class ArrayEstimate(Display):
                          f"{r['force_N'] * 1e3:>10.4g} {r['sigma_force_N'] * 1e3:>9.3g} "
                          f"{math.degrees(r['direction_rad']):>8.1f} "
                          f"{math.degrees(r['sigma_direction_rad']):>7.3g}  {r['flag_names']}")
+        if self.scale_note:
+            lines.append(self.scale_note)
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
@@ -787,8 +809,10 @@ class ArrayReadout(Display):
         jtj, _ = normal(jac, resid)
         a_inv = np.linalg.inv(jtj + alpha * np.eye(2 * c_n))
         cov_x = a_inv @ jtj @ a_inv
-        cov = cov_x * np.outer(scale, scale)
         force = x.reshape(c_n, 2) * self.span[:, None]
+        moduli = [setup.modulus for setup in arr.cilia]
+        cov_scale = array_scale_covariance(force, moduli)
+        cov = cov_x * np.outer(scale, scale) + cov_scale
         sigma = np.sqrt(np.diag(cov)).reshape(c_n, 2)
         mag = np.hypot(force[:, 0], force[:, 1])
         direction = np.arctan2(force[:, 1], force[:, 0])
@@ -809,12 +833,13 @@ class ArrayReadout(Display):
             flags[hit] |= np.uint8(ArrayFlag.SATURATED)
         if not converged:
             flags |= np.uint8(ArrayFlag.NOT_CONVERGED)
-        out = [force, sigma, mag, s_mag, direction, s_dir, cov, flags]
+        out = [force, sigma, mag, s_mag, direction, s_dir, cov, flags, cov_scale]
         for item in out:
             item.setflags(write=False)
         return ArrayEstimate(arr.names, force, sigma, mag, s_mag, direction, s_dir, cov, flags,
                              self.span.copy(), iterations, converged,
-                             float(np.sum((resid * w) ** 2)), int(np.count_nonzero(w)))
+                             float(np.sum((resid * w) ** 2)), int(np.count_nonzero(w)),
+                             cov_scale, scale_notes(moduli))
 
     def sigma_at_rest(self) -> F64:
         """1-σ force per site at rest in the worst direction, N, shape (C,): the square root of

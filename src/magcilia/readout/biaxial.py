@@ -23,10 +23,12 @@ The model's dipole rings turn with the bending direction (the convention of
 (~1e-6 of the field for the paper's k = 5): the F = 0 row of the grid is the mean over φ, so
 that the model is a smooth function of (Fx, Fy) through zero.
 
-What σ omits: the interpolation error of the grid (measured at construction,
-:attr:`BiaxialReadout.table_error`), the uncertainty of the setup's parameters (calibration),
-the ring trace above, and any force component the read-out does not model (vertical loads,
-flow).
+σ includes the force scale: the Young's modulus's uncertainty (a force vector scales with E at a
+fixed shape; :mod:`magcilia.readout.scale`), systematic and kept apart in
+:attr:`ForceVectorResult.covariance_scale`. What σ omits: the interpolation error of the grid
+(measured at construction, :attr:`BiaxialReadout.table_error`), the uncertainty of the setup's
+parameters (calibration), the ring trace above, and any force component the read-out does not
+model (vertical loads, flow).
 
 All SI: N, rad, T, m.
 """
@@ -53,6 +55,14 @@ from magcilia.mechanics import bend, bend_sweep, require_tip_radius
 from magcilia.model.centreline import SpatialCentreline
 from magcilia.model.kernels import pose_field
 from magcilia.readout.inverse import EDGE_TOLERANCE
+from magcilia.readout.scale import (
+    MODULUS_STEP,
+    VECTOR_RATE_GRID,
+    least_squares_rate,
+    to_polar,
+    vector_rate,
+    vector_scale_covariance,
+)
 
 F64 = NDArray[np.float64]
 
@@ -292,10 +302,16 @@ class ForceVectorResult(Display):
         :data:`NO_DIRECTION` is set: near zero, ambiguous or no estimate).
     sigma_fx, sigma_fy, sigma_magnitude, sigma_direction : ndarray
         1-σ uncertainties from the channels' noise (and a tare's standard error) through the
-        Jacobian at the estimate, N and rad; ``sigma_direction`` is inf where the direction is
-        undefined (NEAR_ZERO, AMBIGUOUS).
+        Jacobian at the estimate, and the force scale (:attr:`covariance_scale`), N and rad;
+        ``sigma_direction`` is inf where the direction is undefined (NEAR_ZERO, AMBIGUOUS).
     covariance : ndarray, shape (..., 2, 2)
-        Covariance of (Fx, Fy), N².
+        Covariance of (Fx, Fy), N²: the noise's (:attr:`covariance_noise`) plus the force
+        scale's.
+    covariance_scale : ndarray, shape (..., 2, 2)
+        The force scale's share of it, N²: the Young's modulus's relative 1 σ along
+        ∂F/∂ln E (the force itself without an actuation: the magnitude's σ grows by
+        ``|F| · σ_E/E``, the direction's not; :mod:`magcilia.readout.scale`). Systematic: one
+        error shared by every reading (fully correlated). Zeros for a modulus taken as exact.
     chi2 : ndarray
         χ² of the fit (Σ over the channels used of (residual/σ)²): ~ (channels − 2) for a
         reading the model explains.
@@ -305,6 +321,8 @@ class ForceVectorResult(Display):
         The read-out's span (largest magnitude), N.
     table_error : float
         Largest force error (N, vector) of the interpolation grid at its mid-points.
+    scale_note : str
+        Where the force scale comes from (:meth:`magcilia.Modulus.note`).
     """
 
     fx: F64
@@ -320,6 +338,20 @@ class ForceVectorResult(Display):
     flags: NDArray[np.uint16]
     span: float
     table_error: float
+    covariance_scale: F64
+    scale_note: str = ""
+
+    @property
+    def covariance_noise(self) -> F64:
+        """The noise's covariance of (Fx, Fy) alone, N², (..., 2, 2): :attr:`covariance` less
+        the force scale's."""
+        return np.asarray(self.covariance - self.covariance_scale, dtype=np.float64)
+
+    @property
+    def sigma_scale(self) -> F64:
+        """The force scale's 1 σ, N, (...): the length of the modulus's error vector (``|F| ·
+        σ_E/E`` without an actuation)."""
+        return np.sqrt(np.clip(np.trace(self.covariance_scale, axis1=-2, axis2=-1), 0.0, None))
 
     @property
     def estimated(self) -> NDArray[np.bool_]:
@@ -355,8 +387,9 @@ class ForceVectorResult(Display):
                 "sigma_magnitude": self.sigma_magnitude.tolist(),
                 "sigma_direction": self.sigma_direction.tolist(),
                 "covariance": self.covariance.tolist(), "chi2": self.chi2.tolist(),
+                "covariance_scale": self.covariance_scale.tolist(),
                 "flags": self.flags.tolist(), "span": self.span,
-                "table_error": self.table_error, "units": "SI"}
+                "table_error": self.table_error, "scale_note": self.scale_note, "units": "SI"}
 
     def report(self) -> str:
         """One line: counts, magnitude range (mN), median σ of magnitude (mN) and direction
@@ -378,6 +411,8 @@ class ForceVectorResult(Display):
                          f"{math.degrees(float(np.median(self.sigma_direction[has]))):.3g} deg")
         else:
             text += "; no valid estimate"
+        if self.scale_note:
+            text += f"; {self.scale_note}"
         return text
 
     def to_dataframe(self) -> Any:
@@ -514,6 +549,7 @@ class BiaxialReadout(Display):
     direct: F64
     _coef: F64
     _coarse: _Coarse
+    _rate_grid: tuple[F64, F64, F64] | None
 
     def __init__(self, setup: Setup, sensors: ChannelLike | Sequence[ChannelLike],
                  span: float, table_size: tuple[int, int] = (65, 128),
@@ -550,6 +586,9 @@ class BiaxialReadout(Display):
                             ("direct", direct)):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "_coef", _build_coefficients(forces, table))
+        object.__setattr__(self, "_rate_grid", None)
+        if actuation is not None and setup.youngs_modulus_uncertainty:
+            object.__setattr__(self, "_rate_grid", self._actuated_rates(f_max))
         step = max(1, (n_f - 1) // COARSE[0])
         every = max(1, n_phi // COARSE[1])
         object.__setattr__(self, "_coarse", _Coarse.build(forces[::step], azimuths[::every],
@@ -734,11 +773,20 @@ class BiaxialReadout(Display):
                                     0.0, None))
         near = (mag < NEAR_ZERO_SIGMAS * major) & ((flags & np.uint16(NO_VECTOR)) == 0)
         flags |= near.astype(np.uint16) * np.uint16(ForceFlag.NEAR_ZERO)
+        cov_scale = self._scale_covariance(fx, fy)
+        if cov_scale.any():
+            cov = cov + np.nan_to_num(cov_scale)
+            var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
+            var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
+            s_mag = np.sqrt(np.clip(var_r, 0.0, None))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / mag
         no_vec = (flags & np.uint16(NO_VECTOR)) != 0
         no_dir = (flags & np.uint16(NO_DIRECTION)) != 0
         for arr in (fx, fy, mag, s_mag, chi2):
             arr[no_vec] = np.nan
         cov[no_vec] = np.nan
+        cov_scale[no_vec] = np.nan
         direction[no_dir] = np.nan
         s_dir[no_dir] = np.inf
         s_dir[no_vec] = np.nan
@@ -750,7 +798,39 @@ class BiaxialReadout(Display):
             sigma_fy=sig_y.reshape(shape), sigma_magnitude=s_mag.reshape(shape),
             sigma_direction=s_dir.reshape(shape), covariance=cov.reshape(*shape, 2, 2),
             chi2=chi2.reshape(shape), flags=flags.reshape(shape), span=self.span,
-            table_error=self.table_error)
+            table_error=self.table_error, covariance_scale=cov_scale.reshape(*shape, 2, 2),
+            scale_note=self.setup.modulus.note())
+
+    def _scale_covariance(self, fx: F64, fy: F64) -> F64:
+        """The force scale's covariance, N², (b, 2, 2), of estimates (b,)
+        (:func:`magcilia.readout.scale.vector_rate`; zeros for a modulus taken as exact)."""
+        relative = self.setup.youngs_modulus_uncertainty
+        if not relative:
+            return np.zeros((fx.size, 2, 2))
+        return vector_scale_covariance(vector_rate(fx, fy, self._rate_grid), relative)
+
+    def _actuated_rates(self, f_max: float) -> tuple[F64, F64, F64]:
+        """The force's derivative with respect to ln E under the actuation, on a
+        :data:`~magcilia.readout.scale.VECTOR_RATE_GRID` grid of magnitudes (0 … ``f_max``, N)
+        and directions: (magnitudes, directions, components along and across the force
+        (m, d, 2), N). The readings' derivative is a central difference of the model
+        (:func:`_actuated_model`) over E·(1 ± MODULUS_STEP), taken through the read-out's
+        least squares with the channels' stated noise."""
+        assert self.actuation is not None
+        setup, chans = self.setup, self.channels
+        mags = np.linspace(0.0, f_max, VECTOR_RATE_GRID[0])
+        step = 2.0 * math.pi / VECTOR_RATE_GRID[1]
+        dirs = np.arange(VECTOR_RATE_GRID[1], dtype=np.float64) * step
+        e = setup.youngs_modulus
+        up, down = (_actuated_model(
+            setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP)), chans, mags, dirs,
+            self.actuation)[0] for sign in (1.0, -1.0))
+        g = ((up - down) / (2.0 * MODULUS_STEP)).reshape(-1, len(chans))
+        m, d = (a.reshape(-1) for a in np.meshgrid(mags, dirs, indexing="ij"))
+        _, jx, jy = self._evaluate(m * np.cos(d), m * np.sin(d))
+        weight = np.broadcast_to(1.0 / np.array([c.sigma for c in chans]) ** 2, g.shape)
+        rates = to_polar(least_squares_rate(jx, jy, g, weight), d)
+        return mags, dirs, rates.reshape(mags.size, dirs.size, 2)
 
     def _tare_arrays(self) -> tuple[F64, F64, F64]:
         """(correction, σ per reading, tare standard error), T, each (c,)."""

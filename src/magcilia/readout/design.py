@@ -9,7 +9,11 @@ quantity, evaluates the sensor output and reports
 * the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
   for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
 * the range: up to the first of the sensor's ±field_range limit (±6 gauss) or a fold of the output
-  (non-monotonic: readings become ambiguous), else the end of the sweep.
+  (non-monotonic: readings become ambiguous), else the end of the sweep;
+* the force scale's 1 σ of the minimum and the range: a force scales exactly with the Young's
+  modulus at a fixed shape (σ = value · σ_E/E), a flow speed through the drag law (the model's
+  derivative at a fixed output, :func:`magcilia.readout.scale.fixed_output_rate`); systematic,
+  and said where it comes from (:meth:`magcilia.Modulus.note`).
 """
 
 from __future__ import annotations
@@ -29,8 +33,18 @@ from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
-from magcilia.mechanics import SHARP_TIP, WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
+from magcilia.mechanics import (
+    SHARP_TIP,
+    WATER,
+    Flow,
+    Fluid,
+    bend,
+    bend_sweep,
+    output_at,
+    tip_compliance,
+)
 from magcilia.mechanics.drag import max_speed
+from magcilia.readout.scale import fixed_output_rate
 
 F64 = NDArray[np.float64]
 
@@ -56,6 +70,10 @@ class Metric(Display):
         What ends the range (or why the metric is not available).
     curve : ndarray, shape (c, 2)
         The swept (quantity, output V) pairs.
+    sigma_minimum, sigma_range : float
+        The force scale's 1 σ of ``minimum`` and ``range``, unit: the Young's modulus's relative
+        1 σ through the model (``value · σ_E/E`` for a force; 0 for an angle or a modulus taken
+        as exact). Systematic: every force or flow figure of the setup shares it.
     """
 
     quantity: str
@@ -65,19 +83,27 @@ class Metric(Display):
     range: float
     limited_by: str
     curve: F64 = field(repr=False)
+    sigma_minimum: float = 0.0
+    sigma_range: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI units; the swept curve left out)."""
         return {"unit": self.unit, "sensitivity_V_per_unit": self.sensitivity,
-                "minimum": self.minimum, "range": self.range, "limited_by": self.limited_by}
+                "minimum": self.minimum, "range": self.range, "limited_by": self.limited_by,
+                "sigma_minimum": self.sigma_minimum, "sigma_range": self.sigma_range}
 
     def report(self) -> str:
-        """One line in display units."""
+        """One line in display units (with the force scale's ± where it has one)."""
         q = MEASURANDS[self.quantity]
+
+        def pm(sigma: float) -> str:
+            return f" ± {q.to_display(sigma):.2g}" if sigma > 0.0 else ""
+
         return (f"{self.quantity}: {self.sensitivity * 1e3 * q.display_factor:.4g} "
                 f"mV/{q.display}, "
-                f"minimum {q.to_display(self.minimum):.4g} {q.display}, range "
-                f"{q.to_display(self.range):.4g} {q.display} ({self.limited_by})")
+                f"minimum {q.to_display(self.minimum):.4g}{pm(self.sigma_minimum)} {q.display}, "
+                f"range {q.to_display(self.range):.4g}{pm(self.sigma_range)} {q.display} "
+                f"({self.limited_by})")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
@@ -117,6 +143,17 @@ class DesignMetrics(Display):
         """(force, flow, angle)."""
         return self.force, self.flow, self.angle
 
+    @property
+    def scale_note(self) -> str:
+        """Where the force and flow figures' scale comes from, and their share of it: ``"force
+        scale from an assumed modulus ±27 % (E 0.669 MPa): force minimum ±27 %, range ±27 %;
+        flow minimum ±19 %, range ±15 %"``."""
+        note = self.setup.modulus.note()
+        parts = [f"{m.quantity} minimum ±{_percent(m.sigma_minimum, m.minimum)}, range "
+                 f"±{_percent(m.sigma_range, m.range)}" for m in (self.force, self.flow)
+                 if math.isfinite(m.minimum) and (m.sigma_minimum or m.sigma_range)]
+        return f"{note}: {'; '.join(parts)}" if parts else note
+
     def table(self) -> list[dict[str, Any]]:
         """Rows per measurand in display units (mN, m/s, deg; sensitivity in mV per display
         unit); NaN where a metric is not available."""
@@ -143,6 +180,7 @@ class DesignMetrics(Display):
             mini = f"{r['minimum']:.4g} {unit}" if math.isfinite(r["minimum"]) else "-"
             rng = f"{r['range']:.4g} {unit}" if math.isfinite(r["range"]) else "-"
             lines.append(f"{r['quantity']:<8} {sens:>22} {mini:>18} {rng:>14}  {r['limited_by']}")
+        lines.append(self.scale_note)
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -151,6 +189,7 @@ class DesignMetrics(Display):
             "noise_V": self.noise, "bandwidth_Hz": list(self.bandwidth),
             "fluid": self.fluid.name,
             "metrics": {m.quantity: m.to_dict() for m in self.metrics},
+            "modulus": self.setup.modulus.to_dict(), "scale_note": self.scale_note,
         }
 
     # -- display --------------------------------------------------------------------------------
@@ -175,6 +214,11 @@ class DesignMetrics(Display):
                           "minimum": [m.minimum for m in metrics],
                           "range": [m.range for m in metrics],
                           "limited_by": [m.limited_by for m in metrics]})
+
+
+def _percent(sigma: float, value: float) -> str:
+    """σ relative to ``value`` as ``"27 %"``."""
+    return f"{100.0 * sigma / value:.2g} %" if value else "0 %"
 
 
 def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
@@ -285,8 +329,10 @@ def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
     slope = float(v_pm[1] - v_pm[0]) / (2.0 * delta)
     q, volts, note = _sweep(setup, np.linspace(0.0, f_max, points), None)
     rng, why = _range(q, volts, setup, note or "end of sweep (tip deflection ≈ L)")
-    return Metric("force", "N", slope, noise / abs(slope) if slope else math.inf, rng, why,
-                  np.stack([q, volts], axis=1))
+    minimum = noise / abs(slope) if slope else math.inf
+    rel = setup.youngs_modulus_uncertainty  # F ∝ E at a fixed shape: exactly
+    return Metric("force", "N", slope, minimum, rng, why, np.stack([q, volts], axis=1),
+                  rel * minimum, rel * rng)
 
 
 def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metric:
@@ -321,7 +367,27 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
 
         minimum = float(brentq(gap, float(q[i - 1]), float(q[i]), xtol=1e-12, rtol=1e-8)) \
             if i > 0 else 0.0
-    return Metric("flow", "m/s", slope, minimum, rng, why, np.stack([q, volts], axis=1))
+    return Metric("flow", "m/s", slope, minimum, rng, why, np.stack([q, volts], axis=1),
+                  *_flow_scale(setup, flow, minimum, rng))
+
+
+def _flow_scale(setup: Setup, flow: Flow, minimum: float, rng: float) -> tuple[float, float]:
+    """The force scale's 1 σ of a flow minimum and range, m/s: ∂U/∂ln E at a fixed output (the
+    model's, :func:`~magcilia.readout.scale.fixed_output_rate`) times σ_E/E (0 where the value
+    is 0 or not finite, or the modulus is taken as exact)."""
+    rel = setup.youngs_modulus_uncertainty
+    speeds = np.array([minimum, rng])
+    good = np.isfinite(speeds) & (speeds > 0.0)
+    out = np.zeros(2)
+    if rel and good.any():
+        try:
+            rate = fixed_output_rate(lambda s, u: output_at(s, "flow", u, flow), setup,
+                                     speeds[good])
+        except MagciliaError:  # beyond the solver at the range's end: the minimum's share
+            rate = fixed_output_rate(lambda s, u: output_at(s, "flow", u, flow), setup,
+                                     speeds[good][:1]) * speeds[good] / speeds[good][0]
+        out[good] = np.abs(rate) * rel
+    return float(out[0]), float(out[1])
 
 
 def _angle_metric(setup: Setup, noise: float, points: int) -> Metric:

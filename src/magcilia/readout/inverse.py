@@ -6,8 +6,9 @@ tilt for ``"angle"``; large-deflection bending of :func:`magcilia.bend` for ``"f
 folds back), and inverts it by linear interpolation, resampled on a uniform output grid so that a
 reading's cell is found by arithmetic instead of a search (the fast path,
 :meth:`Readout.estimate`). :meth:`Readout.read` adds 1-σ uncertainties (sensor noise over a
-bandwidth through the local slope, plus the calibration covariance when a
-:class:`~magcilia.CalibrationResult` is given) and flags.
+bandwidth through the local slope, the calibration covariance when a
+:class:`~magcilia.CalibrationResult` is given, and for a force or flow the Young's modulus's
+uncertainty, the force scale: :mod:`magcilia.readout.scale`) and flags.
 
 The table's stated error bound (:attr:`Readout.table_error`) is measured, not assumed: the table
 uses every other point of a grid twice as dense, and the bound is the largest difference between
@@ -35,7 +36,9 @@ from magcilia.device.actuation import Actuation
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, SensorFlag, flag_names
 from magcilia.device.setup import Setup
+from magcilia.device.stiffness import Modulus
 from magcilia.mechanics import Flow, output_at, poses_at
+from magcilia.readout.scale import modulus_sigma, scales_exactly
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
@@ -100,15 +103,22 @@ class ReadoutResult(Display):
         Estimates; NaN where a flag of :data:`NO_ESTIMATE` is set (EXTRAPOLATED and CLIPPED
         readings have one).
     sigma : ndarray
-        1-σ uncertainty, sqrt(sigma_noise² + sigma_calibration² + sigma_edge²); NaN where
-        ``value`` is.
+        1-σ uncertainty, sqrt(sigma_noise² + sigma_calibration² + sigma_edge² + sigma_scale²);
+        NaN where ``value`` is.
     sigma_noise, sigma_calibration : ndarray
         Two parts: the noise of the reading (the sensor model's over the bandwidth, or the
-        measured one), and the errors shared by all readings: the calibration covariance and a
-        tare's standard error.
+        measured one; the only part that differs at random between readings), and the errors
+        shared by all readings: the calibration covariance and a tare's standard error.
     sigma_edge : ndarray
         The third part: for CLIPPED readings the distance from the model's estimate to the
         span's end that they were set to; 0 for the others.
+    sigma_scale : ndarray
+        The fourth part, the force scale: the Young's modulus's relative 1 σ through the model
+        (``|F| · σ_E/E`` for a tip force; :mod:`magcilia.readout.scale`), 0 for a tilt angle or a
+        modulus taken as exact. Systematic: one error shared by every reading (fully
+        correlated), so averaging does not reduce it.
+    scale_note : str
+        Where the modulus comes from (:meth:`magcilia.Modulus.note`; "" for a tilt angle).
     flags : ndarray of uint8
         :class:`ReadoutFlag` bits.
     table_error : float
@@ -122,8 +132,10 @@ class ReadoutResult(Display):
     sigma_noise: F64
     sigma_calibration: F64
     sigma_edge: F64
+    sigma_scale: F64
     flags: NDArray[np.uint8]
     table_error: float
+    scale_note: str = ""
 
     @property
     def ok(self) -> NDArray[np.bool_]:
@@ -152,8 +164,9 @@ class ReadoutResult(Display):
         return {"quantity": self.quantity, "unit": self.unit, "value": self.value.tolist(),
                 "sigma": self.sigma.tolist(), "sigma_noise": self.sigma_noise.tolist(),
                 "sigma_calibration": self.sigma_calibration.tolist(),
-                "sigma_edge": self.sigma_edge.tolist(), "flags": self.flags.tolist(),
-                "table_error": self.table_error}
+                "sigma_edge": self.sigma_edge.tolist(),
+                "sigma_scale": self.sigma_scale.tolist(), "flags": self.flags.tolist(),
+                "table_error": self.table_error, "scale_note": self.scale_note}
 
     def summary(self) -> str:
         """The same as :meth:`report` (the name of magcilia 0.1)."""
@@ -161,7 +174,7 @@ class ReadoutResult(Display):
 
     def report(self) -> str:
         """One line: counts of estimated and flagged readings, value range, median sigma (display
-        unit: deg, mN, m/s)."""
+        unit: deg, mN, m/s) and, for a force or flow, where the force scale comes from."""
         q = MEASURANDS[self.quantity]
         return summary_line(self, q.display, q.display_factor)
 
@@ -186,7 +199,8 @@ class ReadoutResult(Display):
     def to_dataframe(self) -> Any:
         """The estimates as a ``pandas.DataFrame``, one row per reading, SI, columns named by
         quantity and unit: the value (``force_N``, ``angle_rad``, ``flow_m_per_s``), ``sigma_*``,
-        ``sigma_noise_*``, ``sigma_calibration_*``, ``sigma_edge_*`` (same unit) and ``flags``
+        ``sigma_noise_*``, ``sigma_calibration_*``, ``sigma_edge_*``, ``sigma_scale_*`` (same
+        unit) and ``flags``
         (:class:`ReadoutFlag` bits, 0 a good reading; NaN values where flagged)."""
         return dataframe({
             column(self.quantity, self.unit): self.value,
@@ -194,12 +208,14 @@ class ReadoutResult(Display):
             column("sigma_noise", self.unit): self.sigma_noise,
             column("sigma_calibration", self.unit): self.sigma_calibration,
             column("sigma_edge", self.unit): self.sigma_edge,
+            column("sigma_scale", self.unit): self.sigma_scale,
             "flags": self.flags})
 
 
 def summary_line(result: ReadoutResult, unit: str, factor: float) -> str:
     """:meth:`ReadoutResult.report` with values shown in ``unit``, of which one is ``factor``
-    in SI (``"mN"``, 1e-3): counts of estimated and flagged readings, range, median 1-σ."""
+    in SI (``"mN"``, 1e-3): counts of estimated and flagged readings, range, median 1-σ, and the
+    force scale's note."""
     c = result.counts()
     flagged = ", ".join(f"{c[key]} {name}" for key, name in (
         ("outside_span", "outside span"), ("fold", "ambiguous (fold)"),
@@ -213,8 +229,9 @@ def summary_line(result: ReadoutResult, unit: str, factor: float) -> str:
     else:
         rng = "no valid estimate"
     beyond = f", {edges} beyond the span's ends" if edges else ""
+    note = f"; {result.scale_note}" if result.scale_note else ""
     return (f"{c['estimated']}/{c['readings']} readings estimated ({flagged} flagged{beyond}); "
-            f"{rng}")
+            f"{rng}{note}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -431,6 +448,11 @@ class Readout(Display):
         :data:`POSTERIOR_DRAWS` of them).
     sigma_calibration : ndarray, shape (t,)
         1-σ output uncertainty (V) from the calibration at the table nodes.
+    modulus : Modulus
+        The setup's Young's modulus, its 1 σ and source (:attr:`magcilia.Setup.modulus`).
+    sigma_modulus : ndarray, shape (t,)
+        1-σ output uncertainty (V) from the modulus at the table nodes (the force scale,
+        :mod:`magcilia.readout.scale`; zeros for an angle or a modulus taken as exact).
     edge_reach : (float, float)
         How far (SI, ≥ 0) the model is continued below the span's low end and above its high
         end: ``edge_tolerance``, less where the output turns or the model fails, 0 at a fold
@@ -458,6 +480,8 @@ class Readout(Display):
     flow: Flow
     table: InverseTable
     sigma_calibration: F64
+    modulus: Modulus
+    sigma_modulus: F64
     edge: str
     edge_tolerance: tuple[float, float]
     edge_tables: tuple[InverseTable | None, InverseTable | None]
@@ -528,6 +552,10 @@ class Readout(Display):
             object.__setattr__(self, name, value)
         object.__setattr__(self, "sigma_calibration", _calibration_sigma(
             setup, quantity, flow, table.quantity, calibration, actuation))
+        object.__setattr__(self, "modulus", setup.modulus)
+        object.__setattr__(self, "sigma_modulus", modulus_sigma(
+            lambda s, q: model_output(s, quantity, q, flow, actuation), setup, quantity,
+            table.quantity, table.output, actuation is not None))
 
     # -- the table --------------------------------------------------------------------------------
     @property
@@ -707,6 +735,10 @@ class Readout(Display):
              noise: float | None = None) -> ReadoutResult:
         """Estimates with 1-σ uncertainties and flags (never raises for out-of-span readings).
 
+        The 1-σ of a force or flow includes the force scale (``sigma_scale``: the Young's
+        modulus's uncertainty, systematic, :mod:`magcilia.readout.scale`) until E is fitted from
+        load data, given with its σ, or measured; ``sigma_noise`` is the noise alone.
+
         Parameters
         ----------
         volts : array-like, any shape
@@ -731,21 +763,27 @@ class Readout(Display):
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
         if self.baseline is not None:
             x = x + self.baseline.correction
-        value, sigma, s_noise, s_cal, s_edge = (np.empty(x.size) for _ in range(5))
+        value, sigma, s_noise, s_cal, s_edge, s_scale = (np.empty(x.size) for _ in range(6))
         flags = np.empty(x.size, dtype=np.uint8)
         for start in range(0, x.size, BLOCK):
             part = slice(start, start + BLOCK)
             self._read_block(x[part], noise_v, value[part], sigma[part], s_noise[part],
-                             s_cal[part], s_edge[part], flags[part])
+                             s_cal[part], s_edge[part], s_scale[part], flags[part])
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
             sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
             sigma_calibration=s_cal.reshape(shape), sigma_edge=s_edge.reshape(shape),
-            flags=flags.reshape(shape), table_error=self.table_error,
+            sigma_scale=s_scale.reshape(shape), flags=flags.reshape(shape),
+            table_error=self.table_error, scale_note=self.scale_note,
         )
 
+    @property
+    def scale_note(self) -> str:
+        """Where the force scale comes from (:meth:`magcilia.Modulus.note`); "" for an angle."""
+        return "" if self.quantity == "angle" else self.modulus.note()
+
     def _read_block(self, x: F64, noise_v: float, value: F64, sigma: F64, s_noise: F64,
-                    s_cal: F64, s_edge: F64, flags: NDArray[np.uint8]) -> None:
+                    s_cal: F64, s_edge: F64, s_scale: F64, flags: NDArray[np.uint8]) -> None:
         """:meth:`read` of readings ``x`` (V, (b,), tare applied) with output noise ``noise_v``
         (V), into the result arrays (b,): one interpolation step gives the estimate and the
         table's slope; the few readings beyond the span take :meth:`_beyond`."""
@@ -767,12 +805,13 @@ class Readout(Display):
             flags[out] = beyond | (flags[out] & np.uint8(ReadoutFlag.SATURATED))
         np.multiply(slope, noise_v, out=s_noise)
         tare_error = 0.0 if self.baseline is None else self.baseline.standard_error
+        q = table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
+        vq = np.fmin(np.fmax(value, q[0]), q[-1])
+        j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
+        j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
+        self._scale_block(value, vq, j, slope, s_scale)
         if self.sigma_calibration.any():
-            q = table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
-            vq = np.fmin(np.fmax(value, q[0]), q[-1])
-            j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
-            j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
-            np.multiply(_interp(vq, j, 1, q, self.sigma_calibration), slope, out=s_cal)
+            np.multiply(_interp(vq, j.copy(), 1, q, self.sigma_calibration), slope, out=s_cal)
             if tare_error:
                 np.hypot(s_cal, slope * tare_error, out=s_cal)
             np.hypot(s_noise, s_cal, out=sigma)
@@ -784,9 +823,25 @@ class Readout(Display):
             sigma[:] = s_noise
         if out.size:
             sigma[out] = np.hypot(sigma[out], s_edge[out])
+        if self.sigma_modulus.any():
+            np.hypot(sigma, s_scale, out=sigma)
         flagged = (flags & np.uint8(NO_ESTIMATE)).astype(bool)
-        for arr in (value, sigma, s_noise, s_cal, s_edge):
+        for arr in (value, sigma, s_noise, s_cal, s_edge, s_scale):
             np.copyto(arr, np.nan, where=flagged)
+
+    def _scale_block(self, value: F64, vq: F64, j: NDArray[np.intp], slope: F64,
+                     out: F64) -> None:
+        """The force scale's 1 σ of readings with estimates ``value`` (SI, (b,); ``vq`` clipped
+        to the table and ``j`` their table intervals) and slopes |dq/dV| (b,), into ``out``:
+        exactly ``|F| · σ_E/E`` for a tip force without actuation, else the modulus's output σ
+        at the estimate through the slope (:mod:`magcilia.readout.scale`); 0 without one."""
+        if not self.sigma_modulus.any():
+            out[:] = 0.0
+        elif scales_exactly(self.quantity, self.actuation is not None):
+            np.multiply(np.abs(value), self.modulus.relative, out=out)
+        else:
+            np.multiply(_interp(vq, j.copy(), 1, self.table.quantity, self.sigma_modulus),
+                        slope, out=out)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description of the table (SI)."""
@@ -796,6 +851,7 @@ class Readout(Display):
                 "edge": self.edge, "edge_tolerance": list(self.edge_tolerance),
                 "edge_reach": list(self.edge_reach), "edge_error": self.edge_error,
                 "tare": None if self.baseline is None else self.baseline.to_dict(),
+                "modulus": None if self.quantity == "angle" else self.modulus.to_dict(),
                 **({} if self.actuation is None else {
                     "actuation": self.actuation.to_dict(),
                     "direct_field_T": direct_field(self.actuation).tolist(),
@@ -803,7 +859,8 @@ class Readout(Display):
                     "sensor_flag_names": flag_names(self.sensor_flags)})}
 
     def report(self) -> str:
-        """One line: the span, its output range, the fold if any and the table's error."""
+        """One line: the span, its output range, the fold if any, the table's error and, for a
+        force or flow, where the force scale comes from."""
         q = MEASURANDS[self.quantity]
         lo, hi = (q.to_display(x) for x in self.span)
         text = (f"{q.label} read-out over {lo:.4g}…{hi:.4g} {q.display}: outputs "
@@ -823,6 +880,8 @@ class Readout(Display):
             text += f"; {self.baseline.report()}"
         if self.actuation is not None:
             text += f"; {compensation_text(self.setup, self.actuation, self.sensor_flags)}"
+        if self.scale_note:
+            text += f"; {self.scale_note}"
         return text
 
     # -- display --------------------------------------------------------------------------------

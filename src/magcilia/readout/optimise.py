@@ -72,6 +72,7 @@ from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
 from magcilia.device.setup import Setup
+from magcilia.device.stiffness import composite_modulus
 from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
@@ -444,6 +445,8 @@ class DesignOptimum(Display):
         lines.append("front (minimum, range):")
         lines += [f"  {q.text(d.minimum, 4):>12} {q.text(d.range, 4):>12}  {d.sensor}"
                   for d in self.front]
+        lines.append(f"{self.best_setup.modulus.note()}: every range and minimum above scales "
+                     "with it")
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
@@ -621,7 +624,7 @@ def _modulus(setup: Setup, values: dict[str, F64]) -> F64:
     m = setup.material
     v_co = values["cobalt_mass"] / m.cobalt_density
     phi = v_co / (v_co + m.polymer_mass / m.polymer_density)
-    return np.asarray(m.polymer_modulus * (1.0 + 2.5 * phi + 14.1 * phi**2), dtype=np.float64)
+    return np.asarray(composite_modulus(m.polymer_modulus, phi), dtype=np.float64)
 
 
 def _moment_scale(setup: Setup, values: dict[str, F64]) -> F64:

@@ -1,10 +1,15 @@
 """Figures of the biaxial read-out: estimated force vectors against the truth.
 
 :func:`force_vector_figure` draws, in the force plane (Fx, Fy in mN), the true loads, the
-estimates with their 2σ error ellipses (from each reading's covariance), and beside it the pulls
-(estimate − truth)/σ of magnitude and direction against the true direction, where an honest σ
-keeps ~95 % of them within ±2. Readings without an estimate or a direction (flags) are left
+estimates with their 2σ error ellipses (from each reading's noise covariance), and beside it the
+pulls (estimate − truth)/σ of magnitude and direction against the true direction, where an honest
+σ keeps ~95 % of them within ±2. Readings without an estimate or a direction (flags) are left
 out of the pulls and counted in the title.
+
+The ellipses and pulls use the noise's σ (:attr:`ForceVectorResult.covariance_noise`): the force
+scale's σ (the Young's modulus's uncertainty) is systematic, one error shared by every reading of
+the cilium, which readings against a truth made with the same modulus cannot show; the title says
+where the force scale comes from.
 """
 
 from __future__ import annotations
@@ -22,6 +27,22 @@ from magcilia.readout.biaxial import ForceVectorResult
 ELLIPSE_SIGMAS = 2.0
 
 
+def noise_sigmas(result: ForceVectorResult) -> tuple[np.ndarray, np.ndarray]:
+    """The noise's 1 σ of the magnitude (N) and of the direction (rad) of each reading, flat:
+    :attr:`ForceVectorResult.covariance_noise` along and across the estimate (NaN without an
+    estimate, inf without a direction, as the result's own)."""
+    cov = result.covariance_noise.reshape(-1, 2, 2)
+    direction = np.arctan2(result.fy, result.fx).reshape(-1)
+    c, s = np.cos(direction), np.sin(direction)
+    var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
+    var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_mag = np.sqrt(np.clip(var_r, 0.0, None))
+        s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / result.magnitude.reshape(-1)
+    s_dir = np.where(np.isinf(result.sigma_direction.reshape(-1)), np.inf, s_dir)
+    return s_mag, s_dir
+
+
 def _truth(truth: ArrayLike, result: ForceVectorResult) -> np.ndarray:
     t = v.finite_array("truth", truth, unit="N")
     if t.shape != (*result.fx.shape, 2):
@@ -32,7 +53,8 @@ def _truth(truth: ArrayLike, result: ForceVectorResult) -> np.ndarray:
 
 def plot_force_vectors(truth: ArrayLike, result: ForceVectorResult, ax: Any = None,
                        ellipse_scale: float = 1.0, legend: bool = True) -> Any:
-    """Draw true loads (rings), estimates (dots) and their 2σ error ellipses in the force plane.
+    """Draw true loads (rings), estimates (dots) and their 2σ error ellipses (the noise's, see
+    the module docstring) in the force plane.
 
     Parameters
     ----------
@@ -60,7 +82,7 @@ def plot_force_vectors(truth: ArrayLike, result: ForceVectorResult, ax: Any = No
     ax = axes_or_new(ax, size=(4.4, 4.4))
     t = _truth(truth, result) * 1e3
     est = result.vector.reshape(-1, 2) * 1e3
-    cov = result.covariance.reshape(-1, 2, 2) * 1e6
+    cov = result.covariance_noise.reshape(-1, 2, 2) * 1e6
     good = result.estimated.reshape(-1)
     scale = v.positive("ellipse_scale", ellipse_scale, "", "factor")
     ax.plot(t[:, 0], t[:, 1], "o", mfc="none", color="0.45", label="true load")
@@ -99,7 +121,8 @@ def plot_force_vectors(truth: ArrayLike, result: ForceVectorResult, ax: Any = No
 def plot_pulls(truth: ArrayLike, result: ForceVectorResult, ax: Any = None,
                legend: bool = True) -> Any:
     """Pulls (estimate − truth)/σ of the magnitude and the direction against the true
-    direction (deg), with the ±2 band an honest σ keeps ~95 % of them in.
+    direction (deg), with the ±2 band an honest σ keeps ~95 % of them in (σ: the noise's,
+    :func:`noise_sigmas`).
 
     Parameters
     ----------
@@ -124,10 +147,10 @@ def plot_pulls(truth: ArrayLike, result: ForceVectorResult, ax: Any = None,
     true_dir = np.arctan2(t[:, 1], t[:, 0])
     mag = result.magnitude.reshape(-1)
     direction = result.direction.reshape(-1)
+    s_mag, s_dir = noise_sigmas(result)
     with np.errstate(invalid="ignore", divide="ignore"):
-        p_mag = (mag - true_mag) / result.sigma_magnitude.reshape(-1)
-        p_dir = (np.remainder(direction - true_dir + math.pi, 2 * math.pi) - math.pi) \
-            / result.sigma_direction.reshape(-1)
+        p_mag = (mag - true_mag) / s_mag
+        p_dir = (np.remainder(direction - true_dir + math.pi, 2 * math.pi) - math.pi) / s_dir
     x = np.degrees(true_dir) % 360.0
     ax.axhspan(-2.0, 2.0, color="0.92", zorder=0, label="±2σ")
     shown = np.isfinite(p_mag)
@@ -159,7 +182,8 @@ def force_vector_figure(truth: ArrayLike, result: ForceVectorResult,
     ellipse_scale : float
         Enlarge the ellipses by this factor where σ is too small to see (said in the legend).
     title : str, optional
-        Figure title; default a count of the readings and of the flagged ones.
+        Figure title; default a count of the readings and of the flagged ones, and where the
+        force scale comes from (its σ, systematic, is not in the ellipses and pulls).
 
     Returns
     -------
@@ -179,7 +203,10 @@ def force_vector_figure(truth: ArrayLike, result: ForceVectorResult,
     c = result.counts()
     no_dir = c["readings"] - int(np.isfinite(result.direction).sum())
     default = (f"{c['estimated']}/{c['readings']} force vectors estimated"
-               + (f", {no_dir} without a direction" if no_dir else ""))
+               + (f", {no_dir} without a direction" if no_dir else "")
+               + ("; σ: the noise's" if result.scale_note else "")
+               + (f"\n{result.scale_note} (systematic, not drawn)"
+                  if result.covariance_scale.any() else ""))
     fig.suptitle(title if title is not None else default)
     return fig
 

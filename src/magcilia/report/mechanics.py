@@ -10,8 +10,9 @@ from typing import Any
 import numpy as np
 
 from magcilia.device.setup import Setup
-from magcilia.mechanics import BentShape, SpatialBentShape
+from magcilia.mechanics import BentShape, SpatialBentShape, bend
 from magcilia.model.centreline import SpatialCentreline
+from magcilia.readout.scale import MODULUS_STEP
 from magcilia.units import OutputUnits
 
 
@@ -24,11 +25,48 @@ def load_label(shape: BentShape) -> str:
     return ", ".join(parts) or "no load"
 
 
+def bend_scale(setup: Setup, shape: BentShape | SpatialBentShape) -> dict[str, Any]:
+    """The force scale of one bend (SI): the modulus's note, and the 1 σ of the tip position (m,
+    (3,)) and of the output (V) that the Young's modulus's uncertainty gives under the same
+    load (central differences of the shape over E·(1 ± MODULUS_STEP); zeros without a load or
+    for a modulus taken as exact)."""
+    load, rel = shape.load, setup.youngs_modulus_uncertainty
+    out = {"scale_note": setup.modulus.note(), "sigma_tip_m": [0.0, 0.0, 0.0],
+           "sigma_output_V": 0.0}
+    if not rel or (not load.force and load.flow is None and load.actuation is None):
+        return out
+    e = setup.youngs_modulus
+    tips, volts = [], []
+    for sign in (1.0, -1.0):
+        s = setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP))
+        bent = bend(s, force=load.force, at=load.at if load.force else None,
+                    direction=load.direction, azimuth=load.azimuth, flow=load.flow,
+                    actuation=load.actuation)
+        tips.append(bent.points[0, -1])
+        volts.append(float(setup.output(bent)[0]))
+    rate = (tips[0] - tips[1]) / (2.0 * MODULUS_STEP)
+    out["sigma_tip_m"] = (np.abs(rate) * rel).tolist()
+    out["sigma_output_V"] = abs(volts[0] - volts[1]) / (2.0 * MODULUS_STEP) * rel
+    return out
+
+
+def _scale_line(record: dict[str, Any], u: OutputUnits, axes: str) -> str:
+    """The force scale's line of a bend's text: the note and the tip's and output's 1 σ."""
+    mm, volt = u.unit("length"), u.unit("voltage")
+    sig = record[u.key("sigma_tip", "length")]
+    if not any(sig):
+        return str(record["scale_note"])
+    tip = ", ".join(f"{a} ±{sig['xyz'.index(a)]:.2g}" for a in axes)
+    return (f"{record['scale_note']}: under this load tip {tip} {mm}, output "
+            f"±{record[u.key('sigma_output', 'voltage')]:.2g} {volt}")
+
+
 def bend_record(setup: Setup, shape: BentShape, label: str,
                 units: OutputUnits | None = None) -> dict[str, Any]:
     """One bend as the ``magcilia bend`` JSON: load, tip position, tip angle, output, B_x, range
-    flag, solver figures and the centreline, in ``units`` (default: display units, mm, deg, mN,
-    mV, gauss; every key carries its unit, e.g. ``tip_mm``); ``label`` names the setup."""
+    flag, solver figures, the force scale (:func:`bend_scale`) and the centreline, in ``units``
+    (default: display units, mm, deg, mN, mV, gauss; every key carries its unit, e.g.
+    ``tip_mm``); ``label`` names the setup."""
     bx = float(setup.field(shape)[0, 0])
     load = shape.load
     points = shape.points[0]
@@ -40,6 +78,7 @@ def bend_record(setup: Setup, shape: BentShape, label: str,
         "output_V": float(setup.sensor.voltage(bx)), "Bx_T": bx,
         "in_range": bool(setup.sensor.in_range(bx)),
         "iterations": shape.iterations, "residual_rad": shape.residual,
+        **bend_scale(setup, shape),
         "centreline_m": {"s": shape.s.tolist(), "x": points[:, 0].tolist(),
                          "z": points[:, 2].tolist()},
     }
@@ -67,6 +106,7 @@ def bend_text(record: dict[str, Any], units: OutputUnits | None = None) -> str:
     if np.isfinite(residual) and record["iterations"]:
         lines.append(f"solver        {record['iterations']} Newton iterations, residual "
                      f"{residual:.2g} {deg}")
+    lines.append(_scale_line(record, u, "xz"))
     return "\n".join(lines)
 
 
@@ -182,6 +222,7 @@ def spatial_record(setup: Setup, shape: BentShape | SpatialBentShape, label: str
         "solver": "3-D rod" if isinstance(shape, SpatialBentShape) and shape.plane is None
         else "planar",
         "iterations": shape.iterations, "residual_rad": shape.residual,
+        **bend_scale(setup, shape),
         "centreline_m": {"s": spatial.s.tolist(), "x": pts[:, 0].tolist(),
                          "y": pts[:, 1].tolist(), "z": pts[:, 2].tolist()},
     }
@@ -215,6 +256,7 @@ def spatial_text(record: dict[str, Any], units: OutputUnits | None = None) -> st
     if np.isfinite(residual) and record["iterations"]:
         lines.append(f"solver        {record['solver']}, {record['iterations']} Newton "
                      f"iterations, residual {residual:.2g} {deg}")
+    lines.append(_scale_line(record, u, "xyz"))
     return "\n".join(lines)
 
 

@@ -127,6 +127,9 @@ def readout_summary(readout: Readout, result: ReadoutResult, si: bool = False) -
         f"range_{token}": [float(values.min()), float(values.max())] if values.size else None,
         f"median_sigma_{token}": (float(np.median(result.sigma[good])) / factor if values.size
                                   else None),
+        f"median_sigma_noise_{token}": (float(np.median(result.sigma_noise[good])) / factor
+                                        if values.size else None),
+        "scale_note": result.scale_note,
         "tare": None,
     }
     if readout.baseline is not None:

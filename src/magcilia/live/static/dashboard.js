@@ -351,7 +351,7 @@
       `${info.source.name} at ${num(info.source.rate_Hz, 4)} Hz → read-out at ${num(info.rate_Hz, 4)} Hz`;
     $("readout").textContent = info.readout;
     $("calibration").textContent = info.calibration ||
-      "none: σ from the sensor noise only (pass --calibration to add the fit's uncertainty)";
+      `none: σ from the sensor noise${info.scale_note ? " and the " + info.scale_note : ""} (pass --calibration to add the fit's uncertainty)`;
     const box = $("setup");
     box.replaceChildren();
     for (const [section, entries] of Object.entries(info.setup)) {
