@@ -830,7 +830,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     setup : Setup, optional
         The starting design: material, model (n, k, ring), sensor and every variable not
         searched; also the reference the result compares against. Default: the paper's
-        Table I cilium with a 0.05 mm tip radius and a converged model (24 × 4, rms).
+        Table I cilium with a 0.05 mm tip radius and a converged model (``layout="converged"``).
     objective : {"force-range", "flow-sensitivity"}
     min_force : float, optional
         Force objective: the minimum detectable force the chosen design must reach, N (default:
@@ -883,7 +883,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     """
     start = time.perf_counter()
     if setup is None:
-        setup = Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+        setup = Setup.paper(tip_radius=5e-5, layout="converged")
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
     objective = v.choice("objective", objective, OBJECTIVES)
