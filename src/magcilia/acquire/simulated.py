@@ -160,7 +160,7 @@ class SimulatedSource(Source):
         super().__init__()
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
-        self.setup = setup
+        self.setup = setup.resolve_layout()  # the layout rule at the sensing element
         self.script = script if isinstance(script, Script) else Script.constant(script)
         self.rate = v.positive("rate", rate, "Hz", "frequency")
         self.readout_noise = v.non_negative("readout_noise", readout_noise, "V", "noise")

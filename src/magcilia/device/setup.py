@@ -219,11 +219,11 @@ class Setup(Display):
         if self.layout == "given":
             if lay.error > convergence.WARN_ABOVE:
                 warnings.warn(LayoutWarning(
-                    f"the given dipole layout {lay.text()} at {where} (tilts 0-85 deg in any "
-                    f"direction), above {100 * convergence.WARN_ABOVE:g} %: set layout = "
+                    f"the given dipole layout {lay.text()} at {where} (tilted 0-85 deg in any "
+                    f"direction), above {100 * convergence.WARN_ABOVE:g} %; set layout = "
                     f"\"converged\" (or leave n_loops, dipoles_per_loop and ring out of a setup "
-                    f"file's [model]) to have a layout within "
-                    f"{100 * convergence.TOLERANCE:g} % chosen"), stacklevel=3)
+                    f"file's [model]) to have one within {100 * convergence.TOLERANCE:g} % "
+                    "chosen"), stacklevel=3)
             return self
         if not lay.converged:
             warnings.warn(LayoutWarning(

@@ -360,6 +360,7 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     """
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+    setup = setup.resolve_layout()  # the layout rule at the sensing element
     if not isinstance(fluid, Fluid):
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
     points = v.integer("points", points, 11)

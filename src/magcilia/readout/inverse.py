@@ -474,6 +474,7 @@ class Readout(Display):
                  actuation: Actuation | None = None) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+        setup = setup.resolve_layout()  # the layout rule at the sensing element
         quantity = v.choice("quantity", quantity, QUANTITIES)
         unit = MEASURANDS[quantity].unit
         if span is None or np.size(span) != 2:
