@@ -157,25 +157,26 @@ def reference(spec: ModelSpec | SupportsSpec, pts: F64, tilts: ArrayLike = TILTS
               reference_slices: int = REFERENCE_SLICES) -> tuple[F64, NDArray[np.bool_]]:
     """The exact body's field at observers ``pts`` ((o, 3), m) in rigid tilts toward +x, T,
     shape (a, o, 3), and the mask (a, o) of the pairs with the observer outside the body
-    (cached; the field of the others is 0)."""
+    (cached per unit magnetization; the field of the others is 0)."""
     s = as_spec(spec)
     angles = np.asarray(tilts, dtype=np.float64).reshape(-1)
     n = v.integer("reference_slices", reference_slices, 1)
     key = _key(s, pts, angles, n)
     hit = _REFERENCES.get(key)
-    if hit is not None:
+    if hit is None:
+        mask = _outside(s, pts, angles)
+        unit = replace(s, full_magnetization=1.0, magnetization_scale=1.0)  # per A/m
+        b = exact_field(unit, Centreline.straight(s.height, angles), n_slices=n, points=pts,
+                        check=False)
+        b = np.where(mask[..., None], b, 0.0)
+        b.setflags(write=False)
+        mask.setflags(write=False)
+        hit = _REFERENCES[key] = (b, mask)
+        while len(_REFERENCES) > CACHE_SIZE:
+            _REFERENCES.popitem(last=False)
+    else:
         _REFERENCES.move_to_end(key)
-        return hit
-    mask = _outside(s, pts, angles)
-    b = exact_field(s, Centreline.straight(s.height, angles), n_slices=n, points=pts,
-                    check=False)
-    b = np.where(mask[..., None], b, 0.0)
-    b.setflags(write=False)
-    mask.setflags(write=False)
-    _REFERENCES[key] = (b, mask)
-    while len(_REFERENCES) > CACHE_SIZE:
-        _REFERENCES.popitem(last=False)
-    return b, mask
+    return hit[0] * s.magnetization, hit[1]
 
 
 def _error(spec: ModelSpec, n_loops: int, dipoles_per_loop: int, ring: str, pts: F64,
