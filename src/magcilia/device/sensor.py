@@ -92,6 +92,8 @@ def beyond_range(values: ArrayLike, field_range: ArrayLike,
     [True, False]
     """
     a = np.abs(np.asarray(values, dtype=np.float64))
+    if np.ndim(resolution) == 0 and not resolution:  # analog: the read-out's per-sample path
+        return np.asarray(a > field_range)
     limit = np.asarray(field_range, dtype=np.float64)
     half = 0.5 * np.asarray(resolution, dtype=np.float64)
     with np.errstate(invalid="ignore"):
@@ -170,7 +172,10 @@ class Sensor(Display):
         """True where ``bx`` (T) lies within the linear range ±field_range (not
         :func:`beyond_range`; NaN is not within)."""
         bx = np.asarray(bx, dtype=np.float64)
-        return ~beyond_range(bx, self.field_range) & ~np.isnan(bx)
+        out = beyond_range(bx, self.field_range)
+        np.logical_not(out, out=out)
+        out &= bx == bx  # NaN is not within
+        return out
 
     @property
     def anisotropy_field(self) -> float:
