@@ -55,7 +55,8 @@ def main() -> None:
     array = mc.load_array(EXAMPLE)
     describe(f"{EXAMPLE.name}: 4 × 4, 4 mm pitch, sensing points 1.5 mm below the bases", array)
     grid = mc.io.array_file.load_array_grid(EXAMPLE)
-    assert grid is not None and grid.depth is not None
+    assert grid is not None
+    assert grid.depth is not None
     for shift in (-0.25e-3, 0.25e-3):
         depth = grid.depth + shift
         moved = mc.CiliaArray.grid(grid.setup.replace(z=grid.setup.position[2] + shift),
