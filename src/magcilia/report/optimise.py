@@ -20,17 +20,17 @@ _MARKERS = ("o", "s", "D", "^", "v")
 
 def axis_unit(values: list[float], quantity: str) -> tuple[str, float]:
     """The unit to draw ``values`` (SI) of a measurand in, and the SI value of one of it: the
-    display unit, or µN for forces that are all below 0.01 mN (a minimum detectable force of
+    display unit, or µN for forces that are all below 0.1 mN (a minimum detectable force of
     0.4 µN reads better than 0.0004 mN)."""
     q = MEASURANDS[quantity]
     finite = [abs(x) for x in values if math.isfinite(x) and x != 0.0]
-    if quantity == "force" and finite and max(finite) < 1e-5:
+    if quantity == "force" and finite and max(finite) < 1e-4:
         return "µN", 1e-6
     return q.display, q.display_factor
 
 
 def plot_pareto(result: DesignOptimum, ax: Axes | None = None) -> Axes:
-    """Range against minimum detectable value (log axes; forces in mN, minima below 0.01 mN in
+    """Range against minimum detectable value (log axes; forces in mN, minima below 0.1 mN in
     µN: :func:`axis_unit`) of every refined design: the infeasible ones as grey crosses, the
     feasible ones as light markers (one shape per sensor), the Pareto front joined by a line,
     the reference (the given setup) as a star, the chosen design ringed, and the resolution
@@ -63,8 +63,13 @@ def plot_pareto(result: DesignOptimum, ax: Axes | None = None) -> Axes:
     sensors = list(dict.fromkeys([d.sensor for d in result.designs]))
     marker = {s: _MARKERS[i % len(_MARKERS)] for i, s in enumerate(sensors)}
 
-    def face(designs: list[Candidate], color: str) -> list[str]:
-        return [color if d.reached else "none" for d in designs]
+    from matplotlib.colors import to_rgba
+
+    def face(designs: list[Candidate], color: str, alpha: float = 1.0
+             ) -> list[tuple[float, ...]]:
+        """Filled where the range was reached, hollow (transparent) where it is a lower bound
+        (RGBA: an ``alpha`` keyword would also fill the hollow ones)."""
+        return [to_rgba(color, alpha if d.reached else 0.0) for d in designs]
 
     bad = [d for d in shown if not d.feasible]
     if bad:
@@ -74,8 +79,8 @@ def plot_pareto(result: DesignOptimum, ax: Axes | None = None) -> Axes:
         ok = [d for d in result.designs if d.feasible and d.rank != 0 and d.sensor == s]
         if ok:
             ax.scatter([d.minimum * kx for d in ok], [d.range * ky for d in ok],
-                       marker=marker[s], facecolors=face(ok, "C0"), edgecolors="C0",
-                       alpha=0.35, s=16, lw=0.8,
+                       marker=marker[s], facecolors=face(ok, "C0", 0.45),
+                       edgecolors=[to_rgba("C0", 0.45)] * len(ok), s=24, lw=0.9,
                        label=f"refined, feasible ({s})" if len(sensors) > 1
                        else "refined, feasible", zorder=2)
     front = result.front
