@@ -169,13 +169,10 @@ class Sensor(Display):
         return (np.asarray(volts, dtype=np.float64) - self.offset) / self.scale
 
     def in_range(self, bx: ArrayLike) -> NDArray[np.bool_]:
-        """True where ``bx`` (T) lies within the linear range ±field_range (not
-        :func:`beyond_range`; NaN is not within)."""
-        bx = np.asarray(bx, dtype=np.float64)
-        out = beyond_range(bx, self.field_range)
-        np.logical_not(out, out=out)
-        out &= bx == bx  # NaN is not within
-        return out
+        """True where ``bx`` (T) lies within the linear range ±field_range: the complement of
+        :func:`beyond_range` for this analog output (|B_x| ≤ field_range), NaN neither (one
+        comparison: the read-out's per-sample path)."""
+        return np.abs(np.asarray(bx, dtype=np.float64)) <= self.field_range
 
     @property
     def anisotropy_field(self) -> float:
