@@ -52,7 +52,10 @@ def _error(model: np.ndarray, exact: np.ndarray) -> float:
 # -- what a setup says its layout is ---------------------------------------------------------------
 def test_the_modes_of_constructors_replace_and_files(tmp_path: Path) -> None:
     assert mc.Setup.paper().layout == mc.Setup.paper_initial().layout == "paper"
-    assert mc.Setup.paper(n_loops=8).layout == "paper"  # the paper's model, its Fig. 11's n
+    # the paper's layout by name is Table I's; other keys are a layout given by the user
+    assert mc.Setup.paper(n_loops=6, dipoles_per_loop=3).layout == "paper"
+    assert mc.Setup.paper(n_loops=8).layout == "given"
+    assert mc.Setup.paper(n_loops=8, layout="paper").layout == "paper"  # said by name
     assert mc.Setup.paper(ring="rms", n_loops=32).layout == "given"
     conv = mc.Setup.paper(tip_radius=5e-5, layout="converged")
     assert conv.ring == "rms" and conv.dipoles_per_loop == convergence.DIPOLES
@@ -87,6 +90,12 @@ def test_contradictions_are_one_line_errors(build, match: str) -> None:  # type:
     with pytest.raises(mc.MagciliaError, match=match) as info:
         build()
     assert "\n" not in str(info.value)
+
+
+def test_the_paper_models_fit_keeps_the_papers_layout_by_name() -> None:
+    data = mc.read_measurements(mc.io.example_path())
+    fit = mc.calibrate(data, initial=mc.Setup.paper_initial(), rng=0, starts=16)
+    assert fit.setup.layout == "paper" and fit.setup.ring == "mean"
 
 
 def test_a_file_that_both_converges_and_gives_n_names_the_key(tmp_path: Path) -> None:

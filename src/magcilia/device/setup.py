@@ -73,9 +73,11 @@ class Setup(Display):
         What n, k and ring are (the one rule of every path that predicts a field,
         :meth:`resolve_layout`; docs/convergence.md):
 
-        * ``"paper"``: the paper's dipole model by name, mean rings (Table I's 2 × 5 or 6 × 3,
-          or n × k set as the paper's Fig. 11 and its fit do), used as is everywhere:
-          replication stays exact. :meth:`paper` and :meth:`paper_initial` make it;
+        * ``"paper"``: the paper's dipole model by name, used as is everywhere: replication
+          stays exact. :meth:`paper` and :meth:`paper_initial` make it with Table I's layouts
+          (2 × 5 or 6 × 3, mean rings); other n, k or ring given to them make it ``"given"``.
+          ``layout="paper"`` said explicitly names the paper's model with other n × k too (mean
+          rings): the paper-model calibration's fits are;
         * ``"converged"``: n, k and ring are chosen by the rule, the smallest rms-ring layout
           within 0.5 % of the exact body (:data:`magcilia.model.convergence.TOLERANCE`) at the
           points where a path evaluates the field; the classmethods and setup files converge it
@@ -135,16 +137,19 @@ class Setup(Display):
         A whole ``cilium=`` (e.g. :meth:`Cilium.from_profile`), ``material=`` or ``sensor=`` is
         taken as given, without the paper's values for its fields.
 
-        The layout is the paper's by name (``layout="paper"``: mean rings, used as is by every
-        path), also with other ``n_loops`` or ``dipoles_per_loop``; ``ring="rms"`` makes it
-        ``"given"`` (warned about where it is coarse), and ``layout="converged"`` has it chosen:
-        here at the sensing element, and again by each path at its points (``n_loops``,
+        The layout is the paper's by name (``layout="paper"``: used as is by every path) while
+        it is Table I's; other ``n_loops``, ``dipoles_per_loop`` or ``ring`` make it ``"given"``
+        (used as is, warned about where it is more than 1 % off; ``layout="paper"`` with them
+        keeps the paper's model by name, mean rings only), and ``layout="converged"`` has it
+        chosen: here at the sensing element, and again by each path at its points (``n_loops``,
         ``dipoles_per_loop`` and ``ring`` are then left out).
 
         Examples
         --------
         >>> Setup.paper().layout, Setup.paper(n_loops=8).layout, Setup.paper(ring="rms").layout
-        ('paper', 'paper', 'given')
+        ('paper', 'given', 'given')
+        >>> Setup.paper(n_loops=6, dipoles_per_loop=3).layout  # Table I's initial layout
+        'paper'
         >>> s = Setup.paper(tip_radius=5e-5, layout="converged")
         >>> s.n_loops, s.dipoles_per_loop, s.ring
         (12, 5, 'rms')
@@ -160,9 +165,9 @@ class Setup(Display):
     def replace(self, **changes: Any) -> Setup:
         """A copy with some parameters changed (same keywords as :meth:`paper`).
 
-        The layout mode is kept, except that a new ``ring`` makes a paper layout ``"given"``,
-        a new ``n_loops``, ``dipoles_per_loop`` or ``ring`` makes a converged one ``"given"``,
-        and ``layout="converged"`` converges it at the sensing element. A converged setup keeps
+        The layout mode is kept, except that a new ``n_loops``, ``dipoles_per_loop`` or
+        ``ring`` makes a converged layout ``"given"``, and a paper one too unless it is another
+        of Table I's; ``layout="converged"`` converges it at the sensing element. A converged setup keeps
         its n × k through other changes (``replace`` is cheap); the paths that predict a field
         converge it again at their points (:meth:`resolve_layout`)."""
         return _build(changes, base=self)
@@ -458,15 +463,26 @@ def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any
 _LAYOUT_KEYS = ("n_loops", "dipoles_per_loop", "ring")
 
 
-def _layout_mode(overrides: dict[str, Any], base: Setup | None, default: str) -> str:
-    """The layout mode of a setup built from ``overrides`` (see :meth:`Setup.replace`)."""
+def _layout_mode(overrides: dict[str, Any], base: Setup | None, default: str,
+                 user: dict[str, Any] | None) -> str:
+    """The layout mode of a setup built from ``overrides`` (see :meth:`Setup.paper` and
+    :meth:`Setup.replace`): a layout set by its keys is the paper's only while it is one of
+    Table I's (:data:`~magcilia.model.convergence.PAPER_LAYOUTS`), and never a converged one."""
     if "layout" in overrides:
         return str(PARAMETERS["layout"].check(overrides["layout"]))
     mode = base.layout if base is not None else default
-    if mode == "paper" and overrides.get("ring", "mean") != "mean":
+    asked = overrides if user is None else user
+    if not any(k in asked for k in _LAYOUT_KEYS):
+        return mode
+    if mode == "converged":
         return "given"
-    if mode == "converged" and any(k in overrides for k in _LAYOUT_KEYS):
-        return "given"
+    if mode == "paper":
+        old = (base.n_loops, base.dipoles_per_loop, base.ring) if base is not None else (
+            None, None, "mean")
+        n, k, ring = (overrides.get(key, was) for key, was in zip(_LAYOUT_KEYS, old,
+                                                                   strict=True))
+        if (n, k, ring) not in convergence.PAPER_LAYOUTS:
+            return "given"
     return mode
 
 
@@ -475,7 +491,7 @@ def _build(overrides: dict[str, Any], base: Setup | None = None,
     """Create a Setup from keyword overrides routed to the setup or its parts (``layout``: the
     mode of a new setup, :meth:`Setup.paper`'s ``"paper"``; ``user``: the keywords the caller
     gave, when ``overrides`` also holds defaults)."""
-    mode = _layout_mode(overrides, base, layout)
+    mode = _layout_mode(overrides, base, layout, user)
     converge = mode == "converged" and (base is None or "layout" in overrides)
     if converge:
         asked = overrides if user is None else user
