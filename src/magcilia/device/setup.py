@@ -167,9 +167,9 @@ class Setup(Display):
 
         The layout mode is kept, except that a new ``n_loops``, ``dipoles_per_loop`` or
         ``ring`` makes a converged layout ``"given"``, and a paper one too unless it is another
-        of Table I's; ``layout="converged"`` converges it at the sensing element. A converged setup keeps
-        its n × k through other changes (``replace`` is cheap); the paths that predict a field
-        converge it again at their points (:meth:`resolve_layout`)."""
+        of Table I's; ``layout="converged"`` converges it at the sensing element. A converged
+        setup keeps its n × k through other changes (``replace`` is cheap); the paths that
+        predict a field converge it again at their points (:meth:`resolve_layout`)."""
         return _build(changes, base=self)
 
     # -- the layout rule --------------------------------------------------------------------------
