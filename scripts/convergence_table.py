@@ -17,7 +17,6 @@ Run: python scripts/convergence_table.py [--out docs/convergence.md]
 from __future__ import annotations
 
 import argparse
-import time
 import warnings
 from pathlib import Path
 
@@ -135,24 +134,21 @@ def rule_lines() -> list[str]:
         "0.18 mm), needs many slices of the rms ring; the paper's layout is far off there. "
         "The cost of a converged layout is its number of dipoles n·k per cilium (the field's "
         "cost is linear in it; read-out tables are built once, so the per-reading paths do not "
-        "change), and finding it costs one exact reference (the time below, once per geometry "
+        "change), and finding it costs one exact reference (milliseconds, once per geometry "
         "and points in a process):"),
         "",
-        ("| sensor below the base | 2×5 mean | converged layout | its error | n·k | "
-        "time to converge |"),
-        "|---|---|---|---|---|---|",
+        "| sensor below the base | 2×5 mean | converged layout | its error | n·k |",
+        "|---|---|---|---|---|",
     ]
     for depth in (0.5e-3, 1.0e-3, 1.5e-3, 2.0e-3):
         s = mc.Setup.paper(tip_radius=5e-5, position=(0.0, 0.0, depth))
         point = s.base_centre - [0.0, 0.0, depth]
-        t0 = time.perf_counter()
         lay = cv.converged_layout(s, points=[point])
-        spent = time.perf_counter() - t0
         coarse = cv.layout_error(s, 2, 5, "mean", points=[point])
         note = "" if lay.converged else " (not reached)"
         lines.append(f"| {depth * 1e3:g} mm | {_percent(coarse)} | {lay.n_loops}×"
                      f"{lay.dipoles_per_loop} rms{note} | {_percent(lay.error)} | "
-                     f"{lay.n_loops * lay.dipoles_per_loop} | {1e3 * spent:.0f} ms |")
+                     f"{lay.n_loops * lay.dipoles_per_loop} |")
     lines.append("")
     return lines
 
