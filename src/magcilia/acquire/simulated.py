@@ -121,7 +121,10 @@ class SimulatedSource(Source):
     Parameters
     ----------
     setup : Setup
-        The simulated sensor (its ``output`` is the noise-free signal, offset included).
+        The simulated sensor (its ``output`` is the noise-free signal, offset included), its
+        dipole layout resolved by the layout rule at the element
+        (:meth:`~magcilia.Setup.resolve_layout`): the simulated hair is the exact body within
+        0.5 % unless the setup names the paper's layout or gives its own.
     script : Script or float
         What the cilium does; a number is a constant tilt angle, rad.
     rate : float

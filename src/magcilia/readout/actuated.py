@@ -134,7 +134,8 @@ class ActuatedReadout(Display):
     Parameters
     ----------
     setup : Setup
-        The (calibrated) sensor setup.
+        The (calibrated) sensor setup (its layout resolved at the element, as
+        :class:`~magcilia.Readout`'s).
     quantity : {"angle", "force", "flow"}
         What to read (as :class:`~magcilia.Readout`).
     span : (float, float)

@@ -454,7 +454,9 @@ class BiaxialReadout(Display):
     Parameters
     ----------
     setup : Setup
-        The cilium and its placement (``tip_radius > 0`` for a tip force).
+        The cilium and its placement (``tip_radius > 0`` for a tip force); its dipole layout
+        resolved by the layout rule at the channels' points
+        (:meth:`~magcilia.Setup.resolve_layout`); ``.setup`` is the setup used.
     sensors : Magnetometer, Channel or a sequence of them
         What is read: a 3-axis sensor gives three channels (its axes), a :class:`Channel` one;
         readings are given in this order.

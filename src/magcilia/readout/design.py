@@ -412,7 +412,8 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     ----------
     setup : Setup
         The design. Force and flow metrics need ``tip_radius > 0`` (else they are reported as
-        not available).
+        not available). Its layout is resolved at the element (module docstring); the result's
+        ``setup`` is the one used.
     fluid : Fluid
         Fluid for the flow metrics (default water at 20 °C; uniform flow along +x).
     bandwidth : (float, float)
