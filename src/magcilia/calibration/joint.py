@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -105,8 +105,12 @@ AMBIGUITY_SIGMA = 3.0
 NONFINITE_RESIDUAL = 1e50
 
 
-#: the dipole layout of the physical model (the one mechanism of :mod:`magcilia.model.convergence`)
-PhysicalLayout = Layout
+@dataclass(frozen=True)
+class PhysicalLayout(Layout):
+    """The dipole layout of the physical model: a :class:`~magcilia.model.convergence.Layout`
+    (n_loops, dipoles_per_loop, ring — ``"rms"`` by default —, error, tolerance) chosen by
+    :func:`converged_layout` with the calibration's tolerance, or given by hand (error and
+    tolerance NaN)."""
 
 
 def layout_error(setup: Setup, n_loops: int, dipoles_per_loop: int = PHYSICAL_DIPOLES,
@@ -149,17 +153,19 @@ def converged_layout(setup: Setup, tolerance: float = PHYSICAL_TOLERANCE,
     >>> converged_layout(mc.Setup.paper()).n_loops  # the default tolerance, 2e-4
     64
     """
-    return convergence.converged_layout(
+    lay = convergence.converged_layout(
         setup, tolerance, tilts=PHYSICAL_TILTS, azimuths=(0.0,), slices=LAYOUT_SLICES,
         dipoles_per_loop=PHYSICAL_DIPOLES, reference_slices=EXACT_SLICES, strict=strict)
+    return PhysicalLayout(lay.n_loops, lay.dipoles_per_loop, lay.ring, lay.error, lay.tolerance)
 
 
 def _as_layout(layout: PhysicalLayout | tuple[int, int] | None, initial: Setup,
                tolerance: float) -> PhysicalLayout:
     if layout is None:
         return converged_layout(initial, tolerance, strict=False)
-    if isinstance(layout, PhysicalLayout):
-        return layout
+    if isinstance(layout, Layout):
+        return layout if isinstance(layout, PhysicalLayout) else PhysicalLayout(
+            layout.n_loops, layout.dipoles_per_loop, layout.ring, layout.error, layout.tolerance)
     try:
         n, k = (int(layout[0]), int(layout[1]))
     except (TypeError, ValueError, IndexError):
