@@ -29,7 +29,7 @@ def pareto(out: str = "docs/images/pareto.png", style_name: str = "screen", dpi:
     --refine 64 --seed 0`` written to ``out``; returns the result."""
     from magcilia.report.optimise import pareto_figure
 
-    setup = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+    setup = mc.Setup.paper(tip_radius=5e-5, layout="converged")  # the force-sensor preset
     result = mc.optimise_design(setup, workers=workers, **PARETO_EXAMPLE)  # type: ignore[arg-type]
     with style.use(style_name):
         save_figure(pareto_figure(result), out, dpi=dpi)

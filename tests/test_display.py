@@ -167,7 +167,7 @@ def test_calibration_dataframe_holds_the_fit() -> None:
 
 
 def test_readout_dataframe_names_quantity_and_unit() -> None:
-    tapered = mc.Setup.paper(tip_radius=5e-5, n_loops=8, dipoles_per_loop=4)
+    tapered = mc.Setup.paper(tip_radius=5e-5, n_loops=16, dipoles_per_loop=4)
     r = mc.Readout(tapered, quantity="force", span=(0.0, 1e-4), table_size=17)
     result = r.read(r.table.output_range[0] + np.array([0.2, 0.5, 9.0])
                     * (r.table.output_range[1] - r.table.output_range[0]))
@@ -186,7 +186,8 @@ def test_readout_dataframe_names_quantity_and_unit() -> None:
     ("PiecewiseLinear", ["angle_rad", "output_V", "slope_V_per_rad"]),
     ("LookupTable", ["output_V", "angle_rad"]),
     ("PlacementMap", ["x_m", "y_m", "rms_change_V"]),
-    ("DesignMetrics", ["quantity", "unit", "sensitivity", "minimum", "range", "limited_by"]),
+    ("DesignMetrics", ["quantity", "unit", "sensitivity", "minimum", "range", "range_reached",
+                       "limited_by"]),
     ("BentShape", ["s_m", "angle_rad", "x_m", "z_m"]),
     ("ForceVectorResult", ["fx_N", "fy_N", "magnitude_N", "direction_rad", "sigma_fx_N",
                            "sigma_fy_N", "sigma_magnitude_N", "sigma_direction_rad",

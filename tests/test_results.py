@@ -26,7 +26,7 @@ from magcilia.io import Measurement, fixed_point_format, measurement_from_sample
 from magcilia.readout.actuated import measure_coupling
 
 SETUP = mc.Setup.paper()
-TAPERED = mc.Setup.paper(tip_radius=5e-5, n_loops=8, dipoles_per_loop=4)
+TAPERED = mc.Setup.paper(tip_radius=5e-5, n_loops=16, dipoles_per_loop=4)  # 0.5 % off
 ANGLES = np.radians(np.linspace(0.0, 85.0, 12))
 
 

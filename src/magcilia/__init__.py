@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import logging
 
-from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia._errors import LayoutWarning, MagciliaError, MagciliaWarning, MissingDependencyError
 from magcilia._version import __version__
 
 # -- sensitivity ---------------------------------------------------------------------------------
@@ -125,9 +125,11 @@ __all__ = [
     "Fluid",
     "ForceFlag",
     "ForceVectorResult",
+    "LayoutWarning",
     "LiveReadout",
     "LookupTable",
     "MagciliaError",
+    "MagciliaWarning",
     "Magnetometer",
     "Material",
     "Measurement",

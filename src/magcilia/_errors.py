@@ -44,3 +44,13 @@ def require(module: str, *, package: str, extra: str, purpose: str) -> object:
             f"{purpose} needs the optional package {package!r}; "
             f"install it with: pip install 'magcilia[{extra}]'"
         ) from exc
+
+
+class MagciliaWarning(UserWarning):
+    """Something the user should know about a result that is still computed (one-line
+    message; the CLI prints it as ``magcilia: warning: ...``)."""
+
+
+class LayoutWarning(MagciliaWarning):
+    """A given dipole layout is coarse for where the field is predicted: its estimated error
+    against the exact body exceeds 1 % (:meth:`magcilia.Setup.resolve_layout`)."""

@@ -51,7 +51,7 @@ def test_rest_field_and_its_read_out(array: mc.CiliaArray,
     got = np.array([[r["Bx_gauss"], r["By_gauss"], r["Bz_gauss"]] for r in doc["field"]])
     np.testing.assert_allclose(got, rest / GAUSS, rtol=1e-12)
     assert [r["sensor"] for r in doc["field"]] == [s.name for s in array.sensors]
-    assert doc["field"][0]["x_mm"] == pytest.approx(-3.75)
+    assert doc["field"][0]["x_mm"] == pytest.approx(-6.0)
     est = doc["readout"]
     assert len(est) == 16 and all(r["true_force_mN"] == 0.0 for r in est)
     # at rest the estimates are noise: a few sigma at most, sigma ~ 0.4 uN
@@ -123,24 +123,25 @@ def test_random_load_sets_are_seeded_and_recovered_within_two_sigma(
 
 def test_crosstalk_and_metrics_tables(array: mc.CiliaArray,
                                       capsys: pytest.CaptureFixture[str]) -> None:
-    doc = _json(["--metrics", "--pitches", "2:3.5:0.5mm", "--span", "20uN"], capsys)
+    doc = _json(["--metrics", "--pitches", "3.5:5:0.5mm", "--span", "20uN"], capsys)
     ct = ArrayReadout(array, 2e-5).crosstalk()
     assert doc["crosstalk"]["ratio_max"] == pytest.approx(float(ct.ratio.max()), rel=1e-12)
     assert doc["crosstalk"]["rows"][0]["response_gauss_per_mN"] == pytest.approx(
         float(ct.response[ct.site[0], 0]) / GAUSS * 1e-3, rel=1e-12)
-    grid = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6, position=(0.0, 0.0, 0.29e-3))
-    ref = array_metrics(grid, [2e-3, 2.5e-3, 3e-3, 3.5e-3],
-                        sensor=mc.Magnetometer.preset("MMC5983MA"), span=2e-5, depth=1e-3)
+    grid = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6,
+                          position=(0.0, 0.0, 1.5e-3 - 0.71e-3), layout="converged")
+    ref = array_metrics(grid, [3.5e-3, 4e-3, 4.5e-3, 5e-3],
+                        sensor=mc.Magnetometer.preset("MMC5983MA"), span=2e-5, depth=1.5e-3)
     rows = doc["metrics"]["rows"]
-    assert [r["pitch_mm"] for r in rows] == pytest.approx([2.0, 2.5, 3.0, 3.5])
+    assert [r["pitch_mm"] for r in rows] == pytest.approx([3.5, 4.0, 4.5, 5.0])
     np.testing.assert_allclose([r["ratio_max"] for r in rows], ref.ratio.max(axis=1),
                                rtol=1e-9)
     np.testing.assert_allclose([r["minimum_median_mN"] for r in rows],
                                np.median(ref.minimum, axis=1) * 1e3, rtol=1e-9)
     assert rows[1]["ratio_max"] < 1.0  # the example's pitch
-    assert main(["array", EXAMPLE, "--crosstalk", "--metrics", "--pitches", "2:3:0.5"]) == 0
+    assert main(["array", EXAMPLE, "--crosstalk", "--metrics", "--pitches", "3.5:4.5:0.5"]) == 0
     out = capsys.readouterr().out
-    assert "crosstalk: ratio median 0.825" in out and "worst_other_gauss_per_mN" in out
+    assert "crosstalk: ratio median 0.485" in out and "worst_other_gauss_per_mN" in out
     assert "metrics vs pitch" in out and "minimum_median_mN" in out
 
 
@@ -187,7 +188,7 @@ def test_errors_are_one_line_and_nothing_is_written(args: list[str], message: st
 def test_bad_files_are_one_line_errors(tmp_path: Path,
                                        capsys: pytest.CaptureFixture[str]) -> None:
     bad = tmp_path / "bad.toml"
-    bad.write_text(Path(EXAMPLE).read_text().replace('pitch = "2.5 mm"', 'pitch = "0.3 mm"'))
+    bad.write_text(Path(EXAMPLE).read_text().replace('pitch = "4 mm"', 'pitch = "0.3 mm"'))
     assert main(["array", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "bad.toml: [array]: cilia must be cilia that do not overlap" in err

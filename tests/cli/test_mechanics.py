@@ -173,7 +173,7 @@ def test_the_force_sensor_preset_is_the_bundled_example() -> None:
 
 # -- bending in any direction and actuation (issue 15) -------------------------------------------
 
-FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, layout="converged")  # the preset
 
 
 def test_bend_toward_an_azimuth(capsys: pytest.CaptureFixture[str]) -> None:

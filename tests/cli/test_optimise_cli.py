@@ -66,7 +66,9 @@ def test_flow_objective(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(("argv", "message"), [
     (["--min-force", "1e-9mN"], "min_force must be reachable within the bounds"),
     (["--bound", "x=0:0", "--bound", "y=0:0", "--bound", "z=0:0", "--bound",
-      "base_radius=0.4:0.4"], "'flip field' constraint eliminated all"),
+      "base_radius=0.4:0.4"], "'sensor range at zero load' constraint eliminated all"),
+    (["--bound", "x=0:0", "--bound", "y=0:0", "--bound", "z=0:0", "--bound",
+      "base_radius=0.4:0.4", "--max-field", "100gauss"], "'flip field' constraint eliminated"),
     (["--objective", "flow-sensitivity"], "speed must be a flow speed"),
     (["--bound", "colour=1:2"], "--bound must be NAME=LOW:HIGH with NAME one of"),
     (["--sensor", "HMC1021Z,NOPE"], "sensor must be HMC1021Z"),

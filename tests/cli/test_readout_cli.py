@@ -189,8 +189,8 @@ def test_progress_on_a_terminal_unless_quiet(quiet: bool, tmp_path: Path,
 
 # -- sensing while actuating, force vectors from a 3-axis sensor (issue 15) ----------------------
 
-FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms",
-                              youngs_modulus=3.4e6)
+FORCE_SENSOR = mc.Setup.paper(tip_radius=5e-5, layout="converged",  # the preset
+                              youngs_modulus=3.4e6)  # a given modulus: the 0.2 mN loads
 
 
 def test_readout_compensates_an_actuation(tmp_path: Path,

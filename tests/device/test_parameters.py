@@ -64,7 +64,8 @@ def test_every_parameter_round_trips_through_a_setup_file(name: str, tmp_path: P
     base = mc.Setup.paper(tip_radius=2e-5, **({"youngs_modulus": 3e6}
                                               if name == "youngs_modulus_sigma" else {}))
     value = base.value(name)
-    changed = {"integer": 3, "choice": "rms"}.get(p.domain)
+    changed = 3 if p.domain == "integer" else next(
+        (c for c in p.choices if c != value), None)  # another choice (ring "rms", layout …)
     if changed is None:
         changed = (3e6 if value is None else value * 1.1 + (1e-4 if value == 0 else 0.0))
     setup = base.replace(**{name: changed})

@@ -32,7 +32,8 @@ base = ["0 mm", "0 mm", "1 mm"]
 name = "b"
 base = ["2.5 mm", "0 mm", "1 mm"]
 tip_radius = "40 um"
-n_loops = 4
+n_loops = 48
+ring = "rms"
 
 [[sensors]]
 name = "s1"
@@ -65,7 +66,9 @@ def test_lists_of_cilia_and_sensors(tmp_path: Path) -> None:
     # the per-cilium overrides, the rest from the file's tables
     a, b = arr.cilia
     assert a.cilium.tip_radius == pytest.approx(5e-5) and b.cilium.tip_radius == pytest.approx(4e-5)
-    assert a.n_loops == 2 and b.n_loops == 4
+    # no [model]: a converged layout (at the sensors); b's own keys: its layout as given
+    assert a.layout == "converged" and a.ring == "rms"
+    assert (b.layout, b.n_loops, b.ring) == ("given", 48, "rms")
     assert a.youngs_modulus == pytest.approx(1e6) == b.youngs_modulus
     # the preset with its setting, turned 90 deg about z: sensor x along the board's y
     s1, s2 = arr.sensors
@@ -80,24 +83,32 @@ def test_lists_of_cilia_and_sensors(tmp_path: Path) -> None:
     # load_setup still reads the file's single setup and ignores the array tables
     setup = mc.load_setup(tmp_path / "arr.toml")
     assert setup.cilium.tip_radius == pytest.approx(5e-5)
+    # a coarse layout given for one cilium is warned about with its error at the sensors
+    coarse = LISTS.replace('n_loops = 48\nring = "rms"\n', "n_loops = 4\n")
+    with pytest.warns(mc.LayoutWarning, match=r"4×5 mean, \d+ % from the exact body at the "
+                                              "array's sensors"):
+        mc.load_array(_write(tmp_path, coarse, "coarse.toml"))
 
 
 def test_example_grid_matches_cilia_array_grid() -> None:
     arr = mc.load_array(EXAMPLES / "array.toml")
-    setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6, position=(0.0, 0.0, 0.29e-3))
-    ref = mc.CiliaArray.grid(setup, 4, 4, 2.5e-3, sensor=Magnetometer.preset("MMC5983MA"),
-                             depth=1e-3)
+    setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6,
+                           position=(0.0, 0.0, 1.5e-3 - 0.71e-3), layout="converged")
+    ref = mc.CiliaArray.grid(setup, 4, 4, 4e-3, sensor=Magnetometer.preset("MMC5983MA"),
+                             depth=1.5e-3)
     assert len(arr) == 16 and arr.n_sensors == 16 and arr.names == ref.names
     np.testing.assert_allclose(arr.bases, ref.bases, rtol=0, atol=1e-15)
     np.testing.assert_allclose(arr.sensor_positions, ref.sensor_positions, rtol=0, atol=1e-15)
+    assert {(c.n_loops, c.ring) for c in arr.cilia} == {(ref.cilia[0].n_loops, "rms")}
     np.testing.assert_allclose(arr.field(), ref.field(), rtol=1e-12)
     grid = load_array_grid(EXAMPLES / "array.toml")
     assert grid is not None and (grid.rows, grid.cols) == (4, 4)
-    assert grid.pitch == (2.5e-3, 2.5e-3) and grid.depth == pytest.approx(1e-3)
-    # the example's promise: crosstalk ratio below 1, the rest field within the parts' range
+    assert grid.pitch == (4e-3, 4e-3) and grid.depth == pytest.approx(1.5e-3)
+    # the example's promise: crosstalk ratio below 1, the rest field within half the parts'
+    # range (the exact body's field: tests/device/test_layout_rule.py)
     readout = mc.ArrayReadout(arr, 2e-5, table_size=9)
     assert readout.crosstalk().ratio.max() < 1.0
-    assert np.abs(arr.field()).max() < 0.7 * 8 * GAUSS
+    assert np.abs(arr.field()).max() < 0.5 * 8 * GAUSS
     # every bundled single-setup example still loads, and this one's setup too
     for path in EXAMPLES.glob("*.toml"):
         mc.load_setup(path)

@@ -57,14 +57,32 @@ def test_minimum_detectable_speed_solves_the_noise_equation(tapered: mc.Setup,
     assert in_air.flow.minimum > 10 * u
 
 
-def test_range_ends_at_saturation() -> None:
-    # right above the element the field passes 6 gauss during the tilt
-    s = mc.Setup.paper(position=(0.0, 0.0, 0.0))
+def test_range_ends_at_the_rated_range() -> None:
+    # 1 mm beside the element the total field passes the HMC1021Z's 6 gauss (its datasheet's
+    # range of the total applied field) near 35 deg, before B_x does (near 52 deg)
+    s = mc.Setup.paper(position=(-1e-3, 0.0, 0.0))
     m = mc.design_metrics(s, bandwidth=BANDWIDTH, points=41)
-    assert m.angle.limited_by.startswith("sensor range")
-    assert abs(s.field([m.angle.range])[0, 0]) == pytest.approx(6e-4, rel=1e-3)
+    assert m.angle.reached and m.angle.limited_by.startswith("sensor range (|B| 6 gauss")
+    b = s.field([m.angle.range])[0]
+    assert float(np.linalg.norm(b)) == pytest.approx(6e-4, rel=1e-3)
+    assert abs(b[0]) < 6e-4
     assert m.force.limited_by.startswith("not available") and math.isnan(m.force.sensitivity)
     assert math.isnan(m.flow.minimum)
+    # right above the element |B| is beyond the rated range at rest: no range at all
+    above = mc.design_metrics(mc.Setup.paper(position=(0.0, 0.0, 0.0)), bandwidth=BANDWIDTH,
+                              points=21)
+    assert above.angle.range == 0.0 and above.angle.reached
+    assert "at zero load" in above.angle.limited_by
+
+
+def test_a_range_the_sweep_does_not_reach_is_a_lower_bound(metrics: mc.DesignMetrics) -> None:
+    # at the paper's placement the field stays far below 6 gauss and the output never turns:
+    # the sweep ends first, and the range is only known to be at least its end
+    force = metrics.force
+    assert not force.reached and force.limited_by.startswith("not reached: the sweep ends")
+    assert force.range == pytest.approx(force.curve[-1, 0], rel=1e-12)
+    assert f"≥ {force.range * 1e3:.4g} mN" in metrics.report()
+    assert force.to_dict()["range_reached"] is False
 
 
 def test_range_ends_at_a_fold() -> None:

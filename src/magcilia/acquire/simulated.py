@@ -121,7 +121,10 @@ class SimulatedSource(Source):
     Parameters
     ----------
     setup : Setup
-        The simulated sensor (its ``output`` is the noise-free signal, offset included).
+        The simulated sensor (its ``output`` is the noise-free signal, offset included), its
+        dipole layout resolved by the layout rule at the element
+        (:meth:`~magcilia.Setup.resolve_layout`): the simulated hair is the exact body within
+        0.5 % unless the setup names the paper's layout or gives its own.
     script : Script or float
         What the cilium does; a number is a constant tilt angle, rad.
     rate : float
@@ -164,7 +167,7 @@ class SimulatedSource(Source):
         super().__init__()
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
-        self.setup = setup
+        self.setup = setup.resolve_layout()  # the layout rule at the sensing element
         self.script = script if isinstance(script, Script) else Script.constant(script)
         self.rate = v.positive("rate", rate, "Hz", "frequency")
         self.readout_noise = v.non_negative("readout_noise", readout_noise, "V", "noise")

@@ -74,8 +74,10 @@ from magcilia.io.recordings import Measurement
 from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.drag import FLUIDS, Fluid
 from magcilia.mechanics.flow import Flow
+from magcilia.model import convergence
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.batch import TiltBatch
+from magcilia.model.convergence import Layout
 
 F64 = NDArray[np.float64]
 
@@ -98,6 +100,8 @@ PHYSICAL_DIPOLES = 5
 LAYOUT_SLICES = (8, 12, 16, 24, 32, 48, 64)
 #: cylinder slices of the exact reference (converged to ~1e-6)
 EXACT_SLICES = 2000
+#: tilts of the physical layout's probe (toward +x, at the sensing element), rad
+PHYSICAL_TILTS = np.radians(np.arange(0.0, 86.0, 5.0))
 #: standard errors are floored at this fraction of the experiment's median positive s.e. …
 SEM_FLOOR_FRACTION = 0.1
 #: … and at these absolute values (output V, field T): a zero s.e. (noise-free or single-sample
@@ -117,49 +121,29 @@ NONFINITE_RESIDUAL = 1e50
 
 
 @dataclass(frozen=True)
-class PhysicalLayout:
-    """The dipole layout of the physical model.
-
-    Attributes
-    ----------
-    n_loops, dipoles_per_loop : int
-        Slices and dipoles per ring.
-    ring : str
-        The ring radius rule (``"rms"``, which converges to the exact body).
-    error : float
-        Max over the tilt range of |B_model − B_exact| / |B_exact| at the setup it was chosen for
-        (NaN when given by hand).
-    tolerance : float
-        The tolerance it was chosen for (NaN when given by hand).
-    """
-
-    n_loops: int
-    dipoles_per_loop: int
-    ring: str = "rms"
-    error: float = math.nan
-    tolerance: float = math.nan
-
-
-_LAYOUTS: dict[tuple[object, ...], PhysicalLayout] = {}
+class PhysicalLayout(Layout):
+    """The dipole layout of the physical model: a :class:`~magcilia.model.convergence.Layout`
+    (n_loops, dipoles_per_loop, ring — ``"rms"`` by default —, error, tolerance) chosen by
+    :func:`converged_layout` with the calibration's tolerance, or given by hand (error and
+    tolerance NaN)."""
 
 
 def layout_error(setup: Setup, n_loops: int, dipoles_per_loop: int = PHYSICAL_DIPOLES,
                  angles: F64 | None = None) -> float:
     """Max over ``angles`` (rad, default 0–85° in 5° steps) of |B_model − B_exact| / |B_exact|
-    for ``setup`` with the rms ring of ``n_loops`` × ``dipoles_per_loop`` (dimensionless)."""
-    from magcilia.model.exact import exact_field
-
-    a = np.radians(np.arange(0.0, 86.0, 5.0)) if angles is None else np.asarray(angles)
-    exact = exact_field(setup, a, n_slices=EXACT_SLICES)
-    model = setup.replace(n_loops=n_loops, dipoles_per_loop=dipoles_per_loop,
-                          ring="rms").field(a)
-    return float(np.max(np.linalg.norm(model - exact, axis=1) / np.linalg.norm(exact, axis=1)))
+    at the sensing element for ``setup`` with the rms ring of ``n_loops`` × ``dipoles_per_loop``
+    (dimensionless; :func:`magcilia.model.convergence.layout_error` with the calibration's
+    probe: tilts toward +x, :data:`EXACT_SLICES` cylinders)."""
+    a = PHYSICAL_TILTS if angles is None else np.asarray(angles, dtype=np.float64)
+    return convergence.layout_error(setup, n_loops, dipoles_per_loop, "rms", tilts=a,
+                                    azimuths=(0.0,), reference_slices=EXACT_SLICES)
 
 
 def converged_layout(setup: Setup, tolerance: float = PHYSICAL_TOLERANCE,
                      strict: bool = True) -> PhysicalLayout:
     """The smallest rms-ring layout (n of :data:`LAYOUT_SLICES`, k = :data:`PHYSICAL_DIPOLES`)
-    whose field at ``setup`` is within ``tolerance`` of the exact Cylinder stack over 0–85°.
+    whose field at ``setup`` is within ``tolerance`` of the exact Cylinder stack over 0–85°
+    (:func:`magcilia.model.convergence.converged_layout` with the calibration's probe).
 
     Parameters
     ----------
@@ -184,30 +168,19 @@ def converged_layout(setup: Setup, tolerance: float = PHYSICAL_TOLERANCE,
     >>> converged_layout(mc.Setup.paper()).n_loops  # the default tolerance, 2e-4
     64
     """
-    tol = v.real("tolerance", tolerance, "")
-    if tol <= 0.0:
-        raise v.fail("tolerance", tolerance, "a positive relative error, e.g. 1e-3")
-    key = (tuple(setup.params().items()), setup.cilium.profile is None, setup.sensor.depth, tol)
-    if key in _LAYOUTS:
-        return _LAYOUTS[key]
-    error = math.nan
-    for n in LAYOUT_SLICES:
-        error = layout_error(setup, n)
-        if error <= tol or (not strict and n == LAYOUT_SLICES[-1]):
-            _LAYOUTS[key] = PhysicalLayout(n, PHYSICAL_DIPOLES, "rms", error, tol)
-            return _LAYOUTS[key]
-    raise MagciliaError(
-        f"no layout up to {LAYOUT_SLICES[-1]} slices reaches the tolerance {tol:g} at this setup "
-        f"(best {error:.3g}): the sensing element is too close to the cilium; raise the tolerance "
-        "or give layout=(n, k)")
+    lay = convergence.converged_layout(
+        setup, tolerance, tilts=PHYSICAL_TILTS, azimuths=(0.0,), slices=LAYOUT_SLICES,
+        dipoles_per_loop=PHYSICAL_DIPOLES, reference_slices=EXACT_SLICES, strict=strict)
+    return PhysicalLayout(lay.n_loops, lay.dipoles_per_loop, lay.ring, lay.error, lay.tolerance)
 
 
 def _as_layout(layout: PhysicalLayout | tuple[int, int] | None, initial: Setup,
                tolerance: float) -> PhysicalLayout:
     if layout is None:
         return converged_layout(initial, tolerance, strict=False)
-    if isinstance(layout, PhysicalLayout):
-        return layout
+    if isinstance(layout, Layout):
+        return layout if isinstance(layout, PhysicalLayout) else PhysicalLayout(
+            layout.n_loops, layout.dipoles_per_loop, layout.ring, layout.error, layout.tolerance)
     try:
         n, k = (int(layout[0]), int(layout[1]))
     except (TypeError, ValueError, IndexError):

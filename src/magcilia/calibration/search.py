@@ -498,6 +498,8 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
     fitted_setup = initial.replace(
         **{n: round(val) if n in INTEGER else val for n, val in values.items()},
         magnetization_scale=fitted_scale, offset=offset,
+        # the paper's model fitted as the paper does: its layout by name, used as is
+        **({"layout": "paper"} if initial.ring == "mean" else {}),
     )
     model_full = scale * u[0] + (problem.basis @ coef if coef.size else 0.0)
     residuals = problem.y - model_full

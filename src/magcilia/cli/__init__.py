@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 import click
 
-from magcilia._errors import MagciliaError, MissingDependencyError
+from magcilia._errors import MagciliaError, MagciliaWarning, MissingDependencyError
 from magcilia._validate import printable
 from magcilia._version import __version__
 from magcilia.cli._common import QUIET_KEY
@@ -107,6 +107,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning  # restored on leaving
+            # magcilia's own warnings (a coarse layout, …) are a command's output: one line each
+            warnings.simplefilter("always", MagciliaWarning)
             cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
                      standalone_mode=False)
     except click.exceptions.Exit as exc:

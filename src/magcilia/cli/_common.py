@@ -34,8 +34,7 @@ PRESETS = {
     "paper-initial": Setup.paper_initial,
     # the paper's cilium with a 0.05 mm tip radius and a converged model, as
     # examples/force-sensor.toml: a tip force and flow have a finite compliance
-    "force-sensor": lambda: Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4,
-                                        ring="rms"),
+    "force-sensor": lambda: Setup.paper(tip_radius=5e-5, layout="converged"),
 }
 
 

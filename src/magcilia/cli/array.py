@@ -176,6 +176,14 @@ def command(setup_arg: str, span_text: str | None, loads_path: str | None,
                "median_sigma_force_N": float(np.median([e.sigma_magnitude for e in estimates])),
                "largest_error_per_sigma": float(max(r["error_per_sigma"] for r in cilium_rows)),
                "rest_field_max_T": float(np.abs(rest).max())}
+    if summary["saturated_readings"]:
+        readings_total = len(loads) * array.n_sensors
+        click.echo(f"magcilia: warning: {summary['saturated_readings']} of {readings_total} "
+                   "sensor readings have an axis at or beyond the sensor's range (saturated: "
+                   "flagged "
+                   "'saturated' in the forward map, and the cilia they inform flagged in the "
+                   "read-out); move the sensors further from the cilia or use a part with a "
+                   "larger range", err=True)
     u = output_units(si)
     doc: dict[str, Any] = {
         "units": u.system, "setup": Path(setup_arg).name, "span_N": span, "seed": seed,

@@ -92,7 +92,8 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
     [actuation] table) print the tip's x, y, z, its azimuth and deflection, the 3-axis field at
     the element (the actuation's direct field included) and the sensor's flags.
     """
-    setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    # the layout rule at the sensing element (the bent shape's field and output)
+    setup = load_mechanics_setup(setup_arg, tip_radius, modulus).resolve_layout()
     actuation = make_actuation(setup_arg, actuation_field, actuation_file, actuation_scale)
     vector = None
     if force_vector is not None:

@@ -99,7 +99,10 @@ def design_text(doc: dict[str, Any], units: OutputUnits) -> str:
             return "-" if value is None or not math.isfinite(value) else f"{value:.4g} {text}"
 
         sens = show(entry[f"sensitivity_{ascii_unit(volt)}_per_{token}"], f"{volt}/{unit}")
+        rng = show(entry[f"range_{token}"], unit)
+        if rng != "-" and not entry.get("range_reached", True):
+            rng = f"≥ {rng}"  # the sweep ended before the read-out: a lower bound
         lines.append(f"{name:<8} {sens:>24} {show(entry[f'minimum_{token}'], unit):>18} "
-                     f"{show(entry[f'range_{token}'], unit):>14}  {entry['limited_by']}")
+                     f"{rng:>14}  {entry['limited_by']}")
     lines.append(doc["scale_note"])
     return "\n".join(lines)

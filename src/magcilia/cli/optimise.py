@@ -59,8 +59,9 @@ def _defaults() -> str:
 @click.option("--min-range", type=str, default=None,
               help="Constraint: the range at least this (force: mN, flow: m/s; or with a unit).")
 @click.option("--max-field", type=Physical.of("field_range", "6gauss"),
-              help="Constraint: |B| at the element at most this over the range, gauss (e.g. 6: "
-                   "the HMC1021Z's range of the total field).")
+              help="The rated range of |B| at the element, gauss: the range ends where the total "
+                   "field reaches it (default: the sensor's own, the HMC1021Z's 6 gauss of the "
+                   "total field; none for 3-axis parts, whose range is per axis).")
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm or with units (height=2mm:5mm); NAME one of "
                    + ", ".join(VARIABLES) + f"; repeatable; LOW=HIGH fixes it. Defaults: "
@@ -163,7 +164,7 @@ def _row(d: Candidate, quantity: str, units: OutputUnits) -> dict[str, Any]:
     return {**units.named(dict(d.params)), "sensor": d.sensor,
             units.key("minimum", quantity): units.value(d.minimum, quantity),
             units.key("range", quantity): units.value(d.range, quantity),
-            "limited_by": d.limited_by,
+            "range_reached": d.reached, "limited_by": d.limited_by,
             units.key("peak_field", "field"): units.value(d.peak_field, "field"),
             "rank": d.rank, "eligible": d.eligible, "violated": d.violated}
 
@@ -180,7 +181,7 @@ def optimise_doc(result: DesignOptimum, label: str, units: OutputUnits) -> dict[
         "screened": result.screened, "refined": len(result.designs),
         "seconds": result.seconds, "constraints": limits,
         "eliminated_in_screen": dict(result.eliminated),
-        "beats_reference": result.beats_reference,
+        "beats_reference": result.beats_reference, "comparison": result.comparison,
         "reference": _row(result.reference, q, units), "best": _row(result.best, q, units),
         "front": [_row(d, q, units) for d in result.front],
         "scale_note": result.best_setup.modulus.note(),
@@ -205,8 +206,10 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
     unit = units.unit(q)
     k_min, k_rng = units.key("minimum", q), units.key("range", q)
 
-    def show(value: float | None) -> str:
-        return "-" if value is None or not math.isfinite(value) else f"{value:.4g} {unit}"
+    def show(value: float | None, reached: bool = True) -> str:
+        if value is None or not math.isfinite(value):
+            return "-"
+        return ("" if reached else "≥ ") + f"{value:.4g} {unit}"
 
     what = "minimum detectable force" if q == "force" else "minimum detectable speed change"
     lines = [(f"{doc['objective']} from {doc['setup']}: {doc['screened']} designs screened, "
@@ -214,15 +217,16 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
              f"{'':<10} {'range':>14} {'minimum':>14}  ({what})"]
     for label in ("reference", "best"):
         r = doc[label]
-        lines.append(f"{label:<10} {show(r[k_rng]):>14} {show(r[k_min]):>14}  {r['sensor']}; "
-                     f"{r['limited_by']}")
+        lines.append(f"{label:<10} {show(r[k_rng], r['range_reached']):>14} "
+                     f"{show(r[k_min]):>14}  {r['sensor']}; {r['limited_by']}")
     best = doc["best"]
-    skip = {"sensor", k_min, k_rng, "limited_by", "rank", "eligible", "violated"}
+    skip = {"sensor", k_min, k_rng, "limited_by", "rank", "eligible", "violated",
+            "range_reached"}
     lines.append("chosen design: " + ", ".join(f"{k} {v:.4g}" for k, v in best.items()
                                                if k not in skip and isinstance(v, float)))
-    lines.append("range and resolution both better than SETUP's: "
-                 + ("yes" if doc["beats_reference"] else "no"))
+    lines.append(f"range and resolution both better than SETUP's: {doc['comparison']}")
     lines.append(f"Pareto front ({k_min}, {k_rng}, sensor):")
-    lines += [f"  {show(r[k_min]):>14} {show(r[k_rng]):>14}  {r['sensor']}" for r in doc["front"]]
+    lines += [f"  {show(r[k_min]):>14} {show(r[k_rng], r['range_reached']):>14}  {r['sensor']}"
+              for r in doc["front"]]
     lines.append(f"{doc['scale_note']}: every range and minimum above scales with it")
     return "\n".join(lines)

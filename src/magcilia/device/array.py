@@ -11,6 +11,12 @@ places the base); the array's sensors are :class:`~magcilia.device.magnetometer.
 The field at every sensor is the superposition of all cilia's dipoles (:meth:`CiliaArray.field`),
 one compiled kernel call over all dipoles × sensors (:mod:`magcilia.model.array`).
 
+Every cilium's dipole layout follows the one rule (:meth:`magcilia.Setup.resolve_layout`) at the
+array's sensors: a ``"converged"`` cilium gets the smallest rms layout within 0.5 % of the exact
+body at every sensor (cilia of one shape share one layout, checked at all their sensors at once,
+:func:`resolve_layouts`), a ``"given"`` one is checked there and warned about above 1 %, the
+paper's is used as is.
+
 Checks (one-line errors naming the cilia or sensor):
 
 * two cilia overlap at rest: their upright bodies intersect (bases closer horizontally than the
@@ -23,6 +29,7 @@ checks it for its span (two neighbours bent toward each other by the span's forc
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -34,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, scaled
 from magcilia.device.magnetometer import Magnetometer
+from magcilia.device.sensor import beyond_range
 from magcilia.device.setup import Setup
 from magcilia.model import body
 from magcilia.model import pose as pose_model
@@ -59,7 +67,8 @@ class CiliaArray(Display):
     ----------
     cilia : sequence of Setup
         One Setup per cilium: its own geometry, material and model options; its base centre
-        ``setup.base_centre`` (m) places it on the board.
+        ``setup.base_centre`` (m) places it on the board. A converged layout is converged again
+        at the sensors (:func:`resolve_layouts`): ``array.cilia`` holds the setups used.
     sensors : sequence of Magnetometer
         The sensors, each at its ``position`` (m) with its ``rotation``.
     names : sequence of str, optional
@@ -102,6 +111,7 @@ class CiliaArray(Display):
         object.__setattr__(self, "names", names)
         self._check_overlap()
         self._check_sensors()
+        object.__setattr__(self, "cilia", resolve_layouts(cilia, self.sensor_positions))
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
@@ -393,12 +403,12 @@ class CiliaArray(Display):
         return out
 
     def saturated(self, readings: ArrayLike) -> NDArray[np.bool_]:
-        """Readings (..., S, 3), T on the sensors' axes, at or beyond their range (clipped), shape
-        (..., S, 3)."""
+        """Readings (..., S, 3), T on the sensors' axes, at or beyond their range (clipped; within
+        half an LSB of it: :func:`~magcilia.device.sensor.beyond_range`), shape (..., S, 3)."""
         r = np.asarray(readings, dtype=np.float64)
         limit = np.array([s.field_range for s in self.sensors], dtype=np.float64)
         lsb = np.array([s.resolution for s in self.sensors], dtype=np.float64)
-        return np.asarray(np.abs(r) >= limit - 0.5 * lsb)
+        return beyond_range(r, limit, lsb)
 
     # -- hand-over --------------------------------------------------------------------------------
     def to_magpylib(self, poses: ArrayPoses = None, *, sensors: bool = True) -> Any:
@@ -430,3 +440,33 @@ class CiliaArray(Display):
                 ("extent", f"{span[0] * 1e3:.3g} × {span[1] * 1e3:.3g} mm"),
                 ("height", scaled(float(self.cilia[0].cilium.height), 1e-3, "mm")),
                 ("sensor", self.sensors[0].name)]
+
+
+def resolve_layouts(cilia: Sequence[Setup], points: ArrayLike) -> tuple[Setup, ...]:
+    """The cilia with their layouts resolved by the one rule (:meth:`Setup.resolve_layout`) at
+    the sensing points ``points`` ((S, 3), m, board frame): cilia of one shape, layout and
+    height above the sensors share one resolution, probed at every sensor offset any of them
+    has (so a grid of copies costs one exact reference, not one per cilium)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    groups: dict[tuple[object, ...], list[int]] = {}
+    for i, c in enumerate(cilia):
+        if c.layout == "paper":
+            continue
+        s = c.spec
+        key = (s.height, s.base_radius, s.knots.tobytes(), s.radii.tobytes(),
+               float(s.base_centre[2]), c.layout, c.n_loops, c.dipoles_per_loop, c.ring)
+        groups.setdefault(key, []).append(i)
+    out = list(cilia)
+    for members in groups.values():
+        rep = cilia[members[0]]
+        offsets = np.concatenate([pts - cilia[i].base_centre for i in members])
+        offsets = np.unique(offsets.round(12), axis=0)
+        where = ("the array's sensors" if len(members) == 1 else
+                 f"the array's sensors, for {len(members)} cilia of this shape")
+        done = rep.resolve_layout(rep.base_centre + offsets, where=where)
+        if done is rep:
+            continue
+        for i in members:
+            out[i] = dataclasses.replace(cilia[i], n_loops=done.n_loops,
+                                         dipoles_per_loop=done.dipoles_per_loop, ring=done.ring)
+    return tuple(out)

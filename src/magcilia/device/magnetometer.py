@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number
 from magcilia.constants import GAUSS
+from magcilia.device.sensor import beyond_range
 
 F64 = NDArray[np.float64]
 
@@ -324,12 +325,19 @@ class Magnetometer(Display):
     def in_range(self, field: ArrayLike) -> NDArray[np.bool_]:
         """True where a board-frame field (..., 3), T, lies within range on all three axes,
         shape (...)."""
-        return np.all(np.abs(self.to_sensor(field)) <= np.array(self.field_range), axis=-1)
+        return ~np.any(self.saturated(field), axis=-1)
 
     def saturated(self, field: ArrayLike) -> NDArray[np.bool_]:
         """True per sensor axis where a board-frame field (..., 3), T, lies beyond that axis's
-        range (the reading clips there), shape (..., 3)."""
-        return np.abs(self.to_sensor(field)) > np.array(self.field_range)
+        range (the reading clips there), shape (..., 3): :func:`~magcilia.device.sensor.
+        beyond_range` of the field on the sensor's axes."""
+        return beyond_range(self.to_sensor(field), self.field_range)
+
+    def saturated_reading(self, reading: ArrayLike) -> NDArray[np.bool_]:
+        """True per axis where a reading (..., 3), T on the sensor's axes (what the part
+        reports: clipped at its range, rounded to its LSB), is saturated, shape (..., 3)
+        (:func:`~magcilia.device.sensor.beyond_range` with the LSB)."""
+        return beyond_range(reading, self.field_range, self.resolution)
 
     def measure(self, field: ArrayLike, rng: int | np.random.Generator | None = None,
                 noisy: bool = True) -> F64:

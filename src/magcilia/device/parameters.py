@@ -40,6 +40,7 @@ from magcilia import _validate as v
 from magcilia._display import scaled
 from magcilia._errors import MagciliaError
 from magcilia.model.body import RINGS
+from magcilia.model.convergence import MODES as LAYOUTS
 from magcilia.units import UNITS
 
 DOMAINS = ("positive", "non_negative", "real", "nonzero", "integer", "choice")
@@ -374,7 +375,8 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
        minimum=1e-9, maximum=1e9),
     _p("offset", "output offset", dimension="voltage", unit="V", display="mV", file_unit="V",
        part="sensor", file=("amplifier", "offset"), model=True, maximum=1e6),
-    # the model's slices
+    # the model's slices: what they are (the layout rule), then n, k and the ring
+    _p("layout", "layout rule", domain="choice", choices=LAYOUTS, file=("model", "layout")),
     _p("n_loops", "slices n", domain="integer", file=("model", "n_loops"), bound=(1, 10),
        span=Span("fixed", 1, 10), figure=11, model=True, maximum=MAX_LOOPS),
     _p("dipoles_per_loop", "dipoles per slice k", domain="integer",

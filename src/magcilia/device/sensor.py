@@ -68,6 +68,38 @@ CROSS_AXIS_TEST = (1.0 * GAUSS, 1.0 * GAUSS)
 DEFAULT_BANDWIDTH = (0.5, 500.0)
 
 
+def beyond_range(values: ArrayLike, field_range: ArrayLike,
+                 resolution: ArrayLike = 0.0) -> NDArray[np.bool_]:
+    """The one saturation rule: True where a field or a reading on a sensor's axes lies beyond
+    its linear range, shape of ``values`` (broadcast with the others).
+
+    An analog output (``resolution`` 0, the HMC1021Z's) is beyond when |value| > field_range. A
+    digital part clips its output at ±field_range and rounds it to its LSB (``resolution``), so
+    a reading within half an LSB of the range, or beyond, is saturated: it may be a clipped one.
+
+    Parameters
+    ----------
+    values : array-like
+        Fields or readings, T (any shape; per axis).
+    field_range, resolution : array-like
+        Range ±field_range and LSB, T (broadcast with ``values``: one per axis, e.g. (3,)).
+
+    Examples
+    --------
+    >>> beyond_range([5e-4, 6e-4, 7e-4], 6e-4).tolist()
+    [False, False, True]
+    >>> beyond_range([7.9995e-4, 7.99e-4], 8e-4, 1e-6).tolist()  # within half an LSB: clipped
+    [True, False]
+    """
+    a = np.abs(np.asarray(values, dtype=np.float64))
+    if np.ndim(resolution) == 0 and not resolution:  # analog: the read-out's per-sample path
+        return np.asarray(a > field_range)
+    limit = np.asarray(field_range, dtype=np.float64)
+    half = 0.5 * np.asarray(resolution, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.where(half > 0.0, a >= limit - half, a > limit), dtype=bool)
+
+
 @dataclass(frozen=True, repr=False)
 class Sensor(Display):
     """A single-axis magnetoresistive bridge with an amplifier (all SI).
@@ -137,7 +169,9 @@ class Sensor(Display):
         return (np.asarray(volts, dtype=np.float64) - self.offset) / self.scale
 
     def in_range(self, bx: ArrayLike) -> NDArray[np.bool_]:
-        """True where ``bx`` (T) lies within the linear range ±field_range."""
+        """True where ``bx`` (T) lies within the linear range ±field_range: the complement of
+        :func:`beyond_range` for this analog output (|B_x| ≤ field_range), NaN neither (one
+        comparison: the read-out's per-sample path)."""
         return np.abs(np.asarray(bx, dtype=np.float64)) <= self.field_range
 
     @property
@@ -197,8 +231,9 @@ class Sensor(Display):
         magnitude = np.linalg.norm(arr, axis=-1)
         error = self.cross_axis_error(arr, polarity)
         flags = np.zeros(arr.shape[:-1], dtype=np.uint8)
-        flags[np.abs(arr[..., 0]) > self.field_range] |= np.uint8(SensorFlag.BEYOND_RANGE)
-        flags[magnitude > self.field_range] |= np.uint8(SensorFlag.TOTAL_BEYOND_RANGE)
+        flags[beyond_range(arr[..., 0], self.field_range)] |= np.uint8(SensorFlag.BEYOND_RANGE)
+        flags[beyond_range(magnitude, self.field_range)] |= np.uint8(
+            SensorFlag.TOTAL_BEYOND_RANGE)
         flags[~(np.abs(error) <= floor)] |= np.uint8(SensorFlag.CROSS_FIELD)
         flags[magnitude > self.flip_field] |= np.uint8(SensorFlag.FLIPPED_RISK)
         return flags

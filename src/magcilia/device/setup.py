@@ -9,6 +9,7 @@ the x–z plane) or a :class:`~magcilia.SpatialCentreline` (shapes in space, any
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import Any
@@ -18,14 +19,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number, si
+from magcilia._errors import LayoutWarning
 from magcilia.device.cilium import Cilium
 from magcilia.device.material import Material
 from magcilia.device.parameters import PARAMETERS, check_dipoles, parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck
 from magcilia.device.stiffness import Modulus, percent
+from magcilia.model import convergence
 from magcilia.model import pose as pose_model
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.centreline import Centreline, SpatialCentreline
+from magcilia.model.convergence import Layout
 from magcilia.model.pose import Pose, Shapes
 from magcilia.model.spec import ModelSpec
 
@@ -66,6 +70,22 @@ class Setup(Display):
         registry's :data:`~magcilia.device.parameters.MAX_DIPOLES`).
     ring : {"mean", "rms"}
         Ring radius rule: the paper's mean radius or sqrt<rho²> (converges to the exact body).
+    layout : {"given", "paper", "converged"}
+        What n, k and ring are (the one rule of every path that predicts a field,
+        :meth:`resolve_layout`; docs/convergence.md):
+
+        * ``"paper"``: the paper's dipole model by name, used as is everywhere: replication
+          stays exact. :meth:`paper` and :meth:`paper_initial` make it with Table I's layouts
+          (2 × 5 or 6 × 3, mean rings); other n, k or ring given to them make it ``"given"``.
+          ``layout="paper"`` said explicitly names the paper's model with other n × k too (mean
+          rings): the paper-model calibration's fits are;
+        * ``"converged"``: n, k and ring are chosen by the rule, the smallest rms-ring layout
+          within 0.5 % of the exact body (:data:`magcilia.model.convergence.TOLERANCE`) at the
+          points where a path evaluates the field; the classmethods and setup files converge it
+          at the sensing element, and each path again at its own points;
+        * ``"given"`` (the constructor's default): this exact layout, used as is; each path
+          estimates its error against the exact body at its points and warns
+          (:class:`~magcilia.LayoutWarning`) when it exceeds 1 %.
 
     Examples
     --------
@@ -83,6 +103,7 @@ class Setup(Display):
     n_loops: int = 6
     dipoles_per_loop: int = 3
     ring: str = "mean"
+    layout: str = "given"
 
     def __post_init__(self) -> None:
         for name, cls in _PARTS.items():
@@ -92,9 +113,13 @@ class Setup(Display):
         object.__setattr__(self, "position",
                            tuple(PARAMETERS[n].check(float(p)) for n, p in zip("xyz", pos,
                                                                                strict=True)))
-        for name in ("n_loops", "dipoles_per_loop", "ring"):
+        for name in ("n_loops", "dipoles_per_loop", "ring", "layout"):
             object.__setattr__(self, name, PARAMETERS[name].check(getattr(self, name)))
         check_dipoles(self.n_loops, self.dipoles_per_loop)
+        if self.layout == "paper" and self.ring != "mean":
+            raise v.fail("layout", "'paper' with ring 'rms'",
+                         "'paper' only with the paper's mean ring; set layout='given' for your "
+                         "own rms layout, or 'converged' to have it chosen")
         # the sensing element must lie outside the unloaded (upright) cilium
         pose_model.check_element_outside(self.spec, np.array([0.0]))
 
@@ -106,27 +131,119 @@ class Setup(Display):
         case top, zero offset.
 
         Any keyword overrides a field of the setup (``position``, ``n_loops``,
-        ``dipoles_per_loop``, ``ring``), of the cilium (``height``, ``base_radius``,
+        ``dipoles_per_loop``, ``ring``, ``layout``), of the cilium (``height``, ``base_radius``,
         ``tip_radius``, ``youngs_modulus``, ``youngs_modulus_sigma``), the material
         (``cobalt_mass``, …, ``magnetization_scale``, ``polymer_modulus``,
         ``polymer_modulus_uncertainty``) or the sensor (``bridge_voltage``, ``gain``,
         ``offset``, ``depth``, …), or a position component ``x``, ``y``, ``z``. SI units.
         A whole ``cilium=`` (e.g. :meth:`Cilium.from_profile`), ``material=`` or ``sensor=`` is
         taken as given, without the paper's values for its fields.
+
+        The layout is the paper's by name (``layout="paper"``: used as is by every path) while
+        it is Table I's; other ``n_loops``, ``dipoles_per_loop`` or ``ring`` make it ``"given"``
+        (used as is, warned about where it is more than 1 % off; ``layout="paper"`` with them
+        keeps the paper's model by name, mean rings only), and ``layout="converged"`` has it
+        chosen: here at the sensing element, and again by each path at its points (``n_loops``,
+        ``dipoles_per_loop`` and ``ring`` are then left out).
+
+        Examples
+        --------
+        >>> Setup.paper().layout, Setup.paper(n_loops=8).layout, Setup.paper(ring="rms").layout
+        ('paper', 'given', 'given')
+        >>> Setup.paper(n_loops=6, dipoles_per_loop=3).layout  # Table I's initial layout
+        'paper'
+        >>> s = Setup.paper(tip_radius=5e-5, layout="converged")
+        >>> s.n_loops, s.dipoles_per_loop, s.ring
+        (12, 5, 'rms')
         """
-        return _build(_defaults(PAPER_OPTIMIZED, overrides))
+        return _build(_defaults(PAPER_OPTIMIZED, overrides), layout="paper", user=overrides)
 
     @classmethod
     def paper_initial(cls, **overrides: Any) -> Setup:
         """As :meth:`paper` but with Table I's *initial* values
         (3 mm, 0.25 mm, origin, n=6, k=3)."""
-        return _build(_defaults(PAPER_INITIAL, overrides))
+        return _build(_defaults(PAPER_INITIAL, overrides), layout="paper", user=overrides)
 
     def replace(self, **changes: Any) -> Setup:
         """A copy with some parameters changed (same keywords as :meth:`paper`). A new
         ``youngs_modulus`` without a ``youngs_modulus_sigma`` is taken as exact (the old σ
-        belonged to the old value)."""
+        belonged to the old value).
+
+        The layout mode is kept, except that a new ``n_loops``, ``dipoles_per_loop`` or
+        ``ring`` makes a converged layout ``"given"``, and a paper one too unless it is another
+        of Table I's; ``layout="converged"`` converges it at the sensing element. A converged
+        setup keeps its n × k through other changes (``replace`` is cheap); the paths that
+        predict a field converge it again at their points (:meth:`resolve_layout`)."""
         return _build(changes, base=self)
+
+    # -- the layout rule --------------------------------------------------------------------------
+    def layout_check(self, points: ArrayLike | None = None) -> Layout:
+        """The layout this setup predicts fields with at ``points`` and how far it is from the
+        exact body there (the one rule, :mod:`magcilia.model.convergence`).
+
+        Parameters
+        ----------
+        points : array-like, shape (o, 3), optional
+            Where the field is predicted, m in the sensor frame (default the sensing element),
+            probed in rigid tilts of 0–85° toward ±x and ±y.
+
+        Returns
+        -------
+        Layout
+            ``"converged"``: the converged layout (its error within the tolerance, or the
+            largest tried, above it, where nothing converges); ``"given"``: the setup's own with
+            its estimated error; ``"paper"``: the setup's own, the error not estimated (NaN).
+
+        Examples
+        --------
+        >>> Setup.paper(ring="rms", n_loops=4).layout_check().text()
+        '4×5 rms, 5.4 % from the exact body'
+        """
+        if self.layout == "converged":
+            return convergence.converged_layout(self.spec, points=points)
+        if self.layout == "paper":
+            return Layout(self.n_loops, self.dipoles_per_loop, self.ring)
+        return Layout(self.n_loops, self.dipoles_per_loop, self.ring,
+                      convergence.layout_error(self.spec, self.n_loops, self.dipoles_per_loop,
+                                               self.ring, points=points))
+
+    def resolve_layout(self, points: ArrayLike | None = None, *, where: str = "the sensing "
+                       "element") -> Setup:
+        """The setup a path predicts fields with at ``points`` (default the sensing element):
+        itself for a paper or given layout, with a :class:`~magcilia.LayoutWarning` when a given
+        layout's estimated error there exceeds 1 %
+        (:data:`magcilia.model.convergence.WARN_ABOVE`); for ``layout="converged"`` the copy
+        with the converged n × k (rms ring), warned about only when no layout reaches the
+        tolerance. ``where`` names the points in the warning.
+
+        Examples
+        --------
+        >>> near = Setup.paper(layout="converged", position=(0.5e-3, 0.0, 0.0))
+        >>> near.resolve_layout().n_loops  # the element 0.87 mm from the base centre
+        48
+        """
+        lay = self.layout_check(points)
+        if self.layout == "paper":
+            return self
+        if self.layout == "given":
+            if lay.error > convergence.WARN_ABOVE:
+                warnings.warn(LayoutWarning(
+                    f"the given dipole layout {lay.text()} at {where} (tilted 0-85 deg in any "
+                    f"direction), above {100 * convergence.WARN_ABOVE:g} %; set layout = "
+                    f"\"converged\" (or leave n_loops, dipoles_per_loop and ring out of a setup "
+                    f"file's [model]) to have one within {100 * convergence.TOLERANCE:g} % "
+                    "chosen"), stacklevel=3)
+            return self
+        if not lay.converged:
+            warnings.warn(LayoutWarning(
+                f"no dipole layout up to {lay.n_loops} slices reaches "
+                f"{100 * lay.tolerance:g} % at {where}: using {lay.text()}; the field "
+                "is predicted very close to the cilium"), stacklevel=3)
+        if (lay.n_loops, lay.dipoles_per_loop, lay.ring) == (
+                self.n_loops, self.dipoles_per_loop, self.ring):
+            return self
+        return dataclasses.replace(self, n_loops=lay.n_loops,
+                                   dipoles_per_loop=lay.dipoles_per_loop, ring=lay.ring)
 
     # -- derived quantities ---------------------------------------------------------------------
     @property
@@ -357,7 +474,8 @@ class Setup(Display):
             items.append(("tip_radius", par["tip_radius"].text(p["tip_radius"])))
         items += [(n, par[n].text(p[n])) for n in "xyz"]
         ring = "" if self.ring == "mean" else f" {self.ring}"
-        items.append(("n×k", f"{self.n_loops}×{self.dipoles_per_loop}{ring}"))
+        mode = "" if self.layout == "given" else f" ({self.layout})"
+        items.append(("n×k", f"{self.n_loops}×{self.dipoles_per_loop}{ring}{mode}"))
         items.append(("sensor", f"{self.sensor.name} {self.sensor.scale:.3g} V/T"))
         if p["offset"]:
             items.append(("offset", par["offset"].text(p["offset"])))
@@ -390,8 +508,49 @@ def _defaults(table: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any
     return {**{k: val for k, val in table.items() if k not in given}, **overrides}
 
 
-def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:
-    """Create a Setup from keyword overrides routed to the setup or its parts."""
+#: the setup fields that make up a dipole layout
+_LAYOUT_KEYS = ("n_loops", "dipoles_per_loop", "ring")
+
+
+def _layout_mode(overrides: dict[str, Any], base: Setup | None, default: str,
+                 user: dict[str, Any] | None) -> str:
+    """The layout mode of a setup built from ``overrides`` (see :meth:`Setup.paper` and
+    :meth:`Setup.replace`): a layout set by its keys is the paper's only while it is one of
+    Table I's (:data:`~magcilia.model.convergence.PAPER_LAYOUTS`), and never a converged one."""
+    if "layout" in overrides:
+        return str(PARAMETERS["layout"].check(overrides["layout"]))
+    mode = base.layout if base is not None else default
+    asked = overrides if user is None else user
+    if not any(k in asked for k in _LAYOUT_KEYS):
+        return mode
+    if mode == "converged":
+        return "given"
+    if mode == "paper":
+        old = (base.n_loops, base.dipoles_per_loop, base.ring) if base is not None else (
+            None, None, "mean")
+        n, k, ring = (overrides.get(key, was) for key, was in zip(_LAYOUT_KEYS, old,
+                                                                   strict=True))
+        if (n, k, ring) not in convergence.PAPER_LAYOUTS:
+            return "given"
+    return mode
+
+
+def _build(overrides: dict[str, Any], base: Setup | None = None,
+           layout: str = "given", user: dict[str, Any] | None = None) -> Setup:
+    """Create a Setup from keyword overrides routed to the setup or its parts (``layout``: the
+    mode of a new setup, :meth:`Setup.paper`'s ``"paper"``; ``user``: the keywords the caller
+    gave, when ``overrides`` also holds defaults)."""
+    mode = _layout_mode(overrides, base, layout, user)
+    converge = mode == "converged" and (base is None or "layout" in overrides)
+    if converge:
+        asked = overrides if user is None else user
+        given = [k for k in _LAYOUT_KEYS if k in asked]
+        if given and "layout" in asked:
+            raise v.fail(given[0], overrides[given[0]],
+                         "left out with layout='converged' (the rule chooses n, k and ring); "
+                         "set layout='given' to use your own")
+        overrides = {k: val for k, val in overrides.items() if k not in _LAYOUT_KEYS}
+    overrides = {**overrides, "layout": mode}
     top: dict[str, Any] = {}
     parts: dict[str, dict[str, Any]] = {name: {} for name in _PARTS}
     pos = list(base.position) if base is not None else [0.0, 0.0, 0.0]
@@ -427,4 +586,9 @@ def _build(overrides: dict[str, Any], base: Setup | None = None) -> Setup:
         kept = {f.name: getattr(base, f.name) for f in fields(Setup) if f.name not in _PARTS}
         top = {**kept, **top}
     top["position"] = tuple(pos)
-    return Setup(**built, **top)
+    setup = Setup(**built, **top)
+    if converge:  # at the sensing element (the paths converge again at their points)
+        lay = convergence.converged_layout(setup.spec)
+        setup = dataclasses.replace(setup, n_loops=lay.n_loops,
+                                    dipoles_per_loop=lay.dipoles_per_loop, ring=lay.ring)
+    return setup

@@ -286,6 +286,8 @@ def _cilium(doc: dict[str, Any], entry: dict[str, Any], where: str, source: str,
             tables["cilium"].pop("profile_s", None)
             tables["cilium"].pop("profile_r", None)
         tables[table][k] = value
+    if "layout" not in entry and any(k in entry for k in ("n_loops", "dipoles_per_loop", "ring")):
+        tables["model"].pop("layout", None)  # this cilium's own layout: as given
     if "base" not in entry:
         raise _fail(f"{source}: {where}.base", "nothing",
                     'the base centre, three lengths with units, e.g. ["0 mm", "0 mm", "0.71 mm"]')

@@ -25,9 +25,18 @@ Example (the paper's setup, shipped as ``examples/paper.toml``)::
     offset = "0 V"
 
     [model]
+    layout = "paper"
     n_loops = 2
     dipoles_per_loop = 5
     ring = "mean"
+
+The ``[model]`` table says what the dipole layout is (:class:`magcilia.Setup`'s ``layout``;
+docs/convergence.md): ``layout = "paper"`` names the paper's model (mean rings, used as is by
+every path: replication), ``layout = "converged"`` has the layout chosen within 0.5 % of the
+exact body wherever a field is predicted (``n_loops``, ``dipoles_per_loop`` and ``ring`` are then
+left out), and ``layout = "given"`` uses the keys as they are, with a warning wherever they are
+more than 1 % from the exact body. Without ``layout``, keys given mean ``"given"``, and a file
+without them (or without ``[model]``) is ``"converged"``.
 
 An optional ``[priors]`` table holds manual measurements of the cilium as Gaussian priors of
 the physical calibration (``magcilia calibrate --model physical``), value ± σ with units::
@@ -47,7 +56,8 @@ The tables of arrays (``[[cilia]]``, ``[[sensors]]``, ``[array]``; read by
 :func:`magcilia.io.array_file.load_array`) and ``[actuation]`` are left to their readers:
 :func:`load_setup` reads the single setup of such a file.
 
-Every quantity needs its unit; a missing table takes the paper's defaults. Unknown keys and values
+Every quantity needs its unit; a missing table takes the paper's defaults (``[model]``: a
+converged layout). Unknown keys and values
 without units are errors that name the key.
 
 Files come from people and other programs, so reading one is bounded: at most
@@ -86,6 +96,8 @@ _PRESETS = ("HMC1021Z",)
 _PROFILE_KEYS = ("profile_s", "profile_r")
 #: what a measured profile sets, so that files leave it out
 _PROFILE_SHAPED = ("height", "base_radius", "tip_radius")
+#: the keys of a dipole layout (left out of a converged setup's file: the rule chooses them)
+_LAYOUT_KEYS = ("n_loops", "dipoles_per_loop", "ring")
 
 #: largest setup file read, bytes (a setup is about 1 kB; a measured profile of
 #: MAX_PROFILE_POINTS points about 0.5 MB)
@@ -157,8 +169,13 @@ def setup_from_dict(doc: dict[str, Any], source: str = "setup") -> Setup:
                 raise _fail(f"{source}: {table}.{_key(key)}", key,
                             "one of " + ", ".join(SCHEMA[table]))
             kwargs.update(_entry(name, key, SCHEMA[table][key], value))
+    defaults = _unpack_position(PAPER_OPTIMIZED)
+    if "layout" not in kwargs:  # no word on it: the keys given are this exact layout
+        kwargs["layout"] = "given" if any(k in kwargs for k in _LAYOUT_KEYS) else "converged"
+    if kwargs["layout"] == "converged":  # the rule chooses n, k and ring
+        defaults = {k: val for k, val in defaults.items() if k not in _LAYOUT_KEYS}
     try:
-        overrides = {**_unpack_position(PAPER_OPTIMIZED), **kwargs}
+        overrides = {**defaults, **kwargs}
         if any(key in kwargs for key in _PROFILE_KEYS):
             overrides = _with_profile(overrides, kwargs)
         return Setup.paper(**overrides)
@@ -319,7 +336,8 @@ def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
                     out[key] = [format_quantity(k * scale, "mm", 12) for k in knots]
                 continue
             value = setup.value(p.name)
-            if value is None or (c.profile is not None and p.name in _PROFILE_SHAPED):
+            if value is None or (c.profile is not None and p.name in _PROFILE_SHAPED) or (
+                    setup.layout == "converged" and p.name in _LAYOUT_KEYS):
                 continue
             out[key] = format_quantity(value, p.file_unit, 12) if p.dimension else value
         doc[table] = out

@@ -134,7 +134,8 @@ class ActuatedReadout(Display):
     Parameters
     ----------
     setup : Setup
-        The (calibrated) sensor setup.
+        The (calibrated) sensor setup (its layout resolved at the element, as
+        :class:`~magcilia.Readout`'s).
     quantity : {"angle", "force", "flow"}
         What to read (as :class:`~magcilia.Readout`).
     span : (float, float)
@@ -201,6 +202,8 @@ class ActuatedReadout(Display):
         if not isinstance(actuation, Actuation):
             raise v.fail("actuation", type(actuation).__name__,
                          "a magcilia Actuation (Actuation.uniform(b), Actuation.magpylib(source))")
+        if isinstance(setup, Setup):
+            setup = setup.resolve_layout()  # the layout rule at the sensing element
         k = v.finite_array("levels", levels, ndim=1)
         if k.size < 2 or np.any(np.diff(k) <= 0.0):
             raise v.fail("levels", v.short(k.tolist()), "at least 2 increasing, distinct levels")

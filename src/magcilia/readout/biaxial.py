@@ -49,7 +49,7 @@ from magcilia._display import Display, Item, Table, column, dataframe, scaled
 from magcilia._errors import MagciliaError
 from magcilia.device.actuation import Actuation
 from magcilia.device.magnetometer import Magnetometer
-from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
+from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, beyond_range
 from magcilia.device.setup import Setup
 from magcilia.mechanics import bend, bend_sweep, require_tip_radius
 from magcilia.model.centreline import SpatialCentreline
@@ -138,6 +138,9 @@ class Channel(Display):
         Linear range ±field_range, T; readings beyond it are SATURATED (default: none).
     name : str
         For reports and errors.
+    resolution : float
+        One LSB of a digital part's reading, T (0: analog); a reading within half an LSB of the
+        range is saturated (:func:`~magcilia.device.sensor.beyond_range`).
 
     Examples
     --------
@@ -151,6 +154,7 @@ class Channel(Display):
     sigma: float
     field_range: float = math.inf
     name: str = "channel"
+    resolution: float = 0.0
 
     def __post_init__(self) -> None:
         pos = v.vector3("position", self.position)
@@ -166,6 +170,8 @@ class Channel(Display):
         if not rng > 0.0:
             raise v.fail("field_range", self.field_range, "a positive field in T (or inf)")
         object.__setattr__(self, "field_range", rng)
+        object.__setattr__(self, "resolution",
+                           v.non_negative("resolution", self.resolution, "T", "field"))
 
     @classmethod
     def of_magnetometer(cls, sensor: Magnetometer) -> tuple[Channel, Channel, Channel]:
@@ -175,7 +181,8 @@ class Channel(Display):
             raise v.fail("sensor", type(sensor).__name__, "a magcilia Magnetometer")
         rot = np.asarray(sensor.rotation)
         return tuple(cls(sensor.position, rot[:, i], float(sensor.noise[i]),  # type: ignore[return-value]
-                         float(sensor.field_range[i]), f"{sensor.name}.{'xyz'[i]}")
+                         float(sensor.field_range[i]), f"{sensor.name}.{'xyz'[i]}",
+                         float(sensor.resolution[i]))
                      for i in range(3))
 
     @classmethod
@@ -196,7 +203,7 @@ class Channel(Display):
         return {"name": self.name, "position": list(self.position), "axis": list(self.axis),
                 "sigma": self.sigma,
                 "field_range": self.field_range if math.isfinite(self.field_range) else None,
-                "units": "SI"}
+                "resolution": self.resolution, "units": "SI"}
 
     def report(self) -> str:
         """One line: name, position (mm), axis, noise and range (gauss)."""
@@ -482,7 +489,9 @@ class BiaxialReadout(Display):
     Parameters
     ----------
     setup : Setup
-        The cilium and its placement (``tip_radius > 0`` for a tip force).
+        The cilium and its placement (``tip_radius > 0`` for a tip force); its dipole layout
+        resolved by the layout rule at the channels' points
+        (:meth:`~magcilia.Setup.resolve_layout`); ``.setup`` is the setup used.
     sensors : Magnetometer, Channel or a sequence of them
         What is read: a 3-axis sensor gives three channels (its axes), a :class:`Channel` one;
         readings are given in this order.
@@ -558,6 +567,9 @@ class BiaxialReadout(Display):
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
         chans = channels(sensors)
+        # the layout rule at the channels' points
+        setup = setup.resolve_layout(np.array([c.position for c in chans]),
+                                     where="the sensors' points")
         span = v.positive("span", span, "N", "force")
         require_tip_radius(setup, "force")
         if np.size(table_size) != 2:
@@ -737,8 +749,10 @@ class BiaxialReadout(Display):
         n = flat.shape[0]
         use = np.isfinite(flat)
         missing = ~use.all(axis=1)
-        saturated = (np.abs(np.where(use, flat, 0.0)) > self.field_range).any(axis=1)
-        use &= np.abs(np.where(use, flat, 0.0)) <= self.field_range
+        beyond = beyond_range(np.where(use, flat, 0.0), self.field_range,
+                              [c.resolution for c in self.channels])
+        saturated = beyond.any(axis=1)
+        use &= ~beyond
         weight = use.astype(np.float64)
         tare = self._tare_arrays()
         if noise is not None:

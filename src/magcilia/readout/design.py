@@ -8,12 +8,20 @@ quantity, evaluates the sensor output and reports
   U → 0 vanish logarithmically);
 * the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
   for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
-* the range: up to the first of the sensor's ±field_range limit (±6 gauss) or a fold of the output
-  (non-monotonic: readings become ambiguous), else the end of the sweep;
+* the range: the value where the read-out ends (:func:`range_end`, shared with
+  :func:`magcilia.optimise_design`): the first of the sensor leaving its rated range (the
+  HMC1021Z's ±6 gauss hold for the sensitive axis and, by its datasheet, for the total applied
+  field: :func:`rated_ratio`) or a fold of the output (non-monotonic: readings become
+  ambiguous). When the sweep ends first (the elastica's large-deflection limit, the drag law's
+  Reynolds limit, 90° of tilt), the read-out has not ended: the range is a lower bound,
+  ``reached`` is False and reports print it as "≥ X (not reached: …)";
 * the force scale's 1 σ of the minimum and the range: a force scales exactly with the Young's
   modulus at a fixed shape (σ = value · σ_E/E), a flow speed through the drag law (the model's
   derivative at a fixed output, :func:`magcilia.readout.scale.fixed_output_rate`); systematic,
   and said where it comes from (:meth:`magcilia.Modulus.note`).
+
+The layout follows the setup's layout rule at the sensing element
+(:meth:`magcilia.Setup.resolve_layout`).
 """
 
 from __future__ import annotations
@@ -67,9 +75,13 @@ class Metric(Display):
     range : float
         Usable range from zero, unit (a lower bound when ``limited_by`` is "end of sweep").
     limited_by : str
-        What ends the range (or why the metric is not available).
+        What ends the range (or why the metric is not available); for a range not reached, what
+        ended the sweep, as ``"not reached: …"``.
     curve : ndarray, shape (c, 2)
         The swept (quantity, output V) pairs.
+    reached : bool
+        Whether the read-out ends within the sweep (rated range or fold); False: the sweep ended
+        first and ``range`` is a lower bound.
     sigma_minimum, sigma_range : float
         The force scale's 1 σ of ``minimum`` and ``range``, unit: the Young's modulus's relative
         1 σ through the model (``value · σ_E/E`` for a force; 0 for an angle or a modulus taken
@@ -83,18 +95,22 @@ class Metric(Display):
     range: float
     limited_by: str
     curve: F64 = field(repr=False)
+    reached: bool = True
     sigma_minimum: float = 0.0
     sigma_range: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI units; the swept curve left out)."""
         return {"unit": self.unit, "sensitivity_V_per_unit": self.sensitivity,
-                "minimum": self.minimum, "range": self.range, "limited_by": self.limited_by,
-                "sigma_minimum": self.sigma_minimum, "sigma_range": self.sigma_range}
+                "minimum": self.minimum, "range": self.range, "range_reached": self.reached,
+                "limited_by": self.limited_by, "sigma_minimum": self.sigma_minimum,
+                "sigma_range": self.sigma_range}
 
     def report(self) -> str:
-        """One line in display units (with the force scale's ± where it has one)."""
+        """One line in display units (a range not reached as "≥ X"; the force scale's ± where it
+        has one)."""
         q = MEASURANDS[self.quantity]
+        at_least = "" if self.reached else "≥ "
 
         def pm(sigma: float) -> str:
             return f" ± {q.to_display(sigma):.2g}" if sigma > 0.0 else ""
@@ -102,8 +118,8 @@ class Metric(Display):
         return (f"{self.quantity}: {self.sensitivity * 1e3 * q.display_factor:.4g} "
                 f"mV/{q.display}, "
                 f"minimum {q.to_display(self.minimum):.4g}{pm(self.sigma_minimum)} {q.display}, "
-                f"range {q.to_display(self.range):.4g}{pm(self.sigma_range)} {q.display} "
-                f"({self.limited_by})")
+                f"range {at_least}{q.to_display(self.range):.4g}{pm(self.sigma_range)} "
+                f"{q.display} ({self.limited_by})")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
@@ -111,7 +127,8 @@ class Metric(Display):
         return [("", self.quantity),
                 ("sensitivity",
                  f"{number(self.sensitivity * 1e3 * q.display_factor)} mV/{q.display}"),
-                ("minimum", q.text(self.minimum)), ("range", q.text(self.range)),
+                ("minimum", q.text(self.minimum)),
+                ("range", ("" if self.reached else "≥ ") + q.text(self.range)),
                 ("limited by", self.limited_by)]
 
 
@@ -156,14 +173,15 @@ class DesignMetrics(Display):
 
     def table(self) -> list[dict[str, Any]]:
         """Rows per measurand in display units (mN, m/s, deg; sensitivity in mV per display
-        unit); NaN where a metric is not available."""
+        unit); NaN where a metric is not available; ``reached`` False where the range is a
+        lower bound."""
         rows = []
         for m in self.metrics:
             q = MEASURANDS[m.quantity]
             rows.append({"quantity": m.quantity, "unit": q.display,
                          "sensitivity": m.sensitivity * 1e3 * q.display_factor,
                          "minimum": q.to_display(m.minimum), "range": q.to_display(m.range),
-                         "limited_by": m.limited_by})
+                         "reached": m.reached, "limited_by": m.limited_by})
         return rows
 
     def report(self) -> str:
@@ -178,7 +196,8 @@ class DesignMetrics(Display):
             unit = r["unit"]
             sens = f"{r['sensitivity']:.4g} mV/{unit}" if math.isfinite(r["sensitivity"]) else "-"
             mini = f"{r['minimum']:.4g} {unit}" if math.isfinite(r["minimum"]) else "-"
-            rng = f"{r['range']:.4g} {unit}" if math.isfinite(r["range"]) else "-"
+            rng = (("" if r["reached"] else "≥ ") + f"{r['range']:.4g} {unit}"
+                   if math.isfinite(r["range"]) else "-")
             lines.append(f"{r['quantity']:<8} {sens:>22} {mini:>18} {rng:>14}  {r['limited_by']}")
         lines.append(self.scale_note)
         return "\n".join(lines)
@@ -206,13 +225,14 @@ class DesignMetrics(Display):
     def to_dataframe(self) -> Any:
         """One row per quantity (force, flow, angle) as a ``pandas.DataFrame``, SI:
         ``quantity``, ``unit`` (its SI unit), ``sensitivity`` (V per unit), ``minimum``
-        (detectable), ``range`` and ``limited_by``."""
+        (detectable), ``range``, ``range_reached`` and ``limited_by``."""
         metrics = list(self.metrics)
         return dataframe({"quantity": [m.quantity for m in metrics],
                           "unit": [MEASURANDS[m.quantity].unit for m in metrics],
                           "sensitivity": [m.sensitivity for m in metrics],
                           "minimum": [m.minimum for m in metrics],
                           "range": [m.range for m in metrics],
+                          "range_reached": [m.reached for m in metrics],
                           "limited_by": [m.limited_by for m in metrics]})
 
 
@@ -241,7 +261,9 @@ def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
     value : float
         The range's end (the unit of ``q``).
     kind : {"zero", "saturated", "fold", "end"}
-        What ends it ("zero": the first load is saturated already, the value is 0).
+        What ends it ("zero": the first load is saturated already, the value is 0; "end": the
+        sweep ended first, so the read-out's range was not reached and the value is a lower
+        bound).
     index : int
         The last sweep index within the range.
     """
@@ -265,16 +287,65 @@ def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
 #: the note of a range that ends in a fold of the output
 FOLD_NOTE = "fold (output turns back)"
 #: the note of a range that ends at zero load (saturated there already)
-SATURATED_AT_ZERO = "sensor range (saturated at zero load)"
+SATURATED_AT_ZERO = "sensor range (beyond its rated range at zero load)"
+#: the prefix of a range that the sweep did not reach (the value is a lower bound)
+NOT_REACHED = "not reached: "
+#: what ends a sweep of each measurand before its read-out ends (the range is then a lower bound)
+SWEEP_ENDS = {"force": "the sweep ends at a tip deflection ≈ L",
+              "flow": "the sweep ends where the cilium is strongly bent",
+              "drag": "the drag law ends at Re 2e5", "angle": "the sweep ends at 90 deg"}
 
 
-def _range(q: F64, volts: F64, setup: Setup, end_note: str) -> tuple[float, str]:
-    """Range from q[0]: first saturation (interpolated) or fold, else the end of the sweep."""
+def rated_ratio(reading: F64, full_scale: F64, b: F64, total: float) -> tuple[F64, F64]:
+    """How far into its rated range a sensor is, per sweep point: the largest of |reading_i| /
+    full_scale_i over its read axes and of |B| / ``total`` (a rated range of the total applied
+    field, as the HMC1021Z's datasheet states; inf: none), shape (c,); beyond 1 the read-out has
+    ended (:func:`range_end`). Also which term is largest (c,): 0, 1, 2 for an axis, 3 for |B|.
+
+    Parameters
+    ----------
+    reading : ndarray, shape (c, 3)
+        The field on the sensor's axes, T (a single-axis element: the board's, only x read).
+    full_scale : ndarray, shape (3,)
+        Range per axis, T (inf: the axis is not read).
+    b : ndarray, shape (c, 3)
+        The field at the sensing point, T.
+    total : float
+        Rated range of |B|, T (inf for none).
+    """
+    terms = np.concatenate([np.abs(reading) / full_scale,
+                            (np.linalg.norm(b, axis=-1) / total)[:, None]], axis=1)
+    return np.max(terms, axis=1), np.argmax(terms, axis=1)
+
+
+def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
+               end_note: str) -> str:
+    """What ends a range (:func:`range_end`'s ``kind``; ``which``: :func:`rated_ratio`'s term at
+    the crossing), for reports: the rated range (an axis or the total field), a fold, or for a
+    range not reached what ended the sweep (``end_note``)."""
+    if kind == "zero":
+        return SATURATED_AT_ZERO
+    if kind == "fold":
+        return FOLD_NOTE
+    if kind == "end":
+        return NOT_REACHED + end_note
+    if which == 3:
+        return f"sensor range (|B| {number(total / GAUSS)} gauss, the rated total field)"
+    axis = f" on {'xyz'[which]}" if axes == 3 else f" on B_{'xyz'[which]}"
+    return f"sensor range (±{number(full_scale[which] / GAUSS)} gauss{axis})"
+
+
+def _range(q: F64, b: F64, setup: Setup, end_note: str) -> tuple[float, str, bool]:
+    """Range from q[0] of the fields ``b`` (c, 3) at the single-axis element: its rated range
+    (B_x and |B| within ±field_range) or a fold of the output, else the sweep's end (not
+    reached); what ends it; whether it was reached."""
     sensor = setup.sensor
-    value, kind, _ = range_end(q, np.abs(sensor.field(volts)) / sensor.field_range, volts)
-    notes = {"zero": SATURATED_AT_ZERO, "fold": FOLD_NOTE, "end": end_note,
-             "saturated": f"sensor range (±{sensor.field_range / GAUSS:g} gauss)"}
-    return value, notes[kind]
+    scale = np.array([sensor.field_range, math.inf, math.inf])
+    ratio, which = rated_ratio(b, scale, b, sensor.field_range)
+    value, kind, last = range_end(q, ratio, sensor.voltage(b[:, 0]))
+    term = int(which[min(last + 1, which.size - 1)])
+    return (value, range_text(kind, term, scale, sensor.field_range, 1, end_note),
+            kind != "end")
 
 
 def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
@@ -307,12 +378,6 @@ def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64
     return np.concatenate(done_q), np.concatenate(done_b), note
 
 
-def _sweep(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
-    """:func:`sweep_fields` as sensor outputs, V (c,)."""
-    q, b, note = sweep_fields(setup, values, flow)
-    return q, setup.sensor.voltage(b[:, 0]), note
-
-
 def _unavailable(quantity: str, unit: str, why: str) -> Metric:
     return Metric(quantity, unit, math.nan, math.nan, math.nan, why, np.zeros((0, 2)))
 
@@ -327,11 +392,12 @@ def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
     delta = 1e-6 * f_max
     v_pm = setup.output(bend_sweep(setup, forces=[-delta, delta]))
     slope = float(v_pm[1] - v_pm[0]) / (2.0 * delta)
-    q, volts, note = _sweep(setup, np.linspace(0.0, f_max, points), None)
-    rng, why = _range(q, volts, setup, note or "end of sweep (tip deflection ≈ L)")
+    q, b, note = sweep_fields(setup, np.linspace(0.0, f_max, points), None)
+    volts = setup.sensor.voltage(b[:, 0])
+    rng, why, reached = _range(q, b, setup, note or SWEEP_ENDS["force"])
     minimum = noise / abs(slope) if slope else math.inf
     rel = setup.youngs_modulus_uncertainty  # F ∝ E at a fixed shape: exactly
-    return Metric("force", "N", slope, minimum, rng, why, np.stack([q, volts], axis=1),
+    return Metric("force", "N", slope, minimum, rng, why, np.stack([q, volts], axis=1), reached,
                   rel * minimum, rel * rng)
 
 
@@ -348,9 +414,10 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
     u_max = min(u_drag, u_re)
     flow = Flow.uniform(1.0, fluid)
     speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, points - 1)])
-    q, volts, note = _sweep(setup, speeds, flow)
-    end = "drag law (Re 2e5)" if u_re <= u_drag else "end of sweep (strongly bent)"
-    rng, why = _range(q, volts, setup, note or end)
+    q, b, note = sweep_fields(setup, speeds, flow)
+    volts = setup.sensor.voltage(b[:, 0])
+    end = SWEEP_ENDS["drag"] if u_re <= u_drag else SWEEP_ENDS["flow"]
+    rng, why, reached = _range(q, b, setup, note or end)
     u_ref = 1e-3 * fluid.viscosity / (fluid.density * d)
     v0 = float(volts[0])
     slope = (float(setup.output(bend(setup, flow=flow.with_speed(u_ref)))[0]) - v0) / u_ref
@@ -368,7 +435,7 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
         minimum = float(brentq(gap, float(q[i - 1]), float(q[i]), xtol=1e-12, rtol=1e-8)) \
             if i > 0 else 0.0
     return Metric("flow", "m/s", slope, minimum, rng, why, np.stack([q, volts], axis=1),
-                  *_flow_scale(setup, flow, minimum, rng))
+                  reached, *_flow_scale(setup, flow, minimum, rng))
 
 
 def _flow_scale(setup: Setup, flow: Flow, minimum: float, rng: float) -> tuple[float, float]:
@@ -395,10 +462,11 @@ def _angle_metric(setup: Setup, noise: float, points: int) -> Metric:
     v_pm = setup.output([-h, h])
     slope = float(v_pm[1] - v_pm[0]) / (2.0 * h)
     q = np.linspace(0.0, 0.5 * math.pi, 4 * points)
-    volts = setup.output(q)
-    rng, why = _range(q, volts, setup, "end of sweep (90 deg)")
+    b = setup.field(q)
+    volts = setup.sensor.voltage(b[:, 0])
+    rng, why, reached = _range(q, b, setup, SWEEP_ENDS["angle"])
     return Metric("angle", "rad", slope, noise / abs(slope) if slope else math.inf, rng, why,
-                  np.stack([q, volts], axis=1))
+                  np.stack([q, volts], axis=1), reached)
 
 
 def design_metrics(setup: Setup, fluid: Fluid = WATER,
@@ -410,7 +478,8 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     ----------
     setup : Setup
         The design. Force and flow metrics need ``tip_radius > 0`` (else they are reported as
-        not available).
+        not available). Its layout is resolved at the element (module docstring); the result's
+        ``setup`` is the one used.
     fluid : Fluid
         Fluid for the flow metrics (default water at 20 °C; uniform flow along +x).
     bandwidth : (float, float)
@@ -426,6 +495,7 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
     """
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+    setup = setup.resolve_layout()  # the layout rule at the sensing element
     if not isinstance(fluid, Fluid):
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
     points = v.integer("points", points, 11)

@@ -380,7 +380,9 @@ class Readout(Display):
     Parameters
     ----------
     setup : Setup
-        The (calibrated) sensor setup.
+        The (calibrated) sensor setup; its dipole layout resolved by the layout rule at the
+        sensing element (:meth:`~magcilia.Setup.resolve_layout`: a converged layout converges
+        there, a given one is warned about above 1 % off); ``.setup`` is the setup used.
     quantity : {"angle", "force", "flow"}
         Rigid tilt angle (rad), dead tip force along +x (N; needs ``tip_radius > 0``) or the
         speed of ``flow`` (m/s).
@@ -498,6 +500,7 @@ class Readout(Display):
                  actuation: Actuation | None = None) -> None:
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
+        setup = setup.resolve_layout()  # the layout rule at the sensing element
         quantity = v.choice("quantity", quantity, QUANTITIES)
         unit = MEASURANDS[quantity].unit
         if span is None or np.size(span) != 2:

@@ -15,25 +15,39 @@ Two objectives (:data:`OBJECTIVES`), each a pair of goals and a choice on the pa
 for a single-axis sensor). The *minimum detectable* value is the field noise of one reading over
 the field's slope, combined over the sensor's axes as ``1 / sqrt(Σ (s_i / σ_i)²)`` (s: dB/dF or
 dB/dU on axis i, σ_i its RMS noise; one axis for the HMC1021Z: ``σ / |s|``, as design_metrics).
-The *range* runs from zero load to the first of
+The *range* is the measurand's value where the read-out ends (:func:`~magcilia.readout.design.
+range_end`, as design_metrics), the first of
 
-1. the sensor's range: an axis's |B_i| reaches its full scale (±6 gauss on the HMC1021Z's
-   sensitive axis, interpolated between sweep points);
+1. the sensor's rated range: an axis's |B_i| reaches its full scale (±6 gauss on the HMC1021Z's
+   sensitive axis; ±8 gauss per axis on the MMC5983MA), or the total field |B| reaches the rated
+   range of the total field (the HMC1021Z's datasheet states its ±6 gauss for the total applied
+   field; ``constraints["field"]`` sets another), interpolated between sweep points;
 2. a fold: the reading ``Σ w_i B_i`` with the zero-load weights ``w_i = s_i / σ_i²`` (the best
-   linear read-out; for one axis the output itself) turns back, so readings become ambiguous;
-3. the elastica's large-deflection limit: the force ``3 L / C`` whose *linear* tip deflection
-   would be three cilium heights (C = :func:`magcilia.tip_compliance`), where the cilium is bent
-   far over (design_metrics' "end of sweep"); for flow, the speed whose drag on the upright
-   cilium is that force, or the drag law's Reynolds limit, whichever is lower.
+   linear read-out; for one axis the output itself) turns back, so readings become ambiguous.
+
+The sweep runs to the elastica's large-deflection limit, the force ``3 L / C`` whose *linear* tip
+deflection would be three cilium heights (C = :func:`magcilia.tip_compliance`), where the cilium
+is bent far over; for flow, to the speed whose drag on the upright cilium is that force, or the
+drag law's Reynolds limit, whichever is lower. When the sweep ends before the read-out does, the
+range is *not reached*: its value is the sweep's end, a lower bound (``Candidate.reached`` is
+False, reports print "≥ X"), and a range comparison with it says so.
 
 **Constraints.** Every returned design lies within ``bounds`` (fabrication limits: the registry's
 calibration bounds by default, :data:`DEFAULT_BOUNDS`), has ``tip_radius ≤ base_radius``, keeps
-the sensing element outside the cilium, starts within the sensor's range at zero load, keeps
-|B| below the single-axis part's flip (disturbing) field over its whole range, and meets any of
+the sensing element outside the cilium, starts within the sensor's rated range at zero load
+(the total field included: the rated range is the default constraint), keeps |B| below the
+single-axis part's flip (disturbing) field over its whole range, and meets any of
 ``constraints``: ``{"range": lowest range, "minimum": largest minimum detectable value,
-"field": largest |B| at the element over the range}`` (SI: N for force, m/s for flow, T). The
-Pareto front is that of these feasible designs; the chosen design also meets the objective's
-own requirement (``min_force``; for flow, a range that reaches ``speed``): it is *eligible*.
+"field": the rated range of |B| at the element}`` (SI: N for force, m/s for flow, T; "field"
+replaces the sensor's own, e.g. 20 gauss to let the HMC1021Z's total field go up to its flip
+field). The Pareto front is that of these feasible designs; the chosen design also meets the
+objective's own requirement (``min_force``; for flow, a range that reaches ``speed``): it is
+*eligible*.
+
+**Layouts.** Each design's field comes from a layout converged at the sensing element
+(:meth:`magcilia.Setup.resolve_layout`): the candidates are new designs, so their layouts are
+converged unless the setup asks for the paper's by name (``layout="paper"``: the candidates keep
+it); the reference keeps its own rule (a given layout is used as is, warned about above 1 %).
 
 **Algorithm.** A scrambled Sobol' sample (``scipy.stats.qmc``, seeded by ``rng``) of ``n``
 designs over the bounds (rounded up to a power of two), screened with cheap, vectorised
@@ -67,7 +81,6 @@ from numpy.typing import NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, dataframe, number, rows_table
 from magcilia._errors import MagciliaError
-from magcilia.constants import GAUSS
 from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor
@@ -77,7 +90,13 @@ from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
-from magcilia.readout.design import FOLD_NOTE, SATURATED_AT_ZERO, range_end, sweep_fields
+from magcilia.readout.design import (
+    SWEEP_ENDS,
+    range_end,
+    range_text,
+    rated_ratio,
+    sweep_fields,
+)
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -144,6 +163,17 @@ class SensorChoice:
         if isinstance(s, Sensor):
             return np.array([s.field_range, math.inf, math.inf])
         return np.asarray(s.field_range, dtype=np.float64)
+
+    @property
+    def rated_total(self) -> float:
+        """Rated range of the total field |B|, T: the single-axis element's range (its datasheet
+        states it for the total applied field), inf for a magnetometer (per-axis ranges)."""
+        return self.sensor.field_range if isinstance(self.sensor, Sensor) else math.inf
+
+    def total_limit(self, fixed: Mapping[str, float]) -> float:
+        """The rated range of |B| in force, T: ``fixed["field"]`` when given, else
+        :attr:`rated_total`."""
+        return float(fixed.get("field", self.rated_total))
 
     @property
     def flip(self) -> float:
@@ -291,6 +321,9 @@ class Candidate(Display):
     eligible : bool
         Whether it also meets the objective's own requirement (``min_force``; for flow, a range
         that reaches ``speed``): the chosen design is the best eligible one.
+    reached : bool
+        Whether the read-out's range ends within the sweep (rated range or fold); False: the
+        sweep ended first and ``range`` is a lower bound.
     """
 
     params: dict[str, float]
@@ -303,6 +336,7 @@ class Candidate(Display):
     violated: str = ""
     rank: int = -1
     eligible: bool = False
+    reached: bool = True
 
     @property
     def feasible(self) -> bool:
@@ -320,6 +354,7 @@ class Candidate(Display):
         row["sensor"] = self.sensor
         row[f"minimum_{unit}"] = self.minimum
         row[f"range_{unit}"] = self.range
+        row["range_reached"] = self.reached
         row["limited_by"] = self.limited_by
         row["peak_field_T"] = self.peak_field
         row["rank"] = self.rank
@@ -331,7 +366,7 @@ class Candidate(Display):
         """JSON-ready content (SI)."""
         return {"params": dict(self.params), "sensor": self.sensor,
                 "sensitivity_T_per_unit": self.sensitivity, "minimum": self.minimum,
-                "range": self.range,
+                "range": self.range, "range_reached": self.reached,
                 "limited_by": self.limited_by, "peak_field_T": self.peak_field,
                 "violated": self.violated, "rank": self.rank, "eligible": self.eligible}
 
@@ -341,7 +376,8 @@ class Candidate(Display):
 
     def _display_items(self) -> list[Item]:
         items = [(n, PARAMETERS[n].text(val)) for n, val in self.params.items()]
-        return [("minimum", number(self.minimum)), ("range", number(self.range)),
+        return [("minimum", number(self.minimum)),
+                ("range", ("" if self.reached else "≥ ") + number(self.range)),
                 ("sensor", self.sensor), *items]
 
 
@@ -395,10 +431,26 @@ class DesignOptimum(Display):
 
     @property
     def beats_reference(self) -> bool:
-        """Whether the chosen design has both a larger range and a finer resolution than the
-        reference."""
-        return self.best.range > self.reference.range and \
+        """Whether the chosen design is known to have both a larger range and a finer resolution
+        than the reference: a reference range that was not reached is a lower bound, so no
+        range is known to exceed it."""
+        return self.reference.reached and self.best.range > self.reference.range and \
             self.best.minimum < self.reference.minimum
+
+    @property
+    def comparison(self) -> str:
+        """The chosen design against the reference in words: ``"yes"`` (both better, see
+        :attr:`beats_reference`), ``"no"``, or what is known when the reference's range was
+        not reached."""
+        if self.beats_reference:
+            return "yes"
+        finer = self.best.minimum < self.reference.minimum
+        if self.reference.reached or self.best.range <= self.reference.range:
+            return "no"
+        q = MEASURANDS[self.quantity]
+        return (f"resolution {'finer' if finer else 'not finer'}; range not known to be larger "
+                f"(the reference's range was not reached: ≥ "
+                f"{q.text(self.reference.range, 4)})")
 
     def table(self) -> list[dict[str, Any]]:
         """The front as rows (SI; keys carry their unit: ``height_m``, ``minimum_N``,
@@ -436,14 +488,13 @@ class DesignOptimum(Display):
                   f"refined, {len(self.front)} on the front ({self.seconds:.3g} s)"),
                  f"{'':<10} {'range':>12} {'minimum':>12}   ({what})"]
         for label, d in (("reference", self.reference), ("best", self.best)):
-            lines.append(f"{label:<10} {q.text(d.range, 4):>12} {q.text(d.minimum, 4):>12}   "
+            lines.append(f"{label:<10} {_range_text(d, q):>12} {q.text(d.minimum, 4):>12}   "
                          f"{d.sensor}; {d.limited_by}")
         lines.append("best design: " + ", ".join(
             f"{n} {PARAMETERS[n].text(val, 4)}" for n, val in self.best.params.items()))
-        lines.append("beats the reference in range and resolution: "
-                     + ("yes" if self.beats_reference else "no"))
+        lines.append(f"beats the reference in range and resolution: {self.comparison}")
         lines.append("front (minimum, range):")
-        lines += [f"  {q.text(d.minimum, 4):>12} {q.text(d.range, 4):>12}  {d.sensor}"
+        lines += [f"  {q.text(d.minimum, 4):>12} {_range_text(d, q):>12}  {d.sensor}"
                   for d in self.front]
         lines.append(f"{self.best_setup.modulus.note()}: every range and minimum above scales "
                      "with it")
@@ -451,12 +502,17 @@ class DesignOptimum(Display):
 
     def _display_items(self) -> list[Item]:
         q = MEASURANDS[self.quantity]
-        return [("", self.objective), ("best range", q.text(self.best.range)),
+        return [("", self.objective), ("best range", _range_text(self.best, q)),
                 ("best minimum", q.text(self.best.minimum)), ("sensor", self.best.sensor),
                 ("front", str(len(self.front))), ("screened", str(self.screened))]
 
     def _display_table(self) -> Table | None:
         return rows_table(self.table())
+
+
+def _range_text(d: Candidate, q: Any) -> str:
+    """A design's range in display units, "≥ X" when not reached."""
+    return ("" if d.reached else "≥ ") + q.text(d.range, 4)
 
 
 def _token(unit: str) -> str:
@@ -475,22 +531,22 @@ class _Task:
     bandwidth: tuple[float, float]
     fluid: Fluid
     points: int
+    total: float = math.inf
 
 
-def _range(q: F64, b: F64, choice: SensorChoice, weights: F64, end_note: str
-           ) -> tuple[float, str, int]:
-    """Range from q[0] (first saturation, interpolated, or fold of the weighted reading, else
-    the end of the sweep), what ends it, and the last sweep index within it."""
+def _range(q: F64, b: F64, choice: SensorChoice, weights: F64, end_note: str, total: float
+           ) -> tuple[float, str, int, bool]:
+    """Range from q[0] (the sensor's rated range on its axes or of |B| ≤ ``total``,
+    interpolated, or a fold of the weighted reading; else the end of the sweep: not reached),
+    what ends it, the last sweep index within it and whether it was reached."""
     reading = choice.reading(b)
     scale = choice.full_scale
     proj = reading @ np.where(np.isfinite(weights), weights, 0.0)
-    value, kind, last = range_end(q, np.max(np.abs(reading) / scale, axis=1), proj)
-    if kind == "saturated":
-        axis = int(np.argmax(np.abs(reading[last + 1]) / scale))
-        full = f"±{number(scale[axis] / GAUSS)} gauss" + (f" on {'xyz'[axis]}"
-                                                          if choice.axes == 3 else "")
-        return value, f"sensor range ({full})", last
-    return value, {"zero": SATURATED_AT_ZERO, "fold": FOLD_NOTE, "end": end_note}[kind], last
+    ratio, which = rated_ratio(reading, scale, b, total)
+    value, kind, last = range_end(q, ratio, proj)
+    term = int(which[min(last + 1, which.size - 1)])
+    return (value, range_text(kind, term, scale, total, choice.axes, end_note), last,
+            kind != "end")
 
 
 def _information(slope: F64, sigma: F64) -> float:
@@ -499,8 +555,9 @@ def _information(slope: F64, sigma: F64) -> float:
 
 
 def _evaluate(task: _Task) -> dict[str, Any]:
-    """The exact metrics of one design (a top-level function: runs in worker processes)."""
-    setup, choice = task.setup, task.choice
+    """The exact metrics of one design (a top-level function: runs in worker processes), its
+    layout by the layout rule at the sensing element."""
+    setup, choice = task.setup.resolve_layout(), task.choice
     sigma = choice.sigma(task.bandwidth)
     c = setup.cilium
     f_max = DEFLECTION_LIMIT * c.height / tip_compliance(setup)
@@ -509,7 +566,7 @@ def _evaluate(task: _Task) -> dict[str, Any]:
         b_pm = choice.reading(setup.field(bend_sweep(setup, forces=[-delta, delta])))
         slope = (b_pm[1] - b_pm[0]) / (2.0 * delta)
         q, b, note = sweep_fields(setup, np.linspace(0.0, f_max, task.points), None)
-        end = note or "end of sweep (tip deflection ≈ L)"
+        end = note or SWEEP_ENDS["force"]
     else:
         fluid, u = task.fluid, task.speed
         d = 2.0 * c.max_radius
@@ -519,7 +576,7 @@ def _evaluate(task: _Task) -> dict[str, Any]:
         flow = Flow.uniform(1.0, fluid)
         speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, task.points - 1)])
         q, b, note = sweep_fields(setup, speeds, flow)
-        end = note or ("drag law (Re 2e5)" if u_re <= u_drag else "end of sweep (strongly bent)")
+        end = note or (SWEEP_ENDS["drag"] if u_re <= u_drag else SWEEP_ENDS["flow"])
         if u * 1.01 >= u_max or (q.size and u * 1.01 >= q[-1]):
             slope = np.full(3, math.nan)
         else:
@@ -532,15 +589,15 @@ def _evaluate(task: _Task) -> dict[str, Any]:
     sensitivity = float(np.linalg.norm(slope[np.isfinite(sigma)]))
     if q.size < 2:
         return {"sensitivity": sensitivity, "minimum": minimum, "range": 0.0,
-                "limited_by": note or "no sweep", "peak_field": math.nan}
+                "limited_by": note or "no sweep", "peak_field": math.nan, "reached": False}
     weights = np.nan_to_num(slope / sigma**2, nan=0.0, posinf=0.0, neginf=0.0)
     if not np.any(weights):  # no slope at the operating point: read the largest axis
         weights = np.eye(3)[int(np.argmax(np.abs(choice.reading(b[-1]) - choice.reading(b[0]))
                                           / np.where(np.isfinite(sigma), sigma, np.inf)))]
-    rng, why, last = _range(q, b, choice, weights, end)
+    rng, why, last, reached = _range(q, b, choice, weights, end, task.total)
     peak = float(np.max(np.linalg.norm(b[:last + 1], axis=1)))
-    return {"sensitivity": sensitivity,
-            "minimum": minimum, "range": rng, "limited_by": why, "peak_field": peak}
+    return {"sensitivity": sensitivity, "minimum": minimum, "range": rng, "limited_by": why,
+            "peak_field": peak, "reached": reached}
 
 
 def _evaluate_many(tasks: Sequence[_Task]) -> list[dict[str, Any]]:
@@ -552,7 +609,8 @@ def _evaluate_many(tasks: Sequence[_Task]) -> list[dict[str, Any]]:
         except (ValueError, ArithmeticError) as exc:  # MagciliaError, a singular solve: a
             # design the model refuses is infeasible, not the end of the search
             out.append({"sensitivity": math.nan, "minimum": math.inf, "range": 0.0,
-                        "limited_by": f"model error ({exc})", "peak_field": math.nan})
+                        "limited_by": f"model error ({exc})", "peak_field": math.nan,
+                        "reached": False})
     return out
 
 
@@ -582,7 +640,7 @@ class _Screen:
 
 #: why the screen drops a design, by code (0: it does not)
 _REASONS = ("", "tip_radius <= base_radius", "element outside the cilium",
-            "sensor range at zero load", "flip field", "field")
+            "sensor range at zero load", "flip field")
 #: exact evaluations run in process (no pool) when no more than this many designs are measured
 #: and no scheduler is given: ~0.5 s of work, less than a process pool's start
 SMALL_BATCH = 16
@@ -645,12 +703,13 @@ def _first(mask: NDArray[np.bool_]) -> NDArray[np.int64]:
     return np.where(any_, np.argmax(mask, axis=1), mask.shape[1]).astype(np.int64)
 
 
-def _curve_range(q: F64, reading: F64, choice: SensorChoice, weights: F64, end: F64
-                 ) -> tuple[F64, NDArray[np.int64]]:
-    """Vectorised :func:`_range` of N proxy curves: q (N, a), readings (N, a, 3), weights
-    (N, 3), the sweep's end (N,); returns the ranges (N,) and the last index within each."""
+def _curve_range(q: F64, reading: F64, mags: F64, choice: SensorChoice, weights: F64, end: F64,
+                 total: float) -> tuple[F64, NDArray[np.int64]]:
+    """Vectorised :func:`_range` of N proxy curves: q (N, a), readings (N, a, 3), |B| (N, a),
+    weights (N, 3), the sweep's end (N,), the rated range of |B| (T); returns the ranges (N,)
+    and the last index within each."""
     scale = choice.full_scale
-    ratio = np.max(np.abs(reading) / scale, axis=2)
+    ratio = np.maximum(np.max(np.abs(reading) / scale, axis=2), mags / total)
     i_sat = _first(ratio > 1.0)
     proj = np.einsum("nak,nk->na", reading, weights)
     dp = np.diff(proj, axis=1)
@@ -678,11 +737,12 @@ def _curve_range(q: F64, reading: F64, choice: SensorChoice, weights: F64, end: 
 
 def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64],
             choices: tuple[SensorChoice, ...], quantity: str, speed: float,
-            bandwidth: tuple[float, float], fluid: Fluid, max_field: float = math.inf
+            bandwidth: tuple[float, float], fluid: Fluid, field_limit: float = math.nan
             ) -> _Screen:
-    """Proxy minimum and range of every design (see the module docstring); designs whose proxy
-    |B| over the range passes 1.2 times the flip field or ``max_field`` (T; the proxy's margin)
-    are marked."""
+    """Proxy minimum and range of every design (see the module docstring); the range ends where
+    a read axis or |B| leaves the rated range (``field_limit``, T, for |B|; NaN: each sensor's
+    own), and designs whose proxy |B| over the range passes 1.2 times the flip field (the
+    proxy's margin) are marked."""
     n = values["height"].size
     compliance = _compliance(setup, values)
     length = values["height"]
@@ -731,14 +791,15 @@ def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64
         with np.errstate(divide="ignore"):
             minimum[sel] = np.where(info > 0.0, 1.0 / np.sqrt(info), np.inf)
         weights = np.nan_to_num(slope / sigma**2, nan=0.0, posinf=0.0, neginf=0.0)
-        rng_[sel], last = _curve_range(q, curve, choice, weights, end)
         mags = np.linalg.norm(b_curve[sel], axis=2) if quantity == "force" else \
             np.linalg.norm(_flow_curve(q, d, h, c, b_curve[sel], fluid), axis=2)
+        total = choice.rated_total if math.isnan(field_limit) else field_limit
+        rng_[sel], last = _curve_range(q, curve, mags, choice, weights, end, total)
         idx = np.arange(q.shape[1])[None, :]
         peak[sel] = np.max(np.where(idx <= last[:, None], mags, 0.0), axis=1)
         flip[sel] = choice.flip
-    violated = np.select([~finite, rng_ <= 0.0, peak > 1.2 * flip, peak > 1.2 * max_field],
-                         [2, 3, 4, 5], 0).astype(np.int64)
+    violated = np.select([~finite, rng_ <= 0.0, peak > 1.2 * flip],
+                         [2, 3, 4], 0).astype(np.int64)
     return _Screen(minimum, rng_, violated)
 
 
@@ -833,7 +894,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     setup : Setup, optional
         The starting design: material, model (n, k, ring), sensor and every variable not
         searched; also the reference the result compares against. Default: the paper's
-        Table I cilium with a 0.05 mm tip radius and a converged model (24 × 4, rms).
+        Table I cilium with a 0.05 mm tip radius and a converged model (``layout="converged"``).
     objective : {"force-range", "flow-sensitivity"}
     min_force : float, optional
         Force objective: the minimum detectable force the chosen design must reach, N (default:
@@ -886,7 +947,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     """
     start = time.perf_counter()
     if setup is None:
-        setup = Setup.paper(tip_radius=5e-5, n_loops=24, dipoles_per_loop=4, ring="rms")
+        setup = Setup.paper(tip_radius=5e-5, layout="converged")
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
     objective = v.choice("objective", objective, OBJECTIVES)
@@ -936,7 +997,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     if setup.cilium.profile is None:  # a measured profile scales with the base radius
         geometry_ok = (values["tip_radius"] <= values["base_radius"]) & (values["tip_radius"] > 0)
     args = (setup, choices, quantity, fixed_c.get("speed", 0.0), bandwidth, fluid,
-            fixed_c.get("field", math.inf))
+            fixed_c.get("field", math.nan))
     if total <= SCREEN_CHUNK:
         screen = _screen(setup, values, index, *args[1:])
     else:  # chunks, as tasks through the execution layer
@@ -968,8 +1029,10 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     logger.info("optimise: %d designs screened, %d feasible, %d refined", total,
                 int(ok.sum()), len(chosen))
 
-    # the exact refinement, in chunks of designs per task
-    measure = _Measure(setup, quantity, fixed_c, (float(bandwidth[0]), float(bandwidth[1])),
+    # the exact refinement, in chunks of designs per task; the candidates are new designs: their
+    # layouts converge (each at its element, in the task) unless the paper's is asked for by name
+    designs_from = setup if setup.layout != "given" else setup.replace(layout="converged")
+    measure = _Measure(designs_from, quantity, fixed_c, (float(bandwidth[0]), float(bandwidth[1])),
                        fluid, points, workers, scheduler, progress)
     designs = measure([({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
                        for i in chosen])
@@ -1016,9 +1079,10 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     ranked = {id(d): int(r) for d, r in zip(feasible, ranks_exact, strict=True)}
     designs = [replace(d, rank=ranked.get(id(d), -1)) for d in designs]
     best = _best(designs, quantity)
+    best_setup = _design_setup(designs_from, best.params).resolve_layout()
     return DesignOptimum(
         objective=objective, quantity=quantity, designs=tuple(designs), best=best,
-        reference=reference, best_setup=_design_setup(setup, best.params), bounds=searched,
+        reference=reference, best_setup=best_setup, bounds=searched,
         fixed=fixed_c, screened=total, eliminated=eliminated,
         seconds=time.perf_counter() - start, _unit=_token(MEASURANDS[quantity].unit))
 
@@ -1079,19 +1143,21 @@ def _qmc_sample(dims: int, log2: int, gen: np.random.Generator) -> F64:
 def _task(setup: Setup, choice: SensorChoice, quantity: str, fixed: dict[str, float],
           bandwidth: tuple[float, float], fluid: Fluid, points: int) -> _Task:
     return _Task(setup, choice, quantity, fixed.get("speed", 0.0),
-                 (float(bandwidth[0]), float(bandwidth[1])), fluid, points)
+                 (float(bandwidth[0]), float(bandwidth[1])), fluid, points,
+                 choice.total_limit(fixed))
 
 
 def _design(params: dict[str, float], sensor: str, m: dict[str, Any],
             violated: str) -> Candidate:
     return Candidate(params=params, sensor=sensor, sensitivity=float(m["sensitivity"]),
-                  minimum=float(m["minimum"]), range=float(m["range"]),
-                  limited_by=str(m["limited_by"]), peak_field=float(m["peak_field"]),
-                  violated=violated)
+                     minimum=float(m["minimum"]), range=float(m["range"]),
+                     limited_by=str(m["limited_by"]), peak_field=float(m["peak_field"]),
+                     violated=violated, reached=bool(m["reached"]))
 
 
 def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice) -> str:
-    """The first constraint an exactly measured design breaks ("" for none)."""
+    """The first constraint an exactly measured design breaks ("" for none; the rated range
+    ends the range, so a design beyond it at zero load has none)."""
     if str(m["limited_by"]).startswith("model error"):
         return "model error"
     if m["range"] <= 0.0:
@@ -1104,8 +1170,6 @@ def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice)
         return "minimum"
     if "range" in fixed and m["range"] < fixed["range"]:
         return "range"
-    if "field" in fixed and m["peak_field"] > fixed["field"]:
-        return "field"
     return ""
 
 
