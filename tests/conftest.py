@@ -16,8 +16,6 @@ import matplotlib
 import pytest
 from hypothesis import settings
 
-import magcilia
-
 matplotlib.use("Agg")
 
 settings.register_profile("magcilia", max_examples=40, deadline=None)
@@ -56,6 +54,8 @@ class TreeCommand:
 @pytest.fixture(scope="session")
 def magcilia_command() -> TreeCommand:
     """The command line that runs the magcilia under test (:class:`TreeCommand`)."""
+    import magcilia
+
     return TreeCommand((sys.executable, "-m", "magcilia"),
                        str(Path(magcilia.__file__).resolve().parents[1]))
 
