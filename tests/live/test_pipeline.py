@@ -212,7 +212,7 @@ def test_a_failing_disk_stops_the_recording_not_the_readout(readout: mc.Readout,
 
 def test_a_serial_device_that_stops_sending_is_reported_and_recovers(
         readout: mc.Readout) -> None:
-    """End to end over a pseudo-terminal: the device emulator stalls for 0.8 s; the read-out
+    """End to end over a pseudo-terminal: the device emulator stalls for 2.5 s; the read-out
     says the device stopped, reopens the port and reads on when frames come again."""
     from magcilia.acquire.emulator import DeviceEmulator
     from magcilia.acquire.serial import SerialSource
@@ -220,12 +220,13 @@ def test_a_serial_device_that_stops_sending_is_reported_and_recovers(
     sim = SimulatedSource(SETUP, Script.constant(1e-4, "force"), rate=2000.0, rng=0,
                           readout_noise=2e-5)
     with DeviceEmulator(sim, samples_per_frame=20) as device:
-        live = LiveReadout(SerialSource(device.port, stall=0.3), readout, rate=200,
-                           stall=0.3, reconnect=0.1, tare_at_start=False, tracking=None)
+        # stalls of 1 s: a loaded machine does not starve the emulator that long by chance
+        live = LiveReadout(SerialSource(device.port, stall=1.0), readout, rate=200,
+                           stall=1.0, reconnect=0.1, tare_at_start=False, tracking=None)
         with live:
             first = live.wait(100, timeout=60)  # the port's rate is known at once
             assert [e.kind for e in live.events] == ["start"]
-            device.stall(0.8)
+            device.stall(2.5)
             assert "stopped sending" in _event(live, "disconnected").text
             _event(live, "reconnected")
             after = live.wait(100, timeout=60)

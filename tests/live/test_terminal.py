@@ -232,7 +232,9 @@ def test_unplugged_source_recovers(tmp_path: Path, unplugged: Any) -> None:
     source = unplugged(setup, Script.constant(1e-4, "force"), rate=10000, realtime=True, rng=0,
                        readout_noise=2e-5)
     readout = mc.Readout(setup, "force", span=(-3e-4, 3e-4))
-    live = LiveReadout(source, readout, reconnect=0.2, stall=0.5)
+    # the unplugged source fails at once; a long stall keeps a loaded machine's pauses from
+    # counting as a second disconnection
+    live = LiveReadout(source, readout, reconnect=0.2, stall=5.0)
     stream = io.StringIO()
     with live:
         path = live.start_recording(tmp_path / "r.tdms")
