@@ -377,14 +377,6 @@ def test_write_files_writes_all_or_none(tmp_path: Path) -> None:
 
 # --- SIGKILL at random moments ---------------------------------------------------------------
 
-def console_script() -> Path:
-    script = Path(sys.executable).parent / ("magcilia.exe" if sys.platform == "win32"
-                                            else "magcilia")
-    if not script.exists():
-        pytest.skip(f"no console script at {script} (install the package)")
-    return script
-
-
 def png_complete(data: bytes) -> bool:
     return data.startswith(b"\x89PNG\r\n\x1a\n") and data.endswith(b"IEND\xaeB`\x82")
 
@@ -412,18 +404,18 @@ FUZZ = {
 }
 
 
-def sigkill_fuzz(tmp_path: Path, command: str, kills: int, seed: int) -> Counter[str]:
+def sigkill_fuzz(tmp_path: Path, command: str, kills: int, seed: int,
+                 magcilia: Any) -> Counter[str]:
     """Run the command to completion (its duration T), then ``kills`` times killed at a seeded
     random moment in (0.1 T, 1.1 T), alternately onto an absent target and with --force onto a
     complete one; after each kill the target is absent or complete. A last complete run leaves no
     staging folder. Returns how the kills landed."""
-    script = console_script()
     args, expected = FUZZ[command]
     out = tmp_path / "out"
-    env = {**os.environ, "MPLBACKEND": "Agg"}
+    env = magcilia.env(MPLBACKEND="Agg")
 
     def start() -> subprocess.Popen[bytes]:
-        return subprocess.Popen([str(script), *args, "--out", str(out), "--force"],
+        return subprocess.Popen([*magcilia.argv, *args, "--out", str(out), "--force"],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
 
     began = time.perf_counter()
@@ -464,13 +456,14 @@ def sigkill_fuzz(tmp_path: Path, command: str, kills: int, seed: int) -> Counter
 
 @posix_only
 @pytest.mark.parametrize("command", list(FUZZ))
-def test_sigkill_at_random_moments(tmp_path: Path, command: str) -> None:
-    sigkill_fuzz(tmp_path, command, kills=4, seed=12)
+def test_sigkill_at_random_moments(tmp_path: Path, command: str, magcilia_command: Any) -> None:
+    sigkill_fuzz(tmp_path, command, kills=4, seed=12, magcilia=magcilia_command)
 
 
 @posix_only
 @pytest.mark.skipif(os.environ.get("MAGCILIA_FUZZ") != "long",
                     reason="20 SIGKILLs per command take minutes: set MAGCILIA_FUZZ=long")
 @pytest.mark.parametrize("command", list(FUZZ))
-def test_sigkill_at_random_moments_long(tmp_path: Path, command: str) -> None:
-    sigkill_fuzz(tmp_path, command, kills=20, seed=2024)
+def test_sigkill_at_random_moments_long(tmp_path: Path, command: str,
+                                        magcilia_command: Any) -> None:
+    sigkill_fuzz(tmp_path, command, kills=20, seed=2024, magcilia=magcilia_command)

@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import re
 import signal
 import socket
-import time
+import threading
 
 import pytest
 
@@ -72,17 +73,34 @@ def test_a_worker_that_always_dies_is_reported_failed() -> None:
 
 
 def test_unreachable_scheduler_is_a_one_line_error_within_the_timeout() -> None:
+    """The given timeout (1 s) ends the attempt, not Dask's own connect timeout: that is set
+    to an hour here, so a run that ignored ours would hang past the 120 s guard (a guard
+    against a hang, not a speed check)."""
     pytest.importorskip("distributed")
+    import dask
+
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    t0 = time.perf_counter()
-    with pytest.raises(MagciliaError, match=r"cannot reach the Dask scheduler at "
-                                            rf"tcp://127\.0\.0\.1:{port} within 1 s") as err:
-        run_tasks(math.sqrt, TASKS, scheduler=f"tcp://127.0.0.1:{port}", timeout=1.0,
-                  progress=False)
-    assert time.perf_counter() - t0 < 8.0
-    assert "\n" not in str(err.value)
+    raised: list[BaseException] = []
+
+    def attempt() -> None:
+        try:
+            run_tasks(math.sqrt, TASKS, scheduler=f"tcp://127.0.0.1:{port}", timeout=1.0,
+                      progress=False)
+        except Exception as exc:  # noqa: BLE001 (kept for the main thread to look at)
+            raised.append(exc)
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "3600s"}):
+        worker = threading.Thread(target=attempt, daemon=True)
+        worker.start()
+        worker.join(120)
+    assert not worker.is_alive(), "the 1 s timeout was not honoured"
+    (err,) = raised
+    assert isinstance(err, MagciliaError)
+    assert re.search(rf"cannot reach the Dask scheduler at tcp://127\.0\.0\.1:{port} within 1 s",
+                     str(err)), err
+    assert "\n" not in str(err)
 
 
 def test_scheduler_from_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -135,11 +153,10 @@ def test_a_failing_callback_stops_the_run() -> None:
         calls.append(result.key)
         raise RuntimeError("disk full")
 
-    t0 = time.perf_counter()
     tasks = [(f"s{i}", range(2_000_000)) for i in range(40)]
     with pytest.raises(RuntimeError, match="disk full"):
         run_tasks(sum, tasks, workers=2, progress=False, on_result=fail)
-    assert calls == calls[:1] and time.perf_counter() - t0 < 20.0
+    assert calls == calls[:1]  # no result handed on after the failure
 
 
 @pytest.mark.parametrize("method", sorted(set(multiprocessing.get_all_start_methods())

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import sys
-import time
 from typing import Any
 
 import numpy as np
@@ -132,7 +131,9 @@ def test_unequal_modes_are_weighted_by_their_evidence() -> None:
     assert np.mean(post.samples[:, 0] > 0) == pytest.approx(0.75, abs=0.02)
 
 
-def test_six_parameters_with_1000_effective_samples_well_under_a_minute() -> None:
+def test_six_parameters_with_1000_effective_samples() -> None:
+    """A correlated 6-D Gaussian: converged with 1000 effective samples, the right spread.
+    (How long it takes, issue 14's ≤ 60 s, is measured by benchmarks/bench_posterior.py.)"""
     gen = np.random.default_rng(1)
     a = gen.standard_normal((6, 6))
     cov = a @ a.T + 0.5 * np.eye(6)
@@ -143,12 +144,9 @@ def test_six_parameters_with_1000_effective_samples_well_under_a_minute() -> Non
         d = P - mu
         return -0.5 * np.einsum("ni,ij,nj->n", d, prec, d)
 
-    t0 = time.perf_counter()
     post = sample_posterior(log_prob, mu, names=[f"p{i}" for i in range(6)],
                             bounds=np.c_[mu - 100, mu + 100], n_effective=1000, rng=0)
-    seconds = time.perf_counter() - t0
     assert post.converged and post.ess.min() >= 1000
-    assert seconds < 20.0, seconds  # ~0.5 s unloaded; the issue asks ≤ 60 s
     np.testing.assert_allclose(post.sd, np.sqrt(np.diag(cov)), rtol=0.08)
 
 

