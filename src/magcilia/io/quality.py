@@ -1,7 +1,7 @@
 """Is a recording fit to be fitted? Checks of its raw samples before they are reduced, so that a
 single bad value cannot move a fit without a word.
 
-Three findings, each counted and named (:class:`RecordingQuality`):
+Four findings, each counted and named (:class:`RecordingQuality`):
 
 - **sparse conditions**: a condition (tilt angle or load, at an azimuth) holding at most
   :data:`SPARSE_FRACTION` of the median number of samples of the recording's conditions: a
@@ -22,7 +22,10 @@ Three findings, each counted and named (:class:`RecordingQuality`):
   earlier run bit for bit, in every column read (the time stamps too, where the file has them),
   each row of the run distinct from the others in it (so that a constant or periodic signal
   without time stamps is not mistaken for copies): an export or a copy gone wrong. The later
-  copies are the duplicates.
+  copies are the duplicates;
+- **garbled values**: a condition, azimuth or observable value that is not zero but smaller in
+  magnitude than :data:`TINY` (1e-100 of its unit: no instrument resolves that; it is what a
+  damaged exponent of a double looks like, as huge values are, which the range checks refuse).
 
 The functions take plain arrays (pure, vectorised NumPy: per condition an O(n) selection after
 one sort of the condition labels, which a recording keeps in runs; duplicates by 64-bit hashes of
@@ -57,6 +60,8 @@ OUTLIER_SIGMAS = 8.0
 OUTLIER_MIN_SAMPLES = 30
 #: the shortest run of rows that, repeating an earlier run, is a duplicated block
 DUPLICATE_ROWS = 16
+#: a value smaller than this in magnitude, but not zero, is garbled (a damaged exponent)
+TINY = 1e-100
 #: what a reader does with the samples flagged: keep them (and say so), omit them (and say so),
 #: or refuse the recording
 SUSPECT_POLICIES = ("keep", "omit", "raise")
@@ -317,8 +322,8 @@ class RecordingQuality(Display):
     flagged : ndarray of int, shape (f,)
         Every flagged row (0-based, increasing): the sparse conditions' samples, the outliers
         and the duplicates.
-    outliers, duplicates : int
-        Outlier samples, duplicated rows.
+    outliers, duplicates, garbled : int
+        Outlier samples, duplicated rows, samples with a garbled value.
     policy : str
         What was done with the flagged samples: ``"keep"`` (fitted, and said) or ``"omit"``.
     """
@@ -336,6 +341,7 @@ class RecordingQuality(Display):
     flagged: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
     outliers: int = 0
     duplicates: int = 0
+    garbled: int = 0
     policy: str = "keep"
 
     def __post_init__(self) -> None:
@@ -371,6 +377,9 @@ class RecordingQuality(Display):
                 text += ": " + _listed([f"{n} at {w}" for w, n in
                                         zip(where, self.outlier_counts, strict=True)])
             out.append(text)
+        if self.garbled:
+            out.append(f"{count(self.garbled, 'sample')} with a value too small to be measured "
+                       f"(0 < |x| < {TINY:g}: a damaged exponent)")
         if self.duplicates:
             out.append(f"{count(self.duplicates, 'row')} repeating earlier rows bit for bit ("
                        + _listed([f"rows {b + 1}–{b + n} repeat rows {c + 1}–{c + n}"
@@ -398,7 +407,8 @@ class RecordingQuality(Display):
                 "outlier_values": self.outlier_values.tolist(),
                 "outlier_azimuths_rad": self.outlier_azimuths.tolist(),
                 "outlier_counts": self.outlier_counts.tolist(), "duplicates": self.duplicates,
-                "duplicate_blocks": self.blocks.tolist(), "policy": self.policy}
+                "duplicate_blocks": self.blocks.tolist(), "garbled": self.garbled,
+                "policy": self.policy}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RecordingQuality:
@@ -417,12 +427,13 @@ class RecordingQuality(Display):
                 blocks=np.asarray(data["duplicate_blocks"], np.int64).reshape(-1, 3),
                 flagged=np.full(int(data["flagged"]), -1, np.int64),
                 outliers=int(data["outliers"]), duplicates=int(data["duplicates"]),
-                policy=str(data["policy"]))
+                garbled=int(data.get("garbled", 0)), policy=str(data["policy"]))
 
     def _display_items(self) -> list[Item]:
         return [("samples", str(self.samples)), ("flagged", str(int(self.flagged.size))),
                 ("sparse conditions", str(self.sparse_counts.size)),
                 ("outliers", str(self.outliers)), ("duplicated rows", str(self.duplicates)),
+                ("garbled", str(self.garbled)),
                 ("policy", self.policy)]
 
 
@@ -499,17 +510,21 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
             outlier_values=distinct.imag[has] / unit_factor,
             outlier_azimuths=np.radians(distinct.real[has]), outlier_counts=per[has])
     duplicate, blocks = duplicated_rows(list(columns if rows is None else rows))
-    flagged |= outlier | duplicate
+    garbled = np.zeros(s, dtype=bool)
+    for column in columns:
+        magnitude = np.abs(np.asarray(column, dtype=np.float64))
+        garbled |= (magnitude > 0.0) & (magnitude < TINY)
+    flagged |= outlier | duplicate | garbled
     quality.update(outliers=int(outlier.sum()), duplicates=int(duplicate.sum()), blocks=blocks,
-                   flagged=np.flatnonzero(flagged).astype(np.int64))
+                   garbled=int(garbled.sum()), flagged=np.flatnonzero(flagged).astype(np.int64))
     return RecordingQuality(**quality)
 
 
 def quality_counts(data: Mapping[str, Any] | None) -> dict[str, int]:
     """The counts of a :meth:`RecordingQuality.to_dict` (for tables and summaries): flagged
-    samples, sparse conditions, outliers, duplicated rows (zeros for None)."""
+    samples, sparse conditions, outliers, duplicated rows, garbled values (zeros for None)."""
     data = data or {}
     return {"flagged": int(data.get("flagged", 0)),
             "sparse_conditions": len(data.get("sparse_counts") or []),
             "outliers": int(data.get("outliers", 0)),
-            "duplicates": int(data.get("duplicates", 0))}
+            "duplicates": int(data.get("duplicates", 0)), "garbled": int(data.get("garbled", 0))}

@@ -162,6 +162,9 @@ Progress = Callable[[int, int], None]
 MAX_ANGLE_DEG = 360.0
 #: Largest |tilt azimuth| accepted, deg (as the angle).
 MAX_AZIMUTH_DEG = 360.0
+#: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
+#: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
+MAX_FIELD_T = 100.0
 #: Most samples per column in any format (4 columns × 8 bytes × 50 million = 1.6 GB of arrays).
 MAX_SAMPLES = 50_000_000
 #: Longest CSV line, characters (a recording's line is tens of characters).
@@ -263,7 +266,8 @@ class _Reduction:
         condition = cols.get("angle_deg")
         for kind, (key, factor, _) in LOAD_UNITS.items():
             if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
-                self.load, condition = kind, cols[key] * factor
+                with np.errstate(over="ignore"):  # (a huge load is not finite: counted)
+                    self.load, condition = kind, cols[key] * factor
         assert condition is not None  # (the readers require an angle or a load column)
         self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
                  azimuth=cols.get("azimuth_deg"), fields=fields)
@@ -312,6 +316,16 @@ class _Reduction:
         else:
             bad = ~(finite & np.isfinite(fields[0]) & np.isfinite(fields[1])
                     & np.isfinite(fields[2]))
+            comps = np.stack(fields)
+            far = np.asarray(np.abs(comps) > MAX_FIELD_T)  # (NaN: not far)
+
+            def far_field(i: int) -> str:
+                j = int(np.argmax(far[:, i]))
+                return (f"{source}: sample {offset + i + 1} has {FIELD_KEYS[j]}="
+                        f"{comps[j, i]:.6g}, beyond ±MAX_FIELD_T = {MAX_FIELD_T:g} T; the field "
+                        "columns must be in tesla (check the columns and their units)")
+
+            self._note("far_field", np.asarray(far.any(axis=0)), far_field)
         if sr is not None:
             bad |= (sr != 1.0) & (sr != -1.0)
         if self.nan_policy == "raise":
@@ -427,7 +441,7 @@ class _Reduction:
         source = self.source
         if not self.samples:
             raise v.fail(f"{source}", "no samples", "a recording with at least two angles")
-        for kind in ("far", "far_azimuth", "bad", "saturated"):
+        for kind in ("far", "far_azimuth", "bad", "far_field", "saturated"):
             if kind in self.problems:
                 raise MagciliaError(self.problems[kind])
         n, hi, lo, _ = self.stats
@@ -933,7 +947,8 @@ def _quality(cols: Mapping[str, F64], policy: str) -> RecordingQuality:
     kind, condition = "angle", cols.get("angle_deg")
     for name, (key, factor, _) in LOAD_UNITS.items():
         if key in cols:
-            kind, condition = name, cols[key] * factor
+            with np.errstate(over="ignore"):  # (a huge load is not finite: not judged)
+                kind, condition = name, cols[key] * factor
     assert condition is not None  # (the readers require an angle or a load column)
     azimuth = cols.get("azimuth_deg")
     fields = [cols[k] for k in FIELD_KEYS if k in cols]
