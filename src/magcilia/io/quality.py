@@ -325,7 +325,8 @@ class RecordingQuality(Display):
     outliers, duplicates, garbled : int
         Outlier samples, duplicated rows, samples with a garbled value.
     policy : str
-        What was done with the flagged samples: ``"keep"`` (fitted, and said) or ``"omit"``.
+        What is done with the flagged samples: ``"keep"`` (used, and said), ``"omit"`` (left
+        out, and said) or ``"raise"`` (the recording refused).
     """
 
     samples: int
@@ -391,8 +392,8 @@ class RecordingQuality(Display):
         found = self.findings()
         if not found:
             return f"quality: {self.samples} samples checked, nothing flagged"
-        done = ("kept in the fit (omit them: --suspect omit)" if self.policy == "keep"
-                else "left out of the fit")
+        done = {"keep": "kept (omit them: --suspect omit)", "omit": "left out",
+                "raise": "the reason the recording is refused"}[self.policy]
         n = int(self.flagged.size)
         these = "this sample is" if n == 1 else f"these {n} samples are"
         return f"quality: {'; '.join(found)}; {these} {done}"
@@ -409,6 +410,12 @@ class RecordingQuality(Display):
                 "outlier_counts": self.outlier_counts.tolist(), "duplicates": self.duplicates,
                 "duplicate_blocks": self.blocks.tolist(), "garbled": self.garbled,
                 "policy": self.policy}
+
+    def kept(self, columns: Mapping[str, NDArray[Any]]) -> dict[str, NDArray[Any]]:
+        """``columns`` (shapes (s,), the samples checked) without the flagged rows."""
+        keep = np.ones(self.samples, dtype=bool)
+        keep[self.flagged] = False
+        return {k: np.asarray(a)[keep] for k, a in columns.items()}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RecordingQuality:
@@ -460,8 +467,7 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
         What ``condition`` is a value of; its values are in deg, uN or mm/s (the grouping units
         of :mod:`magcilia.io.recordings`) and the result holds them in SI.
     policy : {"keep", "omit", "raise"}
-        Kept in the result (what the caller does with the flagged samples; "raise" is the
-        caller's to raise).
+        Kept in the result (what the caller does with the flagged samples).
 
     Returns
     -------
@@ -477,7 +483,7 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
     sign = None if polarity is None else np.asarray(polarity, dtype=np.float64).ravel()
     if sign is not None:
         finite &= (sign == 1.0) | (sign == -1.0)
-    quality: dict[str, Any] = {"samples": s, "policy": "omit" if policy == "omit" else "keep"}
+    quality: dict[str, Any] = {"samples": s, "policy": policy}
     flagged = np.zeros(s, dtype=bool)
     if condition is None:
         outlier = np.zeros(s, dtype=bool)

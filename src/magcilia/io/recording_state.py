@@ -127,6 +127,13 @@ class RecordingState(Display):
         distinct, times = np.unique(planned, return_counts=True)
         return np.asarray(distinct, dtype=np.float64), times.astype(np.int64)
 
+    def incomplete_note(self) -> str | None:
+        """``the recording is incomplete (…)`` for a recording cut short, else None."""
+        if self.complete is not False:
+            return None
+        return ("the recording is incomplete (complete=False: it was cut short"
+                + (f"; {self.stopped})" if self.stopped else ")"))
+
     def missing_angles(self, angles_deg: ArrayLike) -> F64:
         """The planned angles (deg) that ``angles_deg`` (the recorded ones) lacks; empty without
         a plan."""
@@ -155,9 +162,9 @@ class RecordingState(Display):
         plan = self._planned()
         missing = self.missing_angles(recorded)
         out: list[str] = []
-        if self.complete is False:
-            text = "the recording is incomplete (complete=False: it was cut short"
-            text += f"; {self.stopped})" if self.stopped else ")"
+        incomplete = self.incomplete_note()
+        if incomplete is not None:
+            text = incomplete
             if plan is not None:
                 text += (f"; {plan[0].size - missing.size} of {plan[0].size} planned angles "
                          "recorded" + (f", missing {_degrees(missing)}" if missing.size else ""))

@@ -941,27 +941,53 @@ def read_measurements(
     return _measure(start, raw, policy)
 
 
-def _quality(cols: Mapping[str, F64], policy: str) -> RecordingQuality:
-    """The quality checks (:mod:`magcilia.io.quality`) of a reader's columns, the conditions
-    grouped as the reduction groups them."""
-    kind, condition = "angle", cols.get("angle_deg")
+def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> RecordingQuality:
+    """The quality checks (:mod:`magcilia.io.quality`) of a recording's raw columns (as
+    :func:`read_samples` returns them), the conditions grouped as :func:`read_measurements`
+    groups them; a recording without an angle or load column is a time series (spikes instead
+    of outliers within conditions, no sparse conditions).
+
+    Parameters
+    ----------
+    columns : mapping of str to ndarray, shape (s,)
+        The columns by key (``angle_deg`` or a load, ``azimuth_deg``, ``voltage_V`` or the
+        field components, ``setreset``, ``time_s``).
+    suspect : {"keep", "omit", "raise"}
+        Kept in the result as its policy (what the caller does with the samples flagged).
+
+    Returns
+    -------
+    RecordingQuality
+    """
+    kind, condition = "angle", columns.get("angle_deg")
     for name, (key, factor, _) in LOAD_UNITS.items():
-        if key in cols:
+        if key in columns:
             with np.errstate(over="ignore"):  # (a huge load is not finite: not judged)
-                kind, condition = name, cols[key] * factor
-    assert condition is not None  # (the readers require an angle or a load column)
-    azimuth = cols.get("azimuth_deg")
-    fields = [cols[k] for k in FIELD_KEYS if k in cols]
-    observable = np.stack(fields, axis=1) if fields else cols["voltage_V"]
+                kind, condition = name, columns[key] * factor
+    azimuth = columns.get("azimuth_deg")
+    fields = [columns[k] for k in FIELD_KEYS if k in columns]
+    observable = np.stack(fields, axis=1) if fields else columns["voltage_V"]
     with np.errstate(invalid="ignore", over="ignore"):
         return check_samples(
-            np.round(condition, ANGLE_DECIMALS), observable,
-            azimuth=None if azimuth is None else np.round(azimuth, ANGLE_DECIMALS),
-            polarity=cols.get("setreset"), rows=list(cols.values()), kind=kind, policy=policy)
+            None if condition is None else np.round(condition, ANGLE_DECIMALS), observable,
+            azimuth=(None if azimuth is None or condition is None
+                     else np.round(azimuth, ANGLE_DECIMALS)),
+            polarity=columns.get("setreset"), rows=list(columns.values()), kind=kind,
+            policy=suspect)
+
+
+def refuse_suspects(source: str, quality: RecordingQuality) -> None:
+    """The error for a recording whose samples the quality checks flagged, under the policy
+    ``"raise"``; nothing otherwise."""
+    if quality.found and quality.policy == "raise":
+        raise MagciliaError(f"{source}: {'; '.join(quality.findings())}; clean the "
+                            "recording, or pass suspect='omit' to leave them out or 'keep' to "
+                            "keep them (CLI: --suspect omit|keep)")
 
 
 def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) -> Measurement:
-    """A reader's columns reduced (the reduction's errors first), checked (:func:`_quality`),
+    """A reader's columns reduced (the reduction's errors first), checked
+    (:func:`check_quality`),
     the flagged samples kept, omitted (reduced again without them) or refused by ``policy``, and
     the notes of the reader, the file and the checks kept in the measurement's metadata
     (``notes``, ``recording``, ``quality``)."""
@@ -970,16 +996,11 @@ def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) ->
     reduction.add_columns(cols)
     m = reduction.measurement()
     source = reduction.source
-    quality = _quality(cols, policy)
-    if quality.found and policy == "raise":
-        raise MagciliaError(f"{source}: {quality.report().removeprefix('quality: ')}; "
-                            "clean the recording, or pass suspect='omit' to leave them out "
-                            "or 'keep' to fit them (CLI: --suspect omit|keep)")
+    quality = check_quality(cols, policy)
+    refuse_suspects(source, quality)
     if quality.found and policy == "omit":
-        keep = np.ones(next(iter(cols.values())).size, dtype=bool)
-        keep[quality.flagged] = False
         reduction = start()
-        reduction.add_columns({k: a[keep] for k, a in cols.items()})
+        reduction.add_columns(quality.kept(cols))
         m = reduction.measurement()
     state = raw.state
     notes = list(raw.notes)

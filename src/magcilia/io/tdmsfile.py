@@ -100,16 +100,16 @@ def nptdms_warnings() -> Iterator[list[str]]:
     found: list[str] = []
     handler = _Collect(found)
     loggers = _nptdms_loggers()
-    saved = [(log.level, log.propagate) for log in loggers]
-    for log in loggers:
+    saved = [(log.level, log.propagate, log.handlers) for log in loggers]
+    for log in loggers:  # npTDMS's own console handler set aside: it would print them
         log.setLevel(logging.WARNING)
         log.propagate = False
-        log.addHandler(handler)
+        log.handlers = [handler]
     try:
         yield found
     finally:
-        for log, (level, propagate) in zip(loggers, saved, strict=True):
-            log.removeHandler(handler)
+        for log, (level, propagate, handlers) in zip(loggers, saved, strict=True):
+            log.handlers = handlers
             log.setLevel(level)
             log.propagate = propagate
 
@@ -280,10 +280,11 @@ def _read_whole(path: Path, chosen: dict[str, tuple[str, Any, float]]) -> dict[s
 
 
 def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segments: int,
-                 problems: list[str]) -> dict[str, F64]:
+                 problems: list[str], cut: bool) -> dict[str, F64]:
     """The channels of a magcilia recording read chunk by chunk, checking that each chunk holds
-    the same number of values of every channel read of the ``recording`` group, and that there
-    are no more chunks than segments with data (the writer makes one chunk per segment)."""
+    the same number of values of every channel read of the ``recording`` group (but the last
+    one of a file ``cut`` inside it), and that there are no more chunks than segments with data
+    (the writer makes one chunk per segment)."""
     parts: dict[str, list[F64]] = {k: [] for k in chosen}
     chunks = 0
     uneven = None
@@ -298,7 +299,7 @@ def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segm
                 lengths[key] = values.size
         if uneven is None and len(set(lengths.values())) > 1:
             uneven = chunks
-    if uneven is not None:
+    if uneven is not None and not (cut and uneven == chunks):
         problems.append(f"chunk {uneven} holds different numbers of values of the channels "
                         "(the table of contents or a channel's length is damaged)")
     if chunks > data_segments:
@@ -362,7 +363,8 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
                     problems.append("a segment's table of contents marks its data big-endian "
                                     "or interleaved, which magcilia never writes")
                 data_segments = sum(1 for s in found if s.end is None or s.end > s.data)
-                out = _read_chunks(tdms, chosen, data_segments, problems)
+                cut_inside = bool(found) and (found[-1].end is None or found[-1].end > size)
+                out = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
             else:
                 out = _read_whole(path, chosen)
     notes = list(dict.fromkeys([*problems, *(warning_note(w) for w in warned)]))
@@ -372,7 +374,8 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
         cut = max(a.size for a in out.values()) - n
         out = {k: a[:n] for k, a in out.items()}
         if cut:
-            notes.append(f"{cut} value(s) of a sample cut in half by the stop were left out")
+            notes.append(f"the last {cut} value(s) of the longer channels (samples cut in half "
+                         "by the stop) were left out")
     n = min((a.size for a in out.values()), default=0)
     state.require_samples(path, n)
     if state.samples is not None and state.complete and n != state.samples and "recording" in {
