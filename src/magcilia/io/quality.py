@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, count
-from magcilia.io.moments import by_value
+from magcilia.io.moments import by_value, runs
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -91,28 +91,45 @@ def sparse_conditions(counts: ArrayLike, fraction: float = SPARSE_FRACTION) -> N
     return np.asarray(n <= fraction * float(np.median(n)))
 
 
-def _group_slices(group: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp],
-                                                    NDArray[np.intp]]:
-    """The order that sorts ``group`` (stable: a recording's runs stay runs), and the start and
-    length of each group's slice in it."""
+def _group_rows(group: NDArray[np.intp]) -> list[slice] | list[NDArray[np.intp]]:
+    """Each group's rows: slices when every group is one run of rows (a recording keeps each
+    condition's samples together: no sort), else index arrays from one stable sort."""
+    starts, lengths = runs(group)
+    if np.unique(group[starts]).size == starts.size:
+        return [slice(a, a + n) for a, n in zip(starts.tolist(), lengths.tolist(), strict=True)]
     order = np.argsort(group, kind="stable")
     ordered = group[order]
-    starts = np.flatnonzero(np.concatenate(([True], ordered[1:] != ordered[:-1])))
-    return order, starts, np.diff(starts, append=ordered.size)
+    cut = np.flatnonzero(ordered[1:] != ordered[:-1]) + 1
+    return np.split(order, cut)
 
 
-def robust_outliers(group: ArrayLike, values: ArrayLike, *, sigmas: float = OUTLIER_SIGMAS,
+def _outliers(part: F64, sigmas: float) -> NDArray[np.bool_]:
+    """Which rows of ``part`` (shape (n, w)) lie beyond ``sigmas`` robust SDs of its median."""
+    med = np.median(part, axis=0)
+    dev = np.abs(part - med)
+    scale = MAD_SIGMA * np.median(dev, axis=0)
+    for j in np.flatnonzero(scale == 0.0):  # quantised: the smallest non-zero deviation
+        positive = dev[:, j][dev[:, j] > 0.0]
+        scale[j] = positive.min() if positive.size else np.inf
+    with np.errstate(invalid="ignore"):
+        return np.asarray((dev > sigmas * scale).any(axis=1))
+
+
+def robust_outliers(group: ArrayLike, values: ArrayLike, polarity: ArrayLike | None = None, *,
+                    sigmas: float = OUTLIER_SIGMAS,
                     min_samples: int = OUTLIER_MIN_SAMPLES) -> NDArray[np.bool_]:
     """Which samples lie more than ``sigmas`` robust standard deviations (1.4826 × MAD, floored
     at the smallest non-zero deviation: the quantum of quantised data) from the median of their
-    group, in groups of at least ``min_samples``.
+    group (and polarity), in groups of at least ``min_samples``.
 
     Parameters
     ----------
     group : array-like of int, shape (s,)
-        Each sample's group (a condition, and its polarity).
+        Each sample's group (a condition).
     values : array-like, shape (s,) or (s, w)
         The samples (any unit); with several columns, a sample is an outlier if any column is.
+    polarity : array-like, shape (s,), optional
+        +1/−1 set/reset marks: each polarity of a group is judged on its own.
 
     Returns
     -------
@@ -126,23 +143,20 @@ def robust_outliers(group: ArrayLike, values: ArrayLike, *, sigmas: float = OUTL
     """
     key = np.asarray(group, dtype=np.intp).ravel()
     x = _table(values)
+    sign = None if polarity is None else np.asarray(polarity).ravel() > 0
     out = np.zeros(key.size, dtype=bool)
     if key.size == 0:
         return out
-    order, starts, lengths = _group_slices(key)
-    for s, n in zip(starts.tolist(), lengths.tolist(), strict=True):
-        if n < min_samples:
-            continue
-        rows = order[s:s + n]
+    for rows in _group_rows(key):
         part = x[rows]
-        med = np.median(part, axis=0)
-        dev = np.abs(part - med)
-        scale = MAD_SIGMA * np.median(dev, axis=0)
-        for j in np.flatnonzero(scale == 0.0):  # quantised: the smallest non-zero deviation
-            positive = dev[:, j][dev[:, j] > 0.0]
-            scale[j] = positive.min() if positive.size else np.inf
-        with np.errstate(invalid="ignore"):
-            out[rows] = (dev > sigmas * scale).any(axis=1)
+        if sign is None:
+            if part.shape[0] >= min_samples:
+                out[rows] = _outliers(part, sigmas)
+            continue
+        index = np.arange(key.size)[rows]
+        for side in (sign[rows], ~sign[rows]):
+            if np.count_nonzero(side) >= min_samples:
+                out[index[side]] = _outliers(part[side], sigmas)
     return out
 
 
@@ -238,19 +252,24 @@ def duplicated_rows(rows: ArrayLike | list[ArrayLike], length: int = DUPLICATE_R
     if s < 2 * length:
         return none
     h = _row_hashes(columns)
+    m = s - length + 1
+    window = np.zeros(m, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(length):
+            window *= np.uint64(0x100000001B3)
+            window += h[k:k + m]
+    ordered = np.sort(window)  # the common case: no window repeats, one sort says so
+    if not (ordered[1:] == ordered[:-1]).any():
+        return none
+    del ordered
     order = np.argsort(h, kind="stable")  # each row's previous equal row (-1: none)
     same = np.concatenate(([False], h[order][1:] == h[order][:-1]))
     prev = np.full(s, -1, np.int64)
     prev[order[same]] = order[np.flatnonzero(same) - 1]
     del order, same
-    m = s - length + 1
-    window = np.zeros(m, dtype=np.uint64)
     latest = np.full(m, -1, np.int64)  # the latest previous occurrence of a row in the window
-    with np.errstate(over="ignore"):
-        for k in range(length):
-            window *= np.uint64(0x100000001B3)
-            window += h[k:k + m]
-            np.maximum(latest, prev[k:k + m], out=latest)
+    for k in range(length):
+        np.maximum(latest, prev[k:k + m], out=latest)
     starts = np.arange(m)
     distinct = latest < starts
     del latest, prev
@@ -485,29 +504,34 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
         finite &= (sign == 1.0) | (sign == -1.0)
     quality: dict[str, Any] = {"samples": s, "policy": policy}
     flagged = np.zeros(s, dtype=bool)
+    outlier = np.zeros(s, dtype=bool)
     if condition is None:
-        outlier = np.zeros(s, dtype=bool)
-        use = np.flatnonzero(finite)
+        use: slice | NDArray[np.intp] = slice(None) if finite.all() else np.flatnonzero(finite)
         outlier[use] = spikes(y[use], None if sign is None else sign[use])
         quality["condition"] = "time"
     else:
         cond = np.asarray(condition, dtype=np.float64).ravel()
-        az = (np.zeros(s) if azimuth is None
-              else np.asarray(azimuth, dtype=np.float64).ravel())
-        columns += [cond, az]
-        finite &= np.isfinite(cond) & np.isfinite(az)
-        use = np.flatnonzero(finite)
-        key = np.empty(use.size, np.complex128)
-        key.real, key.imag = az[use], cond[use]
-        distinct, group = by_value(key)
+        az = None if azimuth is None else np.asarray(azimuth, dtype=np.float64).ravel()
+        columns += [cond] if az is None else [cond, az]
+        finite &= np.isfinite(cond) & (True if az is None else np.isfinite(az))
+        use = slice(None) if finite.all() else np.flatnonzero(finite)
+        if az is None:  # grouped by the value alone (as the reduction does), at azimuth 0
+            values, group = by_value(cond[use])
+            distinct = values.astype(np.complex128) * 1j
+        else:
+            key = np.empty(cond[use].size, np.complex128)
+            key.real, key.imag = az[use], cond[use]
+            distinct, group = by_value(key)
+            del key
         counts = np.bincount(group, minlength=distinct.size)
         sparse = sparse_conditions(counts)
         unit_factor = CONDITIONS[kind][1]
-        flagged[use] = sparse[group]
-        outlier = np.zeros(s, dtype=bool)
-        pol = 0 if sign is None else (sign[use] > 0)
-        outlier[use] = robust_outliers(2 * group + pol, y[use]) & ~sparse[group]
-        per = np.bincount(group, outlier[use], minlength=distinct.size).astype(np.int64)
+        found = robust_outliers(group, y[use], None if sign is None else sign[use])
+        if sparse.any():
+            flagged[use] = sparse[group]
+            found &= ~sparse[group]
+        outlier[use] = found
+        per = np.bincount(group[found], minlength=distinct.size).astype(np.int64)
         has = per > 0
         quality.update(
             condition=kind, median_count=float(np.median(counts)) if counts.size else 0.0,
@@ -517,9 +541,10 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
             outlier_azimuths=np.radians(distinct.real[has]), outlier_counts=per[has])
     duplicate, blocks = duplicated_rows(list(columns if rows is None else rows))
     garbled = np.zeros(s, dtype=bool)
-    for column in columns:
-        magnitude = np.abs(np.asarray(column, dtype=np.float64))
-        garbled |= (magnitude > 0.0) & (magnitude < TINY)
+    with np.errstate(invalid="ignore"):
+        for column in columns:
+            x = np.asarray(column, dtype=np.float64)
+            garbled |= (np.abs(x) < TINY) & (x != 0.0)
     flagged |= outlier | duplicate | garbled
     quality.update(outliers=int(outlier.sum()), duplicates=int(duplicate.sum()), blocks=blocks,
                    garbled=int(garbled.sum()), flagged=np.flatnonzero(flagged).astype(np.int64))
