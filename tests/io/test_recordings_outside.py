@@ -25,7 +25,7 @@ h5py = pytest.importorskip("h5py")
 ANG = np.repeat([0.0, 10.0, 20.0], 4)
 VOLT = np.linspace(1e-3, 3e-3, 12)
 #: what a crafted file would leak: the values of another file on the machine
-SECRET = np.array([1.25e-3, 2.5e-3, 3.75e-3, 4.5e-3] * 3)
+SECRET = np.linspace(1.25e-3, 4.5e-3, 12)
 MAT73_HEADER = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Thu Jan  1 00:00:00 2026 "
                 b"HDF5 schema 1.00 .").ljust(116) + b"\x00" * 8 + b"\x00\x02IM"
 
@@ -150,6 +150,29 @@ def test_calibrate_refuses_a_crafted_file_in_one_line_and_writes_nothing(
     assert "Traceback" not in captured.err and captured.out == ""
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["crafted.h5", "elsewhere"]
+
+
+@pytest.mark.parametrize("how", ["soft-link", "soft-linked-group"])
+def test_a_soft_link_through_an_external_link_is_refused(tmp_path: Path, how: str) -> None:
+    """A soft link (inside the file) whose target passes through an external link: refused
+    without following it (HDF5 is never asked to traverse a link to find out)."""
+    other = _secret(tmp_path).with_suffix(".h5")
+    with h5py.File(other, "w") as f:
+        f["run/voltage_V"] = SECRET
+        f["run/angle_deg"] = ANG
+    path = tmp_path / "soft.h5"
+    with h5py.File(path, "w") as f:
+        f["elsewhere"] = h5py.ExternalLink(str(other), "/run")
+        if how == "soft-link":
+            f["angle_deg"] = ANG
+            f["voltage_V"] = h5py.SoftLink("/elsewhere/voltage_V")
+        else:
+            f["run"] = h5py.SoftLink("elsewhere")
+    kw = {} if how == "soft-link" else {"group": "run"}
+    match = ("dataset voltage_V is an external link to another file" if how == "soft-link"
+             else "the group 'run' is reached through an external link to another file")
+    with pytest.raises(mc.MagciliaError, match=match):
+        mc.read_measurements(path, **kw)
 
 
 def test_a_whole_chunked_dataset_is_read(tmp_path: Path) -> None:

@@ -51,7 +51,7 @@ from magcilia._validate import printable
 from magcilia.io import matfile
 from magcilia.io.columns import _TRAILING_UNIT, Columns
 from magcilia.io.csvfile import names_text, too_many_samples
-from magcilia.io.matfile import forget_h5_plugins, h5_dataset_problem
+from magcilia.io.matfile import forget_h5_plugins, h5_dataset_problem, h5_reaches_outside
 
 F64 = NDArray[np.float64]
 
@@ -110,10 +110,10 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
         with h5py.File(path, "r") as f:
             group = f
             if group_name not in ("", "/"):
-                parts = group_name.strip("/").split("/")
-                links = [f.get("/".join(parts[:i + 1]), getlink=True) for i in range(len(parts))]
-                obj = (f.get(group_name) if all(isinstance(x, (h5py.HardLink, h5py.SoftLink))
-                                                for x in links) else None)
+                if h5_reaches_outside(f, "/" + group_name.strip("/")):
+                    raise LookupError(f"the group {group_name!r} is reached through an external "
+                                      "link to another file; copy the data in")
+                obj = f.get(group_name)
                 if not isinstance(obj, h5py.Group):
                     groups = [str(k) for k in f if isinstance(f.get(k, getlink=True),
                                                                 h5py.HardLink)
@@ -123,9 +123,7 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
                 group = obj
 
             def external(k: str) -> bool:  # a link on the way to k points into another file
-                parts = k.strip("/").split("/")
-                return any(isinstance(group.get("/".join(parts[:i + 1]), getlink=True),
-                                      h5py.ExternalLink) for i in range(len(parts)))
+                return h5_reaches_outside(f, f"{group.name.rstrip('/')}/{k.strip('/')}")
 
             found = [str(k) for k in group]
             for k in wanted:  # paths below the group: the members of the group they name

@@ -264,6 +264,34 @@ def h5_dataset_problem(obj: Any) -> str | None:  # pragma: no cover (runs in the
     return None
 
 
+def h5_reaches_outside(file: Any, path: str) -> bool:  # pragma: no cover (in the child)
+    """Whether following ``path`` (absolute in ``file``) crosses an external link, soft links
+    followed here one component at a time (so that HDF5 itself never traverses a link to find
+    out; a chain of more than 32 soft links counts as outside). Self-contained, for the child
+    processes."""
+    import posixpath
+
+    import h5py
+
+    todo = [p for p in path.split("/") if p]
+    here, hops = "", 0
+    while todo:
+        name = todo.pop(0)
+        link = file.get(f"{here}/{name}", getlink=True)
+        if isinstance(link, h5py.ExternalLink):
+            return True
+        if isinstance(link, h5py.SoftLink):
+            hops += 1
+            if hops > 32:
+                return True
+            target = posixpath.normpath(posixpath.join(here or "/", str(link.path)))
+            todo = [p for p in target.split("/") if p] + todo
+            here = ""
+            continue
+        here = f"{here}/{name}"
+    return False
+
+
 def forget_h5_plugins(h5py: Any) -> None:  # pragma: no cover (runs in the child process)
     """Forget HDF5's plugin search paths, so that no filter is loaded from outside the file."""
     try:
@@ -381,9 +409,9 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
 
 def h5_child_helpers() -> str:
     """The source of the HDF5 checks the child processes share (:func:`h5_dataset_problem`,
-    :func:`forget_h5_plugins`), to send with a child's program."""
+    :func:`h5_reaches_outside`, :func:`forget_h5_plugins`), to send with a child's program."""
     return ("from __future__ import annotations\n\n" + inspect.getsource(h5_dataset_problem)
-            + "\n"
+            + "\n" + inspect.getsource(h5_reaches_outside) + "\n"
             + inspect.getsource(forget_h5_plugins) + "\n")
 
 
