@@ -296,3 +296,16 @@ def test_an_index_file_beside_the_recording_is_never_read(tmp_path: Path) -> Non
     renamed.write_bytes(bytes(index))
     with pytest.raises(mc.MagciliaError, match=r"a TDMS index file \(it starts with 'TDSh'\)"):
         mc.read_measurements(renamed)
+
+
+def test_a_name_hit_by_damage_is_noted_not_silently_missing(tmp_path: Path) -> None:
+    """A byte of a channel's name overwritten (``setreset`` → ``set\\x00\\x00t``): the column is
+    missing, so the readings are no longer set/reset differences; the note says why."""
+    sr = np.tile([1.0, -1.0], 24)
+    cols = {**_sweep(PLANNED), "setreset": sr}
+    path = _recording(tmp_path / "name.tdms", cols, complete=None, own=False)
+    path.write_bytes(path.read_bytes().replace(b"setreset", b"set\x00\x00\x00\x03t"))
+    m = mc.read_measurements(path)
+    assert not m.set_reset
+    assert any(n.startswith("1 group or channel name(s) hold control characters "
+                            "(set\\x00\\x00\\x00\\x03t)") for n in m.notes()), m.notes()

@@ -10,7 +10,7 @@ segment metadata from such a file when there is one: a planted index file would 
 data file's bytes are cut into channels). A file that is itself an index file (it starts with
 ``TDSh``) is refused. TDMS has no links to other files.
 
-**Damage is said, not absorbed.** TDMS has no checksums; what can be checked is, in three layers:
+**Damage is said, not absorbed.** TDMS has no checksums; what can be checked is, in four layers:
 
 1. the segments' lead-ins (28 bytes each: ``TDSm``, the table of contents, the version, the
    next-segment and raw-data offsets) are walked here (:func:`segments`): each segment must end
@@ -23,7 +23,9 @@ data file's bytes are cut into channels). A file that is itself an index file (i
 3. magcilia's own recordings (the root property ``magcilia_version``,
    :mod:`magcilia.io.recording_file`) are read chunk by chunk and checked further: at most one
    chunk per segment, every channel of the ``recording`` group with the same number of values in
-   each chunk, no interleaved or big-endian data, and the closing ``samples`` count.
+   each chunk, no interleaved or big-endian data, and the closing ``samples`` count;
+4. names of groups and channels holding control characters (a NUL in a name is damage: a column
+   whose name was hit would otherwise be silently missing).
 
 A finding is an error for a file that says it is complete (the property ``complete`` is True: a
 whole magcilia recording, which cannot be damaged without something being wrong) and a note
@@ -349,6 +351,12 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
         file.seek(0)
         with nptdms_warnings() as warned, nptdms.TdmsFile.open(file) as tdms:
             state = RecordingState.from_properties(dict(tdms.properties))
+            garbled = [str(o.name) for g in tdms.groups() for o in (g, *g.channels())
+                       if not str(o.name).isprintable()]
+            if garbled:  # (a genuine name never holds NUL or control characters)
+                problems.append(f"{len(garbled)} group or channel name(s) hold control "
+                                f"characters ({printable(garbled[0])[:60]}): damaged metadata; "
+                                "a column under such a name is not read")
             try:
                 chosen = _locate(path, tdms, columns, required, group.strip("/"))
             except MagciliaError:  # a recording cut before its channels (or before any value)
