@@ -373,10 +373,13 @@ def test_a_constant_field_and_one_condition_are_refused() -> None:
     with pytest.raises(mc.MagciliaError, match=r"1 usable condition\(s\) \(azimuth, angle\)"):
         measurement_from_samples([0.0, 0.0], field=[[1e-5, 0, 0], [2e-5, 0, 0]],
                                  azimuth_deg=[90.0, 90.0])
-    with pytest.raises(mc.MagciliaError, match=r"overflows .* T\); field_x_T, field_y_T and "
-                                               r"field_z_T must be in tesla"):
+    with pytest.raises(mc.MagciliaError, match=r"sample 1 has field_x_T=1e\+308, beyond "
+                                               r"±MAX_FIELD_T = 100 T; the field columns must "
+                                               r"be in tesla"):  # (before its sum overflows)
         measurement_from_samples([0.0, 0.0, 5.0], field=[[1e308, 0, 0], [1e308, 0, 0],
                                                          [0, 0, 0]])
+    with pytest.raises(mc.MagciliaError, match=r"sample 2 has field_y_T=40000, beyond "):
+        measurement_from_samples([0.0, 5.0], field=[[0, 4e-5, 0], [0, 4e4, 0]])  # nT as T
 
 
 # -- today's files ------------------------------------------------------------------------------

@@ -60,6 +60,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
 from magcilia.units import UNITS
@@ -88,6 +91,16 @@ OBSERVABLE = "observable"
 KEY_ROLE = {key: role for role, (key, _, _) in ROLES.items()}
 
 _TRAILING_UNIT = re.compile(r"^(.*?)\s*(?:\[([^\[\]]*)\]|\(([^()]*)\))\s*$", re.DOTALL)
+
+
+def scaled(values: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
+    """A column read (any shape) times its unit's ``factor`` to deg, V, s, T, N or m/s: the
+    same array when the factor is 1; a value that overflows is infinite and a signalling NaN a
+    NaN, without a warning (the readers' NaN/inf policy counts or refuses them)."""
+    if factor == 1.0:
+        return values
+    with np.errstate(over="ignore", invalid="ignore"):
+        return values * factor
 
 
 def split_unit(text: str) -> tuple[str, str | None]:

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import printable
 from magcilia.io import matfile
-from magcilia.io.columns import _TRAILING_UNIT, Columns
+from magcilia.io.columns import _TRAILING_UNIT, Columns, scaled
 from magcilia.io.csvfile import names_text, too_many_samples
 from magcilia.io.matfile import forget_h5_plugins, h5_dataset_problem, h5_reaches_outside
 
@@ -267,5 +267,5 @@ def read_hdf5(path: Path, columns: Columns, required: tuple[str, ...], *, group:
         if name not in arrays:
             raise MagciliaError(f"{where}: dataset {printable(name)} could not be read "
                                 f"(datasets: {names_text(found)})")
-        out[key] = arrays[name] * factor if factor != 1.0 else arrays[name]
+        out[key] = scaled(arrays[name], factor)
     return out

@@ -136,7 +136,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns
+from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns, scaled
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
@@ -282,8 +282,7 @@ class _Reduction:
         condition = cols.get("angle_deg")
         for kind, (key, factor, _) in LOAD_UNITS.items():
             if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
-                with np.errstate(over="ignore"):  # (a huge load is not finite: counted)
-                    self.load, condition = kind, cols[key] * factor
+                self.load, condition = kind, scaled(cols[key], factor)
         assert condition is not None  # (the readers require an angle or a load column)
         self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
                  azimuth=cols.get("azimuth_deg"), fields=fields)
@@ -333,7 +332,8 @@ class _Reduction:
             bad = ~(finite & np.isfinite(fields[0]) & np.isfinite(fields[1])
                     & np.isfinite(fields[2]))
             comps = np.stack(fields)
-            far = np.asarray(np.abs(comps) > MAX_FIELD_T)  # (NaN: not far)
+            with np.errstate(invalid="ignore"):
+                far = np.asarray(np.isfinite(comps) & (np.abs(comps) > MAX_FIELD_T))
 
             def far_field(i: int) -> str:
                 j = int(np.argmax(far[:, i]))
@@ -665,7 +665,7 @@ class _CSVLocator:
     def scaled(self, block: dict[str, F64]) -> dict[str, F64]:
         """A block's columns in deg, V and s."""
         for key, factor in self.factors.items():
-            block[key] = block[key] * factor
+            block[key] = scaled(block[key], factor)
         return block
 
     def header_names(self) -> tuple[str, ...]:
@@ -705,8 +705,8 @@ def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
                          tuple(names[k] for k in FIELD_KEYS) if OBSERVABLE in required else ())
     found = list(variables)
     located = how.columns.locate(found, where=str(path), required=required, kind="variable")
-    return RawRecording({key: variables[found[i]] * factor if factor != 1.0
-                         else variables[found[i]] for key, (i, factor) in located.items()})
+    return RawRecording({key: scaled(variables[found[i]], factor)
+                         for key, (i, factor) in located.items()})
 
 
 def _read_hdf5(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
@@ -978,8 +978,7 @@ def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> Recordin
     kind, condition = "angle", columns.get("angle_deg")
     for name, (key, factor, _) in LOAD_UNITS.items():
         if key in columns:
-            with np.errstate(over="ignore"):  # (a huge load is not finite: not judged)
-                kind, condition = name, columns[key] * factor
+            kind, condition = name, scaled(columns[key], factor)
     azimuth = columns.get("azimuth_deg")
     fields = [columns[k] for k in FIELD_KEYS if k in columns]
     observable = np.stack(fields, axis=1) if fields else columns["voltage_V"]

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import printable
-from magcilia.io.columns import Columns
+from magcilia.io.columns import Columns, scaled
 from magcilia.io.csvfile import names_text, too_many_samples
 from magcilia.io.recording_state import RawRecording, RecordingState
 
@@ -277,7 +277,7 @@ def _read_whole(path: Path, chosen: dict[str, tuple[str, Any, float]]) -> dict[s
             raise MagciliaError(f"{path}: channel {printable(str(channel.name))} (group "
                                 f"{printable(group)}) holds {data.size:,} of the {n:,} values "
                                 "it declares; the file is damaged")
-        out[key] = data * factor if factor != 1.0 else data
+        out[key] = scaled(data, factor)
     return out
 
 
@@ -310,7 +310,7 @@ def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segm
     out = {}
     for key, (_, _, factor) in chosen.items():
         data = np.concatenate(parts[key]) if parts[key] else np.zeros(0)
-        out[key] = data * factor if factor != 1.0 else data
+        out[key] = scaled(data, factor)
     return out
 
 
