@@ -45,6 +45,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, count
+from magcilia._errors import MagciliaError
+from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
 from magcilia.io.moments import by_value, runs
 
 F64 = NDArray[np.float64]
@@ -559,3 +561,34 @@ def quality_counts(data: Mapping[str, Any] | None) -> dict[str, int]:
             "sparse_conditions": len(data.get("sparse_counts") or []),
             "outliers": int(data.get("outliers", 0)),
             "duplicates": int(data.get("duplicates", 0)), "garbled": int(data.get("garbled", 0))}
+
+
+def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> RecordingQuality:
+    """:func:`check_samples` of a recording's raw columns by key (``angle_deg`` or a load,
+    ``azimuth_deg``, ``voltage_V`` or the field components, ``setreset``, ``time_s``; shapes
+    (s,), as :func:`magcilia.io.recordings.read_samples` returns them), the conditions grouped as
+    :func:`magcilia.io.recordings.read_measurements` groups them; without an angle or load
+    column, a time series. ``suspect`` is kept as the result's policy."""
+    kind, condition = "angle", columns.get("angle_deg")
+    for name, (key, factor, _) in LOAD_UNITS.items():
+        if key in columns:
+            kind, condition = name, scaled(columns[key], factor)
+    azimuth = columns.get("azimuth_deg")
+    fields = [columns[k] for k in FIELD_KEYS if k in columns]
+    observable = np.stack(fields, axis=1) if fields else columns["voltage_V"]
+    with np.errstate(invalid="ignore", over="ignore"):
+        return check_samples(
+            None if condition is None else np.round(condition, ANGLE_DECIMALS), observable,
+            azimuth=(None if azimuth is None or condition is None
+                     else np.round(azimuth, ANGLE_DECIMALS)),
+            polarity=columns.get("setreset"), rows=list(columns.values()), kind=kind,
+            policy=suspect)
+
+
+def refuse_suspects(source: str, quality: RecordingQuality) -> None:
+    """The error for a recording whose samples the quality checks flagged, under the policy
+    ``"raise"``; nothing otherwise."""
+    if quality.found and quality.policy == "raise":
+        raise MagciliaError(f"{source}: {'; '.join(quality.findings())}; clean the "
+                            "recording, or pass suspect='omit' to leave them out or 'keep' to "
+                            "keep them (CLI: --suspect omit|keep)")

@@ -136,7 +136,15 @@ from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns, scaled
+from magcilia.io.columns import (
+    ANGLE_DECIMALS,
+    FIELD_KEYS,
+    LOAD_KEYS,
+    LOAD_UNITS,
+    OBSERVABLE,
+    Columns,
+    scaled,
+)
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
@@ -149,7 +157,11 @@ from magcilia.io.hdf5file import read_hdf5
 from magcilia.io.matfile import read_mat
 from magcilia.io.measurement import Measurement
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
-from magcilia.io.quality import SUSPECT_POLICIES, RecordingQuality, check_samples
+from magcilia.io.quality import (
+    SUSPECT_POLICIES,
+    check_quality,
+    refuse_suspects,
+)
 from magcilia.io.recording_state import RawRecording
 from magcilia.io.tdmsfile import (  # noqa: F401 (nptdms_module, quiet_nptdms: kept here)
     nptdms_module,
@@ -161,14 +173,10 @@ F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
 NAN_POLICIES = ("raise", "omit")
 SATURATION_POLICIES = ("raise", "omit", "keep")
-ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
 COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
            *LOAD_KEYS)
-#: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
-#: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
-LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
 #: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
 FLUID_NAMES = ("air", "water")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
@@ -955,49 +963,6 @@ def read_measurements(
     raw = read_recording(path, columns=columns, delimiter=delimiter, decimal=decimal,
                          group=group, progress=progress)
     return _measure(start, raw, policy)
-
-
-def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> RecordingQuality:
-    """The quality checks (:mod:`magcilia.io.quality`) of a recording's raw columns (as
-    :func:`read_samples` returns them), the conditions grouped as :func:`read_measurements`
-    groups them; a recording without an angle or load column is a time series (spikes instead
-    of outliers within conditions, no sparse conditions).
-
-    Parameters
-    ----------
-    columns : mapping of str to ndarray, shape (s,)
-        The columns by key (``angle_deg`` or a load, ``azimuth_deg``, ``voltage_V`` or the
-        field components, ``setreset``, ``time_s``).
-    suspect : {"keep", "omit", "raise"}
-        Kept in the result as its policy (what the caller does with the samples flagged).
-
-    Returns
-    -------
-    RecordingQuality
-    """
-    kind, condition = "angle", columns.get("angle_deg")
-    for name, (key, factor, _) in LOAD_UNITS.items():
-        if key in columns:
-            kind, condition = name, scaled(columns[key], factor)
-    azimuth = columns.get("azimuth_deg")
-    fields = [columns[k] for k in FIELD_KEYS if k in columns]
-    observable = np.stack(fields, axis=1) if fields else columns["voltage_V"]
-    with np.errstate(invalid="ignore", over="ignore"):
-        return check_samples(
-            None if condition is None else np.round(condition, ANGLE_DECIMALS), observable,
-            azimuth=(None if azimuth is None or condition is None
-                     else np.round(azimuth, ANGLE_DECIMALS)),
-            polarity=columns.get("setreset"), rows=list(columns.values()), kind=kind,
-            policy=suspect)
-
-
-def refuse_suspects(source: str, quality: RecordingQuality) -> None:
-    """The error for a recording whose samples the quality checks flagged, under the policy
-    ``"raise"``; nothing otherwise."""
-    if quality.found and quality.policy == "raise":
-        raise MagciliaError(f"{source}: {'; '.join(quality.findings())}; clean the "
-                            "recording, or pass suspect='omit' to leave them out or 'keep' to "
-                            "keep them (CLI: --suspect omit|keep)")
 
 
 def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) -> Measurement:
