@@ -180,6 +180,14 @@ def _optimum() -> Any:
 
 
 FACTORIES.update({"DesignOptimum": _optimum, "Candidate": lambda: _optimum().best})
+FACTORIES.update({  # issue 25: what the readers say of a recording
+    "RecordingQuality": lambda: importlib.import_module("magcilia.io.quality").check_samples(
+        np.r_[np.repeat([0.0, 10.0], 40), 5.0], np.r_[np.repeat([1e-3, 2e-3], 40), 1.5e-3]),
+    "RecordingState": lambda: importlib.import_module(
+        "magcilia.io.recording_state").RecordingState.from_properties(
+        {"magcilia_version": "0", "complete": False, "planned_angles_deg": "[0, 10, 20]",
+         "samples_per_angle": 40, "stopped": "stopped at angle 3: interrupted"}),
+})
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 

@@ -9,6 +9,15 @@ bytes (re-deflated so that they pass zlib and reach the parser), for TDMS mutati
 and data types, and for CSV numbers, names and lines mutated as text. The same seed, index and
 library versions give the same bytes (the times written into headers are fixed).
 
+Values: :func:`check_case` reads a case and compares what it reads with what its seed holds
+(the unmutated seed read the same way): a case is ``refused`` (one error line), ``same`` (read,
+and every condition, value and count as written), ``noted`` (read with other values, and the
+measurement says something is off: a reader's note, a quality finding, dropped or saturated
+samples) or ``silent`` (read with other values, and nothing said). :func:`touches_structure`
+tells damage to a TDMS file's structure (lead-ins, metadata, lengths) from damage to its raw
+data alone: TDMS has no checksums, so a value changed in place inside the raw data reads as a
+value (the quality checks note the gross ones).
+
 Used by ``tests/fuzz/test_fuzz_recordings.py`` and ``scripts/fuzz_recordings.py``.
 """
 
@@ -40,6 +49,11 @@ TIME = np.arange(16) * 1e-3
 AZIMUTHS = np.tile([0.0, 0.0, 90.0, 90.0], 4)
 FIELDS = np.column_stack([4e-5 + 2e-7 * ANGLES, 5e-5 - 1e-7 * AZIMUTHS / 90 + 1e-8 * ANGLES,
                           8e-6 + 3e-7 * ANGLES]) + 1e-9 * np.tile([1.0, -1.0], 8)[:, None]
+#: a sweep as magcilia records one: 6 planned angles × 40 samples, noise, 4 chunks
+SWEEP_ANGLES = np.array([-20.0, -5.0, 0.0, 10.0, 25.0, 40.0])
+SWEEP_PER = 40
+#: a load recording from another program: 2 azimuths × 4 tip forces × 8 samples, 2 segments
+LOAD_FORCES = np.array([0.0, 1e-5, 2e-5, 4e-5])
 INTERESTING = (0, 1, 2, 7, 8, 0x7F, 0x80, 0xFF, 0x100, 0x7FFF, 0x8000, 0xFFFF, 0x10000,
                0x7FFFFFFF, 0x80000000, 0xFFFFFFFF)
 TDMS_TYPES = (0, 1, 5, 8, 9, 0x19, 0x20, 0x21, 0x44, 0x08000C, 0x10000D, 0xFFFFFFFF)
@@ -147,6 +161,8 @@ def seeds() -> dict[str, tuple[str, bytes]]:
             out["tdms_magcilia"] = (".tdms", re.sub(  # its start time, fixed
                 rb"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", b"2026-01-01T00:00:00+00:00",
                 path.read_bytes()))
+            out["tdms_sweep"] = (".tdms", _sweep_tdms(Path(tmp) / "sweep.tdms"))
+            out["tdms_load"] = (".tdms", _load_tdms(nptdms))
         try:  # without h5py (the extra "hdf5") the v7.3 and HDF5 seeds are left out
             write_mat73(Path(tmp) / "v73.mat", columns)
             write_hdf5(Path(tmp) / "rec.h5")
@@ -158,6 +174,38 @@ def seeds() -> dict[str, tuple[str, bytes]]:
             out["h5"] = (".h5", (Path(tmp) / "rec.h5").read_bytes())
             out["h5_field"] = (".h5", (Path(tmp) / "field.h5").read_bytes())
     return out
+
+
+def _sweep_tdms(path: Path) -> bytes:
+    """A sweep recorded as ``record_sweep`` records one (planned angles, samples per angle,
+    complete), its start time fixed."""
+    rng = np.random.default_rng(20260101)
+    angle = np.repeat(SWEEP_ANGLES, SWEEP_PER)
+    volts = 2e-3 * np.sin(np.radians(angle) * 1.7) + 1e-4 + rng.normal(0.0, 2e-5, angle.size)
+    metadata = {"source": "fuzz", "rate_Hz": 1000.0, "samples_per_angle": SWEEP_PER,
+                "planned_angles_deg": SWEEP_ANGLES.tolist()}
+    with RecordingWriter(path, metadata=metadata, chunk=60) as rec:
+        for a in SWEEP_ANGLES:
+            rows = angle == a
+            rec.write(np.flatnonzero(rows) * 1e-3, volts[rows], angle_deg=angle[rows])
+    return re.sub(rb"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\+00:00", b"2026-01-01T00:00:00+00:00",
+                  path.read_bytes())
+
+
+def _load_tdms(nptdms: object) -> bytes:
+    """A tip-force recording at two azimuths from another program (no magcilia properties),
+    written in two segments."""
+    rng = np.random.default_rng(20260102)
+    force = np.tile(np.repeat(LOAD_FORCES, 8), 2)
+    azimuth = np.repeat([0.0, 90.0], force.size // 2)
+    volts = 40.0 * force * np.cos(np.radians(azimuth)) + rng.normal(0.0, 1e-5, force.size)
+    buf = io.BytesIO()
+    with nptdms.TdmsWriter(buf) as writer:  # type: ignore[attr-defined]
+        for half in (slice(0, 32), slice(32, 64)):
+            writer.write_segment([nptdms.ChannelObject(  # type: ignore[attr-defined]
+                "daq", k, a[half]) for k, a in (("force_N", force), ("azimuth_deg", azimuth),
+                                                ("voltage_V", volts))])
+    return buf.getvalue()
 
 
 #: How :func:`read_case` reads the seeds that need options (by seed name).
@@ -377,6 +425,8 @@ FORMAT_MUTATIONS: dict[str, tuple[Mutation, ...]] = {
     "csv_field": (csv_text, csv_text, csv_text),
     "csv_field_mapped": (csv_text, csv_text, csv_text),
     "tdms_field": (tdms_leadin, tdms_leadin, tdms_dtype),
+    "tdms_sweep": (tdms_leadin, tdms_leadin, tdms_dtype),
+    "tdms_load": (tdms_leadin, tdms_leadin, tdms_dtype),
     "mat_v5z_field": (mat_inner, mat_inner, mat_inner),
 }
 
@@ -407,10 +457,116 @@ def cases(n: int, seed: int = 0, suffixes: Sequence[str] | None = None,
         yield case(i, seed, names)
 
 
-def read_case(path: Path, index: int) -> None:
+def read_case(path: Path, index: int) -> mc.Measurement:
     """Read a mutated recording as ``magcilia calibrate`` does, the policies varied by index
     (and the options of :data:`READ_OPTIONS` for the seed in the file's name)."""
     options = next((o for name, o in READ_OPTIONS.items()
                     if path.stem == name or path.stem.endswith(f"-{name}")), {})
-    mc.read_measurements(path, nan_policy=("raise", "omit")[index % 2],
-                         saturation=("raise", "omit", "keep")[index % 3], **options)
+    return mc.read_measurements(path, nan_policy=("raise", "omit")[index % 2],
+                                saturation=("raise", "omit", "keep")[index % 3], **options)
+
+
+@functools.cache
+def _truth(name: str, index_mod: int) -> mc.Measurement:
+    """The unmutated seed ``name`` read as case ``index_mod`` (mod 6: the policies) reads."""
+    suffix, data = seeds()[name]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"truth-{name}{suffix}"
+        path.write_bytes(data)
+        return read_case(path, index_mod)
+
+
+def _values(m: mc.Measurement) -> list[np.ndarray]:
+    """What a measurement holds, as arrays to compare."""
+    return [np.asarray(x, dtype=np.float64) for x in (
+        m.angles, m.azimuths, m.volts, m.sem, m.counts, m.saturated, m.nonfinite,
+        np.zeros(0) if m.fields is None else m.fields,
+        np.zeros(0) if m.field_sem is None else m.field_sem,
+        np.zeros(0) if m.loads is None else m.loads)]
+
+
+def same_values(m: mc.Measurement, truth: mc.Measurement) -> bool:
+    """Whether ``m`` holds the conditions, values and counts of ``truth`` (values to 1e-12
+    relative: the same samples reduce to the same doubles; a last-bit change of one sample is
+    below that)."""
+    a, b = _values(m), _values(truth)
+    return all(x.shape == y.shape and np.allclose(x, y, rtol=1e-12, atol=0.0, equal_nan=True)
+               for x, y in zip(a, b, strict=True))
+
+
+def said(m: mc.Measurement) -> bool:
+    """Whether the measurement says something is off: a reader's note or a quality finding
+    (:meth:`magcilia.Measurement.notes`, where the tree has it), samples dropped as
+    non-finite or saturated, or conditions left without a sample."""
+    notes = getattr(m, "notes", None)
+    return bool((callable(notes) and notes()) or m.nonfinite.sum() or m.saturated.sum()
+                or m.metadata.get("dropped"))
+
+
+def check_case(path: Path, index: int, name: str) -> tuple[str, str]:
+    """Read a mutated recording of seed ``name`` and compare it with the seed: ``refused``,
+    ``same``, ``noted`` or ``silent`` (see the module docstring), and a detail (the error's
+    text after the file name; what changed)."""
+    try:
+        m = read_case(path, index)
+    except mc.MagciliaError as exc:
+        return "refused", str(exc)[len(str(path)):][:120]
+    truth = _truth(name, index % 6)
+    if same_values(m, truth):
+        return "same", ""
+    if len(m) != len(truth):
+        what = f"{len(truth)} -> {len(m)} conditions"
+    elif not np.array_equal(m.counts, truth.counts):
+        what = "samples moved between conditions"
+    else:
+        new, old = (m.volts, truth.volts) if m.fields is None else (m.fields, truth.fields)
+        sem = truth.sem if m.fields is None else truth.field_sem
+        with np.errstate(divide="ignore", invalid="ignore"):
+            shift = np.nanmax(np.abs(np.asarray(new) - np.asarray(old)) / np.asarray(sem))
+        what = f"values changed by up to {shift:.2g} standard errors"
+    return ("noted" if said(m) else "silent"), what
+
+
+def tdms_raw_ranges(data: bytes) -> list[tuple[int, int]]:
+    """The byte ranges of raw data in a sound TDMS file, by its segments' lead-ins (a reference
+    written here, apart from the reader's own walk)."""
+    ranges, pos = [], 0
+    while pos + 28 <= len(data) and data[pos:pos + 4] == b"TDSm":
+        toc = struct.unpack_from("<I", data, pos + 4)[0]
+        order = ">" if toc & 0x40 else "<"
+        _, next_offset, raw_offset = struct.unpack_from(order + "IQQ", data, pos + 8)
+        end = pos + 28 + next_offset
+        if pos + 28 + raw_offset < end:
+            ranges.append((pos + 28 + raw_offset, end))
+        pos = end
+    return ranges
+
+
+def touches_structure(case: Case, directory: Path) -> bool:
+    """Whether what a TDMS case reads comes from damage to its structure (a lead-in, metadata, a
+    length) rather than from bytes of raw data changed in place: the case's raw-data changes
+    alone, applied to its seed, must read as the case reads (else the structure mattered)."""
+    original = seeds()[case.seed_name][1]
+    if len(case.data) != len(original):
+        return True
+    new, old = np.frombuffer(case.data, np.uint8), np.frombuffer(original, np.uint8)
+    inside = np.zeros(new.size, dtype=bool)
+    for a, b in tdms_raw_ranges(original):
+        inside[a:b] = True
+    changed = new != old
+    if not (changed & inside).any():
+        return True
+    if not (changed & ~inside).any():
+        return False
+    data_only = np.where(inside, new, old).tobytes()
+    paths = [directory / f"cause-{which}-{case.seed_name}{case.suffix}" for which in ("a", "b")]
+    paths[0].write_bytes(case.data)
+    paths[1].write_bytes(data_only)
+    try:
+        read = [read_case(p, case.index) for p in paths]
+    except mc.MagciliaError:
+        return True
+    finally:
+        for p in paths:
+            p.unlink()
+    return not same_values(*read)

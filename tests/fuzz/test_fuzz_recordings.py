@@ -114,6 +114,38 @@ def test_mutated_recordings_long(tmp_path: Path) -> None:
     print(f"fuzz seed {SEED}: {dict(outcomes)}")
 
 
+# -- no value change without a note (TDMS) ------------------------------------------------------
+VALUE_CASES = 5000 if LONG else 400
+
+
+def _values_outcomes(n: int, seed: int, tmp_path: Path) -> Counter[str]:
+    """Read ``n`` mutated TDMS recordings and compare each with its seed: refused, same,
+    noted, or silent (split by whether the damage reached the file's structure)."""
+    outcomes: Counter[str] = Counter()
+    for case in corpus.cases(n, seed, (".tdms",)):
+        path = case.write(tmp_path)
+        kind, detail = corpus.check_case(path, case.index, case.seed_name)
+        if kind == "silent":
+            kind += ":structure" if corpus.touches_structure(case, tmp_path) else ":data"
+            assert kind == "silent:data", (case.index, case.seed_name, case.mutations, detail)
+        path.unlink()
+        outcomes[kind] += 1
+    return outcomes
+
+
+def test_damage_to_a_tdms_structure_never_changes_values_silently(tmp_path: Path) -> None:
+    """Every mutated TDMS recording is refused, read as written, or read with other values and a
+    note; values changed without a word come only from raw-data bytes changed in place (a format
+    without checksums reads them as a measurement). Long mode: 5,000 cases of another corpus."""
+    if ".tdms" not in {s for s, _ in corpus.seeds().values()}:
+        pytest.skip("no TDMS seed recordings (npTDMS missing)")
+    outcomes = _values_outcomes(VALUE_CASES, SEED + 25 if LONG else SEED, tmp_path)
+    assert sum(outcomes.values()) == VALUE_CASES
+    assert outcomes["noted"] > 0 and outcomes["refused"] > 0
+    if LONG:
+        print(f"TDMS values, {VALUE_CASES} cases: {dict(outcomes)}")
+
+
 # -- Hypothesis: the CSV reader -----------------------------------------------------------------
 def _read_csv_bytes(data: bytes) -> None:
     with tempfile.TemporaryDirectory() as tmp:

@@ -179,7 +179,7 @@ def test_plain_files_are_read_fast(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     [("0,1e-3\n# a note\n10,2e-3\n", None),
      ('"0",1e-3\n10,2e-3\n', None),
      ("0,1e-3\r10,2e-3\r", None),
-     ("0,1_0e-3\n10,2e-3\n", None),
+     ("0,1_0e-3\n10,2e-3\n", r"row 2, column voltage_V: '1_0e-3' is not a number"),
      ("0,1e-3\n10,\n", r"row 3, column voltage_V: '' is not a number"),
      ("0,1e-3\n10,NA\n", r"row 3, column voltage_V: 'NA' is not a number"),
      ("0,1e-3\n10,TRUE\n", r"row 3, column voltage_V: 'TRUE' is not a number"),

@@ -373,10 +373,13 @@ def test_a_constant_field_and_one_condition_are_refused() -> None:
     with pytest.raises(mc.MagciliaError, match=r"1 usable condition\(s\) \(azimuth, angle\)"):
         measurement_from_samples([0.0, 0.0], field=[[1e-5, 0, 0], [2e-5, 0, 0]],
                                  azimuth_deg=[90.0, 90.0])
-    with pytest.raises(mc.MagciliaError, match=r"overflows .* T\); field_x_T, field_y_T and "
-                                               r"field_z_T must be in tesla"):
+    with pytest.raises(mc.MagciliaError, match=r"sample 1 has field_x_T=1e\+308, beyond "
+                                               r"±MAX_FIELD_T = 100 T; the field columns must "
+                                               r"be in tesla"):  # (before its sum overflows)
         measurement_from_samples([0.0, 0.0, 5.0], field=[[1e308, 0, 0], [1e308, 0, 0],
                                                          [0, 0, 0]])
+    with pytest.raises(mc.MagciliaError, match=r"sample 2 has field_y_T=40000, beyond "):
+        measurement_from_samples([0.0, 5.0], field=[[0, 4e-5, 0], [0, 4e4, 0]])  # nT as T
 
 
 # -- today's files ------------------------------------------------------------------------------
@@ -391,6 +394,7 @@ def test_the_bundled_example_reads_bit_for_bit_as_before(tmp_path: Path) -> None
     d = m.to_dict()
     assert d.pop("azimuth_rad") == [0.0] * len(m)
     d.pop("source")
+    assert d["metadata"].pop("quality")["flagged"] == 0  # (checked: nothing flagged)
     assert hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest() == EXAMPLE_DIGEST
     assert m.observable == "output" and m.single_azimuth
     assert m.report().startswith(f"{m.source}: 33 angles 0..85 deg, 66000 samples")
@@ -401,6 +405,7 @@ def test_the_bundled_example_reads_bit_for_bit_as_before(tmp_path: Path) -> None
     same = mc.read_measurements(zeros).to_dict()
     same.pop("source")
     same.pop("azimuth_rad")
+    same["metadata"].pop("quality")
     assert same == d
 
 

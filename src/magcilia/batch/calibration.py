@@ -83,7 +83,9 @@ OUTLIER_SIGMAS = 3.0
 #: NaN where held or undetermined) m, cost V², rms and offset V, seconds s
 COLUMNS = ("recording", "error", "cost", "rms", *PARAMETERS, "offset", "magnetization_scale",
            *(f"{n}_stderr" for n in SUMMARISED), "offset_stderr", "warnings", "warning_text",
-           "attempts", "seconds", "worker", "path")
+           "flagged", "notes", "attempts", "seconds", "worker", "path")
+#: the table's text columns (the rest are numbers: NaN where missing)
+TEXT_COLUMNS = ("recording", "error", "warning_text", "notes", "worker", "path")
 #: the unit of each numeric column of the table (``COLUMNS``; the rest are text or counts)
 UNITS: dict[str, str] = {
     "cost": "V^2", "rms": "V", "offset": "V", "offset_stderr": "V", "magnetization_scale": "1",
@@ -114,7 +116,9 @@ def calibrate_recording(task: Mapping[str, Any]) -> dict[str, Any]:
                                                      "magnetization_scale")})
     row.update({f"{n}_stderr": float(result.stderr.get(n, math.nan))
                 for n in (*SUMMARISED, "offset")})
-    row.update(warnings=len(result.warnings), warning_text="; ".join(result.warnings))
+    row.update(warnings=len(result.warnings), warning_text="; ".join(result.warnings),
+               flagged=int((data.metadata.get("quality") or {}).get("flagged", 0)),
+               notes="; ".join(data.notes()))
     with tempfile.TemporaryDirectory(prefix="magcilia-batch-") as tmp:
         if task["figures"]:
             write_calibration_files(result, tmp, task["style"])
@@ -124,8 +128,11 @@ def calibrate_recording(task: Mapping[str, Any]) -> dict[str, Any]:
             from magcilia.report.calibration import markdown_summary
 
             save_setup(result.setup, Path(tmp) / "fitted_setup.toml")
+            from magcilia.report.recording_notes import data_doc
+
             doc = result.to_dict()
             doc.setdefault("units", "SI")
+            doc["data"] = data_doc([result.data])
             write_json(Path(tmp) / "result.json", doc)
             write_text(Path(tmp) / "report.md", markdown_summary(result, {}))
         files = {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir())}
@@ -306,7 +313,8 @@ def _complete(folder: Path, options_hash: str, stamp: Mapping[str, int],
 def _row(name: str, path: Path, values: Mapping[str, Any], error: str, result: TaskResult,
          ) -> dict[str, Any]:
     row: dict[str, Any] = dict.fromkeys(COLUMNS, math.nan)
-    row.update(recording=name, error=error, warnings=0, warning_text="", path=str(path),
+    row.update(recording=name, error=error, warnings=0, warning_text="", notes="",
+               path=str(path),
                attempts=result.attempts, seconds=result.seconds, worker=result.worker)
     row.update(values)
     return row
@@ -314,9 +322,8 @@ def _row(name: str, path: Path, values: Mapping[str, Any], error: str, result: T
 
 def _json_row(doc: Mapping[str, Any]) -> dict[str, Any]:
     """A row read back from batch.json (null → NaN)."""
-    return {c: (math.nan if doc.get(c) is None and c not in ("error", "warning_text", "worker",
-                                                             "recording", "path")
-                else doc.get(c)) for c in COLUMNS}
+    return {c: (("" if c == "notes" else doc.get(c)) if c in TEXT_COLUMNS and doc.get(c) is None
+                else math.nan if doc.get(c) is None else doc.get(c)) for c in COLUMNS}
 
 
 def robust_z(values: ArrayLike) -> NDArray[np.float64]:
@@ -407,6 +414,9 @@ def summary_lines(result: BatchResult, si: bool = False) -> list[str]:
     elif result.statistics:
         lines += ["", f"no outliers (modified z-score |z| > {OUTLIER_Z:g})"]
     for r in result.rows:
+        if r["notes"]:
+            lines.append(f"note: {r['recording']}: {r['notes']}")
+    for r in result.rows:
         if r["error"]:
             lines.append(f"failed: {r['recording']}: {r['error']}")
     return lines
@@ -469,6 +479,7 @@ def calibrate_batch(
     progress: bool = True,
     nan_policy: str = "raise",
     saturation: str = "raise",
+    suspect: str = "keep",
     columns: Columns | Mapping[str, str] | str | None = None,
     delimiter: str | None = None,
     decimal: str = ".",
@@ -509,8 +520,10 @@ def calibrate_batch(
         The figures' style (``"paper"`` adds PDFs).
     progress : bool
         A progress bar on stderr (when it is a terminal).
-    nan_policy, saturation, columns, delimiter, decimal, group :
-        How the recordings are read (:func:`magcilia.read_measurements`).
+    nan_policy, saturation, suspect, columns, delimiter, decimal, group :
+        How the recordings are read (:func:`magcilia.read_measurements`); what the quality
+        checks flag (``suspect``) and what a reader says of a recording are the table's
+        ``flagged`` and ``notes`` columns and summary.md's notes.
     rng : int
         The seed of every recording's global search (each recording's fit equals
         ``calibrate(..., rng=rng)`` alone, whichever backend ran it).
@@ -532,7 +545,8 @@ def calibrate_batch(
     recordings = _recordings(paths_or_glob, out)
     cols = Columns.coerce(columns)
     read = {"nan_policy": nan_policy, "saturation": saturation, "columns": cols,
-            "delimiter": delimiter, "decimal": decimal, "group": group}
+            "delimiter": delimiter, "decimal": decimal, "group": group,
+            **({} if suspect == "keep" else {"suspect": suspect})}  # (keep: earlier batches')
     cal = {"rng": rng, "bounds": None if bounds is None else dict(bounds),
            "fixed": None if fixed is None else dict(fixed), "bias": bias,
            "bias_degree": bias_degree, "fit_scale": fit_scale, "restarts": restarts,

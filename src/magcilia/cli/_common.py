@@ -459,6 +459,20 @@ def execution_options(default: str = "one per core; 1: in this process") -> Any:
     return decorate
 
 
+def suspect_option(command: Any) -> Any:
+    """``--suspect keep|omit|raise``, shared by ``calibrate``, ``readout`` and ``batch
+    calibrate``: what to do with the samples the quality checks flag (:mod:`magcilia.io.quality`:
+    conditions with far fewer samples than the others, outliers, duplicated blocks, garbled
+    values); they are counted and named either way. The command receives ``suspect``."""
+    return click.option(
+        "--suspect", type=click.Choice(["keep", "omit", "raise"]), default="keep",
+        show_default=True,
+        help="Samples the quality checks flag (conditions with far fewer samples than the others, "
+             "outliers beyond 8 robust SDs, duplicated blocks of rows, garbled values): keep "
+             "them, omit them, or refuse the recording; counted and named in the output "
+             "either way.")(command)
+
+
 def fit_options(command: Any) -> Any:
     """The options of one paper-model fit that ``calibrate`` and ``batch calibrate`` share:
     ``--bias``, ``--bias-degree``, ``--fit-scale``, ``--nan-policy`` and ``--saturation`` (the

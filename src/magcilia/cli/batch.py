@@ -18,6 +18,7 @@ from magcilia.cli._common import (
     recording_options,
     si_option,
     style_option,
+    suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
@@ -58,13 +59,15 @@ def command() -> None:
 @execution_options()
 @si_option
 @style_option
+@suspect_option
 @recording_options
 def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, force: bool,
                       bound_items: tuple[str, ...], fix_items: tuple[str, ...], seed: int,
                       restarts: int, starts: int | None, bias: str, bias_degree: int,
                       fit_scale: bool, nan_policy: str, saturation: str, figures: bool,
                       as_json: bool, quiet: bool, workers: int | None, scheduler: str | None,
-                      timeout: float, si: bool, style: str, reading: RecordingArgs) -> None:
+                      timeout: float, si: bool, style: str, reading: RecordingArgs,
+                      suspect: str) -> None:
     """Calibrate every recording GLOB matches (quote it: 'recordings/*.tdms'; ** for subfolders),
     each as `magcilia calibrate` does, into the batch folder --out.
 
@@ -74,6 +77,9 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
     V^2, error empty on success); summary.md the spread over the batch and its outliers. A
     recording that cannot be read or fitted is a row with its error; the batch goes on. Run it
     again after a crash or a failure: only the failed, missing or changed recordings run.
+    Each recording's samples are checked before its fit (--suspect): the table's `flagged` and
+    `notes` columns and summary.md say what was flagged and what the reader said of the file
+    (a recording cut short, damage read past).
     """
     initial = load_setup_arg(setup_arg)
     bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
@@ -81,7 +87,7 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
         list(patterns), out_dir, setup=initial, workers=workers, scheduler=scheduler,
         timeout=timeout, force=force, figures=figures, style=style,
         progress=not quiet_requested(quiet), nan_policy=nan_policy, saturation=saturation,
-        **reading.kwargs(), rng=seed, bounds=bounds or None,
+        suspect=suspect, **reading.kwargs(), rng=seed, bounds=bounds or None,
         fixed=parse_fixed(fix_items) or None, bias=bias, bias_degree=bias_degree,
         fit_scale=fit_scale, restarts=restarts, starts=starts)
     if as_json:
@@ -97,6 +103,7 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
                                  ("value_V2" if o["parameter"] == "cost" else f"value_{unit}"):
                                  o["value"] * (1.0 if o["parameter"] == "cost" else factor),
                                  "z": o["z"]} for o in doc["outliers"]],
+                   "notes": {r["recording"]: r["notes"] for r in result.rows if r["notes"]},
                    "parquet": result.parquet})
         return
     click.echo(result.report(si))

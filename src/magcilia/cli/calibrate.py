@@ -24,6 +24,7 @@ from magcilia.cli._common import (
     recording_options,
     si_option,
     style_option,
+    suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
@@ -37,6 +38,7 @@ from magcilia.report.calibration import (
     write_calibration_files,
     write_joint_calibration_files,
 )
+from magcilia.report.recording_notes import notes_lines
 
 
 @click.command()
@@ -83,18 +85,24 @@ from magcilia.report.calibration import (
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
 @style_option
+@suspect_option
 @recording_options
 def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tuple[str, ...],
             seed: int, restarts: int, starts: int | None, bias: str, bias_degree: int,
             fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
             force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
-            model: str, prior_items: tuple[str, ...], posterior: bool, fluid: str) -> None:
+            model: str, prior_items: tuple[str, ...], posterior: bool, fluid: str,
+            suspect: str) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
     physical to several recordings (experiments) at once.
 
     Writes fitted_setup.toml (usable by every other command), result.json, report.md, fit.png
     and residuals.png into --out, a new folder published in one rename when everything is
     written: nothing is written if anything fails, and a killed run leaves no partial folder.
+
+    Before fitting, each recording's samples are checked (--suspect): what is flagged, and what
+    a reader says of the file (a recording cut short and the planned angles it lacks, damage
+    read past), is printed as note lines and kept in report.md and result.json ("data").
     """
     with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
         initial = load_setup_arg(setup_arg)
@@ -103,7 +111,8 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                                 "--model physical to fit several together")
         measurements = [reading.read(read_measurements, path, quiet=quiet,
                                      sensor=initial.sensor, nan_policy=nan_policy,
-                                     saturation=saturation, fluid=fluid) for path in data]
+                                     saturation=saturation, fluid=fluid, suspect=suspect)
+                        for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
                   **parse_priors(prior_items, (*JOINT_PARAMETERS, "youngs_modulus"))}
@@ -135,12 +144,15 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                 bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
                 fixed=parse_fixed(fix_items))
         if isinstance(result, JointCalibrationResult):
-            write_joint_calibration_files(result, tmp, style, comparison)
+            write_joint_calibration_files(result, tmp, style, comparison, measurements)
         else:
             write_calibration_files(result, tmp, style)
+    notes = [] if as_json else notes_lines(measurements)
+    for line in notes:
+        click.echo(line)
     if isinstance(result, JointCalibrationResult):
         if as_json:
-            echo_json(joint_calibration_json(result, si))
+            echo_json(joint_calibration_json(result, si, measurements))
         else:
             click.echo(result.report(si))
             if comparison is not None:

@@ -26,13 +26,14 @@ from magcilia.cli._common import (
     quiet_requested,
     recording_options,
     si_option,
+    suspect_option,
 )
 from magcilia.device.actuation import Actuation
 from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.setup import Setup
+from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
-from magcilia.io.recordings import read_samples
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
@@ -54,15 +55,41 @@ def parse_span(text: str, quantity: str) -> tuple[float, float]:
     return lo, hi
 
 
+def read_checked(path: str, reading: RecordingArgs, required: tuple[str, ...], *,
+                 quiet: bool, suspect: str) -> tuple[dict[str, np.ndarray], list[str],
+                                                     dict[str, object]]:
+    """A recording's columns after the quality checks (:func:`magcilia.io.recordings.
+    check_quality`; the flagged samples kept, omitted or refused by ``suspect``), with the notes
+    to print (the reader's, an incomplete recording, the checks' findings) and the checks'
+    result (``RecordingQuality.to_dict``)."""
+    raw = reading.read(recordings.read_recording, path, quiet=quiet, required=required)
+    cols = raw.columns
+    notes = list(raw.notes)
+    incomplete = raw.state.incomplete_note()
+    if incomplete is not None:
+        notes.append(incomplete)
+    doc: dict[str, object] = {}
+    if cols and next(iter(cols.values())).size:
+        quality = recordings.check_quality(cols, suspect)
+        recordings.refuse_suspects(path, quality)
+        doc = quality.to_dict()
+        if quality.found:
+            notes.append(quality.report())
+            if suspect == "omit":
+                cols = quality.kept(cols)
+    return cols, [f"note: {path}: {n}" for n in notes], doc
+
+
 def read_recording(path: str, reading: RecordingArgs | None = None, option: str = "RECORDING",
-                   quiet: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
-    """Voltages (V) and optional times (s) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``,
-    or the columns that ``reading`` maps)."""
-    reading = reading or RecordingArgs()
-    cols = reading.read(read_samples, path, quiet=quiet, required=("voltage_V",))
+                   quiet: bool = False, suspect: str = "keep"
+                   ) -> tuple[np.ndarray, np.ndarray | None, list[str], dict[str, object]]:
+    """Voltages (V), optional times (s), the notes to print and the quality checks' result of a
+    recording (CSV/.mat/.tdms/.h5 with ``voltage_V``, or the columns that ``reading`` maps)."""
+    cols, notes, quality = read_checked(path, reading or RecordingArgs(), ("voltage_V",),
+                                        quiet=quiet, suspect=suspect)
     if cols["voltage_V"].size == 0:
         raise fail(option, path, "a recording with at least one reading")
-    return cols["voltage_V"], cols.get("time_s")
+    return cols["voltage_V"], cols.get("time_s"), notes, quality
 
 
 def parse_edge_tolerance(text: str | None, quantity: str,
@@ -158,6 +185,7 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @si_option
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary instead of a line.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@suspect_option
 @recording_options
 def command(setup_arg: str, recording: str, quantity: str | None, span_text: str | None,
             biaxial: bool, sensor_name: str | None, sensor_noise: str | None,
@@ -167,7 +195,7 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
             actuation_field: str | None, actuation_file: str | None,
             actuation_scale: float | None,
             tip_radius: str | None, modulus: str | None, si: bool, as_json: bool,
-            quiet: bool, reading: RecordingArgs) -> None:
+            quiet: bool, reading: RecordingArgs, suspect: str) -> None:
     """Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, .mat
     or .tdms with a `voltage_V` column and optional `time_s`; see `magcilia calibrate`).
 
@@ -185,6 +213,10 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
     With --biaxial, RECORDING holds the three field components of a 3-axis sensor (--sensor)
     and each row gets the horizontal force vector: fx, fy, magnitude (mN), direction (deg from
     +x toward +y), their 1-sigma, chi2 and flags.
+
+    The recording's samples are checked first (--suspect: spikes, duplicated blocks, garbled
+    values); what is flagged, and what the reader says of the file (a recording cut short,
+    damage read past), is printed as note lines and kept in the --json summary.
     """
     # the required options, in the order of --help (--quantity only without --biaxial)
     if quantity is None and not biaxial:
@@ -202,7 +234,7 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
             raise fail("--quantity", quantity, "force, or left out, with --biaxial (it reads a "
                                                "force vector)")
         _biaxial(setup, recording, span_text, sensor_name, sensor_noise, out_path, tare_spec,
-                 tare_file, si, as_json, quiet, reading, actuation)
+                 tare_file, si, as_json, quiet, reading, actuation, suspect)
         return
     assert quantity is not None  # for mypy: checked above
     for name, value in (("--sensor", sensor_name), ("--sensor-noise", sensor_noise)):
@@ -212,9 +244,10 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
     tolerance = parse_edge_tolerance(edge_tolerance, quantity, span)
     band = parse_bandwidth(bandwidth)
     quiet = quiet_requested(quiet)
-    volts, times = read_recording(recording, reading, quiet=quiet)
+    volts, times, notes, quality = read_recording(recording, reading, quiet=quiet,
+                                                  suspect=suspect)
     baseline = (tare_readings(tare_spec, volts, times) if tare_spec is not None else
-                read_recording(tare_file, reading, "--tare-file", quiet)[0]
+                read_recording(tare_file, reading, "--tare-file", quiet, suspect)[0]
                 if tare_file is not None else None)
     flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
@@ -232,8 +265,11 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
                                                                  readout.sensor_flags, si)
     if as_json:
         extra = {} if compensation is None else {"actuation": compensation[1]}
-        echo_json({**readout_summary(readout, result, si), **extra, "out": out_path})
+        echo_json({**readout_summary(readout, result, si), **extra, "out": out_path,
+                   "notes": notes, "quality": quality})
         return
+    for line in notes:
+        click.echo(line)
     if compensation is not None:
         click.echo(compensation[0])
     click.echo(f"{Path(out_path).name}: {readout_line(readout, result, si)}")
@@ -283,7 +319,7 @@ def parse_span_value(text: str, key: str) -> float:
 def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | None,
              sensor_noise: str | None, out_path: str, tare_spec: str | None,
              tare_file: str | None, si: bool, as_json: bool, quiet: bool,
-             reading: RecordingArgs, actuation: Actuation | None) -> None:
+             reading: RecordingArgs, actuation: Actuation | None, suspect: str) -> None:
     """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
     constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
     field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
@@ -307,8 +343,12 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
         hi = parse_value(span_text, q.dimension, q.display, "--span", "0.2mN")
     quiet = quiet_requested(quiet)
 
+    checked: list[tuple[list[str], dict[str, object]]] = []
+
     def fields_of(path: str, option: str) -> tuple[np.ndarray, np.ndarray | None]:
-        cols = reading.read(read_samples, path, quiet=quiet, required=FIELD_KEYS)
+        cols, notes, quality = read_checked(path, reading, FIELD_KEYS, quiet=quiet,
+                                            suspect=suspect)
+        checked.append((notes, quality))
         b = np.stack([cols[k] for k in FIELD_KEYS], axis=-1)
         if b.shape[0] == 0:
             raise fail(option, path, "a recording with at least one reading")
@@ -346,8 +386,11 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
                    f"range_{unit}": [float(mags.min()), float(mags.max())] if mags.size
                    else None, f"median_sigma_magnitude_{unit}": median,
                    "scale_note": result.scale_note,
-                   "tared": readout.baseline is not None, "out": out_path})
+                   "tared": readout.baseline is not None, "out": out_path,
+                   "notes": checked[0][0], "quality": checked[0][1]})
         return
+    for line in checked[0][0]:
+        click.echo(line)
     flagged = ", ".join(f"{c[k]} {k.replace('_', ' ')}" for k in
                         ("outside_span", "undetermined", "ambiguous", "near_zero", "saturated",
                          "missing", "extrapolated") if c[k])

@@ -4,6 +4,11 @@
 * :mod:`.array_file`: array files (``[[cilia]]``, ``[[sensors]]``, ``[array]``) ↔
   :class:`~magcilia.CiliaArray`;
 * :mod:`.recordings`: recordings (CSV, MATLAB, TDMS, HDF5) reduced to a :class:`Measurement`;
+  :mod:`.tdmsfile`, :mod:`.hdf5file`, :mod:`.matfile`, :mod:`.csvfile` the readers;
+* :mod:`.quality`: the checks of a recording's samples before fitting (sparse conditions,
+  outliers, duplicated blocks, garbled values: :class:`RecordingQuality`);
+* :mod:`.recording_state`: what a recording says of itself (complete, planned angles) and a
+  reader's notes;
 * :mod:`.measurement`: :class:`Measurement`, the per-condition summary (tilt angle or load,
   azimuth; output or 3-axis field) that calibration fits;
 * :mod:`.columns`: which column of a recording holds what, in which unit (:class:`Columns`);
@@ -17,12 +22,15 @@ from __future__ import annotations
 from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
 from magcilia.io.columns import Columns
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
+from magcilia.io.quality import RecordingQuality
 from magcilia.io.recording_file import RecordingWriter, recording_properties
 from magcilia.io.recordings import (
     Measurement,
+    check_quality,
     example_path,
     measurement_from_samples,
     read_measurements,
+    read_recording,
     read_samples,
 )
 from magcilia.io.results import read_json
@@ -31,9 +39,11 @@ from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, set
 __all__ = [
     "Columns",
     "Measurement",
+    "RecordingQuality",
     "RecordingWriter",
     "array_from_dict",
     "array_to_dict",
+    "check_quality",
     "example_path",
     "fixed_point_format",
     "load_array",
@@ -41,6 +51,7 @@ __all__ = [
     "measurement_from_samples",
     "read_json",
     "read_measurements",
+    "read_recording",
     "read_samples",
     "recording_properties",
     "save_array",

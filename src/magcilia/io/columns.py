@@ -60,6 +60,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
 from magcilia.units import UNITS
@@ -88,6 +91,24 @@ OBSERVABLE = "observable"
 KEY_ROLE = {key: role for role, (key, _, _) in ROLES.items()}
 
 _TRAILING_UNIT = re.compile(r"^(.*?)\s*(?:\[([^\[\]]*)\]|\(([^()]*)\))\s*$", re.DOTALL)
+
+
+#: conditions are grouped after rounding to this many decimals (of deg, uN or mm/s): angles
+#: equal to 1e-9 deg are the same angle
+ANGLE_DECIMALS = 9
+#: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
+#: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
+LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
+
+
+def scaled(values: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
+    """A column read (any shape) times its unit's ``factor`` to deg, V, s, T, N or m/s: the
+    same array when the factor is 1; a value that overflows is infinite and a signalling NaN a
+    NaN, without a warning (the readers' NaN/inf policy counts or refuses them)."""
+    if factor == 1.0:
+        return values
+    with np.errstate(over="ignore", invalid="ignore"):
+        return values * factor
 
 
 def split_unit(text: str) -> tuple[str, str | None]:

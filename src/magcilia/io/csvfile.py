@@ -18,7 +18,11 @@ row per sample). Two readers give the same columns:
   and asks the careful reader.
 - **The careful reader** (:func:`read_csv_carefully`) reads any file line by line with the
   ``csv`` module: comments anywhere, quotes, other text columns; it names the line of anything
-  wrong in a one-line error. It is about 20 times slower and holds the whole columns.
+  wrong in a one-line error. It is about 20 times slower and holds the whole columns. Its numbers
+  follow the fast reader's grammar (:data:`NUMBER`: ASCII digits, an optional decimal mark and
+  exponent, nan and inf(inity)), not all of Python's ``float`` (``1_0`` is not ten, ``١٢`` not
+  twelve), and a line that starts with a spreadsheet's error value (``#N/A``, ``#VALUE!``,
+  :data:`SPREADSHEET_ERROR`) is a row whose field is not a number, not a comment.
 
 A header problem (a missing column, one of ours named twice) is the same error from both.
 
@@ -40,6 +44,7 @@ import codecs
 import csv
 import io
 import itertools
+import re
 from array import array
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
@@ -61,6 +66,14 @@ PLAIN_CSV_BYTES = b"0123456789.+-,; \t\r\naefinrstyAEFINRSTY"
 #: How ``float`` spells NaN (sign and case): the only fields the fast reader takes as NaN.
 NAN_TEXT = tuple(sign + "".join(c) for sign in ("", "+", "-")
                  for c in itertools.product("nN", "aA", "nN"))
+#: A number as both readers read it (after the decimal comma is made a point): ASCII digits, an
+#: optional decimal point and exponent, or nan/inf/infinity, with a sign and spaces or tabs
+#: around.
+NUMBER = re.compile(r"[ \t]*[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+                    r"|[iI][nN][fF](?:[iI][nN][iI][tT][yY])?|[nN][aA][nN])[ \t]*")
+#: A spreadsheet's error value at the start of a line (``#N/A``, ``#VALUE!``, ``#DIV/0!``, ...):
+#: a data row with a field that is not a number, not a comment.
+SPREADSHEET_ERROR = re.compile(r'"?#(?:N/A|[A-Z][A-Z0-9/_]*[!?])(?:"|[ \t,;]|$)')
 #: Rows the fast reader parses at a time.
 CSV_BLOCK_ROWS = 1 << 20
 #: Delimiters by the names the readers take (" " stands for runs of white space).
@@ -344,7 +357,7 @@ def _csv_lines(f: IO[str], path: Path, where: list[int], limit: int) -> Iterator
                 "magcilia.io.recordings.MAX_LINE_CHARS"
             )
         text = line.strip()
-        if text and not text.startswith("#"):
+        if text and (not text.startswith("#") or SPREADSHEET_ERROR.match(text)):
             yield line
 
 
@@ -373,6 +386,8 @@ def _number(text: str, decimal: str) -> float:
         if "." in text:
             raise ValueError(text)
         text = text.replace(",", ".")
+    if not NUMBER.fullmatch(text):
+        raise ValueError(text)
     return float(text)
 
 

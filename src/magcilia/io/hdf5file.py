@@ -7,8 +7,15 @@ path below that group (``daq/Vout[mV]``). Each dataset holds real numbers (any i
 type), shape ``(n,)`` or a column or row ``(n, 1)``/``(1, n)``, all of one length. Its unit comes
 from the mapping, from its name (``Vout [mV]``), from a ``units`` (or ``unit``) string attribute
 (``"mV"``, as many DAQ and h5py scripts write it), or from a unit suffix of its name
-(``voltage_V``), in that order; units that disagree are an error. Datasets reached through an
-external link (another file) are refused. pandas' HDF files (PyTables tables) are not read:
+(``voltage_V``), in that order; units that disagree are an error.
+
+Nothing outside the file is read: datasets reached through an external link, datasets whose
+values are kept in another file (external storage) or gathered from others (virtual datasets),
+and datasets decoded by a filter that is not built into HDF5 or h5py (a plugin: the child
+process forgets HDF5's plugin paths, so none is loaded) are refused with one line naming the
+dataset. A dataset only partly written (a chunked dataset with chunks never allocated, a
+contiguous one never written: HDF5 would read the gaps as the fill value, 0.0) is refused too
+(:func:`magcilia.io.matfile.h5_dataset_problem`). pandas' HDF files (PyTables tables) are not read:
 write the columns as datasets (``h5py``: ``f["voltage_V"] = values``).
 
 Like MATLAB v7.3 files, HDF5 files are parsed in a child process (:mod:`magcilia.io.matfile`
@@ -42,8 +49,9 @@ from numpy.typing import NDArray
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import printable
 from magcilia.io import matfile
-from magcilia.io.columns import _TRAILING_UNIT, Columns
+from magcilia.io.columns import _TRAILING_UNIT, Columns, scaled
 from magcilia.io.csvfile import names_text, too_many_samples
+from magcilia.io.matfile import forget_h5_plugins, h5_dataset_problem, h5_reaches_outside
 
 F64 = NDArray[np.float64]
 
@@ -98,13 +106,14 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
         except (ImportError, OSError, ValueError):
             pass
         arrays: dict[str, Any] = {}
+        forget_h5_plugins(h5py)
         with h5py.File(path, "r") as f:
             group = f
             if group_name not in ("", "/"):
-                parts = group_name.strip("/").split("/")
-                links = [f.get("/".join(parts[:i + 1]), getlink=True) for i in range(len(parts))]
-                obj = (f.get(group_name) if all(isinstance(x, (h5py.HardLink, h5py.SoftLink))
-                                                for x in links) else None)
+                if h5_reaches_outside(f, "/" + group_name.strip("/")):
+                    raise LookupError(f"the group {group_name!r} is reached through an external "
+                                      "link to another file; copy the data in")
+                obj = f.get(group_name)
                 if not isinstance(obj, h5py.Group):
                     groups = [str(k) for k in f if isinstance(f.get(k, getlink=True),
                                                                 h5py.HardLink)
@@ -114,9 +123,7 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
                 group = obj
 
             def external(k: str) -> bool:  # a link on the way to k points into another file
-                parts = k.strip("/").split("/")
-                return any(isinstance(group.get("/".join(parts[:i + 1]), getlink=True),
-                                      h5py.ExternalLink) for i in range(len(parts)))
+                return h5_reaches_outside(f, f"{group.name.rstrip('/')}/{k.strip('/')}")
 
             found = [str(k) for k in group]
             for k in wanted:  # paths below the group: the members of the group they name
@@ -156,9 +163,12 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
                                    "column of samples, shape (n,)")
                 elif obj.size > max_samples:
                     problems[k] = f"too many: {obj.size}"
-                elif obj.chunks is None and obj.size * dtype.itemsize > size:
+                elif obj.chunks is None and obj.size * dtype.itemsize > size and not (
+                        obj.id.get_create_plist().get_external_count()):
                     problems[k] = (f"declares {obj.size:,} values, more than the file's "
                                    f"{size:,} bytes can hold; the file is damaged")
+                elif (problem := h5_dataset_problem(obj)) is not None:
+                    problems[k] = problem
                 else:
                     arrays[k] = np.asarray(obj[()], dtype=np.float64).reshape(-1)
         if arrays:
@@ -175,8 +185,8 @@ def _h5_child() -> None:  # pragma: no cover (runs in the child process)
 
 
 def _h5_child_code() -> str:
-    """The child's program: :func:`_h5_child`'s source and a call."""
-    return inspect.getsource(_h5_child) + "\n_h5_child()\n"
+    """The child's program: the shared HDF5 checks, :func:`_h5_child`'s source and a call."""
+    return matfile.h5_child_helpers() + inspect.getsource(_h5_child) + "\n_h5_child()\n"
 
 
 def _run_child(path: Path, group: str, wanted: list[str], max_samples: int
@@ -257,5 +267,5 @@ def read_hdf5(path: Path, columns: Columns, required: tuple[str, ...], *, group:
         if name not in arrays:
             raise MagciliaError(f"{where}: dataset {printable(name)} could not be read "
                                 f"(datasets: {names_text(found)})")
-        out[key] = arrays[name] * factor if factor != 1.0 else arrays[name]
+        out[key] = scaled(arrays[name], factor)
     return out

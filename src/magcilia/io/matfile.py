@@ -215,6 +215,92 @@ def _scan_mat_v4(path: Path, f: IO[bytes], size: int) -> None:
         pos += nbytes
 
 
+#: HDF5 filters built into the library or h5py (deflate, shuffle, Fletcher32, SZIP, N-bit,
+#: scale-offset, LZF); any other would be a plugin loaded from outside the file
+H5_FILTERS = {1: "deflate", 2: "shuffle", 3: "fletcher32", 4: "szip", 5: "nbit",
+              6: "scaleoffset", 32000: "lzf"}
+
+
+def h5_dataset_problem(obj: Any) -> str | None:  # pragma: no cover (runs in the child process)
+    """What keeps an HDF5 dataset from being read as data of its own file (the HDF5 and MATLAB
+    v7.3 readers' child processes run this before reading a value; self-contained): its values
+    kept in another file (external storage), gathered from other datasets or files (a virtual
+    dataset), decoded by a filter that is not built in (a plugin loaded from elsewhere), or not
+    written (a contiguous dataset never written, chunks never allocated: they would read as the
+    fill value). None for a dataset that is whole and its own."""
+    import math
+
+    plist = obj.id.get_create_plist()
+    fill = obj.fillvalue.item() if hasattr(obj.fillvalue, "item") else obj.fillvalue
+    if plist.get_external_count():
+        files = {str(plist.get_external(i)[0], "utf-8", "replace") if isinstance(
+            plist.get_external(i)[0], bytes) else str(plist.get_external(i)[0])
+            for i in range(plist.get_external_count())}
+        return (f"keeps its values in another file (HDF5 external storage: "
+                f"{', '.join(sorted(files))[:120]}); magcilia reads only what is inside the "
+                "file: store the values in it (h5py: f.create_dataset(name, data=values))")
+    if obj.is_virtual:
+        return ("is a virtual dataset (its values are gathered from other datasets or files); "
+                "magcilia reads only what is inside the file: store the values in it")
+    for i in range(plist.get_nfilters()):
+        code, _, _, name = plist.get_filter(i)
+        if code not in {1, 2, 3, 4, 5, 6, 32000}:
+            label = str(name, "utf-8", "replace") if isinstance(name, bytes) else str(name)
+            return (f"is decoded by HDF5 filter {code} ({label[:40] or 'unnamed'}), a plugin "
+                    "that magcilia does not load; store it uncompressed or with gzip")
+    if obj.size and obj.id.get_storage_size() == 0:
+        return ("was never written (no storage allocated: it would read as the fill value "
+                f"{fill!r}); the recording is empty or was cut before its first write")
+    if obj.chunks is not None and obj.size:
+        try:
+            allocated = obj.id.get_num_chunks()
+        except (AttributeError, RuntimeError, ValueError):  # an HDF5 without the call
+            return None
+        total = math.prod(-(-n // c) for n, c in zip(obj.shape, obj.chunks, strict=True))
+        if allocated < total:
+            return (f"was only partly written: {allocated} of its {total} chunks hold data (the "
+                    f"others would read as the fill value {fill!r}); the recording "
+                    "was cut short: keep the part written (h5py: resize the dataset to it)")
+    return None
+
+
+def h5_reaches_outside(file: Any, path: str) -> bool:  # pragma: no cover (in the child)
+    """Whether following ``path`` (absolute in ``file``) crosses an external link, soft links
+    followed here one component at a time (so that HDF5 itself never traverses a link to find
+    out; a chain of more than 32 soft links counts as outside). Self-contained, for the child
+    processes."""
+    import posixpath
+
+    import h5py
+
+    todo = [p for p in path.split("/") if p]
+    here, hops = "", 0
+    while todo:
+        name = todo.pop(0)
+        link = file.get(f"{here}/{name}", getlink=True)
+        if isinstance(link, h5py.ExternalLink):
+            return True
+        if isinstance(link, h5py.SoftLink):
+            hops += 1
+            if hops > 32:
+                return True
+            target = posixpath.normpath(posixpath.join(here or "/", str(link.path)))
+            todo = [p for p in target.split("/") if p] + todo
+            here = ""
+            continue
+        here = f"{here}/{name}"
+    return False
+
+
+def forget_h5_plugins(h5py: Any) -> None:  # pragma: no cover (runs in the child process)
+    """Forget HDF5's plugin search paths, so that no filter is loaded from outside the file."""
+    try:
+        while h5py.h5pl.size():
+            h5py.h5pl.remove(0)
+    except (AttributeError, RuntimeError, ValueError):
+        pass
+
+
 def _mat_child() -> None:  # pragma: no cover (runs in the child process)
     """The MATLAB reader's child process (see the module docstring): its source is sent with
     ``python -P -c``, so it is self-contained and imports nothing from magcilia.
@@ -257,6 +343,7 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
         numeric = ("double", "single", "logical", "int8", "uint8", "int16", "uint16", "int32",
                    "uint32", "int64", "uint64")
         if kind == "hdf5":
+            forget_h5_plugins(h5py)
             with h5py.File(path, "r") as mat:
                 found = [str(k) for k in mat if not str(k).startswith("#")]
                 for k in wanted:
@@ -283,6 +370,8 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
                         problems[k] = (f"holds {obj.size * obj.dtype.itemsize:,} bytes, more "
                                        f"than MAX_DECOMPRESSED = {max_bytes:,}; raise magcilia."
                                        "io.matfile.MAX_DECOMPRESSED for a genuine recording")
+                    elif (problem := h5_dataset_problem(obj)) is not None:
+                        problems[k] = problem
                     else:
                         arrays[k] = np.asarray(obj[()]).T  # MATLAB's dimensions are reversed
         else:
@@ -318,9 +407,17 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
                                  "problems": problems, "error": error}) + "\n")
 
 
+def h5_child_helpers() -> str:
+    """The source of the HDF5 checks the child processes share (:func:`h5_dataset_problem`,
+    :func:`h5_reaches_outside`, :func:`forget_h5_plugins`), to send with a child's program."""
+    return ("from __future__ import annotations\n\n" + inspect.getsource(h5_dataset_problem)
+            + "\n" + inspect.getsource(h5_reaches_outside) + "\n"
+            + inspect.getsource(forget_h5_plugins) + "\n")
+
+
 def _mat_child_code() -> str:
-    """The child's program: :func:`_mat_child`'s source and a call."""
-    return inspect.getsource(_mat_child) + "\n_mat_child()\n"
+    """The child's program: the HDF5 checks, :func:`_mat_child`'s source and a call."""
+    return h5_child_helpers() + inspect.getsource(_mat_child) + "\n_mat_child()\n"
 
 
 def run_child(path: Path, code: str, args: list[str], *, reader: str, what: str,

@@ -20,6 +20,7 @@ from magcilia._display import Display, Item, Table, count, dataframe, number, si
 from magcilia._errors import MagciliaError
 from magcilia._validate import printable
 from magcilia.io.columns import FIELD_KEYS
+from magcilia.io.quality import RecordingQuality
 
 F64 = NDArray[np.float64]
 
@@ -55,7 +56,11 @@ class Measurement(Display):
         JSON-ready notes. ``metadata["dropped"]`` (present only when needed) counts the dropped
         samples that no angle's counts can hold: ``no_angle`` (samples whose angle was NaN/inf,
         nan_policy 'omit'), ``angles_deg`` (angles left without a usable sample) and ``samples``
-        (how many samples those angles had); :meth:`report` says them.
+        (how many samples those angles had); :meth:`report` says them. From the readers:
+        ``quality`` (:meth:`magcilia.io.quality.RecordingQuality.to_dict`: what the checks of
+        the samples flagged), ``notes`` (one line each: damage the reader read past, a recording
+        cut short and the planned angles it lacks) and, for magcilia's recordings, ``recording``
+        (complete, planned and missing angles, why it stopped); :meth:`notes` says them.
     azimuths : ndarray, shape (a,)
         Tilt direction φ of each condition, rad (0: tilt toward +x, the paper's path; the tilt
         axis is horizontal, perpendicular to φ). Conditions are ordered by azimuth, then angle.
@@ -255,9 +260,20 @@ class Measurement(Display):
         return (f"{len(self)} conditions: {count(len(az), 'azimuth')} "
                 f"({', '.join(f'{a:g}' for a in az)} deg) × angles {span}")
 
+    def notes(self) -> list[str]:
+        """What to know beyond the numbers, one line each (empty when there is nothing to say):
+        the reader's notes on the file (``metadata["notes"]``: damage read past, a recording cut
+        short and the planned angles it lacks) and what the quality checks flagged
+        (``metadata["quality"]``, :mod:`magcilia.io.quality`), with what was done with it."""
+        out = [printable(str(n)) for n in self.metadata.get("notes") or []]
+        quality = self.metadata.get("quality")
+        if isinstance(quality, Mapping) and quality.get("flagged"):
+            out.append(RecordingQuality.from_dict(quality).report())
+        return out
+
     def report(self) -> str:
         """One line: source, conditions (angles, azimuths), observable, samples and what was
-        dropped."""
+        dropped; then, one per line, the :meth:`notes`."""
         text = (f"{self.source}: {self._conditions_text()}"
                 + (", 3-axis field" if self.fields is not None else "")
                 + f", {int(self.counts.sum())} samples"
@@ -276,7 +292,8 @@ class Measurement(Display):
             what = "condition(s)" if "azimuths_deg" in lost else "angle(s)"
             dropped.append(f"{lost['samples']} at {len(where)} {what} left with no "
                            f"usable sample ({', '.join(where)} deg)")
-        return text + (f"; {', '.join(dropped)}" if dropped else "")
+        return "\n".join([text + (f"; {', '.join(dropped)}" if dropped else ""),
+                          *(f"note: {n}" for n in self.notes())])
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:

@@ -79,20 +79,36 @@ by the module constants below (each error names the constant to raise where a ge
 exceed it): :data:`MAX_SAMPLES` samples per column, :data:`MAX_LINE_CHARS` characters per CSV
 line, and for MATLAB files those of :mod:`magcilia.io.matfile`.
 
-MATLAB files are parsed in a child process after a check of their structure
-(:mod:`magcilia.io.matfile`, which says why and what it costs).
+MATLAB and HDF5 files are parsed in a child process after a check of their structure
+(:mod:`magcilia.io.matfile`, which says why and what it costs). A file reaches nothing outside
+itself: HDF5 external links, external storage, virtual datasets and plugin filters are refused
+(:mod:`magcilia.io.hdf5file`), TDMS index files beside a recording are never read
+(:mod:`magcilia.io.tdmsfile`); CSV and MATLAB v4/v5 files have no way to name another file.
+
+Damage and quality
+------------------
+A reader returns its notes with the columns (:func:`read_recording`,
+:class:`~magcilia.io.recording_state.RawRecording`): damage it could read past (TDMS: see
+:mod:`magcilia.io.tdmsfile`; a file that says it is complete is refused instead), and what the
+file says of itself (a recording cut short, the planned angles it lacks:
+:mod:`magcilia.io.recording_state`). :func:`read_measurements` then checks the samples
+(:func:`check_quality`, :mod:`magcilia.io.quality`: sparse conditions, outliers, duplicated
+blocks, garbled values) and keeps, omits or refuses what is flagged (``suspect``); everything is
+in the measurement's ``metadata`` and said by :meth:`Measurement.notes`.
 
 Speed and memory
 ----------------
 A plain CSV file (numbers only after the header) is parsed by pandas' C reader in blocks of a
-million rows, each reduced as it comes (:mod:`magcilia.io.csvfile`); anything else goes to the
-careful line-by-line reader, which gives the same columns and the errors that name a line. The
+million rows (:mod:`magcilia.io.csvfile`); anything else goes to the careful line-by-line reader,
+which gives the same columns and the errors that name a line. The quality checks need every
+sample at once, so the columns are held whole (three columns of 1e7 samples: 240 MB). The
 reduction (:func:`measurement_from_samples`, and every reader through it) is one pass over pieces
 of :data:`REDUCE_SAMPLES` samples: the runs of equal conditions (the angle; with an azimuth
 column, the pair as one complex key) are grouped, their sums gathered per condition with
 ``np.bincount``, in a two-pass form accurate on a large offset, and the pieces merged with
-Chan's formulas. A 1e7-row CSV recording (300 MB) reads in under a second on one core with
-about 100 MB above the interpreter's own (``benchmarks/bench_recordings.py``).
+Chan's formulas. A 1e7-row CSV recording (300 MB) is read, checked and reduced in 3.7 s with a
+peak of 0.8 GB on a loaded 2-core VM, where pandas' reader alone takes 1.35 s
+(``benchmarks/bench_recordings.py``).
 
 Angles are tilt angles in degrees: a finite ``|angle_deg|`` above :data:`MAX_ANGLE_DEG` (a
 column in the wrong unit, or garbage) is an error rather than grouped, so the grouping by
@@ -102,6 +118,7 @@ rounding to :data:`ANGLE_DECIMALS` decimals never overflows; azimuths likewise.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import time
@@ -115,16 +132,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._errors import MagciliaError, MissingDependencyError, require
+from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
-from magcilia.io.columns import FIELD_KEYS, LOAD_KEYS, OBSERVABLE, Columns
+from magcilia.io.columns import (
+    ANGLE_DECIMALS,
+    FIELD_KEYS,
+    LOAD_KEYS,
+    LOAD_UNITS,
+    OBSERVABLE,
+    Columns,
+    scaled,
+)
 from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
     delimiter_of,
-    names_text,
     plain_csv_blocks,
     read_csv_carefully,
     too_many_samples,
@@ -133,19 +157,26 @@ from magcilia.io.hdf5file import read_hdf5
 from magcilia.io.matfile import read_mat
 from magcilia.io.measurement import Measurement
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
+from magcilia.io.quality import (
+    SUSPECT_POLICIES,
+    check_quality,
+    refuse_suspects,
+)
+from magcilia.io.recording_state import RawRecording
+from magcilia.io.tdmsfile import (  # noqa: F401 (nptdms_module, quiet_nptdms: kept here)
+    nptdms_module,
+    quiet_nptdms,
+    read_tdms,
+)
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
 NAN_POLICIES = ("raise", "omit")
 SATURATION_POLICIES = ("raise", "omit", "keep")
-ANGLE_DECIMALS = 9  # angles equal to 1e-9 deg are the same angle
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
 COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
            *LOAD_KEYS)
-#: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
-#: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
-LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
 #: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
 FLUID_NAMES = ("air", "water")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
@@ -155,6 +186,9 @@ Progress = Callable[[int, int], None]
 MAX_ANGLE_DEG = 360.0
 #: Largest |tilt azimuth| accepted, deg (as the angle).
 MAX_AZIMUTH_DEG = 360.0
+#: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
+#: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
+MAX_FIELD_T = 100.0
 #: Most samples per column in any format (4 columns × 8 bytes × 50 million = 1.6 GB of arrays).
 MAX_SAMPLES = 50_000_000
 #: Longest CSV line, characters (a recording's line is tens of characters).
@@ -256,7 +290,7 @@ class _Reduction:
         condition = cols.get("angle_deg")
         for kind, (key, factor, _) in LOAD_UNITS.items():
             if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
-                self.load, condition = kind, cols[key] * factor
+                self.load, condition = kind, scaled(cols[key], factor)
         assert condition is not None  # (the readers require an angle or a load column)
         self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
                  azimuth=cols.get("azimuth_deg"), fields=fields)
@@ -305,6 +339,17 @@ class _Reduction:
         else:
             bad = ~(finite & np.isfinite(fields[0]) & np.isfinite(fields[1])
                     & np.isfinite(fields[2]))
+            comps = np.stack(fields)
+            with np.errstate(invalid="ignore"):
+                far = np.asarray(np.isfinite(comps) & (np.abs(comps) > MAX_FIELD_T))
+
+            def far_field(i: int) -> str:
+                j = int(np.argmax(far[:, i]))
+                return (f"{source}: sample {offset + i + 1} has {FIELD_KEYS[j]}="
+                        f"{comps[j, i]:.6g}, beyond ±MAX_FIELD_T = {MAX_FIELD_T:g} T; the field "
+                        "columns must be in tesla (check the columns and their units)")
+
+            self._note("far_field", np.asarray(far.any(axis=0)), far_field)
         if sr is not None:
             bad |= (sr != 1.0) & (sr != -1.0)
         if self.nan_policy == "raise":
@@ -420,7 +465,7 @@ class _Reduction:
         source = self.source
         if not self.samples:
             raise v.fail(f"{source}", "no samples", "a recording with at least two angles")
-        for kind in ("far", "far_azimuth", "bad", "saturated"):
+        for kind in ("far", "far_azimuth", "bad", "far_field", "saturated"):
             if kind in self.problems:
                 raise MagciliaError(self.problems[kind])
         n, hi, lo, _ = self.stats
@@ -501,6 +546,7 @@ def measurement_from_samples(
     nan_policy: str = "raise",
     saturation: str = "raise",
     source: str = "<array>",
+    suspect: str = "keep",
 ) -> Measurement:
     """Reduce raw samples to a :class:`Measurement`, in one pass over pieces of
     :data:`REDUCE_SAMPLES` samples (per-condition means and standard errors accurate on a large
@@ -532,6 +578,10 @@ def measurement_from_samples(
         What to do with output samples beyond the sensor's range.
     source : str
         Name used in messages.
+    suspect : {"keep", "omit", "raise"}
+        Samples that the quality checks flag (:mod:`magcilia.io.quality`: conditions with far
+        fewer samples than the others, outliers within their condition, duplicated blocks of
+        rows): kept and counted in ``metadata["quality"]``, left out (and counted), or an error.
 
     Examples
     --------
@@ -541,7 +591,7 @@ def measurement_from_samples(
     >>> m.observable, len(m), np.degrees(m.azimuths).tolist(), m.fields[:, 1].tolist()
     ('field', 3, [0.0, 0.0, 90.0], [0.0, 0.0, 1e-05])
     """
-    reduction = _Reduction(sensor, nan_policy, saturation, source)
+    _Reduction(sensor, nan_policy, saturation, source)  # the policies checked first
     ang = np.asarray(angle_deg, dtype=np.float64).ravel()
     if (voltage is None) == (field is None):
         raise v.fail(f"{source}: samples", "both voltage and field" if voltage is not None
@@ -562,8 +612,13 @@ def measurement_from_samples(
     if len(set(sizes)) > 1:
         raise v.fail(f"{source}: columns", "lengths " + ", ".join(map(str, sizes)),
                      "of equal length")
-    reduction.add(ang, volt, sr, azimuth=az, fields=fields)
-    return reduction.measurement()
+    cols = {"angle_deg": ang, **({} if volt is None else {"voltage_V": volt}),
+            **({} if sr is None else {"setreset": sr}),
+            **({} if az is None else {"azimuth_deg": az}),
+            **({} if fields is None else dict(zip(FIELD_KEYS, fields, strict=True)))}
+    policy = v.choice("suspect", suspect, SUSPECT_POLICIES)
+    return _measure(lambda: _Reduction(sensor, nan_policy, saturation, source),
+                    RawRecording(cols), policy)
 
 
 def _csv_limits() -> dict[str, int]:
@@ -618,7 +673,7 @@ class _CSVLocator:
     def scaled(self, block: dict[str, F64]) -> dict[str, F64]:
         """A block's columns in deg, V and s."""
         for key, factor in self.factors.items():
-            block[key] = block[key] * factor
+            block[key] = scaled(block[key], factor)
         return block
 
     def header_names(self) -> tuple[str, ...]:
@@ -632,114 +687,24 @@ class _CSVLocator:
                 **_csv_limits()}
 
 
-def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
     """A CSV recording's columns: the fast reader's blocks joined, or the careful reader's."""
     locate = _CSVLocator(path, how, required)
     try:
         blocks = list(plain_csv_blocks(path, COLUMNS, locate.header_names(),
                                        progress=how.progress, **locate.options()))
     except NotPlainCSV:
-        return locate.scaled(read_csv_carefully(path, COLUMNS, locate.header_names(),
-                                                progress=how.progress, **locate.options()))
-    return locate.scaled({col: np.concatenate([b[col] for b in blocks]) for col in blocks[0]})
-
-
-def _reduce_csv(path: Path, how: _How, start: Callable[[], _Reduction]) -> _Reduction:
-    """A CSV recording reduced as it is read: block by block from the fast reader, or, where it
-    gives up (even after some blocks), afresh from the careful reader's columns."""
-    reduction = start()
-    required = ("angle_deg", OBSERVABLE)
-    locate = _CSVLocator(path, how, required)
-    try:
-        for piece in plain_csv_blocks(path, COLUMNS, locate.header_names(),
-                                      progress=how.progress, **locate.options()):
-            reduction.add_columns(locate.scaled(piece))
-    except NotPlainCSV:
-        reduction = start()
-        reduction.add_columns(locate.scaled(read_csv_carefully(
+        return RawRecording(locate.scaled(read_csv_carefully(
             path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options())))
-    return reduction
+    return RawRecording(locate.scaled(
+        {col: np.concatenate([b.pop(col) for b in blocks]) for col in list(blocks[0])}))
 
 
-def nptdms_module(purpose: str = "Reading TDMS files") -> Any:
-    """The optional npTDMS package, or a one-line error naming the ``tdms`` extra."""
-    return require("nptdms", package="npTDMS", extra="tdms", purpose=purpose)
+def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
+    return read_tdms(path, how.columns, required, group=how.group, max_samples=MAX_SAMPLES)
 
 
-@contextlib.contextmanager
-def quiet_nptdms() -> Iterator[None]:
-    """npTDMS logs warnings for a file cut inside its last segment (a recording whose writer was
-    killed); such a file is read, and the caller says what matters in one line."""
-    names = [n for n in list(logging.Logger.manager.loggerDict)
-             if n == "nptdms" or n.startswith("nptdms.")]  # npTDMS sets each module's level
-    logs = [logging.getLogger(n) for n in names or ["nptdms"]]
-    levels = [log.level for log in logs]
-    for log in logs:
-        log.setLevel(logging.ERROR)
-    try:
-        yield
-    finally:
-        for log, level in zip(logs, levels, strict=True):
-            log.setLevel(level)
-
-
-def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
-    nptdms = nptdms_module()
-    size = path.stat().st_size
-    with quiet_nptdms(), path.open("rb") as file, nptdms.TdmsFile.open(file) as tdms:
-        places: dict[str, list[tuple[str, Any]]] = {}
-        groups = tdms.groups()
-        wanted = how.group.strip("/")
-        if wanted:
-            names = [str(g.name) for g in groups]
-            if wanted not in names:
-                raise MagciliaError(f"{path}: no group {printable(wanted)!r} (groups: "
-                                    f"{names_text(names)}); pass one of them as the group")
-            groups = [g for g in groups if str(g.name) == wanted]
-        for group in groups:
-            for channel in group.channels():
-                places.setdefault(str(channel.name), []).append((str(group.name), channel))
-        everything = list(places)
-        located = how.columns.locate(everything, where=str(path), required=required,
-                                     kind="channel")
-        chosen: dict[str, tuple[str, float]] = {}
-        for key, (i, factor) in located.items():
-            name, where = everything[i], places[everything[i]]
-            if len(where) > 1:
-                raise MagciliaError(
-                    f"{path}: channel {printable(name)} appears in {len(where)} groups "
-                    f"({names_text([g for g, _ in where])}); keep it in one group, it is ambiguous "
-                    "which to use (or pass the group)"
-                )
-            chosen[key] = (name, factor)
-        out: dict[str, F64] = {}
-        for key, (name, factor) in chosen.items():
-            ((group_name, channel),) = places[name]
-            what = f"{path}: channel {printable(name)} (group {printable(group_name)})"
-            dtype = np.dtype(channel.dtype)
-            if dtype.kind not in "biuf":
-                raise MagciliaError(f"{what} holds {channel.data_type.__name__} values, not real "
-                                    "numbers; store the samples as numbers")
-            n = len(channel)
-            if n > MAX_SAMPLES:
-                raise too_many_samples(path, f"channel {printable(name)}", MAX_SAMPLES)
-            if n * dtype.itemsize > size:
-                raise MagciliaError(f"{what} declares {n:,} values, more than the file's "
-                                    f"{size:,} bytes can hold; the file is damaged")
-            data = np.asarray(channel[:], dtype=np.float64).ravel()
-            if data.size != n:
-                raise MagciliaError(f"{what} holds {data.size:,} of the {n:,} values it "
-                                    "declares; the file is damaged")
-            out[key] = data * factor if factor != 1.0 else data
-        complete = tdms.properties.get("complete")
-    if complete is False and out:  # a magcilia recording cut short (a crash): its last
-        # segment may end inside a channel; the samples in every channel are whole
-        n = min(a.size for a in out.values())
-        out = {k: a[:n] for k, a in out.items()}
-    return out
-
-
-def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
     names = how.columns.names()  # key -> variable name (MATLAB names carry no unit)
     need = tuple(names["voltage_V" if k == OBSERVABLE else k] for k in required)
     if OBSERVABLE in required:  # the voltage (last), or the field components in its place
@@ -748,13 +713,13 @@ def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64
                          tuple(names[k] for k in FIELD_KEYS) if OBSERVABLE in required else ())
     found = list(variables)
     located = how.columns.locate(found, where=str(path), required=required, kind="variable")
-    return {key: variables[found[i]] * factor if factor != 1.0 else variables[found[i]]
-            for key, (i, factor) in located.items()}
+    return RawRecording({key: scaled(variables[found[i]], factor)
+                         for key, (i, factor) in located.items()})
 
 
-def _read_hdf5(path: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
-    return read_hdf5(path, how.columns, required, group=how.group or "/",
-                     max_samples=MAX_SAMPLES)
+def _read_hdf5(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
+    return RawRecording(read_hdf5(path, how.columns, required, group=how.group or "/",
+                                  max_samples=MAX_SAMPLES))
 
 
 READERS = {".csv": _read_csv, ".txt": _read_csv, ".mat": _read_mat, ".tdms": _read_tdms,
@@ -799,6 +764,40 @@ def _reader_boundary(p: Path) -> Iterator[None]:
                             ) from exc
 
 
+def read_recording(
+    path: str | Path, required: tuple[str, ...] = ("angle_deg", OBSERVABLE), *,
+    columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
+    decimal: str = ".", group: str | None = None, progress: Progress | None = None,
+) -> RawRecording:
+    """A recording's raw sample columns (as :func:`read_samples`), with the reader's notes on the
+    file (damage it read past, a recording cut short: one line each, see
+    :mod:`magcilia.io.tdmsfile`) and what the file says about itself (complete, planned angles:
+    :class:`~magcilia.io.recording_state.RecordingState`).
+
+    The parameters and errors are :func:`read_samples`'; a recording cut before its first chunk
+    is the error ``the recording was cut before its first chunk``.
+    """
+    p = _recording_path(path)
+    how = _how(p, columns, delimiter, decimal, group, progress)
+    unknown = [k for k in required if k not in (*COLUMNS, OBSERVABLE)]
+    if unknown:
+        raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
+    with _reader_boundary(p):
+        raw = _read(p, required, how)
+    cols = raw.columns
+    lengths = {k: a.size for k, a in cols.items()}
+    if len(set(lengths.values())) > 1:
+        raise MagciliaError(
+            f"{p}: the columns have different lengths "
+            f"({', '.join(f'{k} {n}' for k, n in lengths.items())}); every column needs one "
+            "value per sample"
+        )
+    if any(n > MAX_SAMPLES for n in lengths.values()):
+        raise too_many_samples(p, "the recording", MAX_SAMPLES)
+    logger.debug("%s: %d rows of %s", p, max(lengths.values(), default=0), ", ".join(cols))
+    return raw
+
+
 def read_samples(
     path: str | Path, required: tuple[str, ...] = ("angle_deg", OBSERVABLE), *,
     columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
@@ -839,39 +838,29 @@ def read_samples(
         The columns found among ``angle_deg`` (deg), ``voltage_V`` (V), ``time_s`` (s),
         ``setreset`` (+1 set, −1 reset), ``azimuth_deg`` (deg) and ``field_x_T``,
         ``field_y_T``, ``field_z_T`` (T), whatever the file's names and units, all of the same
-        length (possibly 0: a recording stopped before its first sample;
-        :func:`read_measurements` rejects it). Never both ``voltage_V`` and the field columns,
-        and the field columns all three or none (one-line errors).
+        length (possibly 0: a file without samples; :func:`read_measurements` rejects it).
+        Never both ``voltage_V`` and the field columns, and the field columns all three or none
+        (one-line errors). The reader's notes on the file (damage read past, a recording cut
+        short) are logged as warnings of the ``magcilia`` logger; :func:`read_recording` returns
+        them.
 
     Raises
     ------
     MagciliaError
         For any file that cannot be read as a recording (one line naming the file and what is
-        wrong; an unexpected exception of a third-party parser is its ``__cause__``).
+        wrong; an unexpected exception of a third-party parser is its ``__cause__``), and for a
+        recording cut before its first chunk.
     MissingDependencyError
         For a TDMS, HDF5 or MATLAB v7.3 file without the optional package that reads it.
     """
-    p = _recording_path(path)
-    how = _how(p, columns, delimiter, decimal, group, progress)
-    unknown = [k for k in required if k not in (*COLUMNS, OBSERVABLE)]
-    if unknown:
-        raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
-    with _reader_boundary(p):
-        cols = _read(p, required, how)
-    lengths = {k: a.size for k, a in cols.items()}
-    if len(set(lengths.values())) > 1:
-        raise MagciliaError(
-            f"{p}: the columns have different lengths "
-            f"({', '.join(f'{k} {n}' for k, n in lengths.items())}); every column needs one "
-            "value per sample"
-        )
-    if any(n > MAX_SAMPLES for n in lengths.values()):
-        raise too_many_samples(p, "the recording", MAX_SAMPLES)
-    logger.debug("%s: %d rows of %s", p, max(lengths.values(), default=0), ", ".join(cols))
-    return cols
+    raw = read_recording(path, required, columns=columns, delimiter=delimiter, decimal=decimal,
+                         group=group, progress=progress)
+    for note in raw.notes:
+        logger.warning("%s: %s", path, note)
+    return raw.columns
 
 
-def _read(p: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
+def _read(p: Path, required: tuple[str, ...], how: _How) -> RawRecording:
     """A reader's columns, with the progress at the start and end of a format read at once."""
     reader = READERS[p.suffix.lower()]
     if how.progress is None:
@@ -879,9 +868,9 @@ def _read(p: Path, required: tuple[str, ...], how: _How) -> dict[str, F64]:
     size = p.stat().st_size
     if reader is not _read_csv:
         how.progress(0, size)
-    cols = reader(p, required, how)
+    raw = reader(p, required, how)
     how.progress(size, size)
-    return cols
+    return raw
 
 
 def read_measurements(
@@ -896,6 +885,7 @@ def read_measurements(
     group: str | None = None,
     progress: Progress | None = None,
     fluid: str = "water",
+    suspect: str = "keep",
 ) -> Measurement:
     """Read a recording (CSV, MATLAB .mat, TDMS or HDF5) and reduce it to per-condition means.
 
@@ -934,12 +924,20 @@ def read_measurements(
         block; other formats: at the start and the end).
     fluid : {"water", "air"}
         A flow recording's fluid (kept as ``metadata["fluid"]``; ignored for other recordings).
+    suspect : {"keep", "omit", "raise"}
+        Samples that the quality checks flag (:mod:`magcilia.io.quality`: conditions with far
+        fewer samples than the others, outliers within their condition, duplicated blocks of
+        rows): kept in the reduction, left out of it, or an error; counted and named in
+        ``metadata["quality"]`` either way (:meth:`Measurement.notes` says them).
 
     Returns
     -------
     Measurement
         For a load recording (a ``force_N`` or ``flow_m_per_s`` column in place of
         ``angle_deg``): ``forces`` or ``speeds`` per condition (azimuth, load), angles 0.
+        ``metadata`` holds ``quality`` (the checks' findings), ``notes`` (the reader's notes on
+        the file: damage read past, a recording cut short and the planned angles it lacks) and,
+        for magcilia's own recordings, ``recording`` (complete, planned and missing angles).
 
     Examples
     --------
@@ -953,25 +951,51 @@ def read_measurements(
         read_measurements("run.csv", columns="angle=Tilt[deg],azimuth=Phi[rad],"
                           "field_x=Bx[uT],field_y=By[uT],field_z=Bz[uT]")
     """
-    p = _recording_path(path)
-    how = _how(p, columns, delimiter, decimal, group, progress)
     fluid_name = v.choice("fluid", fluid, FLUID_NAMES)
+    policy = v.choice("suspect", suspect, SUSPECT_POLICIES)
+    _Reduction(sensor, nan_policy, saturation, "")  # the policies checked before the file is read
 
     def start() -> _Reduction:
-        reduction = _Reduction(sensor, nan_policy, saturation, str(p))
+        reduction = _Reduction(sensor, nan_policy, saturation, str(Path(path)))
         reduction.fluid = fluid_name
         return reduction
 
-    if READERS[p.suffix.lower()] is _read_csv:  # reduced as it is read, in bounded memory
-        with _reader_boundary(p):
-            reduction = _reduce_csv(p, how, start)
-        if progress is not None:
-            size = p.stat().st_size
-            progress(size, size)
-        return reduction.measurement()
+    raw = read_recording(path, columns=columns, delimiter=delimiter, decimal=decimal,
+                         group=group, progress=progress)
+    return _measure(start, raw, policy)
+
+
+def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) -> Measurement:
+    """A reader's columns reduced (the reduction's errors first), checked
+    (:func:`check_quality`),
+    the flagged samples kept, omitted (reduced again without them) or refused by ``policy``, and
+    the notes of the reader, the file and the checks kept in the measurement's metadata
+    (``notes``, ``recording``, ``quality``)."""
+    cols = raw.columns
     reduction = start()
-    reduction.add_columns(read_samples(p, columns=how.columns, group=group, progress=progress))
-    return reduction.measurement()
+    reduction.add_columns(cols)
+    m = reduction.measurement()
+    source = reduction.source
+    quality = check_quality(cols, policy)
+    refuse_suspects(source, quality)
+    if quality.found and policy == "omit":
+        reduction = start()
+        reduction.add_columns(quality.kept(cols))
+        m = reduction.measurement()
+    state = raw.state
+    notes = list(raw.notes)
+    if m.load_kind is None and m.single_azimuth:  # (a plan is a sweep of tilt angles)
+        notes += state.notes(m.angles_deg, m.counts, where=source)
+    metadata = dict(m.metadata)
+    if notes:
+        metadata["notes"] = notes
+    if state.own or state.complete is not None:
+        metadata["recording"] = state.to_dict()
+        missing = state.missing_angles(m.angles_deg)
+        if state.planned_angles_deg is not None:
+            metadata["recording"]["missing_angles_deg"] = missing.tolist()
+    metadata["quality"] = quality.to_dict()
+    return dataclasses.replace(m, metadata=metadata)
 
 
 def example_path() -> Path:

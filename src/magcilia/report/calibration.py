@@ -4,6 +4,7 @@ parameter table and the warnings, as PNG figures and a markdown summary."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -14,7 +15,9 @@ from magcilia._atomic import save_figure, staged_directory, write_json, write_te
 from magcilia.calibration import CalibrationResult, JointCalibrationResult
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
+from magcilia.io.measurement import Measurement
 from magcilia.io.setup_files import save_setup
+from magcilia.report.recording_notes import data_doc, data_markdown
 from magcilia.report.units import output_units
 
 if TYPE_CHECKING:
@@ -214,6 +217,7 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
                                           else " – |") if "truth" in r else ""))
     lines += ["", "## Warnings", ""]
     lines += [f"- {w}" for w in result.warnings] or ["- none"]
+    lines += ["", *data_markdown([result.data])]
     comparison = result.truth_comparison()
     if comparison:
         known = "The recording is synthetic: its true parameters are known."
@@ -278,6 +282,7 @@ def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, A
     doc["bias_coefficient_units"] = [v if k == 0 else f"{v}/{a}" if k == 1 else f"{v}/{a}^{k}"
                                      for k in range(len(coefficients))]
     doc["table"] = result.table(si)
+    doc["data"] = data_doc([result.data])
     return {"units": units.system, **doc}
 
 
@@ -296,6 +301,7 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
     doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
+    doc["data"] = data_doc([result.data])
     write_json(folder / "result.json", doc)
     write_report(result, folder, style)
 
@@ -386,28 +392,34 @@ def model_comparison(paper: CalibrationResult, physical: JointCalibrationResult)
     return "\n".join(lines)
 
 
-def joint_markdown_summary(result: JointCalibrationResult, comparison: str | None = None) -> str:
+def joint_markdown_summary(result: JointCalibrationResult, comparison: str | None = None,
+                           data: Sequence[Measurement] = ()) -> str:
     """The joint calibration's report as markdown: the plain-text report, the figures (the
-    posterior's pair plot when it was sampled) and, with ``comparison``, the paper's model on the
-    same data (:func:`model_comparison`)."""
+    posterior's pair plot when it was sampled), with ``comparison`` the paper's model on the
+    same data (:func:`model_comparison`), and with ``data`` (the measurements fitted) what the
+    readers said of them."""
     pairs = ("" if result.posterior is None
              else "![posterior: marginals and 68 %, 95 % contours](pairs.png)\n")
     both = "" if comparison is None else f"\n## Both models\n\n```\n{comparison}\n```\n"
+    notes = "\n" + "\n".join(data_markdown(data)) if data else ""
     return (f"# magcilia joint calibration report\n\n```\n{result.report()}\n```\n\n"
-            "![data and fitted model per experiment](fit.png)\n" + pairs + both)
+            "![data and fitted model per experiment](fit.png)\n" + pairs + both + notes)
 
 
 def write_joint_calibration_files(result: JointCalibrationResult, directory: str | Path,
-                                  style: str = "screen", comparison: str | None = None) -> None:
+                                  style: str = "screen", comparison: str | None = None,
+                                  data: Sequence[Measurement] = ()) -> None:
     """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
     posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a joint calibration into
-    ``directory``."""
+    ``directory``; with ``data`` (the measurements fitted) what the readers said of them."""
     from magcilia.report import style as st
 
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
     doc.setdefault("units", "SI")
+    if data:
+        doc["data"] = data_doc(data)
     write_json(folder / "result.json", doc)
     with st.use(style):
         figures = {"fit": joint_fit_figure(result)}
@@ -419,13 +431,15 @@ def write_joint_calibration_files(result: JointCalibrationResult, directory: str
             save_figure(fig, folder / f"{name}.png", dpi=st.dpi())
             if style == "paper":
                 save_figure(fig, folder / f"{name}.pdf")
-    write_text(folder / "report.md", joint_markdown_summary(result, comparison))
+    write_text(folder / "report.md", joint_markdown_summary(result, comparison, data))
 
 
-def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> dict[str, Any]:
+def joint_calibration_json(result: JointCalibrationResult, si: bool = False,
+                           data: Sequence[Measurement] = ()) -> dict[str, Any]:
     """``calibrate --model physical --json``: the parameters, standard errors and priors in the
     console's display units (mm; SI with ``si``), keys suffixed with their units, with each
-    experiment's RMS and offsets (mV/µT; V/T with ``si``)."""
+    experiment's RMS and offsets (mV/µT; V/T with ``si``) and, with ``data`` (the measurements
+    fitted), what the readers said of them."""
     units = output_units(si)
     names = ("height", "base_radius", "x", "y", "z", "youngs_modulus")
     geometry: dict[str, object] = {n: result.values[n] for n in names if n in result.values}
@@ -445,6 +459,8 @@ def joint_calibration_json(result: JointCalibrationResult, si: bool = False) -> 
                             f"rms_{unit}": e.rms * factor, "chi2": e.chi2,
                             f"offsets_{unit}": (e.offsets * factor).tolist()})
     out["experiments"] = experiments
+    if data:
+        out["data"] = data_doc(data)
     post = result.posterior
     if post is not None:
         out["posterior"] = {
