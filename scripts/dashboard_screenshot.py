@@ -1,9 +1,13 @@
 """Draw the browser dashboard on the simulated sensor into docs/images/dashboard.png (the README's
 picture), as a headless Chromium 1280 × 800 shows it.
 
-The simulated force goes through what the picture should show: the tare at the start, a push of
-0.15 mN, rest, a pull of 0.1 mN, a push beyond the span (flagged: no value), rest, a tare pressed
-on the page, then a recording started from the page during a push of 0.2 mN and stopped.
+The sensor is the ``force-sensor`` preset (what ``magcilia dashboard`` reads by default: the
+paper's cilium with a 0.05 mm tip radius, the presets' 0.669 MPa ± 27 % modulus, a converged
+layout), read out over ±0.06 mN. The simulated force goes through what the picture should show:
+the tare at the start, a push of 0.03 mN, rest, a pull of 0.02 mN, a push beyond the span
+(flagged: no value), rest, a tare pressed on the page, then a recording started from the page
+during a push of 0.04 mN and stopped. The σ band holds the noise and the force scale (±27 % of
+the value: the modulus is assumed).
 
 Run: python scripts/dashboard_screenshot.py [--out PATH]  (needs the ``dashboard`` extra,
 Playwright and Chromium: Debian's ``apt-get install chromium``)
@@ -20,6 +24,7 @@ from pathlib import Path
 
 import magcilia as mc
 from magcilia.acquire import Script, SimulatedSource
+from magcilia.cli._common import load_setup_arg
 from magcilia.live import LiveReadout
 from magcilia.live.dashboard import DashboardServer
 
@@ -27,8 +32,12 @@ OUT = Path(__file__).resolve().parents[1] / "docs" / "images" / "dashboard.png"
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update",
                  "--disable-sync"]
+#: the read-out's span, N (tip deflections up to about L/2 at the presets' modulus)
+SPAN = 6e-5
 #: what the simulated cilium does: (force in N, seconds held after the page shows it)
-STEPS = ((1.5e-4, 1.0), (0.0, 0.8), (-1e-4, 0.8), (3.6e-4, 0.6), (0.0, 0.5))
+STEPS = ((3e-5, 1.0), (0.0, 0.8), (-2e-5, 0.8), (7.2e-5, 0.6), (0.0, 0.5))
+#: the force held while a recording is started and stopped from the page, N
+RECORDED = 4e-5
 
 
 def chromium() -> str | None:
@@ -48,10 +57,10 @@ def main() -> None:
         sys.exit("dashboard_screenshot: no Chromium found (Debian: apt-get install chromium)")
     from playwright.sync_api import sync_playwright
 
-    setup = mc.Setup.paper(tip_radius=5e-5)
+    setup = load_setup_arg("force-sensor")
     source = SimulatedSource(setup, Script.constant(0.0, "force"), rate=10000.0, realtime=True,
                              rng=0, readout_noise=2e-5)
-    live = LiveReadout(source, mc.Readout(setup, "force", span=(-3e-4, 3e-4)), rate=1000,
+    live = LiveReadout(source, mc.Readout(setup, "force", span=(-SPAN, SPAN)), rate=1000,
                        tare_at_start=True)
     with tempfile.TemporaryDirectory() as records, sync_playwright() as p, live, \
             DashboardServer(live, port=0, record_dir=records) as server:
@@ -70,7 +79,7 @@ def main() -> None:
         time.sleep(0.8)
         page.click("#record")
         page.wait_for_function("() => window.magcilia.status.recording", timeout=10000)
-        source.set_value(2e-4)
+        source.set_value(RECORDED)
         time.sleep(1.0)
         page.click("#record")
         page.wait_for_function("() => !window.magcilia.status.recording", timeout=10000)
