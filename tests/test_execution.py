@@ -8,12 +8,20 @@ import multiprocessing
 import os
 import signal
 import socket
+import subprocess
+import sys
 import time
 
 import pytest
 
 from magcilia._errors import MagciliaError
-from magcilia.execution import TaskResult, one_line, resolve_scheduler, run_tasks
+from magcilia.execution import (
+    WATCHDOG_INTERVAL,
+    TaskResult,
+    one_line,
+    resolve_scheduler,
+    run_tasks,
+)
 
 TASKS = [(f"t{i}", float(i) - 2.0) for i in range(8)]  # two negative: math.sqrt fails
 
@@ -170,3 +178,58 @@ def test_the_default_start_method_and_a_bad_one(monkeypatch: pytest.MonkeyPatch)
     with pytest.raises(MagciliaError, match=r"^MAGCILIA_START_METHOD must be one of") as err:
         start_method()
     assert "\n" not in str(err.value)
+
+
+# -- workers die with their parent ------------------------------------------------------------
+
+ORPHANING = """
+import multiprocessing, os, signal, sys, time
+from magcilia import execution
+if sys.argv[1] == "watchdog":  # as on a system without Linux's parent-death signal
+    execution._parent_death_signal = lambda: False
+os.environ[execution.START_ENV] = sys.argv[2]
+
+def killed(result):
+    print(" ".join(str(p.pid) for p in multiprocessing.active_children()), flush=True)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+execution.run_tasks(time.sleep, [("a", 0.0), ("b", 60.0), ("c", 60.0)], workers=2,
+                    progress=False, on_result=killed)
+"""
+
+
+def survivors(pids: list[int], within: float) -> list[int]:
+    """The processes of ``pids`` still running (not ended, not a zombie) after ``within`` s."""
+    psutil = pytest.importorskip("psutil")
+    deadline = time.monotonic() + within
+    while True:
+        alive = []
+        for pid in pids:
+            try:
+                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                    alive.append(pid)
+            except psutil.NoSuchProcess:
+                pass
+        if not alive or time.monotonic() > deadline:
+            return alive
+        time.sleep(0.05)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+@pytest.mark.parametrize(("how", "method"), [("prctl", "fork"), ("watchdog", "fork"),
+                                             ("watchdog", "forkserver")])
+def test_pool_workers_die_with_a_killed_parent(how: str, method: str) -> None:
+    if how == "prctl" and not sys.platform.startswith("linux"):
+        pytest.skip("the parent-death signal is Linux's")
+    if method not in multiprocessing.get_all_start_methods():
+        pytest.skip(f"no {method} here")
+    child = subprocess.run([sys.executable, "-c", ORPHANING, how, method], capture_output=True,
+                           text=True, timeout=120, check=False)
+    assert child.returncode == -signal.SIGKILL, child.stderr
+    workers = [int(p) for p in child.stdout.split()]
+    assert len(workers) == 2
+    # the parent-death signal acts at once; the watchdog within its interval
+    alive = survivors(workers, within=5.0 if how == "prctl" else 10 * WATCHDOG_INTERVAL)
+    for pid in alive:  # a failing test leaves no process behind either
+        os.kill(pid, signal.SIGKILL)
+    assert alive == []

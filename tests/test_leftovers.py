@@ -199,9 +199,9 @@ def test_a_foreign_entry_is_named_and_nothing_is_removed(tmp_path: Path, where: 
     assert foreign_entry(out, NAMES, INNER) == shown
     with pytest.raises(MagciliaError) as err:
         clear_output(out, NAMES, INNER, out="out")
-    assert str(err.value) == (f"out holds {shown!r}, which this command does not write; --force "
-                              "replaces only an earlier output folder of the command: remove it "
-                              "yourself, or choose another --out")
+    assert str(err.value) == (f"out holds {shown!r}, which this command does not write; it "
+                              "replaces only its own earlier output (--force too): move that "
+                              "away, or choose another --out")
     assert tree(out) == before and (out / "hair000").is_dir()
 
 

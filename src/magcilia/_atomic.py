@@ -28,8 +28,8 @@ file may replace the old one).
 
 ``--force``. A command replaces only what it wrote itself: :func:`foreign_entry` finds anything
 else in an output folder (the command's own file names, its sub-folders of its own names, and
-this module's leftovers are its own), :func:`staged_directory` and :func:`clear_output` refuse a
-folder that holds it, in one line naming it.
+this module's leftovers are its own), :func:`check_own`, :func:`staged_directory` and
+:func:`clear_output` refuse a folder that holds it, in one line naming it.
 """
 
 from __future__ import annotations
@@ -467,10 +467,17 @@ def foreign_entry(folder: str | os.PathLike[str], names: Collection[str],
     return None
 
 
-def _foreign_message(out: str | os.PathLike[str], entry: str) -> str:
-    return (f"{os.fspath(out)} holds {entry!r}, which this command does not write; --force "
-            "replaces only an earlier output folder of the command: remove it yourself, or "
-            "choose another --out")
+def check_own(folder: str | os.PathLike[str], names: Collection[str],
+              folders: Collection[str] = (), *, out: str | os.PathLike[str] | None = None,
+              ) -> None:
+    """Raise a one-line :class:`MagciliaError` naming the first entry of ``folder`` that is not
+    the command's own (:func:`foreign_entry`; ``out``, default ``folder``, names the folder)."""
+    bad = foreign_entry(folder, names, folders)
+    if bad is not None:
+        raise MagciliaError(
+            f"{os.fspath(out if out is not None else folder)} holds {bad!r}, which this command "
+            "does not write; it replaces only its own earlier output (--force too): move that "
+            "away, or choose another --out")
 
 
 def clear_output(folder: str | os.PathLike[str], names: Sequence[str],
@@ -487,9 +494,7 @@ def clear_output(folder: str | os.PathLike[str], names: Sequence[str],
     recognises. The folder itself stays, empty unless a live run is writing into it.
     """
     folder = Path(folder)
-    bad = foreign_entry(folder, names, folders)
-    if bad is not None:
-        raise MagciliaError(_foreign_message(out if out is not None else folder, bad))
+    check_own(folder, names, folders, out=out)
     remove_leftovers(folder)
     entries = sorted(os.scandir(folder), key=lambda e: e.name) if folder.is_dir() else []
     for entry in entries:
@@ -528,9 +533,7 @@ def _check_target(out: Path, target: Path, force: bool, names: Collection[str],
             return  # an empty folder is replaced without --force
     if not force:
         raise MagciliaError(_exists_message(out))
-    bad = foreign_entry(target, names, folders)
-    if bad is not None:
-        raise MagciliaError(_foreign_message(out, bad))
+    check_own(target, names, folders, out=out)
 
 
 def _publish(staging: Path, target: Path, out: Path, force: bool, names: Collection[str],
