@@ -149,3 +149,20 @@ def test_restarts_at_the_limit_count_and_hold_no_memory(monkeypatch: pytest.Monk
     assert calls[-1] == (limit, limit) and len(calls) == limit
     assert len(fit.restart_costs) == limit
     assert peak < 30e6  # bytes
+
+
+def test_starts_are_bounded_by_the_angles_they_are_fitted_to(tmp_path: object) -> None:
+    from pathlib import Path
+
+    from magcilia.acquire.synthetic import synthetic_recording
+
+    rec = synthetic_recording(SETUP, np.radians(np.linspace(0.0, 85.0, 1001)),
+                              samples_per_angle=2, rng=0)
+    path = Path(str(tmp_path)) / "fine.csv"
+    path.write_text("angle_deg,voltage_V\n" + "".join(
+        f"{a:.17g},{v:.17g}\n" for a, v in zip(rec.angle_deg, rec.voltage, strict=True)))
+    data = read_measurements(path)
+    most = search_module.MAX_START_ANGLES // 1001
+    with pytest.raises(MagciliaError, match=f"starts must be at most {most} for 1001 angles "
+                                            r"\(MAX_START_ANGLES"):
+        search_module.calibrate(data, rng=0, starts=most + 1)
