@@ -1,12 +1,10 @@
 """Write output files and folders atomically, and leave nothing behind.
 
-A single file is written to a hidden *partial* file beside the target, then renamed
-(:func:`partial_file`, and on it :func:`atomic_path`, :func:`write_text`, :func:`write_files` for
-several files of one command). An output folder is filled under a hidden *staging* name beside
-the target and published with one rename (:func:`staged_directory`): a crash or an error at any
-moment never leaves a half-written file under the target's name, nor a half-filled or mixed
-output folder. Also the one JSON encoding of results (NumPy values as plain numbers, NaN/inf as
-null) and figure saving.
+A file is written to a hidden *partial* file beside the target, then renamed (:func:`partial_file`;
+on it :func:`atomic_path`, :func:`write_text`, :func:`write_files`). An output folder is filled
+under a hidden *staging* name beside it and published with one rename (:func:`staged_directory`):
+a crash at any moment never leaves a half-written file under the target's name, nor a mixed
+output folder. Also the one JSON encoding of results (NaN/inf as null) and figure saving.
 
 Temporary names. Every temporary file or folder this module makes is named
 
@@ -101,10 +99,7 @@ STALE_AFTER_UNLOCKED = 86400.0
 def temporary_name(target: str | os.PathLike[str], kind: str) -> Path:
     """A fresh temporary name beside ``target``: ``.NAME.magcilia-KIND-PID-HEX`` for a folder,
     ``.STEM.magcilia-partial-PID-HEX.SUFFIX`` for a file (``kind`` one of :data:`KINDS`)."""
-    path = Path(target)
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
-    tag = f"magcilia-{kind}-{os.getpid()}-{secrets.token_hex(4)}"
+    path, tag = Path(target), f"magcilia-{kind}-{os.getpid()}-{secrets.token_hex(4)}"
     if kind == "partial":
         return path.with_name(f".{path.stem}.{tag}{path.suffix}")
     return path.with_name(f".{path.name}.{tag}")
@@ -150,14 +145,6 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _remove(path: Path, folder: bool) -> None:
-    if folder:
-        shutil.rmtree(path, ignore_errors=True)
-    else:
-        with contextlib.suppress(OSError):
-            path.unlink()
-
-
 def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
     """Remove the temporary files and folders that killed runs left in ``folder``; returns them.
 
@@ -178,28 +165,26 @@ def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
         is_folder = match.group(1) != "partial"
         path = Path(entry.path)
         try:
-            kind_ok = (entry.is_dir(follow_symlinks=False) if is_folder
-                       else entry.is_file(follow_symlinks=False))
+            if not (entry.is_dir(follow_symlinks=False) if is_folder
+                    else entry.is_file(follow_symlinks=False)):
+                continue
             age = time.time() - entry.stat(follow_symlinks=False).st_mtime
         except OSError:
             continue
-        if not kind_ok:
-            continue
-        if sys.platform == "win32":
-            if age > STALE_AFTER_UNLOCKED:
-                _remove(path, is_folder)
-                removed.append(path)
-            continue
-        fd = _lock(path, is_folder)
-        if fd is None:
+        fd = _lock(path, is_folder)  # None on Windows: the age alone decides there
+        if fd is None and (sys.platform != "win32" or age <= STALE_AFTER_UNLOCKED):
             continue  # a live run holds it
         try:
-            if _pid_alive(int(match.group(2))) and age <= STALE_AFTER:
+            if fd is not None and _pid_alive(int(match.group(2))) and age <= STALE_AFTER:
                 continue
-            _remove(path, is_folder)
+            if is_folder:
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                with contextlib.suppress(OSError):
+                    path.unlink()
             removed.append(path)
         finally:
-            os.close(fd)
+            _close(fd)
     return removed
 
 
@@ -222,14 +207,11 @@ class PartialFile:
     def __init__(self, target: Path) -> None:
         self.target = target
         self.published = False
-        while True:
-            path = temporary_name(target, "partial")
-            try:
-                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
-            except FileExistsError:
-                continue
-            break
-        self.path = path
+        while True:  # a fresh name (the umask sets the permissions)
+            self.path = temporary_name(target, "partial")
+            with contextlib.suppress(FileExistsError):
+                fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+                break
         self._fd: int | None = None
         try:
             if sys.platform == "win32":
@@ -325,9 +307,8 @@ def write_files(contents: Mapping[str, str | bytes] | Mapping[Path, str | bytes]
 
 @contextlib.contextmanager
 def scratch_directory(name: str = "work") -> Iterator[Path]:
-    """A private work folder in the system's temporary folder (``.NAME.magcilia-scratch-…``,
-    locked, mode 0700), removed with its content on leaving; one that a killed process left is
-    removed by the next call (:func:`remove_leftovers`)."""
+    """A private (0700), locked work folder in the system's temporary folder, removed on
+    leaving; one that a killed process left is removed by the next call."""
     parent = Path(tempfile.gettempdir())
     remove_leftovers(parent)
     path = temporary_name(parent / name, "scratch")
@@ -467,9 +448,8 @@ def foreign_entry(folder: str | os.PathLike[str], names: Collection[str],
     return None
 
 
-def check_own(folder: str | os.PathLike[str], names: Collection[str],
-              folders: Collection[str] = (), *, out: str | os.PathLike[str] | None = None,
-              ) -> None:
+def check_own(folder: str | os.PathLike[str], names: Collection[str], folders: Collection[str] = (),
+              *, out: str | os.PathLike[str] | None = None) -> None:
     """Raise a one-line :class:`MagciliaError` naming the first entry of ``folder`` that is not
     the command's own (:func:`foreign_entry`; ``out``, default ``folder``, names the folder)."""
     bad = foreign_entry(folder, names, folders)

@@ -23,10 +23,8 @@ and several workers each starting a thread per core only fight over the cores (m
 2 cores: 4.4 s with the limit, 14.9 s without, slower than one process). The environment
 variable ``MAGCILIA_WORKER_THREADS`` changes it (a number of threads, or ``none``).
 
-Workers die with their parent: a local pool's worker that outlives the process that started it
-(killed with SIGKILL, say) ends itself at once on Linux (the kernel's parent-death signal,
-``prctl(PR_SET_PDEATHSIG)``) and within :data:`WATCHDOG_INTERVAL` elsewhere (a watchdog thread:
-:func:`die_with_parent`), instead of living on, reparented, holding its memory.
+Workers die with their parent (SIGKILL included): at once on Linux (the parent-death signal),
+within :data:`WATCHDOG_INTERVAL` elsewhere (a watchdog thread: :func:`die_with_parent`).
 
 Faults: an exception in a task is kept as that task's result (``error``, one line) and the task
 is tried ``retries`` more times; a worker process that dies (killed, out of memory) takes none of
