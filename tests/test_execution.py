@@ -6,15 +6,19 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
+from magcilia._atomic import is_temporary
 from magcilia._errors import MagciliaError
+from magcilia.cli import main
 from magcilia.execution import (
     WATCHDOG_INTERVAL,
     TaskResult,
@@ -22,6 +26,7 @@ from magcilia.execution import (
     resolve_scheduler,
     run_tasks,
 )
+from magcilia.io import example_path
 
 TASKS = [(f"t{i}", float(i) - 2.0) for i in range(8)]  # two negative: math.sqrt fails
 
@@ -218,18 +223,65 @@ def survivors(pids: list[int], within: float) -> list[int]:
 @pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
 @pytest.mark.parametrize(("how", "method"), [("prctl", "fork"), ("watchdog", "fork"),
                                              ("watchdog", "forkserver")])
-def test_pool_workers_die_with_a_killed_parent(how: str, method: str) -> None:
+def test_pool_workers_die_with_a_killed_parent(how: str, method: str, tmp_path: Path) -> None:
     if how == "prctl" and not sys.platform.startswith("linux"):
         pytest.skip("the parent-death signal is Linux's")
     if method not in multiprocessing.get_all_start_methods():
         pytest.skip(f"no {method} here")
-    child = subprocess.run([sys.executable, "-c", ORPHANING, how, method], capture_output=True,
-                           text=True, timeout=120, check=False)
-    assert child.returncode == -signal.SIGKILL, child.stderr
-    workers = [int(p) for p in child.stdout.split()]
-    assert len(workers) == 2
-    # the parent-death signal acts at once; the watchdog within its interval
-    alive = survivors(workers, within=5.0 if how == "prctl" else 10 * WATCHDOG_INTERVAL)
-    for pid in alive:  # a failing test leaves no process behind either
-        os.kill(pid, signal.SIGKILL)
+    out = tmp_path / "stdout.txt"
+    with out.open("wb") as fh:  # a file, not a pipe: surviving workers would hold a pipe open
+        code = subprocess.run([sys.executable, "-c", ORPHANING, how, method], stdout=fh,
+                              timeout=120, check=False).returncode
+    workers = [int(p) for p in out.read_text().split()]
+    try:
+        assert code == -signal.SIGKILL
+        assert len(workers) == 2
+        # the parent-death signal acts at once; the watchdog within its interval
+        alive = survivors(workers, within=5.0 if how == "prctl" else 10 * WATCHDOG_INTERVAL)
+    finally:  # a failing test leaves no process behind either
+        for pid in survivors(workers, within=0.0):
+            os.kill(pid, signal.SIGKILL)
     assert alive == []
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+def test_a_killed_batch_leaves_no_worker_and_no_temporary_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`magcilia batch calibrate` killed mid-run: no pool worker survives it; the next run
+    (``--force``, other options) leaves no temporary file in the batch or the temp folder."""
+    psutil = pytest.importorskip("psutil")
+    (tmp_path / "rec").mkdir()
+    for i in range(4):
+        shutil.copy(example_path(), tmp_path / "rec" / f"hair{i:03d}.csv")
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    out = tmp_path / "out"
+    args = ["batch", "calibrate", str(tmp_path / "rec" / "*.csv"), "--out", str(out),
+            "--workers", "2", "--no-figures", "--quiet"]
+    log = tmp_path / "stderr.txt"
+    workers: list[int] = []
+    with log.open("wb") as err:  # a file, not a pipe: surviving workers would hold a pipe open
+        proc = subprocess.Popen([sys.executable, "-m", "magcilia", *args, "--restarts", "40"],
+                                env={**os.environ, "TMPDIR": str(scratch)},
+                                stdout=subprocess.DEVNULL, stderr=err)
+    try:
+        deadline = time.monotonic() + 120
+        while len(workers) < 2 and proc.poll() is None:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+            workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+        time.sleep(0.5)  # mid-run: the workers fitting
+        proc.kill()
+        assert proc.wait(timeout=60) == -signal.SIGKILL, log.read_text()
+        assert len(workers) >= 2
+        alive = survivors(workers, within=10.0)
+    finally:  # a failing test leaves no process behind either
+        for pid in survivors(workers, within=0.0):
+            os.kill(pid, signal.SIGKILL)
+    assert alive == []
+    monkeypatch.setattr("tempfile.tempdir", str(scratch))
+    assert main([*args, "--restarts", "1", "--starts", "16", "--force"]) == 0
+    assert [p for p in out.rglob("*") if is_temporary(p.name)] == []
+    assert list(scratch.iterdir()) == []
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == [
+        f"hair{i:03d}" for i in range(4)]

@@ -1,15 +1,10 @@
-"""A batch leaves nothing behind and removes nothing it did not write: after a SIGKILL of
-``magcilia batch calibrate`` no pool worker survives and the next run leaves no temporary
-file; ``--force`` refuses a folder holding a foreign file and leaves it byte for byte; a batch
-whose every recording fails exits with status 2 and one line."""
+"""A batch removes nothing it did not write: ``--force`` refuses a folder holding a foreign file
+and leaves it byte for byte; a batch whose every recording fails exits with status 2 and one
+line; its search effort is bounded before any work. (A SIGKILL of ``magcilia batch calibrate``:
+tests/test_execution.py.)"""
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -108,59 +103,3 @@ def test_search_effort_is_bounded_before_any_work(tmp_path: Path, option: str, l
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"at most {limit}" in err
     assert not (tmp_path / "out").exists()
-
-
-# -- SIGKILL ------------------------------------------------------------------------------------
-
-def running(pids: list[int], within: float) -> list[int]:
-    """The processes of ``pids`` still running (not ended, not a zombie) after ``within`` s."""
-    psutil = pytest.importorskip("psutil")
-    deadline = time.monotonic() + within
-    while True:
-        alive = []
-        for pid in pids:
-            try:
-                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
-                    alive.append(pid)
-            except psutil.NoSuchProcess:
-                pass
-        if not alive or time.monotonic() > deadline:
-            return alive
-        time.sleep(0.05)
-
-
-@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
-def test_a_killed_batch_leaves_no_worker_and_no_temporary_file(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    psutil = pytest.importorskip("psutil")
-    write_recordings(tmp_path / "rec", 4)
-    scratch = tmp_path / "tmp"
-    scratch.mkdir()
-    env = {**os.environ, "TMPDIR": str(scratch), "MPLBACKEND": "Agg"}
-    out = tmp_path / "out"
-    args = [sys.executable, "-m", "magcilia", "batch", "calibrate",
-            str(tmp_path / "rec" / "*.csv"), "--out", str(out), "--workers", "2", "--quiet"]
-    proc = subprocess.Popen([*args, "--restarts", "40", "--no-figures"], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 120
-    workers: list[int] = []
-    while len(workers) < 2 and proc.poll() is None:
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-        workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
-    time.sleep(0.5)  # mid-run: the workers fitting
-    proc.kill()
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == -signal.SIGKILL, err.decode()
-    assert len(workers) >= 2
-    alive = running(workers, within=10.0)
-    for pid in alive:  # a failing test leaves no process behind either
-        os.kill(pid, signal.SIGKILL)
-    assert alive == []
-    # the next run (other options: --force starts over) finishes and leaves nothing behind
-    monkeypatch.setattr("tempfile.tempdir", str(scratch))
-    assert main([*args[3:], "--restarts", "1", "--starts", "16", "--no-figures",
-                 "--force"]) == 0
-    assert temporaries(out) == [] and list(scratch.iterdir()) == []
-    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == [
-        f"hair{i:03d}" for i in range(4)]
