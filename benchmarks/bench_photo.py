@@ -4,7 +4,8 @@ Measures, in one run and on one thread:
   * ``measure_tilt`` on a rendered 5472 x 3648 (20 MP) JPEG photo of the holder (textured
     background, light gradient and vignetting, a flash reflection, the case's top edge, blur,
     noise, JPEG quality 85): median time with the image vertical and with the detected case edge
-    as reference [target <= 0.5 s], its error, and ``read_photo``'s time for the file;
+    as reference [target <= 0.5 s], its error, and ``read_photo``'s time for the file; and from
+    the file itself (decoded downscaled to at most ``DECODE_SIDE`` px a side), time and error;
   * the anchor: the plain scikit-image recipe on the full-resolution image (Otsu's threshold,
     connected components, the orientation of the most elongated region's moments), time, error
     and the ratio;
@@ -33,7 +34,7 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
-from magcilia.acquire.photo import measure_tilt, read_photo
+from magcilia.acquire.photo import load_photo, measure_tilt, read_photo
 
 
 def render(angle_deg: float, case_deg: float, size: tuple[int, int], *, flash: float = -1.0,
@@ -115,6 +116,13 @@ def speed(repeat: int) -> None:
               f"tilt {tilt} deg, case edge {case} deg, flash on the tape")
         t_read = median_time(lambda: read_photo(path), max(1, repeat // 3))
         image = read_photo(path)
+        decoded = load_photo(path)
+        for reference, expected in (("vertical", tilt), ("detect", tilt - case)):
+            t = median_time(lambda ref=reference: measure_tilt(path, reference=ref), repeat)
+            m = measure_tilt(path, reference=reference)
+            print(f"measure_tilt(file) reference={reference:8s}: median {t:.3f} s with the "
+                  f"decoding at 1/{decoded.scale} scale ({decoded.image.shape[1]} x "
+                  f"{decoded.image.shape[0]} px), error {m.angle_deg - expected:+.4f} deg")
     times = {}
     for reference, expected in (("vertical", tilt), ("detect", tilt - case)):
         t = times[reference] = median_time(

@@ -25,12 +25,13 @@ from typing import Any
 import pytest
 
 from magcilia import _atomic
-from magcilia._atomic import remove_stale_staging, staged_directory, write_files
+from magcilia._atomic import remove_leftovers, staged_directory, write_files
 from magcilia._errors import MagciliaError
 from magcilia.cli import main
 from magcilia.io import example_path
 from magcilia.report.calibration import CALIBRATION_FILES
 
+AB = ("a.txt", "b.txt")  # the files the tests' outputs hold
 posix_only = pytest.mark.skipif(sys.platform == "win32", reason="POSIX renames, locks, signals")
 
 
@@ -67,7 +68,7 @@ def test_a_folder_is_published_with_one_rename(tmp_path: Path,
         renames.append((self.name, Path(target).name))
         return original(self, target)
 
-    with staged_directory(out) as tmp:
+    with staged_directory(out, names=AB) as tmp:
         assert tmp.parent == tmp_path and tmp.name.startswith(".out.magcilia-staging-")
         assert f"-{os.getpid()}-" in tmp.name
         fill(tmp, "new")
@@ -81,7 +82,7 @@ def test_a_folder_is_published_with_one_rename(tmp_path: Path,
 
 def test_an_empty_folder_is_replaced_without_force(tmp_path: Path) -> None:
     (tmp_path / "out").mkdir()
-    with staged_directory(tmp_path / "out") as tmp:
+    with staged_directory(tmp_path / "out", names=AB) as tmp:
         fill(tmp, "new")
     assert contents(tmp_path / "out") == {"a.txt": "new", "b.txt": "new"}
 
@@ -96,7 +97,7 @@ def test_force_replaces_the_whole_folder(tmp_path: Path, monkeypatch: pytest.Mon
     if not exchange:
         monkeypatch.setattr(_atomic, "_exchange", lambda a, b: False)
     with pytest.raises(MagciliaError, match=r"^\S*out exists; pass --force to replace it"):
-        staged_directory(out).__enter__()
+        staged_directory(out, names=AB).__enter__()
     with staged_directory(out, force=True, names=("a.txt", "b.txt", "stale.png")) as tmp:
         fill(tmp, "new")
         assert contents(out) == {"a.txt": "old", "stale.png": "old"}
@@ -130,16 +131,16 @@ def test_force_replaces_only_an_earlier_output(tmp_path: Path,
     monkeypatch.chdir(out)
     for here in (".", ".."):
         with pytest.raises(MagciliaError, match="not the current folder or one above it"):
-            staged_directory(here, force=True).__enter__()
+            staged_directory(here, force=True, names=AB).__enter__()
     assert (out / "sub").is_dir() and leftovers(tmp_path) == []
 
 
 def test_a_file_in_the_way_is_an_error(tmp_path: Path) -> None:
     (tmp_path / "f").write_text("x")
     with pytest.raises(MagciliaError, match="f is a file, not a folder"):
-        staged_directory(tmp_path / "f", force=True).__enter__()
+        staged_directory(tmp_path / "f", force=True, names=AB).__enter__()
     with pytest.raises(MagciliaError, match=r"cannot write --out .*f is a file, not a folder"):
-        staged_directory(tmp_path / "f" / "out").__enter__()
+        staged_directory(tmp_path / "f" / "out", names=AB).__enter__()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]
 
 
@@ -150,7 +151,7 @@ def test_a_failure_mid_write_leaves_the_target_as_it_was(tmp_path: Path, existin
         out.mkdir(parents=True)
         fill(out, "old")
     def write_and_fail() -> None:
-        with staged_directory(out, force=True) as tmp:
+        with staged_directory(out, force=True, names=AB) as tmp:
             (tmp / "a.txt").write_text("new")
             raise OSError("disk full")
 
@@ -178,7 +179,8 @@ def test_a_failing_second_rename_restores_the_old_folder(tmp_path: Path,
         return original(self, target)
 
     monkeypatch.setattr(Path, "rename", flaky)
-    with pytest.raises(OSError, match="I/O error"), staged_directory(out, force=True) as tmp:
+    with (pytest.raises(OSError, match="I/O error"),
+          staged_directory(out, force=True, names=AB) as tmp):
         fill(tmp, "new")
     assert contents(out) == {"a.txt": "old", "b.txt": "old"}
     assert leftovers(tmp_path) == []
@@ -187,7 +189,7 @@ def test_a_failing_second_rename_restores_the_old_folder(tmp_path: Path,
 @posix_only
 def test_stale_staging_folders_are_removed_live_ones_kept(tmp_path: Path) -> None:
     pid = dead_pid()
-    with staged_directory(tmp_path / "out") as live:  # a concurrent run, in the middle of its work
+    with staged_directory(tmp_path / "out", names=AB) as live:  # a concurrent run, mid-work
         old = time.time() - 3600
         os.utime(live, (old, old))  # old, its process id alive, but locked: kept
         dead = tmp_path / f".out.magcilia-staging-{pid}-0badc0de"  # left by a killed run
@@ -199,12 +201,12 @@ def test_stale_staging_folders_are_removed_live_ones_kept(tmp_path: Path) -> Non
         young.mkdir()
         stranger = tmp_path / ".out.something-else-1-23"
         stranger.mkdir()
-        assert sorted(remove_stale_staging(tmp_path)) == sorted([dead, trash])
+        assert sorted(remove_leftovers(tmp_path)) == sorted([dead, trash])
         assert live.is_dir() and young.is_dir() and stranger.is_dir()
         fill(live, "new")
     assert contents(tmp_path / "out") == {"a.txt": "new", "b.txt": "new"}
     os.utime(young, (time.time() - 3600,) * 2)  # unlocked and old: its process id was reused
-    with staged_directory(tmp_path / "out2") as tmp:  # the next run removes it
+    with staged_directory(tmp_path / "out2", names=AB) as tmp:  # the next run removes it
         fill(tmp, "new")
     assert leftovers(tmp_path) == []
     assert stranger.is_dir()
@@ -237,7 +239,7 @@ if step == "exchange":
 elif step in ("aside", "fallback-done"):
     _atomic._exchange = lambda a, b: False
     Path.rename = crash_in_fallback
-with _atomic.staged_directory(out, force=True) as tmp:
+with _atomic.staged_directory(out, force=True, names=("a.txt", "b.txt")) as tmp:
     (tmp / "a.txt").write_text("new")
     if step == "work":
         os._exit(9)
@@ -264,7 +266,7 @@ def test_a_crash_at_each_step_leaves_no_mixed_folder(tmp_path: Path, step: str,
         assert not out.exists()
     else:
         assert contents(out) == {"a.txt": expected, "b.txt": expected}
-    with staged_directory(out, force=True) as tmp:  # the next run
+    with staged_directory(out, force=True, names=AB) as tmp:  # the next run
         fill(tmp, "next")
     assert contents(out) == {"a.txt": "next", "b.txt": "next"}
     assert leftovers(tmp_path) == []

@@ -7,14 +7,28 @@ import math
 import multiprocessing
 import os
 import re
+import shutil
 import signal
 import socket
+import subprocess
+import sys
 import threading
+import time
+from pathlib import Path
 
 import pytest
 
+from magcilia._atomic import is_temporary
 from magcilia._errors import MagciliaError
-from magcilia.execution import TaskResult, one_line, resolve_scheduler, run_tasks
+from magcilia.cli import main
+from magcilia.execution import (
+    WATCHDOG_INTERVAL,
+    TaskResult,
+    one_line,
+    resolve_scheduler,
+    run_tasks,
+)
+from magcilia.io import example_path
 
 TASKS = [(f"t{i}", float(i) - 2.0) for i in range(8)]  # two negative: math.sqrt fails
 
@@ -187,3 +201,105 @@ def test_the_default_start_method_and_a_bad_one(monkeypatch: pytest.MonkeyPatch)
     with pytest.raises(MagciliaError, match=r"^MAGCILIA_START_METHOD must be one of") as err:
         start_method()
     assert "\n" not in str(err.value)
+
+
+# -- workers die with their parent ------------------------------------------------------------
+
+ORPHANING = """
+import multiprocessing, os, signal, sys, time
+from magcilia import execution
+if sys.argv[1] == "watchdog":  # as on a system without Linux's parent-death signal
+    execution._parent_death_signal = lambda: False
+os.environ[execution.START_ENV] = sys.argv[2]
+
+def killed(result):
+    print(" ".join(str(p.pid) for p in multiprocessing.active_children()), flush=True)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+execution.run_tasks(time.sleep, [("a", 0.0), ("b", 60.0), ("c", 60.0)], workers=2,
+                    progress=False, on_result=killed)
+"""
+
+
+def survivors(pids: list[int], within: float) -> list[int]:
+    """The processes of ``pids`` still running (not ended, not a zombie) after ``within`` s."""
+    psutil = pytest.importorskip("psutil")
+    deadline = time.monotonic() + within
+    while True:
+        alive = []
+        for pid in pids:
+            try:
+                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                    alive.append(pid)
+            except psutil.NoSuchProcess:
+                pass
+        if not alive or time.monotonic() > deadline:
+            return alive
+        time.sleep(0.05)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+@pytest.mark.parametrize(("how", "method"), [("prctl", "fork"), ("watchdog", "fork"),
+                                             ("watchdog", "forkserver")])
+def test_pool_workers_die_with_a_killed_parent(how: str, method: str, tmp_path: Path) -> None:
+    if how == "prctl" and not sys.platform.startswith("linux"):
+        pytest.skip("the parent-death signal is Linux's")
+    if method not in multiprocessing.get_all_start_methods():
+        pytest.skip(f"no {method} here")
+    out = tmp_path / "stdout.txt"
+    with out.open("wb") as fh:  # a file, not a pipe: surviving workers would hold a pipe open
+        code = subprocess.run([sys.executable, "-c", ORPHANING, how, method], stdout=fh,
+                              timeout=120, check=False).returncode
+    workers = [int(p) for p in out.read_text().split()]
+    try:
+        assert code == -signal.SIGKILL
+        assert len(workers) == 2
+        # the parent-death signal acts at once; the watchdog within its interval
+        alive = survivors(workers, within=5.0 if how == "prctl" else 10 * WATCHDOG_INTERVAL)
+    finally:  # a failing test leaves no process behind either
+        for pid in survivors(workers, within=0.0):
+            os.kill(pid, signal.SIGKILL)
+    assert alive == []
+
+
+@pytest.mark.skipif(os.name != "posix", reason="SIGKILL")
+def test_a_killed_batch_leaves_no_worker_and_no_temporary_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`magcilia batch calibrate` killed mid-run: no pool worker survives it; the next run
+    (``--force``, other options) leaves no temporary file in the batch or the temp folder."""
+    psutil = pytest.importorskip("psutil")
+    (tmp_path / "rec").mkdir()
+    for i in range(4):
+        shutil.copy(example_path(), tmp_path / "rec" / f"hair{i:03d}.csv")
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    out = tmp_path / "out"
+    args = ["batch", "calibrate", str(tmp_path / "rec" / "*.csv"), "--out", str(out),
+            "--workers", "2", "--no-figures", "--quiet"]
+    log = tmp_path / "stderr.txt"
+    workers: list[int] = []
+    with log.open("wb") as err:  # a file, not a pipe: surviving workers would hold a pipe open
+        proc = subprocess.Popen([sys.executable, "-m", "magcilia", *args, "--restarts", "40"],
+                                env={**os.environ, "TMPDIR": str(scratch)},
+                                stdout=subprocess.DEVNULL, stderr=err)
+    try:
+        deadline = time.monotonic() + 120
+        while len(workers) < 2 and proc.poll() is None:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+            workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+        time.sleep(0.5)  # mid-run: the workers fitting
+        proc.kill()
+        assert proc.wait(timeout=60) == -signal.SIGKILL, log.read_text()
+        assert len(workers) >= 2
+        alive = survivors(workers, within=10.0)
+    finally:  # a failing test leaves no process behind either
+        for pid in survivors(workers, within=0.0):
+            os.kill(pid, signal.SIGKILL)
+    assert alive == []
+    monkeypatch.setattr("tempfile.tempdir", str(scratch))
+    assert main([*args, "--restarts", "1", "--starts", "16", "--force"]) == 0
+    assert [p for p in out.rglob("*") if is_temporary(p.name)] == []
+    assert list(scratch.iterdir()) == []
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == [
+        f"hair{i:03d}" for i in range(4)]

@@ -23,6 +23,9 @@ and several workers each starting a thread per core only fight over the cores (m
 2 cores: 4.4 s with the limit, 14.9 s without, slower than one process). The environment
 variable ``MAGCILIA_WORKER_THREADS`` changes it (a number of threads, or ``none``).
 
+Workers die with their parent (SIGKILL included): at once on Linux (the parent-death signal),
+within :data:`WATCHDOG_INTERVAL` elsewhere (a watchdog thread: :func:`die_with_parent`).
+
 Faults: an exception in a task is kept as that task's result (``error``, one line) and the task
 is tried ``retries`` more times; a worker process that dies (killed, out of memory) takes none of
 the results with it: Dask reruns its tasks on the other workers, the local pool is started afresh
@@ -49,10 +52,14 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import logging
 import multiprocessing
+import multiprocessing.connection
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -69,9 +76,11 @@ __all__ = [
     "START_ENV",
     "THREADS_ENV",
     "THREAD_VARIABLES",
+    "WATCHDOG_INTERVAL",
     "TaskResult",
     "dask_client",
     "default_workers",
+    "die_with_parent",
     "limit_threads",
     "one_line",
     "resolve_scheduler",
@@ -172,6 +181,78 @@ def limit_threads() -> None:
         pass
     else:
         threadpool_limits(limits=threads)
+
+
+#: seconds between a worker's checks that its parent lives (:func:`die_with_parent`)
+WATCHDOG_INTERVAL = 0.5
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _parent_death_signal() -> bool:
+    """Ask Linux to SIGKILL this process when its parent (thread) ends; False elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+        prctl.argtypes = [ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong,
+                          ctypes.c_ulong]
+        prctl.restype = ctypes.c_int
+        return bool(prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0)
+    except (OSError, AttributeError):
+        return False
+
+
+def _alive(pid: int) -> bool:
+    if sys.platform == "win32":
+        return True  # os.kill(pid, 0) would end it there; the sentinel tells instead
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def die_with_parent(parent: int, direct: bool = True) -> None:
+    """End this process (``os._exit``) when the process ``parent`` ends, SIGKILL included.
+
+    A local pool's workers call it first (the pool's initializer). On Linux the kernel's
+    parent-death signal kills the worker the moment its parent ends (the pool's process, or the
+    forkserver, which ends with it); everywhere a daemon thread checks every
+    :data:`WATCHDOG_INTERVAL` s (and wakes at once when the parent's process sentinel closes)
+    that the parent still runs: its own parent process id unchanged and ``parent`` alive.
+    ``direct``: ``parent`` is this process's parent (fork, spawn), not a forkserver's client;
+    then a parent already gone at the start is caught at once.
+    """
+    _parent_death_signal()
+    ppid = os.getppid()
+    if direct and ppid != parent:
+        os._exit(1)  # the parent died before the signal was set: reparented already
+    origin = multiprocessing.parent_process()
+    sentinel = getattr(origin, "sentinel", None)
+
+    def watch() -> None:
+        while True:
+            if sentinel is not None:
+                with contextlib.suppress(OSError, ValueError):
+                    multiprocessing.connection.wait([sentinel], timeout=WATCHDOG_INTERVAL)
+            else:
+                time.sleep(WATCHDOG_INTERVAL)
+            if os.getppid() != ppid or not _alive(parent) or (
+                    origin is not None and origin.pid == parent and not origin.is_alive()):
+                os._exit(1)
+
+    threading.Thread(target=watch, name="magcilia-parent-watchdog", daemon=True).start()
+
+
+def _worker_start(parent: int, direct: bool) -> None:
+    """The local pool's worker initializer: die with the parent, limit the threads."""
+    try:
+        die_with_parent(parent, direct)
+    except Exception:  # an initializer must not raise: the pool would break
+        logger.debug("no parent watchdog in worker %d", os.getpid(), exc_info=True)
+    limit_threads()
 
 
 def _call(fn: Callable[[Any], Any], argument: Any, where: str) -> tuple[bool, Any, float, str]:
@@ -375,6 +456,7 @@ def _run_pool(fn: Callable[[Any], Any], items: list[tuple[str, Any]], n: int, re
     pending = dict(items)
     attempts = dict.fromkeys(pending, 0)
     context = multiprocessing.get_context(start_method())
+    direct = context.get_start_method() != "forkserver"  # else the workers' parent is its server
     if context.get_start_method() == "forkserver":  # the server imports these once
         task = getattr(fn, "func", fn)  # a functools.partial: its function's module
         context.set_forkserver_preload(["magcilia.execution",
@@ -382,7 +464,8 @@ def _run_pool(fn: Callable[[Any], Any], items: list[tuple[str, Any]], n: int, re
     for life in (1, 2):
         broken: BaseException | None = None
         with ProcessPoolExecutor(max_workers=min(n, len(pending)), mp_context=context,
-                                 initializer=limit_threads) as pool:
+                                 initializer=_worker_start,
+                                 initargs=(os.getpid(), direct)) as pool:
             running: dict[Future[Any], str] = {}
 
             def submit(key: str) -> None:

@@ -6,7 +6,10 @@ from __future__ import annotations
 import io
 import json
 import math
+import struct
+import subprocess
 import sys
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +19,15 @@ from PIL import Image
 from scipy import ndimage
 
 from magcilia._errors import MagciliaError, MissingDependencyError
-from magcilia.acquire.photo import TiltMeasurement, measure_tilt, pick_points, read_photo
+from magcilia.acquire.photo import (
+    DECODE_SIDE,
+    MAX_PIXELS,
+    TiltMeasurement,
+    load_photo,
+    measure_tilt,
+    pick_points,
+    read_photo,
+)
 from magcilia.cli import main
 
 SIZE = (480, 640)  # h, w
@@ -227,3 +238,118 @@ def test_a_missing_scikit_image_names_the_extra(monkeypatch: pytest.MonkeyPatch)
 def test_pick_points_needs_a_display() -> None:
     with pytest.raises(MagciliaError, match="--line X0,Y0,X1,Y1"):
         pick_points(np.zeros((20, 20)), 2, "click")
+
+
+# -- large photos: decoded downscaled, capped --------------------------------------------------
+
+def png_chunk(kind: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
+def tape_png(path: Path, w: int, h: int, angle_deg: float) -> Path:
+    """An 8-bit grey PNG of w x h px, streamed row by row (no w x h array): background 70, a
+    bright tape (230, w/150 px wide) through the centre over 80 % of the height, its top leaning
+    right by ``angle_deg``."""
+    width = max(8, w // 150)
+    slope = math.tan(math.radians(angle_deg))
+    comp = zlib.compressobj(1)
+    blank = b"\x00" + bytes([70]) * w
+    bright = bytes([230]) * width
+    parts = []
+    for y in range(h):
+        row = blank
+        if abs(y - h / 2) < 0.4 * h:
+            x0 = round(w / 2 + (h / 2 - y) * slope - width / 2)
+            row = blank[:1 + x0] + bright + blank[1 + x0 + width:]
+        parts.append(comp.compress(row))
+    parts.append(comp.flush())
+    path.write_bytes(b"\x89PNG\r\n\x1a\n"
+                     + png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+                     + png_chunk(b"IDAT", b"".join(parts)) + png_chunk(b"IEND", b""))
+    return path
+
+
+def header_only_png(path: Path, w: int, h: int) -> Path:
+    """A PNG that claims w x h px and holds almost nothing (never decoded if refused first)."""
+    path.write_bytes(b"\x89PNG\r\n\x1a\n"
+                     + png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+                     + png_chunk(b"IDAT", zlib.compress(b"\x00" * 64)) + png_chunk(b"IEND", b""))
+    return path
+
+
+@pytest.mark.parametrize("kind", ["jpeg", "png", "jpeg-turned"])
+def test_a_large_photo_is_measured_downscaled_in_its_own_pixels(tmp_path: Path,
+                                                                kind: str) -> None:
+    u8 = scene(17.0, case_deg=2.0, seed=5)
+    path = tmp_path / ("p.png" if kind == "png" else "p.jpg")
+    if kind == "png":
+        Image.fromarray(u8).save(path)
+    elif kind == "jpeg":
+        path.write_bytes(jpeg_bytes(u8))
+    else:  # stored a quarter turn counter-clockwise, EXIF 6 turns it back
+        path.write_bytes(jpeg_bytes(np.ascontiguousarray(np.rot90(u8)), orientation=6))
+    full = measure_tilt(load_photo(path, max_side=None), reference="detect")
+    small = load_photo(path, max_side=320)
+    assert small.scale == 2 and small.size == (640, 480) == full.image_size
+    assert small.image.shape == (240, 320)
+    m = measure_tilt(small, reference="detect")
+    assert m.image_size == (640, 480)
+    assert m.angle_deg == pytest.approx(17.0 - 2.0, abs=0.2)
+    assert m.angle_deg == pytest.approx(full.angle_deg, abs=0.2)
+    # the line and the case edge in px of the photo, where the full-size measurement has them
+    assert np.allclose(m.line, full.line, atol=4.0)
+    assert m.reference_line is not None and full.reference_line is not None
+    assert np.allclose(m.reference_line, full.reference_line, atol=12.0)
+    manual = measure_tilt(small, line_points=[(300.0, 100.0), (200.0, 400.0)])
+    assert manual.angle == pytest.approx(math.atan2(100.0, 300.0))  # points: the photo's px
+
+
+def test_decoding_is_bounded_by_decode_side(tmp_path: Path) -> None:
+    path = tape_png(tmp_path / "wide.png", 9000, 300, 0.0)
+    decoded = load_photo(path)
+    assert decoded.scale == 3 and decoded.image.shape == (100, 3000)
+    assert max(decoded.image.shape) <= DECODE_SIDE and decoded.size == (9000, 300)
+
+
+@pytest.mark.parametrize(("w", "h", "shown"), [(13000, 12800, "13000 x 12800 = 166,400,000"),
+                                               (20000, 10000, "200,000,000")])
+def test_a_photo_beyond_max_pixels_is_a_one_line_error(tmp_path: Path, w: int, h: int,
+                                                       shown: str,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    path = header_only_png(tmp_path / "huge.png", w, h)
+    assert w * h > MAX_PIXELS
+    assert main(["angle", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith(f"magcilia: error: photo '{path}' has {shown} pixels, more than the "
+                          f"{MAX_PIXELS:,} that magcilia measures (MAX_PIXELS")
+    assert err.rstrip().endswith("scale it down or crop it to the holder")
+
+
+AT_THE_LIMIT = """
+import resource, sys
+from magcilia.acquire.photo import load_photo, measure_tilt
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+decoded = load_photo(sys.argv[1])
+m = measure_tilt(decoded)
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(m.angle_deg, decoded.image.size, (peak - base) * (1 if sys.platform == "darwin" else 1024))
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="resource.getrusage")
+def test_a_photo_at_max_pixels_costs_what_its_decoding_does(tmp_path: Path) -> None:
+    """At the limit (a 16000 x 10000 grey PNG, 160 MP) the tape is measured on at most
+    DECODE_SIDE² pixels and the process grows by about two bytes per pixel of the photo (Pillow's
+    decoded image, freed once downscaled), not the ~18 of a float64 copy and its work arrays
+    (2.8 GB before the limit existed)."""
+    w, h = 16000, 10000
+    assert w * h == MAX_PIXELS
+    path = tape_png(tmp_path / "limit.png", w, h, 12.5)
+    child = subprocess.run([sys.executable, "-c", AT_THE_LIMIT, str(path)], capture_output=True,
+                           text=True, timeout=300, check=False)
+    assert child.returncode == 0, child.stderr
+    angle, pixels, grown = child.stdout.split()
+    assert float(angle) == pytest.approx(12.5, abs=0.01)
+    assert int(pixels) <= DECODE_SIDE**2
+    assert int(grown) < 2.5 * MAX_PIXELS  # bytes; measured ~2.0 per pixel

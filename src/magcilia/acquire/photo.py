@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,8 +61,150 @@ ARRAY_PATH = "<array>"  # the path recorded for a photo given as an array
 
 
 # -- reading ---------------------------------------------------------------------------------------
+#: most pixels of a photo: above every camera's single frame (151 MP: Phase One IQ4); a larger
+#: image (a stitched panorama, a decompression bomb) is refused before it is decoded
+MAX_PIXELS = 160_000_000
+#: longest side, px, of the image a photo is measured on: a larger photo is decoded downscaled
+#: by a whole factor (JPEG in the decoder, other formats by block means right after decoding),
+#: so that the measurement costs about the same at any size (~0.13 GB as float64); the tape still
+#: spans hundreds of pixels, and the angle, the same in every uniformly scaled copy of the photo,
+#: keeps its accuracy (tests/acquire/test_photo.py; benchmarks/bench_photo.py)
+DECODE_SIDE = 4096
+#: EXIF orientation -> the PIL.Image.Transpose that shows the photo upright (as ImageOps'
+#: exif_transpose)
+_UPRIGHT = {2: "FLIP_LEFT_RIGHT", 3: "ROTATE_180", 4: "FLIP_TOP_BOTTOM", 5: "TRANSPOSE",
+            6: "ROTATE_270", 7: "TRANSVERSE", 8: "ROTATE_90"}
+_WIDE = ("I", "I;16", "I;16B", "I;16L", "I;16N")  # 16/32-bit integer grey levels
+
+
+@dataclass(frozen=True)
+class Photo:
+    """A photo decoded for measuring (:func:`load_photo`), possibly downscaled.
+
+    Attributes
+    ----------
+    image : ndarray, shape (h, w)
+        Grey levels in [0, 1], upright (row 0 at the top).
+    scale : int
+        Pixels of the upright photo per pixel of ``image``, along each axis (1: full size); the
+        pixel (i, j) of ``image`` has its centre at ``((j + 0.5) scale − 0.5, (i + 0.5) scale −
+        0.5)`` px of the photo.
+    size : (int, int)
+        Width and height of the upright photo, px.
+    path : str
+        The file.
+    """
+
+    image: F64
+    scale: int
+    size: tuple[int, int]
+    path: str
+
+    def to_photo(self, points: ArrayLike) -> F64:
+        """Points (…, 2) in px of ``image`` as px of the photo."""
+        return (np.asarray(points, dtype=np.float64) + 0.5) * self.scale - 0.5
+
+
+def _grey(img: Any) -> F64:
+    """A decoded Pillow image as grey levels in [0, 1] (float64; ITU-R 601 luma for colour)."""
+    if img.mode in _WIDE:
+        return np.asarray(img, dtype=np.float64) / 65535.0
+    if img.mode == "F":
+        return np.asarray(img, dtype=np.float64)
+    return np.asarray(img.convert("L"), dtype=np.float64) / 255.0
+
+
+def _reduced(img: Any, factor: int) -> Any:
+    """``img`` (loaded) reduced ``factor`` times by block means (grey first where Pillow cannot
+    average the mode, e.g. a palette)."""
+    if factor == 1:
+        return img
+    if img.mode not in ("L", "RGB", "RGBA", "F", *_WIDE):
+        img = img.convert("L")
+    if img.mode in _WIDE:  # reduce works on 32-bit integers
+        img = img.convert("I")
+    return img.reduce(factor)
+
+
+def load_photo(path: str | os.PathLike[str], max_side: int | None = DECODE_SIDE) -> Photo:
+    """A photo as a grey image for measuring: JPEG, PNG or TIFF through Pillow, EXIF orientation
+    applied, decoded downscaled by a whole factor when its longest side exceeds ``max_side`` px.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The image file (at most :data:`MAX_PIXELS` pixels).
+    max_side : int or None
+        Longest side of the decoded image, px (default :data:`DECODE_SIDE`); None: full size.
+
+    Returns
+    -------
+    Photo
+        The grey image (h, w) in [0, 1] and its scale to the photo's pixels.
+
+    Raises
+    ------
+    MagciliaError
+        If the file is missing, is not an image Pillow can read, is truncated, or has more than
+        :data:`MAX_PIXELS` pixels.
+    """
+    image_mod = photo_module("PIL.Image", "pillow", "reading photos")
+    ops = photo_module("PIL.ImageOps", "pillow", "reading photos")
+    name = str(path)
+    if not Path(name).is_file():
+        raise MagciliaError(f"photo {name!r} does not exist (or is not a file); check the path")
+
+    def too_big(count: str) -> MagciliaError:
+        return MagciliaError(f"photo {name!r} has {count} pixels, more than the {MAX_PIXELS:,} "
+                             "that magcilia measures (MAX_PIXELS, above any camera's frame); "
+                             "scale it down or crop it to the holder")
+
+    try:
+        with warnings.catch_warnings():  # Pillow's own limit is below ours: MAX_PIXELS decides
+            warnings.simplefilter("ignore", image_mod.DecompressionBombWarning)
+            opened = image_mod.open(name)
+        with opened as img:
+            w, h = img.size
+            if w * h > MAX_PIXELS:
+                raise too_big(f"{w} x {h} = {w * h:,}")
+            factor = 1 if max_side is None else math.ceil(max(w, h) / max_side)
+            if factor == 1:  # full size: as ever
+                img.load()
+                upright = ops.exif_transpose(img)
+            else:
+                orientation = img.getexif().get(0x0112, 1)
+                drafted = img.draft("L", (math.ceil(w / factor), math.ceil(h / factor)))
+                first = 1 if drafted is None else round(w / drafted[1][2])  # JPEG: 1, 2, 4, 8
+                img.load()
+                rest = math.ceil(max(img.size) / max_side)
+                upright = _reduced(img, rest)
+                factor = first * rest
+                if orientation in _UPRIGHT:
+                    upright = upright.transpose(getattr(image_mod.Transpose,
+                                                        _UPRIGHT[orientation]))
+                    if orientation >= 5:
+                        w, h = h, w
+            out = _grey(upright)
+    except MagciliaError:
+        raise
+    except image_mod.DecompressionBombError as exc:  # beyond Pillow's limit, found on opening
+        found = re.search(r"\((\d+) pixels\)", str(exc))
+        raise too_big(f"{int(found.group(1)):,}" if found else "too many") from None
+    except image_mod.UnidentifiedImageError:
+        raise MagciliaError(f"photo {name!r} is not an image Pillow can read; give a JPEG, PNG "
+                            "or TIFF file") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        why = " ".join(str(exc).split()) or type(exc).__name__
+        raise MagciliaError(f"photo {name!r} is truncated or damaged ({why}); copy it from the "
+                            "camera again") from None
+    if factor == 1:
+        w, h = out.shape[1], out.shape[0]
+    return Photo(np.clip(out, 0.0, 1.0), factor, (w, h), name)
+
+
 def read_photo(path: str | os.PathLike[str]) -> F64:
-    """A photo as a grey image: JPEG, PNG or TIFF through Pillow, EXIF orientation applied.
+    """A photo as a grey image at full size: JPEG, PNG or TIFF through Pillow, EXIF orientation
+    applied (:func:`load_photo` without downscaling; at most :data:`MAX_PIXELS` pixels).
 
     Parameters
     ----------
@@ -76,31 +220,9 @@ def read_photo(path: str | os.PathLike[str]) -> F64:
     Raises
     ------
     MagciliaError
-        If the file is missing, is not an image Pillow can read, or is truncated.
+        If the file is missing, is not an image Pillow can read, is truncated, or is too large.
     """
-    image_mod = photo_module("PIL.Image", "pillow", "reading photos")
-    ops = photo_module("PIL.ImageOps", "pillow", "reading photos")
-    name = str(path)
-    if not Path(name).is_file():
-        raise MagciliaError(f"photo {name!r} does not exist (or is not a file); check the path")
-    try:
-        with image_mod.open(name) as img:
-            img.load()
-            upright = ops.exif_transpose(img)
-            if upright.mode in ("I", "I;16", "I;16B", "I;16L", "I;16N"):
-                out = np.asarray(upright, dtype=np.float64) / 65535.0
-            elif upright.mode == "F":
-                out = np.asarray(upright, dtype=np.float64)
-            else:
-                out = np.asarray(upright.convert("L"), dtype=np.float64) / 255.0
-    except image_mod.UnidentifiedImageError:
-        raise MagciliaError(f"photo {name!r} is not an image Pillow can read; give a JPEG, PNG "
-                            "or TIFF file") from None
-    except (OSError, SyntaxError, ValueError) as exc:
-        why = " ".join(str(exc).split()) or type(exc).__name__
-        raise MagciliaError(f"photo {name!r} is truncated or damaged ({why}); copy it from the "
-                            "camera again") from None
-    return np.clip(out, 0.0, 1.0)
+    return load_photo(path, max_side=None).image
 
 
 # -- the result ------------------------------------------------------------------------------------
@@ -217,9 +339,12 @@ class TiltMeasurement(Display):
 
 
 # -- the image -------------------------------------------------------------------------------------
-def _as_image(photo: str | os.PathLike[str] | ArrayLike) -> tuple[F64, str]:
+def _as_image(photo: str | os.PathLike[str] | Photo | ArrayLike) -> Photo:
+    """The photo to measure: a file decoded by :func:`load_photo`, or an array at scale 1."""
     if isinstance(photo, str | os.PathLike):
-        return read_photo(photo), str(photo)
+        return load_photo(photo)
+    if isinstance(photo, Photo):
+        return photo
     try:
         img = np.asarray(photo, dtype=np.float64)
     except (TypeError, ValueError):
@@ -227,7 +352,7 @@ def _as_image(photo: str | os.PathLike[str] | ArrayLike) -> tuple[F64, str]:
     if img.ndim != 2 or min(img.shape) < 16:
         raise v.fail("photo", f"an array of shape {img.shape}",
                      "a path or a 2-D grey array of at least 16 x 16 pixels")
-    return img, ARRAY_PATH
+    return Photo(img, 1, (img.shape[1], img.shape[0]), ARRAY_PATH)
 
 
 def _points(name: str, value: ArrayLike, shape: tuple[int, int]) -> F64:
@@ -242,7 +367,7 @@ def _points(name: str, value: ArrayLike, shape: tuple[int, int]) -> F64:
 
 
 def measure_tilt(
-    photo: str | os.PathLike[str] | ArrayLike,
+    photo: str | os.PathLike[str] | Photo | ArrayLike,
     *,
     reference: str = "vertical",
     line_points: ArrayLike | None = None,
@@ -252,9 +377,10 @@ def measure_tilt(
 
     Parameters
     ----------
-    photo : str, path-like or array-like, shape (h, w)
-        A photo file (read with :func:`read_photo`, EXIF orientation applied) or a grey image,
-        rows top to bottom.
+    photo : str, path-like, Photo or array-like, shape (h, w)
+        A photo file (decoded with :func:`load_photo`: EXIF orientation applied, downscaled
+        beyond :data:`DECODE_SIDE` px), a decoded :class:`Photo`, or a grey image, rows top to
+        bottom. Points and the result are in px of the (upright) photo at full size.
     reference : {"vertical", "detect"}
         Measure from the image vertical (the sensor's z axis), or detect the sensor case's top
         edge (the strongest long straight edge within 25 degrees of horizontal) and measure from
@@ -279,15 +405,17 @@ def measure_tilt(
     ref = v.choice("reference", reference, REFERENCES)
     if ref == "detect" and reference_points is not None:
         raise v.fail("reference", ref, "'vertical' when reference_points are given")
-    img, path = _as_image(photo)
+    decoded = _as_image(photo)
+    img, path = decoded.image, decoded.path
+    full = (decoded.size[1], decoded.size[0])  # h, w of the photo: points are in its px
     where = "the image" if path == ARRAY_PATH else repr(path)
     small, f = downsample(img)
     if line_points is None:
         fit = fit_tape(img, small, f, where)
-        lo, hi = fit.ends()
-        method, rms = "auto", fit.rms
+        lo, hi = (decoded.to_photo(p) for p in fit.ends())
+        method, rms = "auto", fit.rms * decoded.scale
     else:
-        pts = _points("line_points", line_points, img.shape)
+        pts = _points("line_points", line_points, full)
         lo, hi = pts[0], pts[1]
         method, rms = "manual", math.nan
     line = upward(lo, hi)
@@ -296,21 +424,20 @@ def measure_tilt(
     ref_angle, kind = 0.0, "vertical"
     if ref == "detect":
         edge = fit_edge(img, small, f, where)
-        a, b = edge.ends()
+        a, b = (decoded.to_photo(p) for p in edge.ends())
         ref_line = ((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
         if a[0] > b[0]:
             ref_line = (ref_line[1], ref_line[0])
         ex, ey = np.subtract(ref_line[1], ref_line[0])
         ref_angle, kind = math.atan2(ey, ex), "detected"
     elif reference_points is not None:
-        rp = _points("reference_points", reference_points, img.shape)
+        rp = _points("reference_points", reference_points, full)
         ref_line = upward(rp[0], rp[1])
         ref_angle, kind = tilt_of(np.subtract(ref_line[1], ref_line[0])), "given"
     length = math.hypot(line[1][0] - line[0][0], line[1][1] - line[0][1])
     return TiltMeasurement(path=path, angle=wrap(tape_angle - ref_angle), reference=kind,
                            reference_angle=ref_angle, line=line, method=method, length=length,
-                           residual_rms=rms, reference_line=ref_line,
-                           image_size=(img.shape[1], img.shape[0]))
+                           residual_rms=rms, reference_line=ref_line, image_size=decoded.size)
 
 
 # -- manual picking --------------------------------------------------------------------------------

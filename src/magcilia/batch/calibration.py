@@ -39,8 +39,6 @@ import json
 import logging
 import math
 import os
-import shutil
-import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -51,11 +49,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._atomic import json_text, staged_directory, write_files
+from magcilia._atomic import (
+    check_own,
+    clear_output,
+    json_text,
+    scratch_directory,
+    staged_directory,
+    write_files,
+)
 from magcilia._display import Display, Item, Table, count, dataframe, rows_table
 from magcilia._errors import MagciliaError
 from magcilia.calibration.problem import PARAMETERS
-from magcilia.calibration.search import calibrate
+from magcilia.calibration.search import calibrate, search_effort
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.execution import TaskResult, resolve_scheduler, run_tasks
@@ -70,8 +75,10 @@ logger = logging.getLogger(__name__)
 FORMAT = "magcilia batch calibrate"
 #: the per-recording row inside each recording's folder
 ROW_FILE = "batch.json"
-#: the files of the batch folder itself
+#: the files of the batch folder itself (the manifest first: ``force`` removes it last)
 BATCH_FILES = ("manifest.json", "results.csv", "results.parquet", "summary.md")
+#: the files of a recording's folder: those of ``magcilia calibrate --out`` and its row
+RECORDING_FILES = (*CALIBRATION_NAMES, ROW_FILE)
 #: the fitted values summarised over the batch (median, IQR, range; outliers)
 SUMMARISED = ("height", "base_radius", "x", "y", "z")
 #: modified z-score above which a value is an outlier (Iglewicz and Hoaglin)
@@ -119,7 +126,7 @@ def calibrate_recording(task: Mapping[str, Any]) -> dict[str, Any]:
     row.update(warnings=len(result.warnings), warning_text="; ".join(result.warnings),
                flagged=int((data.metadata.get("quality") or {}).get("flagged", 0)),
                notes="; ".join(data.notes()))
-    with tempfile.TemporaryDirectory(prefix="magcilia-batch-") as tmp:
+    with scratch_directory("magcilia-batch") as tmp:  # a killed worker's: removed by the next
         if task["figures"]:
             write_calibration_files(result, tmp, task["style"])
         else:  # the same files less the figures (report.md links none)
@@ -262,7 +269,9 @@ def _options_hash(options: Mapping[str, Any]) -> str:
 
 def _check_folder(out: Path, options_hash: str, options: Mapping[str, Any], force: bool) -> None:
     """The batch folder may be (re)used: absent, empty, or a batch with the same options; a
-    batch with other options is replaced only with ``force``."""
+    batch with other options is started over only with ``force``. With ``force`` the folder
+    must hold nothing but a batch's own files (:func:`magcilia._atomic.check_own`), and only
+    those are removed."""
     if not out.exists():
         return
     if not out.is_dir():
@@ -281,6 +290,8 @@ def _check_folder(out: Path, options_hash: str, options: Mapping[str, Any], forc
     if not ok:
         raise MagciliaError(f"{out}/manifest.json is not a magcilia batch manifest; choose a new "
                             "--out")
+    if force:
+        check_own(out, BATCH_FILES, RECORDING_FILES)
     if doc.get("options_hash") == options_hash:
         return
     old = doc.get("options", {})
@@ -290,7 +301,7 @@ def _check_folder(out: Path, options_hash: str, options: Mapping[str, Any], forc
             f"{out} holds another batch (its {', '.join(differ)} differ); pass --force to start "
             "it over (its results are removed), or choose another --out")
     logger.info("removing the batch in %s (other options: %s)", out, ", ".join(differ))
-    shutil.rmtree(out)
+    clear_output(out, BATCH_FILES, RECORDING_FILES)
 
 
 def _complete(folder: Path, options_hash: str, stamp: Mapping[str, int],
@@ -541,6 +552,7 @@ def calibrate_batch(
     if isinstance(rng, bool) or not isinstance(rng, int):
         raise v.fail("rng", rng, "an int seed (every recording's search starts from it)")
     v.choice("style", style, ("screen", "paper"))
+    search_effort(restarts, 256 if starts is None else starts)  # before any work, not per task
     out = Path(out_dir)
     recordings = _recordings(paths_or_glob, out)
     cols = Columns.coerce(columns)
@@ -582,7 +594,8 @@ def calibrate_batch(
     logger.info("batch: %d recordings, %d complete, %d to calibrate", len(recordings),
                 len(skipped), len(todo))
     paths = {p.stem: p for p in recordings}
-    names = (*CALIBRATION_NAMES, ROW_FILE)
+    for p in todo:  # a recording's folder is replaced as its fit arrives: nothing foreign in it
+        check_own(out / p.stem, RECORDING_FILES)
 
     def publish(result: TaskResult) -> None:
         open_folder()
@@ -590,7 +603,7 @@ def calibrate_batch(
         value = result.value or {}
         row = _row(name, paths[name], value.get("row", {}), result.error, result)
         doc = {**row, "options_hash": digest, "source": stamps[name]}
-        with staged_directory(out / name, force=True, names=names) as tmp:
+        with staged_directory(out / name, force=True, names=RECORDING_FILES) as tmp:
             for fname, data in value.get("files", {}).items():
                 (tmp / fname).write_bytes(data)
             (tmp / ROW_FILE).write_text(json_text(doc), encoding="utf-8")

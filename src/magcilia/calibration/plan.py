@@ -32,7 +32,7 @@ Quadratic regression on [−1, 1]: the exact D-optimal 3-point design is {−1, 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number
+from magcilia.calibration.plan_size import check_plan_size
 from magcilia.device.parameters import MEASURANDS, PARAMETERS, Quantity
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
@@ -65,8 +66,6 @@ RESTARTS = 10
 #: prior σ of a nuisance offset, in units of the largest signal one condition's rows can move: a
 #: weak prior that keeps the information of an experiment not (yet) in the design invertible
 OFFSET_PRIOR = 1e3
-
-
 @dataclass(frozen=True, repr=False, eq=False)
 class Design(Display):
     """A design: how often each candidate is measured, and what it is expected to tell.
@@ -205,7 +204,8 @@ def _criterion(M: F64, nuis: NDArray[np.int_]) -> F64:
 def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None = None,
               interest: Sequence[str] | None = None, prior_precision: ArrayLike | None = None,
               initial: ArrayLike | None = None, restarts: int = RESTARTS,
-              rng: int | np.random.Generator | None = 0) -> Design:
+              rng: int | np.random.Generator | None = 0,
+              progress: Callable[[int, int], None] | None = None) -> Design:
     """The D-optimal choice of ``budget`` conditions from a candidate set (repeats allowed).
 
     A greedy start and ``restarts`` random starts are each improved by Fedorov's exchange; the
@@ -233,10 +233,18 @@ def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None =
         Random starting designs besides the greedy one (default :data:`RESTARTS`).
     rng : int or numpy Generator, optional
         Seed of the random starts (default 0: the same plan every time).
+    progress : callable(done, total), optional
+        Called after each start's exchange (the CLI draws a progress bar with it).
 
     Returns
     -------
     Design
+
+    Raises
+    ------
+    MagciliaError
+        A budget too small to determine the parameters, or a plan beyond :data:`MAX_WORK` or
+        :data:`MAX_INFORMATION` (:func:`check_plan_size`), before any work.
     """
     J = _rows(jacobian)
     c, _, p = J.shape
@@ -248,6 +256,7 @@ def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None =
                                        f"conditions to determine {informative} parameters "
                                        f"({', '.join(names_t)})")
     restarts = v.integer("restarts", restarts, 0)
+    check_plan_size(budget, c, p, restarts)
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     nuis = np.array([i for i in range(p) if i not in set(idx.tolist())], dtype=np.int_)
     ridge = 1e-13 * budget * np.eye(p)  # keeps log det finite while a design is singular
@@ -260,10 +269,12 @@ def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None =
     starts += [np.bincount(gen.integers(c, size=budget), minlength=c).astype(np.int_)
                for _ in range(restarts)]
     best: tuple[float, NDArray[np.int_], int] | None = None
-    for start in starts:
+    for done, start in enumerate(starts, 1):
         crit, counts, swaps = _exchange(start, info, prior + ridge, nuis)
         if best is None or crit > best[0] + TOLERANCE * max(1.0, abs(best[0])):
             best = (crit, counts, swaps)
+        if progress is not None:
+            progress(done, len(starts))
     assert best is not None
     return _summary(best[1], names_t, idx, info, prior, scale, best[2])
 
@@ -527,7 +538,8 @@ def plan_calibration(setup: Setup, budget: int, *, sensor: str = "output",
                      azimuths: ArrayLike = (0.0, math.pi / 2),
                      angles: ArrayLike | None = None, noise: float | None = None,
                      parameters: Sequence[str] = PLAN_PARAMETERS,
-                     prior_sd: dict[str, float] | None = None) -> CalibrationPlan:
+                     prior_sd: dict[str, float] | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> CalibrationPlan:
     """Plan a tilt-table calibration of ``setup``: the D-optimal ``budget`` conditions among
     ``angles`` × ``azimuths``, next to the paper's ``budget`` equally spaced angles on one path.
 
@@ -555,10 +567,18 @@ def plan_calibration(setup: Setup, budget: int, *, sensor: str = "output",
         Parameters of interest (default height, base radius, x, y, z).
     prior_sd : dict of str to float, optional
         Prior σ (SI) of some parameters (manual measurements).
+    progress : callable(done, total), optional
+        Called as the search goes (:func:`d_optimal`).
 
     Returns
     -------
     CalibrationPlan
+
+    Raises
+    ------
+    MagciliaError
+        Bad arguments, or a plan beyond :data:`MAX_WORK` or :data:`MAX_INFORMATION`
+        (:func:`check_plan_size`), before any work.
     """
     sensor = v.choice("sensor", sensor, SENSORS)
     grid = (np.radians(np.arange(0.0, 85.0 + 1e-9, 2.5)) if angles is None
@@ -591,6 +611,8 @@ def plan_calibration(setup: Setup, budget: int, *, sensor: str = "output",
                               + ("" if r == 1 else f",B{'xyz'[k]}") + "]")
         return np.concatenate([J, off], axis=2), labels
 
+    r = 1 if sensor == "output" else 3
+    check_plan_size(budget, grid.size * phis.size, q + r * phis.size, RESTARTS)  # no work yet
     a_all = np.tile(grid, phis.size)
     phi_all = np.repeat(phis, grid.size)
     J, labels = candidates(a_all, phi_all, phis)
@@ -604,7 +626,8 @@ def plan_calibration(setup: Setup, budget: int, *, sensor: str = "output",
     signal = float(np.max(np.abs(J[:, :, :q] * np.array([
         max(abs(setup.params()[n]), 1e-3) for n in parameters])))) * noise
     prec[q:] = 1.0 / (OFFSET_PRIOR * max(signal, noise)) ** 2
-    design = d_optimal(J, budget, names=names, interest=parameters, prior_precision=prec)
+    design = d_optimal(J, budget, names=names, interest=parameters, prior_precision=prec,
+                       progress=progress)
     ref_angles = np.linspace(float(grid.min()), float(grid.max()), budget)
     J_ref, _ = candidates(ref_angles, np.full(budget, phis[0]), phis)
     reference = evaluate_design(J_ref, np.arange(budget), names=names, interest=parameters,

@@ -79,6 +79,36 @@ F64 = NDArray[np.float64]
 #: A longer search is legitimate: raise it with
 #: ``magcilia.calibration.search.MAX_FIT_DIPOLES = ...`` before calling :func:`calibrate`.
 MAX_FIT_DIPOLES = 1000
+#: most independent global searches of one calibration (``restarts``): each is a whole search
+#: (about 0.07 s for the bundled example's 33 angles with 256 starts on one core), so 1000 take
+#: about a minute; one search already finds the best fit in more than 99 % of cases
+MAX_RESTARTS = 1000
+#: most local fits started by one global search (``starts``): they run as one batch
+MAX_STARTS = 10_000
+#: most starts × angles of one search: the batch's memory grows with both (measured, 10,000
+#: starts: +0.1 GB for the bundled example's 33 angles, +2.5 GB and 44 s for 1,000 angles)
+MAX_START_ANGLES = 10_000_000
+
+
+def search_effort(restarts: int, starts: int, angles: int | None = None) -> tuple[int, int]:
+    """``restarts`` (1 … :data:`MAX_RESTARTS`) and ``starts`` (1 … :data:`MAX_STARTS`, and
+    at most :data:`MAX_START_ANGLES` / ``angles`` for a recording of that many angles),
+    checked (one-line errors naming the limit)."""
+    restarts = v.integer("restarts", restarts, 1)
+    if restarts > MAX_RESTARTS:
+        raise v.fail("restarts", restarts, f"at most {MAX_RESTARTS} (MAX_RESTARTS: each restart "
+                                           "repeats the whole global search; one usually finds "
+                                           "the best fit)")
+    starts = v.integer("starts", starts, 1)
+    if starts > MAX_STARTS:
+        raise v.fail("starts", starts, f"at most {MAX_STARTS} (MAX_STARTS: the starts of one "
+                                       "search run as one batch in memory); use restarts for "
+                                       "a longer search")
+    if angles is not None and starts * angles > MAX_START_ANGLES:
+        raise v.fail("starts", starts, f"at most {MAX_START_ANGLES // angles} for {angles} "
+                                       "angles (MAX_START_ANGLES: starts × angles of one search "
+                                       "held in memory); use restarts for a longer search")
+    return restarts, starts
 #: the calibration models: the paper's (n, k searched) and the physical (n, k converged)
 MODELS = ("paper", "physical")
 
@@ -320,6 +350,7 @@ def calibrate(
             init = (initial or Setup.paper_initial()).params()
             names = [fixed] if isinstance(fixed, str) else list(fixed)
             fixed = {n: init.get(n, math.nan) for n in names}
+        search_effort(restarts, STARTS if starts is None else starts)
         result = calibrate_joint(data, initial, bounds, rng=rng, priors=priors,
                                  fit_scale=fit_scale, fixed=fixed, layout=layout,
                                  starts=STARTS if starts is None else starts,
@@ -348,8 +379,7 @@ def calibrate(
     initial = initial if initial is not None else Setup.paper_initial()
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
-    restarts = v.integer("restarts", restarts, 1)
-    starts = v.integer("starts", 256 if starts is None else starts, 1)
+    restarts, starts = search_effort(restarts, 256 if starts is None else starts, len(data))
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(

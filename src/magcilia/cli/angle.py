@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from magcilia._validate import fail
-from magcilia.acquire.photo import TiltMeasurement, measure_tilt, pick_points, read_photo
+from magcilia.acquire.photo import TiltMeasurement, load_photo, measure_tilt, pick_points
 from magcilia.cli._common import echo_json, si_option, style_option
 from magcilia.report.photo import annotate
 from magcilia.report.units import output_units
@@ -75,15 +75,18 @@ def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: st
     units = output_units(si)
     results = []
     for photo in photos:
-        image = read_photo(photo)
+        decoded = load_photo(photo)  # a large photo downscaled; points stay in the photo's px
         points = line
         if points is None and manual:
-            clicked = pick_points(image, 2, f"{Path(photo).name}: click two points on the tape")
-            points = (clicked[0], clicked[1])
-        m = dataclasses.replace(measure_tilt(image, reference=reference, line_points=points),
+            clicked = decoded.to_photo(pick_points(
+                decoded.image, 2, f"{Path(photo).name}: click two points on the tape"))
+            points = ((float(clicked[0, 0]), float(clicked[0, 1])),
+                      (float(clicked[1, 0]), float(clicked[1, 1])))
+        m = dataclasses.replace(measure_tilt(decoded, reference=reference, line_points=points),
                                 path=photo)
         if annotate_dir is not None:
-            annotate(m, image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png", style)
+            annotate(m, decoded.image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png",
+                     style)
         results.append(m)
         if not as_json:
             click.echo(tilt_text(m, units))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import click
 
+from magcilia._errors import MagciliaError
 from magcilia.batch import calibrate_batch
 from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import (
@@ -38,7 +39,7 @@ def command() -> None:
               help="Initial setup: a TOML file or a preset (paper, paper-initial).")
 @click.option("--force", is_flag=True,
               help="Start over a folder that holds a batch with other options (its results "
-                   "are removed).")
+                   "are removed; a folder holding any other file is refused).")
 @click.option("--bound", "bound_items", multiple=True, metavar="NAME=LOW:HIGH",
               help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm); "
                    f"repeatable. Defaults: {describe_bounds()}.")
@@ -75,11 +76,12 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
     published in one rename as its fit finishes; results.csv and results.parquet hold one row
     per recording in SI units (height, base_radius, x, y, z and their *_stderr in m, cost in
     V^2, error empty on success); summary.md the spread over the batch and its outliers. A
-    recording that cannot be read or fitted is a row with its error; the batch goes on. Run it
-    again after a crash or a failure: only the failed, missing or changed recordings run.
-    Each recording's samples are checked before its fit (--suspect): the table's `flagged` and
-    `notes` columns and summary.md say what was flagged and what the reader said of the file
-    (a recording cut short, damage read past).
+    recording that cannot be read or fitted is a row with its error; the batch goes on (exit
+    status 0, a warning line); when every recording fails, the exit status is 2 (one error
+    line). Run it again after a crash or a failure: only the failed, missing or changed
+    recordings run. Each recording's samples are checked before its fit (--suspect): the
+    table's `flagged` and `notes` columns and summary.md say what was flagged and what the
+    reader said of the file (a recording cut short, damage read past).
     """
     initial = load_setup_arg(setup_arg)
     bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
@@ -90,7 +92,7 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
         suspect=suspect, **reading.kwargs(), rng=seed, bounds=bounds or None,
         fixed=parse_fixed(fix_items) or None, bias=bias, bias_degree=bias_degree,
         fit_scale=fit_scale, restarts=restarts, starts=starts)
-    if as_json:
+    if as_json:  # then the same exit status and warning lines as the text
         doc = result.to_dict()
         factor, unit = (1.0, "m") if si else (1e3, "mm")
         echo_json({"units": "SI" if si else "display", "out": doc["out"],
@@ -105,12 +107,17 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
                                  "z": o["z"]} for o in doc["outliers"]],
                    "notes": {r["recording"]: r["notes"] for r in result.rows if r["notes"]},
                    "parquet": result.parquet})
-        return
-    click.echo(result.report(si))
-    tables = "results.csv" + (", results.parquet" if result.parquet else
-                              " (no results.parquet: it needs pyarrow, magcilia[cluster])")
-    click.echo(f"wrote {out_dir}/{tables}, summary.md and {len(result.computed)} report "
-               "folder(s)")
+    else:
+        click.echo(result.report(si))
+        tables = "results.csv" + (", results.parquet" if result.parquet else
+                                  " (no results.parquet: it needs pyarrow, magcilia[cluster])")
+        click.echo(f"wrote {out_dir}/{tables}, summary.md and {len(result.computed)} report "
+                   "folder(s)")
+    if len(result.failed) == len(result.rows):  # nothing calibrated: an input error, exit 2
+        first = next(r for r in result.rows if r["error"])
+        raise MagciliaError(
+            f"all {len(result.rows)} recordings failed, none calibrated (the first, "
+            f"{first['recording']}: {first['error']}); each error is in {out_dir}/results.csv")
     if result.failed:
         click.echo(f"magcilia: warning: {len(result.failed)} of {len(result.rows)} recordings "
                    "failed (their error in the table); run the command again to retry them",

@@ -5,7 +5,6 @@ All SI: forces in N, arc lengths in m, angles in rad, flow speeds in m/s.
 
 from __future__ import annotations
 
-import itertools
 import logging
 import math
 import numbers
@@ -14,7 +13,6 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import quad
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
@@ -25,6 +23,7 @@ from magcilia.mechanics.drag import check_reynolds, drag_per_length, free_log, w
 from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.rod import FieldError, Rod, RodLoads, RodProblem, linear_guess, straight
+from magcilia.mechanics.sections import Sections, check_nodes, compliance_integral, sections
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.model.centreline import Centreline, SpatialCentreline
 from magcilia.model.pose import Pose
@@ -36,44 +35,18 @@ logger = logging.getLogger(__name__)
 OUTPUT_POINTS = 129
 
 
-def _nodes(c: Cilium, bounds: F64) -> tuple[int, ...]:
-    """Nodes per piece for ~1e-12 accuracy: from the Bernstein ellipse through the zero of the
-    piece's linear r(s) (where 1/EI has its pole). A piece that reaches a cone's tip converges
-    only algebraically."""
-    sizes = []
-    for b0, b1 in itertools.pairwise(bounds):
-        r0, r1 = (float(r) for r in c.radius(np.array([b0, b1])))
-        if r0 == r1:
-            n = 24
-        else:
-            s_pole = b0 + r0 * (b1 - b0) / (r0 - r1)  # beyond either end of the piece
-            t = abs(2.0 * s_pole - b0 - b1) / (b1 - b0)
-            if t <= 1.0 + 1e-9:
-                n = 64
-            else:
-                rho = t + math.sqrt(t * t - 1.0)
-                n = int(np.clip(math.ceil(30.0 / math.log(rho)) + 6, 24, 96))
-        sizes.append(n)
-    return tuple(sizes)
-
-
 @lru_cache(maxsize=64)
 def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
             nodes: int | None) -> tuple[Grid, F64, F64, F64, F64]:
     """What a load case keeps fixed (cached: sweeps and repeated bends share it): the grid,
     EI (N·m², (N,)), diameter (m, (N,)), ``loaded`` (1 below the point load, (N,)) and the
-    influence matrix ``C diag(1/EI) R`` ((N, N), rad per N)."""
-    length = cilium.height
-    split = point_load and at < length * (1.0 - 1e-12)
-    bounds = np.array([0.0, at, length]) if split else np.array([0.0, length])
-    if cilium.profile is not None:  # r(s) has kinks at the profile's knots: pieces end there
-        knots = np.asarray(cilium.profile[0][1:-1]) * length
-        bounds = np.union1d(bounds, knots[np.abs(knots[:, None] - bounds).min(axis=1)
-                                          > 1e-9 * length])
-    sizes = _nodes(cilium, bounds) if nodes is None else (nodes,) * (bounds.size - 1)
-    grid = Grid.build(bounds, sizes)
-    ei = modulus * cilium.second_moment(grid.s)
-    diameter = 2.0 * cilium.radius(grid.s)
+    influence matrix ``C diag(1/EI) R`` ((N, N), rad per N); at most
+    :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
+    (:func:`magcilia.mechanics.sections.sections`)."""
+    sec = sections(cilium, at, point_load, nodes)
+    grid = sec.grid
+    ei = modulus * sec.second_moment
+    diameter = 2.0 * sec.radius
     loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
     influence = grid.C @ (grid.R / ei[:, None])
     for arr in (ei, diameter, loaded, influence):
@@ -199,8 +172,7 @@ def _bend_plane(setup: Setup, force: float = 0.0, *, at: float | None = None,
     """:func:`bend` of loads in the x–z plane given as today (a force magnitude, a flow along
     ±x, no actuation): the planar solver, unchanged."""
     force, at_s, direction = _check(setup, force, at, direction, flow)
-    if nodes is not None:
-        nodes = v.integer("nodes", nodes, 4)
+    nodes = check_nodes(nodes)
     speed = 0.0 if flow is None else flow.speed
     load = Load(force, direction, at_s, flow)
     length = setup.cilium.height
@@ -440,10 +412,15 @@ def _resolve(setup: Setup, force: float | ArrayLike, at: float | None, direction
                      planar_flow, field, axial)
 
 
-def _moment_per_length(setup: Setup, s: F64) -> F64:
-    """μ(s) = M π r(s)², A·m, at arc lengths ``s`` (m): the moment per length of the cilium
-    magnetized along its tangent (M = ``setup.spec.magnetization``)."""
-    r = setup.cilium.radius(s)
+def _moment_per_length(setup: Setup, at: F64 | Sections) -> F64:
+    """μ(s) = M π r(s)², A·m, at arc lengths ``at`` (m), or at the nodes of a grid's
+    :class:`~magcilia.mechanics.sections.Sections` (the cell means of r² on a resampled grid):
+    the moment per length of the cilium magnetized along its tangent (M =
+    ``setup.spec.magnetization``)."""
+    if isinstance(at, Sections) and at.resampled:
+        return np.asarray(setup.spec.magnetization * math.pi * at.radius_squared,
+                          dtype=np.float64)
+    r = at.radius if isinstance(at, Sections) else setup.cilium.radius(at)
     return np.asarray(setup.spec.magnetization * math.pi * r * r, dtype=np.float64)
 
 
@@ -459,7 +436,7 @@ class _PlaneCase:
         flow = res.planar_flow
         self.flow = flow if flow is not None and flow.speed != 0.0 else None
         self.field = res.field
-        self.mu = _moment_per_length(setup, self.grid.s)
+        self.mu = _moment_per_length(setup, sections(setup.cilium, res.at, point_load, nodes))
         self.length = setup.cilium.height
         limits = [abs(math.remainder(res.direction, 2.0 * math.pi))] if point_load else []
         if self.flow is not None:
@@ -557,8 +534,7 @@ def _bend_any(setup: Setup, force: float | ArrayLike, at: float | None, directio
               nodes: int | None, *, rod: bool) -> BentShape | SpatialBentShape:
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
-    if nodes is not None:
-        nodes = v.integer("nodes", nodes, 4)
+    nodes = check_nodes(nodes)
     res = _resolve(setup, force, at, direction, azimuth, flow, actuation)
     if rod or res.plane is None:
         return _bend_rod(setup, res, nodes)
@@ -596,7 +572,8 @@ def _bend_rod(setup: Setup, res: _Resolved, nodes: int | None) -> SpatialBentSha
     c = setup.cilium
     point_load = bool(np.any(res.force != 0.0))
     grid, ei, diameter, loaded, _ = _static(c, setup.youngs_modulus, res.at, point_load, nodes)
-    the_rod = Rod(grid, ei, diameter, loaded, _moment_per_length(setup, grid.s),
+    mu = _moment_per_length(setup, sections(c, res.at, point_load, nodes))
+    the_rod = Rod(grid, ei, diameter, loaded, mu,
                   setup.base_centre, free_log(grid.s, 0.5 * diameter, c.height))
     act = res.actuation
     flow = res.flow if res.flow is not None and res.flow.speed != 0.0 else None
@@ -668,7 +645,7 @@ def buckling_load(setup: Setup, at: float | None = None, nodes: int | None = Non
     (the smallest eigenvalue of the collocation's linearised problem). Euler's
     ``π² E I / (4 L²)`` for a uniform rod loaded at the tip."""
     _, at_s, _ = _check(setup, 1.0, at, math.pi, None)
-    count = None if nodes is None else v.integer("nodes", nodes, 4)
+    count = check_nodes(nodes)
     _, _, _, loaded, influence = _static(setup.cilium, setup.youngs_modulus, at_s, True, count)
     return 1.0 / float(np.max(np.linalg.eigvals(influence * loaded).real))
 
@@ -683,10 +660,11 @@ def flip_field(setup: Setup, nodes: int | None = None) -> float:
         raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
     if setup.spec.magnetization == 0.0:
         return math.inf
-    count = None if nodes is None else v.integer("nodes", nodes, 4)
-    grid, _, _, _, influence = _static(setup.cilium, setup.youngs_modulus, setup.cilium.height,
-                                       False, count)
-    mu = np.abs(_moment_per_length(setup, grid.s))
+    count = check_nodes(nodes)
+    _, _, _, _, influence = _static(setup.cilium, setup.youngs_modulus, setup.cilium.height,
+                                    False, count)
+    mu = np.abs(_moment_per_length(setup, sections(setup.cilium, setup.cilium.height, False,
+                                                   count)))
     return 1.0 / float(np.max(np.linalg.eigvals(influence * mu).real))
 
 
@@ -771,6 +749,7 @@ def _sweep_plane(setup: Setup, forces: ArrayLike | None = None, *,
                  at: float | None = None, direction: float = 0.5 * math.pi,
                  nodes: int | None = None) -> Centreline:
     """:func:`bend_sweep` in the x–z plane (today's)."""
+    nodes = check_nodes(nodes)
     if (forces is None) == (speeds is None):
         raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
     if speeds is not None and flow is None:
@@ -842,12 +821,7 @@ def tip_compliance(setup: Setup) -> float:
     if c.tip_radius == 0.0:
         return math.inf
     if c.profile is not None:  # ∫ (L − s)² / (E I(s)) ds, exact for a piecewise-linear r(s)
-        knots = np.asarray(c.profile[0]) * c.height
-        total = 0.0
-        for a, b in itertools.pairwise(knots):
-            total += quad(lambda s: (c.height - s) ** 2 / float(c.second_moment(s)), a, b,
-                          epsabs=0.0, epsrel=1e-12, limit=200)[0]
-        return total / setup.youngs_modulus
+        return compliance_integral(c) / setup.youngs_modulus
     i0 = float(c.second_moment(0.0))
     return c.height**3 / (3.0 * setup.youngs_modulus * i0 * c.taper)
 

@@ -37,7 +37,8 @@ def plot_measurement(measurement: TiltMeasurement, image: ArrayLike, ax: Any = N
     measurement : TiltMeasurement
         The result of :func:`magcilia.acquire.photo.measure_tilt` on ``image``.
     image : array-like, shape (h, w)
-        The upright grey photo the measurement was made on (px coordinates of the measurement).
+        The upright grey photo the measurement was made on, at full size or downscaled
+        (:class:`~magcilia.acquire.photo.Photo`): shown over the measurement's ``image_size``.
     ax : matplotlib Axes, optional
 
     Returns
@@ -48,8 +49,10 @@ def plot_measurement(measurement: TiltMeasurement, image: ArrayLike, ax: Any = N
 
     img = v.finite_array("image", image, ndim=2)
     h, w = img.shape
+    if all(measurement.image_size):  # a downscaled image is shown over the photo's pixels
+        w, h = measurement.image_size
     ax = axes_or_new(ax, size=(6.0, 6.0 * h / w + 0.5))
-    step = max(1, math.ceil(max(h, w) / _SHOWN))
+    step = max(1, math.ceil(max(img.shape) / _SHOWN))
     ax.imshow(img[::step, ::step], cmap="gray", vmin=0.0, vmax=max(float(img.max()), 1e-12),
               extent=(-0.5, w - 0.5, h - 0.5, -0.5))
     (x0, y0), (x1, y1) = measurement.line
