@@ -37,7 +37,6 @@ import signal
 import struct
 import subprocess
 import sys
-import tempfile
 import zlib
 from collections.abc import Callable
 from pathlib import Path
@@ -47,6 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia._atomic import scratch_directory
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import printable
 
@@ -449,7 +449,7 @@ def run_child(path: Path, code: str, args: list[str], *, reader: str, what: str,
                             "sys.executable is empty)")
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1"}
-    with tempfile.TemporaryDirectory(prefix="magcilia-reader-") as tmp:
+    with scratch_directory("magcilia-reader") as tmp:  # a killed run's: removed by the next
         out = Path(tmp) / "arrays.npz"
         argv = [sys.executable, "-P", "-c", code, str(path.resolve()), str(out),
                 str(int(MAT_MEMORY_LIMIT)), *args]
