@@ -436,7 +436,7 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
 
 # -- the server ------------------------------------------------------------------------------
 def require_server() -> None:
-    """Check that the dashboard's optional packages are there (starlette, uvicorn, websockets).
+    """Check that the dashboard's packages are there (starlette, uvicorn, websockets).
 
     Raises
     ------
