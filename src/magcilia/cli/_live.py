@@ -1,14 +1,9 @@
-"""What ``magcilia live`` and ``magcilia dashboard`` share: their options, the read-out they
-build from them, and how SIGTERM/SIGHUP end them."""
+"""What ``magcilia live`` and ``magcilia dashboard`` share: their options and the read-out they
+build from them (how they end: :mod:`magcilia.cli._signals`)."""
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
-import threading
-from collections.abc import Iterator
-from types import FrameType
 from typing import Any
 
 import click
@@ -133,29 +128,3 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     return LiveReadout(source, readout, rate=rate, channel=channel, tare_at_start=not no_tare,
                        tracking=tracking or None)
 
-
-
-@contextlib.contextmanager
-def signals_interrupt() -> Iterator[None]:
-    """While inside, SIGTERM and SIGHUP (a closed SSH session) interrupt like Ctrl-C, so that
-    the read-out stops cleanly and a recording is closed complete (main thread only). Only the
-    first such signal interrupts: one that comes while the view is already stopping is ignored,
-    so it cannot cut the closing of the recording short."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    interrupted = False
-
-    def interrupt(_signum: int, _frame: FrameType | None) -> None:
-        nonlocal interrupted
-        if not interrupted:
-            interrupted = True
-            raise KeyboardInterrupt
-
-    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    saved = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
-    try:
-        yield
-    finally:
-        for n, handler in saved.items():
-            signal.signal(getattr(signal, n), handler)
