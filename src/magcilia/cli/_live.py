@@ -3,6 +3,7 @@ build from them (how they end: :mod:`magcilia.cli._signals`)."""
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Any
 
@@ -18,6 +19,8 @@ from magcilia.device.setup import Setup
 from magcilia.live import LiveReadout
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout import Readout, design_metrics
+
+logger = logging.getLogger(__name__)
 
 #: the simulated cilium's script, as fractions of the range: (seconds, fraction), repeated
 DEMO_STEPS = ((3.0, 0.0), (2.0, 0.5), (2.0, 0.0), (2.0, -0.3), (1.0, 0.0), (2.0, 0.8))
@@ -107,6 +110,7 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                seed: int, tip_radius: str | None, modulus: str | None,
                **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started)."""
+    logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
