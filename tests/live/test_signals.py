@@ -30,6 +30,7 @@ import pytest
 
 import magcilia as mc
 from magcilia.acquire import Script, SimulatedSource
+from magcilia.cli import main
 from magcilia.cli._signals import STOP_SIGNALS, stop_signals
 from magcilia.live import LiveReadout
 from magcilia.live import dashboard as dashboard_module
@@ -278,3 +279,20 @@ def test_a_port_is_free_once_the_server_stopped(tmp_path: Path) -> None:
     with server:
         pass
     assert _port_is_free(port)
+
+
+def test_a_server_that_dies_ends_the_command_with_one_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        thread_errors: list[str]) -> None:
+    import uvicorn
+
+    async def boom(self: Any) -> None:
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(uvicorn.Server, "main_loop", boom)  # dies once it listens
+    assert main(["dashboard", "--port", "0", "--span", "-0.2:0.2", "--record-dir",
+                 str(tmp_path)]) == 2
+    out, err = capsys.readouterr()
+    assert "magcilia dashboard: http://" in out and "stopped" not in out
+    assert err == "magcilia: error: the dashboard server stopped: RuntimeError: boom\n"
+    assert not _server_threads() and thread_errors == []

@@ -68,5 +68,5 @@ def command(host: str, port: int, window: float, open_browser: bool, **kwargs: A
     if recording is not None:
         click.echo(f"recording closed: {recording}")
     if not stop.requested:
-        raise MagciliaError("the dashboard server stopped by itself (see the lines above)")
+        raise MagciliaError(f"the dashboard server stopped: {server.failure or 'by itself'}")
     click.echo("magcilia dashboard: stopped")

@@ -524,6 +524,8 @@ class DashboardServer:
         self._socket: socket.socket | None = None
         self._thread: threading.Thread | None = None
         self._ended = threading.Event()
+        #: why the server thread ended by itself (``"Type: message"``; None otherwise)
+        self.failure: str | None = None
 
     @property
     def token(self) -> str:
@@ -568,6 +570,7 @@ class DashboardServer:
         # uvicorn in a thread of its own installs no signal handlers (it does so only in the
         # main thread): stopping is ours, through should_exit (stop())
         self._server, self._socket, self._ended = server, sock, threading.Event()
+        self.failure = None
         self._thread = threading.Thread(target=self._serve, args=(sock,),
                                         name="magcilia-dashboard", daemon=True)
         try:
@@ -575,9 +578,10 @@ class DashboardServer:
             deadline = time.monotonic() + timeout
             while not server.started:
                 if self._ended.is_set() or time.monotonic() > deadline:
+                    why = (f"failed: {self.failure or 'it ended'}" if self._ended.is_set()
+                           else f"did not start within {timeout:g} s")
                     raise MagciliaError(f"the dashboard server on "
-                                        f"{_hostport(self.host, self.port)} did not start "
-                                        f"within {timeout:g} s")
+                                        f"{_hostport(self.host, self.port)} {why}")
                 time.sleep(0.01)
         except BaseException:
             self.stop()
@@ -591,6 +595,8 @@ class DashboardServer:
         try:
             if not self._server.should_exit:  # not stopped before it began
                 self._server.run(sockets=[sock])
+        except BaseException as exc:  # noqa: BLE001 (the owner reports it in one line)
+            self.failure = f"{type(exc).__name__}: {exc}"
         finally:
             sock.close()
             self._ended.set()
