@@ -303,7 +303,8 @@ def test_the_dashboard_serves_its_page_with_the_core_install_only(
         except subprocess.TimeoutExpired:
             server.kill()
             _, err = server.communicate()
-    assert "No module named" not in err, err
+    assert server.returncode == 0, err
+    assert "No module named" not in err and "Traceback" not in err, err
 
 
 # -- the suite leaves the checkout as it found it ------------------------------------------------

@@ -18,11 +18,14 @@ class AcquisitionError(MagciliaError):
 
 
 class MissingDependencyError(ImportError):
-    """An optional dependency is needed; the message names the package and the extra to install."""
+    """A package that a step needs cannot be imported; the message names the package and the
+    install line of the magcilia extra that brings it (true whether the package is optional or
+    part of the core install, e.g. in a damaged environment)."""
 
 
 def require(module: str, *, package: str, extra: str, purpose: str) -> object:
-    """Import an optional dependency or raise :class:`MissingDependencyError`.
+    """Import a package that is imported only where it is needed (an optional one, or a core one
+    that is heavy or lab-only), or raise :class:`MissingDependencyError`.
 
     Parameters
     ----------
@@ -31,7 +34,8 @@ def require(module: str, *, package: str, extra: str, purpose: str) -> object:
     package : str
         Name of the package on PyPI.
     extra : str
-        The magcilia extra that installs it.
+        The magcilia extra that installs it (the lab's extras — tdms, serial, live, dashboard,
+        photo — are part of the core install and stay as names for it).
     purpose : str
         What it is needed for, used in the message.
     """
@@ -41,7 +45,7 @@ def require(module: str, *, package: str, extra: str, purpose: str) -> object:
         return importlib.import_module(module)
     except ImportError as exc:
         raise MissingDependencyError(
-            f"{purpose} needs the optional package {package!r}; "
+            f"{purpose} needs the package {package!r}; "
             f"install it with: pip install 'magcilia[{extra}]'"
         ) from exc
 

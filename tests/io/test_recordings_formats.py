@@ -436,7 +436,7 @@ def test_hdf5_without_h5py_names_the_extra(tmp_path: Path,
     path = _h5(tmp_path / "r.h5", {"angle_deg": ANG, "voltage_V": VOLT})
     monkeypatch.setitem(sys.modules, "h5py", None)
     with pytest.raises(MissingDependencyError, match=r"Reading HDF5 recordings needs the "
-                                                      r"optional package 'h5py'.*magcilia\[hdf5\]"):
+                                                      r"package 'h5py'.*magcilia\[hdf5\]"):
         mc.read_measurements(path)
 
 

@@ -850,6 +850,6 @@ def test_a_missing_server_package_is_named_before_anything_opens(
     monkeypatch.setattr(LiveReadout, "start", lambda self: opened.append("start"))
     assert main(["dashboard", "--port", "0"]) == 2
     assert capsys.readouterr().err.strip() == (
-        "magcilia: error: The browser dashboard needs the optional package 'uvicorn'; install "
+        "magcilia: error: The browser dashboard needs the package 'uvicorn'; install "
         "it with: pip install 'magcilia[dashboard]'")
     assert opened == []

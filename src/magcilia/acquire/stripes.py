@@ -28,7 +28,8 @@ MANUAL_HINT = ("give two points on the tape instead (line_points=..., or magcili
 
 
 def photo_module(name: str, package: str, purpose: str) -> Any:
-    """An optional package of the ``photo`` extra, or a one-line error naming the extra."""
+    """A package of the ``photo`` extra (part of the core install), or a one-line error naming
+    the extra."""
     return require(name, package=package, extra="photo", purpose=purpose)
 
 

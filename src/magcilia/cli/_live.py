@@ -1,14 +1,10 @@
-"""What ``magcilia live`` and ``magcilia dashboard`` share: their options, the read-out they
-build from them, and how SIGTERM/SIGHUP end them."""
+"""What ``magcilia live`` and ``magcilia dashboard`` share: their options and the read-out they
+build from them (how they end: :mod:`magcilia.cli._signals`)."""
 
 from __future__ import annotations
 
-import contextlib
+import logging
 import math
-import signal
-import threading
-from collections.abc import Iterator
-from types import FrameType
 from typing import Any
 
 import click
@@ -23,6 +19,8 @@ from magcilia.device.setup import Setup
 from magcilia.live import LiveReadout
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout import Readout, design_metrics
+
+logger = logging.getLogger(__name__)
 
 #: the simulated cilium's script, as fractions of the range: (seconds, fraction), repeated
 DEMO_STEPS = ((3.0, 0.0), (2.0, 0.5), (2.0, 0.0), (2.0, -0.3), (1.0, 0.0), (2.0, 0.8))
@@ -112,6 +110,7 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                seed: int, tip_radius: str | None, modulus: str | None,
                **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started)."""
+    logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
@@ -133,29 +132,3 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     return LiveReadout(source, readout, rate=rate, channel=channel, tare_at_start=not no_tare,
                        tracking=tracking or None)
 
-
-
-@contextlib.contextmanager
-def signals_interrupt() -> Iterator[None]:
-    """While inside, SIGTERM and SIGHUP (a closed SSH session) interrupt like Ctrl-C, so that
-    the read-out stops cleanly and a recording is closed complete (main thread only). Only the
-    first such signal interrupts: one that comes while the view is already stopping is ignored,
-    so it cannot cut the closing of the recording short."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    interrupted = False
-
-    def interrupt(_signum: int, _frame: FrameType | None) -> None:
-        nonlocal interrupted
-        if not interrupted:
-            interrupted = True
-            raise KeyboardInterrupt
-
-    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
-    saved = {n: signal.signal(getattr(signal, n), interrupt) for n in names}
-    try:
-        yield
-    finally:
-        for n, handler in saved.items():
-            signal.signal(getattr(signal, n), handler)

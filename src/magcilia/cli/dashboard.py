@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import webbrowser
 from typing import Any
 
 import click
 
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
-from magcilia.cli._live import LIVE_KEYS, build_live, live_options, signals_interrupt
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._signals import stop_signals
 
 
 @click.command()
@@ -27,31 +30,43 @@ from magcilia.cli._live import LIVE_KEYS, build_live, live_options, signals_inte
 def command(host: str, port: int, window: float, open_browser: bool, **kwargs: Any) -> None:
     """Serve a browser dashboard of the live read-out: the value with its σ, flags, plots of
     the estimate (σ band, range, minimum detectable) and of the raw output, tare and record
-    buttons, the setup and calibration in use. Stop with Ctrl-C, SIGTERM or a closed SSH session
-    (SIGHUP): a recording is closed complete. The server obeys only its own page: a foreign Host
-    or Origin is refused, and tare and record carry a token that only the served page holds."""
-    from magcilia.live.dashboard import bind_socket, exposure_warning, require_server, serve
+    buttons, the setup and calibration in use. Ctrl-C, SIGTERM and a closed SSH session (SIGHUP)
+    stop it the same way, at any moment: the recording is closed complete (and named), exit
+    status 0. The server obeys only its own page: a foreign Host or Origin is refused, and tare
+    and record carry a token that only the served page holds."""
+    with stop_signals() as stop:
+        from magcilia.live.dashboard import (
+            DashboardServer,
+            bind_socket,
+            exposure_warning,
+            require_server,
+        )
 
-    if not window > 0:
-        raise fail("--window", f"{window:g} s", "a positive duration")
-    warning = exposure_warning(host)
-    if warning:
-        click.echo(f"magcilia: warning: {warning}", err=True)
-    require_server()  # before anything opens
-    bind_socket(host, port).close()  # a port in use fails before the source is opened
-    live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
-    recording = None
-    with signals_interrupt():
+        if not window > 0:
+            raise fail("--window", f"{window:g} s", "a positive duration")
+        warning = exposure_warning(host)
+        if warning:
+            click.echo(f"magcilia: warning: {warning}", err=True)
+        require_server()  # before anything opens
+        bind_socket(host, port).close()  # a port in use fails before the source is opened
+        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+        server = DashboardServer(live, host, port, window=window,
+                                 record_dir=kwargs["record_dir"])
+        recording = None
         try:
-            live.start()
-            serve(live, host, port, window=window, record_dir=kwargs["record_dir"],
-                  open_browser=open_browser,
-                  on_ready=lambda url: click.echo(f"magcilia dashboard: {url}  (Ctrl-C to stop)"))
-        except KeyboardInterrupt:
-            pass
-        finally:
+            if not stop.requested:
+                live.start()
+                server.start()
+                click.echo(f"magcilia dashboard: {server.url}  (Ctrl-C to stop)")
+                if open_browser:
+                    webbrowser.open(server.url, new=2)
+                stop.wait(until=lambda: not server.serving)
+        finally:  # the one way out (signals after the first are ignored: none cuts it short)
+            server.stop()
             recording = live.recording
             live.stop()
-    if recording:
+    if recording is not None:
         click.echo(f"recording closed: {recording}")
+    if not stop.requested:
+        raise MagciliaError(f"the dashboard server stopped: {server.failure or 'by itself'}")
     click.echo("magcilia dashboard: stopped")

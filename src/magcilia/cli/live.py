@@ -10,7 +10,8 @@ import click
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
-from magcilia.cli._live import LIVE_KEYS, build_live, live_options, signals_interrupt
+from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._signals import stop_signals
 from magcilia.live.pipeline import LiveStatus
 
 
@@ -29,37 +30,42 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
     """Watch a sensor live: the force, angle or flow speed ± σ, a sparkline of the last 10 s,
     the flags (outside the span, fold, saturated), the state and the drop counters.
 
-    Keys: t tare (with the cilium unloaded), r start/stop recording (into --record-dir),
-    q or Ctrl-C quit. Works over SSH. When stdout is not a terminal, a plain status line is
-    printed every second instead; --json-lines streams every value for other programs. A
-    source that is unplugged is retried every second (the view says so); acquisition and
-    recording go on when it comes back. On q, Ctrl-C, --duration, SIGTERM or a closed SSH
-    session (SIGHUP) a recording is closed complete.
+    Keys: t tare, r start/stop recording (into --record-dir), q quit. Works over SSH. When
+    stdout is not a terminal, a plain status line is printed every second instead;
+    --json-lines streams every value for other programs. A source that is unplugged is retried
+    every second (the view says so); acquisition and recording go on when it comes back. q,
+    --duration, Ctrl-C, SIGTERM and a closed SSH session (SIGHUP) all end it the same way: the
+    recording is closed complete (and named), exit status 0.
     """
-    if duration is not None and not duration > 0:
-        raise fail("--duration", duration, "a positive number of seconds")
-    if every < 1:
-        raise fail("--every", every, "a whole number ≥ 1")
-    if not json_lines and sys.stdout.isatty():  # the rich view: check for it before starting
-        require("rich", package="rich", extra="live", purpose="The terminal view")
-    live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
-    status: LiveStatus | None = None
-    with signals_interrupt():
+    with stop_signals() as stop:
+        if duration is not None and not duration > 0:
+            raise fail("--duration", duration, "a positive number of seconds")
+        if every < 1:
+            raise fail("--every", every, "a whole number ≥ 1")
+        terminal_view = not json_lines and sys.stdout.isatty()
+        if terminal_view:  # the rich view: check for it before starting
+            require("rich", package="rich", extra="live", purpose="The terminal view")
+        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+        from magcilia.live import terminal
+
+        if stop.requested:  # during the setup: nothing was opened
+            return
+        status: LiveStatus | None = None
+        recording = None
         try:
             live.start()
-            from magcilia.live import terminal
-
             if json_lines:
                 status = terminal.stream_json_lines(live, sys.stdout, seconds=duration,
-                                                    every=every)
-            elif sys.stdout.isatty():
+                                                    every=every, stop=stop)
+            elif terminal_view:
                 status = terminal.run_terminal(live, record_dir=kwargs["record_dir"],
-                                               seconds=duration)
+                                               seconds=duration, stop=stop)
             else:
-                status = terminal.run_lines(live, sys.stdout, seconds=duration)
-        except KeyboardInterrupt:
-            pass
-        finally:
+                status = terminal.run_lines(live, sys.stdout, seconds=duration, stop=stop)
+        finally:  # the one way out (signals after the first are ignored: none cuts it short)
+            recording = live.recording
             live.stop()
+    if recording is not None:
+        click.echo(f"recording closed: {recording}")
     if status is not None and status.state == "failed":
         raise MagciliaError(f"live read-out failed: {status.message}")

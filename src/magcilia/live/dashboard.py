@@ -436,7 +436,7 @@ def dashboard_app(live: LiveReadout, *, window: float = 10.0, record_dir: str | 
 
 # -- the server ------------------------------------------------------------------------------
 def require_server() -> None:
-    """Check that the dashboard's optional packages are there (starlette, uvicorn, websockets).
+    """Check that the dashboard's packages are there (starlette, uvicorn, websockets).
 
     Raises
     ------
@@ -520,9 +520,12 @@ class DashboardServer:
         self.guard: Guard = self.app.state.guard
         self.host = host
         self.port = port
-        self._socket: socket.socket | None = None
         self._server: Any = None
+        self._socket: socket.socket | None = None
         self._thread: threading.Thread | None = None
+        self._ended = threading.Event()
+        #: why the server thread ended by itself (``"Type: message"``; None otherwise)
+        self.failure: str | None = None
 
     @property
     def token(self) -> str:
@@ -538,6 +541,9 @@ class DashboardServer:
     def start(self, timeout: float = 10.0) -> Self:
         """Bind the port and start serving; returns once the server accepts connections.
 
+        Interrupted (Ctrl-C) before that, it stops the server it began and raises again: no
+        server is left running without an owner.
+
         Raises
         ------
         MagciliaError
@@ -551,41 +557,83 @@ class DashboardServer:
 
         sock = bind_socket(self.host, self.port)
         self.port = int(sock.getsockname()[1])
-        config = uvicorn.Config(
-            self.app, log_level="warning", access_log=False, log_config=None, lifespan="off",
-            ws="websockets-sansio" if "websockets-sansio" in WS_PROTOCOLS else "auto",
-            ws_per_message_deflate=False, timeout_graceful_shutdown=3)
-        self._socket, self._server = sock, uvicorn.Server(config)
-        self._thread = threading.Thread(target=self._server.run, kwargs={"sockets": [sock]},
+        try:
+            config = uvicorn.Config(
+                self.app, log_level="warning", access_log=False, log_config=None,
+                lifespan="off",
+                ws="websockets-sansio" if "websockets-sansio" in WS_PROTOCOLS else "auto",
+                ws_per_message_deflate=False, timeout_graceful_shutdown=3)
+            server = uvicorn.Server(config)
+        except BaseException:
+            sock.close()
+            raise
+        # uvicorn in a thread of its own installs no signal handlers (it does so only in the
+        # main thread): stopping is ours, through should_exit (stop())
+        self._server, self._socket, self._ended = server, sock, threading.Event()
+        self.failure = None
+        self._thread = threading.Thread(target=self._serve, args=(sock,),
                                         name="magcilia-dashboard", daemon=True)
-        self._thread.start()
-        deadline = time.monotonic() + timeout
-        while not self._server.started:
-            if not self._thread.is_alive() or time.monotonic() > deadline:
-                self.stop()
-                raise MagciliaError(f"the dashboard server on {_hostport(self.host, self.port)} "
-                                    f"did not start within {timeout:g} s")
-            time.sleep(0.01)
+        try:
+            self._thread.start()
+            deadline = time.monotonic() + timeout
+            while not server.started:
+                if self._ended.is_set() or time.monotonic() > deadline:
+                    why = (f"failed: {self.failure or 'it ended'}" if self._ended.is_set()
+                           else f"did not start within {timeout:g} s")
+                    raise MagciliaError(f"the dashboard server on "
+                                        f"{_hostport(self.host, self.port)} {why}")
+                time.sleep(0.01)
+        except BaseException:
+            self.stop()
+            raise
         return self
+
+    def _serve(self, sock: socket.socket) -> None:
+        """The server thread: serve on ``sock`` until told to stop, then close it. Once this
+        thread runs, the socket is its alone (uvicorn's shutdown closes it too): closed by
+        another thread while the server still listens, it breaks the server's shutdown."""
+        try:
+            if not self._server.should_exit:  # not stopped before it began
+                self._server.run(sockets=[sock])
+        except BaseException as exc:  # noqa: BLE001 (the owner reports it in one line)
+            self.failure = f"{type(exc).__name__}: {exc}"
+        finally:
+            sock.close()
+            self._ended.set()
+
+    @property
+    def serving(self) -> bool:
+        """Whether the server thread runs (it started and has not ended)."""
+        return self._thread is not None and not self._ended.is_set()
 
     def wait(self) -> None:
         """Block until the server stops (KeyboardInterrupt passes through)."""
-        while self._thread is not None and self._thread.is_alive():
-            self._thread.join(0.2)
+        # an Event, not Thread.join: on Python ≤ 3.12 a join that Ctrl-C interrupts marks the
+        # still-running thread as ended (CPython issue 90882), and stop() would then not wait
+        while self._thread is not None and not self._ended.wait(0.2):
+            pass
 
-    def stop(self) -> None:
-        """Close the browsers' connections and stop serving (idempotent)."""
+    def stop(self, timeout: float = 10.0) -> None:
+        """Close the browsers' connections and stop serving (idempotent); returns once the
+        server thread has ended and the port is free (or after ``timeout`` s, then 5 s more
+        with the connections cut, for a server that hangs).
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds given to a graceful shutdown, s.
+        """
         server, thread, sock = self._server, self._thread, self._socket
         self._thread = self._socket = None
-        if server is not None:
-            server.should_exit = True
-        if thread is not None:
-            thread.join(10.0)
-            if thread.is_alive() and server is not None:
-                server.force_exit = True
-                thread.join(5.0)
-        if sock is not None:
-            sock.close()
+        if thread is None:
+            return
+        server.should_exit = True
+        # a thread that is not alive yet was interrupted in its start: it ends at once, if at all
+        if not self._ended.wait(timeout if thread.is_alive() else 0.5) and thread.is_alive():
+            server.force_exit = True
+            self._ended.wait(5.0)
+        if not self._ended.is_set() and not thread.is_alive() and sock is not None:
+            sock.close()  # the thread never ran; one that hangs keeps its socket
 
     def screen_latency(self) -> F64:
         """The last (up to 1000) sample-to-screen latencies, s (oldest first)."""

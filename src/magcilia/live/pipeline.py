@@ -365,7 +365,7 @@ class LiveReadout:
         reader = self._reader
         if reader is not None:
             reader.buffer.close()  # wakes a read waiting for samples
-        if self._thread is not None:
+        if self._thread is not None and self._thread.ident is not None:  # (started)
             self._thread.join()
         self.stop_recording()
         self._disconnect()

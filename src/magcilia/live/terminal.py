@@ -444,8 +444,10 @@ def _toggle_recording(live: LiveReadout, record_dir: str | Path) -> str:
 def run_terminal(live: LiveReadout, *, record_dir: str | Path = ".", refresh: float = 12.0,
                  seconds: float | None = None, console: Console | None = None,
                  keys: IO[str] | None = None, window: float = 0.1,
-                 spark_seconds: float = 10.0) -> LiveStatus:
-    """Show a started live read-out in the terminal until ``q``, Ctrl-C or ``seconds``.
+                 spark_seconds: float = 10.0,
+                 stop: Callable[[], bool] | None = None) -> LiveStatus:
+    """Show a started live read-out in the terminal until ``q``, Ctrl-C, ``seconds`` or
+    ``stop``.
 
     Keys (read from ``keys`` when it is a terminal): ``t`` tare, ``r`` start/stop recording
     (into ``record_dir``), ``q`` quit. The terminal's settings are restored on the way out;
@@ -469,6 +471,9 @@ def run_terminal(live: LiveReadout, *, record_dir: str | Path = ".", refresh: fl
         Seconds of good readings averaged into the value shown, s.
     spark_seconds : float
         Seconds the sparkline shows, s.
+    stop : callable, optional
+        Asked about ten times a second; the view ends when it returns True (a stop signal:
+        the command's one way to end, like ``seconds``).
 
     Returns
     -------
@@ -507,11 +512,12 @@ def run_terminal(live: LiveReadout, *, record_dir: str | Path = ".", refresh: fl
             done = False
             while not done:
                 tick = time.monotonic()
-                if seconds is not None and tick - start >= seconds:
+                if (seconds is not None and tick - start >= seconds) or _asked(stop):
                     break
                 display.update(frame(), refresh=True)
                 deadline = tick + period
-                while not done and (left := deadline - time.monotonic()) > 0:
+                while not done and (left := deadline - time.monotonic()) > 0 \
+                        and not _asked(stop):
                     for key in wait(left).lower():
                         if key == "q":
                             done = True
@@ -530,9 +536,10 @@ def run_terminal(live: LiveReadout, *, record_dir: str | Path = ".", refresh: fl
 
 
 def run_lines(live: LiveReadout, out: IO[str] | None = None, *, seconds: float | None = None,
-              interval: float = 1.0, window: float = 0.1) -> LiveStatus:
+              interval: float = 1.0, window: float = 0.1,
+              stop: Callable[[], bool] | None = None) -> LiveStatus:
     """Print one plain status line every ``interval`` s (and each event as it happens) until
-    ``seconds`` or Ctrl-C: the view for a pipe or a log file.
+    ``seconds`` or ``stop`` (then a last one) or Ctrl-C: the view for a pipe or a log file.
 
     Parameters
     ----------
@@ -546,6 +553,9 @@ def run_lines(live: LiveReadout, out: IO[str] | None = None, *, seconds: float |
         Seconds between lines, s.
     window : float
         Seconds of good readings averaged into the value shown, s.
+    stop : callable, optional
+        Asked about ten times a second; the view ends when it returns True (a stop signal:
+        the command's one way to end, like ``seconds``).
 
     Returns
     -------
@@ -563,7 +573,7 @@ def run_lines(live: LiveReadout, out: IO[str] | None = None, *, seconds: float |
     try:
         while True:
             now = time.monotonic()
-            end = seconds is not None and now - start >= seconds
+            end = (seconds is not None and now - start >= seconds) or _asked(stop)
             events = live.events
             lines = [f"event: {e.report()}" for e in events[seen:]]
             seen = len(events)
@@ -584,12 +594,18 @@ def run_lines(live: LiveReadout, out: IO[str] | None = None, *, seconds: float |
     return live.status
 
 
+def _asked(stop: Callable[[], bool] | None) -> bool:
+    """Whether the caller's ``stop`` asks the view to end."""
+    return stop is not None and bool(stop())
+
+
 def _number(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
 def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
-                      seconds: float | None = None, every: int = 1) -> LiveStatus:
+                      seconds: float | None = None, every: int = 1,
+                      stop: Callable[[], bool] | None = None) -> LiveStatus:
     """Write one JSON object per read-out sample (or per ``every``-th) to ``out``, in SI.
 
     Each sample is a line ``{"t": s since the read-out started, "value": SI or null,
@@ -598,8 +614,8 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
     reconnected, recording) come as ``{"event": kind, "text": ..., "t": s}`` lines, samples the
     stream fell behind on as ``{"event": "lost", ...}`` and a failed read-out as
     ``{"event": "failed", ...}`` (the stream ends). Lines are flushed per batch; the stream ends
-    at ``seconds``, on Ctrl-C, or quietly when the reader goes away (a closed pipe, e.g.
-    ``| head``).
+    at ``seconds``, at ``stop``, on Ctrl-C, or quietly when the reader goes away (a closed
+    pipe, e.g. ``| head``).
 
     Parameters
     ----------
@@ -611,6 +627,9 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
         Stop after this many seconds, s (default: until Ctrl-C or a closed pipe).
     every : int
         Write every ``every``-th sample (counted from the read-out's first).
+    stop : callable, optional
+        Asked about ten times a second; the view ends when it returns True (a stop signal:
+        the command's one way to end, like ``seconds``).
 
     Returns
     -------
@@ -648,7 +667,8 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
             if lines:
                 out.write("\n".join(lines) + "\n")
                 out.flush()
-            if not live.running or (seconds is not None and time.monotonic() - start >= seconds):
+            if not live.running or (seconds is not None and time.monotonic() - start >= seconds) \
+                    or _asked(stop):
                 break
             left = 0.1 if seconds is None else min(0.1, start + seconds - time.monotonic())
             live.history.wait(cursor, max(left, 0.0))
