@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import threading
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -208,3 +209,39 @@ def test_serial_duration_records_the_full_duration_at_the_devices_rate(
     props = recording_properties(out)
     assert props["complete"] is True and props["rate_Hz"] == 2000.0
     assert again.samples == 500
+
+
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+def test_a_signal_stops_record_with_its_file_closed_and_one_line(
+        tmp_path: Path, magcilia_command: Any) -> None:
+    """Ctrl-C, SIGTERM (a service stopping) and SIGHUP (a closed SSH session) end ``record`` the
+    same way: the file closed, marked incomplete and saying where it stopped, every flushed
+    sample readable, one line on stderr, exit status 1 (the three run side by side)."""
+    import signal
+    import subprocess
+    import time
+
+    cmd = magcilia_command
+    children = {}
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        out = tmp_path / f"{sig.name}.tdms"
+        children[sig] = (out, subprocess.Popen(
+            [*cmd.argv, "record", "--source", "sim", "--duration", "600", "--rate", "1000",
+             "--out", str(out)], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, env=cmd.env()))
+    deadline = time.monotonic() + 120  # a guard against a hang, not a speed check
+    for sig, (out, proc) in children.items():
+        while not (out.exists() and out.stat().st_size > 20_000):  # past the first data chunk
+            assert proc.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        proc.send_signal(sig)
+    for sig, (out, proc) in children.items():
+        _, err = proc.communicate(timeout=120)
+        lines = err.decode().splitlines()
+        assert proc.returncode == 1 and len(lines) == 1, err.decode()
+        assert lines[0].startswith(f"magcilia: {sig.name} stopped the recording; what it holds "
+                                   f"so far is kept in {out}, marked incomplete (stopped after ")
+        props = recording_properties(out)
+        assert props["complete"] is False and props["stopped"].endswith(": interrupted")
+        volts = read_samples(out, ("time_s", "voltage_V"))["voltage_V"]
+        assert volts.size == props["samples"] > 0 and np.isfinite(volts).all()

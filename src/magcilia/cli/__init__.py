@@ -109,8 +109,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = _show_warning  # restored on leaving
             # magcilia's own warnings (a coarse layout, …) are a command's output: one line each
             warnings.simplefilter("always", MagciliaWarning)
-            cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
-                     standalone_mode=False)
+            code = cli.main(args=list(argv) if argv is not None else None, prog_name="magcilia",
+                            standalone_mode=False)
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except click.exceptions.Abort:
@@ -126,7 +126,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:
         name = f" {exc.filename}" if exc.filename else ""
         return _error(f"cannot access{name}: {exc.strerror or exc}")
-    return 0
+    # without standalone mode click returns a command's ``click.exceptions.Exit`` code (the
+    # commands themselves return None)
+    return code if isinstance(code, int) and not isinstance(code, bool) else 0
 
 
 def _show_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int,

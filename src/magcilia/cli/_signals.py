@@ -1,5 +1,6 @@
 """How ``magcilia live`` and ``magcilia dashboard`` end: one path for Ctrl-C (SIGINT), SIGTERM,
-a closed SSH session (SIGHUP), ``q`` and ``--duration``.
+a closed SSH session (SIGHUP), ``q`` and ``--duration``; and how ``magcilia record`` ends at any
+of those signals (:func:`signals_interrupt`).
 
 A signal raises nothing into what the main thread is doing: an exception thrown at a random
 instant can leave things half started or half closed (a server thread without an owner, a
@@ -67,6 +68,33 @@ def stop_signals() -> Iterator[StopRequest]:
         yield stop
         return
     saved = {name: signal.signal(getattr(signal, name), stop.handle) for name in STOP_SIGNALS}
+    try:
+        yield stop
+    finally:
+        for name, handler in saved.items():
+            signal.signal(getattr(signal, name), handler)
+
+
+@contextlib.contextmanager
+def signals_interrupt() -> Iterator[StopRequest]:
+    """While inside, the first SIGINT, SIGTERM or SIGHUP (SIGBREAK on Windows) interrupts the main
+    thread as Ctrl-C does (a KeyboardInterrupt), and later ones are ignored, so that none cuts
+    short the closing that the interrupt starts. For a command that is one piece of work whose
+    writer closes its file at an interrupt, saying where it stopped (``magcilia record``:
+    :meth:`magcilia.io.recording_file.RecordingWriter.keeping`); the request names the signal.
+    The handlers before are put back on the way out; outside the main thread nothing is
+    installed."""
+    stop = StopRequest()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        if stop.signal is None:
+            stop.handle(signum, frame)
+            raise KeyboardInterrupt
+
+    saved = {name: signal.signal(getattr(signal, name), interrupt) for name in STOP_SIGNALS}
     try:
         yield stop
     finally:

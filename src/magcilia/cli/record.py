@@ -21,6 +21,8 @@ from magcilia.cli._common import (
     setup_label,
     si_option,
 )
+from magcilia.cli._signals import signals_interrupt
+from magcilia.io.recording_file import recording_properties
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, parse_value
@@ -100,9 +102,36 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     `magcilia calibrate OUT` fits as it is. With --duration, record continuously instead
     (for `magcilia readout`). A failure keeps the recording made so far and says where it
     stopped. An existing OUT is refused without --force, and never lost: with --force it is
-    replaced only once the new recording holds its first flushed chunk. The recording itself is
-    in SI (angle_rad, voltage_V); the console and --json are in deg and mV (SI with --si).
+    replaced only once the new recording holds its first flushed chunk. Ctrl-C, SIGTERM or
+    SIGHUP stop it the same way: the file is closed, marked incomplete and saying where it
+    stopped, with one line and exit status 1. The recording itself is in SI (angle_rad,
+    voltage_V); the console and --json are in deg and mV (SI with --si).
     """
+    with signals_interrupt() as stop:
+        try:
+            _record(source_spec, setup_arg, angles, samples, settle, rate, duration, set_reset,
+                    seed, out_path, force, as_json, quiet, si)
+        except KeyboardInterrupt:  # the writer closed the file, noting where it stopped
+            click.echo(f"magcilia: {stop.signal or 'SIGINT'} stopped the recording; "
+                       f"{_kept(Path(out_path))}", err=True)
+            raise click.exceptions.Exit(1) from None
+
+
+def _kept(path: Path) -> str:
+    """What an interrupted recording left in ``path``, in words."""
+    try:
+        props = recording_properties(path)
+    except MagciliaError:
+        props = {}
+    if props.get("stopped"):
+        return (f"what it holds so far is kept in {path}, marked incomplete "
+                f"({props['stopped']})")
+    return f"nothing was recorded into {path}"
+
+
+def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
+            rate: float, duration: float | None, set_reset: int | None, seed: int,
+            out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
     units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
         raise fail("--out", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
