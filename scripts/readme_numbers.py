@@ -160,7 +160,7 @@ def api(_work: Path) -> None:
 def array(work: Path) -> None:
     example = str(EXAMPLES / "array.toml")
     run("array", example, "--random", "50", "--seed", "1", "--csv", str(work / "forward.csv"))
-    run("array", example, "--random", "1", "--metrics", "--pitches", "2:6:0.5mm")
+    run("array", example, "--random", "1", "--metrics", "--pitches", "2.5:6:0.5mm")
 
 
 def optimise(work: Path) -> None:

@@ -36,6 +36,10 @@ def test_display_units_by_default_and_si_with_si(tmp_path: Path,
     assert si["best"]["height_m"] == pytest.approx(best["height_mm"] * 1e-3, rel=1e-12)
     text = _run(capsys, ["optimise", "force-sensor", *FAST, "--min-force", "0.001"])
     assert "mN" in text and "Pareto front (minimum_mN, range_mN, sensor)" in text
+    # the comparison with SETUP is a statement (the JSON keys stay beats_reference, comparison)
+    assert isinstance(doc["beats_reference"], bool)
+    assert f"\ncompared with SETUP's: {doc['comparison']}\n" in text
+    assert doc["comparison"].startswith("resolution ") and "?" not in doc["comparison"]
 
 
 def test_files_and_the_chosen_setup(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -92,23 +92,34 @@ def test_lists_of_cilia_and_sensors(tmp_path: Path) -> None:
 
 def test_example_grid_matches_cilia_array_grid() -> None:
     arr = mc.load_array(EXAMPLES / "array.toml")
-    setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=1e6,
-                           position=(0.0, 0.0, 1.5e-3 - 0.71e-3), layout="converged")
+    setup = mc.Setup.paper(tip_radius=5e-5, position=(0.0, 0.0, 1.5e-3 - 0.71e-3),
+                           layout="converged")
     ref = mc.CiliaArray.grid(setup, 4, 4, 4e-3, sensor=Magnetometer.preset("MMC5983MA"),
                              depth=1.5e-3)
     assert len(arr) == 16 and arr.n_sensors == 16 and arr.names == ref.names
     np.testing.assert_allclose(arr.bases, ref.bases, rtol=0, atol=1e-15)
     np.testing.assert_allclose(arr.sensor_positions, ref.sensor_positions, rtol=0, atol=1e-15)
     assert {(c.n_loops, c.ring) for c in arr.cilia} == {(ref.cilia[0].n_loops, "rms")}
+    # the presets' sourced modulus, assumed (docs/stiffness.md), not a modulus taken as exact
+    assert {c.modulus for c in arr.cilia} == {mc.Setup.paper().modulus}
+    assert arr.cilia[0].modulus.source == "assumed" and arr.cilia[0].modulus.relative > 0.2
     np.testing.assert_allclose(arr.field(), ref.field(), rtol=1e-12)
     grid = load_array_grid(EXAMPLES / "array.toml")
     assert grid is not None and (grid.rows, grid.cols) == (4, 4)
     assert grid.pitch == (4e-3, 4e-3) and grid.depth == pytest.approx(1.5e-3)
     # the example's promise: crosstalk ratio below 1, the rest field within half the parts'
     # range (the exact body's field: tests/device/test_layout_rule.py)
-    readout = mc.ArrayReadout(arr, 2e-5, table_size=9)
+    readout = mc.ArrayReadout(arr, 2e-5, table_size=9)  # neighbours clear under the span
     assert readout.crosstalk().ratio.max() < 1.0
     assert np.abs(arr.field()).max() < 0.5 * 8 * GAUSS
+    # under the span (scripts/array_example.py: the exact body): every cilium bent by it keeps
+    # every reading within half the range, and moves its own sensor by > 100 noise sigma
+    span = 2e-5 * np.array([np.cos(0.7), np.sin(0.7)])
+    bent = mc.field_for_loads(arr, np.tile(span, (len(arr), 1)))
+    assert np.abs(bent).max() < 0.5 * 8 * GAUSS
+    assert not arr.saturated(arr.readings(bent, noisy=False)).any()
+    alone = mc.field_for_loads(arr, np.array([span] + [[0.0, 0.0]] * 15)) - arr.field()
+    assert np.linalg.norm(alone[0]) > 100 * float(np.max(arr.sigma))
     # every bundled single-setup example still loads, and this one's setup too
     for path in EXAMPLES.glob("*.toml"):
         mc.load_setup(path)

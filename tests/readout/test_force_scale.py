@@ -222,6 +222,14 @@ def test_array_cilia_of_one_modulus_share_its_error() -> None:
     np.testing.assert_allclose(est.covariance_scale, rel**2 * np.outer(vec, vec), rtol=1e-12)
     np.testing.assert_allclose(est.sigma_scale, rel * est.magnitude, rtol=1e-12)
     assert est.report().endswith(cilium.modulus.note())
+    # the noise's share alone: what the same array gives with its modulus taken as exact
+    exact = cilium.replace(youngs_modulus=cilium.youngs_modulus)
+    assert exact.modulus.source == "exact"
+    alone = mc.ArrayReadout(mc.CiliaArray.grid(exact, 1, 2, 2.5e-3, sensor=part), 2e-5,
+                            table_size=9).read(mc.field_for_loads(array, loads))
+    np.testing.assert_allclose(est.sigma_noise, alone.sigma, rtol=1e-6)
+    np.testing.assert_allclose(est.sigma**2, est.sigma_noise**2 + rel**2 * est.force**2,
+                               rtol=1e-9)
 
 
 def test_bend_and_design_carry_the_force_scale(setup: mc.Setup) -> None:

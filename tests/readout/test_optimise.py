@@ -117,10 +117,42 @@ def test_the_best_design_against_the_papers_cilium(result: DesignOptimum) -> Non
     assert best.reached == result.best.reached
     assert not ref.reached and not result.reference.reached
     assert not result.beats_reference
-    assert result.comparison.startswith("resolution finer; range not known to be larger")
+    ratio = result.reference.minimum / result.best.minimum
+    assert result.comparison.startswith(f"resolution {ratio:.3g}× finer; range not known to be "
+                                        "larger (neither range reached: ≥ ")
     assert result.reference.minimum == pytest.approx(ref.minimum, rel=1e-9)
     assert result.best_setup.youngs_modulus == pytest.approx(REFERENCE.youngs_modulus)
     assert result.best_setup.layout == "converged"  # a new design: its layout converged
+
+
+def test_the_comparison_states_what_is_known(result: DesignOptimum) -> None:
+    """Each case of reached and not-reached ranges: a ratio where both are known, "at least"
+    where the unreached one is the larger bound, "not known" otherwise; beats_reference only
+    when both the range and the resolution are known to be better."""
+    import dataclasses
+
+    def vs(best: tuple[float, bool, float], ref: tuple[float, bool, float]) -> DesignOptimum:
+        b, r = (dataclasses.replace(c, range=rng, reached=reached, minimum=m) for c, (
+            rng, reached, m) in ((result.best, best), (result.reference, ref)))
+        return dataclasses.replace(result, best=b, reference=r)
+
+    both = vs((2e-4, True, 1e-7), (1e-4, True, 2e-7))
+    assert both.comparison == "resolution 2× finer; range 2× larger" and both.beats_reference
+    worse = vs((1e-4, True, 3e-7), (4e-4, True, 1e-7))
+    assert worse.comparison == "resolution 3× coarser; range 4× smaller"
+    assert not worse.beats_reference
+    lower = vs((3e-4, False, 1e-7), (1e-4, True, 1e-7))
+    assert lower.comparison == ("resolution the same; range at least 3× larger (the chosen "
+                                "design's not reached: ≥ 0.3 mN against 0.1 mN)")
+    assert not lower.beats_reference  # the resolution is not finer
+    assert vs((3e-4, False, 5e-8), (1e-4, True, 1e-7)).beats_reference
+    short = vs((1e-4, True, 1e-7), (3e-4, False, 2e-7))
+    assert short.comparison.endswith("range at least 3× smaller (the reference's not reached: "
+                                     "0.1 mN against ≥ 0.3 mN)")
+    unknown = vs((3e-4, True, 1e-7), (1e-4, False, 2e-7))
+    assert unknown.comparison.endswith("range not known to be larger (the reference's range "
+                                       "not reached: 0.3 mN against ≥ 0.1 mN)")
+    assert not unknown.beats_reference
 
 
 def test_a_seed_repeats_the_result(result: DesignOptimum) -> None:
@@ -139,8 +171,7 @@ def test_result_protocol(result: DesignOptimum) -> None:
     assert {"height_m", "x_m", "minimum_N", "range_N", "sensor"} <= set(rows[0])
     frame = result.to_dataframe()
     assert len(frame) == len(result.designs) and "range_N" in frame.columns
-    assert f"beats the reference in range and resolution: {result.comparison}" in \
-        result.report()
+    assert f"compared with the reference: {result.comparison}" in result.report()
     assert "≥ " in result.report()  # ranges the sweep did not reach are lower bounds
     assert all(isinstance(d["range_reached"], bool) for d in doc["front"])
     assert len(repr(result)) <= 120

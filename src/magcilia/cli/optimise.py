@@ -224,7 +224,7 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
             "range_reached"}
     lines.append("chosen design: " + ", ".join(f"{k} {v:.4g}" for k, v in best.items()
                                                if k not in skip and isinstance(v, float)))
-    lines.append(f"range and resolution both better than SETUP's: {doc['comparison']}")
+    lines.append(f"compared with SETUP's: {doc['comparison']}")
     lines.append(f"Pareto front ({k_min}, {k_rng}, sensor):")
     lines += [f"  {show(r[k_min]):>14} {show(r[k_rng], r['range_reached']):>14}  {r['sensor']}"
               for r in doc["front"]]

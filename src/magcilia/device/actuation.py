@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number
+from magcilia.constants import GAUSS
 
 F64 = NDArray[np.float64]
 
@@ -213,10 +214,11 @@ class Actuation(Display):
 
     # -- results protocol ---------------------------------------------------------------------
     def describe(self) -> str:
-        """One line: the field (mT) or the source, and the scale."""
+        """One line: the field (gauss, the display unit of fields, as ``--actuation-field``
+        takes it) or the source, and the scale."""
         if self.vector is not None:
-            b = self.uniform_field * 1e3
-            return "uniform field (" + ", ".join(f"{c:.4g}" for c in b) + ") mT"
+            b = self.uniform_field / GAUSS
+            return "uniform field (" + ", ".join(f"{c:.4g}" for c in b) + ") G"
         what = f"{len(self.source)} magpylib sources" if isinstance(self.source, tuple) \
             else f"a magpylib {self.source_name}"
         return f"field of {what}" + ("" if self.scale == 1.0 else f" × {self.scale:.6g}")
@@ -247,18 +249,18 @@ class Actuation(Display):
         return out
 
     def report(self) -> str:
-        """One line for people (mT and gauss)."""
+        """One line for people (gauss, and mT for |B|)."""
         if self.vector is not None:
             b = self.uniform_field
             mag = float(np.linalg.norm(b))
-            return (f"{self.describe()}, |B| = {mag * 1e3:.4g} mT ({mag * 1e4:.4g} G)")
+            return (f"{self.describe()}, |B| = {mag / GAUSS:.4g} G ({mag * 1e3:.4g} mT)")
         return self.describe()
 
     def _display_items(self) -> list[Item]:
         if self.vector is not None:
             b = self.uniform_field
-            return [("", "uniform"), ("B", "(" + ", ".join(number(c * 1e3) for c in b) + ") mT"),
-                    ("|B|", f"{number(float(np.linalg.norm(b)) * 1e3)} mT")]
+            return [("", "uniform"), ("B", "(" + ", ".join(number(c / GAUSS) for c in b) + ") G"),
+                    ("|B|", f"{number(float(np.linalg.norm(b)) / GAUSS)} G")]
         items = [("", "magpylib"), ("source", type(self.source).__name__)]
         if self.scale != 1.0:
             items.append(("scale", number(self.scale)))

@@ -368,6 +368,13 @@ class ArrayEstimate(Display):
         d = np.clip(np.diag(self.covariance_scale), 0.0, None).reshape(-1, 2)
         return np.asarray(np.sqrt(d.sum(axis=1)), dtype=np.float64)
 
+    @property
+    def sigma_noise(self) -> F64:
+        """The sensors' noise's 1 σ of Fx, Fy, N, (C, 2): :attr:`sigma` without the force
+        scale's share (what readings simulated with the model's own modulus can test)."""
+        d = np.clip(np.diag(self.covariance - self.covariance_scale), 0.0, None)
+        return np.asarray(np.sqrt(d.reshape(-1, 2)), dtype=np.float64)
+
     def table(self) -> list[dict[str, Any]]:
         """One row per cilium (SI)."""
         return [{"cilium": n, "Fx_N": float(f[0]), "Fy_N": float(f[1]),

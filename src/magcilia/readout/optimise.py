@@ -439,18 +439,40 @@ class DesignOptimum(Display):
 
     @property
     def comparison(self) -> str:
-        """The chosen design against the reference in words: ``"yes"`` (both better, see
-        :attr:`beats_reference`), ``"no"``, or what is known when the reference's range was
-        not reached."""
-        if self.beats_reference:
-            return "yes"
-        finer = self.best.minimum < self.reference.minimum
-        if self.reference.reached or self.best.range <= self.reference.range:
-            return "no"
+        """The chosen design against the reference, as a statement: the resolution's ratio
+        (``"resolution 1.42× finer"``, ``coarser`` or ``the same``), then the range's as far as it
+        is known (a range the sweep did not reach is a lower bound, ``≥ X``), e.g. ``"range 2.1×
+        larger"``, ``"range at least 1.3× larger (the chosen design's not reached)"`` or ``"range
+        not known to be larger (neither range reached: ≥ 0.3426 mN against ≥ 0.13 mN)"``.
+        :attr:`beats_reference` is true when both are known to be better."""
         q = MEASURANDS[self.quantity]
-        return (f"resolution {'finer' if finer else 'not finer'}; range not known to be larger "
-                f"(the reference's range was not reached: ≥ "
-                f"{q.text(self.reference.range, 4)})")
+        best, ref = self.best, self.reference
+        if best.minimum < ref.minimum:
+            parts = [f"resolution {ref.minimum / best.minimum:.3g}× finer"]
+        elif best.minimum > ref.minimum:
+            parts = [f"resolution {best.minimum / ref.minimum:.3g}× coarser"]
+        else:
+            parts = ["resolution the same"]
+        both = f"{_range_text(best, q)} against {_range_text(ref, q)}"
+        if best.reached and ref.reached:
+            if best.range == ref.range:
+                parts.append("range the same")
+            else:
+                ratio = max(best.range, ref.range) / min(best.range, ref.range)
+                more = "larger" if best.range > ref.range else "smaller"
+                parts.append(f"range {ratio:.3g}× {more}")
+        elif not ref.reached and best.reached and best.range < ref.range:
+            parts.append(f"range at least {ref.range / best.range:.3g}× smaller (the reference's "
+                         f"not reached: {both})")
+        elif not best.reached and ref.reached and best.range > ref.range:
+            parts.append(f"range at least {best.range / ref.range:.3g}× larger (the chosen "
+                         f"design's not reached: {both})")
+        else:
+            which = ("neither range reached" if not (best.reached or ref.reached) else
+                     "the reference's range not reached" if best.reached else
+                     "the chosen design's range not reached")
+            parts.append(f"range not known to be larger ({which}: {both})")
+        return "; ".join(parts)
 
     def table(self) -> list[dict[str, Any]]:
         """The front as rows (SI; keys carry their unit: ``height_m``, ``minimum_N``,
@@ -492,7 +514,7 @@ class DesignOptimum(Display):
                          f"{d.sensor}; {d.limited_by}")
         lines.append("best design: " + ", ".join(
             f"{n} {PARAMETERS[n].text(val, 4)}" for n, val in self.best.params.items()))
-        lines.append(f"beats the reference in range and resolution: {self.comparison}")
+        lines.append(f"compared with the reference: {self.comparison}")
         lines.append("front (minimum, range):")
         lines += [f"  {q.text(d.minimum, 4):>12} {_range_text(d, q):>12}  {d.sensor}"
                   for d in self.front]

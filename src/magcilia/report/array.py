@@ -175,7 +175,10 @@ def field_rows(array: CiliaArray, field: ArrayLike, readings: ArrayLike | None =
 def readout_rows(estimate: ArrayEstimate, truth: ArrayLike,
                  load_set: int | None = None) -> list[dict[str, Any]]:
     """One row per cilium (SI): the true load, the estimate with its σ and flags, and the error
-    (``error_N`` = |F̂ − F|; ``error_per_sigma`` = the larger of |F̂x − Fx|/σx, |F̂y − Fy|/σy).
+    (``error_N`` = |F̂ − F|; ``error_per_sigma`` = the larger of |F̂x − Fx|/σx, |F̂y − Fy|/σy
+    with the noise's σ, :attr:`ArrayEstimate.sigma_noise`: a truth simulated through the model
+    shares its modulus, so only the noise can show in the error; ``sigma_*`` hold the force
+    scale too).
 
     Parameters
     ----------
@@ -190,7 +193,7 @@ def readout_rows(estimate: ArrayEstimate, truth: ArrayLike,
     for c, r in enumerate(estimate.table()):
         err = np.asarray(estimate.force[c]) - f[c]
         with np.errstate(divide="ignore", invalid="ignore"):
-            z = float(np.max(np.abs(err) / np.asarray(estimate.sigma[c])))
+            z = float(np.max(np.abs(err) / np.asarray(estimate.sigma_noise[c])))
         row: dict[str, Any] = {} if load_set is None else {"set": load_set}
         row.update({"cilium": r["cilium"], "true_Fx_N": float(f[c, 0]),
                     "true_Fy_N": float(f[c, 1]), "true_force_N": float(np.hypot(*f[c])),
