@@ -149,7 +149,7 @@ from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
     delimiter_of,
-    plain_csv_blocks,
+    plain_csv_columns,
     read_csv_carefully,
     too_many_samples,
 )
@@ -688,16 +688,15 @@ class _CSVLocator:
 
 
 def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
-    """A CSV recording's columns: the fast reader's blocks joined, or the careful reader's."""
+    """A CSV recording's columns: the fast reader's, or the careful reader's."""
     locate = _CSVLocator(path, how, required)
     try:
-        blocks = list(plain_csv_blocks(path, COLUMNS, locate.header_names(),
-                                       progress=how.progress, **locate.options()))
+        cols = plain_csv_columns(path, COLUMNS, locate.header_names(), progress=how.progress,
+                                 **locate.options())
     except NotPlainCSV:
-        return RawRecording(locate.scaled(read_csv_carefully(
-            path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options())))
-    return RawRecording(locate.scaled(
-        {col: np.concatenate([b.pop(col) for b in blocks]) for col in list(blocks[0])}))
+        cols = read_csv_carefully(path, COLUMNS, locate.header_names(), progress=how.progress,
+                                  **locate.options())
+    return RawRecording(locate.scaled(cols))
 
 
 def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
