@@ -233,3 +233,20 @@ def test_what_damaged_checksums_say(layout: str | None, values: np.ndarray, foun
     assert chunk_checksums.verify_chunks(good, "first_sample,samples,crc32:v",
                                          {"v": np.array([1.0, 2.0, 3.0])}, cut=False) == [
         "the last 1 value(s) of channel v are in no checksummed chunk"]
+
+
+def test_checksums_are_verified_where_damage_hid_whose_file_it_is(tmp_path: Path) -> None:
+    """Bits flipped in the root properties' names (``magcilia_version``, ``checksums``: found by
+    the fuzz) make the file look like another program's; its rows are still verified."""
+    path = tmp_path / "r.tdms"
+    cols = _record(path, close=False)
+    hidden = tmp_path / "hidden.tdms"
+    hidden.write_bytes(path.read_bytes().replace(b"magcilia_version", b"magcilia_Version")
+                       .replace(b"\x09\x00\x00\x00checksums", b"\x09\x00\x00\x00checksumz"))
+    assert b"checksumz" in hidden.read_bytes()
+    raw = read_recording(hidden)
+    assert not raw.state.own and not raw.notes
+    bad = tmp_path / "bad.tdms"
+    _flip_in_chunk(hidden, cols["volts"][50:100], bad)
+    assert [n for n in read_recording(bad).notes
+            if n.startswith("the chunk of samples 51–100 (chunk 2 of 5) of channel voltage_V")]

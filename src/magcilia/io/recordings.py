@@ -186,6 +186,9 @@ Progress = Callable[[int, int], None]
 MAX_ANGLE_DEG = 360.0
 #: Largest |tilt azimuth| accepted, deg (as the angle).
 MAX_AZIMUTH_DEG = 360.0
+#: Largest |load| accepted, N or m/s (a meganewton or 1,000 km/s: no cilium; beyond it the column is
+#: in the wrong unit or garbage, and grouping by rounding would overflow).
+MAX_LOAD = 1e6
 #: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
 #: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
 MAX_FIELD_T = 100.0
@@ -322,10 +325,17 @@ class _Reduction:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
-        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG) & (self.load is None), lambda i: (
-            f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
-            f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the column "
-            "and its unit)"))
+        if self.load is None:
+            self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG), lambda i: (
+                f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
+                f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the "
+                "column and its unit)"))
+        else:  # (in uN or mm/s here)
+            key, factor, _ = LOAD_UNITS[self.load]
+            self._note("far", finite & (np.abs(ang) > MAX_LOAD * factor), lambda i: (
+                f"{source}: sample {offset + i + 1} has {key}={ang[i] / factor:.6g}, beyond "
+                f"±MAX_LOAD = {MAX_LOAD:g} (N or m/s); {key} must be in SI units (check the "
+                "column and its unit)"))
         if az is not None:
             finite_az = np.isfinite(az)
             self._note("far_azimuth", finite_az & (np.abs(az) > MAX_AZIMUTH_DEG), lambda i: (

@@ -327,6 +327,35 @@ def _as_columns(native: dict[str, Any], chosen: dict[str, tuple[str, Any, float]
             for key, data in native.items()}
 
 
+def _has_checksums(tdms: Any) -> bool:
+    """Whether a file has (or says it has) the chunks' checksums of a magcilia recording."""
+    if tdms.properties.get(chunk_checksums.PROPERTY) is not None:
+        return True
+    try:
+        layout = tdms[chunk_checksums.GROUP][chunk_checksums.CHANNEL].properties.get("layout")
+    except KeyError:
+        return False
+    return isinstance(layout, str) and layout.startswith(",".join(chunk_checksums.HEAD))
+
+
+def _near_misses(tdms: Any, columns: Columns, chosen: dict[str, tuple[str, Any, float]]
+                 ) -> list[str]:
+    """Channels left unread whose name is one character from the name of a column not found:
+    a name hit by damage (a flipped bit) would otherwise drop the column silently."""
+    wanted = {name for key, name in columns.names().items() if key not in chosen}
+    out = []
+    for group in tdms.groups():
+        for channel in group.channels():
+            name = str(channel.name)
+            for want in wanted:
+                if len(name) == len(want) and sum(a != b for a, b in zip(name, want,
+                                                                         strict=True)) == 1:
+                    out.append(f"channel {printable(name)} (group {printable(str(group.name))}) "
+                               f"is one character from {printable(want)} and is not read: a "
+                               "damaged name (or map it with columns=)")
+    return out
+
+
 def _row_tails(file: IO[bytes], size: int, found: list[Segment], width: int,
                declared: int) -> NDArray[np.uint64] | None:
     """The checksum rows of a magcilia recording taken from the ends of its segments' raw data
@@ -449,17 +478,19 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
             for key in chosen:
                 g, channel, _ = chosen[key]
                 _check_channel(path, g, channel, size, max_samples)
+            problems += _near_misses(tdms, columns, chosen)
             cut_inside = bool(found) and (found[-1].end is None or found[-1].end > size)
             if state.own and any(s.big_endian or s.interleaved for s in found):
                 problems.append("a segment's table of contents marks its data big-endian or "
                                 "interleaved, which magcilia never writes")
-            if state.own and tdms.properties.get(chunk_checksums.PROPERTY) is None:
+            checksummed = _has_checksums(tdms)  # (also where damage hit the own-file property)
+            if state.own and not checksummed:
                 # an earlier recording, without checksums: its structure checked chunk by chunk
                 data_segments = sum(1 for s in found if s.end is None or s.end > s.data)
                 out = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
             else:
                 native = _read_native(path, chosen)
-                if state.own:
+                if checksummed:
                     problems += _checksummed(tdms, chosen, native, lambda width, declared: (
                         _row_tails(file, size, found, width, declared)), cut_inside)
                 out = _as_columns(native, chosen)
