@@ -331,10 +331,10 @@ class _Reduction:
                 f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the "
                 "column and its unit)"))
         else:  # (in uN or mm/s here)
-            key, factor, _ = LOAD_UNITS[self.load]
+            name, factor, _ = LOAD_UNITS[self.load]
             self._note("far", finite & (np.abs(ang) > MAX_LOAD * factor), lambda i: (
-                f"{source}: sample {offset + i + 1} has {key}={ang[i] / factor:.6g}, beyond "
-                f"±MAX_LOAD = {MAX_LOAD:g} (N or m/s); {key} must be in SI units (check the "
+                f"{source}: sample {offset + i + 1} has {name}={ang[i] / factor:.6g}, beyond "
+                f"±MAX_LOAD = {MAX_LOAD:g} (N or m/s); {name} must be in SI units (check the "
                 "column and its unit)"))
         if az is not None:
             finite_az = np.isfinite(az)
