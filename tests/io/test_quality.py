@@ -204,17 +204,18 @@ def test_quality_round_trips_and_reports() -> None:
 # -- how the checks are computed (magcilia.io.sample_checks) -------------------------------------
 def test_large_conditions_take_median_and_mad_from_a_subsample() -> None:
     """Conditions of more than OUTLIER_SUBSAMPLE samples: the subsample's median and scale are
-    the whole condition's to a few per cent, seeded noise is not flagged, 12σ samples are."""
+    the whole condition's within three of their standard errors, seeded noise is not flagged,
+    12σ samples are."""
     from magcilia.io.sample_checks import OUTLIER_SUBSAMPLE, centre_and_scale
 
-    n = 6 * OUTLIER_SUBSAMPLE + 5
+    n = 24 * OUTLIER_SUBSAMPLE + 5
     rng = np.random.default_rng(11)
     x = rng.normal(3.0, 0.5, 2 * n)
     group = np.repeat([0, 1], n)
     exact = centre_and_scale(x[:n])
     picked = centre_and_scale(x[:n][::math.ceil(n / OUTLIER_SUBSAMPLE)])
-    assert picked[0] == pytest.approx(exact[0], abs=0.02 * exact[1])
-    assert picked[1] == pytest.approx(exact[1], rel=0.03)
+    assert picked[0] == pytest.approx(exact[0], abs=0.06 * exact[1])  # 3 standard errors
+    assert picked[1] == pytest.approx(exact[1], rel=0.05)
     assert not robust_outliers(group, x).any()
     x[[17, n + 40_000, 2 * n - 1]] += np.array([6.0, -6.0, 6.0])  # 12 σ
     assert np.flatnonzero(robust_outliers(group, x)).tolist() == [17, n + 40_000, 2 * n - 1]

@@ -247,11 +247,15 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
 
 
 def plain_csv_columns(path: Path, columns: tuple[str, ...], required: tuple[str, ...], *,
-                      progress: Progress | None = None, **options: Any) -> dict[str, F64]:
+                      progress: Progress | None = None,
+                      on_block: Callable[[dict[str, F64]], None] | None = None,
+                      **options: Any) -> dict[str, F64]:
     """The columns of a plain CSV recording, whole: :func:`plain_csv_blocks`' blocks (same
     parameters and errors) copied into arrays sized from the first block's share of the file
     (5 % more; grown by half where a file's later rows are shorter), so that the columns are
-    held once while the file is read, not as blocks and again joined."""
+    held once while the file is read, not as blocks and again joined. ``on_block`` is called
+    with each block after it is copied (a reduction that follows the reading works on data still
+    in cache)."""
     size = max(path.stat().st_size, 1)
     read = [0]
 
@@ -276,6 +280,8 @@ def plain_csv_columns(path: Path, columns: tuple[str, ...], required: tuple[str,
         for col, arr in block.items():
             out[col][n:n + k] = arr
         n += k
+        if on_block is not None:
+            on_block(block)
     return {col: arr[:n] for col, arr in out.items()}
 
 

@@ -646,6 +646,9 @@ class _How:
     decimal: str = "."
     group: str = ""
     progress: Progress | None = None
+    #: called with each block of columns (deg, V, s) as the fast CSV reader reads it, and with
+    #: None where that reader gives up (the careful one starts again)
+    blocks: Callable[[dict[str, F64] | None], None] | None = None
 
 
 def _how(path: Path, columns: Columns | Mapping[str, str] | str | None, delimiter: str | None,
@@ -700,10 +703,14 @@ class _CSVLocator:
 def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
     """A CSV recording's columns: the fast reader's, or the careful reader's."""
     locate = _CSVLocator(path, how, required)
+    follow = how.blocks
     try:
-        cols = plain_csv_columns(path, COLUMNS, locate.header_names(), progress=how.progress,
-                                 **locate.options())
+        cols = plain_csv_columns(
+            path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options(),
+            on_block=None if follow is None else lambda block: follow(locate.scaled(block)))
     except NotPlainCSV:
+        if follow is not None:
+            follow(None)
         cols = read_csv_carefully(path, COLUMNS, locate.header_names(), progress=how.progress,
                                   **locate.options())
     return RawRecording(locate.scaled(cols))
@@ -787,7 +794,11 @@ def read_recording(
     is the error ``the recording was cut before its first chunk``.
     """
     p = _recording_path(path)
-    how = _how(p, columns, delimiter, decimal, group, progress)
+    return _read_recording(p, required, _how(p, columns, delimiter, decimal, group, progress))
+
+
+def _read_recording(p: Path, required: tuple[str, ...], how: _How) -> RawRecording:
+    """:func:`read_recording` of a checked path with checked options."""
     unknown = [k for k in required if k not in (*COLUMNS, OBSERVABLE)]
     if unknown:
         raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
@@ -969,20 +980,42 @@ def read_measurements(
         reduction.fluid = fluid_name
         return reduction
 
-    raw = read_recording(path, columns=columns, delimiter=delimiter, decimal=decimal,
-                         group=group, progress=progress)
-    return _measure(start, raw, policy)
+    p = _recording_path(path)
+    follow = _Following(start)  # a CSV file reduced as it is read (its blocks still in cache)
+    how = dataclasses.replace(_how(p, columns, delimiter, decimal, group, progress),
+                              blocks=follow)
+    raw = _read_recording(p, ("angle_deg", OBSERVABLE), how)
+    return _measure(start, raw, policy, follow)
 
 
-def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) -> Measurement:
-    """A reader's columns reduced (the reduction's errors first), checked
-    (:func:`check_quality`),
+class _Following:
+    """A reduction fed block by block as a reader reads (:attr:`_How.blocks`)."""
+
+    def __init__(self, start: Callable[[], _Reduction]):
+        self.start, self.reduction, self.samples = start, start(), 0
+
+    def __call__(self, block: dict[str, F64] | None) -> None:
+        if block is None:  # the reader starts again
+            self.reduction, self.samples = self.start(), 0
+            return
+        self.reduction.add_columns(block)
+        self.samples += next(iter(block.values())).size
+
+
+def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str,
+             followed: _Following | None = None) -> Measurement:
+    """A reader's columns reduced (the reduction's errors first; or the reduction that
+    ``followed`` the reading, where it saw every sample), checked (:func:`check_quality`),
     the flagged samples kept, omitted (reduced again without them) or refused by ``policy``, and
     the notes of the reader, the file and the checks kept in the measurement's metadata
     (``notes``, ``recording``, ``quality``)."""
     cols = raw.columns
-    reduction = start()
-    reduction.add_columns(cols)
+    n = next(iter(cols.values())).size if cols else 0
+    if followed is not None and followed.samples == n and n:
+        reduction = followed.reduction
+    else:
+        reduction = start()
+        reduction.add_columns(cols)
     m = reduction.measurement()
     source = reduction.source
     quality = check_quality(cols, policy)

@@ -11,8 +11,9 @@ that the checks cost little beside reading a file (``benchmarks/bench_recordings
   sorted by condition once (stable) and handled the same way.
 - **Outliers.** The median and the median absolute deviation (MAD) of a condition (and polarity,
   and column) are those of its samples when it holds at most :data:`OUTLIER_SUBSAMPLE`, else of
-  that many evenly spaced ones among them (the scale is then known to about 1 %, which moves the
-  8σ threshold by less than 0.1σ). The smallest and largest sample of each run then tell whether
+  that many evenly spaced ones among them (their median is then known to 0.02σ and the scale to
+  about 2 %, which moves the 8σ threshold by about 0.15σ: odds of a Gaussian sample beyond it
+  stay below 1e-13). The smallest and largest sample of each run then tell whether
   any lies beyond the threshold (``|x − median| > threshold`` is monotone in x, also in floating
   point); only a run that holds one is gone through sample by sample.
 - **Duplicated blocks.** A column that strictly increases or decreases (time stamps, a sample
@@ -38,8 +39,8 @@ Mask = NDArray[np.bool_]
 #: the robust standard deviation of Gaussian noise per median absolute deviation
 MAD_SIGMA = 1.482602218505602
 #: most samples of a condition (per polarity) whose median and MAD are computed; above it, from
-#: this many evenly spaced ones (standard errors of 0.01σ and about 1 % of σ)
-OUTLIER_SUBSAMPLE = 1 << 14
+#: this many evenly spaced ones (standard errors of 0.02σ and about 2 % of σ)
+OUTLIER_SUBSAMPLE = 1 << 12
 #: rows handled at a time where a pass needs temporaries (a few MB: they stay in cache)
 PIECE = 1 << 16
 
