@@ -23,14 +23,15 @@ four layers:
    versions that differ, ...), which it logs and would otherwise be lost, are caught and said in
    magcilia's words (:func:`nptdms_warnings`);
 3. magcilia's own recordings (the root property ``magcilia_version``,
-   :mod:`magcilia.io.recording_file`): no interleaved or big-endian data, and the closing
-   ``samples`` count. Those with checksums (the root property ``checksums``) are read whole, and
-   every flushed chunk of every channel read from group ``recording`` is verified against its
-   CRC-32 (:mod:`magcilia.io.chunk_checksums`: raw data changed in place, chunks missing,
-   repeated or out of order; the rows are taken from the ends of the segments, where npTDMS
-   would read them segment by segment in Python). Earlier ones, without checksums, are read
-   chunk by chunk and checked as before: at most one chunk per segment, every channel of group
-   ``recording`` with the same number of values in each chunk;
+   :mod:`magcilia.io.recording_file`) are read chunk by chunk (one pass over the segments, into
+   arrays of the declared length) and checked further: at most one chunk per segment, every
+   channel of group ``recording`` with the same number of values in each chunk, no interleaved
+   or big-endian data, and the closing ``samples`` count. Where they have checksums (the root
+   property ``checksums``, or the rows themselves where damage hit the properties), every
+   flushed chunk of every channel read from group ``recording`` is verified against its CRC-32
+   (:mod:`magcilia.io.chunk_checksums`: raw data changed in place, chunks missing, repeated or
+   out of order; the rows are taken from the ends of the segments, where npTDMS would read
+   them segment by segment in Python). Earlier recordings have none;
 4. names of groups and channels holding control characters (a NUL in a name is damage: a column
    whose name was hit would otherwise be silently missing).
 
@@ -394,22 +395,30 @@ def _checksummed(tdms: Any, chosen: dict[str, tuple[str, Any, float]], native: d
 
 
 def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segments: int,
-                 problems: list[str], cut: bool) -> dict[str, F64]:
-    """The channels of a magcilia recording read chunk by chunk, checking that each chunk holds
-    the same number of values of every channel read of the ``recording`` group (but the last
-    one of a file ``cut`` inside it), and that there are no more chunks than segments with data
-    (the writer makes one chunk per segment)."""
-    parts: dict[str, list[F64]] = {k: [] for k in chosen}
+                 problems: list[str], cut: bool) -> dict[str, Any]:
+    """The channels of a magcilia recording read chunk by chunk (one pass over the segments:
+    npTDMS reads a whole channel segment by segment, once per channel), as stored, into arrays
+    of the length the metadata declares; checking that each chunk holds the same number of
+    values of every channel read of the ``recording`` group (but the last one of a file ``cut``
+    inside it), and that there are no more chunks than segments with data (the writer makes one
+    chunk per segment)."""
+    out = {key: np.empty(len(channel), dtype=channel.dtype)
+           for key, (_, channel, _) in chosen.items()}
+    filled = dict.fromkeys(chosen, 0)
     chunks = 0
     uneven = None
     for chunk in tdms.data_chunks():
         chunks += 1
         lengths = {}
         for key, (group, channel, _) in chosen.items():
-            piece = chunk[group][str(channel.name)]
-            values = np.asarray(piece[:], dtype=np.float64).ravel()
-            parts[key].append(values)
-            if group == "recording":
+            values = np.asarray(chunk[group][str(channel.name)][:]).ravel()
+            at = filled[key]
+            if at + values.size > out[key].size:  # (more values than declared: damage)
+                out[key] = np.concatenate([out[key][:at], values])
+            else:
+                out[key][at:at + values.size] = values
+            filled[key] = at + values.size
+            if group == GROUP:
                 lengths[key] = values.size
         if uneven is None and len(set(lengths.values())) > 1:
             uneven = chunks
@@ -419,11 +428,7 @@ def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segm
     if chunks > data_segments:
         problems.append(f"the data are cut into {chunks} chunks in {data_segments} segments; "
                         "magcilia writes one chunk per segment (a channel's length is damaged)")
-    out = {}
-    for key, (_, _, factor) in chosen.items():
-        data = np.concatenate(parts[key]) if parts[key] else np.zeros(0)
-        out[key] = scaled(data, factor)
-    return out
+    return {key: out[key][:filled[key]] for key in chosen}
 
 
 def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group: str = "",
@@ -484,16 +489,15 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
                 problems.append("a segment's table of contents marks its data big-endian or "
                                 "interleaved, which magcilia never writes")
             checksummed = _has_checksums(tdms)  # (also where damage hit the own-file property)
-            if state.own and not checksummed:
-                # an earlier recording, without checksums: its structure checked chunk by chunk
+            if state.own or checksummed:  # magcilia's: chunk by chunk, and their checksums
                 data_segments = sum(1 for s in found if s.end is None or s.end > s.data)
-                out = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
-            else:
-                native = _read_native(path, chosen)
+                native = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
                 if checksummed:
                     problems += _checksummed(tdms, chosen, native, lambda width, declared: (
                         _row_tails(file, size, found, width, declared)), cut_inside)
-                out = _as_columns(native, chosen)
+            else:
+                native = _read_native(path, chosen)
+            out = _as_columns(native, chosen)
     notes = list(dict.fromkeys([*problems, *(warning_note(w) for w in warned)]))
     if state.complete is False and out:  # a magcilia recording cut short (a crash): its last
         # segment may end inside a channel; the samples in every channel are whole
