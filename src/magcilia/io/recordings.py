@@ -99,16 +99,18 @@ in the measurement's ``metadata`` and said by :meth:`Measurement.notes`.
 Speed and memory
 ----------------
 A plain CSV file (numbers only after the header) is parsed by pandas' C reader in blocks of a
-million rows (:mod:`magcilia.io.csvfile`); anything else goes to the careful line-by-line reader,
-which gives the same columns and the errors that name a line. The quality checks need every
-sample at once, so the columns are held whole (three columns of 1e7 samples: 240 MB). The
-reduction (:func:`measurement_from_samples`, and every reader through it) is one pass over pieces
-of :data:`REDUCE_SAMPLES` samples: the runs of equal conditions (the angle; with an azimuth
-column, the pair as one complex key) are grouped, their sums gathered per condition with
-``np.bincount``, in a two-pass form accurate on a large offset, and the pieces merged with
-Chan's formulas. A 1e7-row CSV recording (300 MB) is read, checked and reduced in 3.7 s with a
-peak of 0.8 GB on a loaded 2-core VM, where pandas' reader alone takes 1.35 s
-(``benchmarks/bench_recordings.py``).
+million rows (:mod:`magcilia.io.csvfile`), copied into columns sized from the first block's
+share of the file and, in :func:`read_measurements`, reduced block by block as they come;
+anything else goes to the careful line-by-line reader, which gives the same columns and the
+errors that name a line. The quality checks need every sample at once, so the columns are held
+whole (three columns of 1e7 samples: 240 MB); they cost a few vectorised passes
+(:mod:`magcilia.io.sample_checks`). The reduction (:func:`measurement_from_samples`, and every
+reader through it) is one pass over pieces of :data:`REDUCE_SAMPLES` samples: the runs of equal
+conditions (the angle; with an azimuth column, the pair as one complex key) are grouped, their
+sums gathered per condition with ``np.bincount``, in a two-pass form accurate on a large offset,
+and the pieces merged with Chan's formulas. A 1e7-row CSV recording (300 MB) is read, checked and
+reduced in 0.68 s with a peak of 0.47 GB on a 2-core VM (the read without the checks: 0.68 s,
+0.25 GB), where pandas' reader alone takes 0.6–1.3 s (``benchmarks/bench_recordings.py``).
 
 Angles are tilt angles in degrees: a finite ``|angle_deg|`` above :data:`MAX_ANGLE_DEG` (a
 column in the wrong unit, or garbage) is an error rather than grouped, so the grouping by
