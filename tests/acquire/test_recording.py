@@ -21,6 +21,7 @@ import pytest
 
 import magcilia as mc
 from magcilia.io import RecordingWriter, read_samples, recording_properties
+from magcilia.io.recordings import read_recording
 
 CHILD = """
 import sys, numpy as np
@@ -142,9 +143,11 @@ def test_a_file_cut_inside_its_last_chunk_opens(tmp_path: Path) -> None:
     data = path.read_bytes()  # never closed: "complete" is still False
     for cut in (len(data) - 1, len(data) - 700, len(data) - 2500):
         (tmp_path / "c.tdms").write_bytes(data[:cut])
-        cols = read_samples(tmp_path / "c.tdms")
+        raw = read_recording(tmp_path / "c.tdms")
+        cols = raw.columns
         n = cols["voltage_V"].size
         assert 400 <= n <= 500 and {a.size for a in cols.values()} == {n}
+        assert not [note for note in raw.notes if "CRC" in note or "checksum" in note]
         np.testing.assert_array_equal(cols["voltage_V"], np.arange(n))
     rec.abort("the test is over")
 
@@ -167,10 +170,13 @@ def test_writers_killed_at_random_lose_at_most_the_chunk_in_progress(tmp_path: P
         os.kill(child.pid, signal.SIGKILL)
         child.wait()
         child.stdout.close()
-        cols = read_samples(path)  # every file opens
+        raw = read_recording(path)  # every file opens
+        cols = raw.columns
         n = cols["voltage_V"].size
         assert n >= reported, f"kill {k}: {n} samples, {reported} reported flushed"
         np.testing.assert_array_equal(cols["voltage_V"], np.arange(n))  # nothing corrupt
+        assert not [note for note in raw.notes if "CRC" in note or "checksum" in note], (
+            f"kill {k}: every flushed chunk verifies", raw.notes)
         assert recording_properties(path)["complete"] is False
         seen.append((reported, n))
     assert max(r for r, _ in seen) >= 5 * chunk, seen  # the kills came while writing chunks
@@ -220,8 +226,11 @@ def test_record_duration_killed_at_any_moment_keeps_all_but_a_second(tmp_path: P
             path = tmp_path / f"k{k}.tdms"
             props = recording_properties(path)
             assert props["complete"] is False and props["planned_samples"] == 60 * rate
-            n = read_samples(path, required=("voltage_V",))["voltage_V"].size
+            raw = read_recording(path, required=("voltage_V",))
+            n = raw.columns["voltage_V"].size
             assert count - LOSS_SECONDS * rate <= n <= count, (k, count, n)
+            assert not [note for note in raw.notes if "CRC" in note or "checksum" in note], (
+                k, raw.notes)  # every flushed chunk verifies
             np.testing.assert_array_equal(read_samples(path, required=("voltage_V",))["time_s"],
                                           np.arange(n) / rate)
             print(f"kill {k}: {count} samples delivered, {n} in the file")

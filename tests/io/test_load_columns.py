@@ -96,3 +96,16 @@ def test_load_column_errors(tmp_path: Path) -> None:
         read_measurements(flow, fluid="honey")
     with pytest.raises(MagciliaError, match="speed unit"):
         Columns(flow="U[mN]")
+
+
+@pytest.mark.parametrize(("header", "value", "match"), [
+    ("force_N,voltage_V", 2e6, r"sample 3 has force_N=2e\+06, beyond ±MAX_LOAD = 1e\+06"),
+    ("flow_m_per_s,voltage_V", -8e298, r"sample 3 has flow_m_per_s=-8e\+298, beyond ±MAX_LOAD"),
+])
+def test_a_load_beyond_max_load_is_an_error(tmp_path: Path, header: str, value: float,
+                                            match: str) -> None:
+    """A load in the wrong unit or garbage (found by the fuzz: a damaged exponent made grouping by
+    rounding overflow) is one error line naming the sample, not a warning."""
+    rows = [(0.0, 1e-3), (1e-5, 2e-3), (value, 3e-3), (2e-5, 4e-3)]
+    with pytest.raises(MagciliaError, match=match):
+        read_measurements(_write(tmp_path / "far.csv", header, rows), suspect="keep")

@@ -10,6 +10,7 @@ the sizes of real recordings), quantised data, noise-free set/reset data, steps 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ import magcilia as mc
 from magcilia.io import example_path
 from magcilia.io.quality import (
     OUTLIER_MIN_SAMPLES,
+    TINY,
     RecordingQuality,
     check_samples,
     duplicated_rows,
@@ -197,3 +199,75 @@ def test_quality_round_trips_and_reports() -> None:
     assert back.report() == q.report() and back.to_dict() == q.to_dict()
     assert "5 deg (1 sample)" in q.report()
     assert repr(q).startswith("RecordingQuality(samples=201, flagged=1")
+
+
+# -- how the checks are computed (magcilia.io.sample_checks) -------------------------------------
+def test_large_conditions_take_median_and_mad_from_a_subsample() -> None:
+    """Conditions of more than OUTLIER_SUBSAMPLE samples: the subsample's median and scale are
+    the whole condition's within three of their standard errors, seeded noise is not flagged,
+    12σ samples are."""
+    from magcilia.io.sample_checks import OUTLIER_SUBSAMPLE, centre_and_scale
+
+    n = 24 * OUTLIER_SUBSAMPLE + 5
+    rng = np.random.default_rng(11)
+    x = rng.normal(3.0, 0.5, 2 * n)
+    group = np.repeat([0, 1], n)
+    exact = centre_and_scale(x[:n])
+    picked = centre_and_scale(x[:n][::math.ceil(n / OUTLIER_SUBSAMPLE)])
+    assert picked[0] == pytest.approx(exact[0], abs=0.06 * exact[1])  # 3 standard errors
+    assert picked[1] == pytest.approx(exact[1], rel=0.05)
+    assert not robust_outliers(group, x).any()
+    x[[17, n + 40_000, 2 * n - 1]] += np.array([6.0, -6.0, 6.0])  # 12 σ
+    assert np.flatnonzero(robust_outliers(group, x)).tolist() == [17, n + 40_000, 2 * n - 1]
+
+
+def test_interleaved_conditions_give_the_same_flags() -> None:
+    """Conditions in runs and the same rows interleaved (sorted by condition once) are judged
+    alike, with set/reset polarity and two columns."""
+    rng = np.random.default_rng(12)
+    group = np.repeat(np.arange(40), 60)
+    sr = np.tile([1.0, -1.0], group.size // 2)
+    x = np.column_stack([rng.normal(size=group.size) * sr, rng.normal(size=group.size)])
+    x[rng.choice(group.size, 25, replace=False), rng.integers(0, 2, 25)] += 30.0
+    together = robust_outliers(group, x, sr)
+    assert together.sum() == 25
+    order = rng.permutation(group.size)
+    mixed = robust_outliers(group[order], x[order], sr[order])
+    np.testing.assert_array_equal(mixed, together[order])
+
+
+@pytest.mark.parametrize("length", [1, 2, 3, 5, 8, 13, 16, 17])
+def test_window_hashes_are_the_polynomial_of_their_rows(length: int) -> None:
+    from magcilia.io.sample_checks import window_hashes
+
+    h = np.random.default_rng(length).integers(0, 2**63, 40, dtype=np.uint64)
+    base, mod = 0x100000001B3, 1 << 64
+    direct = [sum(int(h[i + k]) * pow(base, length - 1 - k, mod) for k in range(length)) % mod
+              for i in range(h.size - length + 1)]
+    assert window_hashes(h, length).tolist() == direct
+
+
+def test_garbled_values_by_their_bits() -> None:
+    from magcilia.io.sample_checks import PIECE, garbled
+
+    special = np.array([0.0, -0.0, 5e-324, -5e-324, 2.2e-308, 1e-101, -1e-101, 1e-100,
+                        np.nextafter(1e-100, 0.0), 1.0, -3.0, np.inf, -np.inf, np.nan, 1e308])
+    x = np.tile(special, PIECE // 7)  # several pieces
+    with np.errstate(invalid="ignore"):
+        direct = (np.abs(x) < TINY) & (x != 0.0)
+    found = garbled(x, TINY)
+    assert found is not None and found.tolist() == direct.tolist()
+    assert garbled(np.linspace(-1.0, 1.0, 11), TINY) is None
+
+
+def test_a_strictly_monotone_column_rules_out_duplicates() -> None:
+    """Rows with distinct time stamps never repeat (no hashing needed); the same rows without
+    the time stamps repeat."""
+    rng = np.random.default_rng(13)
+    volts = rng.normal(size=300)
+    volts[200:240] = volts[50:90]
+    angle = np.zeros(300)
+    assert not duplicated_rows([angle, volts, np.arange(300.0)])[0].any()
+    assert not duplicated_rows([angle, volts, -np.arange(300.0)])[0].any()
+    dup, blocks = duplicated_rows([angle, volts])
+    assert blocks.tolist() == [[200, 40, 50]] and dup.sum() == 40

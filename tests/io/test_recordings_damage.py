@@ -309,3 +309,16 @@ def test_a_name_hit_by_damage_is_noted_not_silently_missing(tmp_path: Path) -> N
     assert not m.set_reset
     assert any(n.startswith("1 group or channel name(s) hold control characters "
                             "(set\\x00\\x00\\x00\\x03t)") for n in m.notes()), m.notes()
+
+
+def test_a_name_one_bit_from_a_column_is_noted(tmp_path: Path) -> None:
+    """A bit flipped in an optional channel's name (``azimuth_deg`` → ``azhmuth_deg``, found by
+    the fuzz) drops the column: the conditions merge, and the note names the channel."""
+    cols = {**_sweep(PLANNED), "azimuth_deg": np.tile([0.0, 90.0], 24)}
+    path = _recording(tmp_path / "name.tdms", cols, complete=None, own=False)
+    assert len(mc.read_measurements(path, saturation="keep")) == 12
+    path.write_bytes(path.read_bytes().replace(b"azimuth_deg", b"azhmuth_deg"))
+    m = mc.read_measurements(path, saturation="keep")
+    assert len(m) == 6
+    assert "channel azhmuth_deg (group recording) is one character from azimuth_deg and is not " \
+           "read: a damaged name (or map it with columns=)" in m.notes()

@@ -330,3 +330,40 @@ def test_the_row_limit_stops_the_fast_reader(tmp_path: Path, monkeypatch: pytest
     monkeypatch.setattr(recordings, "read_csv_carefully", None)  # a call would fail
     with pytest.raises(mc.MagciliaError, match=r"the file has more than MAX_SAMPLES = 150"):
         mc.read_measurements(path)
+
+
+@pytest.mark.parametrize("block", [1, 3, 7, 1 << 20])
+def test_whole_columns_are_the_blocks_joined(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             block: int) -> None:
+    """The fast reader's whole columns (arrays sized from the first block's share of the file)
+    are its blocks joined, also where later rows are shorter than the first (the arrays grow)."""
+    monkeypatch.setattr(csvfile, "CSV_BLOCK_ROWS", block)
+    rng = np.random.default_rng(8)
+    long_rows = [f"{a:.15f},{v:.17e},{t:.12f}" for a, v, t in zip(
+        np.repeat([1.0, 2.0], 5), rng.normal(size=10), np.arange(10.0), strict=True)]
+    short_rows = [f"{i % 7},{i % 3},{i}" for i in range(200)]
+    path = tmp_path / "grow.csv"
+    path.write_text("angle_deg,voltage_V,time_s\n" + "\n".join(long_rows + short_rows) + "\n")
+    whole = csvfile.plain_csv_columns(path, recordings.COLUMNS, REQUIRED, **_limits())
+    joined = _fast(path)
+    assert list(whole) == list(joined) and whole["time_s"].size == 210
+    assert _same_columns(whole, joined)
+
+
+@settings(max_examples=200, deadline=None)
+@given(lines=st.lists(st.integers(0, 40), min_size=1, max_size=30),
+       limit=st.integers(1, 45), read=st.integers(1, 64), tail=st.booleans())
+def test_the_line_limit_of_the_byte_stream(lines: list[int], limit: int, read: int,
+                                           tail: bool) -> None:
+    """The checked byte stream refuses exactly the data with a line longer than the limit (with
+    its line end), however pandas cuts its reads: against the longest line measured directly."""
+    data = b"".join(b"7" * n + b"\n" for n in lines) + (b"123" if tail else b"")
+    longest = max(len(line) + 1 for line in data.split(b"\n")[:-1])
+    longest = max(longest, 3 if tail else 0)
+    stream = csvfile._PlainBytes(io.BytesIO(data), limit)
+    try:
+        got = b"".join(iter(lambda: stream.read(read), b""))
+    except NotPlainCSV:
+        assert longest > limit
+    else:
+        assert longest <= limit and got == data

@@ -27,9 +27,10 @@ Four findings, each counted and named (:class:`RecordingQuality`):
   magnitude than :data:`TINY` (1e-100 of its unit: no instrument resolves that; it is what a
   damaged exponent of a double looks like, as huge values are, which the range checks refuse).
 
-The functions take plain arrays (pure, vectorised NumPy: per condition an O(n) selection after
-one sort of the condition labels, which a recording keeps in runs; duplicates by 64-bit hashes of
-the rows and of windows of rows, confirmed row by row); :func:`check_samples` runs all three.
+The functions take plain arrays (pure, vectorised NumPy, a few passes over the samples and no
+sort of them in the common case: :mod:`magcilia.io.sample_checks`, which says how, and where a
+condition of more than :data:`~magcilia.io.sample_checks.OUTLIER_SUBSAMPLE` samples takes its
+median and MAD from that many evenly spaced ones); :func:`check_samples` runs them all.
 What is done with the findings is the caller's policy (:data:`SUSPECT_POLICIES`: keep them and
 say so, omit them and say so, or refuse the recording).
 """
@@ -47,7 +48,14 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, count
 from magcilia._errors import MagciliaError
 from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
-from magcilia.io.moments import by_value, runs
+from magcilia.io.sample_checks import (  # noqa: F401 (MAD_SIGMA: kept here)
+    MAD_SIGMA,
+    duplicated_blocks,
+    garbled,
+    outliers_in_runs,
+    runs_of,
+    spikes_in_series,
+)
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -67,8 +75,6 @@ TINY = 1e-100
 #: what a reader does with the samples flagged: keep them (and say so), omit them (and say so),
 #: or refuse the recording
 SUSPECT_POLICIES = ("keep", "omit", "raise")
-#: the robust standard deviation of Gaussian noise per median absolute deviation
-MAD_SIGMA = 1.482602218505602
 #: the quantity a condition is a value of -> (unit in reports, factor from SI)
 CONDITIONS = {"angle": ("deg", float(np.degrees(1.0))), "force": ("uN", 1e6),
               "flow": ("mm/s", 1e3), "time": ("", 1.0)}
@@ -93,36 +99,14 @@ def sparse_conditions(counts: ArrayLike, fraction: float = SPARSE_FRACTION) -> N
     return np.asarray(n <= fraction * float(np.median(n)))
 
 
-def _group_rows(group: NDArray[np.intp]) -> list[slice] | list[NDArray[np.intp]]:
-    """Each group's rows: slices when every group is one run of rows (a recording keeps each
-    condition's samples together: no sort), else index arrays from one stable sort."""
-    starts, lengths = runs(group)
-    if np.unique(group[starts]).size == starts.size:
-        return [slice(a, a + n) for a, n in zip(starts.tolist(), lengths.tolist(), strict=True)]
-    order = np.argsort(group, kind="stable")
-    ordered = group[order]
-    cut = np.flatnonzero(ordered[1:] != ordered[:-1]) + 1
-    return np.split(order, cut)
-
-
-def _outliers(part: F64, sigmas: float) -> NDArray[np.bool_]:
-    """Which rows of ``part`` (shape (n, w)) lie beyond ``sigmas`` robust SDs of its median."""
-    med = np.median(part, axis=0)
-    dev = np.abs(part - med)
-    scale = MAD_SIGMA * np.median(dev, axis=0)
-    for j in np.flatnonzero(scale == 0.0):  # quantised: the smallest non-zero deviation
-        positive = dev[:, j][dev[:, j] > 0.0]
-        scale[j] = positive.min() if positive.size else np.inf
-    with np.errstate(invalid="ignore"):
-        return np.asarray((dev > sigmas * scale).any(axis=1))
-
-
 def robust_outliers(group: ArrayLike, values: ArrayLike, polarity: ArrayLike | None = None, *,
                     sigmas: float = OUTLIER_SIGMAS,
                     min_samples: int = OUTLIER_MIN_SAMPLES) -> NDArray[np.bool_]:
     """Which samples lie more than ``sigmas`` robust standard deviations (1.4826 × MAD, floored
     at the smallest non-zero deviation: the quantum of quantised data) from the median of their
-    group (and polarity), in groups of at least ``min_samples``.
+    group (and polarity), in groups of at least ``min_samples``. A group of more than
+    :data:`~magcilia.io.sample_checks.OUTLIER_SUBSAMPLE` samples takes its median and MAD from
+    that many evenly spaced ones (:mod:`magcilia.io.sample_checks`).
 
     Parameters
     ----------
@@ -146,19 +130,11 @@ def robust_outliers(group: ArrayLike, values: ArrayLike, polarity: ArrayLike | N
     key = np.asarray(group, dtype=np.intp).ravel()
     x = _table(values)
     sign = None if polarity is None else np.asarray(polarity).ravel() > 0
-    out = np.zeros(key.size, dtype=bool)
-    if key.size == 0:
-        return out
-    for rows in _group_rows(key):
-        part = x[rows]
-        if sign is None:
-            if part.shape[0] >= min_samples:
-                out[rows] = _outliers(part, sigmas)
-            continue
-        index = np.arange(key.size)[rows]
-        for side in (sign[rows], ~sign[rows]):
-            if np.count_nonzero(side) >= min_samples:
-                out[index[side]] = _outliers(part[side], sigmas)
+    starts, lengths = runs_of(key)
+    distinct, run_group = np.unique(key[starts], return_inverse=True)
+    out, _ = outliers_in_runs([x[:, j] for j in range(x.shape[1])], starts, lengths,
+                              run_group.ravel(), distinct.size, sign, sigmas=sigmas,
+                              min_samples=min_samples)
     return out
 
 
@@ -183,33 +159,21 @@ def spikes(values: ArrayLike, polarity: ArrayLike | None = None, *,
     [20]
     """
     x = _table(values)
-    out = np.zeros(x.shape[0], dtype=bool)
-    series = ([np.arange(x.shape[0])] if polarity is None else
+    return _spikes([x[:, j] for j in range(x.shape[1])], polarity, sigmas)
+
+
+def _spikes(columns: list[F64], polarity: ArrayLike | None, sigmas: float = OUTLIER_SIGMAS
+            ) -> NDArray[np.bool_]:
+    """:func:`spikes` of columns (shapes (s,))."""
+    out = np.zeros(columns[0].size, dtype=bool)
+    series = ([None] if polarity is None else
               [np.flatnonzero(np.asarray(polarity) == p) for p in (1.0, -1.0)])
     for rows in series:
-        if rows.size < 3:
-            continue
-        y = x[rows]
-        with np.errstate(invalid="ignore", over="ignore"):
-            d = np.diff(y, axis=0)
-            scale = MAD_SIGMA * np.median(np.abs(d), axis=0) / np.sqrt(2.0)
-            left, right = d[:-1], -d[1:]  # y_i - y_(i-1) and y_i - y_(i+1)
-            both = (np.sign(left) == np.sign(right)) & (
-                np.minimum(np.abs(left), np.abs(right)) > sigmas * np.where(scale > 0, scale,
-                                                                             np.inf))
-        out[rows[1:-1]] |= both.any(axis=1)
-    return out
-
-
-def _row_hashes(columns: list[F64]) -> NDArray[np.uint64]:
-    """A 64-bit hash of each row's bits (columns of shape (s,) in, (s,) out)."""
-    h = np.full(columns[0].size, 0x9E3779B97F4A7C15, dtype=np.uint64)
-    with np.errstate(over="ignore"):
         for column in columns:
-            h ^= column.view(np.uint64)
-            h *= np.uint64(0xBF58476D1CE4E5B9)
-            h ^= h >> np.uint64(31)
-    return h
+            y = column if rows is None else column[rows]
+            found = spikes_in_series(np.ascontiguousarray(y), sigmas)
+            out[found if rows is None else rows[found]] = True
+    return out
 
 
 def _columns(rows: ArrayLike | list[ArrayLike]) -> list[F64]:
@@ -248,58 +212,7 @@ def duplicated_rows(rows: ArrayLike | list[ArrayLike], length: int = DUPLICATE_R
     >>> int(dup.sum()), blocks.tolist()
     (20, [[60, 20, 40]])
     """
-    columns = _columns(rows)
-    s = columns[0].size if columns else 0
-    none = (np.zeros(s, dtype=bool), np.zeros((0, 3), np.int64))
-    if s < 2 * length:
-        return none
-    h = _row_hashes(columns)
-    m = s - length + 1
-    window = np.zeros(m, dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        for k in range(length):
-            window *= np.uint64(0x100000001B3)
-            window += h[k:k + m]
-    ordered = np.sort(window)  # the common case: no window repeats, one sort says so
-    if not (ordered[1:] == ordered[:-1]).any():
-        return none
-    del ordered
-    order = np.argsort(h, kind="stable")  # each row's previous equal row (-1: none)
-    same = np.concatenate(([False], h[order][1:] == h[order][:-1]))
-    prev = np.full(s, -1, np.int64)
-    prev[order[same]] = order[np.flatnonzero(same) - 1]
-    del order, same
-    latest = np.full(m, -1, np.int64)  # the latest previous occurrence of a row in the window
-    for k in range(length):
-        np.maximum(latest, prev[k:k + m], out=latest)
-    starts = np.arange(m)
-    distinct = latest < starts
-    del latest, prev
-    window[~distinct] = 0
-    _, first, inverse = np.unique(window, return_index=True, return_inverse=True)
-    source = first[inverse.ravel()]
-    candidate = np.flatnonzero(distinct & (source + length <= starts))
-    if candidate.size == 0:
-        return none
-    src = source[candidate]
-    same_rows = np.ones(candidate.size, dtype=bool)
-    for k in range(length):  # confirmed bit for bit (hashes can collide)
-        for column in columns:
-            bits = column.view(np.uint64)
-            same_rows &= bits[candidate + k] == bits[src + k]
-    candidate, src = candidate[same_rows], src[same_rows]
-    if candidate.size == 0:
-        return none
-    cover = np.zeros(s + 1, np.int64)  # rows covered by a confirmed window
-    np.add.at(cover, candidate, 1)
-    np.add.at(cover, candidate + length, -1)
-    duplicate = np.cumsum(cover[:-1]) > 0
-    new = np.concatenate(([True], (np.diff(candidate) != 1) | (np.diff(candidate - src) != 0)))
-    firsts = np.flatnonzero(new)
-    lasts = np.append(firsts[1:], candidate.size) - 1
-    blocks = np.stack([candidate[firsts], candidate[lasts] - candidate[firsts] + length,
-                       src[firsts]], axis=1).astype(np.int64)
-    return duplicate, blocks
+    return duplicated_blocks(_columns(rows), length)
 
 
 def _labels(values: F64, azimuths: F64, kind: str) -> list[str]:
@@ -496,60 +409,113 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
         Samples whose condition or observable is not finite are not judged (they are counted
         elsewhere).
     """
-    policy = v.choice("policy", policy, SUSPECT_POLICIES)
     y = _table(observable)
-    s = y.shape[0]
-    columns: list[ArrayLike] = [y[:, j] for j in range(y.shape[1])]
-    finite = np.isfinite(y).all(axis=1)
-    sign = None if polarity is None else np.asarray(polarity, dtype=np.float64).ravel()
-    if sign is not None:
-        finite &= (sign == 1.0) | (sign == -1.0)
+    return _check(None if condition is None else np.asarray(condition, np.float64).ravel(),
+                  [y[:, j] for j in range(y.shape[1])],
+                  None if azimuth is None else np.asarray(azimuth, np.float64).ravel(),
+                  None if polarity is None else np.asarray(polarity, np.float64).ravel(),
+                  rows=rows, kind=kind, policy=policy)
+
+
+def _run_keys(cond: F64, azimuth: F64 | None, starts: I64, factor: float,
+              decimals: int | None) -> tuple[F64, F64 | None]:
+    """The condition (times ``factor``) and azimuth of each run, rounded to ``decimals``."""
+    cv, av = scaled(cond[starts], factor), None if azimuth is None else azimuth[starts]
+    if decimals is not None:
+        cv, av = np.round(cv, decimals), None if av is None else np.round(av, decimals)
+    return cv, av
+
+
+def _by_condition(starts: I64, lengths: I64, cv: F64, av: F64 | None, observable: list[F64],
+                  sign: F64 | None, kind: str) -> tuple[NDArray[np.bool_], NDArray[np.bool_],
+                                                        dict[str, Any]]:
+    """Outliers and the samples of sparse conditions among finite samples in runs of equal
+    conditions (run values ``cv``, ``av``), and the findings per condition."""
+    if av is None:  # grouped by the value alone (as the reduction does), at azimuth 0
+        values, run_group = np.unique(cv, return_inverse=True)
+        distinct = values.astype(np.complex128) * 1j
+    else:
+        key = np.empty(cv.size, np.complex128)
+        key.real, key.imag = av, cv
+        distinct, run_group = np.unique(key, return_inverse=True)
+    run_group = run_group.ravel()
+    counts = np.bincount(run_group, lengths, minlength=distinct.size).astype(np.int64)
+    sparse = sparse_conditions(counts)
+    outlier, per = outliers_in_runs(observable, starts, lengths, run_group, distinct.size,
+                                    None if sign is None else sign > 0, sigmas=OUTLIER_SIGMAS,
+                                    min_samples=OUTLIER_MIN_SAMPLES, skip=sparse)
+    unit_factor = CONDITIONS[kind][1]
+    has = per > 0
+    return outlier, np.repeat(sparse[run_group], lengths), {
+        "condition": kind, "median_count": float(np.median(counts)) if counts.size else 0.0,
+        "sparse_values": distinct.imag[sparse] / unit_factor,
+        "sparse_azimuths": np.radians(distinct.real[sparse]), "sparse_counts": counts[sparse],
+        "outlier_values": distinct.imag[has] / unit_factor,
+        "outlier_azimuths": np.radians(distinct.real[has]), "outlier_counts": per[has]}
+
+
+def _check(cond: F64 | None, observable: list[F64], azimuth: F64 | None, sign: F64 | None, *,
+           rows: list[ArrayLike] | None, kind: str, policy: str, factor: float = 1.0,
+           decimals: int | None = None) -> RecordingQuality:
+    """:func:`check_samples` on columns (shapes (s,)); the condition is grouped as its values
+    times ``factor``, rounded to ``decimals`` (done on the runs of equal raw values: no array
+    of the recording's size is made for it)."""
+    policy = v.choice("policy", policy, SUSPECT_POLICIES)
+    s = observable[0].size
     quality: dict[str, Any] = {"samples": s, "policy": policy}
-    flagged = np.zeros(s, dtype=bool)
+    ok = all(bool(np.isfinite(c).all()) for c in observable) and (
+        sign is None or bool(((sign == 1.0) | (sign == -1.0)).all()))
+
+    def usable() -> NDArray[np.bool_]:
+        finite = np.ones(s, dtype=bool)
+        for c in observable:
+            finite &= np.isfinite(c)
+        return finite if sign is None else finite & ((sign == 1.0) | (sign == -1.0))
+
     outlier = np.zeros(s, dtype=bool)
-    if condition is None:
-        use: slice | NDArray[np.intp] = slice(None) if finite.all() else np.flatnonzero(finite)
-        outlier[use] = spikes(y[use], None if sign is None else sign[use])
+    flagged = np.zeros(s, dtype=bool)
+    garbled_rows = [garbled(c, TINY) for c in observable]
+    if cond is None:
+        use = slice(None) if ok else np.flatnonzero(usable())
+        outlier[use] = _spikes([c[use] for c in observable], None if sign is None else sign[use])
         quality["condition"] = "time"
     else:
-        cond = np.asarray(condition, dtype=np.float64).ravel()
-        az = None if azimuth is None else np.asarray(azimuth, dtype=np.float64).ravel()
-        columns += [cond] if az is None else [cond, az]
-        finite &= np.isfinite(cond) & (True if az is None else np.isfinite(az))
-        use = slice(None) if finite.all() else np.flatnonzero(finite)
-        if az is None:  # grouped by the value alone (as the reduction does), at azimuth 0
-            values, group = by_value(cond[use])
-            distinct = values.astype(np.complex128) * 1j
-        else:
-            key = np.empty(cond[use].size, np.complex128)
-            key.real, key.imag = az[use], cond[use]
-            distinct, group = by_value(key)
-            del key
-        counts = np.bincount(group, minlength=distinct.size)
-        sparse = sparse_conditions(counts)
-        unit_factor = CONDITIONS[kind][1]
-        found = robust_outliers(group, y[use], None if sign is None else sign[use])
-        if sparse.any():
-            flagged[use] = sparse[group]
-            found &= ~sparse[group]
-        outlier[use] = found
-        per = np.bincount(group[found], minlength=distinct.size).astype(np.int64)
-        has = per > 0
-        quality.update(
-            condition=kind, median_count=float(np.median(counts)) if counts.size else 0.0,
-            sparse_values=distinct.imag[sparse] / unit_factor,
-            sparse_azimuths=np.radians(distinct.real[sparse]), sparse_counts=counts[sparse],
-            outlier_values=distinct.imag[has] / unit_factor,
-            outlier_azimuths=np.radians(distinct.real[has]), outlier_counts=per[has])
-    duplicate, blocks = duplicated_rows(list(columns if rows is None else rows))
-    garbled = np.zeros(s, dtype=bool)
-    with np.errstate(invalid="ignore"):
-        for column in columns:
-            x = np.asarray(column, dtype=np.float64)
-            garbled |= (np.abs(x) < TINY) & (x != 0.0)
-    flagged |= outlier | duplicate | garbled
-    quality.update(outliers=int(outlier.sum()), duplicates=int(duplicate.sum()), blocks=blocks,
-                   garbled=int(garbled.sum()), flagged=np.flatnonzero(flagged).astype(np.int64))
+        keys = (cond,) if azimuth is None else (cond, azimuth)
+        starts, lengths = runs_of(*keys)
+        cv, av = _run_keys(cond, azimuth, starts, factor, decimals)
+        run_ok = np.isfinite(cv) if av is None else np.isfinite(cv) & np.isfinite(av)
+        with np.errstate(invalid="ignore"):
+            tiny = (np.abs(cv) < TINY) & (cv != 0.0)
+            if av is not None:
+                tiny |= (np.abs(av) < TINY) & (av != 0.0)
+        if tiny.any():
+            garbled_rows.append(np.repeat(tiny, lengths))
+        if ok and run_ok.all():
+            outlier, flagged, found = _by_condition(starts, lengths, cv, av, observable, sign,
+                                                    kind)
+        else:  # the finite samples only
+            use = np.flatnonzero(np.repeat(run_ok, lengths) & usable())
+            part = [c[use] for c in keys]
+            st, ln = runs_of(*part)
+            cvu, avu = _run_keys(part[0], None if azimuth is None else part[1], st, factor,
+                                 decimals)
+            outlier[use], flagged[use], found = _by_condition(
+                st, ln, cvu, avu, [c[use] for c in observable],
+                None if sign is None else sign[use], kind)
+        quality.update(found)
+    if rows is None:
+        rows = [*observable, *([] if cond is None else [cond]),
+                *([] if azimuth is None or cond is None else [azimuth])]
+    duplicate, blocks = duplicated_rows(list(rows))
+    bad = np.zeros(s, dtype=bool)
+    for g in garbled_rows:
+        if g is not None:
+            bad |= g
+    flagged |= outlier | duplicate | bad
+    quality.update(outliers=int(np.count_nonzero(outlier)),
+                   duplicates=int(np.count_nonzero(duplicate)), blocks=blocks,
+                   garbled=int(np.count_nonzero(bad)),
+                   flagged=np.flatnonzero(flagged).astype(np.int64))
     return RecordingQuality(**quality)
 
 
@@ -567,22 +533,24 @@ def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> Recordin
     """:func:`check_samples` of a recording's raw columns by key (``angle_deg`` or a load,
     ``azimuth_deg``, ``voltage_V`` or the field components, ``setreset``, ``time_s``; shapes
     (s,), as :func:`magcilia.io.recordings.read_samples` returns them), the conditions grouped as
-    :func:`magcilia.io.recordings.read_measurements` groups them; without an angle or load
-    column, a time series. ``suspect`` is kept as the result's policy."""
-    kind, condition = "angle", columns.get("angle_deg")
-    for name, (key, factor, _) in LOAD_UNITS.items():
+    :func:`magcilia.io.recordings.read_measurements` groups them (rounded to
+    :data:`~magcilia.io.columns.ANGLE_DECIMALS` decimals of deg, uN or mm/s); without an angle or
+    load column, a time series. ``suspect`` is kept as the result's policy."""
+    kind, condition, factor = "angle", columns.get("angle_deg"), 1.0
+    for name, (key, unit_factor, _) in LOAD_UNITS.items():
         if key in columns:
-            kind, condition = name, scaled(columns[key], factor)
+            kind, condition, factor = name, columns[key], unit_factor
     azimuth = columns.get("azimuth_deg")
     fields = [columns[k] for k in FIELD_KEYS if k in columns]
-    observable = np.stack(fields, axis=1) if fields else columns["voltage_V"]
+    polarity = columns.get("setreset")
     with np.errstate(invalid="ignore", over="ignore"):
-        return check_samples(
-            None if condition is None else np.round(condition, ANGLE_DECIMALS), observable,
-            azimuth=(None if azimuth is None or condition is None
-                     else np.round(azimuth, ANGLE_DECIMALS)),
-            polarity=columns.get("setreset"), rows=list(columns.values()), kind=kind,
-            policy=suspect)
+        return _check(
+            None if condition is None else np.asarray(condition, np.float64).ravel(),
+            [np.asarray(c, np.float64).ravel() for c in (fields or [columns["voltage_V"]])],
+            None if azimuth is None or condition is None else np.asarray(azimuth, np.float64),
+            None if polarity is None else np.asarray(polarity, np.float64).ravel(),
+            rows=list(columns.values()), kind=kind, policy=suspect, factor=factor,
+            decimals=ANGLE_DECIMALS)
 
 
 def refuse_suspects(source: str, quality: RecordingQuality) -> None:

@@ -25,6 +25,15 @@ Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V), and
 channels of the source. Further groups (:meth:`RecordingWriter.write_group`: a live read-out's
 values, its events) go into the same flushed segments; their channel names differ from the
 ``recording`` group's, so readers that look a channel up by name find the raw samples.
+
+Checksums: each segment that writes the ``recording`` channels ends with a row of group
+``checksums``, channel ``chunks`` (uint64): the chunk's first sample, its number of samples and
+the CRC-32 (``zlib.crc32``, the serial protocol's) of each ``recording`` channel's raw bytes in
+that segment, in the order of the channel's ``layout`` property; the root property
+``checksums = "crc32"`` says the file has them (:mod:`magcilia.io.chunk_checksums`). Readers
+that do not know them see one more channel in one more group. The row is computed from the
+arrays as they are written (about 6 GB/s: no cost to the writer's speed) and is the segment's last
+raw data, so a segment cut by a kill has no row and every whole segment's chunk verifies.
 """
 
 from __future__ import annotations
@@ -51,6 +60,7 @@ from magcilia import _validate as v
 from magcilia._atomic import _exists_message, _umask, jsonable
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia._validate import printable
+from magcilia.io import chunk_checksums
 from magcilia.io.recordings import nptdms_module, quiet_nptdms
 
 if sys.platform != "win32":
@@ -156,7 +166,8 @@ class RecordingWriter:
         props = {key: _property(val) for key, val in self.metadata.items() if val is not None}
         props.update(magcilia_version=__version__, complete=False,
                      start_time=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-                     chunk_samples=self.chunk)
+                     chunk_samples=self.chunk,
+                     **{chunk_checksums.PROPERTY: chunk_checksums.KIND})
         if self.flush_interval is not None:
             props["flush_interval_s"] = self.flush_interval
         self._file = self._create()
@@ -417,13 +428,19 @@ class RecordingWriter:
                 self._segment(self._group_objects())
             return
         nptdms = nptdms_module("Recording to TDMS files")
-        objects = []
+        objects, arrays = [], []
         for name in self._names:
             joined = np.concatenate(self._pending[name])
             self._pending[name] = [joined[n:]] if joined.size > n else []
             data = joined[:n].astype(np.int8) if name == "setreset" else joined[:n]
             objects.append(nptdms.ChannelObject(GROUP, name, data))
-        self._segment(objects + self._group_objects())
+            arrays.append(data)
+        row = chunk_checksums.chunk_row(self.samples, arrays)
+        checksums = nptdms.ChannelObject(  # the segment's last raw data (see chunk_checksums)
+            chunk_checksums.GROUP, chunk_checksums.CHANNEL, row,
+            properties=None if self.chunks or n else {
+                "layout": chunk_checksums.layout(self._names)})
+        self._segment([*objects, *self._group_objects(), checksums])
         self.samples += n
         self.chunks += n > 0
         if limit is None:

@@ -99,16 +99,18 @@ in the measurement's ``metadata`` and said by :meth:`Measurement.notes`.
 Speed and memory
 ----------------
 A plain CSV file (numbers only after the header) is parsed by pandas' C reader in blocks of a
-million rows (:mod:`magcilia.io.csvfile`); anything else goes to the careful line-by-line reader,
-which gives the same columns and the errors that name a line. The quality checks need every
-sample at once, so the columns are held whole (three columns of 1e7 samples: 240 MB). The
-reduction (:func:`measurement_from_samples`, and every reader through it) is one pass over pieces
-of :data:`REDUCE_SAMPLES` samples: the runs of equal conditions (the angle; with an azimuth
-column, the pair as one complex key) are grouped, their sums gathered per condition with
-``np.bincount``, in a two-pass form accurate on a large offset, and the pieces merged with
-Chan's formulas. A 1e7-row CSV recording (300 MB) is read, checked and reduced in 3.7 s with a
-peak of 0.8 GB on a loaded 2-core VM, where pandas' reader alone takes 1.35 s
-(``benchmarks/bench_recordings.py``).
+million rows (:mod:`magcilia.io.csvfile`), copied into columns sized from the first block's
+share of the file and, in :func:`read_measurements`, reduced block by block as they come;
+anything else goes to the careful line-by-line reader, which gives the same columns and the
+errors that name a line. The quality checks need every sample at once, so the columns are held
+whole (three columns of 1e7 samples: 240 MB); they cost a few vectorised passes
+(:mod:`magcilia.io.sample_checks`). The reduction (:func:`measurement_from_samples`, and every
+reader through it) is one pass over pieces of :data:`REDUCE_SAMPLES` samples: the runs of equal
+conditions (the angle; with an azimuth column, the pair as one complex key) are grouped, their
+sums gathered per condition with ``np.bincount``, in a two-pass form accurate on a large offset,
+and the pieces merged with Chan's formulas. A 1e7-row CSV recording (300 MB) is read, checked and
+reduced in 0.68 s with a peak of 0.47 GB on a 2-core VM (the read without the checks: 0.68 s,
+0.25 GB), where pandas' reader alone takes 0.6–1.3 s (``benchmarks/bench_recordings.py``).
 
 Angles are tilt angles in degrees: a finite ``|angle_deg|`` above :data:`MAX_ANGLE_DEG` (a
 column in the wrong unit, or garbage) is an error rather than grouped, so the grouping by
@@ -149,7 +151,7 @@ from magcilia.io.csvfile import (
     NotPlainCSV,
     decimal_of,
     delimiter_of,
-    plain_csv_blocks,
+    plain_csv_columns,
     read_csv_carefully,
     too_many_samples,
 )
@@ -186,6 +188,9 @@ Progress = Callable[[int, int], None]
 MAX_ANGLE_DEG = 360.0
 #: Largest |tilt azimuth| accepted, deg (as the angle).
 MAX_AZIMUTH_DEG = 360.0
+#: Largest |load| accepted, N or m/s (a meganewton or 1,000 km/s: no cilium; beyond it the column is
+#: in the wrong unit or garbage, and grouping by rounding would overflow).
+MAX_LOAD = 1e6
 #: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
 #: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
 MAX_FIELD_T = 100.0
@@ -322,10 +327,17 @@ class _Reduction:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
-        self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG) & (self.load is None), lambda i: (
-            f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
-            f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the column "
-            "and its unit)"))
+        if self.load is None:
+            self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG), lambda i: (
+                f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
+                f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the "
+                "column and its unit)"))
+        else:  # (in uN or mm/s here)
+            name, factor, _ = LOAD_UNITS[self.load]
+            self._note("far", finite & (np.abs(ang) > MAX_LOAD * factor), lambda i: (
+                f"{source}: sample {offset + i + 1} has {name}={ang[i] / factor:.6g}, beyond "
+                f"±MAX_LOAD = {MAX_LOAD:g} (N or m/s); {name} must be in SI units (check the "
+                "column and its unit)"))
         if az is not None:
             finite_az = np.isfinite(az)
             self._note("far_azimuth", finite_az & (np.abs(az) > MAX_AZIMUTH_DEG), lambda i: (
@@ -636,6 +648,9 @@ class _How:
     decimal: str = "."
     group: str = ""
     progress: Progress | None = None
+    #: called with each block of columns (deg, V, s) as the fast CSV reader reads it, and with
+    #: None where that reader gives up (the careful one starts again)
+    blocks: Callable[[dict[str, F64] | None], None] | None = None
 
 
 def _how(path: Path, columns: Columns | Mapping[str, str] | str | None, delimiter: str | None,
@@ -688,16 +703,19 @@ class _CSVLocator:
 
 
 def _read_csv(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
-    """A CSV recording's columns: the fast reader's blocks joined, or the careful reader's."""
+    """A CSV recording's columns: the fast reader's, or the careful reader's."""
     locate = _CSVLocator(path, how, required)
+    follow = how.blocks
     try:
-        blocks = list(plain_csv_blocks(path, COLUMNS, locate.header_names(),
-                                       progress=how.progress, **locate.options()))
+        cols = plain_csv_columns(
+            path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options(),
+            on_block=None if follow is None else lambda block: follow(locate.scaled(block)))
     except NotPlainCSV:
-        return RawRecording(locate.scaled(read_csv_carefully(
-            path, COLUMNS, locate.header_names(), progress=how.progress, **locate.options())))
-    return RawRecording(locate.scaled(
-        {col: np.concatenate([b.pop(col) for b in blocks]) for col in list(blocks[0])}))
+        if follow is not None:
+            follow(None)
+        cols = read_csv_carefully(path, COLUMNS, locate.header_names(), progress=how.progress,
+                                  **locate.options())
+    return RawRecording(locate.scaled(cols))
 
 
 def _read_tdms(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
@@ -778,7 +796,11 @@ def read_recording(
     is the error ``the recording was cut before its first chunk``.
     """
     p = _recording_path(path)
-    how = _how(p, columns, delimiter, decimal, group, progress)
+    return _read_recording(p, required, _how(p, columns, delimiter, decimal, group, progress))
+
+
+def _read_recording(p: Path, required: tuple[str, ...], how: _How) -> RawRecording:
+    """:func:`read_recording` of a checked path with checked options."""
     unknown = [k for k in required if k not in (*COLUMNS, OBSERVABLE)]
     if unknown:
         raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
@@ -960,20 +982,42 @@ def read_measurements(
         reduction.fluid = fluid_name
         return reduction
 
-    raw = read_recording(path, columns=columns, delimiter=delimiter, decimal=decimal,
-                         group=group, progress=progress)
-    return _measure(start, raw, policy)
+    p = _recording_path(path)
+    follow = _Following(start)  # a CSV file reduced as it is read (its blocks still in cache)
+    how = dataclasses.replace(_how(p, columns, delimiter, decimal, group, progress),
+                              blocks=follow)
+    raw = _read_recording(p, ("angle_deg", OBSERVABLE), how)
+    return _measure(start, raw, policy, follow)
 
 
-def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str) -> Measurement:
-    """A reader's columns reduced (the reduction's errors first), checked
-    (:func:`check_quality`),
+class _Following:
+    """A reduction fed block by block as a reader reads (:attr:`_How.blocks`)."""
+
+    def __init__(self, start: Callable[[], _Reduction]):
+        self.start, self.reduction, self.samples = start, start(), 0
+
+    def __call__(self, block: dict[str, F64] | None) -> None:
+        if block is None:  # the reader starts again
+            self.reduction, self.samples = self.start(), 0
+            return
+        self.reduction.add_columns(block)
+        self.samples += next(iter(block.values())).size
+
+
+def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str,
+             followed: _Following | None = None) -> Measurement:
+    """A reader's columns reduced (the reduction's errors first; or the reduction that
+    ``followed`` the reading, where it saw every sample), checked (:func:`check_quality`),
     the flagged samples kept, omitted (reduced again without them) or refused by ``policy``, and
     the notes of the reader, the file and the checks kept in the measurement's metadata
     (``notes``, ``recording``, ``quality``)."""
     cols = raw.columns
-    reduction = start()
-    reduction.add_columns(cols)
+    n = next(iter(cols.values())).size if cols else 0
+    if followed is not None and followed.samples == n and n:
+        reduction = followed.reduction
+    else:
+        reduction = start()
+        reduction.add_columns(cols)
     m = reduction.measurement()
     source = reduction.source
     quality = check_quality(cols, policy)

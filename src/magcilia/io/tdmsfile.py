@@ -10,22 +10,33 @@ segment metadata from such a file when there is one: a planted index file would 
 data file's bytes are cut into channels). A file that is itself an index file (it starts with
 ``TDSh``) is refused. TDMS has no links to other files.
 
-**Damage is said, not absorbed.** TDMS has no checksums; what can be checked is, in four layers:
+**Damage is said, not absorbed.** TDMS has no checksums of its own; what can be checked is, in
+four layers:
 
 1. the segments' lead-ins (28 bytes each: ``TDSm``, the table of contents, the version, the
-   next-segment and raw-data offsets) are walked here (:func:`segments`): each segment must end
-   where the next one begins and the last one at the end of the file, its data must lie inside
-   it, the version, byte order and interleaving must be the same in every segment, and bytes of
-   data that the table of contents does not announce are damage;
+   next-segment and raw-data offsets) are walked here (:func:`segments`; a lead-in equal to the
+   one before, as a recording's chunks have, is not parsed again): each segment must end where
+   the next one begins and the last one at the end of the file, its data must lie inside it, the
+   version, byte order and interleaving must be the same in every segment, and bytes of data
+   that the table of contents does not announce are damage;
 2. npTDMS's own warnings (data that is not a whole number of chunks, a last segment cut short,
    versions that differ, ...), which it logs and would otherwise be lost, are caught and said in
    magcilia's words (:func:`nptdms_warnings`);
 3. magcilia's own recordings (the root property ``magcilia_version``,
-   :mod:`magcilia.io.recording_file`) are read chunk by chunk and checked further: at most one
-   chunk per segment, every channel of the ``recording`` group with the same number of values in
-   each chunk, no interleaved or big-endian data, and the closing ``samples`` count;
+   :mod:`magcilia.io.recording_file`) are read chunk by chunk (one pass over the segments, into
+   arrays of the declared length) and checked further: at most one chunk per segment, every
+   channel of group ``recording`` with the same number of values in each chunk, no interleaved
+   or big-endian data, and the closing ``samples`` count. Where they have checksums (the root
+   property ``checksums``, or the rows themselves where damage hit the properties), every
+   flushed chunk of every channel read from group ``recording`` is verified against its CRC-32
+   (:mod:`magcilia.io.chunk_checksums`: raw data changed in place, chunks missing, repeated or
+   out of order; the rows are taken from the ends of the segments, where npTDMS would read
+   them segment by segment in Python). Earlier recordings have none;
 4. names of groups and channels holding control characters (a NUL in a name is damage: a column
    whose name was hit would otherwise be silently missing).
+
+Files from other programs carry no checksums: a byte of their raw data changed in place reads as
+a value (the quality checks of :mod:`magcilia.io.quality` catch the gross ones).
 
 A finding is an error for a file that says it is complete (the property ``complete`` is True: a
 whole magcilia recording, which cannot be damaged without something being wrong) and a note
@@ -37,23 +48,27 @@ leaves cut: its whole samples are kept, and the note says so). What a recording 
 from __future__ import annotations
 
 import contextlib
+import io
 import logging
+import os
 import struct
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError, require
 from magcilia._validate import printable
+from magcilia.io import chunk_checksums
 from magcilia.io.columns import Columns, scaled
 from magcilia.io.csvfile import names_text, too_many_samples
 from magcilia.io.recording_state import RawRecording, RecordingState
 
 F64 = NDArray[np.float64]
+#: the group of a magcilia recording's samples (:mod:`magcilia.io.recording_file`)
+GROUP = "recording"
 
 #: bytes of a segment's lead-in
 LEAD_IN = 28
@@ -141,8 +156,7 @@ def warning_note(message: str) -> str:
     return f"npTDMS warns: {printable(message)[:160]}"
 
 
-@dataclass(frozen=True)
-class Segment:
+class Segment(NamedTuple):
     """A TDMS segment as its lead-in describes it: start, table of contents, version, where its
     raw data starts and where the segment ends (absolute byte positions; ``end`` is None for a
     segment whose length was never written)."""
@@ -162,9 +176,24 @@ class Segment:
         return bool(self.toc & TOC_INTERLEAVED)
 
 
+def _reader(file: IO[bytes]) -> Callable[[int, int], bytes]:
+    """``read(n, position)``: bytes of the file at a position, without moving it (``os.pread``
+    where the file has a descriptor; no mapping, whose pages would count as the process's)."""
+    try:
+        fd = file.fileno()
+        os.pread(fd, 0, 0)
+    except (OSError, AttributeError, io.UnsupportedOperation):
+        def read(n: int, position: int) -> bytes:
+            file.seek(position)
+            return file.read(n)
+        return read
+    return lambda n, position: os.pread(fd, n, position)
+
+
 def segments(file: IO[bytes], size: int, limit: int = 1 << 24) -> tuple[list[Segment], list[str]]:
     """Walk the segments of a TDMS file by their lead-ins (nothing else is parsed): the segments
-    and what is wrong with the structure (phrases, empty for a sound file).
+    and what is wrong with the structure (phrases, empty for a sound file). A lead-in equal to
+    the one before (a recording's chunks) is not parsed again.
 
     Parameters
     ----------
@@ -177,10 +206,19 @@ def segments(file: IO[bytes], size: int, limit: int = 1 << 24) -> tuple[list[Seg
     """
     found: list[Segment] = []
     problems: list[str] = []
-    pos = 0
+    read = _reader(file)
+    pos, last = 0, b""
     while pos < size and len(found) < limit:
-        file.seek(pos)
-        head = file.read(LEAD_IN)
+        head = read(LEAD_IN, pos)
+        if head == last:  # like the segment before, which was sound (a recording's chunks)
+            before = found[-1]
+            step = (before.end or size) - before.position
+            if pos + step <= size:
+                found.append(Segment(pos, before.toc, before.version,
+                                     pos + before.data - before.position, pos + step))
+                pos += step
+                continue
+        said = len(problems)
         if len(head) < LEAD_IN:
             problems.append(f"{len(head)} stray bytes after the last segment (byte {pos}; a "
                             "lead-in is 28 bytes)")
@@ -208,16 +246,17 @@ def segments(file: IO[bytes], size: int, limit: int = 1 << 24) -> tuple[list[Seg
         if not toc & TOC_RAW and end > segment.data and not toc & TOC_DAQMX:
             problems.append(f"the segment at byte {pos} holds {end - segment.data:,} bytes of "
                             "data its table of contents does not announce")
+        last = head if len(problems) == said else b""  # (each unsound segment is said)
         pos = end
     if found:
         first = found[0]
-        for what, differs in (
-                ("TDMS versions", [s for s in found if s.version != first.version]),
-                ("byte orders", [s for s in found if s.big_endian != first.big_endian]),
-                ("interleaving", [s for s in found if s.interleaved != first.interleaved])):
-            if differs:
+        for what, key in (("TDMS versions", lambda s: s.version),
+                          ("byte orders", lambda s: s.toc & TOC_BIG_ENDIAN),
+                          ("interleaving", lambda s: s.toc & TOC_INTERLEAVED)):
+            if len({key(s) for s in found}) > 1:
+                other = next(s for s in found if key(s) != key(first))
                 problems.append(f"the segments differ in their {what} (byte {first.position} and "
-                                f"byte {differs[0].position})")
+                                f"byte {other.position})")
         if first.version not in VERSIONS:
             problems.append(f"the TDMS version {first.version} is unknown (4712 or 4713)")
     return found, problems
@@ -268,36 +307,118 @@ def _check_channel(path: Path, group: str, channel: Any, size: int, max_samples:
                             "can hold; the file is damaged")
 
 
-def _read_whole(path: Path, chosen: dict[str, tuple[str, Any, float]]) -> dict[str, F64]:
-    out: dict[str, F64] = {}
-    for key, (group, channel, factor) in chosen.items():
+def _read_native(path: Path, chosen: dict[str, tuple[str, Any, float]]) -> dict[str, Any]:
+    """The channels read whole, as stored (their own types)."""
+    out: dict[str, Any] = {}
+    for key, (group, channel, _) in chosen.items():
         n = len(channel)
-        data = np.asarray(channel[:], dtype=np.float64).ravel()
+        data = np.asarray(channel[:]).ravel()
         if data.size != n:
             raise MagciliaError(f"{path}: channel {printable(str(channel.name))} (group "
                                 f"{printable(group)}) holds {data.size:,} of the {n:,} values "
                                 "it declares; the file is damaged")
-        out[key] = scaled(data, factor)
+        out[key] = data
     return out
 
 
+def _as_columns(native: dict[str, Any], chosen: dict[str, tuple[str, Any, float]]
+                ) -> dict[str, F64]:
+    """Channels as read, in doubles and the unit of their key."""
+    return {key: scaled(np.asarray(data, dtype=np.float64), chosen[key][2])
+            for key, data in native.items()}
+
+
+def _has_checksums(tdms: Any) -> bool:
+    """Whether a file has (or says it has) the chunks' checksums of a magcilia recording."""
+    if tdms.properties.get(chunk_checksums.PROPERTY) is not None:
+        return True
+    try:
+        layout = tdms[chunk_checksums.GROUP][chunk_checksums.CHANNEL].properties.get("layout")
+    except KeyError:
+        return False
+    return isinstance(layout, str) and layout.startswith(",".join(chunk_checksums.HEAD))
+
+
+def _near_misses(tdms: Any, columns: Columns, chosen: dict[str, tuple[str, Any, float]]
+                 ) -> list[str]:
+    """Channels left unread whose name is one character from the name of a column not found:
+    a name hit by damage (a flipped bit) would otherwise drop the column silently."""
+    wanted = {name for key, name in columns.names().items() if key not in chosen}
+    out = []
+    for group in tdms.groups():
+        for channel in group.channels():
+            name = str(channel.name)
+            for want in wanted:
+                if len(name) == len(want) and sum(a != b for a, b in zip(name, want,
+                                                                         strict=True)) == 1:
+                    out.append(f"channel {printable(name)} (group {printable(str(group.name))}) "
+                               f"is one character from {printable(want)} and is not read: a "
+                               "damaged name (or map it with columns=)")
+    return out
+
+
+def _row_tails(file: IO[bytes], size: int, found: list[Segment], width: int,
+               declared: int) -> NDArray[np.uint64] | None:
+    """The checksum rows of a magcilia recording taken from the ends of its segments' raw data
+    (the row is each segment's last raw data), when the segments holding raw data are as many
+    as the rows that npTDMS counts (else None: npTDMS reads them)."""
+    ends = [s.end for s in found if s.end is not None and s.data < s.end <= size]
+    starts = [s.data for s in found if s.end is not None and s.data < s.end <= size]
+    if len(ends) * width != declared or any(
+            e - d < 8 * width for e, d in zip(ends, starts, strict=True)):
+        return None
+    read = _reader(file)
+    tails = b"".join(read(8 * width, e - 8 * width) for e in ends)
+    return np.frombuffer(tails, dtype="<u8").astype(np.uint64)
+
+
+def _checksummed(tdms: Any, chosen: dict[str, tuple[str, Any, float]], native: dict[str, Any],
+                 tails: Callable[[int, int], NDArray[np.uint64] | None], cut: bool
+                 ) -> list[str]:
+    """What the chunks' checksums say of the channels read from group ``recording`` of a
+    magcilia recording that has them (:mod:`magcilia.io.chunk_checksums`); ``tails(width,
+    declared)`` reads the rows from the ends of the segments where it can (npTDMS reads a
+    channel segment by segment in Python)."""
+    try:
+        channel = tdms[chunk_checksums.GROUP][chunk_checksums.CHANNEL]
+    except KeyError:
+        return ["the chunks' checksums are missing (the file says it has them)"]
+    layout = channel.properties.get("layout")
+    width = len(layout.split(",")) if isinstance(layout, str) else 0
+    values = (tails(width, len(channel)) if width and np.dtype(channel.dtype) == np.uint64
+              else None)
+    if values is None:
+        values = np.asarray(channel[:]).ravel()
+    mine = {str(ch.name): native[key] for key, (group, ch, _) in chosen.items()
+            if group == GROUP}
+    return chunk_checksums.verify_chunks(values, layout, mine, cut=cut)
+
+
 def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segments: int,
-                 problems: list[str], cut: bool) -> dict[str, F64]:
-    """The channels of a magcilia recording read chunk by chunk, checking that each chunk holds
-    the same number of values of every channel read of the ``recording`` group (but the last
-    one of a file ``cut`` inside it), and that there are no more chunks than segments with data
-    (the writer makes one chunk per segment)."""
-    parts: dict[str, list[F64]] = {k: [] for k in chosen}
+                 problems: list[str], cut: bool) -> dict[str, Any]:
+    """The channels of a magcilia recording read chunk by chunk (one pass over the segments:
+    npTDMS reads a whole channel segment by segment, once per channel), as stored, into arrays
+    of the length the metadata declares; checking that each chunk holds the same number of
+    values of every channel read of the ``recording`` group (but the last one of a file ``cut``
+    inside it), and that there are no more chunks than segments with data (the writer makes one
+    chunk per segment)."""
+    out = {key: np.empty(len(channel), dtype=channel.dtype)
+           for key, (_, channel, _) in chosen.items()}
+    filled = dict.fromkeys(chosen, 0)
     chunks = 0
     uneven = None
     for chunk in tdms.data_chunks():
         chunks += 1
         lengths = {}
         for key, (group, channel, _) in chosen.items():
-            piece = chunk[group][str(channel.name)]
-            values = np.asarray(piece[:], dtype=np.float64).ravel()
-            parts[key].append(values)
-            if group == "recording":
+            values = np.asarray(chunk[group][str(channel.name)][:]).ravel()
+            at = filled[key]
+            if at + values.size > out[key].size:  # (more values than declared: damage)
+                out[key] = np.concatenate([out[key][:at], values])
+            else:
+                out[key][at:at + values.size] = values
+            filled[key] = at + values.size
+            if group == GROUP:
                 lengths[key] = values.size
         if uneven is None and len(set(lengths.values())) > 1:
             uneven = chunks
@@ -307,11 +428,7 @@ def _read_chunks(tdms: Any, chosen: dict[str, tuple[str, Any, float]], data_segm
     if chunks > data_segments:
         problems.append(f"the data are cut into {chunks} chunks in {data_segments} segments; "
                         "magcilia writes one chunk per segment (a channel's length is damaged)")
-    out = {}
-    for key, (_, _, factor) in chosen.items():
-        data = np.concatenate(parts[key]) if parts[key] else np.zeros(0)
-        out[key] = scaled(data, factor)
-    return out
+    return {key: out[key][:filled[key]] for key in chosen}
 
 
 def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group: str = "",
@@ -366,15 +483,21 @@ def read_tdms(path: Path, columns: Columns, required: tuple[str, ...], *, group:
             for key in chosen:
                 g, channel, _ = chosen[key]
                 _check_channel(path, g, channel, size, max_samples)
-            if state.own:
-                if any(s.big_endian or s.interleaved for s in found):
-                    problems.append("a segment's table of contents marks its data big-endian "
-                                    "or interleaved, which magcilia never writes")
+            problems += _near_misses(tdms, columns, chosen)
+            cut_inside = bool(found) and (found[-1].end is None or found[-1].end > size)
+            if state.own and any(s.big_endian or s.interleaved for s in found):
+                problems.append("a segment's table of contents marks its data big-endian or "
+                                "interleaved, which magcilia never writes")
+            checksummed = _has_checksums(tdms)  # (also where damage hit the own-file property)
+            if state.own or checksummed:  # magcilia's: chunk by chunk, and their checksums
                 data_segments = sum(1 for s in found if s.end is None or s.end > s.data)
-                cut_inside = bool(found) and (found[-1].end is None or found[-1].end > size)
-                out = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
+                native = _read_chunks(tdms, chosen, data_segments, problems, cut_inside)
+                if checksummed:
+                    problems += _checksummed(tdms, chosen, native, lambda width, declared: (
+                        _row_tails(file, size, found, width, declared)), cut_inside)
             else:
-                out = _read_whole(path, chosen)
+                native = _read_native(path, chosen)
+            out = _as_columns(native, chosen)
     notes = list(dict.fromkeys([*problems, *(warning_note(w) for w in warned)]))
     if state.complete is False and out:  # a magcilia recording cut short (a crash): its last
         # segment may end inside a channel; the samples in every channel are whole
