@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import magcilia as mc
+from magcilia._atomic import is_temporary
 from magcilia._errors import AcquisitionError
 from magcilia.acquire import SimulatedSource, record_stream
 from magcilia.acquire.source import OUTPUT, Block, Channel, Source
@@ -130,7 +131,8 @@ def test_force_replaces_only_at_the_first_flushed_chunk(tmp_path: Path) -> None:
     out.write_bytes(b"old")
     rec = RecordingWriter(out, chunk=100, flush_interval=None, metadata={"source": "t"}).open()
     (temp,) = hidden(tmp_path)
-    assert temp.startswith(".run-") and temp.endswith(".tdms")  # magcilia._atomic's naming
+    assert temp.startswith(".run.magcilia-partial-") and temp.endswith(".tdms")
+    assert is_temporary(temp)  # magcilia._atomic's naming: the next run removes it after a kill
     rec.write(np.arange(60.0), np.zeros(60))
     assert out.read_bytes() == b"old"  # 60 samples pending, nothing flushed yet
     rec.write(np.arange(60.0, 120.0), np.ones(60))
@@ -148,6 +150,27 @@ def test_force_replaces_only_at_the_first_flushed_chunk(tmp_path: Path) -> None:
     assert rec.abort("the device vanished") is True and hidden(tmp_path) == []
     assert read_samples(out, required=("voltage_V",))["voltage_V"].size == 10
     assert recording_properties(out)["stopped"] == "the device vanished"
+
+
+def test_the_temporary_file_of_a_killed_force_recording_is_removed_by_the_next(
+        tmp_path: Path) -> None:
+    """A ``record --force`` killed before its first chunk leaves its hidden file beside the old
+    one (its lock dies with it); the next recording into the folder removes it."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "run.tdms"
+    out.write_bytes(b"old")
+    child = subprocess.run([sys.executable, "-c", (
+        "import os, sys, pathlib; from magcilia.io import RecordingWriter; "
+        "RecordingWriter(pathlib.Path(sys.argv[1]), metadata={'source': 't'}).open(); "
+        "os._exit(0)"), str(out)], capture_output=True, text=True, timeout=120, check=False)
+    assert child.returncode == 0, child.stderr
+    (left,) = hidden(tmp_path)  # the killed writer's, unlocked, its process gone
+    assert is_temporary(left) and out.read_bytes() == b"old"
+    with RecordingWriter(tmp_path / "next.tdms", metadata={"source": "t"}) as rec:
+        rec.write(np.arange(10.0), np.zeros(10))
+    assert hidden(tmp_path) == [] and out.read_bytes() == b"old"
 
 
 def test_where_an_open_file_cannot_be_renamed_it_replaces_the_old_one_when_closed(

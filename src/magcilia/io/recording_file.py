@@ -15,10 +15,12 @@ no ``recording`` channels yet. Closing appends ``complete`` (True, or False with
 and where it ended early) and ``samples``.
 
 An existing file is never destroyed before the new recording holds something: with
-``overwrite=True`` the new file is written beside it under a hidden temporary name (``.NAME-XXXXXXXX
-.tdms``, the convention of :mod:`magcilia._atomic`, locked while written) and renamed over it
-when its first chunk of samples is flushed; a recording that fails before that removes its
-temporary file and leaves the old one as it was. ``overwrite=False`` refuses an existing file.
+``overwrite=True`` the new file is written beside it under a hidden temporary name
+(``.NAME.magcilia-partial-PID-HEX.tdms``, a :class:`magcilia._atomic.PartialFile`, locked while
+written) and renamed over it when its first chunk of samples is flushed; a recording that fails
+before that removes its temporary file and leaves the old one as it was, and one that is killed
+before that leaves it to the next run that writes in the folder, which removes it
+(:func:`magcilia._atomic.remove_leftovers`). ``overwrite=False`` refuses an existing file.
 
 Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V), and where given
 ``angle_deg`` (the tilt of each sample, deg), ``setreset`` (+1 set, −1 reset) and any extra
@@ -45,8 +47,6 @@ import io
 import json
 import math
 import os
-import sys
-import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from time import monotonic
@@ -57,14 +57,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._atomic import _exists_message, _umask, jsonable
+from magcilia._atomic import PartialFile, _exists_message, jsonable, remove_leftovers
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia._validate import printable
 from magcilia.io import chunk_checksums
 from magcilia.io.recordings import nptdms_module, quiet_nptdms
-
-if sys.platform != "win32":
-    import fcntl
 
 F64 = NDArray[np.float64]
 GROUP = "recording"
@@ -135,7 +132,7 @@ class RecordingWriter:
         self.samples = 0
         self.chunks = 0
         self._oldest: float | None = None  # monotonic time the oldest pending sample came
-        self._temp: Path | None = None  # the hidden file written until it replaces ``path``
+        self._part: PartialFile | None = None  # the hidden file written until it replaces ``path``
         self._owns_path = False  # whether ``path`` is this writer's file (created or replaced)
         self._pending: dict[str, list[F64]] = {}
         self._names: tuple[str, ...] | None = None
@@ -186,6 +183,7 @@ class RecordingWriter:
         path = self.path
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+            remove_leftovers(path.parent)  # what killed runs left there (their locks are free)
             if path.is_dir():
                 raise MagciliaError(f"{path} is a folder, not a recording file; choose another "
                                     "--out")
@@ -200,34 +198,32 @@ class RecordingWriter:
             else:
                 self._owns_path = True
                 return file
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix,
-                                       dir=path.parent)
+            self._part = PartialFile(path)  # locked while this process lives
+            return self._part.path.open("r+b", buffering=0)
         except OSError as exc:
             raise MagciliaError(f"cannot write the recording {path}: "
                                 f"{exc.strerror or exc}") from None
-        self._temp = Path(tmp)
-        self._temp.chmod(0o666 & ~_umask())  # mkstemp makes 0600 files; recordings follow the umask
-        if sys.platform != "win32":  # a later run's clean-up leaves a locked temporary file alone
-            with contextlib.suppress(OSError):
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        return os.fdopen(fd, "wb", buffering=0)
 
     def _publish(self, *, final: bool = False) -> None:
         """Rename the temporary file over ``path`` (on POSIX the open file goes on under its new
         name). Where an open file cannot be renamed (Windows) it is renamed when it closes
         (``final``); a final rename that fails keeps the recording under its temporary name and
         says so."""
-        if self._temp is None:
+        part = self._part
+        if part is None:
             return
         try:
-            self._temp.replace(self.path)
+            part.publish()
         except OSError as exc:
             if not final:
                 return
+            part.close()
+            self._part = None
             raise MagciliaError(f"{self.path}: cannot replace it with the new recording "
                                 f"({exc.strerror or exc}); the recording is kept in "
-                                f"{self._temp}") from None
-        self._temp = None
+                                f"{part.path}") from None
+        part.close()
+        self._part = None
         self._owns_path = True
 
     def _discard(self) -> None:
@@ -236,9 +232,10 @@ class RecordingWriter:
         if file is not None:
             with contextlib.suppress(OSError):
                 file.close()
-        if self._temp is not None:
-            self._temp.unlink(missing_ok=True)
-            self._temp = None
+        if self._part is not None:
+            self._part.discard()
+            self._part.close()
+            self._part = None
         elif self._owns_path:
             self.path.unlink(missing_ok=True)
             self._owns_path = False
@@ -267,9 +264,10 @@ class RecordingWriter:
             self._writer = None
             self._file.close()
             self._file = None
-            if self._temp is not None and not (complete or self.samples):
-                self._temp.unlink(missing_ok=True)  # nothing recorded: the old file stays
-                self._temp = None
+            if self._part is not None and not (complete or self.samples):
+                self._part.discard()  # nothing recorded: the old file stays
+                self._part.close()
+                self._part = None
             self._publish(final=True)  # a complete recording without samples replaces it too
 
     def abort(self, stopped: str) -> bool:
