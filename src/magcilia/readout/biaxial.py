@@ -459,6 +459,19 @@ class ForceVectorResult(Display):
                 rows)
 
 
+def polar_sigmas(cov: F64, magnitude: F64, direction: F64) -> tuple[F64, F64]:
+    """1 σ of the magnitude (N) and of the direction (rad) of force vectors of ``magnitude``
+    (N) and ``direction`` (rad), shape (b,), with the covariance ``cov`` of (Fx, Fy), N²,
+    (b, 2, 2): its variance along the force, and across it over the magnitude."""
+    c, s = np.cos(direction), np.sin(direction)
+    var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
+    var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
+    s_mag = np.sqrt(np.clip(var_r, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / magnitude
+    return s_mag, s_dir
+
+
 # -- the read-out ----------------------------------------------------------------------------------
 
 
@@ -775,12 +788,7 @@ class BiaxialReadout(Display):
         fx, fy, chi2 = outs[0], outs[1], outs[2]
         mag = np.hypot(fx, fy)
         direction = np.arctan2(fy, fx)
-        c, s = np.cos(direction), np.sin(direction)
-        var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
-        var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
-        s_mag = np.sqrt(np.clip(var_r, 0.0, None))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / mag
+        with np.errstate(invalid="ignore"):  # near zero: against the noise's ellipse alone
             tr = cov[:, 0, 0] + cov[:, 1, 1]
             det = cov[:, 0, 0] * cov[:, 1, 1] - cov[:, 0, 1] ** 2
             major = np.sqrt(np.clip(0.5 * tr + np.sqrt(np.clip(0.25 * tr * tr - det, 0, None)),
@@ -790,11 +798,7 @@ class BiaxialReadout(Display):
         cov_scale = self._scale_covariance(fx, fy)
         if cov_scale.any():
             cov = cov + np.nan_to_num(cov_scale)
-            var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
-            var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
-            s_mag = np.sqrt(np.clip(var_r, 0.0, None))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / mag
+        s_mag, s_dir = polar_sigmas(cov, mag, direction)
         no_vec = (flags & np.uint16(NO_VECTOR)) != 0
         no_dir = (flags & np.uint16(NO_DIRECTION)) != 0
         for arr in (fx, fy, mag, s_mag, chi2):
