@@ -56,9 +56,9 @@ from magcilia.model.centreline import SpatialCentreline
 from magcilia.model.kernels import pose_field
 from magcilia.readout.inverse import EDGE_TOLERANCE
 from magcilia.readout.scale import (
-    MODULUS_STEP,
     VECTOR_RATE_GRID,
     least_squares_rate,
+    per_ln_modulus,
     to_polar,
     vector_rate,
     vector_scale_covariance,
@@ -832,18 +832,16 @@ class BiaxialReadout(Display):
         :data:`~magcilia.readout.scale.VECTOR_RATE_GRID` grid of magnitudes (0 … ``f_max``, N)
         and directions: (magnitudes, directions, components along and across the force
         (m, d, 2), N). The readings' derivative is a central difference of the model
-        (:func:`_actuated_model`) over E·(1 ± MODULUS_STEP), taken through the read-out's
-        least squares with the channels' stated noise."""
+        (:func:`_actuated_model`) in ln E (:func:`~magcilia.readout.scale.per_ln_modulus`),
+        taken through the read-out's least squares with the channels' stated noise."""
         assert self.actuation is not None
         setup, chans = self.setup, self.channels
         mags = np.linspace(0.0, f_max, VECTOR_RATE_GRID[0])
         step = 2.0 * math.pi / VECTOR_RATE_GRID[1]
         dirs = np.arange(VECTOR_RATE_GRID[1], dtype=np.float64) * step
-        e = setup.youngs_modulus
-        up, down = (_actuated_model(
-            setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP)), chans, mags, dirs,
-            self.actuation)[0] for sign in (1.0, -1.0))
-        g = ((up - down) / (2.0 * MODULUS_STEP)).reshape(-1, len(chans))
+        actuation = self.actuation
+        g = per_ln_modulus(lambda s: _actuated_model(s, chans, mags, dirs, actuation)[0],
+                           setup).reshape(-1, len(chans))
         m, d = (a.reshape(-1) for a in np.meshgrid(mags, dirs, indexing="ij"))
         _, jx, jy = self._evaluate(m * np.cos(d), m * np.sin(d))
         weight = np.broadcast_to(1.0 / np.array([c.sigma for c in chans]) ** 2, g.shape)
