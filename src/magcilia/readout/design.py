@@ -8,7 +8,7 @@ quantity, evaluates the sensor output and reports
   U → 0 vanish logarithmically);
 * the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
   for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
-* the range: the value where the read-out ends (:func:`range_end`, shared with
+* the range: the value where the read-out ends (:func:`read_range`, shared with
   :func:`magcilia.optimise_design`): the first of the sensor leaving its rated range (the
   HMC1021Z's ±6 gauss hold for the sensitive axis and, by its datasheet, for the total applied
   field: :func:`rated_ratio`) or a fold of the output (non-monotonic: readings become
@@ -335,17 +335,30 @@ def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
     return f"sensor range (±{number(full_scale[which] / GAUSS)} gauss{axis})"
 
 
+def read_range(q: F64, reading: F64, b: F64, full_scale: F64, total: float, signal: F64,
+               axes: int, end_note: str) -> tuple[float, str, int, bool]:
+    """The range of a sweep from q[0] (:func:`range_end` of :func:`rated_ratio`): where the
+    sensor leaves its rated range or the read-out ``signal`` (c,) folds, else the sweep's end
+    (not reached). ``reading``, ``b``, ``full_scale`` and ``total`` as :func:`rated_ratio`;
+    ``axes`` the sensor's read axes (1 or 3) and ``end_note`` what ended the sweep, for
+    :func:`range_text`. Returns the value (the unit of ``q``), what ends it, the last sweep index
+    within it and whether it was reached."""
+    ratio, which = rated_ratio(reading, full_scale, b, total)
+    value, kind, last = range_end(q, ratio, signal)
+    term = int(which[min(last + 1, which.size - 1)])
+    return (value, range_text(kind, term, full_scale, total, axes, end_note), last,
+            kind != "end")
+
+
 def _range(q: F64, b: F64, setup: Setup, end_note: str) -> tuple[float, str, bool]:
     """Range from q[0] of the fields ``b`` (c, 3) at the single-axis element: its rated range
     (B_x and |B| within ±field_range) or a fold of the output, else the sweep's end (not
     reached); what ends it; whether it was reached."""
     sensor = setup.sensor
-    scale = np.array([sensor.field_range, math.inf, math.inf])
-    ratio, which = rated_ratio(b, scale, b, sensor.field_range)
-    value, kind, last = range_end(q, ratio, sensor.voltage(b[:, 0]))
-    term = int(which[min(last + 1, which.size - 1)])
-    return (value, range_text(kind, term, scale, sensor.field_range, 1, end_note),
-            kind != "end")
+    value, why, _, reached = read_range(
+        q, b, b, np.array([sensor.field_range, math.inf, math.inf]), sensor.field_range,
+        sensor.voltage(b[:, 0]), 1, end_note)
+    return value, why, reached
 
 
 def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
