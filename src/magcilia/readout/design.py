@@ -41,6 +41,7 @@ from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
+from magcilia.device.stiffness import percent
 from magcilia.mechanics import (
     SHARP_TIP,
     WATER,
@@ -237,8 +238,8 @@ class DesignMetrics(Display):
 
 
 def _percent(sigma: float, value: float) -> str:
-    """σ relative to ``value`` as ``"27 %"``."""
-    return f"{100.0 * sigma / value:.2g} %" if value else "0 %"
+    """σ relative to ``value`` as ``"27 %"`` (:func:`~magcilia.device.stiffness.percent`)."""
+    return percent(sigma / value if value else 0.0)
 
 
 def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
