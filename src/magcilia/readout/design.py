@@ -74,7 +74,8 @@ class Metric(Display):
     minimum : float
         Minimum detectable value, unit (NaN if not available).
     range : float
-        Usable range from zero, unit (a lower bound when ``limited_by`` is "end of sweep").
+        Usable range from zero, unit (a lower bound when ``reached`` is False: ``limited_by``
+        then starts "not reached: ").
     limited_by : str
         What ends the range (or why the metric is not available); for a range not reached, what
         ended the sweep, as ``"not reached: …"``.

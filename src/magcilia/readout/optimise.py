@@ -914,8 +914,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         Flow objective (required there): the flow speed U, m/s, whose sensitivity counts.
     constraints : mapping, optional
         ``{"range": lowest range, "minimum": largest minimum detectable value}`` (SI: N or
-        m/s) and ``"field"``: the largest |B| at the element over the range, T (e.g. the
-        HMC1021Z's 6 gauss, whose datasheet states its range for the total field).
+        m/s) and ``"field"``: the rated range of |B| at the element, T, where a design's range
+        ends (default each sensor's own: the HMC1021Z's 6 gauss, whose datasheet states its
+        range for the total field; none for a 3-axis part, rated per axis).
     bounds : mapping of str to (low, high), optional
         Searched variables (:data:`VARIABLES`) and their bounds, SI; the defaults
         (:data:`DEFAULT_BOUNDS`) for the others; pass ``(v, v)`` to fix one.
