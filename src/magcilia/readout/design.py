@@ -298,26 +298,28 @@ SWEEP_ENDS = {"force": "the sweep ends at a tip deflection ≈ L",
               "drag": "the drag law ends at Re 2e5", "angle": "the sweep ends at 90 deg"}
 
 
-def rated_ratio(reading: F64, full_scale: F64, b: F64, total: float) -> tuple[F64, F64]:
+def rated_ratio(reading: F64, full_scale: F64, magnitude: F64, total: float
+                ) -> tuple[F64, F64]:
     """How far into its rated range a sensor is, per sweep point: the largest of |reading_i| /
     full_scale_i over its read axes and of |B| / ``total`` (a rated range of the total applied
-    field, as the HMC1021Z's datasheet states; inf: none), shape (c,); beyond 1 the read-out has
-    ended (:func:`range_end`). Also which term is largest (c,): 0, 1, 2 for an axis, 3 for |B|.
+    field, as the HMC1021Z's datasheet states; inf: none), shape (..., c); beyond 1 the read-out
+    has ended (:func:`range_end`). Also which term is largest (..., c): 0, 1, 2 for an axis, 3
+    for |B|.
 
     Parameters
     ----------
-    reading : ndarray, shape (c, 3)
+    reading : ndarray, shape (..., c, 3)
         The field on the sensor's axes, T (a single-axis element: the board's, only x read).
     full_scale : ndarray, shape (3,)
         Range per axis, T (inf: the axis is not read).
-    b : ndarray, shape (c, 3)
-        The field at the sensing point, T.
+    magnitude : ndarray, shape (..., c)
+        |B| at the sensing point, T.
     total : float
         Rated range of |B|, T (inf for none).
     """
-    terms = np.concatenate([np.abs(reading) / full_scale,
-                            (np.linalg.norm(b, axis=-1) / total)[:, None]], axis=1)
-    return np.max(terms, axis=1), np.argmax(terms, axis=1)
+    terms = np.concatenate([np.abs(reading) / full_scale, (magnitude / total)[..., None]],
+                           axis=-1)
+    return np.max(terms, axis=-1), np.argmax(terms, axis=-1)
 
 
 def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
@@ -345,7 +347,7 @@ def read_range(q: F64, reading: F64, b: F64, full_scale: F64, total: float, sign
     ``axes`` the sensor's read axes (1 or 3) and ``end_note`` what ended the sweep, for
     :func:`range_text`. Returns the value (the unit of ``q``), what ends it, the last sweep index
     within it and whether it was reached."""
-    ratio, which = rated_ratio(reading, full_scale, b, total)
+    ratio, which = rated_ratio(reading, full_scale, np.linalg.norm(b, axis=-1), total)
     value, kind, last = range_end(q, ratio, signal)
     term = int(which[min(last + 1, which.size - 1)])
     return (value, range_text(kind, term, full_scale, total, axes, end_note), last,

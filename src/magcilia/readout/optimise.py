@@ -90,7 +90,7 @@ from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
-from magcilia.readout.design import SWEEP_ENDS, read_range, sweep_fields
+from magcilia.readout.design import SWEEP_ENDS, rated_ratio, read_range, sweep_fields
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -720,7 +720,7 @@ def _curve_range(q: F64, reading: F64, mags: F64, choice: SensorChoice, weights:
     weights (N, 3), the sweep's end (N,), the rated range of |B| (T); returns the ranges (N,)
     and the last index within each."""
     scale = choice.full_scale
-    ratio = np.maximum(np.max(np.abs(reading) / scale, axis=2), mags / total)
+    ratio = rated_ratio(reading, scale, mags, total)[0]
     i_sat = _first(ratio > 1.0)
     proj = np.einsum("nak,nk->na", reading, weights)
     dp = np.diff(proj, axis=1)
