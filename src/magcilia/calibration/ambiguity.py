@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.diagnostics import LENGTHS, CalibrationWarning, shown
+from magcilia.calibration.diagnostics import CalibrationWarning, scale_direction, shown
 
 F64 = NDArray[np.float64]
 
@@ -99,18 +99,13 @@ def best_of(points: F64, chi2: F64) -> tuple[F64, float]:
 def at_size_of(point: F64, best: F64, names: Sequence[str], depth: float) -> F64:
     """``point`` (p,) moved along the scale symmetry to ``best``'s height: every length (height,
     base radius, x, y, and z + ``depth``, the base's height above the element) times
-    h_best / h_point. The field, hence the fit to tilt data, does not change (NOTES §8)."""
+    h_best / h_point (along :func:`~magcilia.calibration.diagnostics.scale_direction`). The
+    field, hence the fit to tilt data, does not change (NOTES §8)."""
     if "height" not in names:
         return point
     k = names.index("height")
-    factor = best[k] / point[k]
-    out = np.array(point, dtype=np.float64)
-    for i, n in enumerate(names):
-        if n == "z":
-            out[i] = (point[i] + depth) * factor - depth
-        elif n in LENGTHS:
-            out[i] = point[i] * factor
-    return out
+    step = scale_direction(names, dict(zip(names, point.tolist(), strict=True)), depth)
+    return np.asarray(point + (best[k] / point[k] - 1.0) * step, dtype=np.float64)
 
 
 def alternatives(best: F64, best_chi2: float, points: F64, chi2: F64, names: Sequence[str],

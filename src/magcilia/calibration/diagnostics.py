@@ -35,8 +35,10 @@ records, so code (and tests) match the ``kind``, people read the text. The kinds
 ``"y_sign"``
     y and −y fit equally well (B_x is even in y).
 ``"ambiguous"``
-    Another optimum fits as well (Δχ² ≤ 4) yet lies more than 3 standard errors away
-    (:mod:`magcilia.calibration.ambiguity`): the mirrored placement, another basin.
+    Another optimum fits as well (Δχ² ≤ 4) yet lies more than 2 standard errors away in some
+    parameter (:data:`~magcilia.calibration.ambiguity.AMBIGUITY_CHI2`,
+    :data:`~magcilia.calibration.ambiguity.AMBIGUITY_SIGMA`): the mirrored placement, another
+    basin.
 ``"sensor_field"``
     The fitted placement puts a field on the single-axis element beyond its flip (disturbing)
     field or its linear range (of the total field, or on the sensitive axis): a real sensor there

@@ -66,6 +66,8 @@ RESTARTS = 10
 #: prior σ of a nuisance offset, in units of the largest signal one condition's rows can move: a
 #: weak prior that keeps the information of an experiment not (yet) in the design invertible
 OFFSET_PRIOR = 1e3
+
+
 @dataclass(frozen=True, repr=False, eq=False)
 class Design(Display):
     """A design: how often each candidate is measured, and what it is expected to tell.
@@ -243,8 +245,10 @@ def d_optimal(jacobian: ArrayLike, budget: int, *, names: Sequence[str] | None =
     Raises
     ------
     MagciliaError
-        A budget too small to determine the parameters, or a plan beyond :data:`MAX_WORK` or
-        :data:`MAX_INFORMATION` (:func:`check_plan_size`), before any work.
+        A budget too small to determine the parameters, or a plan beyond
+        :data:`~magcilia.calibration.plan_size.MAX_WORK` or
+        :data:`~magcilia.calibration.plan_size.MAX_INFORMATION`
+        (:func:`~magcilia.calibration.plan_size.check_plan_size`), before any work.
     """
     J = _rows(jacobian)
     c, _, p = J.shape
@@ -577,8 +581,9 @@ def plan_calibration(setup: Setup, budget: int, *, sensor: str = "output",
     Raises
     ------
     MagciliaError
-        Bad arguments, or a plan beyond :data:`MAX_WORK` or :data:`MAX_INFORMATION`
-        (:func:`check_plan_size`), before any work.
+        Bad arguments, or a plan beyond :data:`~magcilia.calibration.plan_size.MAX_WORK` or
+        :data:`~magcilia.calibration.plan_size.MAX_INFORMATION`
+        (:func:`~magcilia.calibration.plan_size.check_plan_size`), before any work.
     """
     sensor = v.choice("sensor", sensor, SENSORS)
     grid = (np.radians(np.arange(0.0, 85.0 + 1e-9, 2.5)) if angles is None

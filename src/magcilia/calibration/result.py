@@ -84,7 +84,8 @@ class ParameterCovariance(Display):
         if self.covariance is None:
             doc["covariance"] = {"names": names, "matrix": None}
         else:
-            gone = np.array([n in self.undetermined() for n in names], dtype=bool)
+            undetermined = set(self.undetermined())
+            gone = np.array([n in undetermined for n in names], dtype=bool)
             shown = np.where(gone[:, None] | gone[None, :], np.nan, self.covariance)
             doc["covariance"] = {"names": names, "matrix": shown.tolist()}
             if gone.any():

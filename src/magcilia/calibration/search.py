@@ -109,6 +109,8 @@ def search_effort(restarts: int, starts: int, angles: int | None = None) -> tupl
                                        "angles (MAX_START_ANGLES: starts × angles of one search "
                                        "held in memory); use restarts for a longer search")
     return restarts, starts
+
+
 #: the calibration models: the paper's (n, k searched) and the physical (n, k converged)
 MODELS = ("paper", "physical")
 
@@ -447,6 +449,7 @@ def _with_alternatives(result: CalibrationResult, x: F64, cost: float,
         return result
     return replace(result, warnings=(*result.warnings, note.message),
                    diagnostics=(*result.diagnostics, note))
+
 
 def _with_sensor_field(result: JointCalibrationResult) -> JointCalibrationResult:
     """The joint result with a ``"sensor_field"`` warning when the fitted placement overloads the

@@ -104,20 +104,23 @@ def span_centre(readings: dict[str, float]) -> tuple[float, float]:
     return 0.5 * (lo + hi), (hi - lo) / (hi + lo)
 
 
-def einstein_factor(phi: float) -> float:
-    """Einstein's dilute stiffening of spheres at volume fraction ``phi``: ``1 + 2.5φ``."""
+def einstein_factor(phi: Any) -> Any:
+    """Einstein's dilute stiffening of spheres at volume fraction ``phi``: ``1 + 2.5φ``
+    (arrays broadcast)."""
     return 1.0 + 2.5 * phi
 
 
-def guth_gold_factor(phi: float) -> float:
-    """Guth–Gold stiffening of spheres at volume fraction ``phi``: ``1 + 2.5φ + 14.1φ²``."""
+def guth_gold_factor(phi: Any) -> Any:
+    """Guth–Gold stiffening of spheres at volume fraction ``phi``: ``1 + 2.5φ + 14.1φ²``
+    (arrays broadcast)."""
     return 1.0 + 2.5 * phi + 14.1 * phi**2
 
 
 def composite_modulus(polymer: Any, phi: Any) -> Any:
     """Young's modulus of the filled elastomer, Pa: the neat ``polymer`` modulus (Pa) times the
-    Guth–Gold factor of the filler's volume fraction ``phi``; arrays broadcast."""
-    return polymer * (1.0 + 2.5 * phi + 14.1 * phi**2)
+    Guth–Gold factor of the filler's volume fraction ``phi`` (:func:`guth_gold_factor`); arrays
+    broadcast."""
+    return polymer * guth_gold_factor(phi)
 
 
 def filler_uncertainty(phi: float) -> float:

@@ -179,8 +179,22 @@ def reference(spec: ModelSpec | SupportsSpec, pts: F64, tilts: ArrayLike = TILTS
     return hit[0] * s.magnetization, hit[1]
 
 
-def _error(spec: ModelSpec, n_loops: int, dipoles_per_loop: int, ring: str, pts: F64,
+def _probe(spec: ModelSpec | SupportsSpec, points: ArrayLike | None, tilts: ArrayLike,
+           azimuths: ArrayLike, reference_slices: int
+           ) -> tuple[ModelSpec, F64, F64, F64, NDArray[np.bool_]]:
+    """The probe of :func:`layout_error` and :func:`converged_layout`: the spec, its observers
+    (:func:`probe_points`), the tilts (rad) and the exact reference with its mask
+    (:func:`reference`)."""
+    s = as_spec(spec)
+    pts = probe_points(s, points, azimuths)
+    angles = np.asarray(tilts, dtype=np.float64).reshape(-1)
+    exact, mask = reference(s, pts, angles, reference_slices)
+    return s, pts, angles, exact, mask
+
+
+def _error(n_loops: int, dipoles_per_loop: int, ring: str, spec: ModelSpec, pts: F64,
            angles: F64, exact: F64, mask: NDArray[np.bool_]) -> float:
+    """Largest relative error of the n × k layout with ``ring`` over a probe (:func:`_probe`)."""
     trial = replace(spec, n_loops=int(n_loops), dipoles_per_loop=int(dipoles_per_loop),
                     ring=ring)
     pos, mom = dipoles(trial, Centreline.straight(spec.height, angles))
@@ -223,11 +237,8 @@ def layout_error(spec: ModelSpec | SupportsSpec, n_loops: int, dipoles_per_loop:
     >>> round(100 * layout_error(mc.Setup.paper(), 2, 5, "mean", azimuths=[0.0]))  # percent
     17
     """
-    s = as_spec(spec)
-    pts = probe_points(s, points, azimuths)
-    angles = np.asarray(tilts, dtype=np.float64).reshape(-1)
-    exact, mask = reference(s, pts, angles, reference_slices)
-    return _error(s, n_loops, dipoles_per_loop, ring, pts, angles, exact, mask)
+    return _error(n_loops, dipoles_per_loop, ring,
+                  *_probe(spec, points, tilts, azimuths, reference_slices))
 
 
 def converged_layout(spec: ModelSpec | SupportsSpec, tolerance: float = TOLERANCE, *,
@@ -272,13 +283,10 @@ def converged_layout(spec: ModelSpec | SupportsSpec, tolerance: float = TOLERANC
     tried = tuple(v.integer("slices", n, 1) for n in slices)
     if not tried:
         raise v.fail("slices", slices, "at least one slice count")
-    s = as_spec(spec)
-    pts = probe_points(s, points, azimuths)
-    angles = np.asarray(tilts, dtype=np.float64).reshape(-1)
-    exact, mask = reference(s, pts, angles, reference_slices)
+    probe = _probe(spec, points, tilts, azimuths, reference_slices)
     error = math.nan
     for n in tried:
-        error = _error(s, n, dipoles_per_loop, "rms", pts, angles, exact, mask)
+        error = _error(n, dipoles_per_loop, "rms", *probe)
         if error <= tol:
             return Layout(n, dipoles_per_loop, "rms", error, tol)
     if strict:

@@ -56,9 +56,9 @@ from magcilia.model.centreline import SpatialCentreline
 from magcilia.model.kernels import pose_field
 from magcilia.readout.inverse import EDGE_TOLERANCE
 from magcilia.readout.scale import (
-    MODULUS_STEP,
     VECTOR_RATE_GRID,
     least_squares_rate,
+    per_ln_modulus,
     to_polar,
     vector_rate,
     vector_scale_covariance,
@@ -459,6 +459,19 @@ class ForceVectorResult(Display):
                 rows)
 
 
+def polar_sigmas(cov: F64, magnitude: F64, direction: F64) -> tuple[F64, F64]:
+    """1 σ of the magnitude (N) and of the direction (rad) of force vectors of ``magnitude``
+    (N) and ``direction`` (rad), shape (b,), with the covariance ``cov`` of (Fx, Fy), N²,
+    (b, 2, 2): its variance along the force, and across it over the magnitude."""
+    c, s = np.cos(direction), np.sin(direction)
+    var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
+    var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
+    s_mag = np.sqrt(np.clip(var_r, 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / magnitude
+    return s_mag, s_dir
+
+
 # -- the read-out ----------------------------------------------------------------------------------
 
 
@@ -775,12 +788,7 @@ class BiaxialReadout(Display):
         fx, fy, chi2 = outs[0], outs[1], outs[2]
         mag = np.hypot(fx, fy)
         direction = np.arctan2(fy, fx)
-        c, s = np.cos(direction), np.sin(direction)
-        var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
-        var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
-        s_mag = np.sqrt(np.clip(var_r, 0.0, None))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / mag
+        with np.errstate(invalid="ignore"):  # near zero: against the noise's ellipse alone
             tr = cov[:, 0, 0] + cov[:, 1, 1]
             det = cov[:, 0, 0] * cov[:, 1, 1] - cov[:, 0, 1] ** 2
             major = np.sqrt(np.clip(0.5 * tr + np.sqrt(np.clip(0.25 * tr * tr - det, 0, None)),
@@ -790,11 +798,7 @@ class BiaxialReadout(Display):
         cov_scale = self._scale_covariance(fx, fy)
         if cov_scale.any():
             cov = cov + np.nan_to_num(cov_scale)
-            var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
-            var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
-            s_mag = np.sqrt(np.clip(var_r, 0.0, None))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / mag
+        s_mag, s_dir = polar_sigmas(cov, mag, direction)
         no_vec = (flags & np.uint16(NO_VECTOR)) != 0
         no_dir = (flags & np.uint16(NO_DIRECTION)) != 0
         for arr in (fx, fy, mag, s_mag, chi2):
@@ -828,18 +832,16 @@ class BiaxialReadout(Display):
         :data:`~magcilia.readout.scale.VECTOR_RATE_GRID` grid of magnitudes (0 … ``f_max``, N)
         and directions: (magnitudes, directions, components along and across the force
         (m, d, 2), N). The readings' derivative is a central difference of the model
-        (:func:`_actuated_model`) over E·(1 ± MODULUS_STEP), taken through the read-out's
-        least squares with the channels' stated noise."""
+        (:func:`_actuated_model`) in ln E (:func:`~magcilia.readout.scale.per_ln_modulus`),
+        taken through the read-out's least squares with the channels' stated noise."""
         assert self.actuation is not None
         setup, chans = self.setup, self.channels
         mags = np.linspace(0.0, f_max, VECTOR_RATE_GRID[0])
         step = 2.0 * math.pi / VECTOR_RATE_GRID[1]
         dirs = np.arange(VECTOR_RATE_GRID[1], dtype=np.float64) * step
-        e = setup.youngs_modulus
-        up, down = (_actuated_model(
-            setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP)), chans, mags, dirs,
-            self.actuation)[0] for sign in (1.0, -1.0))
-        g = ((up - down) / (2.0 * MODULUS_STEP)).reshape(-1, len(chans))
+        actuation = self.actuation
+        g = per_ln_modulus(lambda s: _actuated_model(s, chans, mags, dirs, actuation)[0],
+                           setup).reshape(-1, len(chans))
         m, d = (a.reshape(-1) for a in np.meshgrid(mags, dirs, indexing="ij"))
         _, jx, jy = self._evaluate(m * np.cos(d), m * np.sin(d))
         weight = np.broadcast_to(1.0 / np.array([c.sigma for c in chans]) ** 2, g.shape)

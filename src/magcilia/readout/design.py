@@ -8,7 +8,7 @@ quantity, evaluates the sensor output and reports
   U → 0 vanish logarithmically);
 * the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
   for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
-* the range: the value where the read-out ends (:func:`range_end`, shared with
+* the range: the value where the read-out ends (:func:`read_range`, shared with
   :func:`magcilia.optimise_design`): the first of the sensor leaving its rated range (the
   HMC1021Z's ±6 gauss hold for the sensitive axis and, by its datasheet, for the total applied
   field: :func:`rated_ratio`) or a fold of the output (non-monotonic: readings become
@@ -41,6 +41,7 @@ from magcilia.constants import GAUSS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
+from magcilia.device.stiffness import percent
 from magcilia.mechanics import (
     SHARP_TIP,
     WATER,
@@ -73,7 +74,8 @@ class Metric(Display):
     minimum : float
         Minimum detectable value, unit (NaN if not available).
     range : float
-        Usable range from zero, unit (a lower bound when ``limited_by`` is "end of sweep").
+        Usable range from zero, unit (a lower bound when ``reached`` is False: ``limited_by``
+        then starts "not reached: ").
     limited_by : str
         What ends the range (or why the metric is not available); for a range not reached, what
         ended the sweep, as ``"not reached: …"``.
@@ -237,8 +239,8 @@ class DesignMetrics(Display):
 
 
 def _percent(sigma: float, value: float) -> str:
-    """σ relative to ``value`` as ``"27 %"``."""
-    return f"{100.0 * sigma / value:.2g} %" if value else "0 %"
+    """σ relative to ``value`` as ``"27 %"`` (:func:`~magcilia.device.stiffness.percent`)."""
+    return percent(sigma / value if value else 0.0)
 
 
 def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
@@ -296,26 +298,28 @@ SWEEP_ENDS = {"force": "the sweep ends at a tip deflection ≈ L",
               "drag": "the drag law ends at Re 2e5", "angle": "the sweep ends at 90 deg"}
 
 
-def rated_ratio(reading: F64, full_scale: F64, b: F64, total: float) -> tuple[F64, F64]:
+def rated_ratio(reading: F64, full_scale: F64, magnitude: F64, total: float
+                ) -> tuple[F64, F64]:
     """How far into its rated range a sensor is, per sweep point: the largest of |reading_i| /
     full_scale_i over its read axes and of |B| / ``total`` (a rated range of the total applied
-    field, as the HMC1021Z's datasheet states; inf: none), shape (c,); beyond 1 the read-out has
-    ended (:func:`range_end`). Also which term is largest (c,): 0, 1, 2 for an axis, 3 for |B|.
+    field, as the HMC1021Z's datasheet states; inf: none), shape (..., c); beyond 1 the read-out
+    has ended (:func:`range_end`). Also which term is largest (..., c): 0, 1, 2 for an axis, 3
+    for |B|.
 
     Parameters
     ----------
-    reading : ndarray, shape (c, 3)
+    reading : ndarray, shape (..., c, 3)
         The field on the sensor's axes, T (a single-axis element: the board's, only x read).
     full_scale : ndarray, shape (3,)
         Range per axis, T (inf: the axis is not read).
-    b : ndarray, shape (c, 3)
-        The field at the sensing point, T.
+    magnitude : ndarray, shape (..., c)
+        |B| at the sensing point, T.
     total : float
         Rated range of |B|, T (inf for none).
     """
-    terms = np.concatenate([np.abs(reading) / full_scale,
-                            (np.linalg.norm(b, axis=-1) / total)[:, None]], axis=1)
-    return np.max(terms, axis=1), np.argmax(terms, axis=1)
+    terms = np.concatenate([np.abs(reading) / full_scale, (magnitude / total)[..., None]],
+                           axis=-1)
+    return np.max(terms, axis=-1), np.argmax(terms, axis=-1)
 
 
 def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
@@ -335,17 +339,30 @@ def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
     return f"sensor range (±{number(full_scale[which] / GAUSS)} gauss{axis})"
 
 
+def read_range(q: F64, reading: F64, b: F64, full_scale: F64, total: float, signal: F64,
+               axes: int, end_note: str) -> tuple[float, str, int, bool]:
+    """The range of a sweep from q[0] (:func:`range_end` of :func:`rated_ratio`): where the
+    sensor leaves its rated range or the read-out ``signal`` (c,) folds, else the sweep's end
+    (not reached). ``reading``, ``b``, ``full_scale`` and ``total`` as :func:`rated_ratio`;
+    ``axes`` the sensor's read axes (1 or 3) and ``end_note`` what ended the sweep, for
+    :func:`range_text`. Returns the value (the unit of ``q``), what ends it, the last sweep index
+    within it and whether it was reached."""
+    ratio, which = rated_ratio(reading, full_scale, np.linalg.norm(b, axis=-1), total)
+    value, kind, last = range_end(q, ratio, signal)
+    term = int(which[min(last + 1, which.size - 1)])
+    return (value, range_text(kind, term, full_scale, total, axes, end_note), last,
+            kind != "end")
+
+
 def _range(q: F64, b: F64, setup: Setup, end_note: str) -> tuple[float, str, bool]:
     """Range from q[0] of the fields ``b`` (c, 3) at the single-axis element: its rated range
     (B_x and |B| within ±field_range) or a fold of the output, else the sweep's end (not
     reached); what ends it; whether it was reached."""
     sensor = setup.sensor
-    scale = np.array([sensor.field_range, math.inf, math.inf])
-    ratio, which = rated_ratio(b, scale, b, sensor.field_range)
-    value, kind, last = range_end(q, ratio, sensor.voltage(b[:, 0]))
-    term = int(which[min(last + 1, which.size - 1)])
-    return (value, range_text(kind, term, scale, sensor.field_range, 1, end_note),
-            kind != "end")
+    value, why, _, reached = read_range(
+        q, b, b, np.array([sensor.field_range, math.inf, math.inf]), sensor.field_range,
+        sensor.voltage(b[:, 0]), 1, end_note)
+    return value, why, reached
 
 
 def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:

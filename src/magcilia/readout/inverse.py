@@ -808,13 +808,9 @@ class Readout(Display):
             flags[out] = beyond | (flags[out] & np.uint8(ReadoutFlag.SATURATED))
         np.multiply(slope, noise_v, out=s_noise)
         tare_error = 0.0 if self.baseline is None else self.baseline.standard_error
-        q = table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
-        vq = np.fmin(np.fmax(value, q[0]), q[-1])
-        j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
-        j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
-        self._scale_block(value, vq, j, slope, s_scale)
+        self._scale_block(value, slope, s_scale)
         if self.sigma_calibration.any():
-            np.multiply(_interp(vq, j.copy(), 1, q, self.sigma_calibration), slope, out=s_cal)
+            np.multiply(self._at_estimates(value, self.sigma_calibration), slope, out=s_cal)
             if tare_error:
                 np.hypot(s_cal, slope * tare_error, out=s_cal)
             np.hypot(s_noise, s_cal, out=sigma)
@@ -832,19 +828,26 @@ class Readout(Display):
         for arr in (value, sigma, s_noise, s_cal, s_edge, s_scale):
             np.copyto(arr, np.nan, where=flagged)
 
-    def _scale_block(self, value: F64, vq: F64, j: NDArray[np.intp], slope: F64,
-                     out: F64) -> None:
-        """The force scale's 1 σ of readings with estimates ``value`` (SI, (b,); ``vq`` clipped
-        to the table and ``j`` their table intervals) and slopes |dq/dV| (b,), into ``out``:
-        exactly ``|F| · σ_E/E`` for a tip force without actuation, else the modulus's output σ
-        at the estimate through the slope (:mod:`magcilia.readout.scale`); 0 without one."""
+    def _at_estimates(self, value: F64, profile: F64) -> F64:
+        """``profile`` (t,), given at the table nodes, at the estimates ``value`` (SI, (b,);
+        clipped to the table), linear in between: one arithmetic step, as the table's own."""
+        q = self.table.quantity  # steps of q[1] - q[0] (the last may be shorter), increasing
+        vq = np.fmin(np.fmax(value, q[0]), q[-1])
+        j = np.minimum((vq - q[0]) / (q[1] - q[0]), q.size - 1).astype(np.intp)
+        j -= vq < q[j]  # at or below vq (rounding): then at most one knot ahead
+        return _interp(vq, j, 1, q, profile)
+
+    def _scale_block(self, value: F64, slope: F64, out: F64) -> None:
+        """The force scale's 1 σ of readings with estimates ``value`` (SI, (b,)) and slopes
+        |dq/dV| (b,), into ``out``: exactly ``|F| · σ_E/E`` for a tip force without actuation,
+        else the modulus's output σ at the estimate through the slope
+        (:mod:`magcilia.readout.scale`); 0 without one."""
         if not self.sigma_modulus.any():
             out[:] = 0.0
         elif scales_exactly(self.quantity, self.actuation is not None):
             np.multiply(np.abs(value), self.modulus.relative, out=out)
         else:
-            np.multiply(_interp(vq, j.copy(), 1, self.table.quantity, self.sigma_modulus),
-                        slope, out=out)
+            np.multiply(self._at_estimates(value, self.sigma_modulus), slope, out=out)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description of the table (SI)."""

@@ -16,7 +16,7 @@ for a single-axis sensor). The *minimum detectable* value is the field noise of 
 the field's slope, combined over the sensor's axes as ``1 / sqrt(Σ (s_i / σ_i)²)`` (s: dB/dF or
 dB/dU on axis i, σ_i its RMS noise; one axis for the HMC1021Z: ``σ / |s|``, as design_metrics).
 The *range* is the measurand's value where the read-out ends (:func:`~magcilia.readout.design.
-range_end`, as design_metrics), the first of
+read_range`, as design_metrics), the first of
 
 1. the sensor's rated range: an axis's |B_i| reaches its full scale (±6 gauss on the HMC1021Z's
    sensitive axis; ±8 gauss per axis on the MMC5983MA), or the total field |B| reaches the rated
@@ -90,13 +90,7 @@ from magcilia.execution import run_tasks
 from magcilia.mechanics import WATER, Flow, Fluid, bend, bend_sweep, tip_compliance
 from magcilia.mechanics.drag import drag_per_length, max_speed
 from magcilia.model.batch import TiltBatch
-from magcilia.readout.design import (
-    SWEEP_ENDS,
-    range_end,
-    range_text,
-    rated_ratio,
-    sweep_fields,
-)
+from magcilia.readout.design import SWEEP_ENDS, rated_ratio, read_range, sweep_fields
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -170,10 +164,10 @@ class SensorChoice:
         states it for the total applied field), inf for a magnetometer (per-axis ranges)."""
         return self.sensor.field_range if isinstance(self.sensor, Sensor) else math.inf
 
-    def total_limit(self, fixed: Mapping[str, float]) -> float:
-        """The rated range of |B| in force, T: ``fixed["field"]`` when given, else
-        :attr:`rated_total`."""
-        return float(fixed.get("field", self.rated_total))
+    def total_limit(self, field: float | None) -> float:
+        """The rated range of |B| in force, T: ``field`` (the ``"field"`` constraint) when
+        given, else :attr:`rated_total`."""
+        return self.rated_total if field is None else float(field)
 
     @property
     def flip(self) -> float:
@@ -562,13 +556,8 @@ def _range(q: F64, b: F64, choice: SensorChoice, weights: F64, end_note: str, to
     interpolated, or a fold of the weighted reading; else the end of the sweep: not reached),
     what ends it, the last sweep index within it and whether it was reached."""
     reading = choice.reading(b)
-    scale = choice.full_scale
     proj = reading @ np.where(np.isfinite(weights), weights, 0.0)
-    ratio, which = rated_ratio(reading, scale, b, total)
-    value, kind, last = range_end(q, ratio, proj)
-    term = int(which[min(last + 1, which.size - 1)])
-    return (value, range_text(kind, term, scale, total, choice.axes, end_note), last,
-            kind != "end")
+    return read_range(q, reading, b, choice.full_scale, total, proj, choice.axes, end_note)
 
 
 def _information(slope: F64, sigma: F64) -> float:
@@ -731,7 +720,7 @@ def _curve_range(q: F64, reading: F64, mags: F64, choice: SensorChoice, weights:
     weights (N, 3), the sweep's end (N,), the rated range of |B| (T); returns the ranges (N,)
     and the last index within each."""
     scale = choice.full_scale
-    ratio = np.maximum(np.max(np.abs(reading) / scale, axis=2), mags / total)
+    ratio = rated_ratio(reading, scale, mags, total)[0]
     i_sat = _first(ratio > 1.0)
     proj = np.einsum("nak,nk->na", reading, weights)
     dp = np.diff(proj, axis=1)
@@ -759,10 +748,10 @@ def _curve_range(q: F64, reading: F64, mags: F64, choice: SensorChoice, weights:
 
 def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64],
             choices: tuple[SensorChoice, ...], quantity: str, speed: float,
-            bandwidth: tuple[float, float], fluid: Fluid, field_limit: float = math.nan
+            bandwidth: tuple[float, float], fluid: Fluid, field_limit: float | None = None
             ) -> _Screen:
     """Proxy minimum and range of every design (see the module docstring); the range ends where
-    a read axis or |B| leaves the rated range (``field_limit``, T, for |B|; NaN: each sensor's
+    a read axis or |B| leaves the rated range (``field_limit``, T, for |B|; None: each sensor's
     own), and designs whose proxy |B| over the range passes 1.2 times the flip field (the
     proxy's margin) are marked."""
     n = values["height"].size
@@ -815,7 +804,7 @@ def _screen(setup: Setup, values: dict[str, F64], sensor_index: NDArray[np.int64
         weights = np.nan_to_num(slope / sigma**2, nan=0.0, posinf=0.0, neginf=0.0)
         mags = np.linalg.norm(b_curve[sel], axis=2) if quantity == "force" else \
             np.linalg.norm(_flow_curve(q, d, h, c, b_curve[sel], fluid), axis=2)
-        total = choice.rated_total if math.isnan(field_limit) else field_limit
+        total = choice.total_limit(field_limit)
         rng_[sel], last = _curve_range(q, curve, mags, choice, weights, end, total)
         idx = np.arange(q.shape[1])[None, :]
         peak[sel] = np.max(np.where(idx <= last[:, None], mags, 0.0), axis=1)
@@ -925,8 +914,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         Flow objective (required there): the flow speed U, m/s, whose sensitivity counts.
     constraints : mapping, optional
         ``{"range": lowest range, "minimum": largest minimum detectable value}`` (SI: N or
-        m/s) and ``"field"``: the largest |B| at the element over the range, T (e.g. the
-        HMC1021Z's 6 gauss, whose datasheet states its range for the total field).
+        m/s) and ``"field"``: the rated range of |B| at the element, T, where a design's range
+        ends (default each sensor's own: the HMC1021Z's 6 gauss, whose datasheet states its
+        range for the total field; none for a 3-axis part, rated per axis).
     bounds : mapping of str to (low, high), optional
         Searched variables (:data:`VARIABLES`) and their bounds, SI; the defaults
         (:data:`DEFAULT_BOUNDS`) for the others; pass ``(v, v)`` to fix one.
@@ -1019,7 +1009,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     if setup.cilium.profile is None:  # a measured profile scales with the base radius
         geometry_ok = (values["tip_radius"] <= values["base_radius"]) & (values["tip_radius"] > 0)
     args = (setup, choices, quantity, fixed_c.get("speed", 0.0), bandwidth, fluid,
-            fixed_c.get("field", math.nan))
+            fixed_c.get("field"))
     if total <= SCREEN_CHUNK:
         screen = _screen(setup, values, index, *args[1:])
     else:  # chunks, as tasks through the execution layer
@@ -1166,7 +1156,7 @@ def _task(setup: Setup, choice: SensorChoice, quantity: str, fixed: dict[str, fl
           bandwidth: tuple[float, float], fluid: Fluid, points: int) -> _Task:
     return _Task(setup, choice, quantity, fixed.get("speed", 0.0),
                  (float(bandwidth[0]), float(bandwidth[1])), fluid, points,
-                 choice.total_limit(fixed))
+                 choice.total_limit(fixed.get("field")))
 
 
 def _design(params: dict[str, float], sensor: str, m: dict[str, Any],

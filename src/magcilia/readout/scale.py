@@ -47,15 +47,22 @@ def scales_exactly(quantity: str, actuated: bool) -> bool:
     return quantity == "force" and not actuated
 
 
+def per_ln_modulus(evaluate: Callable[[Setup], F64], setup: Setup) -> F64:
+    """∂/∂ln E of ``evaluate(setup)`` (an array of any shape, in its own unit): a central
+    difference over the setup with its Young's modulus E·(1 ± :data:`MODULUS_STEP`)."""
+    e = setup.youngs_modulus
+    up = evaluate(setup.replace(youngs_modulus=e * (1.0 + MODULUS_STEP)))
+    down = evaluate(setup.replace(youngs_modulus=e * (1.0 - MODULUS_STEP)))
+    return np.asarray((up - down) / (2.0 * MODULUS_STEP), dtype=np.float64)
+
+
 def output_rate(output: Callable[[Setup, F64], F64], setup: Setup, nodes: F64) -> F64:
     """dV/d ln E, V, at the quantity ``nodes`` (SI, increasing, shape (t,)): the model's output
-    ``output(setup, q)`` (V, shape of q) with E·(1 ± :data:`MODULUS_STEP`), a central difference
-    at :data:`RATE_POINTS` points across the nodes, interpolated to them."""
+    ``output(setup, q)`` (V, shape of q) differentiated by :func:`per_ln_modulus` at
+    :data:`RATE_POINTS` points across the nodes, interpolated to them."""
     q = np.linspace(nodes[0], nodes[-1], RATE_POINTS)
-    e = setup.youngs_modulus
-    up = output(setup.replace(youngs_modulus=e * (1.0 + MODULUS_STEP)), q)
-    down = output(setup.replace(youngs_modulus=e * (1.0 - MODULUS_STEP)), q)
-    return np.asarray(np.interp(nodes, q, (up - down) / (2.0 * MODULUS_STEP)), dtype=np.float64)
+    rate = per_ln_modulus(lambda s: output(s, q), setup)
+    return np.asarray(np.interp(nodes, q, rate), dtype=np.float64)
 
 
 def modulus_sigma(output: Callable[[Setup, F64], F64], setup: Setup, quantity: str,
@@ -168,13 +175,10 @@ def scale_notes(moduli: Sequence[Modulus]) -> str:
 def fixed_output_rate(output: Callable[[Setup, F64], F64], setup: Setup, values: F64) -> F64:
     """∂q/∂ln E at a fixed output, SI, at the measurand's ``values`` (shape (a,), > 0): the
     model's ``output(setup, q)`` (V) differentiated by central differences in ln E
-    (:data:`MODULUS_STEP`) and in q (a relative step of 1e-4),
+    (:func:`per_ln_modulus`) and in q (a relative step of 1e-4),
     ``−(∂V/∂ln E) / (∂V/∂q)``."""
     q = np.asarray(values, dtype=np.float64)
-    e = setup.youngs_modulus
-    dv_de = (output(setup.replace(youngs_modulus=e * (1.0 + MODULUS_STEP)), q)
-             - output(setup.replace(youngs_modulus=e * (1.0 - MODULUS_STEP)), q)) \
-        / (2.0 * MODULUS_STEP)
+    dv_de = per_ln_modulus(lambda s: output(s, q), setup)
     h = 1e-4 * q
     dv_dq = (output(setup, q + h) - output(setup, q - h)) / (2.0 * h)
     return np.asarray(-dv_de / dv_dq, dtype=np.float64)

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
-from magcilia.readout.biaxial import ForceVectorResult
+from magcilia.readout.biaxial import ForceVectorResult, polar_sigmas
 
 #: the ellipses' radius in σ (2σ: ~86 % of a 2-D normal's draws lie inside)
 ELLIPSE_SIGMAS = 2.0
@@ -29,16 +29,12 @@ ELLIPSE_SIGMAS = 2.0
 
 def noise_sigmas(result: ForceVectorResult) -> tuple[np.ndarray, np.ndarray]:
     """The noise's 1 σ of the magnitude (N) and of the direction (rad) of each reading, flat:
-    :attr:`ForceVectorResult.covariance_noise` along and across the estimate (NaN without an
-    estimate, inf without a direction, as the result's own)."""
-    cov = result.covariance_noise.reshape(-1, 2, 2)
-    direction = np.arctan2(result.fy, result.fx).reshape(-1)
-    c, s = np.cos(direction), np.sin(direction)
-    var_r = c * c * cov[:, 0, 0] + 2 * c * s * cov[:, 0, 1] + s * s * cov[:, 1, 1]
-    var_t = s * s * cov[:, 0, 0] - 2 * c * s * cov[:, 0, 1] + c * c * cov[:, 1, 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s_mag = np.sqrt(np.clip(var_r, 0.0, None))
-        s_dir = np.sqrt(np.clip(var_t, 0.0, None)) / result.magnitude.reshape(-1)
+    :attr:`ForceVectorResult.covariance_noise` along and across the estimate
+    (:func:`~magcilia.readout.biaxial.polar_sigmas`; NaN without an estimate, inf without a
+    direction, as the result's own)."""
+    s_mag, s_dir = polar_sigmas(result.covariance_noise.reshape(-1, 2, 2),
+                                result.magnitude.reshape(-1),
+                                np.arctan2(result.fy, result.fx).reshape(-1))
     s_dir = np.where(np.isinf(result.sigma_direction.reshape(-1)), np.inf, s_dir)
     return s_mag, s_dir
 

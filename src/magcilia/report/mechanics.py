@@ -12,7 +12,7 @@ import numpy as np
 from magcilia.device.setup import Setup
 from magcilia.mechanics import BentShape, SpatialBentShape, bend
 from magcilia.model.centreline import SpatialCentreline
-from magcilia.readout.scale import MODULUS_STEP
+from magcilia.readout.scale import per_ln_modulus
 from magcilia.units import OutputUnits
 
 
@@ -28,25 +28,24 @@ def load_label(shape: BentShape) -> str:
 def bend_scale(setup: Setup, shape: BentShape | SpatialBentShape) -> dict[str, Any]:
     """The force scale of one bend (SI): the modulus's note, and the 1 σ of the tip position (m,
     (3,)) and of the output (V) that the Young's modulus's uncertainty gives under the same
-    load (central differences of the shape over E·(1 ± MODULUS_STEP); zeros without a load or
-    for a modulus taken as exact)."""
+    load (central differences in ln E, :func:`~magcilia.readout.scale.per_ln_modulus`; zeros
+    without a load or for a modulus taken as exact)."""
     load, rel = shape.load, setup.youngs_modulus_uncertainty
     out = {"scale_note": setup.modulus.note(), "sigma_tip_m": [0.0, 0.0, 0.0],
            "sigma_output_V": 0.0}
     if not rel or (not load.force and load.flow is None and load.actuation is None):
         return out
-    e = setup.youngs_modulus
-    tips, volts = [], []
-    for sign in (1.0, -1.0):
-        s = setup.replace(youngs_modulus=e * (1.0 + sign * MODULUS_STEP))
+
+    def tip_and_output(s: Setup) -> np.ndarray:
+        """The tip's position (m, (3,)) and the output (V) of the bend under ``s``'s modulus."""
         bent = bend(s, force=load.force, at=load.at if load.force else None,
                     direction=load.direction, azimuth=load.azimuth, flow=load.flow,
                     actuation=load.actuation)
-        tips.append(bent.points[0, -1])
-        volts.append(float(setup.output(bent)[0]))
-    rate = (tips[0] - tips[1]) / (2.0 * MODULUS_STEP)
-    out["sigma_tip_m"] = (np.abs(rate) * rel).tolist()
-    out["sigma_output_V"] = abs(volts[0] - volts[1]) / (2.0 * MODULUS_STEP) * rel
+        return np.append(bent.points[0, -1], setup.output(bent)[0])
+
+    rate = np.abs(per_ln_modulus(tip_and_output, setup)) * rel
+    out["sigma_tip_m"] = rate[:3].tolist()
+    out["sigma_output_V"] = float(rate[3])
     return out
 
 
