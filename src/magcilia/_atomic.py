@@ -133,9 +133,12 @@ def _close(fd: int | None) -> None:
         os.close(fd)
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (ours or another user's); always True on Windows, where
+    ``os.kill(pid, 0)`` would send it CTRL_C_EVENT (callers there rely on locks, ages or a
+    process sentinel instead)."""
     if sys.platform == "win32":
-        return True  # os.kill(pid, 0) would send CTRL_C_EVENT there
+        return True
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -175,7 +178,7 @@ def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
         if fd is None and (sys.platform != "win32" or age <= STALE_AFTER_UNLOCKED):
             continue  # a live run holds it
         try:
-            if fd is not None and _pid_alive(int(match.group(2))) and age <= STALE_AFTER:
+            if fd is not None and pid_alive(int(match.group(2))) and age <= STALE_AFTER:
                 continue
             if is_folder:
                 shutil.rmtree(path, ignore_errors=True)
