@@ -87,8 +87,7 @@ def _make_folders(folder: Path, what: str) -> list[Path]:
 #: what a temporary name stands for: a file being written, a folder being filled, an old folder
 #: being replaced, a private work folder (the module notes)
 KINDS = ("partial", "staging", "trash", "scratch")
-_LEFTOVER = re.compile(r"^\..+\.magcilia-(partial|staging|trash|scratch)-(\d+)-[0-9a-f]+"
-                       r"(?:\.[^.]*)?$")
+_LEFTOVER = re.compile(rf"^\..+\.magcilia-({'|'.join(KINDS)})-(\d+)-[0-9a-f]+(?:\.[^.]*)?$")
 #: a leftover whose lock is free but whose process id is alive (reused, or a run between
 #: creating it and locking it) is removed only once it is this old (seconds)
 STALE_AFTER = 60.0
