@@ -57,12 +57,6 @@ if sys.platform != "win32":
     import fcntl
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def _make_folders(folder: Path, what: str) -> list[Path]:
     """Create ``folder`` and its missing parents; returns those created, deepest first. A
     one-line :class:`MagciliaError` naming ``what`` when that is not possible."""
