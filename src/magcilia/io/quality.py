@@ -48,8 +48,7 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, count
 from magcilia._errors import MagciliaError
 from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
-from magcilia.io.sample_checks import (  # noqa: F401 (MAD_SIGMA: kept here)
-    MAD_SIGMA,
+from magcilia.io.sample_checks import (
     duplicated_blocks,
     garbled,
     outliers_in_runs,
