@@ -48,11 +48,11 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, count
 from magcilia._errors import MagciliaError
 from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
+from magcilia.io.moments import runs
 from magcilia.io.sample_checks import (
     duplicated_blocks,
     garbled,
     outliers_in_runs,
-    runs_of,
     spikes_in_series,
 )
 
@@ -129,7 +129,7 @@ def robust_outliers(group: ArrayLike, values: ArrayLike, polarity: ArrayLike | N
     key = np.asarray(group, dtype=np.intp).ravel()
     x = _table(values)
     sign = None if polarity is None else np.asarray(polarity).ravel() > 0
-    starts, lengths = runs_of(key)
+    starts, lengths = runs(key)
     distinct, run_group = np.unique(key[starts], return_inverse=True)
     out, _ = outliers_in_runs([x[:, j] for j in range(x.shape[1])], starts, lengths,
                               run_group.ravel(), distinct.size, sign, sigmas=sigmas,
@@ -480,7 +480,7 @@ def _check(cond: F64 | None, observable: list[F64], azimuth: F64 | None, sign: F
         quality["condition"] = "time"
     else:
         keys = (cond,) if azimuth is None else (cond, azimuth)
-        starts, lengths = runs_of(*keys)
+        starts, lengths = runs(*keys)
         cv, av = _run_keys(cond, azimuth, starts, factor, decimals)
         run_ok = np.isfinite(cv) if av is None else np.isfinite(cv) & np.isfinite(av)
         with np.errstate(invalid="ignore"):
@@ -495,7 +495,7 @@ def _check(cond: F64 | None, observable: list[F64], azimuth: F64 | None, sign: F
         else:  # the finite samples only
             use = np.flatnonzero(np.repeat(run_ok, lengths) & usable())
             part = [c[use] for c in keys]
-            st, ln = runs_of(*part)
+            st, ln = runs(*part)
             cvu, avu = _run_keys(part[0], None if azimuth is None else part[1], st, factor,
                                  decimals)
             outlier[use], flagged[use], found = _by_condition(
