@@ -24,6 +24,7 @@ from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.io.columns import Columns, columns_help
+from magcilia.io.quality import OUTLIER_SIGMAS, SUSPECT_POLICIES
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
@@ -469,12 +470,12 @@ def suspect_option(command: Any) -> Any:
     conditions with far fewer samples than the others, outliers, duplicated blocks, garbled
     values); they are counted and named either way. The command receives ``suspect``."""
     return click.option(
-        "--suspect", type=click.Choice(["keep", "omit", "raise"]), default="keep",
+        "--suspect", type=click.Choice(SUSPECT_POLICIES), default="keep",
         show_default=True,
         help="Samples the quality checks flag (conditions with far fewer samples than the others, "
-             "outliers beyond 8 robust SDs, duplicated blocks of rows, garbled values): keep "
-             "them, omit them, or refuse the recording; counted and named in the output "
-             "either way.")(command)
+             f"outliers beyond {OUTLIER_SIGMAS:g} robust SDs, duplicated blocks of rows, garbled "
+             "values): keep them, omit them, or refuse the recording; counted and named in the "
+             "output either way.")(command)
 
 
 def fit_options(command: Any) -> Any:
