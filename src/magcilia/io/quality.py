@@ -32,7 +32,7 @@ sort of them in the common case: :mod:`magcilia.io.sample_checks`, which says ho
 condition of more than :data:`~magcilia.io.sample_checks.OUTLIER_SUBSAMPLE` samples takes its
 median and MAD from that many evenly spaced ones); :func:`check_samples` runs them all.
 What is done with the findings is the caller's policy (:data:`SUSPECT_POLICIES`: keep them and
-say so, omit them and say so, or refuse the recording).
+say so, omit them and say so, or refuse the recording), applied by :func:`screen`.
 """
 
 from __future__ import annotations
@@ -550,6 +550,19 @@ def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> Recordin
             None if polarity is None else np.asarray(polarity, np.float64).ravel(),
             rows=list(columns.values()), kind=kind, policy=suspect, factor=factor,
             decimals=ANGLE_DECIMALS)
+
+
+def screen(columns: Mapping[str, F64], suspect: str, source: str
+           ) -> tuple[RecordingQuality, Mapping[str, F64]]:
+    """A recording's raw columns checked (:func:`check_quality`) and the policy ``suspect``
+    applied: the checks' result and the columns to use, ``columns`` itself (``"keep"``, or
+    nothing flagged), a copy without the flagged rows (``"omit"``), or the one-line error of
+    :func:`refuse_suspects` (``"raise"``, naming ``source``)."""
+    quality = check_quality(columns, suspect)
+    refuse_suspects(source, quality)
+    if quality.found and quality.policy == "omit":
+        return quality, quality.kept(columns)
+    return quality, columns
 
 
 def refuse_suspects(source: str, quality: RecordingQuality) -> None:
