@@ -20,9 +20,10 @@ the process dies, SIGKILL included. :func:`remove_leftovers` removes those that 
 no live process holds its lock, and its process id is dead or it is older than
 :data:`STALE_AFTER`. Every :func:`partial_file`, :func:`staged_directory` and
 :func:`scratch_directory` calls it on its folder first, so the next run that writes there cleans
-up after a killed one. Any other writer (``record --force``'s stream, say) follows the same
-convention by writing through :func:`partial_file` (and :meth:`PartialFile.publish` once the new
-file may replace the old one).
+up after a killed one. Any other writer follows the same convention through a
+:class:`PartialFile` (``record --force``'s recording: :class:`PartialFile` itself, after
+:func:`remove_leftovers` on its folder, and :meth:`PartialFile.publish` once the new file may
+replace the old one).
 
 ``--force``. A command replaces only what it wrote itself: :func:`foreign_entry` finds anything
 else in an output folder (the command's own file names, its sub-folders of its own names, and

@@ -381,7 +381,8 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
                   azimuth: ArrayLike | None = None, polarity: ArrayLike | None = None,
                   rows: list[ArrayLike] | None = None, kind: str = "angle",
                   policy: str = "keep") -> RecordingQuality:
-    """Run the three checks on a recording's samples.
+    """Run the checks on a recording's samples (sparse conditions, outliers, duplicated blocks,
+    garbled values).
 
     Parameters
     ----------
