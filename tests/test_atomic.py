@@ -49,6 +49,12 @@ def contents(folder: Path) -> dict[str, str]:
     return {p.name: p.read_text() for p in sorted(folder.iterdir())}
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def dead_pid() -> int:
     """The process id of a process that has ended."""
     child = subprocess.Popen([sys.executable, "-c", "pass"])
@@ -77,7 +83,7 @@ def test_a_folder_is_published_with_one_rename(tmp_path: Path,
     assert renames == [(tmp.name, "out")]
     assert contents(out) == {"a.txt": "new", "b.txt": "new"}
     assert leftovers(tmp_path) == []
-    assert out.stat().st_mode & 0o777 == 0o777 & ~_atomic._umask()
+    assert out.stat().st_mode & 0o777 == 0o777 & ~_umask()
 
 
 def test_an_empty_folder_is_replaced_without_force(tmp_path: Path) -> None:

@@ -20,9 +20,10 @@ the process dies, SIGKILL included. :func:`remove_leftovers` removes those that 
 no live process holds its lock, and its process id is dead or it is older than
 :data:`STALE_AFTER`. Every :func:`partial_file`, :func:`staged_directory` and
 :func:`scratch_directory` calls it on its folder first, so the next run that writes there cleans
-up after a killed one. Any other writer (``record --force``'s stream, say) follows the same
-convention by writing through :func:`partial_file` (and :meth:`PartialFile.publish` once the new
-file may replace the old one).
+up after a killed one. Any other writer follows the same convention through a
+:class:`PartialFile` (``record --force``'s recording: :class:`PartialFile` itself, after
+:func:`remove_leftovers` on its folder, and :meth:`PartialFile.publish` once the new file may
+replace the old one).
 
 ``--force``. A command replaces only what it wrote itself: :func:`foreign_entry` finds anything
 else in an output folder (the command's own file names, its sub-folders of its own names, and
@@ -57,12 +58,6 @@ if sys.platform != "win32":
     import fcntl
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def _make_folders(folder: Path, what: str) -> list[Path]:
     """Create ``folder`` and its missing parents; returns those created, deepest first. A
     one-line :class:`MagciliaError` naming ``what`` when that is not possible."""
@@ -87,8 +82,7 @@ def _make_folders(folder: Path, what: str) -> list[Path]:
 #: what a temporary name stands for: a file being written, a folder being filled, an old folder
 #: being replaced, a private work folder (the module notes)
 KINDS = ("partial", "staging", "trash", "scratch")
-_LEFTOVER = re.compile(r"^\..+\.magcilia-(partial|staging|trash|scratch)-(\d+)-[0-9a-f]+"
-                       r"(?:\.[^.]*)?$")
+_LEFTOVER = re.compile(rf"^\..+\.magcilia-({'|'.join(KINDS)})-(\d+)-[0-9a-f]+(?:\.[^.]*)?$")
 #: a leftover whose lock is free but whose process id is alive (reused, or a run between
 #: creating it and locking it) is removed only once it is this old (seconds)
 STALE_AFTER = 60.0
@@ -133,9 +127,12 @@ def _close(fd: int | None) -> None:
         os.close(fd)
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (ours or another user's); always True on Windows, where
+    ``os.kill(pid, 0)`` would send it CTRL_C_EVENT (callers there rely on locks, ages or a
+    process sentinel instead)."""
     if sys.platform == "win32":
-        return True  # os.kill(pid, 0) would send CTRL_C_EVENT there
+        return True
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -175,7 +172,7 @@ def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
         if fd is None and (sys.platform != "win32" or age <= STALE_AFTER_UNLOCKED):
             continue  # a live run holds it
         try:
-            if fd is not None and _pid_alive(int(match.group(2))) and age <= STALE_AFTER:
+            if fd is not None and pid_alive(int(match.group(2))) and age <= STALE_AFTER:
                 continue
             if is_folder:
                 shutil.rmtree(path, ignore_errors=True)

@@ -68,6 +68,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from magcilia import _validate as v
+from magcilia._atomic import pid_alive
 from magcilia._errors import MagciliaError, require
 
 __all__ = [
@@ -202,18 +203,6 @@ def _parent_death_signal() -> bool:
         return False
 
 
-def _alive(pid: int) -> bool:
-    if sys.platform == "win32":
-        return True  # os.kill(pid, 0) would end it there; the sentinel tells instead
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    return True
-
-
 def die_with_parent(parent: int, direct: bool = True) -> None:
     """End this process (``os._exit``) when the process ``parent`` ends, SIGKILL included.
 
@@ -239,7 +228,7 @@ def die_with_parent(parent: int, direct: bool = True) -> None:
                     multiprocessing.connection.wait([sentinel], timeout=WATCHDOG_INTERVAL)
             else:
                 time.sleep(WATCHDOG_INTERVAL)
-            if os.getppid() != ppid or not _alive(parent) or (
+            if os.getppid() != ppid or not pid_alive(parent) or (
                     origin is not None and origin.pid == parent and not origin.is_alive()):
                 os._exit(1)
 

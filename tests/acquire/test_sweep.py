@@ -4,6 +4,7 @@ recorded, the `record` command, and the NI-DAQmx adapter at its boundary."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
@@ -89,6 +90,17 @@ def test_a_fault_keeps_the_recording_and_says_where(tmp_path: Path) -> None:
     assert mc.read_measurements(path).counts.tolist() == [300, 300, 300]
     props = recording_properties(path)
     assert props["complete"] is False and "stopped at angle 4" in props["stopped"]
+
+
+@pytest.mark.parametrize("kind", ["sweep", "stream"])
+def test_a_chunk_below_one_is_refused_before_the_source_opens(kind: str, tmp_path: Path) -> None:
+    source = SimulatedSource(TRUTH, rng=0)
+    path = tmp_path / "never.tdms"
+    record: Any = (functools.partial(record_sweep, angles=ANGLES[:2], samples=10)
+                   if kind == "sweep" else functools.partial(record_stream, seconds=0.01))
+    with pytest.raises(mc.MagciliaError, match=r"^chunk must be .*; got 0$"):
+        record(source, path, chunk=0)
+    assert not path.exists() and not source.is_open
 
 
 def test_continuous_recording_through_the_ring_buffer(tmp_path: Path) -> None:

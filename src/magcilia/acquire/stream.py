@@ -13,13 +13,14 @@ from typing import Any
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, si
-from magcilia.acquire.buffer import BackgroundReader
+from magcilia.acquire.buffer import READS_PER_SECOND, BackgroundReader
 from magcilia.acquire.source import OUTPUT, Counters, Source
 from magcilia.io.recording_file import RecordingWriter, chunk_for
 from magcilia.io.recordings import nptdms_module
 
 #: samples per read of a source that is not paced (a simulation run as fast as it goes: larger
 #: reads cost less per sample, and nobody waits for them); a paced one is read 1/50 s at a time
+#: (:data:`~magcilia.acquire.buffer.READS_PER_SECOND`)
 UNPACED_CHUNK = 4096
 
 
@@ -115,7 +116,8 @@ def record_stream(source: Source, path: str | Path, seconds: float, *,
     seconds = v.positive("seconds", seconds, "s", "duration")
     given_chunk = None if chunk is None else v.integer("chunk", chunk, 1)
     nptdms_module("Recording to TDMS files")  # imported before the source starts delivering
-    unpaced = None if source.realtime else max(UNPACED_CHUNK, round(float(source.rate) / 50.0))
+    unpaced = None if source.realtime else max(UNPACED_CHUNK,
+                                               round(float(source.rate) / READS_PER_SECOND))
     reader = BackgroundReader(source, seconds=buffer_seconds, chunk=unpaced, stall=stall)
     written = 0
     total = 0

@@ -200,6 +200,7 @@ def record_sweep(
         raise v.fail("sweep", "both or neither of angles and ask",
                      "given a list of angles or a function that asks for them")
     samples = v.integer("samples", samples, 2)
+    given_chunk = None if chunk is None else v.integer("chunk", chunk, 1)
     settle = v.non_negative("settle", settle, "s", "duration")
     sensor = sensor or Sensor()
     planned = None if angles is None else [
@@ -213,7 +214,7 @@ def record_sweep(
     with source:  # opened first: a serial device announces its rate, and a failure leaves no file
         piece = chunk_for(source.rate)
         settle_samples = round(settle * source.rate)
-        writer = RecordingWriter(path, chunk=chunk or piece, overwrite=overwrite, metadata={
+        writer = RecordingWriter(path, chunk=given_chunk or piece, overwrite=overwrite, metadata={
             **source.metadata(), **(metadata or {}), "samples_per_angle": samples,
             "planned_angles_deg": None if planned is None else [
                 math.degrees(a) for a in planned]}).open()

@@ -332,9 +332,13 @@ def _row(name: str, path: Path, values: Mapping[str, Any], error: str, result: T
 
 
 def _json_row(doc: Mapping[str, Any]) -> dict[str, Any]:
-    """A row read back from batch.json (null → NaN)."""
-    return {c: (("" if c == "notes" else doc.get(c)) if c in TEXT_COLUMNS and doc.get(c) is None
-                else math.nan if doc.get(c) is None else doc.get(c)) for c in COLUMNS}
+    """A row read back from batch.json (null → NaN in a number column; in a text column it stays
+    None, but for ``notes``, which rows of earlier batches lack: "")."""
+    row = {c: doc.get(c) for c in COLUMNS}
+    for c, value in row.items():
+        if value is None:
+            row[c] = ("" if c == "notes" else None) if c in TEXT_COLUMNS else math.nan
+    return row
 
 
 def robust_z(values: ArrayLike) -> NDArray[np.float64]:

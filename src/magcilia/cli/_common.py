@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.io.columns import Columns, columns_help
+from magcilia.io.quality import OUTLIER_SIGMAS, SUSPECT_POLICIES
 from magcilia.io.recordings import Measurement
 from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
@@ -204,17 +206,26 @@ def mechanics_options(command: Any) -> Any:
                              "50um).")(command)
 
 
-def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
-                            **options: Any) -> CalibrationResult:
-    """:func:`magcilia.calibrate` with a progress bar over the restarts on stderr (not with
-    ``--quiet`` or when stderr is not a terminal)."""
+@contextlib.contextmanager
+def progress_bar(desc: str, unit: str, *, quiet: bool = False,
+                 **options: Any) -> Iterator[Callable[[int, int], None]]:
+    """A ``progress(done, total)`` callback (the library's form) that drives a tqdm bar on
+    stderr, not with ``quiet`` (the command's ``--quiet`` or ``magcilia -q``) or when stderr is
+    not a terminal; ``options`` go to tqdm."""
     show = not quiet_requested(quiet) and sys.stderr.isatty()
-    with tqdm(desc="calibrating (restarts)", unit="run", disable=not show,
-              file=sys.stderr) as bar:
+    with tqdm(desc=desc, unit=unit, disable=not show, file=sys.stderr, **options) as bar:
         def advance(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)
 
+        yield advance
+
+
+def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
+                            **options: Any) -> CalibrationResult:
+    """:func:`magcilia.calibrate` with a progress bar over the restarts on stderr (not with
+    ``--quiet`` or when stderr is not a terminal)."""
+    with progress_bar("calibrating (restarts)", "run", quiet=quiet) as advance:
         return calibrate(data, initial=initial, progress=advance, **options)
 
 
@@ -299,14 +310,8 @@ class RecordingArgs:
         """``read(path, **kwargs)`` (read_measurements or read_samples) with these options and a
         progress bar on stderr for reads longer than a second (not with ``quiet`` or when stderr
         is not a terminal)."""
-        show = not quiet_requested(quiet) and sys.stderr.isatty()
-        with tqdm(desc=f"reading {Path(path).name}", unit="B", unit_scale=True,
-                  unit_divisor=1024, delay=1.0, leave=False, disable=not show,
-                  file=sys.stderr) as bar:
-            def advance(done: int, total: int) -> None:
-                bar.total = total
-                bar.update(done - bar.n)
-
+        with progress_bar(f"reading {Path(path).name}", "B", quiet=quiet, unit_scale=True,
+                          unit_divisor=1024, delay=1.0, leave=False) as advance:
             return read(path, progress=advance, **self.kwargs(), **kwargs)
 
 
@@ -465,12 +470,12 @@ def suspect_option(command: Any) -> Any:
     conditions with far fewer samples than the others, outliers, duplicated blocks, garbled
     values); they are counted and named either way. The command receives ``suspect``."""
     return click.option(
-        "--suspect", type=click.Choice(["keep", "omit", "raise"]), default="keep",
+        "--suspect", type=click.Choice(SUSPECT_POLICIES), default="keep",
         show_default=True,
         help="Samples the quality checks flag (conditions with far fewer samples than the others, "
-             "outliers beyond 8 robust SDs, duplicated blocks of rows, garbled values): keep "
-             "them, omit them, or refuse the recording; counted and named in the output "
-             "either way.")(command)
+             f"outliers beyond {OUTLIER_SIGMAS:g} robust SDs, duplicated blocks of rows, garbled "
+             "values): keep them, omit them, or refuse the recording; counted and named in the "
+             "output either way.")(command)
 
 
 def fit_options(command: Any) -> Any:

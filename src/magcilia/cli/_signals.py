@@ -59,20 +59,29 @@ class StopRequest:
 
 
 @contextlib.contextmanager
+def _installed(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
+    """``handler`` for every signal of :data:`STOP_SIGNALS` while inside, the handlers before put
+    back on the way out; outside the main thread (where handlers cannot be set, and no signal
+    arrives) nothing is installed."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {name: signal.signal(getattr(signal, name), handler) for name in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for name, before in saved.items():
+            signal.signal(getattr(signal, name), before)
+
+
+@contextlib.contextmanager
 def stop_signals() -> Iterator[StopRequest]:
     """While inside, SIGINT, SIGTERM and SIGHUP (SIGBREAK on Windows) are stop requests
     (:class:`StopRequest`); the handlers before are put back on the way out. Outside the main
     thread (where handlers cannot be set, and no signal arrives) nothing is installed."""
     stop = StopRequest()
-    if threading.current_thread() is not threading.main_thread():
+    with _installed(stop.handle):
         yield stop
-        return
-    saved = {name: signal.signal(getattr(signal, name), stop.handle) for name in STOP_SIGNALS}
-    try:
-        yield stop
-    finally:
-        for name, handler in saved.items():
-            signal.signal(getattr(signal, name), handler)
 
 
 @contextlib.contextmanager
@@ -85,18 +94,11 @@ def signals_interrupt() -> Iterator[StopRequest]:
     The handlers before are put back on the way out; outside the main thread nothing is
     installed."""
     stop = StopRequest()
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
 
     def interrupt(signum: int, frame: FrameType | None) -> None:
         if stop.signal is None:
             stop.handle(signum, frame)
             raise KeyboardInterrupt
 
-    saved = {name: signal.signal(getattr(signal, name), interrupt) for name in STOP_SIGNALS}
-    try:
+    with _installed(interrupt):
         yield stop
-    finally:
-        for name, handler in saved.items():
-            signal.signal(getattr(signal, name), handler)

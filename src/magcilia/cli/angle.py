@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -82,8 +81,7 @@ def command(photos: tuple[str, ...], reference: str, manual: bool, line_text: st
                 decoded.image, 2, f"{Path(photo).name}: click two points on the tape"))
             points = ((float(clicked[0, 0]), float(clicked[0, 1])),
                       (float(clicked[1, 0]), float(clicked[1, 1])))
-        m = dataclasses.replace(measure_tilt(decoded, reference=reference, line_points=points),
-                                path=photo)
+        m = measure_tilt(decoded, reference=reference, line_points=points)  # path: the photo's
         if annotate_dir is not None:
             annotate(m, decoded.image, Path(annotate_dir) / f"{Path(photo).stem}_angle.png",
                      style)

@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import math
-import sys
 from typing import Any
 
 import click
-from tqdm import tqdm
 
 from magcilia._validate import fail
 from magcilia.calibration.plan import PLAN_PARAMETERS, SENSORS, CalibrationPlan, plan_calibration
@@ -16,7 +14,7 @@ from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     parse_priors,
-    quiet_requested,
+    progress_bar,
     si_option,
 )
 from magcilia.report.units import output_units
@@ -110,12 +108,7 @@ def command(setup_arg: str, budget: int, sensor: str, azimuths: str, angles: str
     if budget < len(PLAN_PARAMETERS) - len(sds):
         raise fail("--budget", budget, f"at least {len(PLAN_PARAMETERS) - len(sds)} readings "
                                        f"to determine {', '.join(PLAN_PARAMETERS)}")
-    show = not quiet_requested(quiet) and sys.stderr.isatty()
-    with tqdm(desc="planning (starts)", unit="start", disable=not show, file=sys.stderr) as bar:
-        def advance(done: int, total: int) -> None:
-            bar.total = total
-            bar.update(done - bar.n)
-
+    with progress_bar("planning (starts)", "start", quiet=quiet) as advance:
         plan = plan_calibration(setup, budget, sensor=sensor, azimuths=phis, angles=grid,
                                 noise=noise, prior_sd=sds, progress=advance)
     if as_json:

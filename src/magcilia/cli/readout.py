@@ -34,6 +34,7 @@ from magcilia.device.parameters import MEASURANDS, PARAMETERS
 from magcilia.device.setup import Setup
 from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
+from magcilia.io.quality import screen
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
@@ -58,8 +59,8 @@ def parse_span(text: str, quantity: str) -> tuple[float, float]:
 def read_checked(path: str, reading: RecordingArgs, required: tuple[str, ...], *,
                  quiet: bool, suspect: str) -> tuple[dict[str, np.ndarray], list[str],
                                                      dict[str, object]]:
-    """A recording's columns after the quality checks (:func:`magcilia.io.recordings.
-    check_quality`; the flagged samples kept, omitted or refused by ``suspect``), with the notes
+    """A recording's columns after the quality checks (:func:`magcilia.io.quality.screen`: the
+    flagged samples kept, omitted or refused by ``suspect``), with the notes
     to print (the reader's, an incomplete recording, the checks' findings) and the checks'
     result (``RecordingQuality.to_dict``)."""
     raw = reading.read(recordings.read_recording, path, quiet=quiet, required=required)
@@ -70,13 +71,11 @@ def read_checked(path: str, reading: RecordingArgs, required: tuple[str, ...], *
         notes.append(incomplete)
     doc: dict[str, object] = {}
     if cols and next(iter(cols.values())).size:
-        quality = recordings.check_quality(cols, suspect)
-        recordings.refuse_suspects(path, quality)
+        quality, kept = screen(cols, suspect, path)
+        cols = dict(kept)
         doc = quality.to_dict()
         if quality.found:
             notes.append(quality.report())
-            if suspect == "omit":
-                cols = quality.kept(cols)
     return cols, [f"note: {path}: {n}" for n in notes], doc
 
 

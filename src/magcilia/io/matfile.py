@@ -223,9 +223,10 @@ H5_FILTERS = {1: "deflate", 2: "shuffle", 3: "fletcher32", 4: "szip", 5: "nbit",
 
 def h5_dataset_problem(obj: Any) -> str | None:  # pragma: no cover (runs in the child process)
     """What keeps an HDF5 dataset from being read as data of its own file (the HDF5 and MATLAB
-    v7.3 readers' child processes run this before reading a value; self-contained): its values
-    kept in another file (external storage), gathered from other datasets or files (a virtual
-    dataset), decoded by a filter that is not built in (a plugin loaded from elsewhere), or not
+    v7.3 readers' child processes run this before reading a value; self-contained but for
+    :data:`H5_FILTERS`, sent with it: :func:`h5_child_helpers`): its values kept in another file
+    (external storage), gathered from other datasets or files (a virtual dataset), decoded by a
+    filter that is not built in (a plugin loaded from elsewhere), or not
     written (a contiguous dataset never written, chunks never allocated: they would read as the
     fill value). None for a dataset that is whole and its own."""
     import math
@@ -244,7 +245,7 @@ def h5_dataset_problem(obj: Any) -> str | None:  # pragma: no cover (runs in the
                 "magcilia reads only what is inside the file: store the values in it")
     for i in range(plist.get_nfilters()):
         code, _, _, name = plist.get_filter(i)
-        if code not in {1, 2, 3, 4, 5, 6, 32000}:
+        if code not in H5_FILTERS:
             label = str(name, "utf-8", "replace") if isinstance(name, bytes) else str(name)
             return (f"is decoded by HDF5 filter {code} ({label[:40] or 'unnamed'}), a plugin "
                     "that magcilia does not load; store it uncompressed or with gzip")
@@ -408,9 +409,11 @@ def _mat_child() -> None:  # pragma: no cover (runs in the child process)
 
 
 def h5_child_helpers() -> str:
-    """The source of the HDF5 checks the child processes share (:func:`h5_dataset_problem`,
-    :func:`h5_reaches_outside`, :func:`forget_h5_plugins`), to send with a child's program."""
-    return ("from __future__ import annotations\n\n" + inspect.getsource(h5_dataset_problem)
+    """The source of the HDF5 checks the child processes share (:data:`H5_FILTERS`,
+    :func:`h5_dataset_problem`, :func:`h5_reaches_outside`, :func:`forget_h5_plugins`), to send
+    with a child's program."""
+    return ("from __future__ import annotations\n\n" + f"H5_FILTERS = {H5_FILTERS!r}\n\n"
+            + inspect.getsource(h5_dataset_problem)
             + "\n" + inspect.getsource(h5_reaches_outside) + "\n"
             + inspect.getsource(forget_h5_plugins) + "\n")
 

@@ -12,12 +12,16 @@ from numpy.typing import NDArray
 F64 = NDArray[np.float64]
 
 
-def runs(values: NDArray[Any]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Start and length of each run of equal values, shapes (r,)."""
-    change = np.ones(values.size, dtype=bool)
-    np.not_equal(values[1:], values[:-1], out=change[1:])
+def runs(*keys: NDArray[Any]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Start and length of each run of rows over which every key (shape (s,)) is constant,
+    shapes (r,). NaN differs from itself: each NaN row is a run of its own."""
+    first, n = keys[0], keys[0].size
+    change = np.ones(n, dtype=bool)
+    np.not_equal(first[1:], first[:-1], out=change[1:])
+    for key in keys[1:]:
+        change[1:] |= key[1:] != key[:-1]
     starts = np.flatnonzero(change)
-    return starts, np.diff(starts, append=values.size)
+    return starts, np.diff(starts, append=n)
 
 
 def by_value(values: NDArray[Any]) -> tuple[NDArray[Any], NDArray[np.intp]]:

@@ -32,7 +32,7 @@ sort of them in the common case: :mod:`magcilia.io.sample_checks`, which says ho
 condition of more than :data:`~magcilia.io.sample_checks.OUTLIER_SUBSAMPLE` samples takes its
 median and MAD from that many evenly spaced ones); :func:`check_samples` runs them all.
 What is done with the findings is the caller's policy (:data:`SUSPECT_POLICIES`: keep them and
-say so, omit them and say so, or refuse the recording).
+say so, omit them and say so, or refuse the recording), applied by :func:`screen`.
 """
 
 from __future__ import annotations
@@ -48,12 +48,11 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, count
 from magcilia._errors import MagciliaError
 from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
-from magcilia.io.sample_checks import (  # noqa: F401 (MAD_SIGMA: kept here)
-    MAD_SIGMA,
+from magcilia.io.moments import runs
+from magcilia.io.sample_checks import (
     duplicated_blocks,
     garbled,
     outliers_in_runs,
-    runs_of,
     spikes_in_series,
 )
 
@@ -130,7 +129,7 @@ def robust_outliers(group: ArrayLike, values: ArrayLike, polarity: ArrayLike | N
     key = np.asarray(group, dtype=np.intp).ravel()
     x = _table(values)
     sign = None if polarity is None else np.asarray(polarity).ravel() > 0
-    starts, lengths = runs_of(key)
+    starts, lengths = runs(key)
     distinct, run_group = np.unique(key[starts], return_inverse=True)
     out, _ = outliers_in_runs([x[:, j] for j in range(x.shape[1])], starts, lengths,
                               run_group.ravel(), distinct.size, sign, sigmas=sigmas,
@@ -382,7 +381,8 @@ def check_samples(condition: ArrayLike | None, observable: ArrayLike, *,
                   azimuth: ArrayLike | None = None, polarity: ArrayLike | None = None,
                   rows: list[ArrayLike] | None = None, kind: str = "angle",
                   policy: str = "keep") -> RecordingQuality:
-    """Run the three checks on a recording's samples.
+    """Run the checks on a recording's samples (sparse conditions, outliers, duplicated blocks,
+    garbled values).
 
     Parameters
     ----------
@@ -481,7 +481,7 @@ def _check(cond: F64 | None, observable: list[F64], azimuth: F64 | None, sign: F
         quality["condition"] = "time"
     else:
         keys = (cond,) if azimuth is None else (cond, azimuth)
-        starts, lengths = runs_of(*keys)
+        starts, lengths = runs(*keys)
         cv, av = _run_keys(cond, azimuth, starts, factor, decimals)
         run_ok = np.isfinite(cv) if av is None else np.isfinite(cv) & np.isfinite(av)
         with np.errstate(invalid="ignore"):
@@ -496,7 +496,7 @@ def _check(cond: F64 | None, observable: list[F64], azimuth: F64 | None, sign: F
         else:  # the finite samples only
             use = np.flatnonzero(np.repeat(run_ok, lengths) & usable())
             part = [c[use] for c in keys]
-            st, ln = runs_of(*part)
+            st, ln = runs(*part)
             cvu, avu = _run_keys(part[0], None if azimuth is None else part[1], st, factor,
                                  decimals)
             outlier[use], flagged[use], found = _by_condition(
@@ -551,6 +551,19 @@ def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> Recordin
             None if polarity is None else np.asarray(polarity, np.float64).ravel(),
             rows=list(columns.values()), kind=kind, policy=suspect, factor=factor,
             decimals=ANGLE_DECIMALS)
+
+
+def screen(columns: Mapping[str, F64], suspect: str, source: str
+           ) -> tuple[RecordingQuality, Mapping[str, F64]]:
+    """A recording's raw columns checked (:func:`check_quality`) and the policy ``suspect``
+    applied: the checks' result and the columns to use, ``columns`` itself (``"keep"``, or
+    nothing flagged), a copy without the flagged rows (``"omit"``), or the one-line error of
+    :func:`refuse_suspects` (``"raise"``, naming ``source``)."""
+    quality = check_quality(columns, suspect)
+    refuse_suspects(source, quality)
+    if quality.found and quality.policy == "omit":
+        return quality, quality.kept(columns)
+    return quality, columns
 
 
 def refuse_suspects(source: str, quality: RecordingQuality) -> None:

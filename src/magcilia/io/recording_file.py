@@ -61,10 +61,9 @@ from magcilia._atomic import PartialFile, _exists_message, jsonable, remove_left
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia._validate import printable
 from magcilia.io import chunk_checksums
-from magcilia.io.recordings import nptdms_module, quiet_nptdms
+from magcilia.io.tdmsfile import GROUP, nptdms_module, quiet_nptdms
 
 F64 = NDArray[np.float64]
-GROUP = "recording"
 #: seconds of samples per flushed chunk (:func:`chunk_for`), and the longest a sample waits
 #: unflushed (``flush_interval``), s: together they bound what a crash loses
 FLUSH_SECONDS = 0.5

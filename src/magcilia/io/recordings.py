@@ -159,10 +159,10 @@ from magcilia.io.hdf5file import read_hdf5
 from magcilia.io.matfile import read_mat
 from magcilia.io.measurement import Measurement
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
-from magcilia.io.quality import (
+from magcilia.io.quality import (  # noqa: F401 (check_quality: kept here, io exports it)
     SUSPECT_POLICIES,
     check_quality,
-    refuse_suspects,
+    screen,
 )
 from magcilia.io.recording_state import RawRecording
 from magcilia.io.tdmsfile import (  # noqa: F401 (nptdms_module, quiet_nptdms: kept here)
@@ -1020,11 +1020,10 @@ def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str,
         reduction.add_columns(cols)
     m = reduction.measurement()
     source = reduction.source
-    quality = check_quality(cols, policy)
-    refuse_suspects(source, quality)
-    if quality.found and policy == "omit":
+    quality, kept = screen(cols, policy, source)
+    if kept is not cols:  # the flagged samples omitted: reduced again without them
         reduction = start()
-        reduction.add_columns(quality.kept(cols))
+        reduction.add_columns(kept)
         m = reduction.measurement()
     state = raw.state
     notes = list(raw.notes)

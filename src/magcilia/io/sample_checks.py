@@ -32,6 +32,8 @@ from collections.abc import Iterator
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia.io.moments import runs
+
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Mask = NDArray[np.bool_]
@@ -43,19 +45,6 @@ MAD_SIGMA = 1.482602218505602
 OUTLIER_SUBSAMPLE = 1 << 12
 #: rows handled at a time where a pass needs temporaries (a few MB: they stay in cache)
 PIECE = 1 << 16
-
-
-def runs_of(*keys: NDArray[np.generic]) -> tuple[I64, I64]:
-    """Start and length of each run of rows over which every key (shape (s,)) is constant,
-    shapes (r,). NaN differs from itself: each NaN row is a run of its own."""
-    n = keys[0].size
-    change = np.zeros(n, dtype=bool)
-    if n:
-        change[0] = True
-        for key in keys:
-            change[1:] |= key[1:] != key[:-1]
-    starts = np.flatnonzero(change)
-    return starts, np.diff(starts, append=n)
 
 
 def _many_runs(runs: int, samples: int) -> bool:
@@ -178,7 +167,7 @@ def outliers_in_runs(columns: list[F64], starts: I64, lengths: I64, run_group: I
         label = np.repeat(run_group, lengths)
         order = np.argsort(label, kind="stable")
         label = label[order]
-        st, ln = runs_of(label)
+        st, ln = runs(label)
         inner, per = _outliers_by_group(
             [c[order] for c in columns], st, ln, label[st], groups,
             None if sign is None else sign[order], sigmas, min_samples, skip)

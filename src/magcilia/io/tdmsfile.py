@@ -67,7 +67,7 @@ from magcilia.io.csvfile import names_text, too_many_samples
 from magcilia.io.recording_state import RawRecording, RecordingState
 
 F64 = NDArray[np.float64]
-#: the group of a magcilia recording's samples (:mod:`magcilia.io.recording_file`)
+#: the group of a magcilia recording's samples (written by :mod:`magcilia.io.recording_file`)
 GROUP = "recording"
 
 #: bytes of a segment's lead-in

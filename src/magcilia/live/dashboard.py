@@ -248,8 +248,7 @@ class Dashboard:
                         "started": False}
             if open_now is not None:
                 return {"recording": str(open_now), "stopped": None, "started": False}
-            self.record_dir.mkdir(parents=True, exist_ok=True)
-            path = self.live.start_recording(directory=self.record_dir)
+            path = self.live.start_recording(directory=self.record_dir)  # (creates the folder)
             return {"recording": str(path), "stopped": None, "started": True}
 
     def toggle_recording(self) -> dict[str, Any]:

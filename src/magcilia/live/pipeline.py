@@ -52,7 +52,7 @@ from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Block, Counters, Source
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
-from magcilia.io.recording_file import RecordingWriter
+from magcilia.io.recording_file import RecordingWriter, chunk_for
 from magcilia.io.recordings import beyond_range
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.live.history import COLUMNS, History, LiveSamples
@@ -498,7 +498,7 @@ class LiveReadout:
                         "factor": self.factor, "event_codes": EVENTS,
                         "tare_correction_V": self.zero.correction}
             writer = RecordingWriter(path, metadata=metadata, reserved=reserved,
-                                     chunk=max(1, round(self.source.rate * 0.5)))
+                                     chunk=chunk_for(self.source.rate))
             try:
                 writer.open()
             except BaseException:
