@@ -127,21 +127,7 @@ def calibrate_recording(task: Mapping[str, Any]) -> dict[str, Any]:
                flagged=int((data.metadata.get("quality") or {}).get("flagged", 0)),
                notes="; ".join(data.notes()))
     with scratch_directory("magcilia-batch") as tmp:  # a killed worker's: removed by the next
-        if task["figures"]:
-            write_calibration_files(result, tmp, task["style"])
-        else:  # the same files less the figures (report.md links none)
-            from magcilia._atomic import write_json, write_text
-            from magcilia.io.setup_files import save_setup
-            from magcilia.report.calibration import markdown_summary
-
-            save_setup(result.setup, Path(tmp) / "fitted_setup.toml")
-            from magcilia.report.recording_notes import data_doc
-
-            doc = result.to_dict()
-            doc.setdefault("units", "SI")
-            doc["data"] = data_doc([result.data])
-            write_json(Path(tmp) / "result.json", doc)
-            write_text(Path(tmp) / "report.md", markdown_summary(result, {}))
+        write_calibration_files(result, tmp, task["style"], figures=task["figures"])
         files = {p.name: p.read_bytes() for p in sorted(Path(tmp).iterdir())}
     return {"row": row, "files": files}
 

@@ -293,17 +293,21 @@ CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf", "pairs.png"
 
 
 def write_calibration_files(result: CalibrationResult, directory: str | Path,
-                            style: str = "screen") -> None:
+                            style: str = "screen", *, figures: bool = True) -> None:
     """Write :data:`CALIBRATION_FILES` into the existing folder ``directory`` (each file atomic,
     the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own); the
-    PDF figures only with ``style="paper"``."""
+    PDF figures only with ``style="paper"``; with ``figures=False`` the same files less the
+    figures (``report.md`` then links none)."""
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
     doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
     doc["data"] = data_doc([result.data])
     write_json(folder / "result.json", doc)
-    write_report(result, folder, style)
+    if figures:
+        write_report(result, folder, style)
+    else:
+        write_text(folder / "report.md", markdown_summary(result, {}))
 
 
 def write_calibration(result: CalibrationResult, directory: str | Path, *,
