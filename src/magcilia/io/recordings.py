@@ -138,6 +138,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import Sensor
+from magcilia.device.sensor import beyond_range as saturated
 from magcilia.io.columns import (
     ANGLE_DECIMALS,
     FIELD_KEYS,
@@ -201,13 +202,14 @@ MAX_LINE_CHARS = 1 << 20
 
 
 def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
-    """True where an output (V, any shape) lies beyond the sensor's linear range. The bias is not
-    known at this point: the field is judged relative to the sensor's offset."""
+    """True where an output (V, any shape) lies beyond the sensor's linear range (the one
+    saturation rule, :func:`magcilia.device.sensor.beyond_range`, of the field it stands for). The
+    bias is not known at this point: the field is judged relative to the sensor's offset."""
     field = np.array(volts, dtype=np.float64)  # a copy, worked on in place
     with np.errstate(over="ignore", invalid="ignore"):  # huge outputs are beyond the range
         field -= sensor.offset
         field /= abs(sensor.scale)
-        return np.asarray(np.abs(field, out=field) > sensor.field_range)
+        return saturated(field, sensor.field_range)
 
 
 def _polarity_error(where: str, n: NDArray[np.int64]) -> MagciliaError:
