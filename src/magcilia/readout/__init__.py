@@ -8,7 +8,10 @@
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
-* :mod:`.tare`: :class:`Tare`, a zero-load baseline (:meth:`Readout.tare`, the live tare);
+* :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``channels``, ``rest``,
+  ``read``, ``tare``), the one :class:`Flag` set and the result's shape (:class:`ReadoutValues`);
+* :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
+  read-out and of the live tare;
 * :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
 * :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
   all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch).
@@ -30,15 +33,22 @@ from magcilia.readout.array import (
 from magcilia.readout.biaxial import (
     BiaxialReadout,
     Channel,
-    ChannelTare,
     ForceFlag,
     ForceVectorResult,
 )
 from magcilia.readout.design import DesignMetrics, Metric, design_metrics
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
-from magcilia.readout.tare import Tare
+from magcilia.readout.protocol import (
+    FLAG_DTYPE,
+    Flag,
+    ReadoutValues,
+    SensorReadout,
+    flag_names,
+)
+from magcilia.readout.tare import ChannelTare, Tare
 
 __all__ = [
+    "FLAG_DTYPE",
     "QUANTITIES",
     "ActuatedReadout",
     "ArrayEstimate",
@@ -51,16 +61,20 @@ __all__ = [
     "Coupling",
     "Crosstalk",
     "DesignMetrics",
+    "Flag",
     "ForceFlag",
     "ForceVectorResult",
     "Metric",
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
+    "ReadoutValues",
+    "SensorReadout",
     "Tare",
     "array_metrics",
     "design_metrics",
     "field_for_loads",
+    "flag_names",
     "loaded_poses",
     "measure_coupling",
 ]

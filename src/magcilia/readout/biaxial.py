@@ -63,6 +63,10 @@ from magcilia.readout.scale import (
     vector_rate,
     vector_scale_covariance,
 )
+from magcilia.readout.tare import (
+    ChannelTare,  # noqa: F401  (the former name, kept)
+    Tare,
+)
 
 F64 = NDArray[np.float64]
 
@@ -241,55 +245,6 @@ def channels(sensors: ChannelLike | Sequence[ChannelLike]) -> tuple[Channel, ...
 
 
 # -- the tare --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class ChannelTare(Display):
-    """A zero-load baseline per channel (immutable; SI: T).
-
-    Attributes
-    ----------
-    rest : ndarray, shape (c,)
-        The model's reading at rest (F = 0), T.
-    mean, noise : ndarray, shape (c,)
-        Mean and standard deviation (``ddof=1``) of each channel's finite baseline readings, T.
-    count : ndarray of int, shape (c,)
-        Finite readings per channel (≥ 2).
-    """
-
-    rest: F64
-    mean: F64
-    noise: F64
-    count: NDArray[np.int64]
-
-    @property
-    def correction(self) -> F64:
-        """Added to every reading, T, (c,): ``rest − mean``."""
-        return np.asarray(self.rest - self.mean)
-
-    @property
-    def standard_error(self) -> F64:
-        """Uncertainty of each baseline mean, T, (c,): ``noise / √count``, an error shared by
-        all readings."""
-        return np.asarray(self.noise / np.sqrt(self.count))
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI: T)."""
-        return {"rest": self.rest.tolist(), "mean": self.mean.tolist(),
-                "noise": self.noise.tolist(), "count": self.count.tolist(),
-                "correction": self.correction.tolist(),
-                "standard_error": self.standard_error.tolist(), "units": "SI"}
-
-    def report(self) -> str:
-        """One line: corrections and noise per channel (gauss)."""
-        corr = ", ".join(f"{c / 1e-4:+.4g}" for c in self.correction)
-        noise = ", ".join(f"{n / 1e-4:.3g}" for n in self.noise)
-        return (f"tare: {int(self.count.min())}+ readings per channel; corrections {corr} G; "
-                f"noise {noise} G per reading")
-
-    def _display_items(self) -> list[Item]:
-        return [("channels", str(self.rest.size)), ("readings", str(int(self.count.min()))),
-                ("max |correction|", scaled(float(np.max(np.abs(self.correction))), 1e-4, "G"))]
 
 
 # -- the result ------------------------------------------------------------------------------------
@@ -537,7 +492,7 @@ class BiaxialReadout(Display):
     table_error : float
         Largest force error (N, vector) of the interpolant at the grid's mid-points (magnitude
         and direction midway between nodes), read back without noise.
-    baseline : ChannelTare or None
+    baseline : Tare or None
         The tare (:meth:`tare`).
     actuation : Actuation or None
         As given.
@@ -566,7 +521,7 @@ class BiaxialReadout(Display):
     table: F64
     rest: F64
     table_error: float
-    baseline: ChannelTare | None
+    baseline: Tare | None
     actuation: Actuation | None
     direct: F64
     _coef: F64
@@ -1005,25 +960,12 @@ class BiaxialReadout(Display):
         channel, the baseline's spread replaces the channels' stated noise, and its standard
         error (shared by all readings) enters the covariance."""
         x = self._check_fields(baseline).reshape(-1, len(self.channels))
-        good = np.isfinite(x)
-        count = good.sum(axis=0)
-        if np.any(count < 2):
-            ch = int(np.argmax(count < 2))
-            raise MagciliaError(f"tare needs at least 2 finite readings per channel; got "
-                                f"{int(count[ch])} for {self.channels[ch].name}")
-        xs = np.where(good, x, 0.0)
-        mean = xs.sum(axis=0) / count
-        var = (np.where(good, x - mean, 0.0) ** 2).sum(axis=0) / (count - 1)
-        noise = np.sqrt(var)
-        if np.any(noise <= 0.0):
-            ch = int(np.argmax(noise <= 0.0))
-            raise MagciliaError(f"tare needs readings that vary (noise > 0) on every channel; "
-                                f"{self.channels[ch].name} is constant: quantised below its LSB?")
+        tare = Tare.from_readings(x, self.rest, unit="T",
+                                  names=tuple(c.name for c in self.channels))
         new = object.__new__(BiaxialReadout)
         for f in self.__dataclass_fields__:
             object.__setattr__(new, f, getattr(self, f))
-        object.__setattr__(new, "baseline", ChannelTare(self.rest.copy(), mean, noise,
-                                                        count.astype(np.int64)))
+        object.__setattr__(new, "baseline", tare)
         return new
 
     # -- protocol -------------------------------------------------------------------------------

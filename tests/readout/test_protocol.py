@@ -1,0 +1,80 @@
+"""The read-out protocol's shared parts: one flag set, one tare for one channel or several."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import magcilia as mc
+from magcilia.readout.protocol import FLAG_DTYPE, Flag, flag_names
+from magcilia.readout.tare import Tare
+
+
+def test_flag_bits_are_distinct_powers_of_two_that_fit_the_dtype():
+    bits = [f.value for f in Flag]
+    assert len(set(bits)) == len(bits)
+    assert all(b & (b - 1) == 0 for b in bits)
+    assert max(bits) <= np.iinfo(FLAG_DTYPE).max
+
+
+def test_former_flag_names_mean_the_same_bits():
+    assert Flag.BEYOND_SPAN is Flag.ABOVE_SPAN
+    assert mc.ReadoutFlag.SATURATED.value == Flag.SATURATED.value
+    assert mc.ForceFlag.AMBIGUOUS.value == Flag.AMBIGUOUS.value
+
+
+def test_flag_names_lists_the_bits_set():
+    assert flag_names(Flag.SATURATED | Flag.ZERO_DRIFT) == ("SATURATED", "ZERO_DRIFT")
+    assert flag_names(np.uint16(Flag.TARE_UNDER_LOAD)) == ("TARE_UNDER_LOAD",)
+    assert flag_names(0) == ()
+
+
+def test_one_channel_tare_is_mean_and_spread():
+    rng = np.random.default_rng(3)
+    x = 2e-3 + 1e-5 * rng.standard_normal(400)
+    t = Tare.from_readings(x, rest=1.5e-3)
+    assert t.channels == 1
+    assert t.correction == pytest.approx(1.5e-3 - x.mean(), rel=1e-12)
+    assert t.noise == pytest.approx(x.std(ddof=1), rel=1e-12)
+    assert t.standard_error == pytest.approx(x.std(ddof=1) / 20.0, rel=1e-12)
+    assert isinstance(t.correction, float)
+
+
+def test_channel_tare_matches_each_column_alone_and_skips_nan():
+    rng = np.random.default_rng(4)
+    x = np.array([1e-5, -2e-5, 3e-5]) + 1e-7 * rng.standard_normal((50, 3))
+    x[7, 1] = np.nan
+    t = Tare.from_readings(x, rest=[0.0, 1e-6, 0.0], unit="T", names=("x", "y", "z"))
+    for c in range(3):
+        one = Tare.from_readings(x[:, c], rest=t.rest[c], unit="T")
+        assert t.mean[c] == pytest.approx(one.mean, rel=1e-12)
+        assert t.noise[c] == pytest.approx(one.noise, rel=1e-12)
+        assert t.count[c] == one.count
+    assert t.count.tolist() == [50, 49, 50]
+    content = json.loads(json.dumps(t.to_dict()))
+    assert content["names"] == ["x", "y", "z"] and content["unit"] == "T"
+    assert "G" in t.report() and len(repr(t)) <= 120
+
+
+@pytest.mark.parametrize(("readings", "message"), [
+    ([[1e-5, 2e-5], [np.nan, 3e-5]], "at least 2 finite readings per channel; got 1 for x"),
+    ([[1e-5, 2e-5], [1e-5, 3e-5]], "x is constant"),
+    ([1e-5, 2e-5, 3e-5], "shape (..., 2)"),
+])
+def test_channel_tare_refuses_what_it_cannot_use(readings, message):
+    with pytest.raises(mc.MagciliaError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        Tare.from_readings(readings, rest=[0.0, 0.0], unit="T", names=("x", "y"))
+
+
+def test_biaxial_tare_is_the_one_tare():
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    mag = mc.Magnetometer(field_range=1e-3, resolution=1e-10, noise=2e-8, rate=100.0, name="mag")
+    readout = mc.BiaxialReadout(setup, mag, span=1e-4, table_size=(9, 16))
+    base = readout.rest + 1e-7 * np.array([[1.0, 0.0, -1.0], [-1.0, 1.0, 0.0], [0.0, -1.0, 1.0]])
+    tared = readout.tare(base)
+    assert isinstance(tared.baseline, Tare) and tared.baseline.unit == "T"
+    assert tared.baseline.names == tuple(c.name for c in readout.channels)
+    np.testing.assert_allclose(tared.baseline.correction, readout.rest - base.mean(axis=0),
+                               rtol=1e-12, atol=1e-20)
