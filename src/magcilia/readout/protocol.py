@@ -5,7 +5,9 @@ output), the force vector of a 3-axis sensor (:class:`~magcilia.BiaxialReadout`)
 vectors of an array (:class:`~magcilia.ArrayReadout`), the read-out while actuating
 (:class:`~magcilia.ActuatedReadout`) — offers the same few things (:class:`SensorReadout`):
 
-* ``channels``: what one sample holds, in order (source channel names, e.g. ``("output",)``);
+* ``inputs``: what one sample holds, in order: the source channel names (``("output",)`` for one
+  output, V; ``("NAME.x", "NAME.y", "NAME.z")`` for a 3-axis sensor NAME, T; every sensor's three
+  for an array, in the array's sensor order);
 * ``rest``: the model's reading of each channel at rest (no load), channel units, shape (c,);
 * ``read(samples, noise=None)``: samples of shape (n, c) (or (n,) for one channel) in, a result
   (:class:`ReadoutValues`) out with ``value``, ``sigma`` (1-σ, SI, the shape of ``value``) and
@@ -136,7 +138,7 @@ class SensorReadout(Protocol):
     """What every read-out offers (see the module's docstring)."""
 
     @property
-    def channels(self) -> tuple[str, ...]:
+    def inputs(self) -> tuple[str, ...]:
         """What one sample holds, in order: source channel names."""
         ...
 
