@@ -78,3 +78,52 @@ def test_biaxial_tare_is_the_one_tare():
     assert tared.baseline.names == tuple(c.name for c in readout.channels)
     np.testing.assert_allclose(tared.baseline.correction, readout.rest - base.mean(axis=0),
                                rtol=1e-12, atol=1e-20)
+
+
+# -- the single-output read-outs on the protocol --------------------------------------------------
+
+SETUP = mc.Setup.paper(tip_radius=5e-5)
+
+
+def test_readout_follows_the_protocol():
+    from magcilia.acquire.source import OUTPUT
+    from magcilia.readout.protocol import ReadoutValues, SensorReadout
+
+    r = mc.Readout(SETUP, quantity="force", span=(0.0, 1e-4), table_size=33)
+    assert isinstance(r, SensorReadout)
+    assert r.inputs == (OUTPUT,)
+    assert r.rest.shape == (1,)
+    np.testing.assert_allclose(r.rest, SETUP.output([0.0]), rtol=1e-12)
+    result = r.read(SETUP.output(np.zeros(3)), noise=[1e-6])
+    assert isinstance(result, ReadoutValues)
+    assert result.flags.dtype == FLAG_DTYPE and result.unit == "N"
+    np.testing.assert_allclose(result.value, 0.0, atol=1e-9)
+    tared = r.tare(r.rest + np.array([1e-5, 1.2e-5, 0.8e-5]))
+    assert tared.baseline.rest == pytest.approx(float(r.rest[0]), rel=1e-15)
+
+
+def test_readout_refuses_several_noise_values():
+    r = mc.Readout(SETUP, quantity="angle", span=(0.0, 0.5), table_size=17)
+    with pytest.raises(mc.MagciliaError, match="noise must be one noise RMS"):
+        r.read([0.0], noise=[1e-6, 2e-6])
+
+
+def test_actuated_readout_reads_protocol_samples_as_output_and_level():
+    from magcilia.readout.actuated import LEVEL, ActuatedReadout
+    from magcilia.readout.forward import model_output
+
+    coil = mc.Actuation.uniform((1e-4, 0.0, 0.0))
+    r = ActuatedReadout(SETUP, "force", (0.0, 1e-4), coil, levels=[-1.0, 0.0, 1.0],
+                        table_size=33)
+    assert r.inputs == ("output", LEVEL) and r.rest.shape == (2,)
+    levels = np.array([-0.5, 0.0, 0.5])
+    volts = np.array([model_output(SETUP, "force", [4e-5], actuation=coil.scaled(k))[0]
+                      for k in levels])
+    pairs = np.column_stack([volts, levels])
+    both = r.read(pairs)
+    np.testing.assert_array_equal(both.value, r.read(volts, level=levels).value)
+    np.testing.assert_allclose(both.value, 4e-5, rtol=1e-3)
+    tared = r.tare(np.column_stack([r.rest[0] + np.array([1e-5, 2e-5]), [0.0, 0.0]]))
+    assert tared.baseline.correction == pytest.approx(-1.5e-5, rel=1e-6)
+    with pytest.raises(mc.MagciliaError, match="one level for the whole tare"):
+        r.tare(np.array([[0.0, 0.0], [1e-5, 1.0]]))

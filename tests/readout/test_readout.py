@@ -15,6 +15,7 @@ from magcilia.io import example_path
 from magcilia.mechanics import Flow
 from magcilia.readout import inverse
 from magcilia.readout.inverse import NO_ESTIMATE, ReadoutFlag
+from magcilia.readout.protocol import FLAG_DTYPE
 
 POSITION = (1.4727e-3, 1.9891e-3, 0.3804e-3)
 
@@ -236,7 +237,7 @@ def _reference_read(r: mc.Readout, volts: np.ndarray, noise: float) -> tuple[np.
     s_cal = np.interp(value, table.quantity, r.sigma_calibration) * slope
     nan = np.where(flags & int(NO_ESTIMATE), np.nan, 1.0)
     return (value * nan, np.sqrt(s_noise**2 + s_cal**2 + bias**2) * nan, s_noise * nan,
-            s_cal * nan, bias * nan, flags.astype(np.uint8))
+            s_cal * nan, bias * nan, flags.astype(FLAG_DTYPE))
 
 
 @pytest.fixture(scope="module")

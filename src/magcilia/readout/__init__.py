@@ -1,7 +1,10 @@
 """Read-out: from sensor output back to angle, force and flow, and what a design can resolve.
 
-* :mod:`.inverse`: :class:`Readout`, the inverse tables with 1-σ uncertainties and flags, and
-  the read-out just beyond the span's ends;
+* :mod:`.inverse`: :class:`Readout`, one output read back as angle, force or flow, with 1-σ
+  uncertainties and flags; its parts: :mod:`.table` (the inverse table), :mod:`.edges` (the
+  read-out just beyond the span's ends), :mod:`.forward` (the model it inverts, with or without
+  an actuation), :mod:`.calibration_sigma` (the calibration's share of σ), :mod:`.result`
+  (:class:`ReadoutResult`);
 * :mod:`.biaxial`: :class:`BiaxialReadout`, the horizontal force vector (Fx, Fy) from several
   field channels (:class:`Channel`; a 3-axis :class:`~magcilia.device.magnetometer.Magnetometer`
   gives three), with covariance and :class:`ForceFlag` flags (:class:`ForceVectorResult`);

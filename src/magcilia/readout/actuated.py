@@ -41,20 +41,18 @@ from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow
-from magcilia.readout.inverse import (
-    NO_ESTIMATE,
-    Readout,
-    ReadoutFlag,
-    ReadoutResult,
-    direct_field,
-    model_output,
-)
+from magcilia.readout.forward import direct_field, model_output
+from magcilia.readout.inverse import Readout
+from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag
+from magcilia.readout.result import NO_ESTIMATE, ReadoutResult
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
 #: quantities at which the level interpolation is checked at each mid-level
 CHECK_POINTS = 9
+#: the source channel of the actuation's level (in its own scale), beside the output
+LEVEL = "level"
 
 
 @dataclass(frozen=True, repr=False)
@@ -269,7 +267,7 @@ class ActuatedReadout(Display):
         w = (k - self.levels[lo]) / (self.levels[lo + 1] - self.levels[lo])
         out = {name: np.full(x.size, np.nan) for name in
                ("value", "sigma_noise", "sigma_calibration", "sigma_edge", "sigma_scale")}
-        flags = np.full(x.size, np.uint8(ReadoutFlag.OUTSIDE_SPAN))
+        flags = np.full(x.size, FLAG_DTYPE(Flag.OUTSIDE_SPAN))
         for i in np.unique(lo[inside]).tolist():
             idx = np.flatnonzero(inside & (lo == i))
             parts = []
@@ -289,7 +287,7 @@ class ActuatedReadout(Display):
             out["sigma_calibration"] = np.hypot(out["sigma_calibration"], slope * tare_se)
         sigma = np.sqrt(out["sigma_noise"] ** 2 + out["sigma_calibration"] ** 2
                         + out["sigma_edge"] ** 2 + out["sigma_scale"] ** 2)
-        none = (flags & np.uint8(NO_ESTIMATE)) != 0
+        none = (flags & FLAG_DTYPE(NO_ESTIMATE)) != 0
         for arr in (*out.values(), sigma):
             arr[none] = np.nan
         return ReadoutResult(
@@ -299,17 +297,22 @@ class ActuatedReadout(Display):
             table_error=max(r.table_error for r in self.readouts) + self.level_error,
             scale_note=self.readouts[0].scale_note)
 
-    def read(self, volts: ArrayLike, level: ArrayLike,
+    def read(self, volts: ArrayLike, level: ArrayLike | None = None,
              bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
-             noise: float | None = None) -> ReadoutResult:
+             noise: ArrayLike | None = None) -> ReadoutResult:
         """Estimates with 1-σ and flags of readings ``volts`` (V, any shape) taken at actuation
         ``level`` (the same shape, or one level for all): each level's neighbours' tables,
         interpolated linearly in the level (never raises for a reading's value; a level outside
         :attr:`levels` is flagged OUTSIDE_SPAN). ``bandwidth`` and ``noise`` as for
-        :meth:`Readout.read`; ``table_error`` of the result includes :attr:`level_error`."""
+        :meth:`Readout.read`; ``table_error`` of the result includes :attr:`level_error`.
+        Without ``level``, ``volts`` are the protocol's samples, shape (n, 2): the output (V)
+        and the level of each (:attr:`inputs`)."""
+        volts, level = self._split(volts, level)
         x, k, shape = self._levels(volts, level)
         if noise is not None:
-            noise = v.non_negative("noise", noise, "V", "noise")
+            if np.size(noise) != 1:
+                raise v.fail("noise", v.short(noise), "one noise RMS in V (the output's)")
+            noise = v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
         res = self._read(x, k, noise, bandwidth)
         return ReadoutResult(
             quantity=res.quantity, unit=res.unit, value=res.value.reshape(shape),
@@ -333,16 +336,23 @@ class ActuatedReadout(Display):
             i = int(bad[0])
             raise v.fail(f"volts[{i}]", f"{x[i]:.6g} V at level {k[i]:.6g}",
                          f"a reading within the span's output range at its level "
-                         f"({ReadoutFlag(int(res.flags[i])).name}; use read() for flags)")
+                         f"({Flag(int(res.flags[i])).name}; use read() for flags)")
         return res.value.reshape(shape)
 
-    def tare(self, baseline_volts: ArrayLike, level: float = 0.0) -> ActuatedReadout:
+    def tare(self, baseline_volts: ArrayLike, level: float | None = None) -> ActuatedReadout:
         """A copy whose zero is the mean of unloaded readings ``baseline_volts`` (V) taken at
-        actuation ``level``: every reading then gets ``V_rest(level) − mean`` added (an offset
-        that does not depend on the level: bridge offset, the earth's field), the baseline's
-        spread is the noise of one reading and its standard error adds to
-        ``sigma_calibration``, as :meth:`Readout.tare`."""
-        k0 = v.real("level", level)
+        actuation ``level`` (default 0): every reading then gets ``V_rest(level) − mean`` added
+        (an offset that does not depend on the level: bridge offset, the earth's field), the
+        baseline's spread is the noise of one reading and its standard error adds to
+        ``sigma_calibration``, as :meth:`Readout.tare`. Without ``level``, a baseline of shape
+        (n, 2) is the protocol's samples (output, level), all at one level."""
+        if level is None and np.ndim(baseline_volts) == 2 and np.shape(baseline_volts)[1] == 2:
+            pairs = np.asarray(baseline_volts, dtype=np.float64)
+            if np.ptp(pairs[:, 1]) > 0.0:
+                raise v.fail("level", f"{pairs[:, 1].min():.6g}…{pairs[:, 1].max():.6g}",
+                             "one level for the whole tare (tare at a constant actuation)")
+            baseline_volts, level = pairs[:, 0], float(pairs[0, 1])
+        k0 = v.real("level", 0.0 if level is None else level)
         rest = float(model_output(self.setup, self.quantity, np.zeros(1),
                                   self.readouts[0].flow, self.actuation.scaled(k0))[0])
         rest += (self.coupling - self.model_coupling) * k0
@@ -351,6 +361,29 @@ class ActuatedReadout(Display):
             object.__setattr__(new, f, getattr(self, f))
         object.__setattr__(new, "baseline", Tare.from_readings(baseline_volts, rest))
         return new
+
+    # -- the read-out protocol (:mod:`magcilia.readout.protocol`) ------------------------------
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """What one sample holds: the sensor output (V) and the actuation's level."""
+        return (OUTPUT, LEVEL)
+
+    @property
+    def rest(self) -> F64:
+        """The model's output at rest at level 0 (V), and level 0: shape (2,)."""
+        return np.array([float(model_output(self.setup, self.quantity, np.zeros(1),
+                                            self.readouts[0].flow, self.actuation.scaled(0.0))[0]
+                               ), 0.0])
+
+    def _split(self, volts: ArrayLike, level: ArrayLike | None) -> tuple[ArrayLike, ArrayLike]:
+        """(volts, level) of a call with both, or of the protocol's samples (n, 2)."""
+        if level is not None:
+            return volts, level
+        pairs = np.asarray(volts, dtype=np.float64)
+        if pairs.ndim != 2 or pairs.shape[1] != 2:
+            raise v.fail("samples", f"an array of shape {pairs.shape}",
+                         "shape (n, 2): output (V) and level per sample, or give level=")
+        return pairs[:, 0], pairs[:, 1]
 
     # -- protocol -------------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

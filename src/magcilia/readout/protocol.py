@@ -44,6 +44,9 @@ F64 = NDArray[np.float64]
 
 #: dtype of every flags array
 FLAG_DTYPE = np.uint16
+#: the input of a single-output read-out: the source channel of the sensor output, V (the same
+#: name as :data:`magcilia.acquire.source.OUTPUT`)
+OUTPUT = "output"
 
 
 class Flag(enum.IntFlag):

@@ -31,10 +31,6 @@ def flag_names(flags: int) -> str:
     return "|".join(str(f.name).lower() for f in ReadoutFlag if f and flags & f)
 
 
-#: the flag names of every uint8 flag value
-FLAG_NAMES = tuple(flag_names(i) for i in range(256))
-
-
 def units(quantity: str, si: bool = False) -> tuple[str, float]:
     """The unit of a quantity's values in a read-out's outputs and its SI value: the display
     unit (``("mN", 1e-3)``), or with ``si`` the SI unit (``("N", 1.0)``)."""
@@ -69,10 +65,11 @@ def readout_rows(result: ReadoutResult, volts: NDArray[np.float64],
     if factor != 1.0:
         value = value / factor
         sigma = sigma / factor
+    seen, code = np.unique(flags, return_inverse=True)  # a few distinct flag values
     columns = [csvtext.shortest(np.asarray(volts).reshape(-1)[rows]),
                csvtext.significant(value, 10), csvtext.significant(sigma, 4),
-               csvtext.table(flags, [str(i) for i in range(256)]),
-               csvtext.table(flags, FLAG_NAMES)]
+               csvtext.table(code, [str(int(f)) for f in seen]),
+               csvtext.table(code, [flag_names(int(f)) for f in seen])]
     if times is not None:
         columns.insert(0, csvtext.shortest(np.asarray(times).reshape(-1)[rows]))
     return csvtext.rows(columns)

@@ -1,0 +1,173 @@
+"""The single-output read-out's result: :class:`ReadoutResult` (angle, force or flow with 1-σ parts
+and :class:`~magcilia.readout.protocol.Flag` bits) and its one-line summary."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia._display import Display, Item, Table, column, dataframe
+from magcilia.device.parameters import MEASURANDS
+from magcilia.readout.protocol import Flag
+
+F64 = NDArray[np.float64]
+
+#: the single-output read-out's flags: the one :class:`~magcilia.readout.protocol.Flag` set
+#: (its former name)
+ReadoutFlag = Flag
+#: the flags that leave a reading without an estimate (value and sigma NaN)
+NO_ESTIMATE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED
+#: the flags a single output raises by itself (always counted by :meth:`ReadoutResult.counts`)
+_OWN = (Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED, Flag.CLIPPED,
+        Flag.BELOW_SPAN, Flag.ABOVE_SPAN)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class ReadoutResult(Display):
+    """Estimates from :meth:`Readout.read` (arrays have the shape of the readings).
+
+    Attributes
+    ----------
+    quantity : str
+        ``"angle"``, ``"force"`` or ``"flow"``.
+    unit : str
+        SI unit of ``value`` and ``sigma`` (rad, N, m/s).
+    value : ndarray
+        Estimates; NaN where a flag of :data:`NO_ESTIMATE` is set (EXTRAPOLATED and CLIPPED
+        readings have one).
+    sigma : ndarray
+        1-σ uncertainty, sqrt(sigma_noise² + sigma_calibration² + sigma_edge² + sigma_scale²);
+        NaN where ``value`` is.
+    sigma_noise, sigma_calibration : ndarray
+        Two parts: the noise of the reading (the sensor model's over the bandwidth, or the
+        measured one; the only part that differs at random between readings), and the errors
+        shared by all readings: the calibration covariance and a tare's standard error.
+    sigma_edge : ndarray
+        The third part: for CLIPPED readings the distance from the model's estimate to the
+        span's end that they were set to; 0 for the others.
+    sigma_scale : ndarray
+        The fourth part, the force scale: the Young's modulus's relative 1 σ through the model
+        (``|F| · σ_E/E`` for a tip force; :mod:`magcilia.readout.scale`), 0 for a tilt angle or a
+        modulus taken as exact. Systematic: one error shared by every reading (fully
+        correlated), so averaging does not reduce it.
+    scale_note : str
+        Where the modulus comes from (:meth:`magcilia.Modulus.note`; "" for a tilt angle).
+    flags : ndarray of uint16
+        :class:`~magcilia.readout.protocol.Flag` bits (:data:`~magcilia.readout.protocol.
+        FLAG_DTYPE`).
+    table_error : float
+        Stated error bound of the interpolation table, in ``unit``.
+    """
+
+    quantity: str
+    unit: str
+    value: F64
+    sigma: F64
+    sigma_noise: F64
+    sigma_calibration: F64
+    sigma_edge: F64
+    sigma_scale: F64
+    flags: NDArray[np.uint16]
+    table_error: float
+    scale_note: str = ""
+
+    @property
+    def ok(self) -> NDArray[np.bool_]:
+        """True where no flag is set (a reading within the span)."""
+        return np.asarray(self.flags == 0)
+
+    @property
+    def estimated(self) -> NDArray[np.bool_]:
+        """True where the reading has an estimate (no flag of :data:`NO_ESTIMATE`: within the
+        span, or EXTRAPOLATED or CLIPPED within the edge tolerance)."""
+        return np.asarray(self.flags & int(NO_ESTIMATE) == 0)
+
+    def counts(self) -> dict[str, int]:
+        """Readings per flag name (lower case, as in the CSV's ``flag_names``), and ``"readings"``,
+        ``"estimated"`` and ``"ok"``."""
+        out = {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
+               "ok": int(self.ok.sum())}
+        flat = self.flags.reshape(-1)
+        for f in Flag:
+            hits = int(np.count_nonzero(flat & int(f)))
+            if hits or f in _OWN:
+                out[str(f.name).lower()] = hits
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI; flagged estimates are NaN, written as null)."""
+        return {"quantity": self.quantity, "unit": self.unit, "value": self.value.tolist(),
+                "sigma": self.sigma.tolist(), "sigma_noise": self.sigma_noise.tolist(),
+                "sigma_calibration": self.sigma_calibration.tolist(),
+                "sigma_edge": self.sigma_edge.tolist(),
+                "sigma_scale": self.sigma_scale.tolist(), "flags": self.flags.tolist(),
+                "table_error": self.table_error, "scale_note": self.scale_note}
+
+    def summary(self) -> str:
+        """The same as :meth:`report` (the name of magcilia 0.1)."""
+        return self.report()
+
+    def report(self) -> str:
+        """One line: counts of estimated and flagged readings, value range, median sigma (display
+        unit: deg, mN, m/s) and, for a force or flow, where the force scale comes from."""
+        q = MEASURANDS[self.quantity]
+        return summary_line(self, q.display, q.display_factor)
+
+    # -- display --------------------------------------------------------------------------------
+    def _display_items(self) -> list[Item]:
+        q, good, c = MEASURANDS[self.quantity], self.estimated, self.counts()
+        items = [("", self.quantity), ("estimated", f"{c['estimated']}/{c['readings']}")]
+        items += [(key, str(c[key])) for key in ("outside_span", "fold", "saturated",
+                                                  "extrapolated", "clipped") if c[key]]
+        if good.any():
+            lo, hi = (q.text(float(f(self.value[good]))) for f in (np.min, np.max))
+            items += [("range", f"{lo}…{hi}"),
+                      ("median σ", q.text(float(np.median(self.sigma[good]))))]
+        return items
+
+    def _display_table(self) -> Table:
+        q = MEASURANDS[self.quantity]
+        return ((f"{self.quantity} ({q.display})", f"σ ({q.display})", "flags"),
+                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], ReadoutFlag(int(f)).name
+                  or "ok") for v, s, f in zip(self.value, self.sigma, self.flags, strict=True)])
+
+    def to_dataframe(self) -> Any:
+        """The estimates as a ``pandas.DataFrame``, one row per reading, SI, columns named by
+        quantity and unit: the value (``force_N``, ``angle_rad``, ``flow_m_per_s``), ``sigma_*``,
+        ``sigma_noise_*``, ``sigma_calibration_*``, ``sigma_edge_*``, ``sigma_scale_*`` (same
+        unit) and ``flags``
+        (:class:`ReadoutFlag` bits, 0 a good reading; NaN values where flagged)."""
+        return dataframe({
+            column(self.quantity, self.unit): self.value,
+            column("sigma", self.unit): self.sigma,
+            column("sigma_noise", self.unit): self.sigma_noise,
+            column("sigma_calibration", self.unit): self.sigma_calibration,
+            column("sigma_edge", self.unit): self.sigma_edge,
+            column("sigma_scale", self.unit): self.sigma_scale,
+            "flags": self.flags})
+
+
+def summary_line(result: ReadoutResult, unit: str, factor: float) -> str:
+    """:meth:`ReadoutResult.report` with values shown in ``unit``, of which one is ``factor``
+    in SI (``"mN"``, 1e-3): counts of estimated and flagged readings, range, median 1-σ, and the
+    force scale's note."""
+    c = result.counts()
+    flagged = ", ".join(f"{c[key]} {name}" for key, name in (
+        ("outside_span", "outside span"), ("fold", "ambiguous (fold)"),
+        ("saturated", "saturated")))
+    edges = ", ".join(f"{c[key]} {key}" for key in ("extrapolated", "clipped") if c[key])
+    good = result.estimated
+    if good.any():
+        vals = result.value[good] / factor
+        rng = (f"{result.quantity} {np.min(vals):.4g}…{np.max(vals):.4g} {unit}, median "
+               f"1-σ {np.median(result.sigma[good]) / factor:.3g} {unit}")
+    else:
+        rng = "no valid estimate"
+    beyond = f", {edges} beyond the span's ends" if edges else ""
+    note = f"; {result.scale_note}" if result.scale_note else ""
+    return (f"{c['estimated']}/{c['readings']} readings estimated ({flagged} flagged{beyond}); "
+            f"{rng}{note}")
+
