@@ -44,9 +44,12 @@ COLUMNS = ("height", "base_radius", "taper", "x", "y", "z", "n_loops", "dipoles_
 #: small whatever the number of angles)
 ANGLE_BLOCK = 1024
 
-#: dipoles per block of :func:`dipole_batch` (their 48 bytes each stay in the L1/L2 cache while
-#: every observer passes over them)
-DIPOLE_BLOCK = 512
+#: dipoles per block of :func:`dipole_batch` (their 48 bytes each, 96 kB, stay in the L2 cache
+#: while every observer passes over them: with more than a few thousand dipoles, the pass would
+#: otherwise stream them from memory once per observer). Each block is a slice, so that the inner
+#: loop runs from 0 over contiguous arrays, which LLVM vectorises; a loop over an index range of
+#: the whole arrays (``range(start, stop)``) it did not, at a quarter of the speed.
+DIPOLE_BLOCK = 2048
 
 
 def tilt_batch(params: F64, angles: F64, knots: F64, radii: F64, measured: bool, rms: bool,
@@ -183,14 +186,16 @@ def dipole_batch(observers: F64, positions: F64, moments: F64, out: F64) -> None
     """
     n_set, n_obs, n_dip = positions.shape[0], observers.shape[0], positions.shape[2]
     for s in range(n_set):
-        px, py, pz = positions[s, 0], positions[s, 1], positions[s, 2]
-        mx, my, mz = moments[s, 0], moments[s, 1], moments[s, 2]
         for start in range(0, n_dip, DIPOLE_BLOCK):
             stop = min(start + DIPOLE_BLOCK, n_dip)
+            px, py, pz = (positions[s, 0, start:stop], positions[s, 1, start:stop],
+                          positions[s, 2, start:stop])
+            mx, my, mz = (moments[s, 0, start:stop], moments[s, 1, start:stop],
+                          moments[s, 2, start:stop])
             for i in range(n_obs):
                 x, y, z = observers[i, 0], observers[i, 1], observers[i, 2]
                 bx, by, bz = 0.0, 0.0, 0.0
-                for j in range(start, stop):
+                for j in range(px.size):
                     rx, ry, rz = x - px[j], y - py[j], z - pz[j]
                     ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
                     ir3 = ir2 * math.sqrt(ir2)
@@ -220,14 +225,14 @@ def segment_batch(observers: F64, positions: F64, moments: F64, starts: NDArray[
         Receives B of each segment, T (overwritten).
     """
     n_seg, n_obs = starts.size - 1, observers.shape[0]
-    px, py, pz = positions[0], positions[1], positions[2]
-    mx, my, mz = moments[0], moments[1], moments[2]
     for c in range(n_seg):
         j0, j1 = starts[c], starts[c + 1]
+        px, py, pz = positions[0, j0:j1], positions[1, j0:j1], positions[2, j0:j1]
+        mx, my, mz = moments[0, j0:j1], moments[1, j0:j1], moments[2, j0:j1]
         for i in range(n_obs):
             x, y, z = observers[i, 0], observers[i, 1], observers[i, 2]
             bx, by, bz = 0.0, 0.0, 0.0
-            for j in range(j0, j1):
+            for j in range(px.size):  # a slice from 0: vectorised (see DIPOLE_BLOCK)
                 rx, ry, rz = x - px[j], y - py[j], z - pz[j]
                 ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
                 ir3 = ir2 * math.sqrt(ir2)
