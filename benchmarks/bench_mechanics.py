@@ -29,12 +29,14 @@ import math
 import statistics
 import time
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 from _timing import interleaved
 from scipy.integrate import solve_bvp
 
 import magcilia as mc
+from magcilia.model import compiled
 
 E = 2.0e6
 L = 3e-3
@@ -154,6 +156,19 @@ def bending(s: mc.Setup, quick: bool) -> tuple[float, np.ndarray]:
     return force, ref
 
 
+def numpy_path(fn: Callable[[], object]) -> Callable[[], object]:
+    """``fn`` run with the compiled kernels switched off (the NumPy reference paths)."""
+
+    def run() -> object:
+        compiled.ENABLED = False
+        try:
+            return fn()
+        finally:
+            compiled.ENABLED = True
+
+    return run
+
+
 def readout(s: mc.Setup, quick: bool) -> None:
     t0 = time.perf_counter()
     r = mc.Readout(s, quantity="force", span=(0.0, 2e-4))
@@ -168,11 +183,13 @@ def readout(s: mc.Setup, quick: bool) -> None:
         "np.interp": lambda: np.interp(volts, table.volts, table.values),
         "estimate": lambda: r.estimate(volts),
         "read": lambda: r.read(volts, noise=1e-4),
+        "read NumPy": numpy_path(lambda: r.read(volts, noise=1e-4)),
     }, 5 if quick else 15)
     anchor = stats(times["np.interp"])
     for name, label in (("np.interp", "np.interp over the table (value)"),
                         ("estimate", "Readout.estimate (value)"),
-                        ("read", "Readout.read (value, sigma, flags)")):
+                        ("read", "Readout.read (value, sigma, flags)"),
+                        ("read NumPy", "Readout.read, its NumPy path (reference)")):
         best, med = stats(times[name])
         ratio = "" if name == "np.interp" else (f"; {anchor[0] / best:.3g}x np.interp (min), "
                                                 f"{anchor[1] / med:.3g}x (median)")

@@ -4,13 +4,17 @@ tolerance) and the small tables that continue it."""
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError
 from magcilia.device.actuation import Actuation
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow
 from magcilia.readout.forward import model_output
+from magcilia.readout.protocol import FLAG_DTYPE, Flag
 from magcilia.readout.table import InverseTable
+
+F64 = NDArray[np.float64]
 
 #: how readings beyond the span's ends (within the edge tolerance) are read
 EDGES = ("extrapolate", "clip", "blank")
@@ -54,3 +58,41 @@ def edge_table(setup: Setup, quantity: str, flow: Flow, end: float, reach: float
     except MagciliaError:
         return None
 
+
+def read_beyond(table: InverseTable,
+                edge_tables: tuple[InverseTable | None, InverseTable | None], edge: str,
+                x: F64) -> tuple[F64, F64, F64, NDArray[np.uint16]]:
+    """Readings ``x`` (V, (b,)) outside ``table``'s output range (or NaN) of a read-out whose
+    span is continued by ``edge_tables`` as ``edge`` says: estimates, the
+    slope |dquantity/dV| for σ, the clipping distance (SI) and the flags (OUTSIDE_SPAN and
+    BELOW/ABOVE_SPAN beyond the reach; EXTRAPOLATED or CLIPPED within it), all (b,)."""
+    value = np.full(x.size, np.nan)
+    slope = np.full(x.size, np.nan)
+    bias = np.zeros(x.size)
+    flags = np.full(x.size, FLAG_DTYPE(Flag.OUTSIDE_SPAN))
+    low_at_bottom = bool(table.output[0] == table.volts[0])  # output rises with the quantity
+    for bottom in (True, False):
+        low_end = bottom == low_at_bottom
+        if not low_end and table.fold is not None:
+            continue  # beyond the turn at the fold: no direction, no estimate
+        side = np.flatnonzero(x < table.volts[0] if bottom else x > table.volts[-1])
+        direction = FLAG_DTYPE(Flag.BELOW_SPAN if low_end else Flag.ABOVE_SPAN)
+        flags[side] |= direction
+        ext = edge_tables[0 if low_end else 1]
+        if ext is None or not side.size:
+            continue
+        side = side[ext.inside(x[side])]
+        if not side.size:
+            continue
+        est, est_slope = ext.value_and_slope(x[side])
+        if edge == "clip":
+            end = table.quantity[0 if low_end else -1]
+            value[side] = end
+            bias[side] = np.abs(est - end)
+            slope[side] = abs(float(table.slope[0 if bottom else -1]))
+            flags[side] = direction | FLAG_DTYPE(Flag.CLIPPED)
+        else:
+            value[side] = est
+            slope[side] = est_slope
+            flags[side] = direction | FLAG_DTYPE(Flag.EXTRAPOLATED)
+    return value, slope, bias, flags

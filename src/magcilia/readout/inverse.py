@@ -36,8 +36,16 @@ from magcilia.device.sensor import DEFAULT_BANDWIDTH, flag_names
 from magcilia.device.setup import Setup
 from magcilia.device.stiffness import Modulus
 from magcilia.mechanics import Flow, output_at
+from magcilia.readout import compiled as compiled_read
 from magcilia.readout.calibration_sigma import POSTERIOR_DRAWS, calibration_sigma
-from magcilia.readout.edges import EDGE_SIGMAS, EDGE_TOLERANCE, EDGES, edge_table, noise_reach
+from magcilia.readout.edges import (
+    EDGE_SIGMAS,
+    EDGE_TOLERANCE,
+    EDGES,
+    edge_table,
+    noise_reach,
+    read_beyond,
+)
 from magcilia.readout.forward import (
     ELEMENT,
     check_actuated,
@@ -404,40 +412,8 @@ class Readout(Display):
         return f", or up to {reach} it ({a:.6g}…{b:.6g} V, edge={self.edge!r})"
 
     def _beyond(self, x: F64) -> tuple[F64, F64, F64, NDArray[np.uint16]]:
-        """Readings ``x`` (V, (b,)) outside the table's output range (or NaN): estimates, the
-        slope |dquantity/dV| for σ, the clipping distance (SI) and the flags (OUTSIDE_SPAN and
-        BELOW/ABOVE_SPAN beyond the reach; EXTRAPOLATED or CLIPPED within it), all (b,)."""
-        table = self.table
-        value = np.full(x.size, np.nan)
-        slope = np.full(x.size, np.nan)
-        bias = np.zeros(x.size)
-        flags = np.full(x.size, FLAG_DTYPE(Flag.OUTSIDE_SPAN))
-        low_at_bottom = bool(table.output[0] == table.volts[0])  # output rises with the quantity
-        for bottom in (True, False):
-            low_end = bottom == low_at_bottom
-            if not low_end and table.fold is not None:
-                continue  # beyond the turn at the fold: no direction, no estimate
-            side = np.flatnonzero(x < table.volts[0] if bottom else x > table.volts[-1])
-            direction = FLAG_DTYPE(Flag.BELOW_SPAN if low_end else Flag.ABOVE_SPAN)
-            flags[side] |= direction
-            ext = self.edge_tables[0 if low_end else 1]
-            if ext is None or not side.size:
-                continue
-            side = side[ext.inside(x[side])]
-            if not side.size:
-                continue
-            est, est_slope = ext.value_and_slope(x[side])
-            if self.edge == "clip":
-                end = table.quantity[0 if low_end else -1]
-                value[side] = end
-                bias[side] = np.abs(est - end)
-                slope[side] = abs(float(table.slope[0 if bottom else -1]))
-                flags[side] = direction | FLAG_DTYPE(Flag.CLIPPED)
-            else:
-                value[side] = est
-                slope[side] = est_slope
-                flags[side] = direction | FLAG_DTYPE(Flag.EXTRAPOLATED)
-        return value, slope, bias, flags
+        """:func:`~magcilia.readout.edges.read_beyond` of readings ``x`` (V, (b,))."""
+        return read_beyond(self.table, self.edge_tables, self.edge, x)
 
     def read(self, volts: ArrayLike,
              bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH,
@@ -476,10 +452,21 @@ class Readout(Display):
             x = x + self.baseline.correction
         value, sigma, s_noise, s_cal, s_edge, s_scale = (np.empty(x.size) for _ in range(6))
         flags = np.empty(x.size, dtype=FLAG_DTYPE)
-        for start in range(0, x.size, BLOCK):
-            part = slice(start, start + BLOCK)
-            self._read_block(x[part], noise_v, value[part], sigma[part], s_noise[part],
-                             s_cal[part], s_edge[part], s_scale[part], flags[part])
+        parts: tuple[Any, ...] = (value, sigma, s_noise, s_cal, s_edge, s_scale, flags)
+        fused = compiled_read.kernel()
+        if fused is not None:  # one compiled pass; the few readings beyond the table below
+            tare_error = 0.0 if self.baseline is None else float(self.baseline.standard_error)
+            table_args, profile_args = self._fused
+            if fused(x, *table_args, float(noise_v), tare_error, *profile_args, *parts):
+                out = np.flatnonzero(flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN))
+                got: tuple[Any, ...] = tuple(np.empty(out.size, p.dtype) for p in parts)
+                self._read_block(x[out], noise_v, *got)
+                for whole, got_part in zip(parts, got, strict=True):
+                    whole[out] = got_part
+        else:
+            for start in range(0, x.size, BLOCK):
+                part = slice(start, start + BLOCK)
+                self._read_block(x[part], noise_v, *(p[part] for p in parts))
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
             sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
@@ -487,6 +474,16 @@ class Readout(Display):
             sigma_scale=s_scale.reshape(shape), flags=flags.reshape(shape),
             table_error=self.table_error, scale_note=self.scale_note,
         )
+
+    @cached_property
+    def _fused(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """The arguments of the compiled pass: the table and sensor's, the profiles'."""
+        mode = (0 if not self.sigma_modulus.any() else
+                1 if scales_exactly(self.quantity, self.actuation is not None) else 2)
+        return (compiled_read.table_arguments(self.table, self.setup.sensor),
+                compiled_read.profile_arguments(self.table.quantity, self.sigma_calibration,
+                                                self.sigma_modulus, mode,
+                                                self.modulus.relative))
 
     @property
     def scale_note(self) -> str:
@@ -606,3 +603,4 @@ class Readout(Display):
                 ("output", f"{si(lo, 'V')}…{si(hi, 'V')}"),
                 ("calibrated", "yes" if self.calibration is not None else "no"),
                 ("table error", q.text(self.table_error)), ("setup", repr(self.setup))]
+
