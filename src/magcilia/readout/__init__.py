@@ -1,4 +1,4 @@
-"""Read-out: from sensor output back to angle, force and flow, and what a design can resolve.
+"""Read-out: from sensor output back to angle, force and flow.
 
 * :mod:`.inverse`: :class:`Readout`, the inverse tables with 1-σ uncertainties and flags, and
   the read-out just beyond the span's ends;
@@ -9,9 +9,13 @@
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
 * :mod:`.tare`: :class:`Tare`, a zero-load baseline (:meth:`Readout.tare`, the live tare);
-* :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
 * :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
-  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch).
+  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch);
+* :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
+
+What a design can resolve (``design_metrics``, ``DesignMetrics``, ``Metric``) and design
+optimisation moved to :mod:`magcilia.design` (a room above this one); they are importable from
+there and from ``magcilia``, no longer from ``magcilia.readout``.
 """
 
 from __future__ import annotations
@@ -34,7 +38,6 @@ from magcilia.readout.biaxial import (
     ForceFlag,
     ForceVectorResult,
 )
-from magcilia.readout.design import DesignMetrics, Metric, design_metrics
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
 from magcilia.readout.tare import Tare
 
@@ -50,16 +53,13 @@ __all__ = [
     "ChannelTare",
     "Coupling",
     "Crosstalk",
-    "DesignMetrics",
     "ForceFlag",
     "ForceVectorResult",
-    "Metric",
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
     "Tare",
     "array_metrics",
-    "design_metrics",
     "field_for_loads",
     "loaded_poses",
     "measure_coupling",
