@@ -57,7 +57,7 @@ def placement_in_tilt_frame(x: ArrayLike, y: ArrayLike,
                             azimuth: ArrayLike) -> tuple[F64, F64] | tuple[float, float]:
     """The base centre's (x, y), m, in the frame where a tilt toward ``azimuth`` (rad) is a tilt
     toward +x: ``R(−φ) · (x, y)`` (:func:`turn_xy`). Arrays broadcast."""
-    return turn_xy(x, y, azimuth, inverse=True)  # type: ignore[no-any-return]
+    return turn_xy(x, y, azimuth, inverse=True)
 
 
 def field_from_tilt_frame(b: ArrayLike, azimuth: ArrayLike) -> F64:
