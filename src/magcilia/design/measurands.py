@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Protocol, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -96,11 +96,15 @@ class Measurand:
         The objective that optimises it (:data:`magcilia.design.optimise.OBJECTIVES`).
     requirement : str
         The constraint key of the objective's own requirement (``"min_force"``, ``"speed"``).
+    spread : (float, float)
+        The screen's candidates meet the requirement scaled from ``spread[0]`` to ``spread[1]``
+        times (the proxy's error: :meth:`candidates`).
     """
 
     name: str
     objective: str
     requirement: str
+    spread: tuple[float, float]
 
     @property
     def quantity(self) -> Quantity:
@@ -142,19 +146,43 @@ class Measurand:
         raise NotImplementedError
 
     # -- the choice --------------------------------------------------------------------------------
-    def eligible(self, design: _Design, fixed: dict[str, float]) -> bool:
-        """Whether a design meets the objective's own requirement."""
+    def meets(self, minimum: Any, range_: Any, required: float) -> Any:
+        """Whether designs of ``minimum`` and ``range_`` (SI; arrays broadcast) meet the
+        requirement's value ``required``."""
         raise NotImplementedError
 
-    def best(self, designs: Sequence[D]) -> D:
-        """The chosen design among eligible ``designs``."""
+    def order(self, minimum: Any, range_: Any) -> Any:
+        """The choice's sort key of designs (SI; arrays broadcast): the chosen design has the
+        smallest, ties broken by :meth:`tie`."""
         raise NotImplementedError
+
+    def tie(self, minimum: Any, range_: Any) -> Any:
+        """The second sort key of the choice (:meth:`order`)."""
+        raise NotImplementedError
+
+    def eligible(self, design: _Design, fixed: dict[str, float]) -> bool:
+        """Whether a design meets the objective's own requirement."""
+        return bool(self.meets(design.minimum, design.range, fixed[self.requirement]))
+
+    def best(self, designs: Sequence[D]) -> D:
+        """The chosen design among eligible ``designs`` (the first of the smallest
+        :meth:`order`, then :meth:`tie`)."""
+        return min(designs, key=lambda d: (self.order(d.minimum, d.range),
+                                           self.tie(d.minimum, d.range)))
 
     def candidates(self, minimum: F64, range_: F64, ok: NDArray[np.bool_],
                    fixed: dict[str, float], count: int) -> list[int]:
         """The screen's best candidates for the choice, spread over the proxy's error: for each
-        of ``count`` requirements around the objective's, the best proxy design meeting it."""
-        raise NotImplementedError
+        of ``count`` requirements from ``spread[0]`` to ``spread[1]`` times the objective's, the
+        proxy design of the smallest :meth:`order` that meets it."""
+        out: list[int] = []
+        key = self.order(minimum, range_)
+        for factor in np.geomspace(*self.spread, count):
+            idx = np.nonzero(ok & self.meets(minimum, range_,
+                                             factor * fixed[self.requirement]))[0]
+            if idx.size:
+                out.append(int(idx[np.argmin(key[idx])]))
+        return out
 
     def goal(self, fixed: dict[str, float]) -> str:
         """What the minimum means, for reports."""
@@ -204,22 +232,18 @@ class ForceMeasurand(Measurand):
         b_curve = np.concatenate([b_all[:, :1], b_all[:, 2:]], axis=1)
         return Proxy(q, slope, reading, force_limit(h, c), np.linalg.norm(b_curve, axis=2))
 
-    def eligible(self, design: _Design, fixed: dict[str, float]) -> bool:
-        return design.minimum <= fixed["min_force"]
+    def meets(self, minimum: Any, range_: Any,  # noqa: ARG002 (Measurand's signature)
+              required: float) -> Any:
+        """A resolution at least as fine as ``min_force``."""
+        return minimum <= required
 
-    def best(self, designs: Sequence[D]) -> D:
-        """The largest range (then the finest resolution)."""
-        return max(designs, key=lambda d: (d.range, -d.minimum))
+    def order(self, minimum: Any, range_: Any) -> Any:  # noqa: ARG002 (Measurand's signature)
+        """The largest range first."""
+        return -range_
 
-    def candidates(self, minimum: F64, range_: F64, ok: NDArray[np.bool_],
-                   fixed: dict[str, float], count: int) -> list[int]:
-        """From half to 1.5 times ``min_force``: the largest proxy range resolving it."""
-        out: list[int] = []
-        for factor in np.geomspace(0.5, 1.5, count):
-            idx = np.nonzero(ok & (minimum <= factor * fixed["min_force"]))[0]
-            if idx.size:
-                out.append(int(idx[np.argmin(-range_[idx])]))
-        return out
+    def tie(self, minimum: Any, range_: Any) -> Any:  # noqa: ARG002 (Measurand's signature)
+        """Then the finest resolution."""
+        return minimum
 
     def goal(self, fixed: dict[str, float]) -> str:  # noqa: ARG002 (Measurand's signature)
         return "minimum detectable force"
@@ -283,22 +307,18 @@ class FlowMeasurand(Measurand):
         return Proxy(q, slope, flow_curve(q, d, h, c, reading, fluid), u_max,
                      np.linalg.norm(flow_curve(q, d, h, c, b_curve, fluid), axis=2))
 
-    def eligible(self, design: _Design, fixed: dict[str, float]) -> bool:
-        return design.range >= fixed["speed"]
+    def meets(self, minimum: Any,  # noqa: ARG002 (Measurand's signature)
+              range_: Any, required: float) -> Any:
+        """A range that reaches ``speed``."""
+        return range_ >= required
 
-    def best(self, designs: Sequence[D]) -> D:
-        """The finest resolution (then the largest range)."""
-        return min(designs, key=lambda d: (d.minimum, -d.range))
+    def order(self, minimum: Any, range_: Any) -> Any:  # noqa: ARG002 (Measurand's signature)
+        """The finest resolution first."""
+        return minimum
 
-    def candidates(self, minimum: F64, range_: F64, ok: NDArray[np.bool_],
-                   fixed: dict[str, float], count: int) -> list[int]:
-        """From 0.7 to 1.5 times ``speed`` as the range: the finest proxy resolution."""
-        out: list[int] = []
-        for factor in np.geomspace(0.7, 1.5, count):
-            idx = np.nonzero(ok & (range_ >= factor * fixed["speed"]))[0]
-            if idx.size:
-                out.append(int(idx[np.argmin(minimum[idx])]))
-        return out
+    def tie(self, minimum: Any, range_: Any) -> Any:  # noqa: ARG002 (Measurand's signature)
+        """Then the largest range."""
+        return -range_
 
     def goal(self, fixed: dict[str, float]) -> str:
         return (f"minimum detectable speed change at "
@@ -310,9 +330,9 @@ class FlowMeasurand(Measurand):
 
 
 #: the tip force (objective "force-range")
-FORCE = ForceMeasurand("force", "force-range", "min_force")
+FORCE = ForceMeasurand("force", "force-range", "min_force", (0.5, 1.5))
 #: the flow speed (objective "flow-sensitivity")
-FLOW = FlowMeasurand("flow", "flow-sensitivity", "speed")
+FLOW = FlowMeasurand("flow", "flow-sensitivity", "speed", (0.7, 1.5))
 #: the measurand of each objective, by its name (the edges' strings end here)
 BY_OBJECTIVE: dict[str, Measurand] = {m.objective: m for m in (FORCE, FLOW)}
 #: the measurand by its registry name (``DesignOptimum.to_dict()``'s ``quantity``)
