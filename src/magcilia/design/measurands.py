@@ -11,6 +11,7 @@ Names stay at the edges: :data:`BY_OBJECTIVE` maps the objective's name to its m
 
 from __future__ import annotations
 
+import abc
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -84,7 +85,7 @@ class Proxy:
 
 
 @dataclass(frozen=True)
-class Measurand:
+class Measurand(abc.ABC):
     """A measurand of design optimisation (see the module docstring).
 
     Attributes
@@ -117,48 +118,49 @@ class Measurand:
         return ascii_unit(self.quantity.unit)
 
     # -- the objective's arguments (the edges name them) ------------------------------------------
+    @abc.abstractmethod
     def requirements(self, min_force: float | None, speed: float | None) -> dict[str, float]:
         """The checked ``min_force`` (N) and ``speed`` (m/s) of :func:`~magcilia.optimise_design`
         that count for this measurand, by constraint key."""
-        raise NotImplementedError
 
-    def default_requirements(self, fixed: dict[str, float], reference: _Design) -> None:
-        """Fill in a requirement that defaults to the reference design's own."""
+    def default_requirements(  # noqa: B027 (none by default: only the force has one)
+            self, fixed: dict[str, float], reference: _Design) -> None:
+        """Fill in a requirement that defaults to the reference design's own (none here)."""
 
     # -- the exact metrics -------------------------------------------------------------------------
+    @abc.abstractmethod
     def sweep(self, setup: Setup, fluid: Fluid, points: int) -> Sweep:
         """The exact sweep of ``points`` loads from zero to the sweep's end (large deflections
         and the full field model)."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def field_slope(self, setup: Setup, choice: SensorChoice, sweep: Sweep, speed: float) -> F64:
         """The reading's slope on the sensor's axes where the objective counts it, T per unit,
         shape (3,) (NaN where it cannot be taken)."""
-        raise NotImplementedError
 
     # -- the screen --------------------------------------------------------------------------------
+    @abc.abstractmethod
     def proxy(self, b_all: F64, reading: F64, choice: SensorChoice, compliance: F64,
               height: F64, mean_radius: F64, speed: float, fluid: Fluid) -> Proxy:
         """The screen's curves (:class:`Proxy`) of N designs from their tilt-model fields:
         ``b_all`` (N, 2 + a − 1, 3), T (zero load, the slope's small tilt, then
         :data:`~magcilia.design.proxy.SCREEN_U` after 0), ``reading`` (N, a, 3) on the sensor's
         axes along the grid, their compliance (m/N), height and mean radius (m)."""
-        raise NotImplementedError
 
     # -- the choice --------------------------------------------------------------------------------
+    @abc.abstractmethod
     def meets(self, minimum: Any, range_: Any, required: float) -> Any:
         """Whether designs of ``minimum`` and ``range_`` (SI; arrays broadcast) meet the
         requirement's value ``required``."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def order(self, minimum: Any, range_: Any) -> Any:
         """The choice's sort key of designs (SI; arrays broadcast): the chosen design has the
         smallest, ties broken by :meth:`tie`."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def tie(self, minimum: Any, range_: Any) -> Any:
         """The second sort key of the choice (:meth:`order`)."""
-        raise NotImplementedError
 
     def eligible(self, design: _Design, fixed: dict[str, float]) -> bool:
         """Whether a design meets the objective's own requirement."""
@@ -184,13 +186,13 @@ class Measurand:
                 out.append(int(idx[np.argmin(key[idx])]))
         return out
 
+    @abc.abstractmethod
     def goal(self, fixed: dict[str, float]) -> str:
         """What the minimum means, for reports."""
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def closest(self, designs: Sequence[_Design]) -> str:
         """How close the feasible ``designs`` come to the requirement, for an error."""
-        raise NotImplementedError
 
 
 @dataclass(frozen=True)
