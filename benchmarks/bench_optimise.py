@@ -24,14 +24,10 @@ import time
 import numpy as np
 
 import magcilia as mc
-from magcilia.readout.optimise import (
-    _bounds,
-    _evaluate,
-    _sample,
-    _screen,
-    _Task,
-    sensor_choices,
-)
+from magcilia.design import FORCE, sensor_choices
+from magcilia.design.exact import ExactTask, evaluate
+from magcilia.design.optimise import _bounds, _sample
+from magcilia.design.screen import screen as _screen
 
 
 def main() -> None:
@@ -43,18 +39,18 @@ def main() -> None:
     searched, fixed = _bounds(setup, None)
     values, index = _sample(searched, fixed, args.designs, 1, np.random.default_rng(0))
     n = values["height"].size
-    _screen(setup, {k: a[:16] for k, a in values.items()}, index[:16], choices, "force", 0.0,
+    _screen(setup, {k: a[:16] for k, a in values.items()}, index[:16], choices, FORCE, 0.0,
             (0.5, 500.0), mc.WATER)  # compile and warm up
     t = time.perf_counter()
-    _screen(setup, values, index, choices, "force", 0.0, (0.5, 500.0), mc.WATER)
+    _screen(setup, values, index, choices, FORCE, 0.0, (0.5, 500.0), mc.WATER)
     screen = (time.perf_counter() - t) / n
-    task = _Task(setup, choices[0], "force", 0.0, (0.5, 500.0), mc.WATER, 151,
+    task = ExactTask(setup, choices[0], FORCE, 0.0, (0.5, 500.0), mc.WATER, 151,
                  choices[0].rated_total)  # the layout resolved, as every candidate's
-    _evaluate(task)
+    evaluate(task)
     runs = []
     for _ in range(5):
         t = time.perf_counter()
-        _evaluate(task)
+        evaluate(task)
         runs.append(time.perf_counter() - t)
     exact = min(runs)
     print(f"screen: {screen * 1e6:.1f} us per design ({n} designs)")

@@ -24,6 +24,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("io",),  # files: setup files, recordings, firmware headers
     ("calibration",),
     ("analysis", "readout", "acquire"),
+    ("design",),  # design metrics and optimisation: read ranges, sweeps, the search
     ("report",),  # figures and written reports
     ("batch",),  # many recordings through the execution layer (magcilia.execution)
     ("live",),  # the streaming read-out and its views (terminal, browser)

@@ -38,6 +38,9 @@ from magcilia.batch import BatchResult, calibrate_batch
 # -- calibration -----------------------------------------------------------------------------------
 from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
+# -- design: metrics and optimisation --------------------------------------------------------------
+from magcilia.design import DesignMetrics, DesignOptimum, Metric, design_metrics, optimise_design
+
 # -- the device and its field ------------------------------------------------------------------
 from magcilia.device import (
     MAGNETOMETERS,
@@ -79,7 +82,7 @@ from magcilia.mechanics import (
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
-# -- read-out and design ---------------------------------------------------------------------------
+# -- read-out -------------------------------------------------------------------------------------
 # (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
 from magcilia.readout import (
     ActuatedReadout,
@@ -89,7 +92,6 @@ from magcilia.readout import (
     ArrayReadout,
     BiaxialReadout,
     Crosstalk,
-    DesignMetrics,
     Flag,
     ForceFlag,
     ForceVectorResult,
@@ -99,10 +101,8 @@ from magcilia.readout import (
     SensorReadout,
     Tare,
     array_metrics,
-    design_metrics,
     field_for_loads,
 )
-from magcilia.readout.optimise import DesignOptimum, optimise_design
 
 __all__ = [
     "AIR",
@@ -137,6 +137,7 @@ __all__ = [
     "Magnetometer",
     "Material",
     "Measurement",
+    "Metric",
     "MissingDependencyError",
     "Modulus",
     "OATResult",

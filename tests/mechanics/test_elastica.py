@@ -12,7 +12,7 @@ from scipy.integrate import quad
 
 import magcilia as mc
 from magcilia.mechanics import cantilever_tip, elastica, tip_compliance
-from magcilia.mechanics.bend import _Case
+from magcilia.mechanics.planar import _Case
 
 E = 2.0e6
 L = 3.0e-3

@@ -12,7 +12,7 @@ import pytest
 
 import magcilia as mc
 from magcilia.mechanics import bend_3d
-from magcilia.mechanics.bend import _static
+from magcilia.mechanics.planar import _static
 from magcilia.mechanics.rod import Rod, RodLoads, RodProblem
 
 L, R, E = 3e-3, 2e-4, 2e6
@@ -64,10 +64,10 @@ def test_in_plane_loads_equal_the_planar_solver(tapered: mc.Setup, phi: float,
 def _state(setup: mc.Setup, shape: mc.SpatialBentShape,
            loads: RodLoads) -> tuple[Rod, np.ndarray]:
     """The rod and the converged nodal tangents, re-solved (to read the solver's internals)."""
-    from magcilia.mechanics.bend import _moment_per_length
     from magcilia.mechanics.drag import free_log
     from magcilia.mechanics.elastica import solve
     from magcilia.mechanics.rod import linear_guess, straight
+    from magcilia.mechanics.spatial import _moment_per_length
 
     c = setup.cilium
     grid, ei, d, loaded, _ = _static(c, setup.youngs_modulus, c.height,

@@ -17,6 +17,7 @@ from magcilia.device.cilium import MAX_PROFILE_POINTS
 from magcilia.mechanics.sections import MAX_NODES, RESAMPLED_NODES, sections
 
 bend_module = importlib.import_module("magcilia.mechanics.bend")  # the package shadows it
+planar_module = importlib.import_module("magcilia.mechanics.planar")  # where _static lives
 
 L, RB, E = 3e-3, 2e-4, 2e6
 
@@ -77,15 +78,15 @@ def test_a_large_load_matches_the_exact_grid() -> None:
     assert sections(setup.cilium, L, True, None).resampled
     big = MAX_NODES * 4
     try:
-        bend_module.sections.cache_clear()
-        bend_module._static.cache_clear()
+        planar_module.sections.cache_clear()
+        planar_module._static.cache_clear()
         with pytest.MonkeyPatch.context() as mp:
             mp.setattr("magcilia.mechanics.sections.MAX_NODES", big)
             exact = bend_module.bend(setup, force=3e-4)
             assert not sections(setup.cilium, L, True, None).resampled
     finally:
-        bend_module.sections.cache_clear()
-        bend_module._static.cache_clear()
+        planar_module.sections.cache_clear()
+        planar_module._static.cache_clear()
     assert resampled.nodes <= MAX_NODES < exact.nodes
     assert np.linalg.norm(resampled.tip - exact.tip) <= 2e-5 * np.linalg.norm(exact.tip)
 
@@ -109,8 +110,8 @@ def test_bend_at_the_point_limit_costs_what_a_shorter_profile_does() -> None:
 
     def cost(points: int) -> tuple[int, int]:
         setup = measured(points)
-        bend_module._static.cache_clear()
-        bend_module.sections.cache_clear()
+        planar_module._static.cache_clear()
+        planar_module.sections.cache_clear()
         tracemalloc.start()
         try:
             shape = bend_module.bend(setup, force=3e-4)

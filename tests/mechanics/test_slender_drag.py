@@ -16,7 +16,7 @@ from magcilia.mechanics import AIR, WATER, Flow, drag_per_length, slender_log
 from magcilia.mechanics.drag import upright_rod_drag
 
 GAMMA = 0.5772156649015329
-bend_module = importlib.import_module("magcilia.mechanics.bend")
+planar_module = importlib.import_module("magcilia.mechanics.planar")  # the x–z solver
 
 
 def total_free(radius, length: float) -> float:
@@ -189,9 +189,9 @@ def test_high_re_flow_bend_unchanged(monkeypatch: pytest.MonkeyPatch) -> None:
     flow = Flow.uniform(2.0, AIR)  # Re ≥ 13 everywhere: the cylinder law only
     new = mc.bend(setup, flow=flow)
     calls = []
-    monkeypatch.setattr(bend_module, "wall_log", lambda *args: calls.append(1))
+    monkeypatch.setattr(planar_module, "wall_log", lambda *args: calls.append(1))
     assert mc.bend(setup, flow=flow).tip_angle == new.tip_angle and not calls  # never needed
-    monkeypatch.setattr(bend_module, "drag_per_length",
+    monkeypatch.setattr(planar_module, "drag_per_length",
                         lambda un, d, fluid, slender: drag_per_length(un, d, fluid))  # the old law
     old = mc.bend(setup, flow=flow)
     assert np.array_equal(new.points, old.points) and new.tip_angle == old.tip_angle

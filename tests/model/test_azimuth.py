@@ -41,3 +41,22 @@ def test_output_reads_the_turned_field_on_the_sensitive_axis() -> None:
 def test_azimuth_must_be_finite() -> None:
     with pytest.raises(mc.MagciliaError, match="azimuth"):
         mc.Setup.paper().field(ANGLES, azimuth=float("nan"))
+
+
+def test_the_one_rotation_about_z_and_its_exact_inverse() -> None:
+    from magcilia.model.azimuth import turn_about_z, turn_xy
+
+    gen = np.random.default_rng(4)
+    vec = gen.normal(size=(7, 5, 3))
+    phi = gen.uniform(-7.0, 7.0, (7, 1))
+    turned = turn_about_z(vec, phi)
+    # the rotation matrix about z, built independently
+    c, s = np.cos(phi[:, 0]), np.sin(phi[:, 0])
+    rot = np.zeros((7, 3, 3))
+    rot[:, 0, 0], rot[:, 0, 1], rot[:, 1, 0], rot[:, 1, 1], rot[:, 2, 2] = c, -s, s, c, 1.0
+    np.testing.assert_allclose(turned, np.einsum("aij,amj->ami", rot, vec), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(turn_about_z(turned, phi, inverse=True), vec, rtol=0, atol=1e-14)
+    # the inverse is the turn by -phi exactly (the sine's sign flipped)
+    assert np.array_equal(turn_about_z(vec, phi, inverse=True), turn_about_z(vec, -phi))
+    x, y = turn_xy(vec[..., 0], vec[..., 1], phi)
+    assert np.array_equal(np.stack([x, y], -1), turned[..., :2])

@@ -15,10 +15,11 @@ from magcilia.acquire import Script, SimulatedSource, Source, source_from_spec
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options
 from magcilia.cli.readout import parse_span
+from magcilia.design import design_metrics
 from magcilia.device.setup import Setup
 from magcilia.live import LiveReadout
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout import Readout, design_metrics
+from magcilia.readout import Readout
 
 logger = logging.getLogger(__name__)
 

@@ -18,8 +18,8 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.design import DesignMetrics, design_metrics
 from magcilia.mechanics import FLUIDS
-from magcilia.readout.design import DesignMetrics, design_metrics
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, ascii_unit
 

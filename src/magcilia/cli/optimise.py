@@ -25,8 +25,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
-from magcilia.mechanics import FLUIDS
-from magcilia.readout.optimise import (
+from magcilia.design import (
     DEFAULT_BOUNDS,
     OBJECTIVES,
     VARIABLES,
@@ -34,6 +33,8 @@ from magcilia.readout.optimise import (
     DesignOptimum,
     optimise_design,
 )
+from magcilia.design.measurands import BY_OBJECTIVE
+from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits
 
@@ -118,12 +119,11 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     if plot_path:
         figure_format(plot_path)  # a suffix matplotlib cannot write fails before the search
-    quantity = "force" if objective == "force-range" else "flow"
+    measured = BY_OBJECTIVE[objective].quantity  # the objective's measurand: force or speed
     constraints: dict[str, float] = {}
     if min_range is not None:
-        unit = "mN" if quantity == "force" else "m/s"
-        constraints["range"] = parse_value(min_range, "force" if quantity == "force"
-                                           else "speed", unit, "--min-range")
+        constraints["range"] = parse_value(min_range, measured.dimension, measured.display,
+                                           "--min-range")
     if max_field is not None:
         constraints["field"] = max_field
     sensors = tuple(s.strip() for s in sensor_text.split(",") if s.strip())

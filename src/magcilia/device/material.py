@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import Any
 
 from magcilia._display import Display, Item, number, scaled
 from magcilia.constants import (
@@ -26,6 +27,16 @@ from magcilia.device.stiffness import (
     filler_uncertainty,
     percent,
 )
+
+
+def volume_fraction(cobalt_mass: Any, polymer_mass: Any, cobalt_density: Any,
+                    polymer_density: Any) -> Any:
+    """The cobalt's volume fraction phi = V_Co / (V_Co + V_p), dimensionless, of a suspension of
+    ``cobalt_mass`` and ``polymer_mass`` (kg) at their densities (kg/m³); arrays broadcast
+    (:attr:`Material.volume_fraction` of many recipes at once)."""
+    v_co = cobalt_mass / cobalt_density
+    v_p = polymer_mass / polymer_density
+    return v_co / (v_co + v_p)
 
 
 @dataclass(frozen=True, repr=False)
@@ -81,10 +92,10 @@ class Material(Display):
 
     @property
     def volume_fraction(self) -> float:
-        """phi = V_Co / (V_Co + V_p), dimensionless (paper preset ≈ 0.0937)."""
-        v_co = self.cobalt_mass / self.cobalt_density
-        v_p = self.polymer_mass / self.polymer_density
-        return v_co / (v_co + v_p)
+        """phi = V_Co / (V_Co + V_p), dimensionless (paper preset ≈ 0.0937;
+        :func:`volume_fraction`)."""
+        return float(volume_fraction(self.cobalt_mass, self.polymer_mass, self.cobalt_density,
+                                     self.polymer_density))
 
     @property
     def cobalt_magnetization(self) -> float:

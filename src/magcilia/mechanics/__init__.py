@@ -9,23 +9,17 @@
   :data:`WATER`; :func:`drag_coefficient` (Lamb–Oseen / White cylinder drag) and
   :func:`slender_log` (the low-Re drag of a finite slender body standing on the wall);
 * :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference, and
-  :func:`uniform_field_tip` (a uniform rod in a uniform perpendicular field, by quadrature).
+  :func:`uniform_field_tip` (a uniform rod in a uniform perpendicular field, by quadrature);
+* :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance.
+
+Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z solver and sweeps),
+:mod:`.spatial` (loads in any direction, actuation, the 3-D rod, buckling), :mod:`.compliance`.
 """
 
 from __future__ import annotations
 
-from magcilia.mechanics.bend import (
-    SHARP_TIP,
-    bend,
-    bend_3d,
-    bend_sweep,
-    buckling_load,
-    flip_field,
-    output_at,
-    poses_at,
-    require_tip_radius,
-    tip_compliance,
-)
+from magcilia.mechanics.bend import bend, bend_3d, bend_sweep, output_at, poses_at
+from magcilia.mechanics.compliance import frustum_compliance, tip_compliance
 from magcilia.mechanics.drag import (
     AIR,
     FLUIDS,
@@ -37,7 +31,9 @@ from magcilia.mechanics.drag import (
 )
 from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
 from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
+from magcilia.mechanics.spatial import buckling_load, flip_field
 
 __all__ = [
     "AIR",
@@ -57,6 +53,7 @@ __all__ = [
     "drag_coefficient",
     "drag_per_length",
     "flip_field",
+    "frustum_compliance",
     "output_at",
     "poses_at",
     "require_tip_radius",

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, scaled
+from magcilia.model.azimuth import turn_about_z
 from magcilia.model.layout import spatial_frames
 
 
@@ -173,12 +174,9 @@ def _unit(vec: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _turn_z(vec: NDArray[np.float64], azimuth: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Vectors (a, m, 3) turned about +z by ``azimuth`` (a,) rad."""
-    c, s = np.cos(azimuth)[:, None], np.sin(azimuth)[:, None]
-    out = vec.copy()
-    out[..., 0] = c * vec[..., 0] - s * vec[..., 1]
-    out[..., 1] = s * vec[..., 0] + c * vec[..., 1]
-    return out
+    """Vectors (a, m, 3) turned about +z by ``azimuth`` (a,) rad
+    (:func:`~magcilia.model.azimuth.turn_about_z`)."""
+    return turn_about_z(vec, azimuth[:, None])
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.model import body
+from magcilia.model.azimuth import turn_about_z
 from magcilia.model.centreline import Centreline
 from magcilia.model.exact import exact_field
 from magcilia.model.kernels import pose_field
@@ -124,10 +125,7 @@ def probe_points(spec: ModelSpec | SupportsSpec, points: ArrayLike | None = None
     rel = pts - base
     out = []
     for phi in np.asarray(azimuths, dtype=np.float64).reshape(-1):
-        c, sn = math.cos(phi), math.sin(phi)
-        turned = np.stack([c * rel[:, 0] + sn * rel[:, 1], -sn * rel[:, 0] + c * rel[:, 1],
-                           rel[:, 2]], axis=1)
-        out.append(turned + base)
+        out.append(turn_about_z(rel, phi, inverse=True) + base)
     return np.unique(np.concatenate(out).round(15), axis=0)
 
 

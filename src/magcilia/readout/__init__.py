@@ -1,4 +1,4 @@
-"""Read-out: from sensor output back to angle, force and flow, and what a design can resolve.
+"""Read-out: from sensor output back to angle, force and flow.
 
 * :mod:`.inverse`: :class:`Readout`, one output read back as angle, force or flow, with 1-σ
   uncertainties and flags; its parts: :mod:`.table` (the inverse table), :mod:`.edges` (the
@@ -11,13 +11,17 @@
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
-* :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``channels``, ``rest``,
+* :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``inputs``, ``rest``,
   ``read``, ``tare``), the one :class:`Flag` set and the result's shape (:class:`ReadoutValues`);
 * :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
   read-out and of the live tare;
-* :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
 * :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
-  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch).
+  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch);
+* :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
+
+What a design can resolve (``design_metrics``, ``DesignMetrics``, ``Metric``) and design
+optimisation moved to :mod:`magcilia.design` (a room above this one); they are importable from
+there and from ``magcilia``, no longer from ``magcilia.readout``.
 """
 
 from __future__ import annotations
@@ -39,7 +43,6 @@ from magcilia.readout.biaxial import (
     ForceFlag,
     ForceVectorResult,
 )
-from magcilia.readout.design import DesignMetrics, Metric, design_metrics
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
 from magcilia.readout.protocol import (
     FLAG_DTYPE,
@@ -63,11 +66,9 @@ __all__ = [
     "ChannelTare",
     "Coupling",
     "Crosstalk",
-    "DesignMetrics",
     "Flag",
     "ForceFlag",
     "ForceVectorResult",
-    "Metric",
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
@@ -75,7 +76,6 @@ __all__ = [
     "SensorReadout",
     "Tare",
     "array_metrics",
-    "design_metrics",
     "field_for_loads",
     "flag_names",
     "loaded_poses",

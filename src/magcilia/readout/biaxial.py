@@ -52,6 +52,7 @@ from magcilia.device.magnetometer import Magnetometer
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, beyond_range
 from magcilia.device.setup import Setup
 from magcilia.mechanics import bend, bend_sweep, require_tip_radius
+from magcilia.model.azimuth import turn_about_z
 from magcilia.model.centreline import SpatialCentreline
 from magcilia.model.kernels import pose_field
 from magcilia.readout.inverse import EDGE_TOLERANCE
@@ -1096,12 +1097,7 @@ def _model_shapes(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuth
     unique, which = np.unique(points, axis=0, return_inverse=True)
     which = np.asarray(which).reshape(-1)
     rel = unique - base  # (P, 3)
-    cs, sn = np.cos(azimuths), np.sin(azimuths)
-    obs = np.empty((azimuths.size, unique.shape[0], 3))  # R(−φ)(p − b) + b
-    obs[..., 0] = cs[:, None] * rel[:, 0] + sn[:, None] * rel[:, 1]
-    obs[..., 1] = -sn[:, None] * rel[:, 0] + cs[:, None] * rel[:, 1]
-    obs[..., 2] = rel[:, 2]
-    obs += base
+    obs = turn_about_z(rel[None], azimuths[:, None], inverse=True) + base  # R(−φ)(p − b) + b
     flat = obs.reshape(-1, 3)
     try:
         setup.check_outside(flat, shapes)
@@ -1122,10 +1118,7 @@ def _model_shapes(setup: Setup, chans: tuple[Channel, ...], forces: F64, azimuth
     if not np.isfinite(b).all():
         raise v.fail("sensors", "a point on a dipole of the model", "sensors away from the "
                      "model's dipoles")
-    board = np.empty_like(b)  # R(φ) B
-    board[..., 0] = cs[None, :, None] * b[..., 0] - sn[None, :, None] * b[..., 1]
-    board[..., 1] = sn[None, :, None] * b[..., 0] + cs[None, :, None] * b[..., 1]
-    board[..., 2] = b[..., 2]
+    board = turn_about_z(b, azimuths[None, :, None])  # R(φ) B
     axes = np.array([c.axis for c in chans])  # (c, 3)
     return np.einsum("fpcx,cx->fpc", board[:, :, which], axes)
 

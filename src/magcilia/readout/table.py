@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia.readout.branch import first_turn
 
 F64 = NDArray[np.float64]
 
@@ -71,8 +72,8 @@ class InverseTable:
         if nonzero.size == 0:
             raise v.fail("span", where, "a span over which the output changes")
         sign = float(np.sign(dv[nonzero[0]]))
-        turns = np.nonzero(np.sign(dv) * sign <= 0.0)[0]
-        end = int(turns[0]) if turns.size else grid.size - 1  # last index of the branch
+        end = int(first_turn(volts, flat=True))  # last index of the (strictly monotone) branch
+        folds = end < grid.size - 1
         if end < 2:
             raise v.fail("span", where, f"a span whose output is monotone near its start (it "
                          f"folds at {grid[end]:.6g})")
@@ -92,8 +93,8 @@ class InverseTable:
             side="right") - 1, 0, xp.size - 1)
         table = cls(
             quantity=grid[even], output=volts[even], error=0.0,
-            fold=float(grid[end]) if turns.size else None,
-            ambiguous=(float(beyond.min()), float(beyond.max())) if turns.size else None,
+            fold=float(grid[end]) if folds else None,
+            ambiguous=(float(beyond.min()), float(beyond.max())) if folds else None,
             volts=xp, values=fp, slope=np.gradient(fp, xp), cell_start=cells[:-1].copy(),
             cell_step=np.diff(cells), cells_per_volt=per_volt,
             cell_knot=first.astype(np.intp), knot_steps=int(np.max(last - first)),

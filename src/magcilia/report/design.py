@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from magcilia.constants import GAUSS
+from magcilia.design import DesignMetrics, Metric
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout.design import DesignMetrics, Metric
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from magcilia.design import Candidate, DesignOptimum
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout.optimise import Candidate, DesignOptimum
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -8,12 +8,14 @@ quantity, evaluates the sensor output and reports
   U → 0 vanish logarithmically);
 * the minimum detectable value: noise RMS over the bandwidth divided by the slope (force, angle);
   for flow, whose drag grows nonlinearly, the speed that solves ``|V(U) − V(0)| = noise``;
-* the range: the value where the read-out ends (:func:`read_range`, shared with
-  :func:`magcilia.optimise_design`): the first of the sensor leaving its rated range (the
-  HMC1021Z's ±6 gauss hold for the sensitive axis and, by its datasheet, for the total applied
-  field: :func:`rated_ratio`) or a fold of the output (non-monotonic: readings become
-  ambiguous). When the sweep ends first (the elastica's large-deflection limit, the drag law's
-  Reynolds limit, 90° of tilt), the read-out has not ended: the range is a lower bound,
+* the range: the value where the read-out ends (:func:`magcilia.design.ranges.read_range`,
+  shared with :func:`magcilia.optimise_design`): the first of the sensor leaving its rated range
+  (the HMC1021Z's ±6 gauss hold for the sensitive axis and, by its datasheet, for the total
+  applied field: :func:`magcilia.design.ranges.rated_ratio`) or a fold of the output
+  (non-monotonic: readings become ambiguous). When the sweep ends first (the elastica's
+  large-deflection limit, the drag law's Reynolds limit, 90° of tilt; the force and flow sweeps
+  are the optimiser's, :mod:`magcilia.design.sweeps`), the read-out has not ended: the range is
+  a lower bound,
   ``reached`` is False and reports print it as "≥ X (not reached: …)";
 * the force scale's 1 σ of the minimum and the range: a force scales exactly with the Young's
   modulus at a fixed shape (σ = value · σ_E/E), a flow speed through the drag law (the model's
@@ -37,22 +39,14 @@ from scipy.optimize import brentq
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, dataframe, number, rows_table, si
 from magcilia._errors import MagciliaError
-from magcilia.constants import GAUSS
+from magcilia.design.measurands import FLOW, FORCE
+from magcilia.design.ranges import single_axis_range
+from magcilia.design.sweeps import SWEEP_ENDS
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.device.stiffness import percent
-from magcilia.mechanics import (
-    SHARP_TIP,
-    WATER,
-    Flow,
-    Fluid,
-    bend,
-    bend_sweep,
-    output_at,
-    tip_compliance,
-)
-from magcilia.mechanics.drag import max_speed
+from magcilia.mechanics import SHARP_TIP, WATER, Flow, Fluid, bend, bend_sweep, output_at
 from magcilia.readout.scale import fixed_output_rate
 
 F64 = NDArray[np.float64]
@@ -243,156 +237,13 @@ def _percent(sigma: float, value: float) -> str:
     return percent(sigma / value if value else 0.0)
 
 
-def range_end(q: F64, ratio: F64, signal: F64) -> tuple[float, str, int]:
-    """Where a sweep's range ends, from q[0]: the first load whose reading leaves the sensor's
-    range (interpolated where ``ratio`` crosses 1) or the first fold of ``signal``, whichever
-    comes first, else the sweep's end.
-
-    Parameters
-    ----------
-    q : ndarray, shape (c,)
-        The loads, increasing.
-    ratio : ndarray, shape (c,)
-        The reading over its full scale (the largest over a sensor's axes); beyond 1: saturated.
-    signal : ndarray, shape (c,)
-        What the read-out inverts (an output, or a weighted 3-axis reading): its first turn is
-        the fold.
-
-    Returns
-    -------
-    value : float
-        The range's end (the unit of ``q``).
-    kind : {"zero", "saturated", "fold", "end"}
-        What ends it ("zero": the first load is saturated already, the value is 0; "end": the
-        sweep ended first, so the read-out's range was not reached and the value is a lower
-        bound).
-    index : int
-        The last sweep index within the range.
-    """
-    sat = np.nonzero(ratio > 1.0)[0]
-    dp = np.diff(signal)
-    sign = np.sign(dp[np.nonzero(dp)[0][0]]) if np.any(dp) else 0.0
-    turns = np.nonzero(np.sign(dp) * sign < 0.0)[0]
-    i_fold = int(turns[0]) if turns.size else None
-    i_sat = int(sat[0]) if sat.size else None
-    if i_sat is not None and (i_fold is None or i_sat <= i_fold):
-        if i_sat == 0:
-            return 0.0, "zero", 0
-        r0, r1 = ratio[i_sat - 1], ratio[i_sat]
-        t = (1.0 - r0) / (r1 - r0)
-        return float(q[i_sat - 1] + t * (q[i_sat] - q[i_sat - 1])), "saturated", i_sat - 1
-    if i_fold is not None:
-        return float(q[i_fold]), "fold", i_fold
-    return float(q[-1]), "end", q.size - 1
-
-
-#: the note of a range that ends in a fold of the output
-FOLD_NOTE = "fold (output turns back)"
-#: the note of a range that ends at zero load (saturated there already)
-SATURATED_AT_ZERO = "sensor range (beyond its rated range at zero load)"
-#: the prefix of a range that the sweep did not reach (the value is a lower bound)
-NOT_REACHED = "not reached: "
-#: what ends a sweep of each measurand before its read-out ends (the range is then a lower bound)
-SWEEP_ENDS = {"force": "the sweep ends at a tip deflection ≈ L",
-              "flow": "the sweep ends where the cilium is strongly bent",
-              "drag": "the drag law ends at Re 2e5", "angle": "the sweep ends at 90 deg"}
-
-
-def rated_ratio(reading: F64, full_scale: F64, magnitude: F64, total: float
-                ) -> tuple[F64, F64]:
-    """How far into its rated range a sensor is, per sweep point: the largest of |reading_i| /
-    full_scale_i over its read axes and of |B| / ``total`` (a rated range of the total applied
-    field, as the HMC1021Z's datasheet states; inf: none), shape (..., c); beyond 1 the read-out
-    has ended (:func:`range_end`). Also which term is largest (..., c): 0, 1, 2 for an axis, 3
-    for |B|.
-
-    Parameters
-    ----------
-    reading : ndarray, shape (..., c, 3)
-        The field on the sensor's axes, T (a single-axis element: the board's, only x read).
-    full_scale : ndarray, shape (3,)
-        Range per axis, T (inf: the axis is not read).
-    magnitude : ndarray, shape (..., c)
-        |B| at the sensing point, T.
-    total : float
-        Rated range of |B|, T (inf for none).
-    """
-    terms = np.concatenate([np.abs(reading) / full_scale, (magnitude / total)[..., None]],
-                           axis=-1)
-    return np.max(terms, axis=-1), np.argmax(terms, axis=-1)
-
-
-def range_text(kind: str, which: int, full_scale: F64, total: float, axes: int,
-               end_note: str) -> str:
-    """What ends a range (:func:`range_end`'s ``kind``; ``which``: :func:`rated_ratio`'s term at
-    the crossing), for reports: the rated range (an axis or the total field), a fold, or for a
-    range not reached what ended the sweep (``end_note``)."""
-    if kind == "zero":
-        return SATURATED_AT_ZERO
-    if kind == "fold":
-        return FOLD_NOTE
-    if kind == "end":
-        return NOT_REACHED + end_note
-    if which == 3:
-        return f"sensor range (|B| {number(total / GAUSS)} gauss, the rated total field)"
-    axis = f" on {'xyz'[which]}" if axes == 3 else f" on B_{'xyz'[which]}"
-    return f"sensor range (±{number(full_scale[which] / GAUSS)} gauss{axis})"
-
-
-def read_range(q: F64, reading: F64, b: F64, full_scale: F64, total: float, signal: F64,
-               axes: int, end_note: str) -> tuple[float, str, int, bool]:
-    """The range of a sweep from q[0] (:func:`range_end` of :func:`rated_ratio`): where the
-    sensor leaves its rated range or the read-out ``signal`` (c,) folds, else the sweep's end
-    (not reached). ``reading``, ``b``, ``full_scale`` and ``total`` as :func:`rated_ratio`;
-    ``axes`` the sensor's read axes (1 or 3) and ``end_note`` what ended the sweep, for
-    :func:`range_text`. Returns the value (the unit of ``q``), what ends it, the last sweep index
-    within it and whether it was reached."""
-    ratio, which = rated_ratio(reading, full_scale, np.linalg.norm(b, axis=-1), total)
-    value, kind, last = range_end(q, ratio, signal)
-    term = int(which[min(last + 1, which.size - 1)])
-    return (value, range_text(kind, term, full_scale, total, axes, end_note), last,
-            kind != "end")
-
-
 def _range(q: F64, b: F64, setup: Setup, end_note: str) -> tuple[float, str, bool]:
-    """Range from q[0] of the fields ``b`` (c, 3) at the single-axis element: its rated range
-    (B_x and |B| within ±field_range) or a fold of the output, else the sweep's end (not
-    reached); what ends it; whether it was reached."""
+    """Range from q[0] of the fields ``b`` (c, 3) at the setup's single-axis element
+    (:func:`~magcilia.design.ranges.single_axis_range`): its rated range (B_x and |B| within
+    ±field_range) or a fold of the output, else the sweep's end (not reached); what ends it;
+    whether it was reached."""
     sensor = setup.sensor
-    value, why, _, reached = read_range(
-        q, b, b, np.array([sensor.field_range, math.inf, math.inf]), sensor.field_range,
-        sensor.voltage(b[:, 0]), 1, end_note)
-    return value, why, reached
-
-
-def sweep_fields(setup: Setup, values: F64, flow: Flow | None) -> tuple[F64, F64, str]:
-    """The field at the element along an increasing sweep of tip forces (``flow`` None, N) or
-    flow speeds (m/s), in chunks, stopping at the first load the solver does not converge for.
-
-    Returns
-    -------
-    values : ndarray, shape (c,)
-        The loads reached (c ≤ the loads given).
-    fields : ndarray, shape (c, 3)
-        B at the element, T.
-    note : str
-        Why the sweep stopped early ("" if it did not).
-    """
-    done_q: list[F64] = []
-    done_b: list[F64] = []
-    note = ""
-    for chunk in np.array_split(values, max(1, values.size // 25)):
-        try:
-            shapes = bend_sweep(setup, forces=chunk) if flow is None else \
-                bend_sweep(setup, speeds=chunk, flow=flow)
-        except MagciliaError as exc:
-            note = f"solver limit ({exc})"
-            break
-        done_q.append(chunk)
-        done_b.append(setup.field(shapes))
-    if not done_q:
-        return np.zeros(0), np.zeros((0, 3)), note
-    return np.concatenate(done_q), np.concatenate(done_b), note
+    return single_axis_range(q, b, sensor.field_range, sensor.voltage(b[:, 0]), end_note)
 
 
 def _unavailable(quantity: str, unit: str, why: str) -> Metric:
@@ -405,13 +256,13 @@ def _force_metric(setup: Setup, noise: float, points: int) -> Metric:
         return _unavailable("force", "N",
                             f"not available: tip_radius 0 cannot carry {SHARP_TIP['force']}"
                             "; give the setup a tip radius")
-    f_max = 3.0 * c.height / tip_compliance(setup)  # linear deflection of 3 L: strongly bent
-    delta = 1e-6 * f_max
+    sweep = FORCE.sweep(setup, WATER, points)  # to a linear deflection of 3 L: strongly bent
+    delta = 1e-6 * sweep.limit
     v_pm = setup.output(bend_sweep(setup, forces=[-delta, delta]))
     slope = float(v_pm[1] - v_pm[0]) / (2.0 * delta)
-    q, b, note = sweep_fields(setup, np.linspace(0.0, f_max, points), None)
+    q, b = sweep.values, sweep.fields
     volts = setup.sensor.voltage(b[:, 0])
-    rng, why, reached = _range(q, b, setup, note or SWEEP_ENDS["force"])
+    rng, why, reached = _range(q, b, setup, sweep.end)
     minimum = noise / abs(slope) if slope else math.inf
     rel = setup.youngs_modulus_uncertainty  # F ∝ E at a fixed shape: exactly
     return Metric("force", "N", slope, minimum, rng, why, np.stack([q, volts], axis=1), reached,
@@ -425,16 +276,11 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
                             f"not available: tip_radius 0 cannot carry {SHARP_TIP['flow']}"
                             "; give the setup a tip radius")
     d = 2.0 * c.max_radius  # the widest section sets the Reynolds limit
-    f_max = 3.0 * c.height / tip_compliance(setup)
-    u_drag = 2.0 * math.sqrt(f_max / (0.5 * fluid.density * d * c.height))
-    u_re = max_speed(d, fluid)
-    u_max = min(u_drag, u_re)
+    sweep = FLOW.sweep(setup, fluid, points)
     flow = Flow.uniform(1.0, fluid)
-    speeds = np.concatenate([[0.0], np.geomspace(u_max * 1e-5, u_max, points - 1)])
-    q, b, note = sweep_fields(setup, speeds, flow)
+    q, b = sweep.values, sweep.fields
     volts = setup.sensor.voltage(b[:, 0])
-    end = SWEEP_ENDS["drag"] if u_re <= u_drag else SWEEP_ENDS["flow"]
-    rng, why, reached = _range(q, b, setup, note or end)
+    rng, why, reached = _range(q, b, setup, sweep.end)
     u_ref = 1e-3 * fluid.viscosity / (fluid.density * d)
     v0 = float(volts[0])
     slope = (float(setup.output(bend(setup, flow=flow.with_speed(u_ref)))[0]) - v0) / u_ref

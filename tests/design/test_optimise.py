@@ -10,15 +10,16 @@ import pytest
 
 import magcilia as mc
 from magcilia._atomic import json_text
-from magcilia.readout.optimise import (
+from magcilia.design import (
     DEFAULT_BOUNDS,
+    FORCE,
     DesignOptimum,
-    _evaluate,
-    _Task,
     optimise_design,
     pareto_ranks,
     sensor_choices,
 )
+from magcilia.design.exact import ExactTask as _Task
+from magcilia.design.exact import evaluate as _evaluate
 
 #: the reference: the paper's Table I cilium and placement, a 0.05 mm tip radius (the paper's cone
 #: is sharp: a tip force needs a finite tip), the Guth-Gold modulus of its 30/30 mg composite
@@ -65,7 +66,7 @@ def test_pareto_ranks_limit_and_nan() -> None:
 def test_exact_metric_of_the_single_axis_sensor_is_design_metrics() -> None:
     """The exact refinement reproduces design_metrics' force metric for the HMC1021Z."""
     choice = sensor_choices(("HMC1021Z",), REFERENCE)[0]
-    got = _evaluate(_Task(REFERENCE, choice, "force", 0.0, (0.5, 500.0), mc.WATER, 151,
+    got = _evaluate(_Task(REFERENCE, choice, FORCE, 0.0, (0.5, 500.0), mc.WATER, 151,
                           choice.rated_total))
     want = mc.design_metrics(REFERENCE).force
     assert got["minimum"] == pytest.approx(want.minimum, rel=1e-9)
@@ -73,7 +74,7 @@ def test_exact_metric_of_the_single_axis_sensor_is_design_metrics() -> None:
     assert got["limited_by"] == want.limited_by and got["reached"] == want.reached
     # near the element: the range ends where the total field reaches the rated 6 gauss
     near = REFERENCE.replace(position=(-1e-3, 0.0, 0.0))
-    got = _evaluate(_Task(near, choice, "force", 0.0, (0.5, 500.0), mc.WATER, 151,
+    got = _evaluate(_Task(near, choice, FORCE, 0.0, (0.5, 500.0), mc.WATER, 151,
                           choice.rated_total))
     want = mc.design_metrics(near).force
     assert got["reached"] and want.reached and got["limited_by"] == want.limited_by
@@ -245,7 +246,7 @@ def test_a_measured_profile_scales_with_its_base_radius() -> None:
 def test_a_screen_in_chunks_gives_the_same_result(result: DesignOptimum,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     """Past SCREEN_CHUNK designs the screen runs as tasks, chunk by chunk: same result."""
-    from magcilia.readout import optimise
+    from magcilia.design import optimise
 
     monkeypatch.setattr(optimise, "SCREEN_CHUNK", 64)
     chunked = optimise_design(REFERENCE, min_force=MIN_FORCE, rng=3, **FAST)  # type: ignore[arg-type]
