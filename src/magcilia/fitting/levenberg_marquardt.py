@@ -160,18 +160,16 @@ def fit_batch(
         r = np.asarray(residuals(x, every), dtype=np.float64)
     cost = sum_squares(r)
     lam = np.full(size, float(damping))
-    active = np.isfinite(cost) & (dims > 0)
     iterations = np.zeros(size, dtype=np.int64)
-    evaluations = np.ones(size, dtype=np.int64)
     converged = np.zeros(size, dtype=bool)
     jtj_out = np.full((size, dims, dims), np.nan)
     eye = np.eye(dims)
     diagonal = eye.astype(bool)[None]
-    for _ in range(maxiter):
-        idx = np.nonzero(active)[0]
+    idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
+    for k in range(maxiter):
         if idx.size == 0:
             break
-        xa, ra = x[idx], r[idx]
+        xa, ra, ca, la = x[idx], r[idx], cost[idx], lam[idx]
         lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
         if jac_fn is not None:
             jtj, jtr = _normal(np.asarray(jac_fn(xa, idx), dtype=np.float64), ra)
@@ -181,52 +179,59 @@ def fit_batch(
             jac = diff(xa, ra, idx)  # (s, p, a)
             jtj = np.einsum("spa,sqa->spq", jac, jac)
             jtr = np.einsum("spa,sa->sp", jac, ra)
-            evaluations[idx] += dims
-        jtj_out[idx] = jtj
-        iterations[idx] += 1
         # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
         # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
         diag = np.einsum("spp->sp", jtj)
         diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
-        scaled = jtj + lam[idx, None, None] * (diag[:, :, None] * eye[None])
+        scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
         ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
-        delta = np.zeros_like(xa)
-        blocked = np.zeros(xa.shape, dtype=bool)
-        for _ in range(2):  # solve, then again with the parameters a bound stops held fixed
-            system, rhs = scaled[ok].copy(), -jtr[ok]
-            held = blocked[ok]
+        if ok.all():
+            delta = _solve(scaled, -jtr)
+        else:
+            delta = np.zeros_like(xa)
+            delta[ok] = _solve(scaled[ok], -jtr[ok])
+        # a parameter on a bound whose step points outward is held: solve those again without it
+        blocked = ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
+        again = blocked.any(axis=1)
+        if again.any():
+            system, rhs, held = scaled[again], -jtr[again], blocked[again]
             system[held[:, :, None] | held[:, None, :]] = 0.0
             system[held[:, :, None] & diagonal] = 1.0
             rhs[held] = 0.0
-            delta[ok] = _solve(system, rhs)
-            blocked |= ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
-            if not blocked[ok].any():
-                break
+            delta[again] = _solve(system, rhs)
         trial = np.clip(xa + delta, lo, hi)
         jt: F64 | None = None
         if with_jac:
             rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
         else:
             rt = np.asarray(residuals(trial, idx), dtype=np.float64)
-        evaluations[idx] += 1
         ct = sum_squares(rt)
-        better = ct < cost[idx]
-        gain = np.where(better, (cost[idx] - ct) / np.maximum(cost[idx], 1e-300), 0.0)
+        better = ct < ca
+        gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
         acc = idx[better]
         x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
         if jcache is not None and jt is not None:
             jcache[acc] = jt[better]
-        lam[acc] = np.maximum(lam[acc] / LAMBDA_DOWN, LAMBDA_MIN)
-        lam[idx[~better]] *= LAMBDA_UP
+        la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
+        lam[idx] = la
         if span is None:
             w = width if shared else width[idx]
             scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
         else:
             scale = span if shared else span[idx]
         moved = np.abs(trial - xa).max(axis=1) > xtol * scale
-        stop = (better & (gain < ftol)) | (lam[idx] > LAMBDA_MAX) | ~moved
-        converged[idx[stop & ok]] = True
-        active[idx[stop | ~ok]] = False
+        ending = (better & (gain < ftol)) | (la > LAMBDA_MAX) | ~moved | ~ok
+        if ending.any():
+            ended = idx[ending]
+            converged[ended] = ok[ending]
+            iterations[ended] = k + 1
+            jtj_out[ended] = jtj[ending]
+            idx = idx[~ending]
+    else:  # the iteration limit: the problems still running took maxiter iterations
+        if maxiter > 0 and idx.size:
+            iterations[idx] = maxiter
+            jtj_out[idx] = jtj[~ending]
+    evaluations = 1 + iterations * (1 if jacobian is not None else 1 + dims)
     done = np.nonzero(np.isfinite(cost) & (dims > 0))[0]
     if jcache is not None:
         jtj_out[done] = _normal(jcache[done], r[done])[0]
@@ -238,8 +243,6 @@ def fit_batch(
             jac = diff(x[done], r[done], done)
             jtj_out[done] = np.einsum("spa,sqa->spq", jac, jac)
             evaluations[done] += dims
-    for arr in (x, cost, r, jtj_out, iterations, evaluations, converged):
-        arr.setflags(write=False)
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
 
 

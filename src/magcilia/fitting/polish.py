@@ -121,14 +121,12 @@ def polish(
         out_r.append(best_r)
     r = np.array(out_r, dtype=np.float64).reshape(size, -1)
     cost = sum_squares(r)
-    for arr in (x, cost, r, jtj, iterations, evaluations, converged):
-        arr.setflags(write=False)
     return BatchFit(x, cost, r, jtj, iterations, evaluations, converged)
 
 
 def _penalised(r: F64, penalty: float) -> float:
     """The cost ``least_squares`` sees: non-finite entries replaced as :func:`polish` says."""
-    return float(np.sum(_finite(r, penalty) ** 2))
+    return float(sum_squares(_finite(r, penalty)[None, :])[0])
 
 
 def _finite(r: F64, penalty: float) -> F64:
