@@ -177,11 +177,11 @@ def fit_batch(
             jtj, jtr = _normal(jcache[idx], ra)
         else:
             jac = diff(xa, ra, idx)  # (s, p, a)
-            jtj = np.einsum("spa,sqa->spq", jac, jac)
-            jtr = np.einsum("spa,sa->sp", jac, ra)
+            jtj = jac @ jac.transpose(0, 2, 1)
+            jtr = (jac @ ra[:, :, None])[:, :, 0]
         # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
         # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
-        diag = np.einsum("spp->sp", jtj)
+        diag = jtj.diagonal(axis1=1, axis2=2)
         diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
         scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
         ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
@@ -199,7 +199,7 @@ def fit_batch(
             system[held[:, :, None] & diagonal] = 1.0
             rhs[held] = 0.0
             delta[again] = _solve(system, rhs)
-        trial = np.clip(xa + delta, lo, hi)
+        trial = np.minimum(np.maximum(xa + delta, lo), hi)
         jt: F64 | None = None
         if with_jac:
             rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
@@ -241,14 +241,15 @@ def fit_batch(
             jtj_out[done] = _normal(jac_end, r[done])[0]
         else:
             jac = diff(x[done], r[done], done)
-            jtj_out[done] = np.einsum("spa,sqa->spq", jac, jac)
+            jtj_out[done] = jac @ jac.transpose(0, 2, 1)
             evaluations[done] += dims
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
 
 
 def _normal(jac: F64, r: F64) -> tuple[F64, F64]:
     """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a)."""
-    return np.einsum("sap,saq->spq", jac, jac), np.einsum("sap,sa->sp", jac, r)
+    jt = jac.transpose(0, 2, 1)
+    return jt @ jac, (jt @ r[:, :, None])[:, :, 0]
 
 
 class _Differences:
