@@ -244,3 +244,17 @@ def test_bad_bounds_are_one_line_errors(lower: list[float], upper: list[float],
                                         match: str) -> None:
     with pytest.raises(MagciliaError, match=match):
         fit_batch(rosenbrock, [[0.5, 0.5]], lower, upper)
+
+
+def test_the_callers_arrays_are_never_written() -> None:
+    # residuals and Jacobians handed back from a cache (read-only here) are copied, not updated
+    _, data = noisy_decays(2, seed=6)
+
+    def residuals(x: F, which: F) -> tuple[F, F]:
+        r, jac = decay(x) - data[which], decay_jacobian(x)
+        r.setflags(write=False)
+        jac.setflags(write=False)
+        return r, jac
+
+    fit = fit_batch(residuals, np.tile([1.0, 1.0, 0.0], (2, 1)), LOWER, UPPER, jacobian=True)
+    assert fit.converged.all()

@@ -153,11 +153,9 @@ def fit_batch(
     # the xtol test's scale: the widest bound of each problem (None: some are infinite)
     span = width.max(axis=-1) if np.isfinite(width).all() and dims else None
     every = np.arange(size)
-    jcache: F64 | None = None
-    if with_jac:
-        r, jcache = (np.asarray(a, dtype=np.float64) for a in residuals(x, every))
-    else:
-        r = np.asarray(residuals(x, every), dtype=np.float64)
+    r, jcache = _evaluate(residuals, x, every, with_jac)
+    r = r.copy()  # updated in place below: never the caller's own array
+    jcache = None if jcache is None else jcache.copy()
     cost = sum_squares(r)
     lam = np.full(size, float(damping))
     iterations = np.zeros(size, dtype=np.int64)
@@ -200,11 +198,7 @@ def fit_batch(
             rhs[held] = 0.0
             delta[again] = _solve(system, rhs)
         trial = np.minimum(np.maximum(xa + delta, lo), hi)
-        jt: F64 | None = None
-        if with_jac:
-            rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
-        else:
-            rt = np.asarray(residuals(trial, idx), dtype=np.float64)
+        rt, jt = _evaluate(residuals, trial, idx, with_jac)
         ct = sum_squares(rt)
         better = ct < ca
         gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
@@ -244,6 +238,15 @@ def fit_batch(
             jtj_out[done] = jac @ jac.transpose(0, 2, 1)
             evaluations[done] += dims
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
+
+
+def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: bool
+              ) -> tuple[F64, F64 | None]:
+    """The residuals (m, a) at ``x`` (m, p) and, when they come with them, their Jacobians."""
+    if with_jac:
+        r, jac = residuals(x, which)
+        return np.asarray(r, dtype=np.float64), np.asarray(jac, dtype=np.float64)
+    return np.asarray(residuals(x, which), dtype=np.float64), None
 
 
 def _normal(jac: F64, r: F64) -> tuple[F64, F64]:
