@@ -9,8 +9,8 @@ minimising the sum of squared errors (its eq. 6, with the square the text descri
    vectorised, compiled model call (:func:`magcilia.model.tilt_output_batch`);
 2. solves the parameters that enter the output *linearly* in closed form inside the objective:
    the output offset (or a polynomial bias in the angle) and, optionally, the magnetization scale;
-3. polishes the best candidate with ``least_squares`` (optionally repeating the whole search
-   from fresh samples: ``restarts``);
+3. polishes the best candidate with ``least_squares`` (:func:`magcilia.fitting.polish`),
+   optionally repeating the whole search from fresh samples (``restarts``);
 4. reports standard errors and correlations from the Jacobian, and says plainly which parameters
    the data do not determine (one field component along one tilt path cannot pin seven
    parameters).

@@ -107,8 +107,8 @@ def fit_batch(
     jacobian : callable, True or None
         ``jacobian(x, which)`` → (m, a, p), the analytic Jacobian (called once per iteration
         at the problems' current points: a caller may return a cached one for chord steps);
-        True: ``residuals`` returns it with the residuals; None: forward differences of
-        ``step`` times each bound's width, stepping back from the upper bound.
+        True: ``residuals`` returns it with the residuals; None (or False): forward
+        differences of ``step`` times each bound's width, stepping back from the upper bound.
     maxiter : int
         Most iterations (linearisations) per problem.
     ftol : float
@@ -140,6 +140,7 @@ def fit_batch(
         raise v.fail("x0", f"an array of shape {x.shape}", "shape (s, p) or (p,)")
     size, dims = x.shape
     lower, upper = bounds_of(lower, upper, size, dims)
+    jacobian = None if jacobian is False else jacobian
     shared = lower.ndim == 1
     width = upper - lower
     if jacobian is None and not np.isfinite(width).all():

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from magcilia import _validate as v
 from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, bounds_of, sum_squares
 from magcilia.fitting.result import BatchFit
 
@@ -71,6 +72,8 @@ def polish(
     x = np.array(x0, dtype=np.float64)
     if x.ndim == 1:
         x = x[None, :]
+    if x.ndim != 2:
+        raise v.fail("x0", f"an array of shape {x.shape}", "shape (s, p) or (p,)")
     size, dims = x.shape
     lower, upper = bounds_of(lower, upper, size, dims)
     lo_all = np.broadcast_to(lower, (size, dims))
