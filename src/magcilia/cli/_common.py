@@ -25,7 +25,6 @@ from magcilia.cli._options import (  # noqa: F401 (re-exported: the commands imp
     RenamedOption,
     array_file_arg,
     is_preset_name,
-    load_array_arg,
     load_setup_arg,
     setup_label,
     setup_option,

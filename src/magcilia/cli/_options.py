@@ -19,10 +19,8 @@ from click.core import ParameterSource
 
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.device.array import CiliaArray
 from magcilia.device.setup import Setup
 from magcilia.io import presets
-from magcilia.io.array_file import load_array
 from magcilia.io.setup_files import load_setup
 
 #: built-in setups usable wherever a setup file is expected (:mod:`magcilia.io.presets`), by name
@@ -41,49 +39,34 @@ def is_preset_name(value: str) -> bool:
     return not any(sep in value for sep in ("/", "\\")) and not Path(value).suffix
 
 
-def load_preset_or_file(value: str) -> Any:
-    """``--setup VALUE`` by :data:`SETUP_RULE`: the preset (a Setup or, for ``array``, a
-    CiliaArray) or the file read as a single-cilium setup; an unknown bare name is a one-line
-    error with the closest preset and the list."""
-    if is_preset_name(value):
-        if value not in presets.NAMES:
-            message = presets.unknown_preset_message(value)
-            if Path(value).is_file():
-                message += f"; to read the file {value!r}, write ./{value}"
-            raise MagciliaError(message)
-        return presets.load(value)
-    return load_setup(value)
+def _known_preset(value: str) -> str:
+    """``value`` when it is a preset name, else the one-line error: the closest preset and the
+    list (and, for a file of that name here, how to read it)."""
+    if value not in presets.NAMES:
+        message = presets.unknown_preset_message(value)
+        if Path(value).is_file():
+            message += f"; to read the file {value!r}, write ./{value}"
+        raise MagciliaError(message)
+    return value
 
 
 def load_setup_arg(value: str) -> Setup:
     """A ``--setup`` value as one cilium's :class:`Setup`: a preset name (paper, paper-initial,
     force-sensor) or a setup TOML file (:data:`SETUP_RULE`)."""
-    if is_preset_name(value):
-        if value in presets.NAMES:
-            return presets.setup(value)
-        load_preset_or_file(value)  # raises the unknown-preset line
-    return load_setup(value)
+    return presets.setup(_known_preset(value)) if is_preset_name(value) else load_setup(value)
 
 
 def array_file_arg(value: str) -> str:
     """A ``--setup`` value of a command that reads an array file (``magcilia array``): the file,
     or for the ``array`` preset the copy of ``examples/array.toml`` that ships with magcilia
     (:data:`SETUP_RULE`)."""
-    if is_preset_name(value):
-        if value not in presets.NAMES:
-            load_preset_or_file(value)  # raises the unknown-preset line
-        found = presets.file(value)
-        if found is None:
-            raise fail("--setup", value, "an array file or the array preset (preset "
-                                         f"{value!r} is one cilium)")
-        return str(found)
-    return value
-
-
-def load_array_arg(value: str) -> CiliaArray:
-    """A ``--setup`` value as a :class:`CiliaArray`: the ``array`` preset or an array file
-    (:data:`SETUP_RULE`)."""
-    return load_array(array_file_arg(value))
+    if not is_preset_name(value):
+        return value
+    found = presets.file(_known_preset(value))
+    if found is None:
+        raise fail("--setup", value, "an array file or the array preset (preset "
+                                     f"{value!r} is one cilium)")
+    return str(found)
 
 
 def setup_label(value: str) -> str:
@@ -154,8 +137,9 @@ class _LegacySetupArgument(click.Argument):
     the commands that now take ``--setup``; hidden from the usage line. Its values go to the
     ``--setup`` option (:func:`setup_option`)."""
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, nargs=-1, required=False, expose_value=False, **kwargs)
+    def __init__(self, param_decls: Sequence[str], **kwargs: Any) -> None:
+        kwargs.update(nargs=-1, required=False, expose_value=False)
+        super().__init__(param_decls, **kwargs)
 
     def get_usage_pieces(self, ctx: click.Context) -> list[str]:  # noqa: ARG002 (click's)
         return []
