@@ -5,6 +5,7 @@ with one warning line, and ``--setup`` takes a preset or a file by one rule."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -431,3 +432,26 @@ def test_the_help_says_the_rule(capsys: pytest.CaptureFixture[str]) -> None:
     text = "".join(capsys.readouterr().out.split())  # as wrapped for any terminal width
     assert "".join(f"--setup SETUP The sensor setup: {SETUP_RULE}.".split()) in text
     assert "--force" not in text.replace("--force-vector", "") and "--tip-force" in text
+
+
+def _readme_commands() -> list[list[str]]:
+    """The ``magcilia CMD ...`` lines of the README's shell blocks and inline code, as words."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    found = []
+    for line in re.findall(r"magcilia ([a-z]+(?: [^`\n|]*)?)", text):
+        words = re.sub(r"[\[\]]", " ", line.split("#")[0]).split()
+        if words and words[0] in COMMANDS:
+            found.append(words)
+    return found
+
+
+def test_the_readme_uses_the_new_spellings() -> None:
+    commands = _readme_commands()
+    assert len(commands) > 30
+    for words in commands:
+        name, rest = words[0], words[1:]
+        assert not (name in POSITIONAL_SETUP and rest and not rest[0].startswith("-")
+                    and rest[0] != "\\"), f"README: magcilia {' '.join(words)} (use --setup)"
+        for (command, old), new in DEPRECATED.items():
+            assert not (command == name and old in rest), (
+                f"README: magcilia {' '.join(words)} ({old} is now {new})")
