@@ -96,26 +96,23 @@ def warn_deprecated(ctx: click.Context, old: str, new: str) -> None:
 
 
 class RenamedOption(click.Option):
-    """An option with its new spelling in the help and its old ``old`` spellings still accepted
-    for one release, each use warned once (:func:`warn_deprecated`): declare it as
+    """An option (with a value) with its new spelling in the help and its old ``old`` spellings
+    still accepted for one release, each use warned once (:func:`warn_deprecated`): declare it as
     ``click.option("--tip-force", "force", cls=RenamedOption, old="--force", ...)``. The old
     spelling is not shown in the help; giving both spellings is an error (for a repeatable
     option their values add up)."""
 
     def __init__(self, *args: Any, old: str | Sequence[str], **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        if self.is_flag or self.count:
+            raise TypeError("RenamedOption takes an option with a value, not a flag")
         self.old_opts = [old] if isinstance(old, str) else list(old)
         self._old_dest = f"{self.name}__deprecated_spelling"
 
     def add_to_parser(self, parser: Any, ctx: click.Context) -> None:
         super().add_to_parser(parser, ctx)
-        if self.is_flag:
-            parser.add_option(obj=self, opts=self.old_opts, dest=self._old_dest,
-                              action="append_const" if self.multiple else "store_const",
-                              const=True)
-        else:
-            parser.add_option(obj=self, opts=self.old_opts, dest=self._old_dest,
-                              action="append" if self.multiple else "store", nargs=self.nargs)
+        parser.add_option(obj=self, opts=self.old_opts, dest=self._old_dest,
+                          action="append" if self.multiple else "store", nargs=self.nargs)
 
     def consume_value(self, ctx: click.Context, opts: Any) -> Any:
         if self._old_dest in opts:
