@@ -8,9 +8,10 @@ Target: >= 1e6 samples/s sustained with zero overruns. Also: the recording write
 simulated source alone, to show where the time goes.
 
 Then ``magcilia record --duration`` as a user runs it (issue 25: a recording took twice its
-duration, and stopped short past 65,536 samples): ``record --source sim --duration 15 --rate
-5000`` must write all 75,000 samples in <= 1.3 x 15 s from the shell (<= 1.1 x for the recording
-itself, the time the command reports); the full run adds 10 s at 100 Hz, 1 kHz and 10 kHz.
+duration, and stopped short past 65,536 samples): ``record --source sim --duration 15
+--source-rate 5000`` must write all 75,000 samples in <= 1.3 x 15 s from the shell (<= 1.1 x for
+the recording itself, the time the command reports); the full run adds 10 s at 100 Hz, 1 kHz
+and 10 kHz.
 
 Run: python benchmarks/bench_acquire.py [--quick]
 """
@@ -76,23 +77,23 @@ def source_alone(samples: int) -> None:
 
 
 def record_command(seconds: float, rate: float, folder: Path, shell_target: bool) -> bool:
-    """``magcilia record --source sim --duration S --rate HZ`` in a fresh interpreter: samples in
-    the file, the command's own time and the time from the shell (interpreter start-up
+    """``magcilia record --source sim --duration S --source-rate HZ`` in a fresh interpreter:
+    samples in the file, the command's own time and the time from the shell (interpreter start-up
     included), each over the duration; ``shell_target``: hold the shell time to 1.3 x too."""
     path = folder / f"record-{rate:g}.tdms"
     t0 = time.perf_counter()
     run = subprocess.run([sys.executable, "-m", "magcilia", "record", "--source", "sim",
-                          "--duration", f"{seconds:g}", "--rate", f"{rate:g}", "--out", str(path),
-                          "--json", "--si"], capture_output=True, text=True, check=True)
+                          "--duration", f"{seconds:g}", "--source-rate", f"{rate:g}", "--record",
+                          str(path), "--json", "--si"], capture_output=True, text=True, check=True)
     shell = time.perf_counter() - t0
     own = float(json.loads(run.stdout)["elapsed_s"])
     n_file = read_samples(path, required=("voltage_V",))["voltage_V"].size
     asked = round(seconds * rate)
     ok = n_file == asked and own <= 1.1 * seconds and (shell <= 1.3 * seconds or not shell_target)
     targets = "all samples, <= 1.1 x" + (" / <= 1.3 x" if shell_target else "")
-    print(f"  record --source sim --duration {seconds:g} --rate {rate:g}: {n_file} of {asked} "
-          f"samples in the file; recording {own:.2f} s = {own / seconds:.3f} x the duration, "
-          f"from the shell {shell:.2f} s = {shell / seconds:.3f} x   "
+    print(f"  record --source sim --duration {seconds:g} --source-rate {rate:g}: {n_file} of "
+          f"{asked} samples in the file; recording {own:.2f} s = {own / seconds:.3f} x the "
+          f"duration, from the shell {shell:.2f} s = {shell / seconds:.3f} x   "
           f"{'ok' if ok else 'TOO SLOW OR SHORT'} (targets: {targets})")
     path.unlink()
     return ok

@@ -5,10 +5,10 @@ Writes a recording of 1e6 samples (``time_s,voltage_V``: 1 kHz, the bundled forc
 0..0.2 mN, plus the sensor's noise; 10 significant digits of a volt, as a DAQ exports) to a
 temporary folder, then times, interleaved in this process (min and median of the runs):
 
-* **ours**: ``magcilia.cli.main(["readout", SETUP, REC, "--quantity", "force", "--span", "0:0.2",
-  "--out", OUT, "--quiet"])``: loading the setup and building the read-out table (the model
-  solved at 513 forces plus the edges), reading the CSV, value + 1-σ + flags for every reading,
-  and writing the six-column CSV (``time_s, voltage_V, force_mN, sigma_force_mN, flags,
+* **ours**: ``magcilia.cli.main(["readout", "--setup", SETUP, REC, "--quantity", "force", "--span",
+  "0:0.2", "--csv", OUT, "--quiet"])``: loading the setup and building the read-out table (the
+  model solved at 513 forces plus the edges), reading the CSV, value + 1-σ + flags for every
+  reading, and writing the six-column CSV (``time_s, voltage_V, force_mN, sigma_force_mN, flags,
   flag_names``) atomically;
 * **anchor** (the ordinary pandas route over the same, already built table):
   ``pd.read_csv(engine="c")``, ``np.interp`` over ``Readout.table`` (value only), and
@@ -69,8 +69,8 @@ def recording(path: Path, samples: int, readout: mc.Readout) -> None:
 
 def ours(setup: Path, rec: Path, out: Path) -> None:
     with contextlib.redirect_stdout(io.StringIO()):
-        code = cli_main(["readout", str(setup), str(rec), "--quantity", "force", "--span",
-                         "0:0.2", "--out", str(out), "--quiet"])
+        code = cli_main(["readout", "--setup", str(setup), str(rec), "--quantity", "force",
+                         "--span", "0:0.2", "--csv", str(out), "--quiet"])
     assert code == 0
 
 
@@ -138,8 +138,8 @@ def main() -> None:
                              "anchor": lambda: anchor(readout, rec, out_anchor)}, runs)
         parts = stages(SETUP, rec, out_ours)
         help_s = shell(["readout", "--help"])
-        whole_s = shell(["readout", str(SETUP), str(rec), "--quantity", "force", "--span",
-                         "0:0.2", "--out", str(out_ours), "--quiet"])
+        whole_s = shell(["readout", "--setup", str(SETUP), str(rec), "--quantity", "force",
+                         "--span", "0:0.2", "--csv", str(out_ours), "--quiet"])
         size = (rec.stat().st_size / 1e6, out_ours.stat().st_size / 1e6,
                 out_anchor.stat().st_size / 1e6)
     o, a = times["ours"], times["anchor"]

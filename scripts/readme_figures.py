@@ -24,7 +24,7 @@ from magcilia.report.calibration import fit_figure
 #: than the preset's own 0.12 uN at the presets' 0.669 MPa modulus)
 PARETO_EXAMPLE = {"min_force": 1e-7, "n": 4096, "refine": 64, "rng": 0}
 #: the README's figure of a bend under a force and an actuation field: the command, as typed
-BEND_ACTUATED = ("bend", "force-sensor", "--force-vector", "0.02,-0.016,0",
+BEND_ACTUATED = ("bend", "--setup", "force-sensor", "--force-vector", "0.02,-0.016,0",
                  "--actuation-field", "0.4,-0.2,0")
 
 

@@ -122,13 +122,14 @@ def joint(_work: Path) -> None:
 
 
 def plan(_work: Path) -> None:
-    run("plan", "paper", "--budget", "33", "--prior", "height=3.26:0.1", "--noise", "0.05")
-    run("plan", "force-sensor", "--budget", "24", "--sensor", "field", "--noise", "10nT",
-        "--azimuths", "0,45,90")
+    run("plan", "--setup", "paper", "--budget", "33", "--prior", "height=3.26:0.1", "--noise",
+        "0.05")
+    run("plan", "--setup", "force-sensor", "--budget", "24", "--measure", "field", "--noise",
+        "10nT", "--azimuths", "0,45,90")
 
 
 def bend(_work: Path) -> None:
-    run("bend", "force-sensor", "--force", "0.02mN")
+    run("bend", "--setup", "force-sensor", "--tip-force", "0.02mN")
     setup = mc.load_setup(EXAMPLES / "force-sensor.toml").resolve_layout()
     rest, full = setup.output(mc.bend_sweep(setup, forces=[0.0, 4e-5]))
     print(f"a full 0.04 mN load moves the force-sensor output by {(rest - full) * 1e3:.3f} mV "
@@ -159,15 +160,16 @@ def api(_work: Path) -> None:
 
 def array(work: Path) -> None:
     example = str(EXAMPLES / "array.toml")
-    run("array", example, "--random", "50", "--seed", "1", "--csv", str(work / "forward.csv"))
-    run("array", example, "--random", "1", "--metrics", "--pitches", "2.5:6:0.5mm")
+    run("array", "--setup", example, "--random", "50", "--seed", "1", "--csv",
+        str(work / "forward.csv"))
+    run("array", "--setup", example, "--random", "1", "--metrics", "--pitches", "2.5:6:0.5mm")
 
 
 def optimise(work: Path) -> None:
     best = work / "best.toml"
-    run("optimise", "force-sensor", "--min-force", "0.1uN", "--designs", "4096", "--refine",
-        "64", "--seed", "0", "--setup-out", str(best))
-    run("design", str(best))
+    run("optimise", "--setup", "force-sensor", "--min-force", "0.1uN", "--designs", "4096",
+        "--refine", "64", "--seed", "0", "--setup-out", str(best))
+    run("design", "--setup", str(best))
     result = mc.optimise_design(mc.load_setup(EXAMPLES / "force-sensor.toml"), "force-range",
                                 min_force=1e-7, n=4096, refine=64, rng=0)
     feasible = [d for d in result.designs if d.rank >= 0]

@@ -288,7 +288,7 @@ COMMANDS = {
     "demo": (["demo", "--quiet"], "magcilia.cli.demo.calibrate_with_progress"),
     "calibrate": (["calibrate", str(example_path()), "--quiet"],
                   "magcilia.cli.calibrate.calibrate_with_progress"),
-    "sensitivity": (["sensitivity", "paper", "--quiet"],
+    "sensitivity": (["sensitivity", "--setup", "paper", "--quiet"],
                     "magcilia.cli.sensitivity.sensitivity_study"),
 }
 
@@ -360,13 +360,13 @@ def test_calibrate_force_replaces_an_earlier_output(tmp_path: Path,
 def test_field_writes_no_file_when_the_plot_fails(tmp_path: Path,
                                                   capsys: pytest.CaptureFixture[str]) -> None:
     csv_path, js = tmp_path / "t.csv", tmp_path / "t.json"
-    assert main(["field", "paper", "--csv", str(csv_path), "--json-file", str(js),
+    assert main(["field", "--setup", "paper", "--csv", str(csv_path), "--json-file", str(js),
                  "--plot", str(tmp_path / "f.xyz")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--plot must be a figure file" in err
     (tmp_path / "file").write_text("x")
     csv_path.write_text("old")
-    assert main(["field", "paper", "--csv", str(csv_path), "--json-file", str(js),
+    assert main(["field", "--setup", "paper", "--csv", str(csv_path), "--json-file", str(js),
                  "--plot", str(tmp_path / "file" / "f.png")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a file, not a folder" in err

@@ -490,8 +490,8 @@ def clear_output(folder: str | os.PathLike[str], names: Sequence[str],
             path.unlink()
 
 
-def _exists_message(out: Path) -> str:
-    return f"{out} exists; pass --force to replace it, or choose another --out"
+def _exists_message(out: Path, option: str = "--out") -> str:
+    return f"{out} exists; pass --force to replace it, or choose another {option}"
 
 
 def _check_target(out: Path, target: Path, force: bool, names: Collection[str],

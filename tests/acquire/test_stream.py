@@ -102,7 +102,7 @@ def test_an_existing_out_is_refused_without_force(tmp_path: Path,
     out = tmp_path / "precious.tdms"
     out.write_bytes(b"an earlier recording")
     for how in (["--angles", "0:10:5"], ["--duration", "0.1"]):
-        assert main(["record", "--source", "sim", *how, "--out", str(out)]) == 2
+        assert main(["record", "--source", "sim", *how, "--record", str(out)]) == 2
         err = capsys.readouterr().err
         assert "exists; pass --force" in err and err.count("\n") == 1
     assert out.read_bytes() == b"an earlier recording" and hidden(tmp_path) == []
@@ -249,8 +249,8 @@ def test_a_signal_stops_record_with_its_file_closed_and_one_line(
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         out = tmp_path / f"{sig.name}.tdms"
         children[sig] = (out, subprocess.Popen(
-            [*cmd.argv, "record", "--source", "sim", "--duration", "600", "--rate", "1000",
-             "--out", str(out)], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+            [*cmd.argv, "record", "--source", "sim", "--duration", "600", "--source-rate", "1000",
+             "--record", str(out)], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
             stderr=subprocess.PIPE, env=cmd.env()))
     deadline = time.monotonic() + 120  # a guard against a hang, not a speed check
     for sig, (out, proc) in children.items():

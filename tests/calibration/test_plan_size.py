@@ -49,7 +49,7 @@ def test_the_default_limit() -> None:
 def test_a_budget_beyond_the_limit_is_refused_before_any_work(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     counter = Counter()(monkeypatch)
-    assert main(["plan", "paper", "--budget", str(DEFAULT_LIMIT + 1), "--quiet"]) == 2
+    assert main(["plan", "--setup", "paper", "--budget", str(DEFAULT_LIMIT + 1), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert err.startswith(f"magcilia: error: budget must be at most {DEFAULT_LIMIT} readings "

@@ -187,7 +187,7 @@ def test_errors_are_one_line_and_nothing_is_written(args: list[str], message: st
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)
     outs = ["--csv", "f.csv", "--readout-csv", "r.csv", "--json-file", "a.json"]
-    code = main(["array", EXAMPLE, *args, *outs, "--crosstalk-plot", "xt.png"])
+    code = main(["array", "--setup", EXAMPLE, *args, *outs, "--crosstalk-plot", "xt.png"])
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("magcilia: error: ") and err.count("\n") == 1, err
     assert message in err

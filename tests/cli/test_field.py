@@ -52,11 +52,12 @@ def test_field_json_stdout(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["field", "missing.toml"], "cannot access missing.toml"),
-        (["field", "paper", "--angles", "10:0"], "--angles must be a range with stop > start"),
-        (["field", "paper", "--angles", "a:b"], "--angles must be START:STOP"),
-        (["field", "paper", "--angles", "0:1mm"], "with an angle unit (rad, deg)"),
-        (["field", "paper", "--angles", "0:10:0"], "positive step"),
+        (["field", "--setup", "missing.toml"], "cannot access missing.toml"),
+        (["field", "--setup", "paper", "--angles", "10:0"],
+         "--angles must be a range with stop > start"),
+        (["field", "--setup", "paper", "--angles", "a:b"], "--angles must be START:STOP"),
+        (["field", "--setup", "paper", "--angles", "0:1mm"], "with an angle unit (rad, deg)"),
+        (["field", "--setup", "paper", "--angles", "0:10:0"], "positive step"),
     ],
     ids=["missing-file", "reversed", "text", "wrong-unit", "zero-step"],
 )
@@ -83,7 +84,7 @@ def test_field_flags_what_the_element_sees(tmp_path: Path,
     # Table I's initial placement stands the cilium on the element: 28-31 G along z over
     # 0-40 deg, beyond the HMC1021's 6 G range and 20 G flip field (issue 15)
     csv_path = tmp_path / "t.csv"
-    assert main(["field", "paper-initial", "paper", "--angles", "0:40:20",
+    assert main(["field", "--setup", "paper-initial", "--setup", "paper", "--angles", "0:40:20",
                  "--csv", str(csv_path)]) == 0
     err = capsys.readouterr().err
     assert err.count("magcilia: warning:") == 1 and "paper-initial puts up to 31.2 gauss" in err

@@ -54,13 +54,15 @@ def test_bend_flow_and_load_below_tip(capsys: pytest.CaptureFixture[str]) -> Non
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["bend", "paper", "--force", "0.2mN"], "--tip-radius"),
-        (["bend", "paper", "--force", "0.2mm"], "--force must be a number in mN or with a force"),
-        (["bend", "paper", "--flow", "1e6m/s", *TIP], "drag law ends"),
-        (["bend", "paper", "--force", "0.1mN", "--at", "9mm"], "at must be an arc length"),
-        (["readout", "paper", "missing.csv", "--quantity", "angle", "--span", "0:40",
-          "--out", "x.csv"], "missing.csv: no such file"),
-        (["design", "paper", "--bandwidth", "10:1"], "--bandwidth must be a range"),
+        (["bend", "--setup", "paper", "--tip-force", "0.2mN"], "--tip-radius"),
+        (["bend", "--setup", "paper", "--tip-force", "0.2mm"],
+         "--tip-force must be a number in mN or with a force"),
+        (["bend", "--setup", "paper", "--flow", "1e6m/s", *TIP], "drag law ends"),
+        (["bend", "--setup", "paper", "--tip-force", "0.1mN", "--at", "9mm"],
+         "at must be an arc length"),
+        (["readout", "--setup", "paper", "missing.csv", "--quantity", "angle", "--span", "0:40",
+          "--csv", "x.csv"], "missing.csv: no such file"),
+        (["design", "--setup", "paper", "--bandwidth", "10:1"], "--bandwidth must be a range"),
     ],
     ids=["cone-tip", "wrong-unit", "too-fast", "at-beyond", "missing-recording", "bandwidth"],
 )
@@ -252,7 +254,8 @@ def test_bend_under_an_actuation(tmp_path: Path, capsys: pytest.CaptureFixture[s
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--force", "0.1", "--force-vector", "0.1,0,0"], "either --force or --force-vector"),
+        (["--tip-force", "0.1", "--force-vector", "0.1,0,0"],
+         "either --tip-force or --force-vector"),
         (["--force-vector", "0.1,0"], "--force-vector must be X,Y,Z, each a number in mN"),
         (["--force-vector", "0.1,0,0", "--azimuth", "30"], "--azimuth must be left out"),
         (["--force-vector", "0.1,0,0", "--direction", "45"], "--direction must be left out"),
@@ -267,7 +270,7 @@ def test_bend_any_direction_errors(args: list[str], match: str, tmp_path: Path,
                                    monkeypatch: pytest.MonkeyPatch,
                                    capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)  # relative files resolve in tmp_path
-    assert main(["bend", "force-sensor", *args]) == 2
+    assert main(["bend", "--setup", "force-sensor", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: ") and match in err and err.count("\n") == 1
     assert "Traceback" not in err

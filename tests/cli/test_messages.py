@@ -13,9 +13,10 @@ from magcilia.cli import main
 @pytest.mark.parametrize(("args", "starts"), [
     (["field", "--bogus"], "No such option '--bogus'"),
     (["nosuch"], "No such command 'nosuch'"),
-    (["readout", "paper", "x.csv"], "Missing option '--quantity'"),
-    (["field", "paper", "--angles"], "Option '--angles' requires an argument"),
-    (["bend", "paper", "--force", "1mN", "--tip-radius", "0.05mm", "--at", "oops"], "--at"),
+    (["readout", "--setup", "paper", "x.csv"], "Missing option '--quantity'"),
+    (["field", "--setup", "paper", "--angles"], "Option '--angles' requires an argument"),
+    (["bend", "--setup", "paper", "--tip-force", "1mN", "--tip-radius", "0.05mm", "--at", "oops"],
+     "--at"),
 ])
 def test_usage_errors_are_one_line_with_exit_2(args: list[str], starts: str,
                                                capsys: pytest.CaptureFixture[str]) -> None:

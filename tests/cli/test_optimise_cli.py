@@ -75,7 +75,7 @@ def test_flow_objective(capsys: pytest.CaptureFixture[str]) -> None:
       "base_radius=0.4:0.4", "--max-field", "100gauss"], "'flip field' constraint eliminated"),
     (["--objective", "flow-sensitivity"], "speed must be a flow speed"),
     (["--bound", "colour=1:2"], "--bound must be NAME=LOW:HIGH with NAME one of"),
-    (["--sensor", "HMC1021Z,NOPE"], "sensor must be HMC1021Z"),
+    (["--sensors", "HMC1021Z,NOPE"], "sensor must be HMC1021Z"),
     (["--min-force", "1mm"], "--min-force"),
     (["--plot", "pareto.nope"], "--plot must be a figure file"),
 ])

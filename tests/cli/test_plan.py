@@ -56,6 +56,6 @@ def test_plan_json_in_display_and_si_units(capsys: pytest.CaptureFixture[str]) -
 ])
 def test_bad_input_is_one_line(argv: list[str], message: str,
                                capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["plan", "paper", *argv]) == 2
+    assert main(["plan", "--setup", "paper", *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err

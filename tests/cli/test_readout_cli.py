@@ -229,8 +229,8 @@ def test_readout_refuses_an_actuation_beyond_the_sensor(
         field: str, match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rec = _record(tmp_path / "rec.csv", np.full(4, 3e-3))
     out = tmp_path / "f.csv"
-    assert main(["readout", "force-sensor", str(rec), "--quantity", "force", "--span", "0:0.2",
-                 "--out", str(out), "--actuation-field", field]) == 2
+    assert main(["readout", "--setup", "force-sensor", str(rec), "--quantity", "force", "--span",
+                 "0:0.2", "--csv", str(out), "--actuation-field", field]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: actuation must be a field") and match in err
     assert not out.exists()
@@ -294,8 +294,8 @@ def test_readout_biaxial_force_vectors(tmp_path: Path,
 def test_readout_biaxial_errors(extra: list[str], match: str, tmp_path: Path,
                                 capsys: pytest.CaptureFixture[str]) -> None:
     rec, _ = _field_recording(tmp_path / "b.csv")
-    assert main(["readout", "force-sensor", str(rec), "--biaxial", "--span", "0.2", "--columns",
-                 "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--out",
+    assert main(["readout", "--setup", "force-sensor", str(rec), "--biaxial", "--span", "0.2",
+                 "--columns", "field_x=Bx[G],field_y=By[G],field_z=Bz[G]", "--csv",
                  str(tmp_path / "v.csv"), *extra]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: ") and match in err

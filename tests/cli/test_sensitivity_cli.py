@@ -67,10 +67,10 @@ def test_sensitivity_json_stdout(tmp_path: Path, capsys: pytest.CaptureFixture[s
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--span", "w=0:1"], "--span must be NAME=LOW:HIGH with NAME one of"),
-        (["--span", "z=1:0"], r"--span must be NAME=LOW:HIGH with LOW <= HIGH; got 'z=1:0'"),
-        (["--span", "height=-1:3"],
-         r"--span must be positive values within \[1e-06, 1000\] mm; got 'height=-1:3'"),
+        (["--sweep", "w=0:1"], "--sweep must be NAME=LOW:HIGH with NAME one of"),
+        (["--sweep", "z=1:0"], r"--sweep must be NAME=LOW:HIGH with LOW <= HIGH; got 'z=1:0'"),
+        (["--sweep", "height=-1:3"],
+         r"--sweep must be positive values within \[1e-06, 1000\] mm; got 'height=-1:3'"),
         (["--sobol-base", "100"], "n_base must be a power of 2"),
         (["--bandwidth", "10:1"], "--bandwidth must be a range with stop > start"),
         (["--bandwidth", "0:10"], "--bandwidth must be F_LOW:F_HIGH in Hz with 0 < F_LOW"),
@@ -85,7 +85,8 @@ def test_sensitivity_json_stdout(tmp_path: Path, capsys: pytest.CaptureFixture[s
 def test_sensitivity_errors(args: list[str], match: str, tmp_path: Path,
                             capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "o"
-    code = main(["sensitivity", "paper", "--out", str(out), "--points", "3", "--map-points", "3",
+    code = main(["sensitivity", "--setup", "paper", "--out", str(out), "--points", "3",
+                 "--map-points", "3",
                  *args])
     assert code == 2
     err = capsys.readouterr().err
@@ -142,7 +143,7 @@ def test_approximate_errors(args: list[str], match: str, tmp_path: Path,
     mc.save_setup(mc.Setup.paper(y=0.0), tmp_path / "centred.toml")  # output turns at ~56 deg
     args = list(args)
     setup = args.pop(0) if args[0].endswith(".toml") else "paper"
-    assert main(["approximate", setup, *args]) == 2
+    assert main(["approximate", "--setup", setup, *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: ") and match in err
     assert not (tmp_path / "x.h").exists()

@@ -155,7 +155,7 @@ def test_the_cli_prints_the_warning(capsys: pytest.CaptureFixture[str], tmp_path
     path = tmp_path / "coarse.toml"
     path.write_text('[cilium]\ntip_radius = "0.05 mm"\n[model]\nn_loops = 2\ndipoles_per_loop = 5'
                     '\nring = "mean"\n')
-    assert main(["field", str(path), "--angles", "0:10:10"]) == 0
+    assert main(["field", "--setup", str(path), "--angles", "0:10:10"]) == 0
     err = capsys.readouterr().err
     assert err.startswith("magcilia: warning: the given dipole layout 2×5 mean")
     assert err.count("\n") == 1

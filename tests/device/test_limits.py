@@ -225,11 +225,13 @@ def test_the_largest_angle_grid_is_allowed() -> None:
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["approximate", "paper", "--grid", "100000000"], f"grid must be at most {MAX_GRID}"),
-        (["approximate", "paper", "--corners", "40"], f"corners must be at most {MAX_CORNERS}"),
-        (["approximate", "paper", "--table-size", "1000000000"],
+        (["approximate", "--setup", "paper", "--grid", "100000000"],
+         f"grid must be at most {MAX_GRID}"),
+        (["approximate", "--setup", "paper", "--corners", "40"],
+         f"corners must be at most {MAX_CORNERS}"),
+        (["approximate", "--setup", "paper", "--table-size", "1000000000"],
          f"size must be at most {MAX_TABLE_SIZE}"),
-        (["field", "paper", "--angles", "0:85:1e-9"], f"at most {MAX_ANGLES} angles"),
+        (["field", "--setup", "paper", "--angles", "0:85:1e-9"], f"at most {MAX_ANGLES} angles"),
         (["calibrate", str(example_path()), "--out", "{out}", "--bound", "n_loops=1:1000000"],
          "--bound must be whole numbers >= 1, at most 1000; got 'n_loops=1:1000000'"),
     ],

@@ -84,8 +84,8 @@ def test_a_recording_cut_before_its_first_chunk(tmp_path: Path, command: str,
     path = _sweep(tmp_path / "empty.tdms", [], closing=None)
     out = tmp_path / "out"
     argv = (["calibrate", str(path), "--out", str(out), *FAST] if command == "calibrate" else
-            ["readout", "paper", str(path), "--quantity", "angle", "--span", "0:80",
-             "--out", str(tmp_path / "ro.csv")])
+            ["readout", "--setup", "paper", str(path), "--quantity", "angle", "--span", "0:80",
+             "--csv", str(tmp_path / "ro.csv")])
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [(f"magcilia: error: {path}: the recording was cut before its first chunk "

@@ -525,8 +525,8 @@ def test_recording_options_fail_in_one_line(tmp_path: Path, capsys: pytest.Captu
 
     rec = tmp_path / "r.csv"
     rec.write_text("voltage_V\n0.001\n")
-    for args in (["readout", "paper", str(rec), "--quantity", "angle", "--span", "0:60",
-                  "--out", str(tmp_path / "o.csv")],
+    for args in (["readout", "--setup", "paper", str(rec), "--quantity", "angle", "--span", "0:60",
+                  "--csv", str(tmp_path / "o.csv")],
                  ["calibrate", str(rec), "--out", str(tmp_path / "cal")]):
         assert main([*args, *options]) == 2
         err = capsys.readouterr().err

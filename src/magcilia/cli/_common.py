@@ -20,38 +20,23 @@ from magcilia._atomic import json_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import CalibrationResult, calibrate
+from magcilia.cli._options import (  # noqa: F401 (re-exported: the commands import them here)
+    PRESETS,
+    RenamedOption,
+    array_file_arg,
+    is_preset_name,
+    load_setup_arg,
+    setup_label,
+    setup_option,
+)
 from magcilia.device.parameters import MEASURANDS, PARAMETERS, Parameter
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.io.columns import Columns, columns_help
 from magcilia.io.quality import OUTLIER_SIGMAS, SUSPECT_POLICIES
 from magcilia.io.recordings import Measurement
-from magcilia.io.setup_files import load_setup
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.units import UNITS, dimension_words, parse_range, parse_value, parse_values
-
-#: built-in setups usable wherever a SETUP file is expected
-PRESETS = {
-    "paper": Setup.paper,
-    "paper-initial": Setup.paper_initial,
-    # the paper's cilium with a 0.05 mm tip radius and a converged model, as
-    # examples/force-sensor.toml: a tip force and flow have a finite compliance
-    "force-sensor": lambda: Setup.paper(tip_radius=5e-5, layout="converged"),
-}
-
-
-def load_setup_arg(value: str) -> Setup:
-    """A SETUP argument: a TOML file path or a built-in preset name (paper, paper-initial,
-    force-sensor)."""
-    if value in PRESETS and not Path(value).exists():
-        return PRESETS[value]()
-    return load_setup(value)
-
-
-def setup_label(value: str) -> str:
-    """Short label for a SETUP argument (file stem or preset name)."""
-    return value if value in PRESETS else Path(value).stem
-
 
 #: most angles of an ``--angles START:STOP:STEP`` grid (0.0001 deg steps over 0..90 deg are 900 001
 #: angles; a finer grid says more about float rounding than about the sensor)
@@ -424,7 +409,7 @@ def make_actuation(setup_arg: str, field_text: str | None, file: str | None,
                                              "--actuation-field", "0,0,50 or 0,0,5mT"))
     elif file is not None:
         act = load_actuation(file)
-    elif setup_arg not in PRESETS or Path(setup_arg).exists():
+    elif not is_preset_name(setup_arg):
         act = read_actuation(setup_arg)
     else:
         act = None

@@ -13,7 +13,7 @@ import numpy as np
 from magcilia._validate import fail
 from magcilia.acquire import Script, SimulatedSource, Source, source_from_spec
 from magcilia.calibration import ParameterCovariance
-from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options
+from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
 from magcilia.cli.readout import parse_span
 from magcilia.design import design_metrics
 from magcilia.device.setup import Setup
@@ -56,9 +56,8 @@ def live_options(command: Any) -> Any:
         click.option("--source", "source_spec", default="sim", show_default=True,
                      help="sim (a simulated sensor pushed in a repeating pattern), serial:PORT "
                           "(magcilia's framed protocol) or nidaq:DEV/aiN."),
-        click.option("--setup", "setup_arg", default="force-sensor", show_default=True,
-                     help="The (fitted) sensor setup: a TOML file or a preset (paper, "
-                          "force-sensor: the paper's cilium with a 0.05 mm tip radius)."),
+        setup_option("The (fitted) sensor setup (force-sensor: the paper's cilium with a 0.05 mm "
+                     "tip radius)", default="force-sensor", positional=False),
         click.option("--quantity", type=click.Choice(["angle", "force", "flow"]),
                      default="force", show_default=True,
                      help="What to estimate: tilt angle (deg), tip force (mN) or flow speed "

@@ -9,14 +9,19 @@ import click
 from magcilia._atomic import write_json, write_text
 from magcilia._validate import fail
 from magcilia.approximation import lookup_table, piecewise_linear
-from magcilia.cli._common import echo_json, load_setup_arg, si_option
+from magcilia.cli._common import (
+    echo_json,
+    load_setup_arg,
+    setup_option,
+    si_option,
+)
 from magcilia.io.firmware import to_c_header
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, ascii_unit, parse_range
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option()
 @click.option("--corners", default=2, show_default=True,
               help="Interior corner points (the paper: 2; 0 = a straight line).")
 @click.option("--range", "range_text", default="0:85", show_default=True,

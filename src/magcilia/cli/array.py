@@ -15,7 +15,13 @@ import numpy as np
 from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.cli._common import echo_json, si_option, style_option
+from magcilia.cli._common import (
+    array_file_arg,
+    echo_json,
+    setup_option,
+    si_option,
+    style_option,
+)
 from magcilia.io.array_file import MAX_LOAD_SETS, load_array, load_array_grid, read_loads
 from magcilia.readout.array import ArrayReadout, array_metrics, field_for_loads
 from magcilia.report.array import (
@@ -65,7 +71,8 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option("The array: an array setup file ([[cilia]] and [[sensors]], or the [array] "
+              "grid), or the array preset")
 @click.option("--span", "span_text", default=None,
               help="Largest horizontal tip force per cilium (the read-out's range): mN, or with "
                    "a unit (0.02mN, 20uN).  [default: 0.02 mN]")
@@ -105,8 +112,9 @@ def command(setup_arg: str, span_text: str | None, loads_path: str | None,
             pitches: str | None, plot_path: str | None, crosstalk_path: str | None,
             csv_path: str | None, readout_path: str | None, as_json: bool,
             json_file: str | None, si: bool, style: str) -> None:
-    """An array of cilia over three-axis magnetometers (SETUP: an array setup file with
-    [[cilia]] and [[sensors]] or an [array] grid; see examples/array.toml).
+    """An array of cilia over three-axis magnetometers (--setup: an array setup file
+    with [[cilia]] and [[sensors]] or an [array] grid, e.g. examples/array.toml, or the array
+    preset, a copy of it).
 
     The forward map: the field at every sensor (gauss; board frame) for the loads (--loads, or
     --random N sets; none: the rest field), the sensors' seeded noisy readings (their axes,
@@ -132,8 +140,9 @@ def command(setup_arg: str, span_text: str | None, loads_path: str | None,
                                                               "--span", "0.02mN")
     if not span > 0.0:
         raise fail("--span", span_text, "a positive force in mN or with a unit, e.g. 0.02mN")
-    array = load_array(setup_arg)
-    grid = load_array_grid(setup_arg) if show_metrics else None
+    path = array_file_arg(setup_arg)  # the array preset: its bundled file
+    array = load_array(path)
+    grid = load_array_grid(path) if show_metrics else None
     if show_metrics and grid is None:
         raise fail("--metrics", setup_arg, "an array file with the [array] grid (rows, cols, "
                                            "pitch, sensor): the metrics vary its pitch")

@@ -17,6 +17,7 @@ from magcilia.cli._common import (
     parse_named_ranges,
     quiet_requested,
     recording_options,
+    setup_option,
     si_option,
     style_option,
     suspect_option,
@@ -35,8 +36,7 @@ def command() -> None:
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Batch folder: results.csv, results.parquet, summary.md, manifest.json and "
                    "one report folder per recording. A rerun into it skips what finished.")
-@click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
-              help="Initial setup: a TOML file or a preset (paper, paper-initial).")
+@setup_option("Initial setup", default="paper-initial", positional=False)
 @click.option("--force", is_flag=True,
               help="Start over a folder that holds a batch with other options (its results "
                    "are removed; a folder holding any other file is refused).")

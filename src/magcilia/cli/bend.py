@@ -11,6 +11,7 @@ from magcilia._atomic import save_figure, write_json
 from magcilia._validate import fail
 from magcilia.cli._common import (
     Physical,
+    RenamedOption,
     actuation_options,
     echo_json,
     load_mechanics_setup,
@@ -19,6 +20,7 @@ from magcilia.cli._common import (
     mechanics_options,
     parse_vector,
     setup_label,
+    setup_option,
     si_option,
     style_option,
 )
@@ -36,9 +38,11 @@ from magcilia.report.units import output_units
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
-@click.option("--force", default=None, type=Physical.of("force", "0.2mN"),
-              help="Dead point force: mN, or with a unit (e.g. 0.2mN, 200uN).")
+@setup_option()
+@click.option("--tip-force", "force", cls=RenamedOption, old="--force", default=None,
+              type=Physical.of("force", "0.2mN"),
+              help="Dead point force, at the tip unless --at: mN, or with a unit (e.g. 0.2mN, "
+                   "200uN).")
 @click.option("--at", "at", default=None, type=Physical.of("height", "2.5mm"),
               help="Arc length of the load from the base: mm, or with a unit (e.g. 2.5mm); "
                    "default tip.")
@@ -51,7 +55,7 @@ from magcilia.report.units import output_units
                    "unit (e.g. 30deg); default 0 (the x–z plane).")
 @click.option("--force-vector", "force_vector", default=None, metavar="FX,FY,FZ",
               help="Dead point force as a vector in the board frame: mN, or with a unit "
-                   "(e.g. 0.1,0.05,0mN); instead of --force/--direction/--azimuth.")
+                   "(e.g. 0.1,0.05,0mN); instead of --tip-force/--direction/--azimuth.")
 @click.option("--flow", "flow_text", default=None,
               help="Flow speed along +x (or --flow-azimuth): m/s, or with a unit (e.g. 0.1m/s, "
                    "100mm/s); uniform unless --shear-height.")
@@ -84,8 +88,9 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
     actuation field, in any direction: tip position (mm), tip angle (deg) and sensor output (mV);
     SI (m, rad, V) with --si.
 
-    SETUP is a setup TOML file or a preset (paper, paper-initial). The paper's cilium is a sharp
-    cone (tip radius 0): a tip force then needs --tip-radius (or --at below the tip).
+    --setup is a setup TOML file or a preset (paper, paper-initial, force-sensor). The paper's
+    cilium is a sharp cone (tip radius 0): a tip force then needs --tip-radius (or --at below
+    the tip).
 
     A force toward any azimuth (--azimuth, or --force-vector), a flow from any direction
     (--flow-azimuth) or an actuation (--actuation-field, --actuation FILE or the setup file's
@@ -98,7 +103,7 @@ def command(setup_arg: str, force: float | None, at: float | None, direction: fl
     vector = None
     if force_vector is not None:
         if force is not None:
-            raise fail("--force-vector", force_vector, "either --force or --force-vector, not "
+            raise fail("--force-vector", force_vector, "either --tip-force or --force-vector, not "
                                                        "both")
         if azimuth is not None:
             raise fail("--azimuth", f"{azimuth * 180.0 / math.pi:g} deg", "left out with "

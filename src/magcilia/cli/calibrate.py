@@ -22,6 +22,7 @@ from magcilia.cli._common import (
     parse_named_ranges,
     parse_priors,
     recording_options,
+    setup_option,
     si_option,
     style_option,
     suspect_option,
@@ -43,8 +44,7 @@ from magcilia.report.recording_notes import notes_lines
 
 @click.command()
 @click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--setup", "setup_arg", default="paper-initial", show_default=True,
-              help="Initial setup: a TOML file or a preset (paper, paper-initial).")
+@setup_option("Initial setup", default="paper-initial", positional=False)
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Output directory (fitted_setup.toml, result.json, report.md, figures); "
                    "must not exist yet, or be empty.")

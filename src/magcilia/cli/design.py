@@ -15,6 +15,7 @@ from magcilia.cli._common import (
     mechanics_options,
     parse_bandwidth,
     setup_label,
+    setup_option,
     si_option,
     style_option,
 )
@@ -25,7 +26,7 @@ from magcilia.units import OutputUnits, ascii_unit
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option()
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow metrics (20 °C, uniform flow).")
 @bandwidth_option()

@@ -15,6 +15,7 @@ from magcilia.cli._common import (
     echo_json,
     load_setup_arg,
     setup_label,
+    setup_option,
     si_option,
     style_option,
 )
@@ -48,7 +49,7 @@ def _warn_overload(label: str, setup: Setup, b: NDArray[np.float64],
 
 
 @click.command()
-@click.argument("setups", nargs=-1, required=True, metavar="SETUP...")
+@setup_option("A setup to compare (several: one table and figure)", multiple=True, name="setups")
 @click.option("--angles", default="0:85:5", show_default=True,
               help="Tilt angles start:stop:step in degrees, or with a unit (0:85:5deg; stop "
                    "included).")
@@ -64,16 +65,16 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     """Field at the sensing element (gauss) and sensor output (mV) vs tilt angle (T, V, rad
     with --si; the console, CSV and JSON agree).
 
-    SETUP is a setup TOML file or a preset name: `paper` (Table I optimized) or `paper-initial`
-    (Table I initial). Several SETUPs are compared in one table and figure. Rows are flagged
-    with what the element's field does to a real HMC1021-type sensor: `range` (|B_x| beyond its
-    linear range), `total-range` (|B| beyond it), `flip` (|B| beyond the flip field: a set/reset
-    pulse is needed) and `cross-axis` (the cross-axis error, which the model's output leaves out,
-    exceeds one reading's noise); a setup that overloads the element also prints a warning. The
-    dipole layout follows the setup's layout rule (paper: as is; converged: within 0.5 % of the
-    exact body at the element; given: as is, with a warning where it is more than 1 % off). The
-    output files are written together once everything is computed: a failure leaves none of them
-    changed.
+    --setup is a setup TOML file or a preset name: `paper` (Table I optimized) or
+    `paper-initial` (Table I initial). Several --setup are compared in one table and figure.
+    Rows are flagged with what the element's field does to a real HMC1021-type sensor: `range`
+    (|B_x| beyond its linear range), `total-range` (|B| beyond it), `flip` (|B| beyond the flip
+    field: a set/reset pulse is needed) and `cross-axis` (the cross-axis error, which the
+    model's output leaves out, exceeds one reading's noise); a setup that overloads the element
+    also prints a warning. The dipole layout follows the setup's layout rule (paper: as is;
+    converged: within 0.5 % of the exact body at the element; given: as is, with a warning where
+    it is more than 1 % off). The output files are written together once everything is computed:
+    a failure leaves none of them changed.
     """
     theta = angle_grid(angles)
     if plot_path:

@@ -14,6 +14,7 @@ from magcilia._atomic import figure_bytes, figure_format, json_text, write_files
 from magcilia._validate import fail
 from magcilia.cli._common import (
     Physical,
+    RenamedOption,
     bandwidth_option,
     echo_json,
     load_mechanics_setup,
@@ -22,6 +23,7 @@ from magcilia.cli._common import (
     parse_named_ranges,
     quiet_requested,
     setup_label,
+    setup_option,
     si_option,
     style_option,
 )
@@ -47,7 +49,7 @@ def _defaults() -> str:
 
 
 @click.command()
-@click.argument("setup_arg", metavar="[SETUP]", required=False, default="force-sensor")
+@setup_option(default="force-sensor")
 @click.option("--objective", type=click.Choice(OBJECTIVES), default="force-range",
               show_default=True,
               help="force-range: the largest force range with a minimum detectable force <= "
@@ -67,7 +69,8 @@ def _defaults() -> str:
               help="Search bound, lengths in mm or with units (height=2mm:5mm); NAME one of "
                    + ", ".join(VARIABLES) + f"; repeatable; LOW=HIGH fixes it. Defaults: "
                    f"{_defaults()} (mm); the material stays the SETUP's.")
-@click.option("--sensor", "sensor_text", default="HMC1021Z", show_default=True,
+@click.option("--sensors", "sensor_text", cls=RenamedOption, old="--sensor",
+              default="HMC1021Z", show_default=True,
               help="Sensor choices, comma-separated: HMC1021Z (the SETUP's single-axis sensor) "
                    "and 3-axis presets (MMC5983MA, LIS3MDL).")
 @click.option("--designs", type=click.IntRange(16, 2**22), default=1024, show_default=True,
@@ -128,7 +131,7 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
         constraints["field"] = max_field
     sensors = tuple(s.strip() for s in sensor_text.split(",") if s.strip())
     if not sensors:
-        raise fail("--sensor", sensor_text, "one or more sensor names, e.g. HMC1021Z,MMC5983MA")
+        raise fail("--sensors", sensor_text, "one or more sensor names, e.g. HMC1021Z,MMC5983MA")
     bounds = parse_named_ranges("--bound", bound_items, VARIABLES)
     result = optimise_design(
         setup, objective, min_force=min_force, speed=speed, constraints=constraints or None,

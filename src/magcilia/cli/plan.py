@@ -10,11 +10,13 @@ import click
 from magcilia._validate import fail
 from magcilia.calibration.plan import PLAN_PARAMETERS, SENSORS, CalibrationPlan, plan_calibration
 from magcilia.cli._common import (
+    RenamedOption,
     angle_grid,
     echo_json,
     load_setup_arg,
     parse_priors,
     progress_bar,
+    setup_option,
     si_option,
 )
 from magcilia.report.units import output_units
@@ -58,12 +60,13 @@ def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option()
 @click.option("--budget", required=True, type=int,
               help="Number of readings N to plan (at least the number of parameters, 5; at "
                    "most what Fedorov's exchange does in about a minute: 2974 with the default "
                    "angles and azimuths, fewer with more of them).")
-@click.option("--sensor", type=click.Choice(SENSORS), default="output", show_default=True,
+@click.option("--measure", "sensor", cls=RenamedOption, old="--sensor",
+              type=click.Choice(SENSORS), default="output", show_default=True,
               help="What each reading measures: the AMR output, or the three field components "
                    "of a 3-axis magnetometer.")
 @click.option("--azimuths", default="0,90", show_default=True,
@@ -71,8 +74,8 @@ def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
 @click.option("--angles", default="0:85:2.5", show_default=True,
               help="Tilt angles on offer, START:STOP:STEP in deg (units allowed).")
 @click.option("--noise", "noise_text", default=None,
-              help="σ of one reading: mV for --sensor output (default: the sensor's noise model, "
-                   "one raw sample at 1 kHz), gauss per component for --sensor field (default "
+              help="σ of one reading: mV for --measure output (default: the sensor's noise model, "
+                   "one raw sample at 1 kHz), gauss per component for --measure field (default "
                    "10nT); units allowed (0.01mV, 10nT).")
 @click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SIGMA",
               help="A manual measurement of a parameter as a Gaussian prior, display units "

@@ -15,6 +15,7 @@ from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
     RecordingArgs,
+    RenamedOption,
     actuation_options,
     bandwidth_option,
     echo_json,
@@ -25,6 +26,7 @@ from magcilia.cli._common import (
     parse_vector,
     quiet_requested,
     recording_options,
+    setup_option,
     si_option,
     suspect_option,
 )
@@ -137,7 +139,7 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option()
 @click.argument("recording", type=click.Path(dir_okay=False))
 @click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), default=None,
               help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s). "
@@ -156,7 +158,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--sensor-noise", "sensor_noise", default=None, metavar="B or BX,BY,BZ",
               help="With --biaxial: RMS noise of one reading per axis, gauss or with a unit "
                    "(2mG, or 2mG,2mG,3mG); required for the MLX90393 and TLV493D presets.")
-@click.option("--out", "out_path", default=None, type=click.Path(dir_okay=False),
+@click.option("--csv", "out_path", cls=RenamedOption, old="--out", default=None,
+              type=click.Path(dir_okay=False),
               help="Output CSV (estimates, 1-sigma, flags), written atomically. Required.")
 @bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
                   "(with --tare or --tare-file the baseline's measured spread is used instead).")
@@ -223,7 +226,7 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
     if span_text is None:
         raise click.UsageError("Missing option '--span'.")
     if out_path is None:
-        raise click.UsageError("Missing option '--out'.")
+        raise click.UsageError("Missing option '--csv'.")
     if tare_spec is not None and tare_file is not None:
         raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)

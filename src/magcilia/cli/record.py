@@ -15,10 +15,12 @@ from magcilia.acquire import record_stream, record_sweep, source_from_spec
 from magcilia.acquire.sweep import AskAngle, SweepPoint
 from magcilia.cli._common import (
     Physical,
+    RenamedOption,
     angle_grid,
     echo_json,
     load_setup_arg,
     setup_label,
+    setup_option,
     si_option,
 )
 from magcilia.cli._signals import signals_interrupt
@@ -66,9 +68,8 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.command()
 @click.option("--source", "source_spec", default="sim", show_default=True,
               help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
-@click.option("--setup", "setup_arg", default="paper", show_default=True,
-              help="The sensor: a setup TOML file or a preset (the simulated one for --source "
-                   "sim; stored in the recording).")
+@setup_option("The sensor (the simulated one for --source sim; stored in the recording)",
+              default="paper", positional=False)
 @click.option("--angles", default=None,
               help="Tilt angles START:STOP:STEP in degrees or with a unit (0:80:2.5deg), "
                    "recorded without questions; without it, each angle is asked for (degrees or "
@@ -77,7 +78,8 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--settle", default="0", show_default=True, type=Physical.of("time", "0.5s"),
               help="Time dropped after each tilt before recording (the hair's ringing): s, or "
                    "with a unit (500ms).")
-@click.option("--rate", default="1000", show_default=True, type=Physical.of("frequency", "1kHz"),
+@click.option("--source-rate", "rate", cls=RenamedOption, old="--rate", default="1000",
+              show_default=True, type=Physical.of("frequency", "1kHz"),
               help="Sample rate: Hz, or with a unit (1kHz) (sim and nidaq; a serial device "
                    "sends its own).")
 @click.option("--duration", default=None, type=Physical.of("time", "60s"),
@@ -85,10 +87,11 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--set-reset", "set_reset", default=None, type=int,
               help="Alternate set/reset pulses every N samples (sim), stored per sample.")
 @click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
-@click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
+@click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
+              type=click.Path(dir_okay=False),
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
 @click.option("--force", is_flag=True,
-              help="Replace an existing --out: only once the new recording holds its first "
+              help="Replace an existing --record: only once the new recording holds its first "
                    "flushed chunk (a source that fails leaves it as it was).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the result as JSON (the console's units: deg, mV; SI with --si).")
@@ -98,10 +101,10 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
             rate: float, duration: float | None, set_reset: int | None, seed: int,
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
-    angle's mean ± standard error and a saturation flag; the recording ends in OUT, which
-    `magcilia calibrate OUT` fits as it is. With --duration, record continuously instead
-    (for `magcilia readout`). A failure keeps the recording made so far and says where it
-    stopped. An existing OUT is refused without --force, and never lost: with --force it is
+    angle's mean ± standard error and a saturation flag; the recording ends in the --record
+    file, which `magcilia calibrate FILE` fits as it is. With --duration, record continuously
+    instead (for `magcilia readout`). A failure keeps the recording made so far and says where it
+    stopped. An existing file is refused without --force, and never lost: with --force it is
     replaced only once the new recording holds its first flushed chunk. Ctrl-C, SIGTERM or
     SIGHUP stop it the same way: the file is closed, marked incomplete and saying where it
     stopped, with one line and exit status 1. The recording itself is in SI (angle_rad,
@@ -134,11 +137,12 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
     units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
-        raise fail("--out", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
+        raise fail("--record", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
     if Path(out_path).is_dir():
-        raise MagciliaError(f"{out_path} is a folder, not a recording file; choose another --out")
+        raise MagciliaError(f"{out_path} is a folder, not a recording file; choose another "
+                            "--record")
     if os.path.lexists(out_path) and not force:
-        raise MagciliaError(_exists_message(Path(out_path)))
+        raise MagciliaError(_exists_message(Path(out_path), "--record"))
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
                               set_reset=set_reset, realtime=duration is not None)

@@ -18,6 +18,7 @@ from magcilia.analysis.tolerance import placement_tolerance
 from magcilia.cli._common import (
     Physical,
     RecordingArgs,
+    RenamedOption,
     bandwidth_option,
     echo_json,
     execution_options,
@@ -25,6 +26,7 @@ from magcilia.cli._common import (
     parse_bandwidth,
     parse_named_ranges,
     recording_options,
+    setup_option,
     si_option,
     style_option,
 )
@@ -46,7 +48,7 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP")
+@setup_option()
 @click.option("--data", type=click.Path(dir_okay=False),
               help="Recording (CSV/.mat/.tdms): adds the calibration cost (offset solved) "
                    "to every sweep.")
@@ -55,7 +57,8 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
                    "yet, or be empty.")
 @click.option("--force", is_flag=True,
               help="Replace an existing --out folder (an earlier output of this command) whole.")
-@click.option("--span", "span_items", multiple=True, metavar="NAME=LOW:HIGH",
+@click.option("--sweep", "span_items", cls=RenamedOption, old="--span", multiple=True,
+              metavar="NAME=LOW:HIGH",
               help="Sweep span, lengths in mm or with units (x=0.5:2.5, height=2mm:4mm; "
                    "n_loops, dipoles_per_loop whole numbers); repeatable. Defaults: "
                    f"{describe_spans()}.")
@@ -96,7 +99,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
     out = Path(out_dir)
     with staged_directory(out, force=force, names=SENSITIVITY_FILES) as tmp:
         setup = load_setup_arg(setup_arg)
-        spans = parse_named_ranges("--span", span_items, STUDY_PARAMETERS)
+        spans = parse_named_ranges("--sweep", span_items, STUDY_PARAMETERS)
         band = parse_bandwidth(bandwidth)
         if not accuracy > 0:
             raise fail("--accuracy", f"{math.degrees(accuracy):g} deg", "a positive angle")

@@ -14,11 +14,14 @@
 * :mod:`.columns`: which column of a recording holds what, in which unit (:class:`Columns`);
 * :mod:`.recording_file`: crash-safe TDMS recordings streamed in flushed chunks;
 * :mod:`.firmware`: C headers and JSON of read-out approximations;
-* :mod:`.results`: saved JSON results read back with one-line errors.
+* :mod:`.results`: saved JSON results read back with one-line errors;
+* :mod:`.presets`: the built-in setups by name (``paper``, ``paper-initial``, ``force-sensor``,
+  ``array``), ``mc.presets``.
 """
 
 from __future__ import annotations
 
+from magcilia.io import presets
 from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
 from magcilia.io.columns import Columns
 from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
@@ -49,6 +52,7 @@ __all__ = [
     "load_array",
     "load_setup",
     "measurement_from_samples",
+    "presets",
     "read_json",
     "read_measurements",
     "read_recording",

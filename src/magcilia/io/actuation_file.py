@@ -1,7 +1,8 @@
 """Actuation files: the ``[actuation]`` table of a TOML file ↔ :class:`magcilia.Actuation`.
 
-The table sits in a setup file (``magcilia bend SETUP`` reads it there) or in a file of its own
-(``--actuation FILE``). Every quantity carries its unit. A uniform field (a Helmholtz pair)::
+The table sits in a setup file (``magcilia bend --setup SETUP`` reads it there) or in a file of
+its own (``--actuation FILE``). Every quantity carries its unit. A uniform field (a Helmholtz
+pair)::
 
     [actuation]
     field = ["0 G", "0 G", "50 G"]   # Bx, By, Bz in the board frame

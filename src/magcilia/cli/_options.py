@@ -1,0 +1,194 @@
+"""The options that mean one thing across the CLI (issue 26 item 7): ``--setup PRESET|FILE``
+with its one rule (:data:`SETUP_RULE`), and the one mechanism of this release's deprecated
+spellings (:class:`RenamedOption`, the positional SETUP): each still works, with one line on
+stderr, ``magcilia: warning: CMD OLD is deprecated; use NEW (removed in the next release)``.
+
+The meaning of every option name is in ``tests/cli/test_option_meanings.py``; a command that
+gives an existing name another meaning fails it.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+from click.core import ParameterSource
+
+from magcilia._errors import MagciliaError
+from magcilia._validate import fail
+from magcilia.device.setup import Setup
+from magcilia.io import presets
+from magcilia.io.setup_files import load_setup
+
+#: built-in setups usable wherever a setup file is expected (:mod:`magcilia.io.presets`), by name
+#: -> a zero-argument builder; kept for code that imported it (``presets.load(name)`` is the API)
+PRESETS = {name: functools.partial(presets.load, name) for name in presets.NAMES}
+
+#: the one rule of ``--setup VALUE``, in the help of every command that takes a setup
+SETUP_RULE = ("a bare name (no path separator, no suffix) is a preset: "
+              + ", ".join(presets.NAMES) + "; anything else is a setup TOML file")
+
+
+def is_preset_name(value: str) -> bool:
+    """Whether ``--setup VALUE`` names a preset (:data:`SETUP_RULE`): a bare name, without a
+    path separator or a suffix (``paper``, ``force-sensor``; a file in the current folder named
+    so is ``./paper``). A bare name that is not a preset is an error, never a file."""
+    return not any(sep in value for sep in ("/", "\\")) and not Path(value).suffix
+
+
+def _known_preset(value: str) -> str:
+    """``value`` when it is a preset name, else the one-line error: the closest preset and the
+    list (and, for a file of that name here, how to read it)."""
+    if value not in presets.NAMES:
+        message = presets.unknown_preset_message(value)
+        if Path(value).is_file():
+            message += f"; to read the file {value!r}, write ./{value}"
+        raise MagciliaError(message)
+    return value
+
+
+def load_setup_arg(value: str) -> Setup:
+    """A ``--setup`` value as one cilium's :class:`Setup`: a preset name (paper, paper-initial,
+    force-sensor) or a setup TOML file (:data:`SETUP_RULE`)."""
+    return presets.setup(_known_preset(value)) if is_preset_name(value) else load_setup(value)
+
+
+def array_file_arg(value: str) -> str:
+    """A ``--setup`` value of a command that reads an array file (``magcilia array``): the file,
+    or for the ``array`` preset the copy of ``examples/array.toml`` that ships with magcilia
+    (:data:`SETUP_RULE`)."""
+    if not is_preset_name(value):
+        return value
+    found = presets.file(_known_preset(value))
+    if found is None:
+        raise fail("--setup", value, "an array file or the array preset (preset "
+                                     f"{value!r} is one cilium)")
+    return str(found)
+
+
+def setup_label(value: str) -> str:
+    """Short label for a ``--setup`` value (file stem or preset name)."""
+    return value if is_preset_name(value) else Path(value).stem
+
+
+# --- one meaning per option: the deprecated spellings of this release (issue 26 item 7) ---------
+
+#: what each old spelling became; ``magcilia CMD --old`` still works this release, with one line
+#: on stderr (:func:`warn_deprecated`)
+DEPRECATION = ("magcilia: warning: {command} {old} is deprecated; use {new} (removed in the next "
+               "release)")
+
+
+def warn_deprecated(ctx: click.Context, old: str, new: str) -> None:
+    """The one deprecation line of an old spelling (``--force`` for ``--tip-force``, a positional
+    SETUP for ``--setup SETUP``): ``magcilia: warning: CMD OLD is deprecated; use NEW (removed in
+    the next release)`` on stderr, once per command run and spelling (``-q`` keeps it: it is a
+    warning)."""
+    seen = ctx.meta.setdefault("magcilia.deprecated", set())
+    if old in seen:
+        return
+    seen.add(old)
+    command = " ".join(ctx.command_path.split()[1:]) or ctx.command_path
+    click.echo(DEPRECATION.format(command=command, old=old, new=new), err=True)
+
+
+class RenamedOption(click.Option):
+    """An option (with a value) with its new spelling in the help and its old ``old`` spellings
+    still accepted for one release, each use warned once (:func:`warn_deprecated`): declare it as
+    ``click.option("--tip-force", "force", cls=RenamedOption, old="--force", ...)``. The old
+    spelling is not shown in the help; giving both spellings is an error (for a repeatable
+    option their values add up)."""
+
+    def __init__(self, *args: Any, old: str | Sequence[str], **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        if self.is_flag or self.count:
+            raise TypeError("RenamedOption takes an option with a value, not a flag")
+        self.old_opts = [old] if isinstance(old, str) else list(old)
+        self._old_dest = f"{self.name}__deprecated_spelling"
+
+    def add_to_parser(self, parser: Any, ctx: click.Context) -> None:
+        super().add_to_parser(parser, ctx)
+        parser.add_option(obj=self, opts=self.old_opts, dest=self._old_dest,
+                          action="append" if self.multiple else "store", nargs=self.nargs)
+
+    def consume_value(self, ctx: click.Context, opts: Any) -> Any:
+        if self._old_dest in opts:
+            new = max(self.opts, key=len)
+            warn_deprecated(ctx, "/".join(self.old_opts), new)
+            given = opts[self._old_dest]
+            if self.name in opts:
+                if not self.multiple:
+                    raise click.UsageError(f"{new} and its old spelling "
+                                           f"{'/'.join(self.old_opts)} given both; give {new} "
+                                           "once", ctx)
+                given = [*opts[self.name], *given]
+            opts = {**opts, self.name: given}
+        return super().consume_value(ctx, opts)
+
+
+class _LegacySetupArgument(click.Argument):
+    """The positional SETUP of earlier releases, still accepted (with one deprecation line) by
+    the commands that now take ``--setup``; hidden from the usage line. Its values go to the
+    ``--setup`` option (:func:`setup_option`)."""
+
+    def __init__(self, param_decls: Sequence[str], **kwargs: Any) -> None:
+        kwargs.update(nargs=-1, required=False, expose_value=False)
+        super().__init__(param_decls, **kwargs)
+
+    def get_usage_pieces(self, ctx: click.Context) -> list[str]:  # noqa: ARG002 (click's)
+        return []
+
+    def handle_parse_result(self, ctx: click.Context, opts: Any, args: list[str]) -> Any:
+        raw = opts.get(self.name)  # a sentinel, not a tuple, when none was given (click 8.2+)
+        values = tuple(raw) if isinstance(raw, (list, tuple)) else ()
+        if values and not ctx.resilient_parsing:
+            option = next(p for p in ctx.command.params if isinstance(p, _SetupOption))
+            if ctx.get_parameter_source(option.name or "") == ParameterSource.COMMANDLINE:
+                raise click.UsageError(f"the setup given twice: --setup and a positional "
+                                       f"{values[0]!r}; give it once, as --setup", ctx)
+            if not option.multiple and len(values) > 1:
+                raise click.UsageError(f"got unexpected extra argument ({values[1]})", ctx)
+            warn_deprecated(ctx, "SETUP (positional)", "--setup SETUP")
+            ctx.meta[_LEGACY_SETUP] = values
+        return None, args
+
+
+_LEGACY_SETUP = "magcilia.legacy_setup"
+
+
+class _SetupOption(click.Option):
+    """``--setup``: takes the deprecated positional SETUP's value when only that was given."""
+
+    def consume_value(self, ctx: click.Context, opts: Any) -> Any:
+        legacy = ctx.meta.get(_LEGACY_SETUP)
+        if legacy and self.name not in opts:
+            opts = {**opts, self.name: list(legacy) if self.multiple else legacy[0]}
+        return super().consume_value(ctx, opts)
+
+
+def setup_option(help_text: str = "The sensor setup", *, default: str | None = None,
+                 multiple: bool = False, positional: bool = True,
+                 name: str = "setup_arg") -> Callable[[Any], Any]:
+    """A decorator: the one ``--setup VALUE`` of every command (:data:`SETUP_RULE`: a preset name
+    or a setup TOML file), received as ``name`` (a tuple with ``multiple``); required unless
+    ``default``. With ``positional``, the command also takes the positional SETUP of earlier
+    releases (deprecated; its warning names --setup), which must then come before any other
+    positional argument."""
+
+    def decorate(command: Any) -> Any:
+        text = f"{help_text}: {SETUP_RULE}."
+        if multiple:
+            text += " Repeatable."
+        # no default=None: click 8.2+ takes an explicit None as given, not as missing
+        defaults = {} if default is None else {"default": default, "show_default": True}
+        command = click.option("--setup", name, cls=_SetupOption, required=default is None,
+                               multiple=multiple, metavar="SETUP", help=text,
+                               **defaults)(command)
+        if positional:
+            command = click.argument("legacy_setup", cls=_LegacySetupArgument)(command)
+        return command
+
+    return decorate
