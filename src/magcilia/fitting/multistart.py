@@ -9,12 +9,16 @@ starts cost about as many model calls as one over a few.
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, bounds_of, fit_batch
 from magcilia.fitting.result import BatchFit
+
+logger = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 
@@ -77,6 +81,8 @@ def halving(
     while True:
         bl, bh = (lo, hi) if lo.ndim == 1 else (lo[rows], hi[rows])
         fits = fit_batch(sub, x, bl, bh, jacobian=jac, maxiter=round_iterations)
+        logger.debug("halving round: %d fits, best cost %.6g", x.shape[0],
+                     float(fits.cost.min()))
         if x.shape[0] <= survivors:
             break
         keep = np.argsort(fits.cost, kind="stable")[:max(survivors, x.shape[0] // 2)]
