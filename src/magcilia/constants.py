@@ -1,20 +1,21 @@
 """Physical constants and unit factors (SI), with their sources.
 
-Fundamental constants are taken from :mod:`scipy.constants` (CODATA 2022 in SciPy ≥ 1.15), the
-same source magpylib uses, so the two agree to round-off.
+Fundamental constants are CODATA 2022 (Mohr et al., *CODATA Recommended Values of the
+Fundamental Physical Constants: 2022*, NIST, 2024), the values :mod:`scipy.constants` holds from
+SciPy 1.15 on and magpylib uses through it, so the two agree to the last digit (a test checks it).
+They are written here, not imported: ``scipy.constants`` costs most of a second at start-up for
+two numbers.
 """
 
 from __future__ import annotations
 
 import math
 
-from scipy import constants as _sc
+MU0: float = 1.25663706127e-6
+"""Vacuum permeability, T·m/A (CODATA 2022)."""
 
-MU0: float = float(_sc.mu_0)
-"""Vacuum permeability, T·m/A (CODATA, via scipy.constants)."""
-
-MU_B: float = float(_sc.physical_constants["Bohr magneton"][0])
-"""Bohr magneton, A·m² (= J/T) (CODATA, via scipy.constants)."""
+MU_B: float = 9.2740100657e-24
+"""Bohr magneton, A·m² (= J/T) (CODATA 2022)."""
 
 GAUSS: float = 1e-4
 """One gauss in tesla."""

@@ -196,7 +196,7 @@ def test_calibrate_on_nan_data_fails_at_once_naming_the_data(
 
     # "at once": before any search (a search that fails later would raise AssertionError)
     monkeypatch.setattr(search, "search", started)
-    monkeypatch.setattr(search, "least_squares", started)
+    monkeypatch.setattr(search, "polish", started)
     with pytest.raises(mc.MagciliaError, match=r"bench\.csv: voltage_V of angle 4 of \d+ is nan; "
                                                 "calibration needs finite data"):
         mc.calibrate(bad, rng=0)
