@@ -86,6 +86,7 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "ParameterCovariance": lambda: _calibration().uncertainty,
     "JointCalibrationResult": _joint,
     "ExperimentFit": lambda: _joint().experiments[0],
+    "FitParameter": lambda: _calibration().parameters[0],
     "OATResult": lambda: mc.oat_sweep(SETUP, "x", [1.2e-3, 1.5e-3], angles=ANGLES),
     "PlacementMap": lambda: placement_map(SETUP, [1.2e-3, 1.6e-3], [1.8e-3, 2.2e-3],
                                           angles=ANGLES),
@@ -189,7 +190,7 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
          "samples_per_angle": 40, "stopped": "stopped at angle 3: interrupted"}),
 })
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
-               "Magnetometer")
+               "Magnetometer", "ExperimentFit")
 
 
 @pytest.fixture(scope="module", params=sorted(FACTORIES))

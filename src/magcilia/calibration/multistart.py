@@ -80,7 +80,7 @@ def local_fits(problem: Problem, box: Box, x: F64, maxiter: int) -> tuple[F64, F
     def residuals(xc: F64, which: NDArray[np.intp]) -> F64:
         rows = x[which].copy()
         rows[:, cont] = xc
-        return problem.residuals(problem.model(named(rows.T)))[0]
+        return problem.linear(problem.model(named(rows.T)))[0]
 
     out = x.copy()
     if not cont.any():
