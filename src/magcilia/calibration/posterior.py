@@ -66,6 +66,7 @@ from magcilia.calibration.posterior_result import (
     LEVELS,
     Posterior,
     SamplingWarning,
+    display_unit,
     intervals,
 )
 
@@ -438,3 +439,8 @@ def _initial(log_prob: LogProb, mode: F64, cov: F64, b: F64, n: int,
         scale *= 0.5
     raise v.fail("start", mode.tolist(), "a mode with a finite log_prob around it (inside "
                                          "the bounds)")
+
+
+__all__ = ["BLOCK_STEPS", "LEVELS", "MAX_SECONDS", "MERGE_SIGMAS", "MIN_MODE_ESS", "MIN_WEIGHT",
+           "TAU_FACTOR", "LogProb", "Posterior", "SamplingWarning", "display_unit", "laplace",
+           "least_squares_log_prob", "sample_posterior", "sample_problem"]

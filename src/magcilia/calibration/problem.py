@@ -264,29 +264,34 @@ class Problem:
                 a = np.ones(u.shape[0])
             return self.ry - a[:, None] * pu, a
 
-    def residuals(self, P: F64 | Mapping[str, F64]) -> F64:
-        """Weighted residuals, shape (N, m): the data rows ``(measured − model − bias)/s.e.``
-        with the linear parameters at their best values, then the prior rows ``(p − μ)/σ``; a set
-        whose model is not finite gets rows ``sqrt(NONFINITE_COST / d)`` (cost
-        :data:`NONFINITE_COST`)."""
+    def _rows(self, P: F64 | Mapping[str, F64]) -> tuple[F64, NDArray[np.bool_], F64]:
+        """Data rows (N, d), which sets have a non-finite model (N,), prior rows (N, q)."""
         prm = P if isinstance(P, Mapping) else np.atleast_2d(np.asarray(P, dtype=np.float64))
         r, _ = self.linear(self.model(prm))
         with np.errstate(invalid="ignore", over="ignore"):
             bad = ~np.isfinite(np.einsum("nd,nd->n", r, r))
+        cols = self.params(prm) if self.priors else {}
+        prior = (np.stack([(cols[n] - mu) / s for n, (mu, s) in self.priors.items()], axis=1)
+                 if self.priors else np.zeros((r.shape[0], 0)))
+        return r, bad, prior
+
+    def residuals(self, P: F64 | Mapping[str, F64]) -> F64:
+        """Weighted residuals, shape (N, m): the data rows ``(measured − model − bias)/s.e.``
+        with the linear parameters at their best values, then the prior rows ``(p − μ)/σ``; a set
+        whose model is not finite gets data rows ``sqrt(NONFINITE_COST / d)`` (a least-squares
+        solver sees a cost of about :data:`NONFINITE_COST`)."""
+        r, bad, prior = self._rows(P)
         r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
-        if not self.priors:
-            return r
-        cols = self.params(prm)
-        prior = np.stack([(cols[n] - mu) / s for n, (mu, s) in self.priors.items()], axis=1)
-        return np.concatenate([r, prior], axis=1)
+        return np.concatenate([r, prior], axis=1) if self.priors else r
 
     def cost(self, P: F64 | Mapping[str, F64]) -> F64:
         """Sum of squared weighted residuals (χ² with the priors; V² for the unweighted paper
-        model), shape (N,), at most :data:`NONFINITE_COST`."""
-        r = self.residuals(P)
+        model), shape (N,): :data:`NONFINITE_COST` where the model is not finite (or the cost
+        exceeds it)."""
+        r, bad, prior = self._rows(P)
         with np.errstate(invalid="ignore", over="ignore"):
-            c = np.einsum("nm,nm->n", r, r)
-        return np.where(np.isfinite(c), np.minimum(c, NONFINITE_COST), NONFINITE_COST)
+            c = np.einsum("nd,nd->n", r, r) + np.einsum("nq,nq->n", prior, prior)
+        return np.where(np.isfinite(c) & ~bad, np.minimum(c, NONFINITE_COST), NONFINITE_COST)
 
     def jacobian(self, p: F64) -> F64:
         """Central-difference Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p),
