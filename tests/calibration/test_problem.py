@@ -84,6 +84,11 @@ def test_experiments_add_their_costs() -> None:
     assert r.shape == (6, ANGLES.size * 4 + 1) == (6, joint.size)
     np.testing.assert_allclose(np.einsum("nm,nm->n", r, r), joint.cost(P), rtol=1e-12)
     np.testing.assert_allclose(r[:, -1], (P[:, 0] - 3.1e-3) / 0.1e-3, rtol=1e-12)
+    jac = joint.jacobian(P[0])  # the prior's row exact, the data rows as their differences
+    np.testing.assert_array_equal(jac[-1], [1e4, 0.0, 0.0, 0.0, 0.0])
+    step = np.array([0.0, 0.0, 1e-8, 0.0, 0.0])
+    diff = (joint.residuals(P[0] + step) - joint.residuals(P[0] - step))[0] / 2e-8
+    np.testing.assert_allclose(jac[:, 2], diff, rtol=1e-3, atol=1e-6 * np.abs(diff).max())
     # the bias parameters are named by experiment and axis, not by strings
     assert joint.bias_keys == (ParameterKey("offset", 0), *(ParameterKey("offset", 1, axis=c)
                                                             for c in range(3)))

@@ -254,6 +254,13 @@ class Prior(Experiment):
     value: float
     sigma: float
 
+    def jacobian(self, names: Sequence[str]) -> F64:
+        """Its row's derivative with respect to the search vector ``names`` (p,): 1/σ at its
+        parameter (exact; no model call)."""
+        row = np.zeros(len(names))
+        row[list(names).index(self.name)] = 1.0 / self.sigma
+        return row
+
 
 class Experiments(tuple[Experiment, ...]):
     """A sum of experiments (what ``a + b`` gives); iterates over its terms."""

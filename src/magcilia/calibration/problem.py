@@ -26,6 +26,7 @@ from magcilia._errors import MagciliaError
 from magcilia.calibration.experiments import (
     Experiment,
     Experiments,
+    Prior,
     Table,
     TiltPath,
     fluid_of,
@@ -112,6 +113,9 @@ class Problem:
         self.bounds = np.array([bounds[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
         self.integer = np.array([n in INTEGER for n in self.names], dtype=bool)
         self.priors = terms.priors
+        if len(self.priors) != sum(isinstance(e, Prior) for e in terms):
+            raise MagciliaError("two priors on one parameter; combine them into one (value, "
+                                "sigma)")
         unknown = [n for n in self.priors if n not in self.names]
         if unknown:
             raise MagciliaError(f"prior {unknown[0]}: not a fitted parameter (one of "
@@ -152,6 +156,7 @@ class Problem:
         self.prior_sigma = np.array([s for _, s in self.priors.values()])
         self.size = self.y.size + len(self.priors)
         self._defaults = {**self.base.params(), LOAD_PARAMETER: self.base.youngs_modulus}
+        self._model_names = self.all_names
         self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
                        if e.data.speeds is not None}
 
@@ -187,10 +192,10 @@ class Problem:
         else:
             P = np.atleast_2d(np.asarray(P, dtype=np.float64))
             cols = {n: P[:, i] for i, n in enumerate(self.names)}
-        size = max((np.size(c) for c in cols.values()), default=1)
-        for n in self.all_names:
-            if n not in cols:
-                cols[n] = np.full(size, float(self._defaults[n]))
+        missing = [n for n in self._model_names if n not in cols]
+        if missing:
+            size = max((c.size for c in cols.values()), default=1)
+            cols.update({n: np.full(size, float(self._defaults[n])) for n in missing})
         return cols
 
     # -- the model ----------------------------------------------------------------------------
@@ -294,13 +299,17 @@ class Problem:
         return np.where(np.isfinite(c) & ~bad, np.minimum(c, NONFINITE_COST), NONFINITE_COST)
 
     def jacobian(self, p: F64) -> F64:
-        """Central-difference Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p),
-        steps 1e-5 of each bound's width (one vectorised call)."""
+        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): the data rows by
+        central differences (steps 1e-5 of each bound's width, one vectorised call), the prior
+        rows exact (each :class:`~magcilia.calibration.experiments.Prior`'s own)."""
         p = np.asarray(p, dtype=np.float64)
         h = 1e-5 * (self.bounds[:, 1] - self.bounds[:, 0])
         eye = np.eye(p.size) * h
-        r = self.residuals(np.concatenate([p + eye, p - eye]))
-        return np.asarray(((r[:p.size] - r[p.size:]) / (2 * h[:, None])).T)
+        r, bad, _ = self._rows(np.concatenate([p + eye, p - eye]))
+        r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
+        data = ((r[:p.size] - r[p.size:]) / (2 * h[:, None])).T
+        priors = [e.jacobian(self.names) for e in self.terms if isinstance(e, Prior)]
+        return np.asarray(np.concatenate([data, np.reshape(priors, (-1, p.size))], axis=0))
 
     # -- the linear parameters ----------------------------------------------------------------
     def bias(self, u: F64, scale: float) -> F64:
