@@ -17,7 +17,8 @@ F64 = NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False, repr=False)
 class ExperimentFit(Display):
-    """One experiment's part of a joint calibration (:class:`JointCalibrationResult`).
+    """One experiment's part of a calibration (a
+    :class:`~magcilia.calibration.result.CalibrationResult` holds one per experiment).
 
     Attributes
     ----------

@@ -1,25 +1,12 @@
 """Calibration design: which measurements pin the parameters down (issue 14, item 5).
 
-:func:`d_optimal` chooses ``budget`` conditions (repeats allowed) from a candidate set, given the
-rows each candidate adds to the Jacobian (sensitivities of its observable(s) to the parameters,
-divided by the noise σ), to maximise ``log det(JᵀJ + prior precision)`` (D-optimality; with
-nuisance parameters such as per-experiment offsets, the D_s criterion: the log det of the
-information about the parameters of interest once the nuisances are profiled out). The search is
-a greedy start (add the candidate that raises the criterion most, one at a time) followed by
-Fedorov's exchange (swap the design point and candidate that raise it most, until no swap does).
-Both steps evaluate all candidates at once as a batch of small ``log det``: for the designs here
-(tens of candidates, a dozen parameters) a plan takes milliseconds, so NumPy needs no optimiser
-package (pyDOE's ``jacobian_optimal_design`` does the same candidate-set D-optimality, without
-nuisance parameters or repeats of a multi-row candidate).
-
-:func:`evaluate_design` gives the same figures (log det, rank, condition number, expected standard
-errors) for any design, e.g. the paper's equally spaced angles; :func:`plan_calibration` builds the
-candidates of a tilt-table calibration of a :class:`~magcilia.device.setup.Setup` (tilt angles ×
-azimuths, the AMR output or the three field components) and compares the plan with the paper's
-single path at the same budget.
-
-The design search itself (:class:`Design`, :func:`d_optimal`, :func:`evaluate_design`) lives in
-:mod:`magcilia.calibration.doptimal`.
+:func:`plan_calibration` builds the candidates of a tilt-table calibration of a
+:class:`~magcilia.device.setup.Setup` (tilt angles × azimuths, the AMR output or the three field
+components, each experiment's offsets as nuisances), chooses the conditions by D-optimality
+(:func:`~magcilia.calibration.doptimal.d_optimal`: the design search, with
+:func:`~magcilia.calibration.doptimal.evaluate_design`, lives in
+:mod:`magcilia.calibration.doptimal`) and compares the plan with the paper's single path at the
+same budget (:class:`CalibrationPlan`).
 """
 
 from __future__ import annotations
