@@ -36,7 +36,8 @@ from magcilia.calibration.experiments import (
     TiltPath,
     experiment,
 )
-from magcilia.calibration.joint import JointProblem, calibrate_joint
+from magcilia.calibration.joint import JointProblem as JointProblem  # an earlier name, re-exported
+from magcilia.calibration.joint import calibrate_joint
 from magcilia.calibration.layout import PhysicalLayout, converged_layout
 from magcilia.calibration.parameters import FitParameter, ParameterKey
 from magcilia.calibration.plan import (
@@ -62,9 +63,14 @@ from magcilia.calibration.problem import (
     PARAMETERS,
     Problem,
 )
-from magcilia.calibration.result import CalibrationResult, JointCalibrationResult
+from magcilia.calibration.result import CalibrationResult
+from magcilia.calibration.result import (  # an earlier name, re-exported
+    JointCalibrationResult as JointCalibrationResult,
+)
 from magcilia.calibration.search import calibrate
 
+# the earlier names JointCalibrationResult (the one CalibrationResult) and JointProblem (it builds
+# the one Problem) stay importable from here, undocumented: they are not names of their own
 __all__ = [
     "BIASES",
     "CONTINUOUS",
@@ -82,8 +88,6 @@ __all__ = [
     "Experiments",
     "FieldPath",
     "FitParameter",
-    "JointCalibrationResult",
-    "JointProblem",
     "LoadExperiment",
     "ParameterCovariance",
     "ParameterKey",
