@@ -14,6 +14,7 @@ import pytest
 
 import magcilia as mc
 from magcilia._atomic import json_text
+from magcilia._errors import MagciliaError
 from magcilia.calibration import (
     NONFINITE_COST,
     CalibrationResult,
@@ -94,6 +95,17 @@ def test_experiments_add_their_costs() -> None:
                                                             for c in range(3)))
     assert [k.label(many=True) for k in joint.bias_keys] == [
         "offset[0]", "offset_x[1]", "offset_y[1]", "offset_z[1]"]
+
+
+def test_an_experiment_takes_recordings_of_its_kind() -> None:
+    with pytest.raises(MagciliaError, match="TiltPath data must be a recording of its kind"):
+        TiltPath(_field(1))
+    with pytest.raises(MagciliaError, match="FieldPath fits this one"):
+        TiltPath(_field(1))
+    with pytest.raises(MagciliaError, match="not priors alone"):
+        _problem(Prior("height", 3e-3, 1e-4))
+    with pytest.raises(MagciliaError, match="two priors on one parameter"):
+        _problem(TiltPath(_output(1)) + Prior("z", 1e-3, 1e-4) + Prior("z", 1e-3, 2e-4))
 
 
 def test_the_non_finite_cost_is_one_value_for_every_problem() -> None:

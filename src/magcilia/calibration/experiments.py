@@ -157,6 +157,16 @@ class _Recorded(Experiment):
     data: Measurement
     weighted: bool = True
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.data, Measurement):
+            raise v.fail(f"{type(self).__name__} data", type(self.data).__name__,
+                         "a magcilia Measurement (use read_measurements)")
+        kind = experiment_type(self.data)
+        if not isinstance(self, kind):
+            raise v.fail(f"{type(self).__name__} data", v.printable(str(self.data.source)),
+                         f"a recording of its kind ({kind.__name__} fits this one; "
+                         "experiment(data) picks the type)")
+
     @property
     def tilts(self) -> tuple[F64, F64] | None:
         """Its tilt conditions (azimuths, angles), rad; None for a load experiment."""
@@ -234,8 +244,8 @@ class LoadExperiment(_Recorded):
     (:func:`~magcilia.mechanics.bend.bend_sweep`)."""
 
     def rows(self, table: Table, e_index: int, sensor_scale: float) -> Rows:
-        kind = FieldPath if self.data.fields is not None else TiltPath
-        return kind(self.data, self.weighted).rows(table, e_index, sensor_scale)
+        kind = FieldPath.rows if self.data.fields is not None else TiltPath.rows
+        return kind(self, table, e_index, sensor_scale)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True, eq=False)
@@ -291,9 +301,15 @@ def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
     return False
 
 
-def experiment(data: Measurement, weighted: bool = True) -> _Recorded:
+def experiment_type(data: Measurement) -> type[_Recorded]:
     """The experiment type of a recording: :class:`LoadExperiment` with loads, else
     :class:`FieldPath` for 3-axis field data, else :class:`TiltPath`."""
     if data.loads is not None:
-        return LoadExperiment(data, weighted)
-    return FieldPath(data, weighted) if data.fields is not None else TiltPath(data, weighted)
+        return LoadExperiment
+    return FieldPath if data.fields is not None else TiltPath
+
+
+def experiment(data: Measurement, weighted: bool = True) -> _Recorded:
+    """The recording as the experiment of its type (:func:`experiment_type`), weighted by its
+    standard errors unless ``weighted`` is False."""
+    return experiment_type(data)(data, weighted)

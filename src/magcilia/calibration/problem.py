@@ -107,6 +107,10 @@ class Problem:
                                            else experiments) for e in item)
         self.terms = terms
         recorded = terms.recorded
+        if not recorded:
+            raise MagciliaError("a calibration problem needs at least one experiment on a "
+                                "recording (TiltPath, FieldPath or LoadExperiment), not priors "
+                                "alone")
         self.measurements = tuple(e.data for e in recorded)
         self.base = base.replace(offset=0.0)
         self.names = tuple(names)
