@@ -151,7 +151,7 @@ class Table:
 
 
 @dataclass(frozen=True, eq=False)
-class _Recorded(Experiment):
+class RecordedExperiment(Experiment):
     """An experiment on a recording."""
 
     data: Measurement
@@ -186,7 +186,7 @@ class _Recorded(Experiment):
 
 
 @dataclass(frozen=True, eq=False)
-class TiltPath(_Recorded):
+class TiltPath(RecordedExperiment):
     """A single-axis sensor's output (V) along rigid tilts, toward any azimuth.
 
     Parameters
@@ -218,7 +218,7 @@ class TiltPath(_Recorded):
 
 
 @dataclass(frozen=True, eq=False)
-class FieldPath(_Recorded):
+class FieldPath(RecordedExperiment):
     """A 3-axis magnetometer's field (T) along rigid tilts (or under loads), one constant offset
     per axis (the Earth's field and the magnetometer's own offsets)."""
 
@@ -238,7 +238,7 @@ class FieldPath(_Recorded):
 
 
 @dataclass(frozen=True, eq=False)
-class LoadExperiment(_Recorded):
+class LoadExperiment(RecordedExperiment):
     """The output (V) or field (T) of the bent cilium under tip forces (N) or flow speeds (m/s),
     with its constant offset(s); its model is a loop over parameter sets
     (:func:`~magcilia.mechanics.bend.bend_sweep`)."""
@@ -279,9 +279,9 @@ class Experiments(tuple[Experiment, ...]):
         return Experiments((*self, *other))
 
     @property
-    def recorded(self) -> tuple[_Recorded, ...]:
+    def recorded(self) -> tuple[RecordedExperiment, ...]:
         """The experiments on recordings, in order (their index names their bias parameters)."""
-        return tuple(e for e in self if isinstance(e, _Recorded))
+        return tuple(e for e in self if isinstance(e, RecordedExperiment))
 
     @property
     def priors(self) -> dict[str, tuple[float, float]]:
@@ -301,7 +301,7 @@ def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
     return False
 
 
-def experiment_type(data: Measurement) -> type[_Recorded]:
+def experiment_type(data: Measurement) -> type[RecordedExperiment]:
     """The experiment type of a recording: :class:`LoadExperiment` with loads, else
     :class:`FieldPath` for 3-axis field data, else :class:`TiltPath`."""
     if data.loads is not None:
@@ -309,7 +309,7 @@ def experiment_type(data: Measurement) -> type[_Recorded]:
     return FieldPath if data.fields is not None else TiltPath
 
 
-def experiment(data: Measurement, weighted: bool = True) -> _Recorded:
+def experiment(data: Measurement, weighted: bool = True) -> RecordedExperiment:
     """The recording as the experiment of its type (:func:`experiment_type`), weighted by its
     standard errors unless ``weighted`` is False."""
     return experiment_type(data)(data, weighted)

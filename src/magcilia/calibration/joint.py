@@ -52,6 +52,7 @@ from magcilia.calibration.experiments import (
     SEM_FLOOR_FRACTION,
     Experiment,
     Prior,
+    RecordedExperiment,
     experiment,
     fluid_of,
     y_sign_determined,
@@ -105,15 +106,18 @@ __all__ = ["EXACT_SLICES", "JOINT_PARAMETERS", "LAYOUT_SLICES", "LOAD_PARAMETER"
            "polish", "y_sign_determined"]
 
 
-def joint_problem(experiments: Sequence[Measurement], initial: Setup, layout: PhysicalLayout,
+def joint_problem(experiments: Sequence[Measurement | Experiment], initial: Setup,
+                  layout: PhysicalLayout,
                   bounds: Mapping[str, tuple[float, float]], names: Sequence[str],
                   priors: Mapping[str, tuple[float, float]] | None = None,
                   fit_scale: bool = False) -> Problem:
     """The :class:`~magcilia.calibration.problem.Problem` of the physical model: each recording
-    its experiment (:func:`~magcilia.calibration.experiments.experiment`, weighted), each prior a
+    its experiment (:func:`~magcilia.calibration.experiments.experiment`, weighted; an experiment
+    object as given), each prior a
     :class:`~magcilia.calibration.experiments.Prior`, n and k held at ``layout``, the search
     vector ``names`` within ``bounds`` (SI)."""
-    terms: list[Experiment] = [experiment(e) for e in experiments]
+    terms: list[Experiment] = [e if isinstance(e, Experiment) else experiment(e)
+                               for e in experiments]
     terms += [Prior(n, mu, s) for n, (mu, s) in (priors or {}).items()]
     base = initial.replace(n_loops=layout.n_loops, dipoles_per_loop=layout.dipoles_per_loop,
                            ring=layout.ring)
@@ -222,7 +226,7 @@ def polish(problem: Problem, x: F64) -> F64:
     return x
 
 
-def _search_loads(problem: Problem, experiments: list[Measurement], initial: Setup,
+def _search_loads(problem: Problem, experiments: list[Experiment], initial: Setup,
                   layout: PhysicalLayout, box: Mapping[str, tuple[float, float]],
                   priors: Mapping[str, tuple[float, float]], fit_scale: bool, x_init: F64,
                   rng: np.random.Generator, starts: int) -> tuple[F64, F64, F64]:
@@ -233,7 +237,7 @@ def _search_loads(problem: Problem, experiments: list[Measurement], initial: Set
     the tilt search's minima re-costed on all experiments at the chosen modulus."""
     names = problem.names
     geo = [i for i, n in enumerate(names) if n != LOAD_PARAMETER]
-    tilts = [e for e in experiments if e.loads is None]
+    tilts = [e for e in experiments if isinstance(e, RecordedExperiment) and e.data.loads is None]
     x = x_init.copy()
     minima = np.zeros((0, len(names)))
     sub_names = tuple(names[i] for i in geo)
@@ -277,7 +281,7 @@ def _diverse(x: F64, cost: F64, width: F64, count: int) -> NDArray[np.intp]:
 
 
 def calibrate_joint(
-    data: Measurement | Sequence[Measurement],
+    data: Measurement | Sequence[Measurement | Experiment] | Experiment,
     initial: Setup | None = None,
     bounds: Mapping[str, tuple[float, float]] | None = None,
     *,
@@ -294,8 +298,11 @@ def calibrate_joint(
 
     Parameters
     ----------
-    data : Measurement or sequence of Measurement
-        The experiments: tilt recordings at any azimuth, output (V) or 3-axis field (T).
+    data : Measurement, sequence of Measurement, or a sum of experiments
+        The experiments: tilt recordings at any azimuth, output (V) or 3-axis field (T), load
+        recordings; or experiment objects and priors that add
+        (``TiltPath(a) + FieldPath(b) + Prior("height", 3.2e-3, 0.15e-3)``, :mod:`.experiments`;
+        a recording becomes :func:`~magcilia.calibration.experiments.experiment` of it).
     initial : Setup, optional
         Starting setup; supplies the material, sensor and everything not fitted (default
         ``Setup.paper_initial()``).
@@ -331,11 +338,18 @@ def calibrate_joint(
     """
     t0 = time.perf_counter()
     initial = initial if initial is not None else Setup.paper_initial()
-    items = [data] if isinstance(data, Measurement) else list(data) if isinstance(
-        data, Sequence) else None
+    items: list[object] | None = ([data] if isinstance(data, Measurement) else list(data)
+                                  if isinstance(data, Sequence | Experiment) else None)
+    given = {e.name: (e.value, e.sigma) for e in items or () if isinstance(e, Prior)}
+    items = [e for e in items or () if not isinstance(e, Prior)]
     if not items:
-        raise v.fail("data", type(data).__name__, "a Measurement or a non-empty sequence of them")
-    experiments = [_check_experiment(i, e) for i, e in enumerate(items)]
+        raise v.fail("data", type(data).__name__, "a Measurement or a non-empty sequence of them "
+                                                  "(or a sum of experiments)")
+    terms: list[Experiment] = [e if isinstance(e, RecordedExperiment) else experiment(
+        _check_experiment(i, e)) for i, e in enumerate(items)]
+    experiments = [_check_experiment(i, e.data) for i, e in enumerate(terms)
+                   if isinstance(e, RecordedExperiment)]
+    priors = {**given, **(priors or {})}
     has_loads = any(e.loads is not None for e in experiments)
     allowed = JOINT_PARAMETERS + ((LOAD_PARAMETER,) if has_loads else ())
     if any(e.forces is not None for e in experiments) and initial.cilium.tip_radius == 0.0:
@@ -374,7 +388,7 @@ def calibrate_joint(
     names = tuple(n for n in allowed if box[n][0] < box[n][1])
     checked = check_priors(priors, names, box)
     lay = as_layout(layout, initial, tolerance)
-    problem = joint_problem(experiments, initial, lay, box, names, checked, fit_scale)
+    problem = joint_problem(terms, initial, lay, box, names, checked, fit_scale)
     n_lin = len(problem.bias_keys) + int(fit_scale)
     if problem.y.size <= n_lin + len(names):
         raise MagciliaError(f"{problem.y.size} data values cannot determine {n_lin} linear "
@@ -384,7 +398,7 @@ def calibrate_joint(
     x_init = np.clip([init[n] for n in names], problem.bounds[:, 0], problem.bounds[:, 1])
     minima, minima_cost = np.zeros((0, len(names))), np.zeros(0)
     if names and has_loads:
-        x, minima, minima_cost = _search_loads(problem, experiments, initial, lay, box, checked,
+        x, minima, minima_cost = _search_loads(problem, terms, initial, lay, box, checked,
                                                fit_scale, x_init, gen, starts)
     elif names:
         x, minima, minima_cost = _search(problem, x_init, gen, starts)
