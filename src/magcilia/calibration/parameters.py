@@ -143,10 +143,11 @@ class FitParameter(Display):
         factor, unit = self.key.display()
         se = ("fixed" if self.fixed else "undetermined" if self.stderr == math.inf
               else "-" if not math.isfinite(self.stderr) else f"± {number(self.stderr / factor)}")
-        prior = ("" if self.prior is None else
-                 f" (prior {number(self.prior[0] / factor)} ± {number(self.prior[1] / factor)})")
-        return f"{self.label} = {number(self.value / factor)} {unit} {se}{prior}".replace(
-            "  ", " ")
+        parts = [f"{self.label} = {number(self.value / factor)}", unit, se]
+        if self.prior is not None:
+            parts.append(f"(prior {number(self.prior[0] / factor)} ± "
+                         f"{number(self.prior[1] / factor)})")
+        return " ".join(p for p in parts if p)
 
     def _display_items(self) -> list[Item]:
         return [("", self.report())]
