@@ -25,7 +25,7 @@ from magcilia.calibration import (
     Problem,
     TiltPath,
 )
-from magcilia.calibration.joint import joint_problem
+from magcilia.calibration.joint import calibrate_joint, joint_problem
 from magcilia.calibration.layout import PhysicalLayout
 from magcilia.calibration.problem import GEOMETRY
 from magcilia.io import Measurement
@@ -226,14 +226,15 @@ def test_results_round_trip_through_their_files() -> None:
 
 
 def test_calibrate_takes_a_sum_of_experiments() -> None:
-    """``calibrate`` of experiment objects that add is the fit of their recordings and priors."""
+    """The physical fit of experiment objects that add is the fit of their recordings and
+    priors."""
     a, b = _output(11), _field(12)
     prior = {"height": (3.3e-3, 0.1e-3)}
-    by_sum = mc.calibrate(TiltPath(a) + FieldPath(b) + Prior("height", *prior["height"]),
-                          initial=TRUTH, rng=4, starts=8, model="physical", layout=LAYOUT)
+    by_sum = calibrate_joint(TiltPath(a) + FieldPath(b) + Prior("height", *prior["height"]),
+                             initial=TRUTH, rng=4, starts=8, layout=LAYOUT)
     by_list = mc.calibrate([a, b], initial=TRUTH, rng=4, starts=8, model="physical",
                            layout=LAYOUT, priors=prior)
     assert by_sum.values == pytest.approx(by_list.values, rel=1e-9, abs=1e-15)
     assert by_sum.priors == by_list.priors == prior
     with pytest.raises(MagciliaError, match="use model='physical' to fit several"):
-        mc.calibrate(TiltPath(a) + FieldPath(b), initial=TRUTH)
+        mc.calibrate([a, b], initial=TRUTH)

@@ -44,7 +44,6 @@ from magcilia.calibration.diagnostics import (
     bias_absorption,
     sensor_field,
 )
-from magcilia.calibration.experiments import Experiment
 from magcilia.calibration.joint import STARTS, calibrate_joint
 from magcilia.calibration.layout import PhysicalLayout
 from magcilia.calibration.multistart import MAXITER, Box, local_fits, search
@@ -184,7 +183,7 @@ def _check_fixed(fixed: Mapping[str, float] | Iterable[str] | str | None,
 
 
 def calibrate(
-    data: Measurement | Sequence[Measurement | Experiment] | Experiment,
+    data: Measurement | Sequence[Measurement],
     initial: Setup | None = None,
     bounds: Mapping[str, tuple[float, float]] | None = None,
     *,
@@ -208,8 +207,8 @@ def calibrate(
     ----------
     data : Measurement
         Per-angle mean outputs (see :func:`magcilia.read_measurements`); with
-        ``model="physical"`` several, or experiment objects and priors that add
-        (:mod:`magcilia.calibration.experiments`).
+        ``model="physical"`` several (experiment objects and priors that add go to
+        :func:`~magcilia.calibration.joint.calibrate_joint`).
     initial : Setup, optional
         Starting setup; supplies everything that is not fitted (material, sensor, ring rule).
         Default: Table I's initial values (``Setup.paper_initial()``).
