@@ -86,6 +86,7 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "ParameterCovariance": lambda: _calibration().uncertainty,
     "JointCalibrationResult": _joint,
     "ExperimentFit": lambda: _joint().experiments[0],
+    "FitParameter": lambda: _calibration().parameters[0],
     "OATResult": lambda: mc.oat_sweep(SETUP, "x", [1.2e-3, 1.5e-3], angles=ANGLES),
     "PlacementMap": lambda: placement_map(SETUP, [1.2e-3, 1.6e-3], [1.8e-3, 2.2e-3],
                                           angles=ANGLES),
@@ -190,7 +191,7 @@ FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_
     lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
     [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
-               "Magnetometer")
+               "Magnetometer", "ExperimentFit")
 
 
 @pytest.fixture(scope="module", params=sorted(FACTORIES))
@@ -223,6 +224,11 @@ def test_from_dict_round_trips(name: str) -> None:
     assert json_text(back.to_dict()) == json_text(result.to_dict())
 
 
+#: factories of a class already listed under its own name (a second way to make it: the physical
+#: model's CalibrationResult, under its former class name)
+SECOND_FACTORIES = {"JointCalibrationResult"}
+
+
 def test_every_result_class_is_checked_here() -> None:
     """Each class of the package that has ``to_dict`` is a result and is in FACTORIES."""
     found = set()
@@ -233,7 +239,7 @@ def test_every_result_class_is_checked_here() -> None:
                     and obj.__name__ == name and not getattr(obj, "_is_protocol", False)
                     and callable(getattr(obj, "to_dict", None))):
                 found.add(name)
-    assert found == set(FACTORIES)
+    assert found == set(FACTORIES) - SECOND_FACTORIES
 
 
 def test_calibration_result_holds_its_covariance() -> None:

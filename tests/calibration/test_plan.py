@@ -11,7 +11,8 @@ import pytest
 import magcilia as mc
 from magcilia._errors import MagciliaError
 from magcilia.calibration import d_optimal, evaluate_design, plan_calibration
-from magcilia.calibration.plan import _criterion, _exchange, _setup_problem, tilt_jacobian
+from magcilia.calibration.doptimal import _criterion, _exchange, _setup_problem
+from magcilia.calibration.plan import tilt_jacobian
 
 X = np.linspace(-1.0, 1.0, 41)
 QUADRATIC = np.stack([np.ones_like(X), X, X * X], axis=1)

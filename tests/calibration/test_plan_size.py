@@ -13,7 +13,7 @@ import pytest
 
 import magcilia as mc
 from magcilia._errors import MagciliaError
-from magcilia.calibration import plan as plan_module
+from magcilia.calibration import doptimal as plan_module  # the design search (moved out of plan)
 from magcilia.calibration.plan import RESTARTS, plan_calibration
 from magcilia.calibration.plan_size import MAX_INFORMATION, MAX_WORK, exchange_work
 from magcilia.cli import main

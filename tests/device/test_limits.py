@@ -165,7 +165,7 @@ def test_batch_kernels_stay_unchecked() -> None:
     data = Measurement(angles=np.array([0.0, 0.5]), volts=np.array([0.1, 0.2]),
                        sem=np.zeros(2), counts=np.ones(2, dtype=np.int64),
                        saturated=np.zeros(2, dtype=np.int64), nonfinite=np.zeros(2, dtype=np.int64))
-    problem = Problem(data, initial, "offset", 0, False)
+    problem = Problem.paper(data, initial, "offset", 0, False)
     full = {"height": np.full(2, h), "base_radius": np.full(2, rb), **params,
             "n_loops": np.ones(2), "dipoles_per_loop": np.ones(2)}
     cost = problem.cost(full)

@@ -75,7 +75,7 @@ def _residuals_of(problem: Problem, x: F64, cont: NDArray[np.bool_]) -> Residual
     def residuals(xc: F64, which: NDArray[np.intp]) -> F64:
         rows = x[which].copy()
         rows[:, cont] = xc
-        return problem.residuals(problem.model(named(rows.T)))[0]
+        return problem.linear(problem.model(named(rows.T)))[0]
 
     return residuals
 

@@ -1,102 +1,338 @@
-"""The calibration's least-squares problem: the model at the measured angles with the parameters
-that enter linearly (bias polynomial, magnetization scale) projected out in closed form."""
+"""The one calibration problem: a sum of experiments (:mod:`.experiments`) over one search vector.
+
+:class:`Problem` owns the search vector (the fitted parameters' names and bounds, which of them
+are integers), the one cost of a non-finite model (:data:`NONFINITE_COST`), and the residuals of
+many parameter vectors at once (the batched Levenberg–Marquardt evaluates whole populations):
+every condition's model comes from one compiled batch call per tilt azimuth
+(:class:`~magcilia.model.TiltBatch`: the base centre turned by −φ, the field turned back by +φ,
+:mod:`magcilia.model.azimuth`), load experiments from the bent shapes.
+
+The linear parameters (each experiment's bias: offsets, a polynomial in the angle; the shared
+magnetization scale with ``fit_scale``) are projected out in closed form (variable projection):
+the weighted residuals have the weighted bias subspace removed, the scale is then the best
+non-negative factor. The paper's single-path model is the problem of one unweighted
+:class:`~magcilia.calibration.experiments.TiltPath` with n and k in the search vector
+(:meth:`Problem.paper`); the physical model's is any sum of experiments and priors.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._errors import MagciliaError
+from magcilia.calibration.experiments import (
+    Experiment,
+    Experiments,
+    Prior,
+    Table,
+    TiltPath,
+    fluid_of,
+)
+from magcilia.calibration.parameters import ParameterKey
 from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
+from magcilia.mechanics.bend import bend_sweep
+from magcilia.mechanics.flow import Flow
+from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.batch import TiltBatch
 
 F64 = NDArray[np.float64]
 
-#: the fitted parameters (the registry's :data:`~magcilia.device.parameters.FITTED`), in the order
-#: of the search vector
+#: the fitted parameters of the paper's model (the registry's
+#: :data:`~magcilia.device.parameters.FITTED`), in the order of its search vector
 PARAMETERS = FITTED
 CONTINUOUS = tuple(n for n in PARAMETERS if n not in INTEGER)
 #: default search bounds (SI), from the registry
 DEFAULT_BOUNDS = default_bounds()
-#: position of each parameter in the search vector
+#: position of each parameter in the paper model's search vector
 INDEX = {name: i for i, name in enumerate(PARAMETERS)}
 BIASES = ("offset", "polynomial", "none")
-#: the cost given to a candidate whose model output is not finite (its element on a dipole, an
-#: overflow): worse than any real fit but finite, so that the search's population statistics stay
-#: finite and such candidates are simply never chosen; real costs are clipped to it too
+#: the continuous parameters of the physical model, in the order of its search vector
+GEOMETRY = ("height", "base_radius", "x", "y", "z")
+#: the parameter load experiments add (after the geometry)
+LOAD_PARAMETER = "youngs_modulus"
+#: the cost given to a candidate whose model is not finite (its element on a dipole, an
+#: overflow, a bend that does not converge): worse than any real fit but finite, so that a
+#: search's population statistics stay finite and such candidates are simply never chosen; real
+#: costs are clipped to it too. Its residual rows are each ``sqrt(NONFINITE_COST / rows)``.
 NONFINITE_COST = 1e100
 
+
 class Problem:
-    """The least-squares problem with the linear parameters projected out."""
+    """The weighted least-squares problem of a sum of experiments, the linear parameters
+    projected out.
 
-    def __init__(self, data: Measurement, initial: Setup, bias: str, bias_degree: int,
-                 fit_scale: bool) -> None:
-        self.data = data
-        self.y = np.asarray(data.volts)
-        self.angles = np.asarray(data.angles)
-        self.base = initial.replace(offset=0.0)
-        self.batch = TiltBatch(self.base, self.angles)
+    Parameters
+    ----------
+    experiments : Experiment or Experiments
+        The data experiments and priors (``TiltPath(a) + FieldPath(b) + Prior(...)``).
+    base : Setup
+        Supplies every parameter not in the search vector (its offset is not used).
+    names : sequence of str
+        The search vector: the fitted parameters, in order (registry names; n and k integers).
+    bounds : mapping of str to (low, high)
+        Their bounds, SI.
+    fit_scale : bool
+        Also fit the magnetization scale (closed form, ≥ 0, shared by all experiments).
+
+    Attributes
+    ----------
+    names : tuple of str
+    bounds : ndarray, shape (p, 2)
+    integer : ndarray of bool, shape (p,)
+        Which parameters are whole numbers (n, k).
+    measurements : tuple of Measurement
+        The data experiments' recordings, in order.
+    y, sigma, w : ndarray, shape (d,)
+        Data values, their standard errors and weights 1/σ.
+    basis : ndarray, shape (d, G)
+        The bias columns of all experiments (block-diagonal, unweighted).
+    bias_keys : tuple of ParameterKey, length G
+        Their names.
+    experiment_rows : tuple of slice
+        Each data experiment's rows.
+    priors : dict of str to (float, float)
+    size : int
+        Residual rows m: the data values, then one row per prior.
+    """
+
+    def __init__(self, experiments: Experiment | Sequence[Experiment], base: Setup,
+                 names: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+                 fit_scale: bool = False) -> None:
+        terms = Experiments(e for item in ([experiments] if isinstance(experiments, Experiment)
+                                           else experiments) for e in item)
+        self.terms = terms
+        recorded = terms.recorded
+        if not recorded:
+            raise MagciliaError("a calibration problem needs at least one experiment on a "
+                                "recording (TiltPath, FieldPath or LoadExperiment), not priors "
+                                "alone")
+        self.measurements = tuple(e.data for e in recorded)
+        self.base = base.replace(offset=0.0)
+        self.names = tuple(names)
+        self.bounds = np.array([bounds[n] for n in self.names], dtype=np.float64).reshape(-1, 2)
+        self.integer = np.array([n in INTEGER for n in self.names], dtype=bool)
+        self.priors = terms.priors
+        if len(self.priors) != sum(isinstance(e, Prior) for e in terms):
+            raise MagciliaError("two priors on one parameter; combine them into one (value, "
+                                "sigma)")
+        unknown = [n for n in self.priors if n not in self.names]
+        if unknown:
+            raise MagciliaError(f"prior {unknown[0]}: not a fitted parameter (one of "
+                                + ", ".join(self.names) + ")")
         self.fit_scale = fit_scale
-        degree = -1 if bias == "none" else (0 if bias == "offset" else bias_degree)
-        self.basis = np.vander(self.angles, degree + 1, increasing=True) if degree >= 0 else (
-            np.zeros((self.angles.size, 0)))
-        if self.basis.shape[1]:
-            q, _ = np.linalg.qr(self.basis)
-            self.q = q
-        else:
-            self.q = np.zeros((self.angles.size, 0))
-        self.ry = self._project(self.y)
         self.evaluations = 0
+        tilts = [e.tilts for e in recorded if e.tilts is not None]
+        x_only = (len(tilts) == len(recorded) and all(e.data.fields is None for e in recorded)
+                  and all(np.all(np.mod(t[0], 2 * np.pi) == 0.0) for t in tilts))
+        self.table = Table(x_only)
+        if tilts:
+            self.table.add_tilts(np.concatenate([t[0] for t in tilts]),
+                                 np.concatenate([t[1] for t in tilts]))
+        self.batches = [TiltBatch(self.base, a) for a in self.table.angles]
+        rows = [e.rows(self.table, i, self.base.sensor.scale) for i, e in enumerate(recorded)]
+        self.column = np.concatenate([r.column for r in rows])
+        self.factor = np.concatenate([r.factor for r in rows])
+        self.y = np.concatenate([r.y for r in rows])
+        self.sigma = np.concatenate([r.sigma for r in rows])
+        self.w = 1.0 / self.sigma
+        self.weighted = not np.all(self.w == 1.0)
+        self.identity = bool(np.array_equal(self.column, np.arange(self.table.width))
+                             and np.all(self.factor == 1.0))
+        widths = [r.basis.shape[1] for r in rows]
+        self.basis = np.zeros((self.y.size, sum(widths)))
+        self.bias_keys: tuple[ParameterKey, ...] = tuple(k for r in rows for k in r.keys)
+        at, col, spans = 0, 0, []
+        for r, g in zip(rows, widths, strict=True):
+            self.basis[at:at + r.y.size, col:col + g] = r.basis
+            spans.append(slice(at, at + r.y.size))
+            at, col = at + r.y.size, col + g
+        self.experiment_rows = tuple(spans)
+        self.q = (np.linalg.qr(self.basis * self.w[:, None])[0] if self.basis.shape[1]
+                  else np.zeros((self.y.size, 0)))
+        self.ry = self._project(self.y)
+        self.prior_index = np.array([self.names.index(n) for n in self.priors], dtype=np.intp)
+        self.prior_mu = np.array([m for m, _ in self.priors.values()])
+        self.prior_sigma = np.array([s for _, s in self.priors.values()])
+        self.size = self.y.size + len(self.priors)
+        self._defaults = {**self.base.params(), LOAD_PARAMETER: self.base.youngs_modulus}
+        self._model_names = self.all_names
+        self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
+                       if e.data.speeds is not None}
 
-    def _project(self, arr: F64) -> F64:
-        """Remove the bias subspace from the last axis."""
-        return arr - (arr @ self.q) @ self.q.T
+    @classmethod
+    def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
+              fit_scale: bool = False,
+              bounds: Mapping[str, tuple[float, float]] | None = None) -> Problem:
+        """The paper's model: one unweighted output tilt path (cost in V²), ``bias`` of
+        :data:`BIASES` (``"polynomial"`` of ``bias_degree``), the search vector
+        :data:`PARAMETERS` (n and k included)."""
+        degree = None if bias == "none" else 0 if bias == "offset" else bias_degree
+        return cls(TiltPath(data, weighted=False, bias_degree=degree), initial, PARAMETERS,
+                   {**DEFAULT_BOUNDS, **(bounds or {})}, fit_scale)
 
-    def model(self, params: Mapping[str, F64]) -> F64:
-        """Unbiased model output, V, shape (N, a) (unchecked: non-finite where a candidate puts the
-        element on a dipole; :meth:`cost` treats those as bad candidates)."""
-        self.evaluations += int(np.size(next(iter(params.values()))))
-        return self.batch.output(params)
+    # -- the search vector --------------------------------------------------------------------
+    @property
+    def all_names(self) -> tuple[str, ...]:
+        """Every continuous parameter of the physical model (fitted or held): the geometry, then
+        the Young's modulus when there are load experiments."""
+        return GEOMETRY + ((LOAD_PARAMETER,) if self.table.loads else ())
 
-    def residuals(self, u: F64) -> tuple[F64, F64]:
-        """Projected residuals (N, a) and the fitted scale factors (N,) for model outputs u (rows
-        with a non-finite output give non-finite residuals)."""
-        with np.errstate(invalid="ignore", over="ignore"):
-            return self._residuals(u)
+    @property
+    def load_blocks(self) -> list[tuple[int, float, F64, int]]:
+        """The load experiments' blocks (experiment, azimuth, sorted loads, first column)."""
+        return self.table.loads
 
-    def _residuals(self, u: F64) -> tuple[F64, F64]:
-        ru = self._project(u)
-        if self.fit_scale:
-            denom = np.einsum("na,na->n", ru, ru)
-            a = np.where(denom > 0,
-                         np.einsum("na,a->n", ru, self.ry) / np.where(denom > 0, denom, 1.0),
-                         0.0)
-            a = np.maximum(a, 0.0)
+    def params(self, P: F64 | Mapping[str, F64]) -> dict[str, F64]:
+        """Parameter columns by name, each (N,), SI: from rows ``P`` (N, p) of search vectors (or
+        one vector (p,)), or named columns as given; the model's other parameters at the base
+        setup's values."""
+        if isinstance(P, Mapping):
+            cols = {k: np.asarray(val, dtype=np.float64) for k, val in P.items()}
         else:
-            a = np.ones(u.shape[0])
-        return self.ry - a[:, None] * ru, a
+            P = np.atleast_2d(np.asarray(P, dtype=np.float64))
+            cols = {n: P[:, i] for i, n in enumerate(self.names)}
+        missing = [n for n in self._model_names if n not in cols]
+        if missing:
+            size = max((c.size for c in cols.values()), default=1)
+            cols.update({n: np.full(size, float(self._defaults[n])) for n in missing})
+        return cols
 
-    def cost(self, params: Mapping[str, F64]) -> F64:
-        """Sum of squared residuals per candidate, V², shape (N,): :data:`NONFINITE_COST` where
-        the model is not finite (or the cost exceeds it)."""
-        r, _ = self.residuals(self.model(params))
+    # -- the model ----------------------------------------------------------------------------
+    def model(self, P: F64 | Mapping[str, F64]) -> F64:
+        """Unbiased model values at every data row, shape (N, d): output (V) or field component
+        (T), at the base setup's magnetization scale (unchecked: non-finite where a set puts the
+        element on a dipole; :meth:`residuals` penalises those)."""
+        prm = self.params(P)
+        n = prm["x"].size
+        self.evaluations += n
+        parts = [np.zeros((n, 0))]
+        for phi, batch in zip(self.table.azimuths, self.batches, strict=True):
+            if self.table.x_only:
+                parts.append(batch.output(prm))
+                continue
+            x, y = placement_in_tilt_frame(prm["x"], prm["y"], phi)
+            b = batch.field({**prm, "x": x, "y": y})
+            if phi != 0.0:
+                b = field_from_tilt_frame(b, phi)
+            parts.append(b.reshape(n, -1))
+        if self.table.loads:
+            parts.append(self._load_fields(prm))
+        full = parts[1] if len(parts) == 2 else np.concatenate(parts, axis=1)
+        return full if self.identity else full[:, self.column] * self.factor
+
+    def _load_fields(self, prm: Mapping[str, F64]) -> F64:
+        """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of
+        :func:`~magcilia.mechanics.bend.bend_sweep` (sorted loads) and their field; NaN for a set
+        whose bend does not converge or whose geometry is invalid."""
+        n = prm["x"].size
+        width = sum(3 * b[2].size for b in self.table.loads)
+        out = np.full((n, width), np.nan)
+        for i in range(n):
+            try:
+                setup = self.base.replace(
+                    height=float(prm["height"][i]), base_radius=float(prm["base_radius"][i]),
+                    x=float(prm["x"][i]), y=float(prm["y"][i]), z=float(prm["z"][i]),
+                    youngs_modulus=float(prm[LOAD_PARAMETER][i]))
+                col = 0
+                for e_i, phi, loads, _ in self.table.loads:
+                    e = self.measurements[e_i]
+                    if e.forces is not None:
+                        shapes = bend_sweep(setup, forces=loads)
+                    else:
+                        top = float(np.max(np.abs(loads))) or 1.0
+                        shapes = bend_sweep(setup, speeds=loads,
+                                            flow=Flow.uniform(top, self.fluids[e_i]))
+                    out[i, col:col + 3 * loads.size] = setup.field(shapes, azimuth=phi).ravel()
+                    col += 3 * loads.size
+            except MagciliaError:
+                out[i] = np.nan
+        return out
+
+    # -- residuals ----------------------------------------------------------------------------
+    def _project(self, z: F64) -> F64:
+        """Weighted values with the weighted bias subspace removed (last axis)."""
+        zw = z * self.w if self.weighted else z
+        return zw - (zw @ self.q) @ self.q.T
+
+    def linear(self, u: F64) -> tuple[F64, F64]:
+        """Projected weighted residuals (N, d) and the fitted scale factors (N,) for model values
+        ``u`` (N, d) (rows with a non-finite model give non-finite residuals)."""
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            pu = self._project(u)
+            if self.fit_scale:
+                den = np.einsum("nd,nd->n", pu, pu)
+                a = np.where(den > 0, np.einsum("nd,d->n", pu, self.ry)
+                             / np.where(den > 0, den, 1.0), 0.0)
+                a = np.maximum(a, 0.0)
+            else:
+                a = np.ones(u.shape[0])
+            return self.ry - a[:, None] * pu, a
+
+    def _rows(self, P: F64 | Mapping[str, F64]) -> tuple[F64, NDArray[np.bool_], F64]:
+        """Data rows (N, d), which sets have a non-finite model (N,), prior rows (N, q)."""
+        prm = P if isinstance(P, Mapping) else np.atleast_2d(np.asarray(P, dtype=np.float64))
+        r, _ = self.linear(self.model(prm))
         with np.errstate(invalid="ignore", over="ignore"):
-            c = np.einsum("na,na->n", r, r)
-        return np.where(np.isfinite(c), np.minimum(c, NONFINITE_COST), NONFINITE_COST)
+            bad = ~np.isfinite(np.einsum("nd,nd->n", r, r))
+        cols = self.params(prm) if self.priors else {}
+        prior = (np.stack([(cols[n] - mu) / s for n, (mu, s) in self.priors.items()], axis=1)
+                 if self.priors else np.zeros((r.shape[0], 0)))
+        return r, bad, prior
 
-    def bias_coefficients(self, u: F64, a: float) -> F64:
-        """Least-squares bias polynomial for the scaled model a·u (constant first)."""
+    def residuals(self, P: F64 | Mapping[str, F64]) -> F64:
+        """Weighted residuals, shape (N, m): the data rows ``(measured − model − bias)/s.e.``
+        with the linear parameters at their best values, then the prior rows ``(p − μ)/σ``; a set
+        whose model is not finite gets data rows ``sqrt(NONFINITE_COST / d)`` (a least-squares
+        solver sees a cost of about :data:`NONFINITE_COST`)."""
+        r, bad, prior = self._rows(P)
+        r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
+        return np.concatenate([r, prior], axis=1) if self.priors else r
+
+    def cost(self, P: F64 | Mapping[str, F64]) -> F64:
+        """Sum of squared weighted residuals (χ² with the priors; V² for the unweighted paper
+        model), shape (N,): :data:`NONFINITE_COST` where the model is not finite (or the cost
+        exceeds it)."""
+        r, bad, prior = self._rows(P)
+        with np.errstate(invalid="ignore", over="ignore"):
+            c = np.einsum("nd,nd->n", r, r) + np.einsum("nq,nq->n", prior, prior)
+        return np.where(np.isfinite(c) & ~bad, np.minimum(c, NONFINITE_COST), NONFINITE_COST)
+
+    def jacobian(self, p: F64) -> F64:
+        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): the data rows by
+        central differences (steps 1e-5 of each bound's width, one vectorised call), the prior
+        rows exact (each :class:`~magcilia.calibration.experiments.Prior`'s own)."""
+        p = np.asarray(p, dtype=np.float64)
+        h = 1e-5 * (self.bounds[:, 1] - self.bounds[:, 0])
+        eye = np.eye(p.size) * h
+        r, bad, _ = self._rows(np.concatenate([p + eye, p - eye]))
+        r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
+        data = ((r[:p.size] - r[p.size:]) / (2 * h[:, None])).T
+        priors = [e.jacobian(self.names) for e in self.terms if isinstance(e, Prior)]
+        return np.asarray(np.concatenate([data, np.reshape(priors, (-1, p.size))], axis=0))
+
+    # -- the linear parameters ----------------------------------------------------------------
+    def bias(self, u: F64, scale: float) -> F64:
+        """The bias parameters (:attr:`bias_keys`), (G,): the weighted least-squares fit of
+        measured − scale·model (V, V/rad^d, T)."""
         if not self.basis.shape[1]:
             return np.zeros(0)
-        coef, *_ = np.linalg.lstsq(self.basis, self.y - a * u, rcond=None)
+        coef, *_ = np.linalg.lstsq(self.basis * self.w[:, None], (self.y - scale * u) * self.w,
+                                   rcond=None)
         return np.asarray(coef)
+
+    #: the paper model's name of :meth:`bias` (constant first)
+    bias_coefficients = bias
+    #: the physical model's name of :meth:`bias` (one offset per group)
+    offsets = bias
 
 
 def named(x: F64) -> dict[str, F64]:
     """Parameter columns by name, each shape (S,), from a search vector (p,) or matrix (p, S) in
-    :data:`PARAMETERS` order."""
+    :data:`PARAMETERS` order (the paper model's search vector)."""
     x2 = np.asarray(x, dtype=np.float64).reshape(len(PARAMETERS), -1)
     return {name: x2[i] for i, name in enumerate(PARAMETERS)}

@@ -29,7 +29,6 @@ import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import replace
-from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,8 +43,10 @@ from magcilia.calibration.diagnostics import (
     bias_absorption,
     sensor_field,
 )
-from magcilia.calibration.joint import STARTS, PhysicalLayout, calibrate_joint
+from magcilia.calibration.joint import STARTS, calibrate_joint
+from magcilia.calibration.layout import PhysicalLayout
 from magcilia.calibration.multistart import MAXITER, Box, local_fits, search
+from magcilia.calibration.parameters import ParameterKey
 from magcilia.calibration.problem import (
     BIASES,
     DEFAULT_BOUNDS,
@@ -56,11 +57,8 @@ from magcilia.calibration.problem import (
     Problem,
     named,
 )
-from magcilia.calibration.result import (
-    CalibrationResult,
-    JointCalibrationResult,
-    ParameterCovariance,
-)
+from magcilia.calibration.reload import path_fit
+from magcilia.calibration.result import CalibrationResult, ParameterCovariance
 from magcilia.calibration.uncertainty import uncertainty
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_dipoles, check_ranges
@@ -185,69 +183,6 @@ def _check_fixed(fixed: Mapping[str, float] | Iterable[str] | str | None,
     return out
 
 
-@overload
-def calibrate(
-    data: Measurement | Sequence[Measurement],
-    initial: Setup | None = None,
-    bounds: Mapping[str, tuple[float, float]] | None = None,
-    *,
-    rng: int | np.random.Generator | None = None,
-    bias: str = "offset",
-    bias_degree: int = 0,
-    fit_scale: bool = False,
-    restarts: int = 1,
-    starts: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    fixed: Mapping[str, float] | Iterable[str] | None = None,
-    model: Literal["paper"] = "paper",
-    priors: Mapping[str, tuple[float, float]] | None = None,
-    layout: PhysicalLayout | tuple[int, int] | None = None,
-    posterior: bool | int = False,
-) -> CalibrationResult: ...
-
-
-@overload
-def calibrate(
-    data: Measurement | Sequence[Measurement],
-    initial: Setup | None = None,
-    bounds: Mapping[str, tuple[float, float]] | None = None,
-    *,
-    rng: int | np.random.Generator | None = None,
-    bias: str = "offset",
-    bias_degree: int = 0,
-    fit_scale: bool = False,
-    restarts: int = 1,
-    starts: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    fixed: Mapping[str, float] | Iterable[str] | None = None,
-    model: Literal["physical"],
-    priors: Mapping[str, tuple[float, float]] | None = None,
-    layout: PhysicalLayout | tuple[int, int] | None = None,
-    posterior: bool | int = False,
-) -> JointCalibrationResult: ...
-
-
-@overload
-def calibrate(
-    data: Measurement | Sequence[Measurement],
-    initial: Setup | None = None,
-    bounds: Mapping[str, tuple[float, float]] | None = None,
-    *,
-    rng: int | np.random.Generator | None = None,
-    bias: str = "offset",
-    bias_degree: int = 0,
-    fit_scale: bool = False,
-    restarts: int = 1,
-    starts: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
-    fixed: Mapping[str, float] | Iterable[str] | None = None,
-    model: str,
-    priors: Mapping[str, tuple[float, float]] | None = None,
-    layout: PhysicalLayout | tuple[int, int] | None = None,
-    posterior: bool | int = False,
-) -> CalibrationResult | JointCalibrationResult: ...
-
-
 def calibrate(
     data: Measurement | Sequence[Measurement],
     initial: Setup | None = None,
@@ -265,14 +200,16 @@ def calibrate(
     priors: Mapping[str, tuple[float, float]] | None = None,
     layout: PhysicalLayout | tuple[int, int] | None = None,
     posterior: bool | int = False,
-) -> CalibrationResult | JointCalibrationResult:
+) -> CalibrationResult:
     """Fit height, base radius, x, y, z, n and k (plus the bias and optionally the magnetization
     scale) to a recording.
 
     Parameters
     ----------
     data : Measurement
-        Per-angle mean outputs (see :func:`magcilia.read_measurements`).
+        Per-angle mean outputs (see :func:`magcilia.read_measurements`); with
+        ``model="physical"`` several (experiment objects and priors that add go to
+        :func:`~magcilia.calibration.joint.calibrate_joint`).
     initial : Setup, optional
         Starting setup; supplies everything that is not fitted (material, sensor, ring rule).
         Default: Table I's initial values (``Setup.paper_initial()``).
@@ -327,11 +264,11 @@ def calibrate(
 
     Returns
     -------
-    CalibrationResult or JointCalibrationResult
-        (the latter for ``model="physical"``). Its ``warnings`` (and ``diagnostics``, with a
-        ``kind`` each) say what the data do not determine: parameters at a bound, a bias that
-        absorbed the signal, implausible standard errors, undetermined combinations (see
-        :mod:`magcilia.calibration.diagnostics`).
+    CalibrationResult
+        One result class for both models (its ``model`` says which). Its ``warnings`` (and
+        ``diagnostics``, with a ``kind`` each) say what the data do not determine: parameters at
+        a bound, a bias that absorbed the signal, implausible standard errors, undetermined
+        combinations (see :mod:`magcilia.calibration.diagnostics`).
 
     Examples
     --------
@@ -393,7 +330,7 @@ def calibrate(
         initial = initial.replace(**held)
         bounds = {**(bounds or {}), **{n: (val, val) for n, val in held.items()}}
     box = _check_bounds(bounds, initial)
-    problem = Problem(data, initial, bias, degree, fit_scale)
+    problem = Problem.paper(data, initial, bias, degree, fit_scale, box)
     lower = np.array([box[n][0] for n in PARAMETERS])
     upper = np.array([box[n][1] for n in PARAMETERS])
     integrality = np.array([n in INTEGER for n in PARAMETERS])
@@ -433,7 +370,7 @@ def _with_alternatives(result: CalibrationResult, x: F64, cost: float,
     """The result with an ``"ambiguous"`` warning when another polished optimum (a restart's,
     the mirrored basin's) fits as well: costs in χ² units of the residual variance
     (cost / degrees of freedom), the y sign folded (the ``"y_sign"`` warning says it)."""
-    dof = len(result.data) - len(result.stderr)
+    dof = len(result.path) - len(result.stderr)
     if dof <= 0 or not cost > 0.0:
         return result
     scale = cost / dof
@@ -451,7 +388,7 @@ def _with_alternatives(result: CalibrationResult, x: F64, cost: float,
                    diagnostics=(*result.diagnostics, note))
 
 
-def _with_sensor_field(result: JointCalibrationResult) -> JointCalibrationResult:
+def _with_sensor_field(result: CalibrationResult) -> CalibrationResult:
     """The joint result with a ``"sensor_field"`` warning when the fitted placement overloads the
     element in its tilt experiments (load experiments bend the cilium: their poses are not checked
     here)."""
@@ -487,7 +424,9 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
     x[integrality] = np.rint(x[integrality])
 
     def resid(xs: F64, _: NDArray[np.intp]) -> F64:
-        return problem.residuals(problem.model(named(xs.T)))[0]
+        # a non-finite model (the element on a dipole) is a bad point (the problem's penalty
+        # rows), not a crash
+        return problem.residuals(named(xs.T))
 
     fit = polish(resid, x, np.where(integrality, x, lower), np.where(integrality, x, upper),
                  max_nfev=400, penalty=NONFINITE_COST)
@@ -504,7 +443,7 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             "whose model output is finite at every measured angle (the sensing element sits on "
             "a dipole of the model); change the bounds or the initial setup"
         )
-    _, a = problem.residuals(u)
+    _, a = problem.linear(u)
     scale = float(a[0])
     coef = problem.bias_coefficients(u[0], scale)
     offset = float(coef[0]) if coef.size else 0.0
@@ -537,9 +476,9 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
             "at_bound", "magnetization_scale = 0 (its lower limit): the model's signal does not "
             "match the data in any proportion; check the sign of the gain and the recording",
             ("magnetization_scale",)))
-    absorbed = bias_absorption(problem.angles, coef, scale * u[0]) if bias == "polynomial" else None
+    absorbed = bias_absorption(data.angles, coef, scale * u[0]) if bias == "polynomial" else None
     notes += [absorbed] if absorbed is not None else []
-    field_note = sensor_field(fitted_setup, problem.angles, "fitted")
+    field_note = sensor_field(fitted_setup, data.angles, "fitted")
     notes += [field_note] if field_note is not None else []
     diagnostics = (*notes, *found)
     return CalibrationResult(
@@ -550,4 +489,6 @@ def _result(problem: Problem, initial: Setup, data: Measurement,
         evaluations=problem.evaluations, elapsed=time.perf_counter() - t0,
         restart_costs=restart_costs, diagnostics=diagnostics,
         fixed={n: values[n] for n in PARAMETERS if box[n][0] == box[n][1]},
+        experiments=(path_fit(data, residuals, coef),), chi2=cost, dof=len(data) - len(names),
+        keys={"offset": ParameterKey("offset", 0)},
     )

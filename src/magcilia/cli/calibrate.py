@@ -6,13 +6,8 @@ import click
 
 from magcilia._atomic import staged_directory
 from magcilia._errors import MagciliaError
-from magcilia.calibration import (
-    PARAMETERS,
-    CalibrationResult,
-    JointCalibrationResult,
-    calibrate,
-)
-from magcilia.calibration.joint import JOINT_PARAMETERS
+from magcilia.calibration import PARAMETERS, CalibrationResult, calibrate
+from magcilia.calibration.problem import GEOMETRY, LOAD_PARAMETER
 from magcilia.cli._common import (
     RecordingArgs,
     calibrate_with_progress,
@@ -33,11 +28,10 @@ from magcilia.io.recordings import read_measurements
 from magcilia.io.setup_files import load_priors
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
+    calibration_files,
     calibration_json,
-    joint_calibration_json,
     model_comparison,
     write_calibration_files,
-    write_joint_calibration_files,
 )
 from magcilia.report.recording_notes import notes_lines
 
@@ -115,7 +109,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                         for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
-                  **parse_priors(prior_items, (*JOINT_PARAMETERS, "youngs_modulus"))}
+                  **parse_priors(prior_items, (*GEOMETRY, LOAD_PARAMETER))}
         if model == "both" and (measurements[0].observable != "output"
                                 or not measurements[0].single_azimuth):
             raise MagciliaError(f"{data[0]}: --model both fits the paper's model to the first "
@@ -127,7 +121,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             raise MagciliaError("priors (--prior, a setup file's [priors]) need --model physical "
                                 "(in the paper's model height and base radius are model "
                                 "parameters, not the hair's dimensions)")
-        result: CalibrationResult | JointCalibrationResult
+        result: CalibrationResult
         comparison = None
         if model in ("physical", "both"):  # one search (no restarts to show progress over)
             result = calibrate(measurements, initial, bounds, rng=seed, bias=bias,
@@ -143,27 +137,16 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                 measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
                 bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
                 fixed=parse_fixed(fix_items))
-        if isinstance(result, JointCalibrationResult):
-            write_joint_calibration_files(result, tmp, style, comparison, measurements)
-        else:
-            write_calibration_files(result, tmp, style)
+        write_calibration_files(result, tmp, style, comparison=comparison, data=measurements)
     notes = [] if as_json else notes_lines(measurements)
     for line in notes:
         click.echo(line)
-    if isinstance(result, JointCalibrationResult):
-        if as_json:
-            echo_json(joint_calibration_json(result, si, measurements))
-        else:
-            click.echo(result.report(si))
-            if comparison is not None:
-                click.echo(comparison)
-            click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png"
-                       + (", pairs.png" if result.posterior is not None else ""))
-    elif as_json:
-        echo_json(calibration_json(result, si))
-    else:
-        click.echo(result.report(si))
-        click.echo(f"wrote {out_dir}/fitted_setup.toml, result.json, report.md, fit.png, "
-                   "residuals.png")
+    if as_json:
+        echo_json(calibration_json(result, si, measurements))
+        return
+    click.echo(result.report(si))
+    if comparison is not None:
+        click.echo(comparison)
+    click.echo(f"wrote {out_dir}/" + ", ".join(calibration_files(result)))
 
 

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
-from magcilia.calibration import CalibrationResult, JointCalibrationResult
+from magcilia.calibration import CalibrationResult
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.io.measurement import Measurement
@@ -37,7 +37,7 @@ def measured_field(result: CalibrationResult) -> tuple[NDArray[np.float64], NDAr
     """The measurement in field units: ``B_x = (V − bias(θ)) / S`` with the fitted setup's sensor
     scale ``S`` and the fitted bias, and its standard error ``sem / |S|``; both T, shape (a,)."""
     scale = result.setup.sensor.scale
-    data = result.data
+    data = result.path
     return (data.volts - _bias(result, data.angles)) / scale, data.sem / abs(scale)
 
 
@@ -78,7 +78,7 @@ def plot_fit(result: CalibrationResult, ax: Axes | None = None) -> Axes:
     from magcilia.report.figures import axes_or_new
 
     ax = axes_or_new(ax)
-    data = result.data
+    data = result.path
     b, sem = measured_field(result)
     dense = np.radians(np.linspace(data.angles_deg.min(), data.angles_deg.max(), 300))
     ax.plot(np.degrees(dense), result.setup.field(dense)[:, 0] / GAUSS, "-", color="C0",
@@ -116,7 +116,7 @@ def plot_initial(result: CalibrationResult, ax: Axes | None = None) -> Axes:
     from magcilia.report.figures import axes_or_new
 
     ax = axes_or_new(ax)
-    data = result.data
+    data = result.path
     b, _ = measured_field(result)
     dense = np.radians(np.linspace(data.angles_deg.min(), data.angles_deg.max(), 300))
     ax.plot(np.degrees(dense), result.initial.field(dense)[:, 0] / GAUSS, "--", color="C1",
@@ -146,7 +146,7 @@ def plot_residuals(result: CalibrationResult, ax: Axes | None = None) -> Axes:
     from magcilia.report.figures import axes_or_new
 
     ax = axes_or_new(ax, size=(6.4, 3.0))
-    data = result.data
+    data = result.path
     scale = result.setup.sensor.scale
     mg = 1e3 / GAUSS / scale
     ax.errorbar(data.angles_deg, result.residuals * mg, yerr=data.sem * abs(mg), fmt="o",
@@ -195,8 +195,8 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
     lines = [
         "# magcilia calibration report",
         "",
-        f"Data: `{result.data.source}`, {len(result.data)} angles"
-        + (" (set/reset readings)" if result.data.set_reset else "") + ".",
+        f"Data: `{result.path.source}`, {len(result.path)} angles"
+        + (" (set/reset readings)" if result.path.set_reset else "") + ".",
         "",
         f"- cost (sum of squared residuals): **{result.cost:.6g} V²**",
         f"- RMS residual: {result.rms * 1e3:.4g} mV",
@@ -217,7 +217,7 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
                                           else " – |") if "truth" in r else ""))
     lines += ["", "## Warnings", ""]
     lines += [f"- {w}" for w in result.warnings] or ["- none"]
-    lines += ["", *data_markdown([result.data])]
+    lines += ["", *data_markdown([result.path])]
     comparison = result.truth_comparison()
     if comparison:
         known = "The recording is synthetic: its true parameters are known."
@@ -251,17 +251,23 @@ def write_report(result: CalibrationResult, directory: str | Path,
     return paths
 
 
-def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, Any]:
-    """``calibrate --json``: :meth:`CalibrationResult.to_dict` in the console table's display
-    units (SI with ``si``), every dimensional key suffixed with its unit: parameter values,
-    standard errors, bounds, held and true values keyed ``height_mm``, …; the covariance with a
-    unit per row; the bias coefficients with theirs; costs in V^2 in both systems."""
+def calibration_json(result: CalibrationResult, si: bool = False,
+                     data: Sequence[Measurement] | None = None) -> dict[str, Any]:
+    """``calibrate --json``: a paper fit's :meth:`CalibrationResult.to_dict` in the console
+    table's display units (SI with ``si``), every dimensional key suffixed with its unit:
+    parameter values, standard errors, bounds, held and true values keyed ``height_mm``, …; the
+    covariance with a unit per row; the bias coefficients with theirs; costs in V^2 in both
+    systems. A physical fit's: :func:`joint_calibration_json`. ``data``: the measurements
+    fitted (default a paper fit's tilt path)."""
+    if result.model != "paper":
+        return joint_calibration_json(result, si, () if data is None else data)
     units = output_units(si)
     raw = result.to_dict()
     doc: dict[str, Any] = units.convert(  # type: ignore[assignment]
         {k: v for k, v in raw.items()
          if k not in ("values", "stderr", "bounds", "fixed", "truth", "table", "covariance",
-                      "propagation_covariance", "bias_coefficients")})
+                      "propagation_covariance", "bias_coefficients", "parameters", "setup",
+                      "initial", "measurement", "model")})
     for key in ("values", "stderr", "bounds", "fixed"):
         doc[key] = units.named(raw[key])
     if result.truth is not None:
@@ -282,7 +288,7 @@ def calibration_json(result: CalibrationResult, si: bool = False) -> dict[str, A
     doc["bias_coefficient_units"] = [v if k == 0 else f"{v}/{a}" if k == 1 else f"{v}/{a}^{k}"
                                      for k in range(len(coefficients))]
     doc["table"] = result.table(si)
-    doc["data"] = data_doc([result.data])
+    doc["data"] = data_doc([result.path] if data is None else data)
     return {"units": units.system, **doc}
 
 
@@ -292,17 +298,35 @@ CALIBRATION_FILES = ("fitted_setup.toml", "result.json", "report.md", "fit.png",
 CALIBRATION_NAMES = (*CALIBRATION_FILES, "fit.pdf", "residuals.pdf", "pairs.png", "pairs.pdf")
 
 
+def calibration_files(result: CalibrationResult) -> tuple[str, ...]:
+    """The files :func:`write_calibration_files` writes for ``result`` (screen style): a paper
+    fit's :data:`CALIBRATION_FILES`; a physical fit's setup, result, report, ``fit.png`` and,
+    with a posterior, ``pairs.png``."""
+    if result.model == "paper":
+        return CALIBRATION_FILES
+    return (*CALIBRATION_FILES[:4], *(("pairs.png",) if result.posterior is not None else ()))
+
+
 def write_calibration_files(result: CalibrationResult, directory: str | Path,
-                            style: str = "screen", *, figures: bool = True) -> None:
-    """Write :data:`CALIBRATION_FILES` into the existing folder ``directory`` (each file atomic,
+                            style: str = "screen", *, figures: bool = True,
+                            comparison: str | None = None,
+                            data: Sequence[Measurement] | None = None) -> None:
+    """Write :func:`calibration_files` into the existing folder ``directory`` (each file atomic,
     the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own); the
     PDF figures only with ``style="paper"``; with ``figures=False`` the same files less the
-    figures (``report.md`` then links none)."""
+    figures (``report.md`` then links none). ``data``: the measurements fitted (what the
+    readers said of them goes into ``result.json`` and ``report.md``; default a paper fit's
+    tilt path); ``comparison``: the paper's model beside a physical fit
+    (:func:`model_comparison`)."""
+    if result.model != "paper":
+        _write_joint_files(result, directory, style, comparison, () if data is None else data,
+                           figures)
+        return
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
     doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
-    doc["data"] = data_doc([result.data])
+    doc["data"] = data_doc([result.path] if data is None else data)
     write_json(folder / "result.json", doc)
     if figures:
         write_report(result, folder, style)
@@ -325,7 +349,7 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
 
 
 # --- joint calibration (model="physical", several experiments) -----------------------------------
-def joint_fit_figure(result: JointCalibrationResult) -> Figure:
+def joint_fit_figure(result: CalibrationResult) -> Figure:
     """``fit.png`` of a joint calibration: one panel per experiment, the measured values (output in
     mV less its offset; field components in µT less their offsets) and the fitted model vs tilt
     angle (deg), tip force (mN) or flow speed (m/s); one curve per azimuth (line styles named in
@@ -368,7 +392,7 @@ def joint_fit_figure(result: JointCalibrationResult) -> Figure:
     return fig
 
 
-def model_comparison(paper: CalibrationResult, physical: JointCalibrationResult) -> str:
+def model_comparison(paper: CalibrationResult, physical: CalibrationResult) -> str:
     """The paper's model and the physical model fitted to the same recording, side by side
     (display units): each one's geometry ± standard error, its layout and how well it fits."""
     n, k = int(paper.values["n_loops"]), int(paper.values["dipoles_per_loop"])
@@ -387,7 +411,7 @@ def model_comparison(paper: CalibrationResult, physical: JointCalibrationResult)
             cells.append(text)
         lines.append(f"{name:<12} {p.display:<4} {cells[0]:>30} {cells[1]:>30}")
     same = next((e for e in physical.experiments
-                 if e.source == paper.data.source and e.observable == "output"), None)
+                 if e.source == paper.path.source and e.observable == "output"), None)
     lines.append(f"{'RMS':<12} {'mV':<4} {paper.rms * 1e3:>30.4g} "
                  f"{format(same.rms * 1e3, '.4g') if same else '-':>30}")
     lines.append("The paper's model trades its coarse layout against the geometry: its height and "
@@ -396,7 +420,7 @@ def model_comparison(paper: CalibrationResult, physical: JointCalibrationResult)
     return "\n".join(lines)
 
 
-def joint_markdown_summary(result: JointCalibrationResult, comparison: str | None = None,
+def joint_markdown_summary(result: CalibrationResult, comparison: str | None = None,
                            data: Sequence[Measurement] = ()) -> str:
     """The joint calibration's report as markdown: the plain-text report, the figures (the
     posterior's pair plot when it was sampled), with ``comparison`` the paper's model on the
@@ -410,11 +434,18 @@ def joint_markdown_summary(result: JointCalibrationResult, comparison: str | Non
             "![data and fitted model per experiment](fit.png)\n" + pairs + both + notes)
 
 
-def write_joint_calibration_files(result: JointCalibrationResult, directory: str | Path,
+def write_joint_calibration_files(result: CalibrationResult, directory: str | Path,
                                   style: str = "screen", comparison: str | None = None,
                                   data: Sequence[Measurement] = ()) -> None:
+    """:func:`write_calibration_files` under its earlier name for a physical fit."""
+    write_calibration_files(result, directory, style, comparison=comparison, data=data)
+
+
+def _write_joint_files(result: CalibrationResult, directory: str | Path, style: str,
+                       comparison: str | None, data: Sequence[Measurement],
+                       figures: bool) -> None:
     """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
-    posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a joint calibration into
+    posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a physical fit into
     ``directory``; with ``data`` (the measurements fitted) what the readers said of them."""
     from magcilia.report import style as st
 
@@ -426,19 +457,19 @@ def write_joint_calibration_files(result: JointCalibrationResult, directory: str
         doc["data"] = data_doc(data)
     write_json(folder / "result.json", doc)
     with st.use(style):
-        figures = {"fit": joint_fit_figure(result)}
-        if result.posterior is not None:
+        drawn = {"fit": joint_fit_figure(result)} if figures else {}
+        if result.posterior is not None and figures:
             from magcilia.report.posterior import plot_pairs
 
-            figures["pairs"] = plot_pairs(result.posterior)[0, 0].get_figure()
-        for name, fig in figures.items():
+            drawn["pairs"] = plot_pairs(result.posterior)[0, 0].get_figure()
+        for name, fig in drawn.items():
             save_figure(fig, folder / f"{name}.png", dpi=st.dpi())
             if style == "paper":
                 save_figure(fig, folder / f"{name}.pdf")
     write_text(folder / "report.md", joint_markdown_summary(result, comparison, data))
 
 
-def joint_calibration_json(result: JointCalibrationResult, si: bool = False,
+def joint_calibration_json(result: CalibrationResult, si: bool = False,
                            data: Sequence[Measurement] = ()) -> dict[str, Any]:
     """``calibrate --model physical --json``: the parameters, standard errors and priors in the
     console's display units (mm; SI with ``si``), keys suffixed with their units, with each

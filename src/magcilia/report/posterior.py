@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from magcilia.calibration.posterior import Posterior, display_unit
+from magcilia.calibration.posterior_result import Posterior, display_unit
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
