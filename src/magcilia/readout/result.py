@@ -15,9 +15,9 @@ from magcilia.readout.protocol import Flag
 
 F64 = NDArray[np.float64]
 
-#: the single-output read-out's flags: the one :class:`~magcilia.readout.protocol.Flag` set
-#: (its former name)
 ReadoutFlag = Flag
+"""The single-output read-out's flags: the one :class:`~magcilia.readout.protocol.Flag` set, under
+its former name."""
 #: the flags that leave a reading without an estimate (value and sigma NaN)
 NO_ESTIMATE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED
 #: the flags a single output raises by itself (always counted by :meth:`ReadoutResult.counts`)
@@ -139,7 +139,8 @@ class ReadoutResult(Display):
         quantity and unit: the value (``force_N``, ``angle_rad``, ``flow_m_per_s``), ``sigma_*``,
         ``sigma_noise_*``, ``sigma_calibration_*``, ``sigma_edge_*``, ``sigma_scale_*`` (same
         unit) and ``flags``
-        (:class:`ReadoutFlag` bits, 0 a good reading; NaN values where flagged)."""
+        (:class:`~magcilia.readout.protocol.Flag` bits, 0 a good reading; NaN values where
+        flagged)."""
         return dataframe({
             column(self.quantity, self.unit): self.value,
             column("sigma", self.unit): self.sigma,

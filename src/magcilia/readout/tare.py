@@ -180,5 +180,5 @@ class Tare(Display):
                 ("max |correction|", self._text(float(np.max(np.abs(self.correction)))))]
 
 
-#: the per-channel tare's former name (one class now: :class:`Tare` with arrays)
 ChannelTare = Tare
+"""The per-channel tare's former name: one class now, :class:`Tare` holding arrays."""
