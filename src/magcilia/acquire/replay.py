@@ -13,9 +13,8 @@ names, ``output`` by default), and:
   clock at the recorded rate (× ``speed``), as the device delivered them;
 * ``block.time`` is the recorded time of each sample and ``block.first`` its index in the
   recording (:attr:`ReplaySource.recorded_clock` says so);
-* at the end of the file a read fails with :class:`EndOfRecordingError` and :attr:`finished` turns
-  True (the samples of a last partial read are left out: a live recording holds whole read-out
-  chunks);
+* the last read may return fewer samples than asked for (the rest of the file); the next one
+  fails with :class:`EndOfRecordingError` and :attr:`finished` turns True;
 * :attr:`tare_samples`: the indices of the samples from which the recorded live read-out took a
   tare (its ``tares`` group), where a replay takes it again.
 
@@ -184,11 +183,11 @@ class ReplaySource(Source):
 
     def _read(self, n: int) -> Block:
         start = self._position
-        if start + n > self.length:
+        if start >= self.length:
             self.finished = True
             raise EndOfRecordingError(f"{self.name}: end of the recording after {self.length} "
-                                 "samples")
-        stop = start + n
+                                      "samples")
+        stop = min(start + n, self.length)  # the last read may be short: the file ends
         group = self._group
         try:
             with quiet_nptdms():

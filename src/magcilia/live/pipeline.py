@@ -652,7 +652,8 @@ class LiveReadout:
             self._spread = difference_noise(self.history.last(1.0, self.rate).raw)
             self._spread_at = float(t[-1])
         self._noise_used = zero.total_noise(self.noise)  # with the zero's σ (and recorded)
-        result = self.readout.read(w.volts + zero.correction, noise=self._noise_used)
+        correction = zero.correction  # the one this block is read with (tracking moves it)
+        result = self.readout.read(w.volts + correction, noise=self._noise_used)
         flags = result.flags | np.where(w.beyond, np.uint16(ReadoutFlag.SATURATED), np.uint16(0))
         bad = np.where(flags != 0, np.nan, 1.0)
         flags = flags | np.uint16(zero.flags)  # warnings (TARE_UNDER_LOAD, ZERO_DRIFT): kept
@@ -661,7 +662,7 @@ class LiveReadout:
         now = time.time()
         received = block.received if block.received is not None else now
         columns = np.array([w.time, w.volts, result.value * bad, result.sigma * bad, flags,
-                            np.full(w.time.size, zero.correction), np.full(w.time.size, received),
+                            np.full(w.time.size, correction), np.full(w.time.size, received),
                             np.full(w.time.size, now)])
         self.history.append(columns)
         with self._lock:
