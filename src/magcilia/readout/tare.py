@@ -176,7 +176,8 @@ class RestCheck(Display):
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
-        ratio = float(np.max(np.asarray(self.noise) / np.asarray(self.reference)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = float(np.max(np.asarray(self.noise) / np.asarray(self.reference)))
         items = [("", "at rest" if self.at_rest else "not at rest"),
                  ("readings", str(self.count)), ("max noise ratio", f"{ratio:.3g}")]
         if not self.at_rest:
