@@ -96,3 +96,28 @@ def test_difference_noise_moved_here_is_the_same_function() -> None:
     assert live_difference_noise is difference_noise
     white = np.random.default_rng(8).normal(0.0, 1e-5, 20000)
     assert difference_noise(white) == pytest.approx(1e-5, rel=0.05)
+
+
+def test_readout_tare_under_load_is_noted(tmp_path: object, capsys: pytest.CaptureFixture[str]
+                                          ) -> None:
+    """``magcilia readout --tare`` on readings with a load step: the estimates are written and a
+    note says the tare's window was not at rest."""
+    from pathlib import Path
+
+    from magcilia.cli import main
+    from magcilia.mechanics import output_at
+
+    folder = Path(str(tmp_path))
+    rng = np.random.default_rng(9)
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    force = np.where(np.arange(1000) < 250, 0.0, 5e-5)
+    volts = output_at(setup, "force", force) + rng.normal(0.0, 5e-6, force.size)
+    rec = folder / "rec.csv"
+    rec.write_text("voltage_V\n" + "\n".join(f"{x:.9g}" for x in volts) + "\n")
+    args = ["readout", "paper", str(rec), "--quantity", "force", "--span", "0:0.2",
+            "--tip-radius", "0.05mm", "--out", str(folder / "out.csv")]
+    assert main([*args, "--tare", "500"]) == 0
+    out = capsys.readouterr().out
+    assert "note: 500: tare:" in out and "NOT AT REST" in out
+    assert main([*args, "--tare", "200"]) == 0
+    assert "NOT AT REST" not in capsys.readouterr().out

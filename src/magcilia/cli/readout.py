@@ -235,8 +235,8 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
                         tare_file, tip_radius, modulus, si, as_json, reading, suspect, quiet)
         return
     if not setup_arg:
-        raise fail("SETUP", None, f"a setup file or preset before {recording} (only a live "
-                   "recording stores its own)")
+        raise click.UsageError(f"Missing argument 'RECORDING' (only a live recording stores "
+                               f"its own setup, and {recording} is none).")
     # the required options, in the order of --help (--quantity only without --biaxial)
     if quantity is None and not biaxial:
         raise click.UsageError("Missing option '--quantity' (or --biaxial).")
@@ -275,6 +275,8 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
                       actuation=actuation)
     if baseline is not None:
         readout = readout.tare(baseline)
+        if readout.baseline is not None and not readout.baseline.at_rest:
+            notes.append(f"note: {tare_spec or tare_file}: {readout.baseline.report()}")
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
     with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
               disable=not show, file=sys.stderr) as bar:
@@ -383,6 +385,9 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
         readout = readout.tare(fields[:count])
     elif tare_file is not None:
         readout = readout.tare(fields_of(tare_file, "--tare-file")[0])
+    tare = readout.baseline
+    if tare is not None and not tare.at_rest:
+        checked[0][0].append(f"note: {tare_spec or tare_file}: {tare.report()}")
     result = readout.read(fields)
     write_text(out_path, vector_csv(result, times, si))
     c = result.counts()
