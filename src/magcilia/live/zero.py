@@ -137,6 +137,7 @@ class Zero:
         self._y0 = np.zeros(c)
         self._sums = {k: np.zeros(c) for k in _SUMS}
         self._rested_at = np.zeros(c)
+        self._cached: tuple[F64, F64, F64, F64, F64] | None = None
 
     # -- what the read-out uses -----------------------------------------------------------------
     def _out(self, a: F64) -> Any:
@@ -169,22 +170,31 @@ class Zero:
 
     def _fit(self) -> tuple[F64, F64, F64, F64]:
         """Per channel: the zero now (relative to y0), the drift rate, and their variances per
-        unit noise variance (the sandwich of the exponentially weighted fit)."""
-        s = self._sums
-        det = s["w"] * s["wtt"] - s["wt"] ** 2
-        ok = det > 1e-12 * np.maximum(s["w"] * s["wtt"], 1e-300)
-        safe = np.where(ok, det, 1.0)
-        w = np.where(s["w"] > 0, s["w"], 1.0)
-        a = np.where(ok, (s["wtt"] * s["wy"] - s["wt"] * s["wty"]) / safe, s["wy"] / w)
-        b = np.where(ok, (s["w"] * s["wty"] - s["wt"] * s["wy"]) / safe, 0.0)
-        # Cov / σ² = A⁻¹ U A⁻¹, A = [[w, wt], [wt, wtt]] with A⁻¹ = [[wtt, −wt], [−wt, w]] / det
-        i00, i01, i11 = s["wtt"] / safe, -s["wt"] / safe, s["w"] / safe
-        u0, u1, u2 = s["u"], s["ut"], s["utt"]
-        var_a = i00 * (u0 * i00 + u1 * i01) + i01 * (u1 * i00 + u2 * i01)
-        var_b = i01 * (u0 * i01 + u1 * i11) + i11 * (u1 * i01 + u2 * i11)
-        var_a = np.where(ok, var_a, u0 / w ** 2)
-        var_b = np.where(ok, var_b, 0.0)
+        unit noise variance (the sandwich of the exponentially weighted fit); kept until the
+        sums change."""
+        if self._cached is None:
+            self._cached = self._solve()
+        a, b, var_a, var_b, _ = self._cached
         return a, b, var_a, var_b
+
+    def _solve(self) -> tuple[F64, F64, F64, F64, F64]:
+        w, wt, wtt, wy, wty, u, ut, utt = (self._sums[k] for k in _SUMS)
+        det = w * wtt - wt * wt
+        ok = det > 1e-12 * (w * wtt)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+            a = (wtt * wy - wt * wty) * inv
+            b = (w * wty - wt * wy) * inv
+            # Cov / σ² = A⁻¹ U A⁻¹, A = [[w, wt], [wt, wtt]], A⁻¹ = [[wtt, −wt], [−wt, w]] / det
+            i00, i01, i11 = wtt * inv, -wt * inv, w * inv
+            var_a = i00 * i00 * u + 2.0 * i00 * i01 * ut + i01 * i01 * utt
+            var_b = i01 * i01 * u + 2.0 * i01 * i11 * ut + i11 * i11 * utt
+            cov = i00 * i01 * u + (i00 * i11 + i01 * i01) * ut + i01 * i11 * utt
+            if not ok.all():  # one time only (the tare's readings at one instant): no rate
+                safe = np.where(w > 0, w, 1.0)
+                a = np.where(ok, a, wy / safe)
+                var_a = np.where(ok, var_a, u / safe ** 2)
+        return a, b, var_a, var_b, cov
 
     @property
     def rate(self) -> Any:
@@ -289,6 +299,7 @@ class Zero:
         self._y0 = mean.copy()
         self._now = float(at)
         self._sums = {k: np.zeros(self.channels) for k in _SUMS}
+        self._cached = None
         m = table.shape[0]
         tau = np.zeros(m) if dt is None else -(m - 1 - np.arange(m)) * float(dt)
         self._add(table, tau)
@@ -300,6 +311,7 @@ class Zero:
 
     def _add(self, table: F64, tau: F64) -> None:
         """Add readings (m, c) at times ``tau`` (s before now) to the fit, weight 1 each."""
+        self._cached = None
         good = np.isfinite(table)
         y = np.where(good, table - self._y0, 0.0)
         g = good.astype(np.float64)
@@ -322,6 +334,10 @@ class Zero:
         step = now - self._now
         if step <= 0.0 or self.tau is None:
             return
+        if self._cached is not None:  # the line seen from the new origin: a' = a + b·Δt
+            a, b, var_a, var_b, cov = self._cached
+            self._cached = (a + b * step, b, var_a + step * (2.0 * cov + step * var_b), var_b,
+                            cov + step * var_b)  # (uniform forgetting leaves Cov / σ² as is)
         s = self._sums
         d = math.exp(-step / self.tau)
         w, wt, wy = s["w"], s["wt"], s["wy"]
@@ -406,6 +422,7 @@ class Zero:
             zero.under_load, zero.notice = bool(doc["under_load"]), str(doc["notice"])
             zero._now, zero._y0, zero._rested_at = float(doc["now"]), arr("y0"), arr("rested_at")
             zero._sums = {k: np.asarray(doc["sums"][k], dtype=np.float64) for k in _SUMS}
+            zero._cached = None
             b = doc["baseline"]
             if b is not None:
                 one = zero.scalar
