@@ -236,7 +236,7 @@ class Zero:
         if self.under_load:
             out |= np.uint16(Flag.TARE_UNDER_LOAD)
         if self._noise is not None and self.tau is not None:
-            drifting = self._sigma() > self.drift_limit * self._noise
+            drifting = (self._sigma() > self.drift_limit * self._noise) & (self._noise > 0)
             out[drifting] |= np.uint16(Flag.ZERO_DRIFT)
         return out
 
