@@ -106,6 +106,8 @@ FACTORIES: dict[str, Callable[[], Any]] = {
         SETUP.output([0.1, 0.3, 2.0])),
     "Tare": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).tare(
         SETUP.output([0.0, 0.0]) + [1e-5, -1e-5]).baseline,
+    "RestCheck": lambda: mc.Readout(SETUP, span=(0.0, 0.5), table_size=17).tare(
+        SETUP.output(np.zeros(40)) + np.where(np.arange(40) < 20, 0.0, 1e-4)).baseline.check,
     "BiaxialReadout": _biaxial,
     "ForceVectorResult": lambda: _biaxial().read(_biaxial().model([1e-5, 5e-5], [0.0, -3e-5])),
     "Channel": lambda: _biaxial().channels[0],

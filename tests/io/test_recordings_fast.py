@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import magcilia as mc
-from magcilia.io import csvfile, recordings
+from magcilia.io import csvfile, recordings, reduction
 from magcilia.io.csvfile import NotPlainCSV, plain_csv_blocks, read_csv_carefully
 from magcilia.io.recordings import measurement_from_samples, read_samples
 
@@ -82,7 +82,7 @@ def test_the_reduction_is_accurate_on_a_large_offset(monkeypatch: pytest.MonkeyP
     """2 V of offset under 1 µV of noise (a sum of squares about zero would keep no digit of the
     spread): the means and standard errors of an exact per-angle reduction (math.fsum) to
     1e-12, whatever the pieces the samples are reduced in."""
-    monkeypatch.setattr(recordings, "REDUCE_SAMPLES", pieces)
+    monkeypatch.setattr(reduction, "REDUCE_SAMPLES", pieces)
     rng = np.random.default_rng(3)
     angle = np.repeat([0.0, 5.0, 10.0, 15.0], 3000)
     sr = np.tile([1.0, -1.0], angle.size // 2)
@@ -123,7 +123,7 @@ def test_pieces_do_not_change_the_measurement(monkeypatch: pytest.MonkeyPatch) -
     whole = measurement_from_samples(angle, volts, **kwargs)
     assert whole.metadata["dropped"] == {"no_angle": 2, "angles_deg": [5.5], "samples": 40}
     for pieces in (1, 7, 40, 41, angle.size - 1):
-        monkeypatch.setattr(recordings, "REDUCE_SAMPLES", pieces)
+        monkeypatch.setattr(reduction, "REDUCE_SAMPLES", pieces)
         _assert_same(measurement_from_samples(angle, volts, **kwargs), whole)
 
 
@@ -132,7 +132,7 @@ def test_the_first_problem_is_named_as_before(monkeypatch: pytest.MonkeyPatch,
                                               pieces: int) -> None:
     """The checks keep their order across pieces: a far angle before a non-finite sample before
     a saturated one, each named by its sample number in the whole recording."""
-    monkeypatch.setattr(recordings, "REDUCE_SAMPLES", pieces)
+    monkeypatch.setattr(reduction, "REDUCE_SAMPLES", pieces)
     angle = np.repeat([0.0, 10.0, 20.0], 4)
     volts = np.repeat([1e-3, 2e-3, 3e-3], 4)
     volts[1] = 0.5  # saturated, in the first piece

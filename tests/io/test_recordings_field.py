@@ -17,7 +17,7 @@ from scipy.io import savemat
 import magcilia as mc
 from magcilia.acquire.synthetic import FieldRecording, synthetic_field_recording
 from magcilia.cli import main
-from magcilia.io import csvfile, recordings
+from magcilia.io import csvfile, reduction
 from magcilia.io.columns import Columns
 from magcilia.io.csvfile import write_samples_csv
 from magcilia.io.recordings import measurement_from_samples, read_samples
@@ -198,7 +198,7 @@ def test_interleaved_samples_and_any_block_size_give_one_result(
     path = _csv(tmp_path / "s.csv", shuffled)
     whole = mc.read_measurements(path)
     _check_field(whole, shuffled, rtol=1e-12)
-    monkeypatch.setattr(recordings, "REDUCE_SAMPLES", 4)
+    monkeypatch.setattr(reduction, "REDUCE_SAMPLES", 4)
     monkeypatch.setattr(csvfile, "CSV_BLOCK_ROWS", 9)
     pieces = mc.read_measurements(path)
     assert pieces.angles.tolist() == whole.angles.tolist()

@@ -5,6 +5,7 @@
 * :mod:`.buffer`: a reader thread filling a bounded ring buffer (:class:`BackgroundReader`);
 * :mod:`.serial`: a microcontroller streaming magcilia's framed protocol (:class:`SerialSource`),
   :mod:`.protocol` the frames, :mod:`.emulator` a device on a pseudo-terminal for tests;
+* :mod:`.replay`: a magcilia TDMS recording played back as a source (:class:`ReplaySource`);
 * :mod:`.nidaq`: the paper's NI DAQ through NI-DAQmx (:class:`NidaqSource`; untested on hardware);
 * :mod:`.photo`: tilt angles from photos of the holder (:func:`measure_tilt`), with
   :mod:`.stripes` finding the tape and the case edge;
@@ -21,6 +22,7 @@ from magcilia.acquire.connect import source_from_spec
 from magcilia.acquire.emulator import DeviceEmulator
 from magcilia.acquire.nidaq import NidaqSource
 from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
+from magcilia.acquire.replay import ReplaySource
 from magcilia.acquire.serial import SerialSource
 from magcilia.acquire.simulated import Script, SimulatedSource
 from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
@@ -37,6 +39,7 @@ __all__ = [
     "DeviceEmulator",
     "NidaqSource",
     "Recording",
+    "ReplaySource",
     "RingBuffer",
     "Script",
     "SerialSource",

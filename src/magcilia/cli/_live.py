@@ -55,7 +55,15 @@ def live_options(command: Any) -> Any:
     options = [
         click.option("--source", "source_spec", default="sim", show_default=True,
                      help="sim (a simulated sensor pushed in a repeating pattern), serial:PORT "
-                          "(magcilia's framed protocol) or nidaq:DEV/aiN."),
+                          "(magcilia's framed protocol), nidaq:DEV/aiN, or FILE.tdms: a "
+                          "recording of --record, replayed with its stored setup, span, "
+                          "calibration, tares and zero tracking (as fast as it goes when "
+                          "stdout is not a terminal, in real time otherwise; the other "
+                          "read-out options are ignored)."),
+        click.option("--record", "record_path", default=None, type=click.Path(dir_okay=False),
+                     help="Record from the first sample into this TDMS file (replaced if it "
+                          "exists): raw samples, read-out values, events, tares and what a "
+                          "replay (--source FILE.tdms) needs."),
         setup_option("The (fitted) sensor setup (force-sensor: the paper's cilium with a 0.05 mm "
                      "tip radius)", default="force-sensor", positional=False),
         click.option("--quantity", type=click.Choice(["angle", "force", "flow"]),
@@ -101,16 +109,20 @@ def live_options(command: Any) -> Any:
 
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
-             "seed", "tip_radius", "modulus")
+             "seed", "tip_radius", "modulus", "record_path")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
                calibration_path: str | None, fluid: str, rate: float, source_rate: float,
                channel: str, set_reset: int | None, no_tare: bool, tracking: float,
                seed: int, tip_radius: str | None, modulus: str | None,
+               record_path: str | None = None, replay_realtime: bool | None = None,
                **_: Any) -> LiveReadout:
-    """The live read-out the options describe (not started)."""
+    """The live read-out the options describe (not started); a ``.tdms`` source is a replay,
+    in real time with ``replay_realtime`` (None: when stdout is a terminal)."""
     logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
+    if source_spec.lower().endswith(".tdms"):
+        return replay_live(source_spec, record_path, replay_realtime)
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
@@ -130,5 +142,22 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         source = source_from_spec(source_spec, setup=setup, rate=source_rate, rng=seed,
                                   set_reset=set_reset, realtime=True)
     return LiveReadout(source, readout, rate=rate, channel=channel, tare_at_start=not no_tare,
-                       tracking=tracking or None)
+                       tracking=tracking or None, record=record_path)
+
+
+def replay_live(path: str, record_path: str | None, realtime: bool | None) -> LiveReadout:
+    """``--source FILE.tdms``: the recording replayed (:func:`magcilia.live.replay.replay`), its
+    whole read-out kept for the views when it runs as fast as it goes."""
+    import sys
+    from pathlib import Path
+
+    from magcilia.live.replay import replay
+
+    if record_path is not None:
+        raise fail("--record", record_path, "left out with a recorded --source (the recording "
+                   "is there already)")
+    if not Path(path).is_file():
+        raise fail("--source", path, "an existing recording (.tdms) of magcilia live --record")
+    realtime = sys.stdout.isatty() if realtime is None else realtime
+    return replay(path, realtime=realtime)
 

@@ -170,13 +170,13 @@ class _SetupOption(click.Option):
 
 
 def setup_option(help_text: str = "The sensor setup", *, default: str | None = None,
-                 multiple: bool = False, positional: bool = True,
+                 multiple: bool = False, positional: bool = True, optional: bool = False,
                  name: str = "setup_arg") -> Callable[[Any], Any]:
     """A decorator: the one ``--setup VALUE`` of every command (:data:`SETUP_RULE`: a preset name
     or a setup TOML file), received as ``name`` (a tuple with ``multiple``); required unless
-    ``default``. With ``positional``, the command also takes the positional SETUP of earlier
-    releases (deprecated; its warning names --setup), which must then come before any other
-    positional argument."""
+    ``default`` or ``optional`` (then None when not given). With ``positional``, the command
+    also takes the positional SETUP of earlier releases (deprecated; its warning names
+    --setup), which must then come before any other positional argument."""
 
     def decorate(command: Any) -> Any:
         text = f"{help_text}: {SETUP_RULE}."
@@ -184,7 +184,8 @@ def setup_option(help_text: str = "The sensor setup", *, default: str | None = N
             text += " Repeatable."
         # no default=None: click 8.2+ takes an explicit None as given, not as missing
         defaults = {} if default is None else {"default": default, "show_default": True}
-        command = click.option("--setup", name, cls=_SetupOption, required=default is None,
+        command = click.option("--setup", name, cls=_SetupOption,
+                               required=default is None and not optional,
                                multiple=multiple, metavar="SETUP", help=text,
                                **defaults)(command)
         if positional:

@@ -49,7 +49,7 @@ def command(host: str, port: int, window: float, open_browser: bool, **kwargs: A
             click.echo(f"magcilia: warning: {warning}", err=True)
         require_server()  # before anything opens
         bind_socket(host, port).close()  # a port in use fails before the source is opened
-        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS}, replay_realtime=True)
         server = DashboardServer(live, host, port, window=window,
                                  record_dir=kwargs["record_dir"])
         recording = None

@@ -12,6 +12,7 @@ from tqdm import tqdm
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
+from magcilia.acquire.replay import stored_properties
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
     RecordingArgs,
@@ -37,9 +38,11 @@ from magcilia.device.setup import Setup
 from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
 from magcilia.io.quality import screen
+from magcilia.live.recorded import read_recorded, recorded_readings, recorded_readout, stored
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
+from magcilia.readout.protocol import Flag
 from magcilia.report.biaxial import vector_csv
 from magcilia.report.readout import readout_line, readout_summary, write_readout_csv
 from magcilia.units import parse_quantity, parse_value, parse_values
@@ -139,7 +142,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 
 
 @click.command()
-@setup_option()
+@setup_option("The sensor setup (optional for a recording of `magcilia live --record`, which "
+              "stores its own)", optional=True)
 @click.argument("recording", type=click.Path(dir_okay=False))
 @click.option("--quantity", type=click.Choice(["angle", "force", "flow"]), default=None,
               help="What to estimate: tilt angle (deg), tip force (mN) or flow speed (m/s). "
@@ -189,7 +193,7 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @suspect_option
 @recording_options
-def command(setup_arg: str, recording: str, quantity: str | None, span_text: str | None,
+def command(setup_arg: str | None, recording: str, quantity: str | None, span_text: str | None,
             biaxial: bool, sensor_name: str | None, sensor_noise: str | None,
             out_path: str | None,
             bandwidth: str, fluid: str, table_size: int, calibration_path: str | None,
@@ -219,7 +223,23 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
     The recording's samples are checked first (--suspect: spikes, duplicated blocks, garbled
     values); what is flagged, and what the reader says of the file (a recording cut short,
     damage read past), is printed as note lines and kept in the --json summary.
+
+    A recording of `magcilia live --record` (or the views' Record button) is read as the view
+    read it: its read-out readings (the windows' means) with the view's tare and zero tracking,
+    the noise σ used, and the setup, quantity and span it stores — `magcilia readout FILE.tdms
+    --csv OUT.csv` needs no --setup. Given, --setup, --quantity and --span replace the stored
+    ones,
+    and --tare or --tare-file replaces the view's corrections.
     """
+    if not biaxial and is_live_recording(recording):
+        if out_path is None:
+            raise click.UsageError("Missing option '--csv'.")
+        _live_recording(setup_arg or "", recording, quantity, span_text, out_path, tare_spec,
+                        tare_file, tip_radius, modulus, si, as_json, reading, suspect, quiet)
+        return
+    if not setup_arg:
+        raise click.UsageError(f"Missing option '--setup' (only a recording of `magcilia live "
+                               f"--record` stores its own setup, and {recording} is none).")
     # the required options, in the order of --help (--quantity only without --biaxial)
     if quantity is None and not biaxial:
         raise click.UsageError("Missing option '--quantity' (or --biaxial).")
@@ -258,6 +278,8 @@ def command(setup_arg: str, recording: str, quantity: str | None, span_text: str
                       actuation=actuation)
     if baseline is not None:
         readout = readout.tare(baseline)
+        if readout.baseline is not None and not readout.baseline.at_rest:
+            notes.append(f"note: {tare_spec or tare_file}: {readout.baseline.report()}")
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
     with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
               disable=not show, file=sys.stderr) as bar:
@@ -366,6 +388,9 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
         readout = readout.tare(fields[:count])
     elif tare_file is not None:
         readout = readout.tare(fields_of(tare_file, "--tare-file")[0])
+    tare = readout.baseline
+    if tare is not None and not tare.at_rest:
+        checked[0][0].append(f"note: {tare_spec or tare_file}: {tare.report()}")
     result = readout.read(fields)
     write_text(out_path, vector_csv(result, times, si))
     c = result.counts()
@@ -410,3 +435,62 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
                    + ", ".join(f"{d:.6g}" for d in direct) + f") {fu} and its bending of the "
                    f"cilium, in a {readout.forces.size} x {readout.azimuths.size} grid")
     click.echo(f"{Path(out_path).name}: {text}")
+
+
+def is_live_recording(path: str) -> bool:
+    """Whether ``path`` is a TDMS recording of a live read-out (it stores its read-out)."""
+    if not path.lower().endswith(".tdms") or not Path(path).is_file():
+        return False
+    try:
+        return bool(stored_properties(path).get("live"))
+    except MagciliaError:
+        return False  # the recording reader says what is wrong with it
+
+
+def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: str | None,
+                    out_path: str, tare_spec: str | None, tare_file: str | None,
+                    tip_radius: str | None, modulus: str | None, si: bool, as_json: bool,
+                    reading: RecordingArgs, suspect: str, quiet: bool) -> None:
+    """``magcilia readout [SETUP] FILE.tdms`` of a live recording: the readings the view read,
+    corrected as it corrected them, through the stored read-out (each part replaced where
+    given)."""
+    setup = load_mechanics_setup(setup_arg, tip_radius, modulus) if setup_arg else None
+    q = quantity or str(stored(stored_properties(path), Path(path))[1]["quantity"])
+    span = parse_span(span_text, q) if span_text else None
+    if quantity is not None and span is None:
+        raise fail("--span", None, f"given with --quantity {quantity} (the recording's span is "
+                   "for its own quantity)")
+    readout = recorded_readout(path, setup=setup, quantity=q, span=span)
+    rec = recorded_readings(path)
+    if rec.time.size == 0:
+        raise fail("RECORDING", path, "a live recording with at least one read-out reading")
+    raw = rec.volts - rec.correction
+    notes = [f"note: {path}: a live recording: its {rec.time.size} read-out readings with the "
+             "setup, quantity and span it stores" + (" (setup as given)" if setup else "")]
+    if tare_spec is not None or tare_file is not None:
+        if tare_spec is not None and tare_file is not None:
+            raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")
+        baseline = (tare_readings(tare_spec, raw, rec.time) if tare_spec is not None else
+                    read_recording(str(tare_file), reading, "--tare-file", quiet, suspect)[0])
+        readout = readout.tare(baseline)
+        if readout.baseline is not None and not readout.baseline.at_rest:
+            notes.append(f"note: {path}: {readout.baseline.report()}")
+        volts = raw
+        result = readout.read(volts)
+    else:
+        notes[0] += " and the view's tare and zero tracking"
+        volts = rec.volts
+        result = read_recorded(readout, rec)
+    seen = int(np.bitwise_or.reduce(rec.flags)) if rec.flags.size else 0
+    for bit in (Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT):
+        count = int(np.count_nonzero(rec.flags & np.uint16(bit)))
+        if seen & bit:
+            notes.append(f"note: {path}: {count} readings were flagged {bit.name} in the view")
+    write_readout_csv(out_path, result, volts, rec.time, si=si)
+    if as_json:
+        echo_json({**readout_summary(readout, result, si), "out": out_path, "notes": notes,
+                   "live_recording": True})
+        return
+    for line in notes:
+        click.echo(line)
+    click.echo(f"{Path(out_path).name}: {readout_line(readout, result, si)}")

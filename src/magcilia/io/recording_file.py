@@ -129,6 +129,7 @@ class RecordingWriter:
         self.overwrite = bool(overwrite)
         self.reserved = bool(reserved)
         self.samples = 0
+        self.written = 0  # samples handed to write(), flushed or not
         self.chunks = 0
         self._oldest: float | None = None  # monotonic time the oldest pending sample came
         self._part: PartialFile | None = None  # the hidden file written until it replaces ``path``
@@ -363,6 +364,7 @@ class RecordingWriter:
             self._oldest = now
         for k, a in arrays.items():
             self._pending[k].append(a)
+        self.written += n
         while self._pending_size() >= self.chunk:
             self._flush_pending(self.chunk)
             self._oldest = now if self._pending_size() else None

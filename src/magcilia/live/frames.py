@@ -81,7 +81,7 @@ def decimate(samples: LiveSamples, factor: int, start: int = 0) -> F64:
         out[2] = np.where(good, value, 0.0).sum(axis=1) / count
         out[3] = np.where(good, sigma, 0.0).sum(axis=1) / count
     out[2:4, count == 0] = np.nan
-    out[4] = np.bitwise_or.reduce(bins(samples.flags).astype(np.uint8), axis=1)
+    out[4] = np.bitwise_or.reduce(bins(samples.flags).astype(np.uint16), axis=1)
     return out
 
 

@@ -45,7 +45,7 @@ class LiveSamples(Display):
     value, sigma : ndarray
         Estimate and its 1-σ uncertainty, SI (NaN where a flag of
         :data:`~magcilia.readout.inverse.NO_ESTIMATE` is set).
-    flags : ndarray of uint8
+    flags : ndarray of uint16
         :class:`~magcilia.readout.inverse.ReadoutFlag` bits (0: a good reading; EXTRAPOLATED or
         CLIPPED readings just beyond the span have values).
     correction : ndarray
@@ -63,7 +63,7 @@ class LiveSamples(Display):
     raw: F64
     value: F64
     sigma: F64
-    flags: NDArray[np.uint8]
+    flags: NDArray[np.uint16]
     correction: F64
     received: F64
     published: F64
@@ -71,7 +71,7 @@ class LiveSamples(Display):
     def __post_init__(self) -> None:
         for name in COLUMNS:
             arr = np.asarray(getattr(self, name),
-                             dtype=np.uint8 if name == "flags" else np.float64)
+                             dtype=np.uint16 if name == "flags" else np.float64)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
 
@@ -94,7 +94,7 @@ class LiveSamples(Display):
         if not len(self):
             return f"no {self.quantity} samples"
         q = MEASURANDS[self.quantity]
-        good = np.nonzero(self.flags & np.uint8(NO_ESTIMATE) == 0)[0]
+        good = np.nonzero(self.flags & np.uint16(NO_ESTIMATE) == 0)[0]
         last = (f"last {q.to_display(self.value[good[-1]]):.4g} ± "
                 f"{q.to_display(self.sigma[good[-1]]):.2g} {q.display}" if good.size
                 else "no good reading")

@@ -56,6 +56,7 @@ from magcilia.io.recording_file import RecordingWriter, chunk_for
 from magcilia.io.recordings import beyond_range
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.live.history import COLUMNS, History, LiveSamples
+from magcilia.live.recorded import recorded_clock, replay_finished, replay_metadata, replayed_tare
 from magcilia.live.windows import Averager
 from magcilia.live.zero import Zero, difference_noise
 from magcilia.mechanics import output_at
@@ -265,6 +266,10 @@ class LiveReadout:
         Seconds without samples after which the source counts as disconnected.
     reconnect : float
         Seconds between attempts to reopen a disconnected source.
+    record : str or Path, optional
+        Record into this file from the first sample on (``magcilia live --record``; as
+        :meth:`start_recording`), so that the whole run can be replayed
+        (:mod:`magcilia.live.replay`).
 
     Examples
     --------
@@ -284,7 +289,7 @@ class LiveReadout:
                  tare_seconds: float = 0.5, tare_at_start: bool = False,
                  tracking: float | None = 30.0, band: float = 3.0,
                  demodulate: bool | None = None, stall: float = 2.0,
-                 reconnect: float = 1.0) -> None:
+                 reconnect: float = 1.0, record: str | Path | None = None) -> None:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
         if not isinstance(readout, Readout):
@@ -324,6 +329,9 @@ class LiveReadout:
         self._offset: float | None = None
         self._spread = math.nan  # difference_noise of the last second, before a tare
         self._spread_at = -math.inf
+        self._record_at_start = None if record is None else Path(record)
+        self._tare_started = False  # a tare's first readings are in this block (for replays)
+        self._noise_used = math.nan  # the noise σ used for the last block, V
 
     # -- life cycle -------------------------------------------------------------------------------
     def start(self) -> Self:
@@ -355,6 +363,12 @@ class LiveReadout:
         self._event("start", f"{self.source.name} at {rate:g} Hz, read-out at {self.rate:g} Hz "
                     f"({self.factor} samples per reading)")
         self._state = "taring" if self._tare_wanted else "running"
+        if self._record_at_start is not None:
+            try:
+                self.start_recording(self._record_at_start)
+            except BaseException:
+                self._disconnect()
+                raise
         self._thread = threading.Thread(target=self._run, name="magcilia-live", daemon=True)
         self._thread.start()
         return self
@@ -496,7 +510,8 @@ class LiveReadout:
             metadata = {**self.source.metadata(), "live": True, "readout": r.to_dict(),
                         "setup": setup_to_dict(r.setup), "output_rate_Hz": self.rate,
                         "factor": self.factor, "event_codes": EVENTS,
-                        "tare_correction_V": self.zero.correction}
+                        "tare_correction_V": self.zero.correction,
+                        **replay_metadata(self)}
             writer = RecordingWriter(path, metadata=metadata, reserved=reserved,
                                      chunk=chunk_for(self.source.rate))
             try:
@@ -580,6 +595,9 @@ class LiveReadout:
                 try:
                     block = self._reader.read(self._reader.chunk)
                 except (MagciliaError, OSError) as exc:
+                    if replay_finished(self.source):  # a replayed recording has ended
+                        self._message = f"replay of {self.source.name} finished"
+                        break
                     if not self._stop.is_set():
                         self._disconnected(str(exc))
                     continue
@@ -612,7 +630,10 @@ class LiveReadout:
 
     def _process(self, block: Block) -> None:
         if self._offset is None:  # the read-out's clock continues across reconnections
-            self._offset = (time.monotonic() - self._t0) - float(block.time[-1])
+            self._offset = (0.0 if recorded_clock(self.source) else
+                            (time.monotonic() - self._t0) - float(block.time[-1]))
+        if replayed_tare(self.source, block):  # where the recorded run's tare began
+            self.tare()
         t = block.time + self._offset
         raw = block[self.channel]
         sensor = self.readout.setup.sensor
@@ -622,19 +643,26 @@ class LiveReadout:
                                 "demodulation needs them")
         w = self._averager.push(t, raw, beyond_range(raw, sensor), sr)
         zero = self.zero
-        self._collect_tare(w.volts, float(w.time[-1]))
+        with self._lock:  # a tare asked for from now on begins with the next block
+            collecting = self._tare_wanted
+            self._tare_started = collecting and not self._tare_readings
+        if collecting:
+            self._collect_tare(w.volts, float(w.time[-1]))
         if zero.noise is None and t[-1] - self._spread_at >= 0.25 and self.history.total:
             self._spread = difference_noise(self.history.last(1.0, self.rate).raw)
             self._spread_at = float(t[-1])
-        result = self.readout.read(w.volts + zero.correction, noise=self.noise)
-        flags = result.flags | np.where(w.beyond, np.uint8(ReadoutFlag.SATURATED), np.uint8(0))
+        self._noise_used = zero.total_noise(self.noise)  # with the zero's σ (and recorded)
+        correction = zero.correction  # the one this block is read with (tracking moves it)
+        result = self.readout.read(w.volts + correction, noise=self._noise_used)
+        flags = result.flags | np.where(w.beyond, np.uint16(ReadoutFlag.SATURATED), np.uint16(0))
         bad = np.where(flags != 0, np.nan, 1.0)
-        if not self._tare_wanted:
-            zero.track(w.volts, 1.0 / self.rate)
+        flags = flags | np.uint16(zero.flags)  # warnings (TARE_UNDER_LOAD, ZERO_DRIFT): kept
+        if not (collecting and self._tare_wanted):
+            zero.track(w.volts, 1.0 / self.rate, at=float(w.time[-1]))
         now = time.time()
         received = block.received if block.received is not None else now
         columns = np.array([w.time, w.volts, result.value * bad, result.sigma * bad, flags,
-                            np.full(w.time.size, zero.correction), np.full(w.time.size, received),
+                            np.full(w.time.size, correction), np.full(w.time.size, received),
                             np.full(w.time.size, now)])
         self.history.append(columns)
         with self._lock:
@@ -652,29 +680,37 @@ class LiveReadout:
             readings = np.concatenate(self._tare_readings)
             self._tare_readings = []
             try:
-                self.zero.tare(readings, at)
+                taken = self.zero.tare(readings, at, dt=1.0 / self.rate)
             except MagciliaError as exc:
                 self._message = str(exc)
                 return
             self._tare_wanted = False
             if self._state == "taring":
                 self._state = "running"
+            self._message = self.zero.notice  # refused, or under load: the views say why
+            if not taken:
+                self._event("tare", self.zero.notice)
+                return
             self._event("tare", f"zero at {readings.mean() * 1e3:.6g} mV (correction "
                         f"{self.zero.correction * 1e3:+.4g} mV, noise "
-                        f"{(self.zero.noise or 0.0) * 1e6:.3g} µV per reading)")
+                        f"{(self.zero.noise or 0.0) * 1e6:.3g} µV per reading)"
+                        + (" — NOT AT REST" if self.zero.under_load else ""))
 
     def _record(self, block: Block, t: F64, out: dict[str, F64]) -> None:
         """Write the block's samples and read-out values (the lock is held)."""
         assert self._writer is not None
         try:
+            if self._tare_started:  # where a replay re-takes this tare
+                self._writer.write_group("tares", {"tare_sample": [self._writer.written]})
             self._writer.write(t, block[self.channel], setreset=block.setreset,
                                extra={k: x for k, x in (block.extra() or {}).items()
                                       if k != self.channel} or None)
             self._writer.write_group("readout", {
                 "readout_time_s": out["time"], "raw_V": out["raw"], "value": out["value"],
                 "sigma": out["sigma"], "flags": out["flags"], "correction_V": out["correction"],
+                "noise_V": np.full(out["time"].size, self._noise_used),
             }, units={"readout_time_s": "s", "raw_V": "V", "value": self.readout.unit,
-                      "sigma": self.readout.unit, "correction_V": "V"})
+                      "sigma": self.readout.unit, "correction_V": "V", "noise_V": "V"})
         except MagciliaError as exc:
             path = self._writer.path
             kept = self._writer.abort(f"stopped: {exc}")

@@ -642,10 +642,11 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
         seconds = v.positive("seconds", seconds, "s", "duration")
     unit = live.readout.unit
     start = time.monotonic()
-    cursor = live.history.total
+    cursor = 0  # every sample from the read-out's start (a replay may be ahead already)
     seen = 0
     try:
         while True:
+            ended = not live.running  # what came before the end is written, then the stream ends
             lines: list[str] = []
             events = live.events
             lines.extend(json.dumps({"event": e.kind, "text": e.text, "t": round(e.time, 6)},
@@ -667,7 +668,7 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
             if lines:
                 out.write("\n".join(lines) + "\n")
                 out.flush()
-            if not live.running or (seconds is not None and time.monotonic() - start >= seconds) \
+            if ended or (seconds is not None and time.monotonic() - start >= seconds) \
                     or _asked(stop):
                 break
             left = 0.1 if seconds is None else min(0.1, start + seconds - time.monotonic())

@@ -1,0 +1,236 @@
+"""What a live recording stores for its replay, and how it is read back.
+
+A live recording (``magcilia live --record FILE``, or the views' Record button) stores, besides
+the raw samples (group ``recording``) and the values the view showed (group ``readout``: each
+reading ``raw_V``, the ``correction_V`` of tare and zero tracking, ``value``, ``sigma``,
+``flags`` and the ``noise_V`` that σ used), what it takes to compute those values again:
+
+* the file property ``replay`` (:func:`replay_metadata`): the read-out's own settings (quantity,
+  span, table size, edge rule, fluid, the calibration's covariance; the setup is the property
+  ``setup``), the pipeline's (channel, samples per processing step, tare seconds, set/reset
+  demodulation) and the whole state of zero tracking when the recording started
+  (:meth:`~magcilia.live.zero.Zero.state`: a recording started mid-run goes on from there);
+* the group ``tares``, channel ``tare_sample``: the index of the first sample of every tare
+  request's window — a replay takes the tare again there, from the same readings, with the same
+  rest check.
+
+The pipeline's hooks for a replay (:func:`recorded_clock`, :func:`replayed_tare`,
+:func:`replay_finished`) live here, the replay itself in :mod:`magcilia.live.replay`.
+:func:`recorded_readout`, :func:`recorded_readings` and :func:`read_recorded` are what
+``magcilia readout FILE`` of a live recording uses: the stored read-out and the readings the
+view read, corrected as the view corrected them, with the noise σ used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from magcilia._errors import MagciliaError
+from magcilia.acquire.replay import ReplaySource
+from magcilia.acquire.source import Block, Source
+from magcilia.calibration import ParameterCovariance
+from magcilia.io.setup_files import setup_from_dict
+from magcilia.mechanics import FLUIDS, Flow
+from magcilia.readout.inverse import Readout
+
+F64 = NDArray[np.float64]
+
+#: version of the ``replay`` property this module writes
+REPLAY_VERSION = 1
+#: table points of a read-out built without ``table_size`` (``Readout``'s default)
+_DEFAULT_TABLE = 257
+
+
+# -- the hooks of the pipeline ------------------------------------------------------------------
+def recorded_clock(source: Source) -> bool:
+    """Whether ``source``'s block times are a recorded read-out's clock (a replay)."""
+    return bool(getattr(source, "recorded_clock", False))
+
+
+def replay_finished(source: Source) -> bool:
+    """Whether ``source`` is a replay that has reached the end of its recording."""
+    return isinstance(source, ReplaySource) and source.finished
+
+
+def replayed_tare(source: Source, block: Block) -> bool:
+    """Whether the recorded read-out began a tare's window at ``block``'s first sample."""
+    return isinstance(source, ReplaySource) and block.first in source.tare_samples
+
+
+def readout_spec(readout: Readout) -> dict[str, Any]:
+    """What rebuilds ``readout`` with the setup (JSON-ready): quantity, span, table size, edge
+    rule, the flow's fluid, the calibration's covariance."""
+    calibration = readout.calibration
+    fluid = next((name for name, f in FLUIDS.items() if f == readout.flow.fluid), None)
+    return {"quantity": readout.quantity, "span": list(readout.span),
+            "table_size": int(readout.table_quantity.size), "edge": readout.edge,
+            "edge_tolerance": list(readout.edge_tolerance), "fluid": fluid,
+            "calibration": (calibration.to_dict() if isinstance(calibration, ParameterCovariance)
+                            else None)}
+
+
+def replay_metadata(live: Any) -> dict[str, Any]:
+    """The file property ``replay`` of the recording of ``live`` (a
+    :class:`~magcilia.live.pipeline.LiveReadout`; see the module docstring)."""
+    return {"replay": {
+        "version": REPLAY_VERSION, "channel": live.channel,
+        "batch_samples": live._chunk(),  # the pipeline's own step, for its replay
+        "tare_seconds": live.tare_seconds, "demodulate": live.demodulate,
+        "readout": readout_spec(live.readout), "zero": live.zero.state()}}
+
+
+# -- reading a live recording back --------------------------------------------------------------
+def stored(props: dict[str, Any], path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The stored setup and read-out settings of a live recording's properties."""
+    if not props.get("live"):
+        raise MagciliaError(f"{path}: not a live read-out's recording (magcilia live --record, "
+                            "or the view's Record button)")
+    setup = props.get("setup")
+    replay_doc = props.get("replay")
+    spec = replay_doc.get("readout") if isinstance(replay_doc, dict) else None
+    if spec is None and isinstance(props.get("readout"), dict):  # recorded before replays
+        old = props["readout"]
+        spec = {"quantity": old.get("quantity"), "span": old.get("span"),
+                "table_size": old.get("table_size", 513) // 2 + 1, "edge": old.get("edge"),
+                "fluid": "water", "calibration": None}
+    if not isinstance(setup, dict) or not isinstance(spec, dict):
+        raise MagciliaError(f"{path}: the recording does not store its setup and read-out")
+    return setup, spec
+
+
+def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | None = None,
+                     span: tuple[float, float] | None = None) -> Readout:
+    """The read-out a live recording stores (its setup, quantity, span, table, edge rule,
+    fluid and calibration), each replaced where given.
+
+    Raises
+    ------
+    MagciliaError
+        If ``path`` is not a live recording, or what it stores does not make a read-out.
+    """
+    from magcilia.acquire.replay import stored_properties
+
+    p = Path(path)
+    props = stored_properties(p)
+    setup_doc, spec = stored(props, p)
+    stored_setup = setup_from_dict(setup_doc, source=f"{p} (stored setup)")
+    q = quantity or spec["quantity"]
+    same = q == spec["quantity"]
+    calibration = (ParameterCovariance.from_dict(spec["calibration"], source=str(p))
+                   if spec.get("calibration") else None)
+    fluid = spec.get("fluid") or "water"
+    size = int(spec.get("table_size", 257))
+
+    def build(table_size: int) -> Readout:
+        return Readout(setup if setup is not None else stored_setup, q,
+                       span=span if span is not None else
+                       (tuple(spec["span"]) if same else None),
+                       calibration=calibration,
+                       flow=Flow.uniform(1.0, FLUIDS[fluid]) if q == "flow" else None,
+                       table_size=table_size, edge=spec.get("edge") or "extrapolate")
+    try:
+        readout = build(size)
+        if readout.fold is not None and readout.table_quantity.size != size:
+            # a folded table keeps fewer points than it was built with: the default was used
+            readout = build(_DEFAULT_TABLE)
+    except MagciliaError as exc:
+        raise MagciliaError(f"{p}: the stored read-out: {exc}") from None
+    return readout
+
+
+@dataclass(frozen=True, eq=False)
+class RecordedReadings:
+    """The readings a live view read, as it corrected them (immutable; SI).
+
+    Attributes
+    ----------
+    time : ndarray, shape (m,)
+        Each reading's time, s (the read-out's clock).
+    volts : ndarray, shape (m,)
+        Each reading (the window's mean, demodulated), V, with the view's correction (tare and
+        zero tracking) added.
+    correction : ndarray, shape (m,)
+        That correction, V.
+    noise : ndarray, shape (m,)
+        The noise RMS of one reading that σ used, V (NaN in recordings made before it was
+        stored).
+    value, sigma : ndarray, shape (m,)
+        What the view showed (SI; NaN where flagged).
+    flags : ndarray of uint16, shape (m,)
+        Its flags.
+    """
+
+    time: F64
+    volts: F64
+    correction: F64
+    noise: F64
+    value: F64
+    sigma: F64
+    flags: NDArray[np.uint16]
+
+
+def recorded_readings(path: str | Path) -> RecordedReadings:
+    """The readings of a live recording's ``readout`` group (see :class:`RecordedReadings`).
+
+    Raises
+    ------
+    MagciliaError
+        If the file has no ``readout`` group (not a live recording) or cannot be read.
+    """
+    from magcilia.io.tdmsfile import nptdms_module, quiet_nptdms
+
+    p = Path(path)
+    nptdms = nptdms_module("Reading live recordings")
+    try:
+        with quiet_nptdms(), p.open("rb") as file, nptdms.TdmsFile.open(file) as tdms:
+            group = tdms["readout"]
+            names = [c.name for c in group.channels()]
+
+            def col(name: str) -> F64:
+                if name not in names:
+                    return np.full(len(group["raw_V"]), np.nan)
+                return np.asarray(group[name][:], dtype=np.float64)
+            raw, corr = col("raw_V"), col("correction_V")
+            return RecordedReadings(time=col("readout_time_s"), volts=raw + corr,
+                                    correction=corr, noise=col("noise_V"), value=col("value"),
+                                    sigma=col("sigma"),
+                                    flags=np.nan_to_num(col("flags")).astype(np.uint16))
+    except KeyError:
+        raise MagciliaError(f"{p}: no read-out values (group 'readout'): not a live "
+                            "recording") from None
+    except OSError as exc:
+        raise MagciliaError(f"{p}: cannot read the file ({exc.strerror or exc})") from None
+
+
+def read_recorded(readout: Readout, readings: RecordedReadings) -> Any:
+    """``readout.read`` of the recorded readings with the noise each used (readings are grouped
+    by that noise to 4 significant digits; the read-out's own noise where none is stored)."""
+    noise = readings.noise
+    if not np.isfinite(noise).any():
+        return readout.read(readings.volts)
+    finite = np.where(np.isfinite(noise) & (noise > 0), noise, np.nanmedian(noise))
+    key = np.asarray([float(f"{x:.4g}") for x in finite])
+    levels, where = np.unique(key, return_inverse=True)
+    parts = [readout.read(readings.volts[where == i], noise=float(level))
+             for i, level in enumerate(levels)]
+    if len(parts) == 1:
+        return parts[0]
+    import dataclasses
+
+    fields: dict[str, Any] = {}
+    first = parts[0]
+    for f in dataclasses.fields(first):
+        value = getattr(first, f.name)
+        if isinstance(value, np.ndarray) and value.shape == (int((where == 0).sum()),):
+            out = np.empty(where.size, dtype=value.dtype)
+            for i, part in enumerate(parts):
+                out[where == i] = getattr(part, f.name)
+            fields[f.name] = out
+    return dataclasses.replace(first, **fields)
+
+
