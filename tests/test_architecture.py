@@ -18,6 +18,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "magcilia"
 #: layers from the bottom up; a room may import rooms of lower layers only
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("foundation",),  # constants, units, _errors, _validate, _atomic, _display: no physics
+    ("fitting",),  # the one least-squares core (batched LM, multistart, polish): no physics
     ("model",),  # the field model: plain values in, arrays out
     ("device",),  # the checked device objects and the parameter registry
     ("mechanics", "approximation"),

@@ -186,6 +186,9 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
         {"magcilia_version": "0", "complete": False, "planned_angles_deg": "[0, 10, 20]",
          "samples_per_angle": 40, "stopped": "stopped at angle 3: interrupted"}),
 })
+FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_batch(  # issue 26
+    lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
+    [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")
 

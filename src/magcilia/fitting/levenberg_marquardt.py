@@ -1,0 +1,269 @@
+"""Levenberg–Marquardt over many independent, bounded least-squares problems at once.
+
+The calibration polishes one candidate for every combination of the integer parameters (n, k):
+a hundred small problems of five parameters each; the force-vector read-out fits two parameters
+per reading, thousands of readings at once. Solving them one by one spends the time in Python;
+here every iteration evaluates all the problems' residuals (and their Jacobians: analytic, or
+forward differences in the same vectorised call) at once and solves all the damped normal
+equations with one batched ``numpy.linalg.solve``.
+
+The one damping rule: Marquardt's, λ times the diagonal of JᵀJ (floored at 1e-12 of its largest
+entry, so that a parameter without effect keeps the system regular and stays put), λ divided by
+3 after a step that lowers the cost and multiplied by 4 after one that does not. Bounds are kept
+by projecting each step onto the box; a parameter on a bound whose step points outward is held
+and the step solved again without it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from magcilia import _validate as v
+from magcilia.fitting.result import BatchFit
+
+F64 = NDArray[np.float64]
+#: ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row i
+#: belonging to problem ``which[i]``
+Residuals = Callable[[F64, NDArray[np.intp]], Any]
+#: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p)
+Jacobian = Callable[[F64, NDArray[np.intp]], F64]
+
+#: smallest and largest Marquardt λ: a problem whose λ grows beyond the largest has no step that
+#: lowers its cost (a minimum, to rounding)
+LAMBDA_MIN, LAMBDA_MAX = 1e-12, 1e12
+#: λ after a step that lowers the cost (÷) and after one that does not (×)
+LAMBDA_DOWN, LAMBDA_UP = 3.0, 4.0
+
+
+def sum_squares(r: F64) -> F64:
+    """Sum of squares of each row of ``r`` (s, a): shape (s,), inf where it is not finite."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        c = np.einsum("sa,sa->s", r, r)
+    return np.where(np.isfinite(c), c, np.inf)
+
+
+def _solve(system: F64, rhs: F64) -> F64:
+    """Solutions (s, p) of the systems (s, p, p) · δ = rhs (s, p); zero where one is singular."""
+    try:
+        return np.asarray(np.linalg.solve(system, rhs[:, :, None])[:, :, 0])
+    except np.linalg.LinAlgError:  # one singular system: solve them one at a time
+        out = np.zeros_like(rhs)
+        for i in range(rhs.shape[0]):
+            with contextlib.suppress(np.linalg.LinAlgError):
+                out[i] = np.linalg.solve(system[i], rhs[i])
+        return out
+
+
+def bounds_of(lower: ArrayLike, upper: ArrayLike, size: int, dims: int) -> tuple[F64, F64]:
+    """Checked bounds: both shape (p,) when shared by all problems, else both (s, p)."""
+    lo = np.asarray(lower, dtype=np.float64)
+    hi = np.asarray(upper, dtype=np.float64)
+    for name, b in (("lower", lo), ("upper", hi)):
+        if b.shape not in ((dims,), (size, dims)) or np.isnan(b).any():
+            raise v.fail(name, f"an array of shape {b.shape}",
+                         f"bounds of shape ({dims},) or ({size}, {dims}) without NaN")
+    if not np.all(lo <= hi):
+        raise v.fail("lower", "bounds above upper", "lower <= upper")
+    if lo.ndim != hi.ndim:  # one per problem, the other shared: both per problem
+        lo = np.broadcast_to(lo, (size, dims)).copy()
+        hi = np.broadcast_to(hi, (size, dims)).copy()
+    return lo, hi
+
+
+def fit_batch(
+    residuals: Residuals,
+    x0: ArrayLike,
+    lower: ArrayLike,
+    upper: ArrayLike,
+    *,
+    jacobian: Jacobian | bool | None = None,
+    maxiter: int = 60,
+    ftol: float = 1e-12,
+    xtol: float = 1e-14,
+    step: float = 1e-7,
+    damping: float = 1e-3,
+    final_jacobian: bool = False,
+) -> BatchFit:
+    """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
+
+    Parameters
+    ----------
+    residuals : callable
+        ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row
+        i belonging to problem ``which[i]`` (an index into the rows of ``x0``); every problem
+        has the same ``a`` (pad shorter ones with zeros). Rows may be non-finite (a bad point:
+        never accepted). With ``jacobian=True`` it returns ``(r, J)``: the residuals and their
+        Jacobians (m, a, p).
+    x0 : array-like, shape (s, p) or (p,)
+        Starting points (clipped into the bounds); (p,) is one problem.
+    lower, upper : array-like, shape (p,) or (s, p)
+        Bounds shared by all problems or one row per problem (lower ≤ upper; a parameter
+        with lower = upper is held). Infinite bounds need a ``jacobian``.
+    jacobian : callable, True or None
+        ``jacobian(x, which)`` → (m, a, p), the analytic Jacobian (called once per iteration
+        at the problems' current points: a caller may return a cached one for chord steps);
+        True: ``residuals`` returns it with the residuals; None: forward differences of
+        ``step`` times each bound's width, stepping back from the upper bound.
+    maxiter : int
+        Most iterations (linearisations) per problem.
+    ftol : float
+        A problem has converged when a step lowers its cost by less than this fraction.
+    xtol : float
+        … or when its step moves no parameter by more than this fraction of its problem's
+        widest bound (or of its largest ``|x|`` where the bounds are infinite).
+    step : float
+        Forward-difference step as a fraction of each bound's width.
+    damping : float
+        Initial Marquardt λ (relative to the diagonal of JᵀJ); 1e-12 is Gauss–Newton's step
+        first.
+    final_jacobian : bool
+        Take the Jacobian once more at the final points (one more batched call) so that
+        ``jtj`` is exactly at ``x``. Without it, ``jtj`` is that of the last linearisation:
+        at ``x`` itself, or one accepted step before it when the fit stopped on a small change
+        of the cost; with ``jacobian=True`` it is always at ``x``.
+
+    Returns
+    -------
+    BatchFit
+        ``converged`` is False for a problem that hit ``maxiter``, or whose cost or normal
+        equations were never finite.
+    """
+    x = np.array(x0, dtype=np.float64)
+    if x.ndim == 1:
+        x = x[None, :]
+    if x.ndim != 2:
+        raise v.fail("x0", f"an array of shape {x.shape}", "shape (s, p) or (p,)")
+    size, dims = x.shape
+    lower, upper = bounds_of(lower, upper, size, dims)
+    shared = lower.ndim == 1
+    width = upper - lower
+    if jacobian is None and not np.isfinite(width).all():
+        raise v.fail("lower, upper", "infinite bounds",
+                     "finite bounds with finite-difference Jacobians (the step is a fraction "
+                     "of their width); or give a jacobian")
+    with_jac = jacobian is True
+    jac_fn = jacobian if callable(jacobian) else None
+    x = np.clip(x, lower, upper)
+    diff = _Differences(residuals, step * width, upper, shared)
+    # the xtol test's scale: the widest bound of each problem (None: some are infinite)
+    span = width.max(axis=-1) if np.isfinite(width).all() and dims else None
+    every = np.arange(size)
+    jcache: F64 | None = None
+    if with_jac:
+        r, jcache = (np.asarray(a, dtype=np.float64) for a in residuals(x, every))
+    else:
+        r = np.asarray(residuals(x, every), dtype=np.float64)
+    cost = sum_squares(r)
+    lam = np.full(size, float(damping))
+    active = np.isfinite(cost) & (dims > 0)
+    iterations = np.zeros(size, dtype=np.int64)
+    evaluations = np.ones(size, dtype=np.int64)
+    converged = np.zeros(size, dtype=bool)
+    jtj_out = np.full((size, dims, dims), np.nan)
+    eye = np.eye(dims)
+    diagonal = eye.astype(bool)[None]
+    for _ in range(maxiter):
+        idx = np.nonzero(active)[0]
+        if idx.size == 0:
+            break
+        xa, ra = x[idx], r[idx]
+        lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
+        if jac_fn is not None:
+            jtj, jtr = _normal(np.asarray(jac_fn(xa, idx), dtype=np.float64), ra)
+        elif jcache is not None:
+            jtj, jtr = _normal(jcache[idx], ra)
+        else:
+            jac = diff(xa, ra, idx)  # (s, p, a)
+            jtj = np.einsum("spa,sqa->spq", jac, jac)
+            jtr = np.einsum("spa,sa->sp", jac, ra)
+            evaluations[idx] += dims
+        jtj_out[idx] = jtj
+        iterations[idx] += 1
+        # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
+        # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
+        diag = np.einsum("spp->sp", jtj)
+        diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
+        scaled = jtj + lam[idx, None, None] * (diag[:, :, None] * eye[None])
+        ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+        delta = np.zeros_like(xa)
+        blocked = np.zeros(xa.shape, dtype=bool)
+        for _ in range(2):  # solve, then again with the parameters a bound stops held fixed
+            system, rhs = scaled[ok].copy(), -jtr[ok]
+            held = blocked[ok]
+            system[held[:, :, None] | held[:, None, :]] = 0.0
+            system[held[:, :, None] & diagonal] = 1.0
+            rhs[held] = 0.0
+            delta[ok] = _solve(system, rhs)
+            blocked |= ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
+            if not blocked[ok].any():
+                break
+        trial = np.clip(xa + delta, lo, hi)
+        jt: F64 | None = None
+        if with_jac:
+            rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
+        else:
+            rt = np.asarray(residuals(trial, idx), dtype=np.float64)
+        evaluations[idx] += 1
+        ct = sum_squares(rt)
+        better = ct < cost[idx]
+        gain = np.where(better, (cost[idx] - ct) / np.maximum(cost[idx], 1e-300), 0.0)
+        acc = idx[better]
+        x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
+        if jcache is not None and jt is not None:
+            jcache[acc] = jt[better]
+        lam[acc] = np.maximum(lam[acc] / LAMBDA_DOWN, LAMBDA_MIN)
+        lam[idx[~better]] *= LAMBDA_UP
+        if span is None:
+            w = width if shared else width[idx]
+            scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
+        else:
+            scale = span if shared else span[idx]
+        moved = np.abs(trial - xa).max(axis=1) > xtol * scale
+        stop = (better & (gain < ftol)) | (lam[idx] > LAMBDA_MAX) | ~moved
+        converged[idx[stop & ok]] = True
+        active[idx[stop | ~ok]] = False
+    done = np.nonzero(np.isfinite(cost) & (dims > 0))[0]
+    if jcache is not None:
+        jtj_out[done] = _normal(jcache[done], r[done])[0]
+    elif final_jacobian and done.size:
+        if jac_fn is not None:
+            jac_end = np.asarray(jac_fn(x[done], done), dtype=np.float64)
+            jtj_out[done] = _normal(jac_end, r[done])[0]
+        else:
+            jac = diff(x[done], r[done], done)
+            jtj_out[done] = np.einsum("spa,sqa->spq", jac, jac)
+            evaluations[done] += dims
+    for arr in (x, cost, r, jtj_out, iterations, evaluations, converged):
+        arr.setflags(write=False)
+    return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
+
+
+def _normal(jac: F64, r: F64) -> tuple[F64, F64]:
+    """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a)."""
+    return np.einsum("sap,saq->spq", jac, jac), np.einsum("sap,sa->sp", jac, r)
+
+
+class _Differences:
+    """Forward-difference Jacobians of ``residuals``: steps ``h`` (p,) or (s, p), taken back
+    from the upper bound where a step forward would pass it; a zero step (a held parameter)
+    gives a zero column."""
+
+    def __init__(self, residuals: Residuals, h: F64, upper: F64, shared: bool) -> None:
+        self.residuals, self.h, self.upper, self.shared = residuals, h, upper, shared
+        self.safe = np.where(h > 0.0, h, 1.0)
+
+    def __call__(self, xa: F64, ra: F64, idx: NDArray[np.intp]) -> F64:
+        """Jacobians (m, p, a) — parameters first — at ``xa`` (m, p), residuals ``ra`` (m, a)."""
+        h, safe, hi = ((self.h, self.safe, self.upper) if self.shared
+                       else (self.h[idx], self.safe[idx], self.upper[idx]))
+        dims = xa.shape[1]
+        sign = np.where(xa + h > hi, -1.0, 1.0)
+        probes = xa[:, None, :] + (sign * h)[:, :, None] * np.eye(dims)[None]
+        rp = np.asarray(self.residuals(probes.reshape(-1, dims), np.repeat(idx, dims)),
+                        dtype=np.float64).reshape(idx.size, dims, -1)
+        return np.asarray((rp - ra[:, None, :]) / (sign * safe)[:, :, None])
