@@ -32,6 +32,8 @@ F64 = NDArray[np.float64]
 Residuals = Callable[[F64, NDArray[np.intp]], Any]
 #: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p)
 Jacobian = Callable[[F64, NDArray[np.intp]], F64]
+#: ``project(x, which)``: points (m, p) mapped onto each problem's feasible set within its box
+Projection = Callable[[F64, NDArray[np.intp]], Any]
 
 #: smallest and largest Marquardt λ: a problem whose λ grows beyond the largest has no step that
 #: lowers its cost (a minimum, to rounding)
@@ -88,6 +90,7 @@ def fit_batch(
     step: float = 1e-7,
     damping: float = 1e-3,
     final_jacobian: bool = False,
+    project: Projection | None = None,
 ) -> BatchFit:
     """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
 
@@ -126,6 +129,11 @@ def fit_batch(
         ``jtj`` is exactly at ``x``. Without it, ``jtj`` is that of the last linearisation:
         at ``x`` itself, or one accepted step before it when the fit stopped on a small change
         of the cost; with ``jacobian=True`` it is always at ``x``.
+    project : callable, optional
+        ``project(x, which)`` → (m, p): a feasible set within the box that is not a box (a
+        disc, say), as the nearest feasible points; applied to the starts and to every trial
+        point after the bounds' clip. A step it maps back onto the current point ends the fit
+        (converged: the minimum over the set lies on its edge).
 
     Returns
     -------
@@ -149,6 +157,8 @@ def fit_batch(
     with_jac = jacobian is True
     jac_fn = jacobian if callable(jacobian) else None
     x = np.clip(x, lower, upper)
+    if project is not None:
+        x = np.array(project(x, np.arange(size)), dtype=np.float64)
     diff = _Differences(residuals, step * width, upper, shared)
     # the xtol test's scale: the widest bound of each problem (None: some are infinite)
     span = width.max(axis=-1) if np.isfinite(width).all() and dims else None
@@ -203,6 +213,8 @@ def fit_batch(
             if not blocked[ok].any():
                 break
         trial = np.clip(xa + delta, lo, hi)
+        if project is not None:
+            trial = np.asarray(project(trial, idx), dtype=np.float64)
         jt: F64 | None = None
         if with_jac:
             rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
