@@ -84,6 +84,7 @@ from magcilia.model import Centreline, SpatialCentreline, exact_field
 from magcilia.readout import (
     ActuatedReadout,
     ArrayEstimate,
+    ArrayEstimates,
     ArrayFlag,
     ArrayMetrics,
     ArrayReadout,
@@ -111,6 +112,7 @@ __all__ = [
     "ActuatedReadout",
     "Actuation",
     "ArrayEstimate",
+    "ArrayEstimates",
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",

@@ -8,7 +8,7 @@
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
-* :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``channels``, ``rest``,
+* :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``inputs``, ``rest``,
   ``read``, ``tare``), the one :class:`Flag` set and the result's shape (:class:`ReadoutValues`);
 * :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
   read-out and of the live tare;
@@ -22,6 +22,7 @@ from __future__ import annotations
 from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
 from magcilia.readout.array import (
     ArrayEstimate,
+    ArrayEstimates,
     ArrayFlag,
     ArrayMetrics,
     ArrayReadout,
@@ -52,6 +53,7 @@ __all__ = [
     "QUANTITIES",
     "ActuatedReadout",
     "ArrayEstimate",
+    "ArrayEstimates",
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",

@@ -502,7 +502,7 @@ class BiaxialReadout(Display):
             rw = root_w[which]
             return rw * (val - y[which]), np.stack([jx, jy], -1) * rw[..., None]
 
-        def disc(x: F64, which: NDArray[np.intp]) -> F64:
+        def disc(x: F64, _which: NDArray[np.intp]) -> F64:
             return np.stack(onto_disc(x[:, 0], x[:, 1], edge)[:2], -1)
 
         f_max = float(self.forces[-1])
