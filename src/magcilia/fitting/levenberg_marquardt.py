@@ -30,8 +30,9 @@ F64 = NDArray[np.float64]
 #: ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row i
 #: belonging to problem ``which[i]``
 Residuals = Callable[[F64, NDArray[np.intp]], Any]
-#: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p)
-Jacobian = Callable[[F64, NDArray[np.intp]], F64]
+#: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p), or the pair
+#: (J, JᵀJ) with JᵀJ (m, p, p) when the caller keeps it (a cached Jacobian)
+Jacobian = Callable[[F64, NDArray[np.intp]], Any]
 #: ``project(x, which)``: points (m, p) mapped onto each problem's feasible set within its box
 Projection = Callable[[F64, NDArray[np.intp]], Any]
 
@@ -110,7 +111,8 @@ def fit_batch(
         with lower = upper is held). Infinite bounds need a ``jacobian``.
     jacobian : callable, True or None
         ``jacobian(x, which)`` → (m, a, p), the analytic Jacobian (called once per iteration
-        at the problems' current points: a caller may return a cached one for chord steps);
+        at the problems' current points: a caller may return a cached one for chord steps, and
+        then the pair (J, JᵀJ) with the JᵀJ (m, p, p) it keeps with it);
         True: ``residuals`` returns it with the residuals; None: forward differences of
         ``step`` times each bound's width, stepping back from the upper bound.
     maxiter : int
@@ -121,8 +123,9 @@ def fit_batch(
         … or when its step moves no parameter by more than this fraction of its problem's
         widest bound (or of its largest ``|x|`` where the bounds are infinite).
     atol : float
-        … or when a step lowers its cost by less than this amount (the residuals' units
-        squared; 0: never): a tolerance on χ² itself where the residuals are whitened.
+        … or when a step changes its cost by less than this amount, up or down (the
+        residuals' units squared; 0: never): a tolerance on χ² itself where the residuals are
+        whitened (the better of the two points is kept).
     step : float
         Forward-difference step as a fraction of each bound's width.
     damping : float
@@ -188,7 +191,7 @@ def fit_batch(
         xa, ra = x[idx], r[idx]
         lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
         if jac_fn is not None:
-            jtj, jtr = _normal(np.asarray(jac_fn(xa, idx), dtype=np.float64), ra)
+            jtj, jtr = _normal(jac_fn(xa, idx), ra)
         elif jcache is not None:
             jtj, jtr = _normal(jcache[idx], ra)
         else:
@@ -228,7 +231,7 @@ def fit_batch(
         ct = sum_squares(rt)
         better = ct < cost[idx]
         gain = np.where(better, (cost[idx] - ct) / np.maximum(cost[idx], 1e-300), 0.0)
-        drop = np.where(better, cost[idx] - ct, 0.0)
+        change = np.abs(np.where(np.isfinite(ct), cost[idx] - ct, np.inf))
         acc = idx[better]
         x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
         if jcache is not None and jt is not None:
@@ -241,8 +244,8 @@ def fit_batch(
         else:
             scale = span if shared else span[idx]
         moved = np.abs(trial - xa).max(axis=1) > xtol * scale
-        small = (gain < ftol) | (drop < atol)
-        stop = (better & small) | (lam[idx] > LAMBDA_MAX) | ~moved
+        stop = ((better & (gain < ftol)) | (change < atol) | (lam[idx] > LAMBDA_MAX)
+                | ~moved)
         converged[idx[stop & ok]] = True
         active[idx[stop | ~ok]] = False
     done = np.nonzero(np.isfinite(cost) & (dims > 0))[0]
@@ -250,8 +253,7 @@ def fit_batch(
         jtj_out[done] = _normal(jcache[done], r[done])[0]
     elif final_jacobian and done.size:
         if jac_fn is not None:
-            jac_end = np.asarray(jac_fn(x[done], done), dtype=np.float64)
-            jtj_out[done] = _normal(jac_end, r[done])[0]
+            jtj_out[done] = _normal(jac_fn(x[done], done), r[done])[0]
         else:
             jac = diff(x[done], r[done], done)
             jtj_out[done] = np.einsum("spa,sqa->spq", jac, jac)
@@ -261,10 +263,17 @@ def fit_batch(
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
 
 
-def _normal(jac: F64, r: F64) -> tuple[F64, F64]:
-    """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a)."""
-    jt = jac.transpose(0, 2, 1)  # batched matmul: BLAS per problem (einsum loops in C)
-    return np.matmul(jt, jac), np.matmul(jt, r[:, :, None])[:, :, 0]
+def _normal(jac: Any, r: F64) -> tuple[F64, F64]:
+    """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a); ``jac`` may be
+    a pair (J, JᵀJ) where the caller keeps JᵀJ with a cached Jacobian."""
+    gram = None
+    if isinstance(jac, tuple):
+        jac, gram = jac
+    jt = np.asarray(jac, dtype=np.float64).transpose(0, 2, 1)  # matmul: BLAS per problem
+    jtr = np.matmul(jt, r[:, :, None])[:, :, 0]
+    if gram is None:
+        return np.matmul(jt, jt.transpose(0, 2, 1)), jtr
+    return np.asarray(gram, dtype=np.float64), jtr
 
 
 class _Differences:

@@ -37,8 +37,10 @@ F64 = NDArray[np.float64]
 JACOBIAN_STEP = 1e-6
 #: the inverse recomputes a sample's Jacobian where its estimate moved farther than this (a
 #: fraction of the span in some component) from where the last was taken, else keeps the last
-#: one (chord steps: one model evaluation per iteration)
-REFRESH_STEP = 1e-2
+#: one (chord steps: one model evaluation per iteration). Chord steps end where the cached
+#: Jacobian is orthogonal to the residuals: with noisy readings ~1e-3 σ off the minimum for
+#: 1e-3 of the span (the former 1e-2 left ~0.04 σ, at about the same cost)
+REFRESH_STEP = 1e-3
 #: central-difference step of the crosstalk matrix, as a fraction of the span
 CROSSTALK_STEP = 1e-4
 #: the inverse's box, in spans (the Tikhonov prior's scale: 1/√α = 1000 spans by default)
@@ -379,6 +381,18 @@ class ArrayReadout(Display):
                               self.span.copy(), out["iterations"], out["converged"],
                               out["chi2"], out["used"], scale_notes(moduli))
 
+    def read_one(self, readings: ArrayLike, /, *, noise: ArrayLike | None = None
+                 ) -> ArrayEstimate:
+        """:meth:`read` of one set of readings, (3 S,) or (S, 3), T: its
+        :class:`ArrayEstimate` (the full covariance), typed as such."""
+        y = np.asarray(readings, dtype=np.float64)
+        if y.size != self.rest.size:
+            raise v.fail("readings", f"an array of shape {y.shape}",
+                         f"shape ({self.rest.size},) or ({self.array.n_sensors}, 3): one set")
+        out = self.read(y.reshape(-1), noise=noise)
+        assert isinstance(out, ArrayEstimate)
+        return out
+
     def _jacobians(self, forces: F64, step: F64, each: F64 | None = None) -> F64:
         """Jacobians (m, 3 S, 2 C), T/N, of the model readings at force vectors (m, C, 2), N,
         by forward differences of ``step`` (C,) N (every cilium stepped at once: a cilium's
@@ -416,7 +430,8 @@ class ArrayReadout(Display):
             x0[rows] = np.linalg.solve(jw.T @ jw + alpha * eye, rhs).T
         step = JACOBIAN_STEP * self.span
         cache_at = np.full((n, p), np.nan)  # where each sample's Jacobian was taken
-        cache = np.zeros((n, y.shape[1], p))  # the model's Jacobian there, T per unit x
+        cache = np.zeros((n, y.shape[1], p))  # the whitened Jacobian there, per unit x
+        gram = np.zeros((n, p, p))  # its JᵀJ + α I
         last_at = np.full((n, p), np.nan)  # each sample's last point evaluated, and its
         last = np.zeros((n, c_n, self.array.n_sensors, 3))  # cilia's fields there
 
@@ -427,37 +442,41 @@ class ArrayReadout(Display):
             f = each.sum(axis=1).reshape(rows.size, -1)
             return np.concatenate([w[rows] * (f - y[rows]), root_alpha * x], axis=1)
 
-        def jacobian(x: F64, rows: NDArray[np.intp]) -> F64:
+        def jacobian(x: F64, rows: NDArray[np.intp]) -> tuple[F64, F64]:
             # a fresh Jacobian only where the point moved far from the last one (chord steps)
             stale = ~(np.abs(x - cache_at[rows]).max(axis=1) <= REFRESH_STEP)
             if stale.any():
                 fresh = rows[stale]
                 known = bool(np.all(last_at[fresh] == x[stale]))
-                cache[fresh] = scale * self._jacobians(
+                jw = w[fresh][:, :, None] * scale * self._jacobians(
                     x[stale].reshape(-1, c_n, 2) * self.span[:, None], step,
                     last[fresh] if known else None)
+                cache[fresh] = jw
+                gram[fresh] = np.matmul(jw.transpose(0, 2, 1), jw) + alpha * eye
                 cache_at[fresh] = x[stale]
-            top = cache[rows] * w[rows][:, :, None]
-            return np.concatenate([top, np.broadcast_to(root_alpha * eye, (rows.size, p, p))],
-                                  axis=1)
+            full = np.concatenate([cache[rows], np.broadcast_to(root_alpha * eye,
+                                                                (rows.size, p, p))], axis=1)
+            return full, gram[rows]
 
+        # chord steps converge to where the *cached* Jacobian is orthogonal to the residuals:
+        # off the minimum by ~1e-3 σ with noisy readings for a Jacobian within REFRESH_STEP
         fit = fit_batch(residuals, x0, np.full(p, -BOUND), np.full(p, BOUND),
                         jacobian=jacobian, maxiter=self.max_iterations, ftol=0.0,
                         xtol=FIT_XTOL, atol=self.tolerance, damping=1e-3)
-        x = np.asarray(fit.x)
-        a = np.asarray(fit.jtj)  # JᵀWJ + α I of the last linearisation
+        x, a, converged = np.asarray(fit.x), np.asarray(fit.jtj), np.asarray(fit.converged)
         a_inv = np.linalg.inv(a)
         # covariance of x: A⁻¹ JᵀWJ A⁻¹ = A⁻¹ − α A⁻², and a tare's shared error G S Gᵀ
-        tare_se = None if self.baseline is None else np.asarray(self.baseline.standard_error)
+        tare_var = np.zeros(y.shape[1]) if self.baseline is None else np.asarray(
+            self.baseline.standard_error) ** 2
         gain = None
-        if tare_se is not None and np.any(tare_se > 0.0):
-            gain = a_inv @ (cache * (w * w)[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
+        if np.any(tare_var > 0.0):
+            gain = a_inv @ (cache * w[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
         force = x.reshape(n, c_n, 2) * self.span[:, None]
         moduli = [setup.modulus for setup in self.array.cilia]
         if full:
             cov_x = a_inv - alpha * (a_inv @ a_inv)
             if gain is not None:
-                cov_x = cov_x + (gain * tare_se**2) @ gain.transpose(0, 2, 1)
+                cov_x = cov_x + (gain * tare_var) @ gain.transpose(0, 2, 1)
             cov_scale = array_scale_covariance(force, moduli)
             cov = cov_x * np.outer(scale, scale) + cov_scale
             idx = np.arange(c_n)
@@ -471,7 +490,7 @@ class ArrayReadout(Display):
             cov_b = cov_b.transpose(1, 0, 2, 3) - alpha * sq
             if gain is not None:
                 g = gain.reshape(n, c_n, 2, -1)
-                cov_b = cov_b + np.einsum("ncis,s,ncjs->ncij", g, tare_se**2, g)
+                cov_b = cov_b + np.einsum("ncis,s,ncjs->ncij", g, tare_var, g)
             span2 = self.span[:, None, None] ** 2
             covariance_scale = array_scale_blocks(force, moduli)
             blocks = covariance = cov_b * span2 + covariance_scale
@@ -487,13 +506,12 @@ class ArrayReadout(Display):
                                                           perp)) / safe, np.inf)
         flags = np.zeros((n, c_n), dtype=FLAG_DTYPE)
         flags[mag > self.span * (1.0 + 1e-9)] |= FLAG_DTYPE(Flag.ABOVE_SPAN)
-        flags[~fit.converged] |= FLAG_DTYPE(Flag.NOT_CONVERGED)
-        resid = np.asarray(fit.residuals)[:, :y.shape[1]]
+        flags[~converged] |= FLAG_DTYPE(Flag.NOT_CONVERGED)
         return {"force": force, "sigma": sig, "magnitude": mag, "sigma_magnitude": s_mag,
                 "direction": direction, "sigma_direction": s_dir, "covariance": covariance,
                 "covariance_scale": covariance_scale, "flags": flags,
-                "iterations": fit.iterations.astype(np.int64),
-                "converged": np.array(fit.converged), "chi2": np.einsum("na,na->n", resid, resid),
+                "iterations": fit.iterations.astype(np.int64), "converged": converged.copy(),
+                "chi2": fit.cost - alpha * np.einsum("np,np->n", x, x),
                 "used": np.count_nonzero(w, axis=1).astype(np.int64)}
 
     def sigma_at_rest(self) -> F64:
