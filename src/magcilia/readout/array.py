@@ -30,7 +30,7 @@ tare's measured spread), f the tabulated model. The one batched least squares
 (:func:`magcilia.fitting.fit_batch`; n samples at once: one kernel call evaluates the model of
 all of them) from the linear solution ``(JᵀWJ + α/span²)⁻¹ JᵀW (y − f(0))``, with the Jacobian
 by forward differences (step 1e-6 of the span, all cilia in one kernel call; a sample's
-Jacobian is taken again only after its estimate moved by more than 1e-3 of the span: chord
+Jacobian is taken again only after its estimate moved by more than 1e-2 of the span: chord
 steps near the solution). The Tikhonov weight α (``regularization``, dimensionless,
 default 1e-6) acts as a prior of span/√α (1000 spans) on each component: it steadies the
 solve and biases an estimate by about α / (α + (span · response / σ)²) of itself, ~1e-12 for a

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number, si
 from magcilia.device.array import CiliaArray
+from magcilia.device.stiffness import Modulus
 from magcilia.fitting import fit_batch
 from magcilia.model.array import segment_field
 from magcilia.readout.array_checks import check_reach, check_singular
@@ -38,9 +39,9 @@ JACOBIAN_STEP = 1e-6
 #: the inverse recomputes a sample's Jacobian where its estimate moved farther than this (a
 #: fraction of the span in some component) from where the last was taken, else keeps the last
 #: one (chord steps: one model evaluation per iteration). Chord steps end where the cached
-#: Jacobian is orthogonal to the residuals: with noisy readings ~1e-3 σ off the minimum for
-#: 1e-3 of the span (the former 1e-2 left ~0.04 σ, at about the same cost)
-REFRESH_STEP = 1e-3
+#: Jacobian is orthogonal to the residuals: with noisy readings up to a few hundredths of σ off
+#: the minimum (1e-3 takes that to ~1e-3 σ, at about 30 % more model evaluations)
+REFRESH_STEP = 1e-2
 #: central-difference step of the crosstalk matrix, as a fraction of the span
 CROSSTALK_STEP = 1e-4
 #: the inverse's box, in spans (the Tikhonov prior's scale: 1/√α = 1000 spans by default)
@@ -48,6 +49,7 @@ BOUND = 1e3
 #: the inverse has converged when a step moves no component by more than this fraction of
 #: the box (1e-7 of a span) …, or lowers χ² by less than ``tolerance``
 FIT_XTOL = 1e-7 / (2 * BOUND)
+DAMPING = 1e-12
 #: samples per block of :meth:`ArrayReadout.read` (the cached Jacobians stay small)
 BLOCK = 256
 
@@ -121,6 +123,7 @@ class ArrayReadout(Display):
     jacobian: F64
     columns: tuple[NDArray[np.int64], ...]
     baseline: Tare | None
+    _scale: tuple[tuple[Modulus, ...], str]
 
     def __init__(self, array: CiliaArray, span: float | ArrayLike, *, table_size: int = 33,
                  regularization: float = 1e-6, max_iterations: int = 30,
@@ -156,6 +159,8 @@ class ArrayReadout(Display):
         set_(self, "tolerance", v.positive("tolerance", tolerance, "", "fraction"))
         set_(self, "tables", tuple(tables))
         set_(self, "kinds", kinds)
+        moduli = tuple(setup.modulus for setup in array.cilia)  # the force scale, made once
+        set_(self, "_scale", (moduli, scale_notes(moduli)))
         lay = array.layout
         cols = []
         for setup in array.cilia:
@@ -364,7 +369,6 @@ class ArrayReadout(Display):
                 informed = np.abs(self.jacobian / sigma[:, None]) * np.repeat(self.span, 2) >= 1.0
                 hit = (bad.astype(np.float64) @ informed).reshape(len(y), -1, 2).any(axis=2)
                 flags |= hit.astype(FLAG_DTYPE) * FLAG_DTYPE(flag)
-        moduli = [setup.modulus for setup in arr.cilia]
         for item in out.values():
             item.setflags(write=False)
         if one:
@@ -374,12 +378,12 @@ class ArrayReadout(Display):
                                  out["covariance"][0], flags[0], self.span.copy(),
                                  int(out["iterations"][0]), bool(out["converged"][0]),
                                  float(out["chi2"][0]), int(out["used"][0]),
-                                 out["covariance_scale"][0], scale_notes(moduli))
+                                 out["covariance_scale"][0], self._scale[1])
         return ArrayEstimates(arr.names, out["force"], out["sigma"], out["magnitude"],
                               out["sigma_magnitude"], out["direction"], out["sigma_direction"],
                               out["covariance"], out["covariance_scale"], flags,
                               self.span.copy(), out["iterations"], out["converged"],
-                              out["chi2"], out["used"], scale_notes(moduli))
+                              out["chi2"], out["used"], self._scale[1])
 
     def read_one(self, readings: ArrayLike, /, *, noise: ArrayLike | None = None
                  ) -> ArrayEstimate:
@@ -422,7 +426,10 @@ class ArrayReadout(Display):
         # start: the linear solution about rest, one solve per pattern of readings left out
         j0 = self.jacobian * scale
         x0 = np.empty((n, p))
-        patterns, which = np.unique(w, axis=0, return_inverse=True)
+        if np.all(w == w[0]):  # the common case: every reading used in every sample
+            patterns, which = w[:1], np.zeros(n, dtype=np.intp)
+        else:
+            patterns, which = np.unique(w, axis=0, return_inverse=True)
         for k, wk in enumerate(patterns):
             rows = np.flatnonzero(which.reshape(-1) == k)
             jw = j0 * wk[:, None]
@@ -430,7 +437,9 @@ class ArrayReadout(Display):
             x0[rows] = np.linalg.solve(jw.T @ jw + alpha * eye, rhs).T
         step = JACOBIAN_STEP * self.span
         cache_at = np.full((n, p), np.nan)  # where each sample's Jacobian was taken
-        cache = np.zeros((n, y.shape[1], p))  # the whitened Jacobian there, per unit x
+        m = y.shape[1]
+        cache = np.zeros((n, m + p, p))  # the whitened Jacobian there, per unit x, with the
+        cache[:, m:] = root_alpha * eye  # Tikhonov rows
         gram = np.zeros((n, p, p))  # its JᵀJ + α I
         last_at = np.full((n, p), np.nan)  # each sample's last point evaluated, and its
         last = np.zeros((n, c_n, self.array.n_sensors, 3))  # cilia's fields there
@@ -451,18 +460,18 @@ class ArrayReadout(Display):
                 jw = w[fresh][:, :, None] * scale * self._jacobians(
                     x[stale].reshape(-1, c_n, 2) * self.span[:, None], step,
                     last[fresh] if known else None)
-                cache[fresh] = jw
+                cache[fresh, :m] = jw
                 gram[fresh] = np.matmul(jw.transpose(0, 2, 1), jw) + alpha * eye
                 cache_at[fresh] = x[stale]
-            full = np.concatenate([cache[rows], np.broadcast_to(root_alpha * eye,
-                                                                (rows.size, p, p))], axis=1)
-            return full, gram[rows]
+            if rows.size == n:  # every sample still active: no copies
+                return cache, gram
+            return cache[rows], gram[rows]
 
-        # chord steps converge to where the *cached* Jacobian is orthogonal to the residuals:
-        # off the minimum by ~1e-3 σ with noisy readings for a Jacobian within REFRESH_STEP
+        # chord steps converge to where the *cached* Jacobian is orthogonal to the residuals
+        # (off the minimum by a few hundredths of σ with noisy readings: REFRESH_STEP)
         fit = fit_batch(residuals, x0, np.full(p, -BOUND), np.full(p, BOUND),
                         jacobian=jacobian, maxiter=self.max_iterations, ftol=0.0,
-                        xtol=FIT_XTOL, atol=self.tolerance, damping=1e-3)
+                        xtol=FIT_XTOL, atol=self.tolerance, damping=DAMPING)
         x, a, converged = np.asarray(fit.x), np.asarray(fit.jtj), np.asarray(fit.converged)
         a_inv = np.linalg.inv(a)
         # covariance of x: A⁻¹ JᵀWJ A⁻¹ = A⁻¹ − α A⁻², and a tare's shared error G S Gᵀ
@@ -470,9 +479,9 @@ class ArrayReadout(Display):
             self.baseline.standard_error) ** 2
         gain = None
         if np.any(tare_var > 0.0):
-            gain = a_inv @ (cache * w[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
+            gain = a_inv @ (cache[:, :m] * w[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
         force = x.reshape(n, c_n, 2) * self.span[:, None]
-        moduli = [setup.modulus for setup in self.array.cilia]
+        moduli = self._scale[0]
         if full:
             cov_x = a_inv - alpha * (a_inv @ a_inv)
             if gain is not None:
