@@ -52,6 +52,14 @@ def sum_squares(r: F64) -> F64:
 
 def _solve(system: F64, rhs: F64) -> F64:
     """Solutions (s, p) of the systems (s, p, p) · δ = rhs (s, p); zero where one is singular."""
+    if system.shape[1] == 2:  # closed form: LAPACK's cost per call dominates 2 × 2 systems
+        a, b = system[:, 0, 0], system[:, 0, 1]
+        c, d = system[:, 1, 0], system[:, 1, 1]
+        det = a * d - b * c
+        good = (det != 0.0) & np.isfinite(det)
+        inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+        return np.stack([(d * rhs[:, 0] - b * rhs[:, 1]) * inv,
+                         (a * rhs[:, 1] - c * rhs[:, 0]) * inv], axis=1)
     try:
         return np.asarray(np.linalg.solve(system, rhs[:, :, None])[:, :, 0])
     except np.linalg.LinAlgError:  # one singular system: solve them one at a time
