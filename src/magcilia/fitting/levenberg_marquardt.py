@@ -218,11 +218,13 @@ def fit_batch(
         delta = np.zeros_like(xa)
         blocked = np.zeros(xa.shape, dtype=bool)
         for _ in range(2):  # solve, then again with the parameters a bound stops held fixed
-            system, rhs = scaled[ok].copy(), -jtr[ok]
+            system, rhs = scaled[ok], -jtr[ok]
             held = blocked[ok]
-            system[held[:, :, None] | held[:, None, :]] = 0.0
-            system[held[:, :, None] & diagonal] = 1.0
-            rhs[held] = 0.0
+            if held.any():  # (the first pass holds none: no copies, no masks)
+                system = system.copy()
+                system[held[:, :, None] | held[:, None, :]] = 0.0
+                system[held[:, :, None] & diagonal] = 1.0
+                rhs[held] = 0.0
             delta[ok] = _solve(system, rhs)
             blocked |= ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
             if not blocked[ok].any():

@@ -345,13 +345,11 @@ class ArrayReadout(Display):
                          "sets: each sensor's three axes, T")
         sigma = self.sigma
         if noise is not None:
-            sig = np.broadcast_to(v.finite_array("noise", noise, unit="T").reshape(-1)
-                                  if np.ndim(noise) else np.asarray(noise, dtype=np.float64),
-                                  (c,)) if np.size(noise) in (1, c) else None
-            if sig is None or np.any(sig <= 0.0):
+            given = v.finite_array("noise", noise, unit="T").reshape(-1)
+            if given.size not in (1, c) or np.any(given <= 0.0):
                 raise v.fail("noise", v.short(noise),
                              f"a positive RMS noise per input ({c} of them, or one), T")
-            sigma = np.array(sig, dtype=np.float64)
+            sigma = np.broadcast_to(given, (c,)).copy()
         missing = ~np.isfinite(y)
         saturated = arr.saturated(np.where(missing, 0.0, y).reshape(-1, arr.n_sensors, 3))
         saturated = saturated.reshape(y.shape) & ~missing
