@@ -129,7 +129,7 @@ class ArrayEstimate(Display):
     span : ndarray, shape (C,)
         Each cilium's span, N.
     iterations : int
-        Levenberg–Marquardt iterations.
+        Least-squares iterations (:func:`magcilia.fitting.fit_batch`).
     converged : bool
         Whether the last step fell below the tolerance.
     chi2 : float
