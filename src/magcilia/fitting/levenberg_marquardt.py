@@ -180,7 +180,7 @@ def fit_batch(
     every = np.arange(size)
     jcache: F64 | None = None
     if with_jac:
-        r, jcache = (np.asarray(a, dtype=np.float64) for a in residuals(x, every))
+        r, jcache = (np.array(a, dtype=np.float64) for a in residuals(x, every))  # own copies
     else:
         r = np.asarray(residuals(x, every), dtype=np.float64)
     cost = sum_squares(r)
