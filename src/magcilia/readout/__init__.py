@@ -3,8 +3,10 @@
 * :mod:`.inverse`: :class:`Readout`, the inverse tables with 1-σ uncertainties and flags, and
   the read-out just beyond the span's ends;
 * :mod:`.biaxial`: :class:`BiaxialReadout`, the horizontal force vector (Fx, Fy) from several
-  field channels (:class:`Channel`; a 3-axis :class:`~magcilia.device.magnetometer.Magnetometer`
-  gives three), with covariance and :class:`ForceFlag` flags (:class:`ForceVectorResult`);
+  field channels (:class:`Channel`, :mod:`.channel`; a 3-axis
+  :class:`~magcilia.device.magnetometer.Magnetometer` gives three), with covariance and
+  :class:`Flag` bits (:class:`ForceVectorResult`, :mod:`.force_vector`); its polar table
+  (:mod:`.polar_table`) and model readings (:mod:`.vector_model`);
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
@@ -13,8 +15,10 @@
 * :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
   read-out and of the live tare;
 * :mod:`.design`: :func:`design_metrics`, sensitivity, minimum detectable signal and range;
-* :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
-  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch).
+* :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (:mod:`.array_readout`:
+  crosstalk, the inverse of all force vectors at once, n samples at once:
+  :class:`ArrayEstimates`), :func:`field_for_loads` (:mod:`.array_model`), :func:`array_metrics`
+  (against pitch); results in :mod:`.array_results`, checks in :mod:`.array_checks`.
 """
 
 from __future__ import annotations
