@@ -57,6 +57,8 @@ def test_biaxial_readout_follows_the_protocol(biaxial: BiaxialReadout) -> None:
     assert res.flags.shape == (5,) and res.flags.dtype == FLAG_DTYPE
     np.testing.assert_array_equal(res.value, np.stack([res.fx, res.fy], -1))
     np.testing.assert_array_equal(res.sigma, np.stack([res.sigma_fx, res.sigma_fy], -1))
+    empty = biaxial.read(samples[:0])
+    assert empty.value.shape == (0, 2) and empty.flags.shape == (0,)
     tared = biaxial.tare(samples)
     assert isinstance(tared, BiaxialReadout) and tared.baseline is not None
     assert tared.baseline.unit == "T" and tared.baseline.names == biaxial.inputs
@@ -82,6 +84,9 @@ def test_array_readout_follows_the_protocol(array: ArrayReadout) -> None:
     assert one.flags.dtype == FLAG_DTYPE
     doc = json.loads(json_text(res.to_dict()))
     assert np.asarray(doc["force_N"]).shape == (3, 4, 2)
+    empty = array.read(samples[:0])  # no samples (a view's quiet moment): empty results
+    assert isinstance(empty, ArrayEstimates) and empty.value.shape == (0, 4, 2)
+    assert empty.flags.shape == (0, 4) and "0 samples" in empty.report()
     assert len(res.to_dataframe()) == 12 and "4 cilia in 3 samples" in res.report()
 
 

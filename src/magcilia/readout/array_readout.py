@@ -359,7 +359,8 @@ class ArrayReadout(Display):
         y = np.where(missing, 0.0, y)
         parts = [self._solve(y[i:i + BLOCK], weight[i:i + BLOCK], full=one)
                  for i in range(0, y.shape[0], BLOCK)]
-        out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        out = ({k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts
+               else self._empty())
         flags = out["flags"]
         for bad, flag in ((saturated, Flag.SATURATED), (missing, Flag.MISSING)):
             if bad.any():  # the cilia a left-out reading informs (≥ 1 σ over the span)
@@ -393,6 +394,18 @@ class ArrayReadout(Display):
         out = self.read(y.reshape(-1), noise=noise)
         assert isinstance(out, ArrayEstimate)
         return out
+
+    def _empty(self) -> dict[str, Any]:
+        """:meth:`_solve`'s arrays for no samples."""
+        c_n = len(self.array)
+        return {"force": np.zeros((0, c_n, 2)), "sigma": np.zeros((0, c_n, 2)),
+                **{k: np.zeros((0, c_n)) for k in ("magnitude", "sigma_magnitude", "direction",
+                                                    "sigma_direction")},
+                "covariance": np.zeros((0, c_n, 2, 2)),
+                "covariance_scale": np.zeros((0, c_n, 2, 2)),
+                "flags": np.zeros((0, c_n), dtype=FLAG_DTYPE),
+                "iterations": np.zeros(0, dtype=np.int64), "converged": np.zeros(0, dtype=bool),
+                "chi2": np.zeros(0), "used": np.zeros(0, dtype=np.int64)}
 
     def _jacobians(self, forces: F64, step: F64, each: F64 | None = None) -> F64:
         """Jacobians (m, 3 S, 2 C), T/N, of the model readings at force vectors (m, C, 2), N,
