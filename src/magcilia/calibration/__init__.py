@@ -1,7 +1,7 @@
 """Calibration: fit the model's parameters to a field-vs-tilt recording (the paper's Sec. III.B).
 
 * :func:`calibrate` (:mod:`.search`): global search (:mod:`.multistart`, many local fits at
-  once by the batched Levenberg–Marquardt of :mod:`.local`) + polish;
+  once by the batched Levenberg–Marquardt of :mod:`magcilia.fitting`) + polish;
 * ``calibrate(model="physical")`` (:mod:`.joint`): several experiments (any tilt azimuth,
   output or 3-axis field) in one fit of the physical model (n, k converged), with priors;
   :class:`JointProblem` is its vectorised objective, :class:`JointCalibrationResult` its result;

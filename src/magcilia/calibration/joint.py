@@ -22,7 +22,7 @@ The model (:class:`JointProblem`):
   priors add the rows ``(p − μ) / σ``.
 
 The search (:func:`calibrate_joint`): Latin-hypercube starts over the bounds, batched
-Levenberg–Marquardt (:mod:`magcilia.calibration.local`) narrowed by successive halving, a
+Levenberg–Marquardt (:mod:`magcilia.fitting`) narrowed by successive halving, a
 ``least_squares`` polish; the covariance from the SVD of the column-equilibrated Jacobian (as
 :mod:`magcilia.calibration.uncertainty`), scaled by the reduced χ² when that exceeds 1.
 """
@@ -36,7 +36,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
@@ -57,8 +56,6 @@ from magcilia.calibration.diagnostics import (
     undetermined_remedy,
     undetermined_warning,
 )
-from magcilia.calibration.local import levenberg_marquardt
-from magcilia.calibration.multistart import latin_hypercube
 from magcilia.calibration.posterior import sample_problem
 from magcilia.calibration.problem import DEFAULT_BOUNDS
 from magcilia.calibration.result import (
@@ -70,6 +67,8 @@ from magcilia.calibration.uncertainty import equilibrated_pinv
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_ranges
 from magcilia.device.setup import Setup
+from magcilia.fitting import fit_batch, latin_hypercube
+from magcilia.fitting import polish as polish_batch
 from magcilia.io.recordings import Measurement
 from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.drag import FLUIDS, Fluid
@@ -486,18 +485,18 @@ def _search(problem: JointProblem, x_init: F64, rng: np.random.Generator,
         return problem.residuals(xs)
 
     while True:
-        fits = levenberg_marquardt(res, x, lo, hi, maxiter=ROUND)
+        fits = fit_batch(res, x, lo, hi, maxiter=ROUND)
         x, cost = fits.x, fits.cost
         if x.shape[0] <= 4 * SURVIVORS:
             x = x[_diverse(x, cost, hi - lo, SURVIVORS)]
             break
         x = x[np.argsort(cost, kind="stable")[:x.shape[0] // 2]]
-    fits = levenberg_marquardt(res, x, lo, hi, maxiter=MAXITER)
+    fits = fit_batch(res, x, lo, hi, maxiter=MAXITER)
     minima, cost = fits.x, fits.cost
     mirrors = mirror_starts(best_of(minima, cost)[0], problem.names, problem.bounds,
                             y_sign_determined(problem.experiments))
     if mirrors.size:
-        more = levenberg_marquardt(res, mirrors, lo, hi, maxiter=MAXITER)
+        more = fit_batch(res, mirrors, lo, hi, maxiter=MAXITER)
         minima, cost = np.concatenate([minima, more.x]), np.concatenate([cost, more.cost])
     i = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))
     minima[i] = polish(problem, minima[i])
@@ -509,18 +508,8 @@ def polish(problem: JointProblem, x: F64) -> F64:
     """A ``least_squares`` polish of ``x`` (p,) on ``problem`` within its bounds (200 residual
     evaluations at most); ``x`` itself when the polish does not lower the χ²."""
     lo, hi = problem.bounds[:, 0], problem.bounds[:, 1]
-
-    def one(z: F64) -> F64:
-        return problem.residuals(z)[0]
-
-    try:
-        sol = least_squares(one, x, bounds=(lo, hi), x_scale=hi - lo, method="trf",
-                            xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=200)
-    except ValueError:  # a start on a bound face of zero width
-        return x
-    if problem.cost(sol.x)[0] <= problem.cost(x)[0]:
-        return np.asarray(sol.x, dtype=np.float64)
-    return x
+    fit = polish_batch(lambda z, _: problem.residuals(z), x, lo, hi, max_nfev=200)
+    return fit.x[0]
 
 
 def _search_loads(problem: JointProblem, experiments: list[Measurement], initial: Setup,

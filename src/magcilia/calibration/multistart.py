@@ -15,8 +15,9 @@ Steps:
 
 1. ``starts`` points of a Latin hypercube over the box (integers rounded), the initial setup
    among them;
-2. successive halving: ``ROUND`` Levenberg–Marquardt iterations for all of them, keep the better
-   half, repeat until ``SURVIVORS`` remain; these run to convergence;
+2. successive halving (:func:`magcilia.fitting.halving`): ``ROUND`` Levenberg–Marquardt
+   iterations for all of them (:func:`magcilia.fitting.fit_batch`), keep the better half, repeat
+   until ``SURVIVORS`` remain; these run to convergence;
 3. the ``PROFILED`` best distinct solutions are refitted for every (n, k) within the bounds,
    by the same halving (``PROFILE_ROUND`` iterations per round: they start near a solution).
 
@@ -30,8 +31,8 @@ import logging
 import numpy as np
 from numpy.typing import NDArray
 
-from magcilia.calibration.local import levenberg_marquardt
 from magcilia.calibration.problem import Problem, named
+from magcilia.fitting import Residuals, fit_batch, halving, latin_hypercube
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -47,13 +48,8 @@ PROFILED = 4
 #: most iterations of a local fit run to convergence
 MAXITER = 60
 
-
-def latin_hypercube(size: int, lower: F64, upper: F64, rng: np.random.Generator) -> F64:
-    """``size`` points, shape (size, p), stratified in each coordinate between ``lower`` and
-    ``upper`` (p,): one point in each of ``size`` equal slabs of every axis, slabs paired at
-    random."""
-    strata = rng.permuted(np.tile(np.arange(size), (lower.size, 1)), axis=1).T
-    return lower + (strata + rng.random(strata.shape)) / size * (upper - lower)
+__all__ = ["MAXITER", "PROFILED", "PROFILE_ROUND", "ROUND", "SURVIVORS", "Box", "latin_hypercube",
+           "local_fits", "search"]
 
 
 class Box:
@@ -72,21 +68,27 @@ class Box:
         return np.stack(np.meshgrid(*grids, indexing="ij"), axis=-1).reshape(-1, len(grids))
 
 
-def local_fits(problem: Problem, box: Box, x: F64, maxiter: int) -> tuple[F64, F64]:
-    """Levenberg–Marquardt fits of the continuous parameters from each row of ``x`` (s, p), the
-    integers held at each row's values: the fitted rows (s, p) and their costs (s,), V²."""
-    cont = box.continuous
+def _residuals_of(problem: Problem, x: F64, cont: NDArray[np.bool_]) -> Residuals:
+    """The residuals of continuous parameters ``xc`` (m, c) whose other parameters (the
+    integers, the fixed ones) are those of the rows ``which`` of ``x`` (s, p)."""
 
     def residuals(xc: F64, which: NDArray[np.intp]) -> F64:
         rows = x[which].copy()
         rows[:, cont] = xc
         return problem.residuals(problem.model(named(rows.T)))[0]
 
+    return residuals
+
+
+def local_fits(problem: Problem, box: Box, x: F64, maxiter: int) -> tuple[F64, F64]:
+    """Levenberg–Marquardt fits of the continuous parameters from each row of ``x`` (s, p), the
+    integers held at each row's values: the fitted rows (s, p) and their costs (s,), V²."""
+    cont = box.continuous
     out = x.copy()
     if not cont.any():
         return out, problem.cost(named(x.T))
-    fits = levenberg_marquardt(residuals, x[:, cont], box.lower[cont], box.upper[cont],
-                               maxiter=maxiter)
+    fits = fit_batch(_residuals_of(problem, x, cont), x[:, cont], box.lower[cont],
+                     box.upper[cont], maxiter=maxiter)
     out[:, cont] = fits.x
     return out, fits.cost
 
@@ -144,13 +146,21 @@ def search(problem: Problem, box: Box, x_init: F64, rng: np.random.Generator,
 
 
 def _halving(problem: Problem, box: Box, x: F64, iterations: int) -> tuple[F64, F64]:
-    """Successive halving of local fits from the rows of ``x`` (s, p): ``iterations`` for all,
-    keep the better half, …, until ``SURVIVORS`` remain, which run to convergence. Returns the
-    survivors (m, p) and their costs (m,)."""
-    while True:
-        x, cost = local_fits(problem, box, x, iterations)
-        logger.debug("halving round: %d fits, best cost %.6g V^2", x.shape[0], float(cost.min()))
-        if x.shape[0] <= SURVIVORS:
-            break
-        x = x[np.argsort(cost, kind="stable")[:max(SURVIVORS, x.shape[0] // 2)]]
-    return local_fits(problem, box, x, MAXITER)
+    """Successive halving of local fits from the rows of ``x`` (s, p)
+    (:func:`magcilia.fitting.halving`): ``iterations`` for all, keep the better half, …, until
+    ``SURVIVORS`` remain, which run to convergence. Returns the survivors (m, p) and their
+    costs (m,)."""
+    cont = box.continuous
+    if not cont.any():  # nothing to fit: the halving keeps the best by cost
+        cost = problem.cost(named(x.T))
+        if x.shape[0] > SURVIVORS:
+            x = x[np.argsort(cost, kind="stable")[:SURVIVORS]]
+        return local_fits(problem, box, x, MAXITER)
+    fits, kept = halving(_residuals_of(problem, x, cont), x[:, cont], box.lower[cont],
+                         box.upper[cont], round_iterations=iterations, survivors=SURVIVORS,
+                         maxiter=MAXITER)
+    logger.debug("halving: %d fits kept of %d, best cost %.6g V^2", kept.size, x.shape[0],
+                 float(fits.cost.min()))
+    out = x[kept]
+    out[:, cont] = fits.x
+    return out, fits.cost

@@ -9,8 +9,8 @@ minimising the sum of squared errors (its eq. 6, with the square the text descri
    vectorised, compiled model call (:func:`magcilia.model.tilt_output_batch`);
 2. solves the parameters that enter the output *linearly* in closed form inside the objective:
    the output offset (or a polynomial bias in the angle) and, optionally, the magnetization scale;
-3. polishes the best candidate with ``least_squares`` (optionally repeating the whole search
-   from fresh samples: ``restarts``);
+3. polishes the best candidate with ``least_squares`` (:func:`magcilia.fitting.polish`),
+   optionally repeating the whole search from fresh samples (``restarts``);
 4. reports standard errors and correlations from the Jacobian, and says plainly which parameters
    the data do not determine (one field component along one tilt path cannot pin seven
    parameters).
@@ -33,7 +33,6 @@ from typing import Literal, overload
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
@@ -66,6 +65,7 @@ from magcilia.calibration.uncertainty import uncertainty
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_dipoles, check_ranges
 from magcilia.device.setup import Setup
+from magcilia.fitting import polish
 from magcilia.io.recordings import Measurement
 
 logger = logging.getLogger(__name__)
@@ -480,28 +480,18 @@ def _y_sign_of(x: F64, y_initial: float, y_bounds: tuple[float, float]) -> F64:
 
 def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
             integrality: NDArray[np.bool_]) -> tuple[float, F64]:
-    """Local least-squares polish of the continuous parameters (n, k fixed)."""
-    cont = ~integrality & (lower < upper)
+    """Local least-squares polish (:func:`magcilia.fitting.polish`) of the continuous
+    parameters, the integers (n, k) held at their rounded values: its cost (V², at most
+    :data:`NONFINITE_COST`) and point (p,)."""
     x = np.array(x, dtype=np.float64)
     x[integrality] = np.rint(x[integrality])
-    width = upper - lower
 
-    def resid(xc: F64) -> F64:
-        full = x.copy()
-        full[cont] = xc
-        r, _ = problem.residuals(problem.model(named(full)))
-        # a non-finite model (the element on a dipole) is a bad point, not a crash
-        return np.where(np.isfinite(r[0]), r[0], math.sqrt(NONFINITE_COST / r[0].size))
+    def resid(xs: F64, _: NDArray[np.intp]) -> F64:
+        return problem.residuals(problem.model(named(xs.T)))[0]
 
-    start = np.clip(x[cont], lower[cont], upper[cont])
-    try:
-        sol = least_squares(resid, start, bounds=(lower[cont], upper[cont]), x_scale=width[cont],
-                            method="trf", xtol=1e-12, ftol=1e-14, gtol=1e-12, max_nfev=400)
-        x[cont] = sol.x
-    except ValueError:
-        pass  # start on a bound face with zero width: keep the global optimum
-    r = resid(x[cont])
-    return float(r @ r), x
+    fit = polish(resid, x, np.where(integrality, x, lower), np.where(integrality, x, upper),
+                 max_nfev=400, penalty=NONFINITE_COST)
+    return min(float(fit.cost[0]), NONFINITE_COST), fit.x[0]
 
 
 def _result(problem: Problem, initial: Setup, data: Measurement,

@@ -50,7 +50,7 @@ returns the minima found, best first; :func:`polish` takes the same residual fun
 hands each row to SciPy.
 """
 
-from magcilia.fitting.levenberg_marquardt import fit_batch, sum_squares
+from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, fit_batch, sum_squares
 from magcilia.fitting.multistart import halving, latin_hypercube, multistart
 from magcilia.fitting.polish import NONFINITE_PENALTY, polish
 from magcilia.fitting.result import BatchFit
@@ -58,6 +58,8 @@ from magcilia.fitting.result import BatchFit
 __all__ = [
     "NONFINITE_PENALTY",
     "BatchFit",
+    "Jacobian",
+    "Residuals",
     "fit_batch",
     "halving",
     "latin_hypercube",

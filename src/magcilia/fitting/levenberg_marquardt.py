@@ -121,8 +121,8 @@ def fit_batch(
         ``jacobian(x, which)`` → (m, a, p), the analytic Jacobian (called once per iteration
         at the problems' current points: a caller may return a cached one for chord steps, and
         then the pair (J, JᵀJ) with the JᵀJ (m, p, p) it keeps with it);
-        True: ``residuals`` returns it with the residuals; None: forward differences of
-        ``step`` times each bound's width, stepping back from the upper bound.
+        True: ``residuals`` returns it with the residuals; None (or False): forward
+        differences of ``step`` times each bound's width, stepping back from the upper bound.
     maxiter : int
         Most iterations (linearisations) per problem.
     ftol : float
@@ -163,6 +163,7 @@ def fit_batch(
         raise v.fail("x0", f"an array of shape {x.shape}", "shape (s, p) or (p,)")
     size, dims = x.shape
     lower, upper = bounds_of(lower, upper, size, dims)
+    jacobian = None if jacobian is False else jacobian
     shared = lower.ndim == 1
     width = upper - lower
     if jacobian is None and not np.isfinite(width).all():
@@ -178,25 +179,21 @@ def fit_batch(
     # the xtol test's scale: the widest bound of each problem (None: some are infinite)
     span = width.max(axis=-1) if np.isfinite(width).all() and dims else None
     every = np.arange(size)
-    jcache: F64 | None = None
-    if with_jac:
-        r, jcache = (np.array(a, dtype=np.float64) for a in residuals(x, every))  # own copies
-    else:
-        r = np.asarray(residuals(x, every), dtype=np.float64)
+    r, jcache = _evaluate(residuals, x, every, with_jac)
+    r = r.copy()  # updated in place below: never the caller's own array
+    jcache = None if jcache is None else jcache.copy()
     cost = sum_squares(r)
     lam = np.full(size, float(damping))
-    active = np.isfinite(cost) & (dims > 0)
     iterations = np.zeros(size, dtype=np.int64)
-    evaluations = np.ones(size, dtype=np.int64)
     converged = np.zeros(size, dtype=bool)
     jtj_out = np.full((size, dims, dims), np.nan)
     eye = np.eye(dims)
     diagonal = eye.astype(bool)[None]
-    for _ in range(maxiter):
-        idx = np.nonzero(active)[0]
+    idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
+    for k in range(maxiter):
         if idx.size == 0:
             break
-        xa, ra = x[idx], r[idx]
+        xa, ra, ca, la = x[idx], r[idx], cost[idx], lam[idx]
         lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
         if jac_fn is not None:
             jtj, jtr = _normal(jac_fn(xa, idx), ra)
@@ -204,60 +201,61 @@ def fit_batch(
             jtj, jtr = _normal(jcache[idx], ra)
         else:
             jac = diff(xa, ra, idx)  # (s, p, a)
-            jtj = np.einsum("spa,sqa->spq", jac, jac)
-            jtr = np.einsum("spa,sa->sp", jac, ra)
-            evaluations[idx] += dims
-        jtj_out[idx] = jtj
-        iterations[idx] += 1
+            jtj = jac @ jac.transpose(0, 2, 1)
+            jtr = (jac @ ra[:, :, None])[:, :, 0]
         # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
         # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
-        diag = np.einsum("spp->sp", jtj)
+        diag = jtj.diagonal(axis1=1, axis2=2)
         diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
-        scaled = jtj + lam[idx, None, None] * (diag[:, :, None] * eye[None])
+        scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
         ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
-        delta = np.zeros_like(xa)
-        blocked = np.zeros(xa.shape, dtype=bool)
-        for _ in range(2):  # solve, then again with the parameters a bound stops held fixed
-            system, rhs = scaled[ok], -jtr[ok]
-            held = blocked[ok]
-            if held.any():  # (the first pass holds none: no copies, no masks)
-                system = system.copy()
-                system[held[:, :, None] | held[:, None, :]] = 0.0
-                system[held[:, :, None] & diagonal] = 1.0
-                rhs[held] = 0.0
-            delta[ok] = _solve(system, rhs)
-            blocked |= ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
-            if not blocked[ok].any():
-                break
-        trial = np.clip(xa + delta, lo, hi)
+        if ok.all():
+            delta = _solve(scaled, -jtr)
+        else:
+            delta = np.zeros_like(xa)
+            delta[ok] = _solve(scaled[ok], -jtr[ok])
+        # a parameter on a bound whose step points outward is held: solve those again without it
+        blocked = ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
+        again = blocked.any(axis=1)
+        if again.any():
+            system, rhs, held = scaled[again], -jtr[again], blocked[again]
+            system[held[:, :, None] | held[:, None, :]] = 0.0
+            system[held[:, :, None] & diagonal] = 1.0
+            rhs[held] = 0.0
+            delta[again] = _solve(system, rhs)
+        trial = np.minimum(np.maximum(xa + delta, lo), hi)
         if project is not None:
             trial = np.asarray(project(trial, idx), dtype=np.float64)
-        jt: F64 | None = None
-        if with_jac:
-            rt, jt = (np.asarray(a, dtype=np.float64) for a in residuals(trial, idx))
-        else:
-            rt = np.asarray(residuals(trial, idx), dtype=np.float64)
-        evaluations[idx] += 1
+        rt, jt = _evaluate(residuals, trial, idx, with_jac)
         ct = sum_squares(rt)
-        better = ct < cost[idx]
-        gain = np.where(better, (cost[idx] - ct) / np.maximum(cost[idx], 1e-300), 0.0)
-        change = np.abs(np.where(np.isfinite(ct), cost[idx] - ct, np.inf))
+        better = ct < ca
+        gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
+        change = np.abs(np.where(np.isfinite(ct), ca - ct, np.inf))
         acc = idx[better]
         x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
         if jcache is not None and jt is not None:
             jcache[acc] = jt[better]
-        lam[acc] = np.maximum(lam[acc] / LAMBDA_DOWN, LAMBDA_MIN)
-        lam[idx[~better]] *= LAMBDA_UP
+        la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
+        lam[idx] = la
         if span is None:
             w = width if shared else width[idx]
             scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
         else:
             scale = span if shared else span[idx]
         moved = np.abs(trial - xa).max(axis=1) > xtol * scale
-        stop = ((better & (gain < ftol)) | (change < atol) | (lam[idx] > LAMBDA_MAX)
-                | ~moved)
-        converged[idx[stop & ok]] = True
-        active[idx[stop | ~ok]] = False
+        ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
+                  | ~ok)
+        if ending.any():
+            ended = idx[ending]
+            converged[ended] = ok[ending]
+            iterations[ended] = k + 1
+            jtj_out[ended] = jtj[ending]
+            idx = idx[~ending]
+    else:  # the iteration limit: the problems still running took maxiter iterations
+        if maxiter > 0 and idx.size:
+            iterations[idx] = maxiter
+            jtj_out[idx] = jtj[~ending]
+    evaluations = 1 + iterations * (1 if jacobian is not None else 1 + dims)
     done = np.nonzero(np.isfinite(cost) & (dims > 0))[0]
     if jcache is not None:
         jtj_out[done] = _normal(jcache[done], r[done])[0]
@@ -266,11 +264,18 @@ def fit_batch(
             jtj_out[done] = _normal(jac_fn(x[done], done), r[done])[0]
         else:
             jac = diff(x[done], r[done], done)
-            jtj_out[done] = np.einsum("spa,sqa->spq", jac, jac)
+            jtj_out[done] = jac @ jac.transpose(0, 2, 1)
             evaluations[done] += dims
-    for arr in (x, cost, r, jtj_out, iterations, evaluations, converged):
-        arr.setflags(write=False)
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
+
+
+def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: bool
+              ) -> tuple[F64, F64 | None]:
+    """The residuals (m, a) at ``x`` (m, p) and, when they come with them, their Jacobians."""
+    if with_jac:
+        r, jac = residuals(x, which)
+        return np.asarray(r, dtype=np.float64), np.asarray(jac, dtype=np.float64)
+    return np.asarray(residuals(x, which), dtype=np.float64), None
 
 
 def _normal(jac: Any, r: F64) -> tuple[F64, F64]:
@@ -279,11 +284,10 @@ def _normal(jac: Any, r: F64) -> tuple[F64, F64]:
     gram = None
     if isinstance(jac, tuple):
         jac, gram = jac
-    jt = np.asarray(jac, dtype=np.float64).transpose(0, 2, 1)  # matmul: BLAS per problem
-    jtr = np.matmul(jt, r[:, :, None])[:, :, 0]
-    if gram is None:
-        return np.matmul(jt, jt.transpose(0, 2, 1)), jtr
-    return np.asarray(gram, dtype=np.float64), jtr
+    jt = np.asarray(jac, dtype=np.float64).transpose(0, 2, 1)
+    jtr = (jt @ r[:, :, None])[:, :, 0]
+    return (jt @ jt.transpose(0, 2, 1) if gram is None
+            else np.asarray(gram, dtype=np.float64)), jtr
 
 
 class _Differences:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from magcilia import _validate as v
 from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, bounds_of, sum_squares
 from magcilia.fitting.result import BatchFit
 
@@ -71,6 +72,8 @@ def polish(
     x = np.array(x0, dtype=np.float64)
     if x.ndim == 1:
         x = x[None, :]
+    if x.ndim != 2:
+        raise v.fail("x0", f"an array of shape {x.shape}", "shape (s, p) or (p,)")
     size, dims = x.shape
     lower, upper = bounds_of(lower, upper, size, dims)
     lo_all = np.broadcast_to(lower, (size, dims))
@@ -121,14 +124,12 @@ def polish(
         out_r.append(best_r)
     r = np.array(out_r, dtype=np.float64).reshape(size, -1)
     cost = sum_squares(r)
-    for arr in (x, cost, r, jtj, iterations, evaluations, converged):
-        arr.setflags(write=False)
     return BatchFit(x, cost, r, jtj, iterations, evaluations, converged)
 
 
 def _penalised(r: F64, penalty: float) -> float:
     """The cost ``least_squares`` sees: non-finite entries replaced as :func:`polish` says."""
-    return float(np.sum(_finite(r, penalty) ** 2))
+    return float(sum_squares(_finite(r, penalty)[None, :])[0])
 
 
 def _finite(r: F64, penalty: float) -> F64:
