@@ -9,7 +9,7 @@ median of the runs):
 * **build**: ``BiaxialReadout(...)`` (bend sweep, the grid's fields, the interpolant, the
   mid-point check), at the default grid 65 × 128 and at 33 × 64;
 * **estimate** / **read**: ``.estimate`` (vectors only) and ``.read`` (covariance, σ, flags) of
-  1e5 readings: the coarse search and Levenberg–Marquardt, vectorised over readings;
+  1e5 readings: the coarse search and the batched least squares (magcilia.fitting.fit_batch);
 * **anchor**: ``scipy.optimize.least_squares`` (its default trust-region reflective method,
   2-point Jacobian) per reading on the same interpolant (``BiaxialReadout.model``), started at
   the same coarse-grid node, on a subset, scaled to 1e5 readings. SciPy's least_squares has

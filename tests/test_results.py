@@ -148,6 +148,7 @@ FACTORIES.update({
     "ArrayReadout": _array,
     "Crosstalk": lambda: _array().crosstalk(),
     "ArrayEstimate": lambda: _array().read(_array().rest),
+    "ArrayEstimates": lambda: _array().read(np.stack([_array().rest] * 2)),
     "ArrayMetrics": lambda: mc.array_metrics(
         _array().array.cilia[0], [2e-3, 3e-3], sensor=_array().array.sensors[0], span=2e-5,
         rows=2, cols=2, table_size=9),

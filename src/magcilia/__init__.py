@@ -88,6 +88,7 @@ from magcilia.model import Centreline, SpatialCentreline, exact_field
 from magcilia.readout import (
     ActuatedReadout,
     ArrayEstimate,
+    ArrayEstimates,
     ArrayFlag,
     ArrayMetrics,
     ArrayReadout,
@@ -112,6 +113,7 @@ __all__ = [
     "ActuatedReadout",
     "Actuation",
     "ArrayEstimate",
+    "ArrayEstimates",
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",

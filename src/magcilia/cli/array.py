@@ -163,7 +163,7 @@ def command(setup_arg: str, span_text: str | None, loads_path: str | None,
     for k, forces in enumerate(loads):
         field = field_for_loads(array, forces) if np.any(forces) else rest
         readings = array.readings(field, rng)
-        est = readout.read(readings)
+        est = readout.read_one(readings)
         fields.append(field)
         estimates.append(est)
         sensor_rows += field_rows(array, field, readings, load_set=k + 1)

@@ -30,8 +30,11 @@ F64 = NDArray[np.float64]
 #: ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row i
 #: belonging to problem ``which[i]``
 Residuals = Callable[[F64, NDArray[np.intp]], Any]
-#: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p)
-Jacobian = Callable[[F64, NDArray[np.intp]], F64]
+#: ``jacobian(x, which)``: the Jacobians (m, a, p) of the residuals at ``x`` (m, p), or the pair
+#: (J, JᵀJ) with JᵀJ (m, p, p) when the caller keeps it (a cached Jacobian)
+Jacobian = Callable[[F64, NDArray[np.intp]], Any]
+#: ``project(x, which)``: points (m, p) mapped onto each problem's feasible set within its box
+Projection = Callable[[F64, NDArray[np.intp]], Any]
 
 #: smallest and largest Marquardt λ: a problem whose λ grows beyond the largest has no step that
 #: lowers its cost (a minimum, to rounding)
@@ -49,6 +52,14 @@ def sum_squares(r: F64) -> F64:
 
 def _solve(system: F64, rhs: F64) -> F64:
     """Solutions (s, p) of the systems (s, p, p) · δ = rhs (s, p); zero where one is singular."""
+    if system.shape[1] == 2:  # closed form: LAPACK's cost per call dominates 2 × 2 systems
+        a, b = system[:, 0, 0], system[:, 0, 1]
+        c, d = system[:, 1, 0], system[:, 1, 1]
+        det = a * d - b * c
+        good = (det != 0.0) & np.isfinite(det)
+        inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+        return np.stack([(d * rhs[:, 0] - b * rhs[:, 1]) * inv,
+                         (a * rhs[:, 1] - c * rhs[:, 0]) * inv], axis=1)
     try:
         return np.asarray(np.linalg.solve(system, rhs[:, :, None])[:, :, 0])
     except np.linalg.LinAlgError:  # one singular system: solve them one at a time
@@ -85,9 +96,11 @@ def fit_batch(
     maxiter: int = 60,
     ftol: float = 1e-12,
     xtol: float = 1e-14,
+    atol: float = 0.0,
     step: float = 1e-7,
     damping: float = 1e-3,
     final_jacobian: bool = False,
+    project: Projection | None = None,
 ) -> BatchFit:
     """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
 
@@ -106,7 +119,8 @@ def fit_batch(
         with lower = upper is held). Infinite bounds need a ``jacobian``.
     jacobian : callable, True or None
         ``jacobian(x, which)`` → (m, a, p), the analytic Jacobian (called once per iteration
-        at the problems' current points: a caller may return a cached one for chord steps);
+        at the problems' current points: a caller may return a cached one for chord steps, and
+        then the pair (J, JᵀJ) with the JᵀJ (m, p, p) it keeps with it);
         True: ``residuals`` returns it with the residuals; None (or False): forward
         differences of ``step`` times each bound's width, stepping back from the upper bound.
     maxiter : int
@@ -116,6 +130,10 @@ def fit_batch(
     xtol : float
         … or when its step moves no parameter by more than this fraction of its problem's
         widest bound (or of its largest ``|x|`` where the bounds are infinite).
+    atol : float
+        … or when a step changes its cost by less than this amount, up or down (the
+        residuals' units squared; 0: never): a tolerance on χ² itself where the residuals are
+        whitened (the better of the two points is kept).
     step : float
         Forward-difference step as a fraction of each bound's width.
     damping : float
@@ -126,6 +144,11 @@ def fit_batch(
         ``jtj`` is exactly at ``x``. Without it, ``jtj`` is that of the last linearisation:
         at ``x`` itself, or one accepted step before it when the fit stopped on a small change
         of the cost; with ``jacobian=True`` it is always at ``x``.
+    project : callable, optional
+        ``project(x, which)`` → (m, p): a feasible set within the box that is not a box (a
+        disc, say), as the nearest feasible points; applied to the starts and to every trial
+        point after the bounds' clip. A step it maps back onto the current point ends the fit
+        (converged: the minimum over the set lies on its edge).
 
     Returns
     -------
@@ -150,6 +173,8 @@ def fit_batch(
     with_jac = jacobian is True
     jac_fn = jacobian if callable(jacobian) else None
     x = np.clip(x, lower, upper)
+    if project is not None:
+        x = np.array(project(x, np.arange(size)), dtype=np.float64)
     diff = _Differences(residuals, step * width, upper, shared)
     # the xtol test's scale: the widest bound of each problem (None: some are infinite)
     span = width.max(axis=-1) if np.isfinite(width).all() and dims else None
@@ -171,7 +196,7 @@ def fit_batch(
         xa, ra, ca, la = x[idx], r[idx], cost[idx], lam[idx]
         lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
         if jac_fn is not None:
-            jtj, jtr = _normal(np.asarray(jac_fn(xa, idx), dtype=np.float64), ra)
+            jtj, jtr = _normal(jac_fn(xa, idx), ra)
         elif jcache is not None:
             jtj, jtr = _normal(jcache[idx], ra)
         else:
@@ -199,10 +224,13 @@ def fit_batch(
             rhs[held] = 0.0
             delta[again] = _solve(system, rhs)
         trial = np.minimum(np.maximum(xa + delta, lo), hi)
+        if project is not None:
+            trial = np.asarray(project(trial, idx), dtype=np.float64)
         rt, jt = _evaluate(residuals, trial, idx, with_jac)
         ct = sum_squares(rt)
         better = ct < ca
         gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
+        change = np.abs(np.where(np.isfinite(ct), ca - ct, np.inf))
         acc = idx[better]
         x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
         if jcache is not None and jt is not None:
@@ -215,7 +243,8 @@ def fit_batch(
         else:
             scale = span if shared else span[idx]
         moved = np.abs(trial - xa).max(axis=1) > xtol * scale
-        ending = (better & (gain < ftol)) | (la > LAMBDA_MAX) | ~moved | ~ok
+        ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
+                  | ~ok)
         if ending.any():
             ended = idx[ending]
             converged[ended] = ok[ending]
@@ -232,8 +261,7 @@ def fit_batch(
         jtj_out[done] = _normal(jcache[done], r[done])[0]
     elif final_jacobian and done.size:
         if jac_fn is not None:
-            jac_end = np.asarray(jac_fn(x[done], done), dtype=np.float64)
-            jtj_out[done] = _normal(jac_end, r[done])[0]
+            jtj_out[done] = _normal(jac_fn(x[done], done), r[done])[0]
         else:
             jac = diff(x[done], r[done], done)
             jtj_out[done] = jac @ jac.transpose(0, 2, 1)
@@ -250,10 +278,16 @@ def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: b
     return np.asarray(residuals(x, which), dtype=np.float64), None
 
 
-def _normal(jac: F64, r: F64) -> tuple[F64, F64]:
-    """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a)."""
-    jt = jac.transpose(0, 2, 1)
-    return jt @ jac, (jt @ r[:, :, None])[:, :, 0]
+def _normal(jac: Any, r: F64) -> tuple[F64, F64]:
+    """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a); ``jac`` may be
+    a pair (J, JᵀJ) where the caller keeps JᵀJ with a cached Jacobian."""
+    gram = None
+    if isinstance(jac, tuple):
+        jac, gram = jac
+    jt = np.asarray(jac, dtype=np.float64).transpose(0, 2, 1)
+    jtr = (jt @ r[:, :, None])[:, :, 0]
+    return (jt @ jt.transpose(0, 2, 1) if gram is None
+            else np.asarray(gram, dtype=np.float64)), jtr
 
 
 class _Differences:

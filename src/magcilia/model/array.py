@@ -175,32 +175,34 @@ class ArrayLayout:
         return pos, self.moment[:, None] * t
 
     def planar_dipoles(self, x: F64, z: F64, theta: F64, azimuth: F64) -> tuple[F64, F64]:
-        """All dipoles (D, 3) (m, A·m²) of cilia bent in vertical planes, rings fixed in the board.
+        """All dipoles (..., D, 3) (m, A·m²) of cilia bent in vertical planes, rings fixed in the
+        board.
 
         Parameters
         ----------
-        x, z, theta : ndarray, shape (C, q)
+        x, z, theta : ndarray, shape (..., C, q)
             Each cilium's planar shape at ``s_query``: the slice mid-points' x and z relative to
-            the base (m) and tangent angles from +z toward +x (rad), as if bent toward +x.
-        azimuth : ndarray, shape (C,)
+            the base (m) and tangent angles from +z toward +x (rad), as if bent toward +x; any
+            leading axes are sets of poses (one array operation for all).
+        azimuth : ndarray, shape (..., C)
             Each cilium's bending direction, rad: the planar shape is turned by it about the
             vertical axis through the base, the rings are not (see the module's notes).
         """
         c, q = self.cilium, self.slot
-        cp, sp = np.cos(azimuth)[c], np.sin(azimuth)[c]
+        cp, sp = np.cos(azimuth)[..., c], np.sin(azimuth)[..., c]
         rc = self.ring_cos * cp + self.ring_sin * sp  # r cos(α − φ)
         rs = self.ring_sin * cp - self.ring_cos * sp  # r sin(α − φ)
-        th = theta[c, q]
+        th = theta[..., c, q]
         st, ct = np.sin(th), np.cos(th)
-        lx = x[c, q] + rc * ct
-        pos = np.empty((self.size, 3))
-        pos[:, 0] = cp * lx - sp * rs
-        pos[:, 1] = sp * lx + cp * rs
-        pos[:, 2] = z[c, q] - rc * st
+        lx = x[..., c, q] + rc * ct
+        pos = np.empty((*th.shape, 3))
+        pos[..., 0] = cp * lx - sp * rs
+        pos[..., 1] = sp * lx + cp * rs
+        pos[..., 2] = z[..., c, q] - rc * st
         pos += self.bases[c]
-        mom = np.empty((self.size, 3))
+        mom = np.empty((*th.shape, 3))
         m_h = self.moment * st
-        mom[:, 0] = cp * m_h
-        mom[:, 1] = sp * m_h
-        mom[:, 2] = self.moment * ct
+        mom[..., 0] = cp * m_h
+        mom[..., 1] = sp * m_h
+        mom[..., 2] = self.moment * ct
         return pos, mom

@@ -6,8 +6,10 @@
   an actuation), :mod:`.calibration_sigma` (the calibration's share of σ), :mod:`.result`
   (:class:`ReadoutResult`);
 * :mod:`.biaxial`: :class:`BiaxialReadout`, the horizontal force vector (Fx, Fy) from several
-  field channels (:class:`Channel`; a 3-axis :class:`~magcilia.device.magnetometer.Magnetometer`
-  gives three), with covariance and :class:`ForceFlag` flags (:class:`ForceVectorResult`);
+  field channels (:class:`Channel`, :mod:`.channel`; a 3-axis
+  :class:`~magcilia.device.magnetometer.Magnetometer` gives three), with covariance and
+  :class:`Flag` bits (:class:`ForceVectorResult`, :mod:`.force_vector`); its polar table
+  (:mod:`.polar_table`) and model readings (:mod:`.vector_model`);
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
@@ -15,8 +17,10 @@
   ``read``, ``tare``), the one :class:`Flag` set and the result's shape (:class:`ReadoutValues`);
 * :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
   read-out and of the live tare;
-* :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (crosstalk, the inverse of
-  all force vectors at once), :func:`field_for_loads`, :func:`array_metrics` (against pitch);
+* :mod:`.array`: arrays of cilia under loads: :class:`ArrayReadout` (:mod:`.array_readout`:
+  crosstalk, the inverse of all force vectors at once, n samples at once:
+  :class:`ArrayEstimates`), :func:`field_for_loads` (:mod:`.array_model`), :func:`array_metrics`
+  (against pitch); results in :mod:`.array_results`, checks in :mod:`.array_checks`;
 * :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
 
 What a design can resolve (``design_metrics``, ``DesignMetrics``, ``Metric``) and design
@@ -29,6 +33,7 @@ from __future__ import annotations
 from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
 from magcilia.readout.array import (
     ArrayEstimate,
+    ArrayEstimates,
     ArrayFlag,
     ArrayMetrics,
     ArrayReadout,
@@ -58,6 +63,7 @@ __all__ = [
     "QUANTITIES",
     "ActuatedReadout",
     "ArrayEstimate",
+    "ArrayEstimates",
     "ArrayFlag",
     "ArrayMetrics",
     "ArrayReadout",

@@ -148,21 +148,27 @@ def vector_scale_covariance(rate: F64, relative: float) -> F64:
 # -- arrays ---------------------------------------------------------------------------------------
 
 def array_scale_covariance(force: F64, moduli: Sequence[Modulus]) -> F64:
-    """The force scale's covariance of all cilia's (Fx1, Fy1, Fx2, …), N², (2C, 2C), for forces
-    ``force`` (C, 2), N, and each cilium's :class:`~magcilia.Modulus`: cilia of one modulus (the
-    same value, σ and source: one material) share its error, fully correlated; cilia of
-    different moduli are independent."""
-    n = force.shape[0]
-    cov = np.zeros((2 * n, 2 * n))
+    """The force scale's covariance of all cilia's (Fx1, Fy1, Fx2, …), N², (..., 2C, 2C), for
+    forces ``force`` (..., C, 2), N, and each cilium's :class:`~magcilia.Modulus`: cilia of one
+    modulus (the same value, σ and source: one material) share its error, fully correlated;
+    cilia of different moduli are independent."""
+    n = force.shape[-2]
+    flat = force.reshape(*force.shape[:-2], 2 * n)
+    cov = np.zeros((*force.shape[:-2], 2 * n, 2 * n))
     for modulus in dict.fromkeys(moduli):
         if not modulus.relative:
             continue
-        vec = np.zeros(2 * n)
-        for c, m in enumerate(moduli):
-            if m == modulus:
-                vec[2 * c:2 * c + 2] = force[c]
-        cov += modulus.relative**2 * np.outer(vec, vec)
+        mine = np.repeat([m == modulus for m in moduli], 2)
+        vec = np.where(mine, flat, 0.0)
+        cov += modulus.relative**2 * (vec[..., :, None] * vec[..., None, :])
     return cov
+
+
+def array_scale_blocks(force: F64, moduli: Sequence[Modulus]) -> F64:
+    """The blocks on the diagonal of :func:`array_scale_covariance`: each cilium's force scale
+    covariance of (Fx, Fy), N², (..., C, 2, 2): ``(σ_E/E)² F Fᵀ``."""
+    rel2 = np.array([m.relative**2 if m.relative else 0.0 for m in moduli])
+    return np.asarray(rel2[:, None, None] * force[..., :, None] * force[..., None, :])
 
 
 def scale_notes(moduli: Sequence[Modulus]) -> str:

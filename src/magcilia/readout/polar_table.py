@@ -1,0 +1,159 @@
+"""The polar table of a force-vector read-out and its bicubic interpolation (no physics).
+
+Each channel's model reading is tabulated on a polar grid of (F, φ): magnitudes ``0 … F_max``
+(uniform, nF nodes, the F = 0 row the same for every φ) and directions ``0 … 2π`` (periodic, nφ
+nodes). :func:`hermite_coefficients` makes a bicubic Hermite interpolant of it (cubic-spline
+derivatives along F, spectral ones along the periodic φ); :func:`evaluate` gives the readings and
+their derivatives with respect to (Fx, Fy) anywhere in the disc |F| ≤ F_max, smooth through zero;
+:class:`CoarseGrid` is the thinned grid of the coarse search that starts every fit (χ² at its
+nodes, one matrix product per block of readings, and the best distinct second minimum).
+
+Units are the caller's (N and T in :class:`~magcilia.BiaxialReadout`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+F64 = NDArray[np.float64]
+
+_HERMITE = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0],
+                     [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
+
+
+def _cell_coefficients(f: F64, f_u: F64, f_w: F64, f_uw: F64) -> F64:
+    """Bicubic Hermite coefficients a[k, l] (of u^k w^l) per cell: (nF − 1, nφ, c, 4, 4), from
+    values and derivatives scaled to unit cells at the nodes (nF, nφ, c), φ periodic."""
+    def corners(a: F64) -> tuple[F64, F64, F64, F64]:
+        nxt = np.roll(a, -1, axis=1)
+        return a[:-1], nxt[:-1], a[1:], nxt[1:]
+
+    f00, f01, f10, f11 = corners(f)
+    u00, u01, u10, u11 = corners(f_u)
+    w00, w01, w10, w11 = corners(f_w)
+    x00, x01, x10, x11 = corners(f_uw)
+    g = np.stack([np.stack([f00, f01, w00, w01], -1), np.stack([f10, f11, w10, w11], -1),
+                  np.stack([u00, u01, x00, x01], -1), np.stack([u10, u11, x10, x11], -1)], -2)
+    return np.einsum("ki,...ij,lj->...kl", _HERMITE, g, _HERMITE)
+
+
+@dataclass(frozen=True, eq=False)
+class CoarseGrid:
+    """The coarse search's candidates (the grid's nodes, thinned): magnitudes and azimuths (K,),
+    readings (K, c), the rest (F = 0) first and once, then ring after ring of equal magnitude;
+    the first ring's node indices, and which nodes lie far from which (K, K)."""
+
+    force: F64
+    azimuth: F64
+    reading: F64
+    square: F64
+    ring: NDArray[np.intp]
+    far: NDArray[np.bool_]
+
+    @classmethod
+    def build(cls, forces: F64, azimuths: F64, table: F64, span: float) -> CoarseGrid:
+        n_r, n_p = forces.size - 1, azimuths.size
+        f = np.concatenate([[0.0], np.repeat(forces[1:], n_p)])
+        p = np.concatenate([[0.0], np.tile(azimuths, n_r)])
+        y = np.concatenate([table[:1, 0], table[1:].reshape(-1, table.shape[-1])])
+        idx = 1 + np.arange(n_r * n_p).reshape(n_r, n_p)
+        x, yv = f * np.cos(p), f * np.sin(p)
+        far = np.hypot(x[:, None] - x[None, :], yv[:, None] - yv[None, :]) > 0.1 * span
+        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far)
+
+    def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
+        minimum of χ² at least a tenth of the span from it (−1 where there is none), (b,)."""
+        chi = w @ self.square - 2.0 * (w * y) @ self.reading.T  # χ² − Σ w y² (b, K)
+        best = np.argmin(chi, axis=1)
+        g = chi[:, 1:].reshape(chi.shape[0], -1, self.ring.size)  # (b, rings, φ)
+        loc = np.empty(g.shape, dtype=bool)  # ≤ its four neighbours (slices: no gathers)
+        np.less_equal(g[..., 1:], g[..., :-1], out=loc[..., 1:])
+        np.less_equal(g[..., :1], g[..., -1:], out=loc[..., :1])
+        loc[..., :-1] &= g[..., :-1] <= g[..., 1:]
+        loc[..., -1:] &= g[..., -1:] <= g[..., :1]
+        loc[:, 1:] &= g[:, 1:] <= g[:, :-1]
+        loc[:, :-1] &= g[:, :-1] <= g[:, 1:]
+        loc[:, 0] &= g[:, 0] <= chi[:, :1]
+        local = np.concatenate([(chi[:, 0] <= g[:, 0].min(axis=1))[:, None],
+                                loc.reshape(chi.shape[0], -1)], axis=1)
+        local &= self.far[best]
+        masked = np.where(local, chi, np.inf)
+        second = np.argmin(masked, axis=1)
+        found = np.isfinite(masked[np.arange(chi.shape[0]), second])
+        return best, np.where(found, second, -1)
+
+
+def hermite_coefficients(forces: F64, table: F64) -> F64:
+    """Bicubic Hermite coefficients of the table (nF, nφ, c): derivatives along F from a cubic
+    spline (not-a-knot), along the periodic φ spectrally (FFT), in unit-cell scale."""
+    from scipy.interpolate import CubicSpline
+
+    n_phi = table.shape[1]
+    h_f = float(forces[1] - forces[0])
+    h_phi = 2.0 * math.pi / n_phi
+    d_f = CubicSpline(forces, table, axis=0).derivative()(forces)
+    k = np.fft.fftfreq(n_phi, d=1.0 / n_phi)
+    if n_phi % 2 == 0:
+        k[n_phi // 2] = 0.0
+
+    def d_phi(a: F64) -> F64:
+        return np.real(np.fft.ifft(1j * k[None, :, None] * np.fft.fft(a, axis=1), axis=1))
+
+    f_u = d_f * h_f
+    f_w = d_phi(table) * h_phi
+    f_uw = d_phi(d_f) * h_f * h_phi
+    f_w[0] = 0.0  # the rest row is the same for every φ
+    coef = _cell_coefficients(table, f_u, f_w, f_uw)
+    coef = np.ascontiguousarray(coef)
+    coef.setflags(write=False)
+    return coef
+
+
+def evaluate(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
+             ) -> tuple[F64, F64, F64]:
+    """The interpolant of :func:`hermite_coefficients` ``coef`` (grid step ``h_f`` in F, N):
+    readings (b, c), T, and d/dFx, d/dFy (b, c), T/N, at forces (``fx``, ``fy``, N, (b,)) with
+    magnitude ≤ the grid's end (without ``derivatives``: the readings three times)."""
+    n_f, n_phi = coef.shape[0] + 1, coef.shape[1]
+    h_phi = 2.0 * math.pi / n_phi
+    mag = np.hypot(fx, fy)
+    phi = np.arctan2(fy, fx) % (2.0 * math.pi)
+    u = mag / h_f
+    i = np.minimum(u.astype(np.intp), n_f - 2)
+    u -= i
+    w = phi / h_phi
+    j = np.minimum(w.astype(np.intp), n_phi - 1)
+    w -= j
+    cell = coef[i, j]  # (b, c, 4, 4)
+    one = np.ones_like(u)
+    uu = np.stack([one, u, u * u, u * u * u], -1)
+    ww = np.stack([one, w, w * w, w * w * w], -1)
+    cw = np.einsum("bckl,bl->bck", cell, ww)
+    val = np.einsum("bck,bk->bc", cw, uu)
+    if not derivatives:
+        return val, val, val
+    zero = np.zeros_like(u)
+    du = np.stack([zero, one, 2 * u, 3 * u * u], -1) / h_f
+    dw = np.stack([zero, one, 2 * w, 3 * w * w], -1) / h_phi
+    d_f = np.einsum("bck,bk->bc", cw, du)
+    # dB/dφ / F: in the first cell the u^0 terms of dB/dφ vanish (the F = 0 row is constant),
+    # so divide the polynomial by u exactly there
+    first = (i == 0)[:, None]
+    safe = np.where(mag > 0.0, mag, 1.0)[:, None]
+    uq = np.where(first, np.stack([zero, one, u, u * u], -1) / h_f, uu / safe)
+    d_phi_over_f = np.einsum("bckl,bk,bl->bc", cell, uq, dw)
+    c, s = (np.cos(phi)[:, None], np.sin(phi)[:, None])
+    return val, c * d_f - s * d_phi_over_f, s * d_f + c * d_phi_over_f
+
+
+def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
+    """(Fx, Fy) (b,) projected radially onto the disc of radius ``edge`` (where the table
+    lives), and the factor applied (b,), 1 inside."""
+    mag = np.hypot(fx, fy)
+    shrink = np.where(mag > edge, edge / np.maximum(mag, 1e-300), 1.0)
+    return fx * shrink, fy * shrink, shrink
