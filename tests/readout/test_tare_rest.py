@@ -121,3 +121,27 @@ def test_readout_tare_under_load_is_noted(tmp_path: object, capsys: pytest.Captu
     assert "note: 500: tare:" in out and "NOT AT REST" in out
     assert main([*args, "--tare", "200"]) == 0
     assert "NOT AT REST" not in capsys.readouterr().out
+
+
+def test_every_read_out_flags_its_estimates_after_a_tare_under_load() -> None:
+    """A tare whose window was not at rest marks every estimate TARE_UNDER_LOAD (one rule,
+    readout.protocol.tare_flags), at rest none."""
+    import numpy as np
+
+    import magcilia as mc
+    from magcilia.readout.protocol import Flag
+
+    setup = mc.Setup.paper(tip_radius=5e-5)
+    r = mc.Readout(setup, quantity="force", span=(0.0, 1e-4), table_size=33)
+    rng = np.random.default_rng(2)
+    quiet = r.rest[0] + 1e-6 * rng.standard_normal(200)
+    pushed = quiet + np.linspace(0.0, 2e-4, 200)  # a load step across the window
+    at_rest = r.tare(quiet).read(r.rest)
+    loaded = r.tare(pushed).read(r.rest)
+    assert not at_rest.flags & Flag.TARE_UNDER_LOAD
+    assert (loaded.flags & Flag.TARE_UNDER_LOAD).all()
+    mag = mc.Magnetometer(field_range=1e-3, resolution=1e-10, noise=2e-8, rate=100.0, name="m")
+    b = mc.BiaxialReadout(setup, mag, span=1e-4, table_size=(9, 16))
+    base = b.rest + 2e-8 * rng.standard_normal((200, 3))
+    base[:, 0] += np.linspace(0.0, 2e-6, 200)
+    assert (b.tare(base).read(b.rest[None]).flags & Flag.TARE_UNDER_LOAD).all()

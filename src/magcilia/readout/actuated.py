@@ -43,7 +43,7 @@ from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow
 from magcilia.readout.forward import direct_field, model_output
 from magcilia.readout.inverse import Readout
-from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag
+from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag, tare_flags
 from magcilia.readout.result import NO_ESTIMATE, ReadoutResult
 from magcilia.readout.tare import Tare
 
@@ -287,6 +287,7 @@ class ActuatedReadout(Display):
             out["sigma_calibration"] = np.hypot(out["sigma_calibration"], slope * tare_se)
         sigma = np.sqrt(out["sigma_noise"] ** 2 + out["sigma_calibration"] ** 2
                         + out["sigma_edge"] ** 2 + out["sigma_scale"] ** 2)
+        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
         none = (flags & FLAG_DTYPE(NO_ESTIMATE)) != 0
         for arr in (*out.values(), sigma):
             arr[none] = np.nan

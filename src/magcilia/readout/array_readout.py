@@ -28,7 +28,7 @@ from magcilia.model.array import segment_field
 from magcilia.readout.array_checks import check_reach, check_singular
 from magcilia.readout.array_model import LoadTable, checked_forces, load_table
 from magcilia.readout.array_results import ArrayEstimate, ArrayEstimates, Crosstalk
-from magcilia.readout.protocol import FLAG_DTYPE, Flag
+from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import array_scale_blocks, array_scale_covariance, scale_notes
 from magcilia.readout.tare import Tare
 
@@ -362,6 +362,7 @@ class ArrayReadout(Display):
         out = ({k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts
                else self._empty())
         flags = out["flags"]
+        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
         for bad, flag in ((saturated, Flag.SATURATED), (missing, Flag.MISSING)):
             if bad.any():  # the cilia a left-out reading informs (≥ 1 σ over the span)
                 informed = np.abs(self.jacobian / sigma[:, None]) * np.repeat(self.span, 2) >= 1.0

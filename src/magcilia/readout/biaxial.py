@@ -59,7 +59,7 @@ from magcilia.readout.force_vector import (
 )
 from magcilia.readout.inverse import EDGE_TOLERANCE
 from magcilia.readout.polar_table import CoarseGrid, evaluate, hermite_coefficients, onto_disc
-from magcilia.readout.protocol import FLAG_DTYPE, Flag
+from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import vector_rate, vector_scale_covariance
 from magcilia.readout.tare import (
     ChannelTare,
@@ -361,6 +361,7 @@ class BiaxialReadout(Display):
             flags[part] = fl
         flags |= saturated.astype(FLAG_DTYPE) * FLAG_DTYPE(Flag.SATURATED)
         flags |= missing.astype(FLAG_DTYPE) * FLAG_DTYPE(Flag.MISSING)
+        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
         fx, fy, chi2 = outs[0], outs[1], outs[2]
         mag = np.hypot(fx, fy)
         direction = np.arctan2(fy, fx)

@@ -54,7 +54,7 @@ from magcilia.readout.forward import (
     model_fields,
     model_output,
 )
-from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag
+from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag, tare_flags
 from magcilia.readout.result import NO_ESTIMATE, ReadoutFlag, ReadoutResult, summary_line
 from magcilia.readout.scale import modulus_sigma, scales_exactly
 from magcilia.readout.table import InverseTable, _interp
@@ -467,6 +467,7 @@ class Readout(Display):
             for start in range(0, x.size, BLOCK):
                 part = slice(start, start + BLOCK)
                 self._read_block(x[part], noise_v, *(p[part] for p in parts))
+        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
         return ReadoutResult(
             quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
             sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),

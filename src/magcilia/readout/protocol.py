@@ -91,6 +91,15 @@ class Flag(enum.IntFlag):
     BEYOND_SPAN = 64
 
 
+def tare_flags(baseline: Any) -> int:
+    """The flags every estimate of a read-out tared on ``baseline`` (a
+    :class:`~magcilia.readout.tare.Tare` or None) carries: TARE_UNDER_LOAD where the tare's
+    window was not at rest (:attr:`Tare.at_rest <magcilia.readout.tare.Tare.at_rest>`), else 0."""
+    if baseline is None or baseline.check is None or baseline.at_rest:
+        return 0
+    return int(Flag.TARE_UNDER_LOAD)
+
+
 def flag_names(bits: int) -> tuple[str, ...]:
     """The names of the :class:`Flag` bits set in ``bits`` (ascending), e.g. for a view.
 
