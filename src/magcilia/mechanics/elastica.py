@@ -29,26 +29,52 @@ from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
-from numpy.polynomial import chebyshev as cheb
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dgesv
+from scipy.linalg.blas import idamax
+from scipy.linalg.lapack import dgesv, dgetrs
 
 F64 = NDArray[np.float64]
 
 
+def _integrals(phi: F64, n: int) -> F64:
+    """Matrix (q, n): ``∫_{-1}^{x} T_k`` for k < n at ``x = cos φ`` (``phi``, rad, shape (q,)),
+    in closed form from ``T_m(cos φ) = cos(m φ)``: ``x + 1``, ``(x² − 1) / 2`` and, for k ≥ 2,
+    ``T_{k+1} / (2(k+1)) − T_{k−1} / (2(k−1))`` less its value at −1 (exactly 0 at φ = π)."""
+    m = np.arange(n + 1, dtype=np.float64)
+    t = np.cos(np.multiply.outer(phi, m))  # T_m(x), (q, n + 1)
+    out = np.empty((phi.size, n))
+    out[:, 0] = t[:, 1] + 1.0
+    if n > 1:
+        out[:, 1] = 0.25 * (t[:, 2] - 1.0)  # (x² − 1) / 2 = (T_2 − 1) / 4
+    if n > 2:
+        k = m[2:n]
+        sign = np.where(k % 2.0 == 0.0, -1.0, 1.0)  # T_{k±1}(−1) = (−1)^{k+1}
+        up, down = 0.5 / (k + 1.0), 0.5 / (k - 1.0)
+        out[:, 2:] = (t[:, 3:] - sign) * up - (t[:, 1:n - 1] - sign) * down
+    return out
+
+
 @lru_cache(maxsize=64)
 def _reference(n: int) -> tuple[F64, F64, F64]:
-    """Chebyshev nodes on [-1, 1] (ascending), coefficient map V⁻¹ and integration map K."""
-    t = np.cos(np.pi * (2.0 * np.arange(n) + 1.0) / (2.0 * n))[::-1].copy()
-    vinv = np.linalg.inv(cheb.chebvander(t, n - 1))
-    k = cheb.chebint(np.eye(n), lbnd=-1.0, axis=0)  # (n+1, n): coefficients of ∫_{-1}^t
-    return t, vinv, k @ vinv
+    """Chebyshev (first-kind) nodes on [-1, 1] (ascending), their angles ``φ = arccos t`` (rad)
+    and the map V⁻¹ from nodal values to Chebyshev coefficients, in closed form (the nodes'
+    discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``)."""
+    phi: F64 = np.pi * (2.0 * np.arange(n - 1, -1, -1, dtype=np.float64) + 1.0) / (2.0 * n)
+    t: F64 = np.cos(phi)
+    vinv: F64 = np.cos(np.multiply.outer(np.arange(n, dtype=np.float64), phi)) * (2.0 / n)
+    vinv[0] *= 0.5
+    for arr in (t, phi, vinv):
+        arr.setflags(write=False)
+    return t, phi, vinv
 
 
-def _cumulative(n: int, t_query: F64) -> F64:
-    """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values."""
-    _, _, kv = _reference(n)
-    return np.asarray(cheb.chebvander(t_query, n) @ kv, dtype=np.float64)
+def _cumulative(n: int, t_query: F64, phi: F64 | None = None) -> F64:
+    """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values
+    (``phi``: the angles ``arccos t_query`` where known exactly)."""
+    _, _, vinv = _reference(n)
+    if phi is None:
+        phi = np.arccos(np.clip(t_query, -1.0, 1.0))
+    return np.asarray(_integrals(phi, n) @ vinv, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -88,13 +114,13 @@ class Grid:
         w = np.empty(total)
         start = 0
         for k, n in enumerate(sizes):
-            t, _, _ = _reference(n)
+            t, phi, _ = _reference(n)
             h = 0.5 * (bounds[k + 1] - bounds[k])
             sl = slice(start, start + n)
             s[sl] = bounds[k] + h * (t + 1.0)
             piece[sl] = k
-            C[sl, sl] = h * _cumulative(n, t)
-            w[sl] = h * _cumulative(n, np.array([1.0]))[0]
+            C[sl, sl] = h * _cumulative(n, t, phi)
+            w[sl] = h * _cumulative(n, np.ones(1), np.zeros(1))[0]  # ∫ over the piece
             C[start + n:, sl] = w[sl]  # later pieces see the whole of this one
             start += n
         R = w[None, :] - C
@@ -139,6 +165,22 @@ class Problem:
     #: (2, N) μ(s) (B_x, B_z) at the nodes, N: a uniform field's couple per length μ t × B, whose
     #: y-component μ (B_x cos θ − B_z sin θ) adds to g (no force: it is not in N)
     couple: F64 | None = None
+    #: (N, N) ``P diag(loaded)`` (Fortran order), rad per N: the influence of the point force
+    #: alone, precomputed per grid (:func:`point_influence`); None: formed when first needed
+    point: F64 | None = None
+
+    @property
+    def point_only(self) -> bool:
+        """Whether the dead point force is the only load (no drag, no couple): the fast path."""
+        return self.drag is None and self.couple is None
+
+    def point_matrix(self) -> F64:
+        """``P diag(loaded)`` (N, N), rad per N (:attr:`point`, formed on first use if not
+        given)."""
+        if self.point is None:
+            object.__setattr__(self, "point", point_influence(self.influence, self.loaded))
+        assert self.point is not None  # for mypy: set above
+        return self.point
 
     def moment_density(self, theta: F64, scale: float = 1.0) -> F64:
         """g = cos θ N_x − sin θ N_z at the nodes, N, same shape as ``theta`` ((N,) or (b, N));
@@ -174,7 +216,8 @@ class Problem:
         once the residual is below ``tol`` or not finite, or if the Jacobian is singular.
 
         Point load: analytic Jacobian ``I − P diag(g'(θ))`` (``P`` the influence matrix; O(N²)
-        per step); with drag (shape-dependent): batched central differences.
+        per step); with drag (shape-dependent): batched central differences. (:func:`newton`
+        solves a point force alone by its fused loop instead; this stays its reference.)
         """
         r = self.residual(theta, scale)
         err = float(np.abs(r).max())
@@ -194,6 +237,15 @@ class Problem:
             jac = (res[:n] - res[n:]).T / (2.0 * h)
         *_, step, info = dgesv(jac, r)
         return err, (-step if info == 0 else None)
+
+
+def point_influence(influence: F64, loaded: F64) -> F64:
+    """``P diag(loaded)`` (N, N), rad per N, in Fortran order (``dgesv`` factors a Jacobian
+    built from it in place, without a transposed copy), read-only: the influence of a point
+    force on the nodes it loads."""
+    out = np.asfortranarray(influence * loaded)
+    out.setflags(write=False)
+    return out
 
 
 @lru_cache(maxsize=8)
@@ -223,7 +275,13 @@ class Steppable(Protocol):
 
 def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
            max_iter: int = 40) -> Solution | None:
-    """Newton's method at one load factor; None if it does not converge."""
+    """Newton's method at one load factor; None if it does not converge.
+
+    A planar :class:`Problem` with a point force alone (:attr:`Problem.point_only`) is solved by
+    :func:`_newton_point`, the same iteration fused; every other load case by its
+    :meth:`~Steppable.newton_step` (the reference the fused loop is tested against)."""
+    if isinstance(problem, Problem) and problem.point_only:
+        return _newton_point(problem, scale, guess, tol, max_iter)
     theta = guess
     prev = math.inf
     worse = 0
@@ -235,7 +293,75 @@ def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
         if step is None or worse >= 3:  # diverging, singular or not finite
             return None
         prev = err
-        size = float(np.max(np.abs(step)))
+        size = float(np.abs(step).max())
+        if size > 1.0:  # damp steps of more than a radian
+            step *= 1.0 / size
+        theta = theta + step
+        if size < 1e-14:
+            err = float(np.max(np.abs(problem.residual(theta, scale))))
+            return Solution(theta, err, it) if err < 1e3 * tol else None
+    return None
+
+
+#: largest residual (rad) at which :func:`_newton_point` reuses the last step's LU factors (a
+#: chord step, whose error is about the last step's size times this residual: below Newton's
+#: tolerance here; the step after it is a full one again). 1e-6 cost a fifth step on some pushing
+#: loads that Newton converges in four; 1e-8 none (tests/mechanics/test_newton_point.py)
+CHORD_RESIDUAL = 1e-8
+
+
+def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
+                  max_iter: int) -> Solution | None:
+    """:func:`newton` of a point force alone: :meth:`Problem.newton_step`'s iteration (steps
+    damped to a radian, given up after three rising residuals, a singular Jacobian or a
+    non-finite residual) in as few array operations as it takes (a bend's time is mostly these
+    steps). The residual is negated in place into the right-hand side; the Jacobian
+    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built in Fortran order, which ``dgesv``
+    factors in place; the largest entries come from BLAS's ``idamax`` (a non-finite residual is
+    caught at the end by its squared norm); below :data:`CHORD_RESIDUAL` a step after a full one
+    reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
+    point = problem.point_matrix()
+    fx, fz = (scale * problem.force).tolist()
+    diagonal = slice(None, None, guess.size + 1)
+    theta = guess
+    prev = math.inf
+    worse = 0
+    factors: tuple[F64, NDArray[np.int32]] | None = None  # of the last step, if a full one
+    for it in range(1, max_iter + 1):
+        cos = np.cos(theta)
+        if fz == 0.0:  # a horizontal force (the common case): two products fewer
+            sin = None
+            minus = point @ cos
+            minus *= fx
+        else:
+            sin = np.sin(theta)
+            minus = point @ (fx * cos - fz * sin)
+        minus -= theta  # −(θ − P g)
+        err = abs(float(minus[idamax(minus)]))
+        if err < tol:
+            if not math.isfinite(float(minus @ minus)):  # a NaN that idamax passed over
+                return None
+            return Solution(theta, err, it - 1)
+        worse = worse + 1 if err > prev else 0
+        if not err < math.inf or worse >= 3:  # not finite, or diverging
+            return None
+        prev = err
+        if factors is not None and err < CHORD_RESIDUAL:
+            step, info = dgetrs(*factors, minus, overwrite_b=1)
+            factors = None
+        else:
+            if sin is None:
+                slope = np.sin(theta)
+                slope *= fx
+            else:
+                slope = fx * sin + fz * cos
+            jac = point * slope  # Fortran order, as the point matrix
+            jac.reshape(-1, order="A")[diagonal] += 1.0  # + I: the diagonal, in place
+            lu, piv, step, info = dgesv(jac, minus, overwrite_a=1, overwrite_b=1)
+            factors = (lu, piv)
+        if info != 0:  # singular
+            return None
+        size = abs(float(step[idamax(step)]))
         if size > 1.0:  # damp steps of more than a radian
             step *= 1.0 / size
         theta = theta + step
