@@ -36,45 +36,79 @@ from scipy.linalg.lapack import dgesv, dgetrs
 F64 = NDArray[np.float64]
 
 
-def _integrals(phi: F64, n: int) -> F64:
-    """Matrix (q, n): ``∫_{-1}^{x} T_k`` for k < n at ``x = cos φ`` (``phi``, rad, shape (q,)),
-    in closed form from ``T_m(cos φ) = cos(m φ)``: ``x + 1``, ``(x² − 1) / 2`` and, for k ≥ 2,
-    ``T_{k+1} / (2(k+1)) − T_{k−1} / (2(k−1))`` less its value at −1 (exactly 0 at φ = π)."""
-    m = np.arange(n + 1, dtype=np.float64)
-    t = np.cos(np.multiply.outer(phi, m))  # T_m(x), (q, n + 1)
-    out = np.empty((phi.size, n))
+def _integrals(t: F64, n: int) -> F64:
+    """Matrix (q, n): ``∫_{-1}^{x} T_k`` for k < n at q points x, from ``t`` = the matrix
+    (q, n + 1) of ``T_m(x)``, m ≤ n: ``x + 1``, ``(x² − 1) / 2`` and, for k ≥ 2,
+    ``T_{k+1} / (2(k+1)) − T_{k−1} / (2(k−1))`` less its value at −1 (exactly 0 at x = −1)."""
+    out = np.empty((t.shape[0], n))
     out[:, 0] = t[:, 1] + 1.0
     if n > 1:
         out[:, 1] = 0.25 * (t[:, 2] - 1.0)  # (x² − 1) / 2 = (T_2 − 1) / 4
     if n > 2:
-        k = m[2:n]
+        k = np.arange(2.0, n)
         sign = np.where(k % 2.0 == 0.0, -1.0, 1.0)  # T_{k±1}(−1) = (−1)^{k+1}
         up, down = 0.5 / (k + 1.0), 0.5 / (k - 1.0)
         out[:, 2:] = (t[:, 3:] - sign) * up - (t[:, 1:n - 1] - sign) * down
     return out
 
 
+def _at_nodes(n: int, degrees: int) -> F64:
+    """Matrix (n, degrees): ``T_m(t_j)`` at the n Chebyshev nodes t_j (ascending) for m <
+    ``degrees``. With ``t_j = cos φ_j``, ``φ_j = π (2i + 1) / (2n)`` (i = n − 1 − j), each
+    ``m φ_j`` is a whole multiple of ``π / (2n)``: the values are read from one table of 4n
+    cosines (as exact as the table, and no cosine of a large argument)."""
+    odd = 2 * np.arange(n - 1, -1, -1) + 1  # 2i + 1, ascending nodes
+    table = np.cos(np.arange(4 * n) * (np.pi / (2 * n)))
+    return np.asarray(table[np.multiply.outer(odd, np.arange(degrees)) % (4 * n)],
+                      dtype=np.float64)
+
+
+@lru_cache(maxsize=64)
+def _coefficients(n: int) -> F64:
+    """The map V⁻¹ (n, n) from values at the n Chebyshev (first-kind) nodes on [-1, 1]
+    (ascending) to Chebyshev coefficients, in closed form (the nodes' discrete orthogonality:
+    ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``)."""
+    vinv: F64 = _at_nodes(n, n).T * (2.0 / n)
+    vinv[0] *= 0.5
+    vinv.setflags(write=False)
+    return vinv
+
+
 @lru_cache(maxsize=64)
 def _reference(n: int) -> tuple[F64, F64, F64]:
-    """Chebyshev (first-kind) nodes on [-1, 1] (ascending), their angles ``φ = arccos t`` (rad)
-    and the map V⁻¹ from nodal values to Chebyshev coefficients, in closed form (the nodes'
-    discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``)."""
-    phi: F64 = np.pi * (2.0 * np.arange(n - 1, -1, -1, dtype=np.float64) + 1.0) / (2.0 * n)
-    t: F64 = np.cos(phi)
-    vinv: F64 = np.cos(np.multiply.outer(np.arange(n, dtype=np.float64), phi)) * (2.0 / n)
-    vinv[0] *= 0.5
-    for arr in (t, phi, vinv):
+    """On [-1, 1]: the n Chebyshev nodes t (ascending), the matrix (n, n) of ∫_{-1}^{t} at
+    them and the weights (n,) of ∫_{-1}^{1}, each of the interpolant of nodal values (cached:
+    a grid of any length scales them)."""
+    vinv = _coefficients(n)
+    values = _at_nodes(n, n + 1)
+    t = np.ascontiguousarray(values[:, 1])  # T_1(t) = t
+    at_nodes = _integrals(values, n) @ vinv
+    weights = _integrals(np.ones((1, n + 1)), n)[0] @ vinv  # T_m(1) = 1
+    for arr in (t, at_nodes, weights):
         arr.setflags(write=False)
-    return t, phi, vinv
+    return t, at_nodes, weights
 
 
-def _cumulative(n: int, t_query: F64, phi: F64 | None = None) -> F64:
-    """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values
-    (``phi``: the angles ``arccos t_query`` where known exactly)."""
-    _, _, vinv = _reference(n)
-    if phi is None:
-        phi = np.arccos(np.clip(t_query, -1.0, 1.0))
-    return np.asarray(_integrals(phi, n) @ vinv, dtype=np.float64)
+@lru_cache(maxsize=64)
+def _uniform_reference(n: int, m: int) -> F64:
+    """Matrix (m, n): ∫_{-1}^{x} of the interpolant of n nodal values at m uniform x from −1
+    to 1 (cached: the output grid of every one-piece grid)."""
+    x = np.linspace(-1.0, 1.0, m)
+    half = m // 2  # x ≥ 0 from here on; the rows before mirror them: T_k(−x) = (−1)^k T_k(x)
+    values = np.empty((m, n + 1))
+    values[half:] = np.cos(np.multiply.outer(np.arccos(x[half:]), np.arange(n + 1.0)))
+    values[:half] = values[m - 1:m - 1 - half:-1] * np.where(np.arange(n + 1) % 2 == 0, 1.0,
+                                                              -1.0)
+    out = np.asarray(_integrals(values, n) @ _coefficients(n), dtype=np.float64)
+    out.setflags(write=False)
+    return out
+
+
+def _cumulative(n: int, t_query: F64) -> F64:
+    """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values."""
+    phi = np.arccos(np.clip(t_query, -1.0, 1.0))
+    values = np.cos(np.multiply.outer(phi, np.arange(n + 1.0)))  # T_m(cos φ) = cos(m φ)
+    return np.asarray(_integrals(values, n) @ _coefficients(n), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -99,7 +133,11 @@ class Grid:
         """Uniform arc lengths (m,) from 0 to L and their :meth:`cumulative_at` matrix (cached)."""
         if m not in self._memo:
             s_out = np.linspace(0.0, float(self.bounds[-1]), m)
-            cum = self.cumulative_at(s_out)
+            if len(self.sizes) == 1:  # one piece: the reference's, scaled
+                cum = 0.5 * float(self.bounds[1] - self.bounds[0]) * _uniform_reference(
+                    self.sizes[0], m)
+            else:
+                cum = self.cumulative_at(s_out)
             for arr in (s_out, cum):
                 arr.setflags(write=False)
             self._memo[m] = (s_out, cum)
@@ -114,13 +152,13 @@ class Grid:
         w = np.empty(total)
         start = 0
         for k, n in enumerate(sizes):
-            t, phi, _ = _reference(n)
+            t, at_nodes, weights = _reference(n)
             h = 0.5 * (bounds[k + 1] - bounds[k])
             sl = slice(start, start + n)
             s[sl] = bounds[k] + h * (t + 1.0)
             piece[sl] = k
-            C[sl, sl] = h * _cumulative(n, t, phi)
-            w[sl] = h * _cumulative(n, np.ones(1), np.zeros(1))[0]  # ∫ over the piece
+            C[sl, sl] = h * at_nodes
+            w[sl] = h * weights
             C[start + n:, sl] = w[sl]  # later pieces see the whole of this one
             start += n
         R = w[None, :] - C
