@@ -146,10 +146,13 @@ def bending(s: mc.Setup, quick: bool) -> tuple[float, np.ndarray]:
     times = interleaved({"ours": lambda: mc.bend(s, force=force),
                          "bvp": lambda: bvp(1.0, tol)}, 20 if quick else 100)
     (o_min, o_med), (b_min, b_med) = stats(times["ours"]), stats(times["bvp"])
+    a_min, a_med = stats(interleaved({"alone": lambda: mc.bend(s, force=force)},
+                                     100 if quick else 1000)["alone"])
     print(f"  magcilia.bend warm (Chebyshev collocation, {shape.nodes} nodes, Newton from the "
-          f"saturated linear-beam guess, {shape.iterations} iterations): min {o_min * 1e3:.3f} "
-          f"ms, median {o_med * 1e3:.3f} ms; tip error {relative(shape.tip, ref):.1e} "
-          "[target <= 0.1 ms at 1e-6]")
+          f"saturated linear-beam guess, {shape.iterations} iterations): interleaved with "
+          f"solve_bvp min {o_min * 1e3:.3f} ms, median {o_med * 1e3:.3f} ms; repeated alone min "
+          f"{a_min * 1e3:.3f} ms, median {a_med * 1e3:.3f} ms; tip error "
+          f"{relative(shape.tip, ref):.1e} [target <= 0.1 ms at 1e-6]")
     first = first_calls(5 if quick else 15)
     print(f"  magcilia.bend first call in a fresh process ({len(first)} processes, after import "
           f"and the setup): min {min(first) * 1e3:.3f} ms, median "

@@ -367,7 +367,8 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
     point = problem.point_matrix()
     fx, fz = (scale * problem.force).tolist()
-    diagonal = slice(None, None, guess.size + 1)
+    jac = np.empty_like(point)  # each full step's Jacobian, then its LU factors (Fortran order)
+    diagonal = jac.reshape(-1, order="A")[:: guess.size + 1]  # a view of its diagonal
     theta = guess
     prev = math.inf
     worse = 0
@@ -396,9 +397,9 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
             step, info = dgetrs(*factors, minus, overwrite_b=1)
             factors = None
         else:
-            # the Jacobian's P diag(loaded) diag(F_x sin θ + F_z cos θ), Fortran order as P
-            jac = point * np.sin(theta) if sin is None else point * (fx * sin + fz * cos)
-            jac.reshape(-1, order="A")[diagonal] += 1.0  # + I: the diagonal, in place
+            # I + P diag(loaded) diag(F_x sin θ + F_z cos θ), into the buffer
+            np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
+            diagonal += 1.0
             lu, piv, step, info = dgesv(jac, minus, overwrite_a=1, overwrite_b=1)
             factors = (lu, piv)
         if info != 0:  # singular
