@@ -71,29 +71,28 @@ def _at_nodes(n: int, degrees: int) -> F64:
 
 
 @lru_cache(maxsize=64)
-def _coefficients(n: int) -> F64:
-    """The map V⁻¹ (n, n) from values at the n Chebyshev (first-kind) nodes on [-1, 1]
-    (ascending) to Chebyshev coefficients, in closed form (the nodes' discrete orthogonality:
-    ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``)."""
-    vinv: F64 = _at_nodes(n, n).T * (2.0 / n)
-    vinv[0] *= 0.5
-    vinv.setflags(write=False)
-    return vinv
-
-
-@lru_cache(maxsize=64)
-def _reference(n: int) -> tuple[F64, F64, F64]:
-    """On [-1, 1]: the n Chebyshev nodes t (ascending), the matrix (n, n) of ∫_{-1}^{t} at
-    them and the weights (n,) of ∫_{-1}^{1}, each of the interpolant of nodal values (cached:
-    a grid of any length scales them)."""
-    vinv = _coefficients(n)
+def _reference(n: int) -> tuple[F64, F64, F64, F64]:
+    """On [-1, 1]: the n Chebyshev (first-kind) nodes t (ascending), the matrix (n, n) of
+    ∫_{-1}^{t} at them and the weights (n,) of ∫_{-1}^{1}, each of the interpolant of nodal
+    values, and the map V⁻¹ (n, n) from nodal values to Chebyshev coefficients, in closed form
+    (the nodes' discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``); cached: a grid of any
+    length scales them."""
     values = _at_nodes(n, n + 1)
-    t = np.ascontiguousarray(values[:, 1])  # T_1(t) = t
-    at_nodes = _integrals(values, n) @ vinv
-    weights = _integrals(np.ones((1, n + 1)), n)[0] @ vinv  # T_m(1) = 1
-    for arr in (t, at_nodes, weights):
+    vinv = values[:, :n].T * (2.0 / n)
+    vinv[0] *= 0.5
+    rows = np.empty((n + 1, n + 1))
+    rows[:n], rows[n] = values, 1.0  # and T_m(1) = 1, for the weights
+    integrals = _integrals(rows, n) @ vinv
+    t = values[:, 1].copy()  # T_1(t) = t
+    for arr in (t, integrals, vinv):
         arr.setflags(write=False)
-    return t, at_nodes, weights
+    return t, integrals[:n], integrals[n], vinv
+
+
+def _coefficients(n: int) -> F64:
+    """The map V⁻¹ (n, n) from values at the n nodes to Chebyshev coefficients
+    (:func:`_reference`)."""
+    return _reference(n)[3]
 
 
 @lru_cache(maxsize=64)
@@ -159,7 +158,7 @@ class Grid:
         w = np.empty(total)
         start = 0
         for k, n in enumerate(sizes):
-            t, at_nodes, weights = _reference(n)
+            t, at_nodes, weights, _ = _reference(n)
             h = 0.5 * (bounds[k + 1] - bounds[k])
             sl = slice(start, start + n)
             s[sl] = bounds[k] + h * (t + 1.0)
