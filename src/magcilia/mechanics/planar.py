@@ -73,7 +73,9 @@ class Statics:
     def maps(self) -> _PointMaps:
         """The :class:`_PointMaps` of the point load (``loaded``)."""
         grid, loaded = self.grid, self.loaded
-        point = point_influence(self.influence, loaded)
+        # a tip load loads every node: P itself (stored in Fortran order), not a copy of it
+        point = self.influence if bool(np.all(loaded == 1.0)) else point_influence(
+            self.influence, loaded)
         s_out, positions = grid.uniform_output(OUTPUT_POINTS)
         linear = point @ np.ones(loaded.size)
         angles = positions @ (grid.R * loaded / self.ei[:, None])
@@ -85,7 +87,8 @@ class Statics:
 @lru_cache(maxsize=64)
 def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
             nodes: int | None) -> Statics:
-    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them); at
+    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them; the
+    influence matrix in Fortran order, see :func:`magcilia.mechanics.elastica.point_influence`); at
     most :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
     (:func:`magcilia.mechanics.sections.sections`)."""
     sec = sections(cilium, at, point_load, nodes)
@@ -93,7 +96,7 @@ def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
     ei = modulus * sec.second_moment
     diameter = 2.0 * sec.radius
     loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
-    influence = grid.C @ (grid.R / ei[:, None])
+    influence = np.asfortranarray(grid.C @ (grid.R / ei[:, None]))  # as Problem.point wants
     for arr in (ei, diameter, loaded, influence):
         arr.setflags(write=False)
     return Statics(grid, ei, diameter, loaded, influence)
