@@ -70,8 +70,8 @@ def _state(setup: mc.Setup, shape: mc.SpatialBentShape,
     from magcilia.mechanics.spatial import _moment_per_length
 
     c = setup.cilium
-    grid, ei, d, loaded, _ = _static(c, setup.youngs_modulus, c.height,
-                                     bool(np.any(loads.force)), None)
+    static = _static(c, setup.youngs_modulus, c.height, bool(np.any(loads.force)), None)
+    grid, ei, d, loaded = static.grid, static.ei, static.diameter, static.loaded
     rod = Rod(grid, ei, d, loaded, _moment_per_length(setup, grid.s), setup.base_centre,
               free_log(grid.s, 0.5 * d, c.height))
     start = straight(rod)

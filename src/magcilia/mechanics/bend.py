@@ -184,7 +184,7 @@ def bend_sweep(setup: Setup, forces: ArrayLike | None = None, *,
 
     With an ``actuation`` (:class:`~magcilia.Actuation`) every shape carries the field at full
     strength besides its swept load (a read-out table while actuating); each load is then solved
-    on its own by :func:`bend` (no warm start: ~0.2 ms a shape in one plane, ~10 ms on the 3-D
+    on its own by :func:`bend` (no warm start: ~0.1 ms a shape in one plane, ~10 ms on the 3-D
     rod, more for a magpylib source).
 
     Returns

@@ -17,7 +17,14 @@ nodes never sit where EI may vanish (a cone's tip). With the influence matrix
 analytic Jacobian ``I − P diag(g'(θ))`` for the point load and the couple (O(N²) per step;
 batched central differences for the shape-dependent drag), started from a guess (the caller's:
 :func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
-predictor and step halving when Newton fails.
+predictor and step halving when Newton fails. A point force alone (the common bend) runs the
+same Newton iteration fused into a few array operations a step (:func:`_newton_point`; a bend
+of the issue's tapered cilium then takes ~65 µs: four steps, three of them factorizing the
+34 × 34 Jacobian).
+
+The Chebyshev references (integration matrices on [-1, 1] for n nodes, and at the uniform
+output points) are built in closed form from ``T_m(cos φ) = cos(m φ)`` and the nodes' discrete
+orthogonality, once per node count: a new cilium's grid only scales them.
 """
 
 from __future__ import annotations
@@ -29,26 +36,85 @@ from functools import lru_cache
 from typing import Protocol
 
 import numpy as np
-from numpy.polynomial import chebyshev as cheb
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dgesv
+from scipy.linalg.blas import idamax
+from scipy.linalg.lapack import dgesv, dgetrs
 
 F64 = NDArray[np.float64]
 
 
+def _integrals(t: F64, n: int) -> F64:
+    """Matrix (q, n): ``∫_{-1}^{x} T_k`` for k < n at q points x, from ``t`` = the matrix
+    (q, n + 1) of ``T_m(x)``, m ≤ n: ``x + 1``, ``(x² − 1) / 2`` and, for k ≥ 2,
+    ``T_{k+1} / (2(k+1)) − T_{k−1} / (2(k−1))`` less its value at −1 (exactly 0 at x = −1)."""
+    out = np.empty((t.shape[0], n))
+    out[:, 0] = t[:, 1] + 1.0
+    if n > 1:
+        out[:, 1] = 0.25 * (t[:, 2] - 1.0)  # (x² − 1) / 2 = (T_2 − 1) / 4
+    if n > 2:
+        k = np.arange(2.0, n)
+        sign = np.where(k % 2.0 == 0.0, -1.0, 1.0)  # T_{k±1}(−1) = (−1)^{k+1}
+        up, down = 0.5 / (k + 1.0), 0.5 / (k - 1.0)
+        out[:, 2:] = (t[:, 3:] - sign) * up - (t[:, 1:n - 1] - sign) * down
+    return out
+
+
+def _at_nodes(n: int, degrees: int) -> F64:
+    """Matrix (n, degrees): ``T_m(t_j)`` at the n Chebyshev nodes t_j (ascending) for m <
+    ``degrees``. With ``t_j = cos φ_j``, ``φ_j = π (2i + 1) / (2n)`` (i = n − 1 − j), each
+    ``m φ_j`` is a whole multiple of ``π / (2n)``: the values are read from one table of 4n
+    cosines (as exact as the table, and no cosine of a large argument)."""
+    odd = 2 * np.arange(n - 1, -1, -1) + 1  # 2i + 1, ascending nodes
+    table = np.cos(np.arange(4 * n) * (np.pi / (2 * n)))
+    return np.asarray(table[np.multiply.outer(odd, np.arange(degrees)) % (4 * n)],
+                      dtype=np.float64)
+
+
 @lru_cache(maxsize=64)
-def _reference(n: int) -> tuple[F64, F64, F64]:
-    """Chebyshev nodes on [-1, 1] (ascending), coefficient map V⁻¹ and integration map K."""
-    t = np.cos(np.pi * (2.0 * np.arange(n) + 1.0) / (2.0 * n))[::-1].copy()
-    vinv = np.linalg.inv(cheb.chebvander(t, n - 1))
-    k = cheb.chebint(np.eye(n), lbnd=-1.0, axis=0)  # (n+1, n): coefficients of ∫_{-1}^t
-    return t, vinv, k @ vinv
+def _reference(n: int) -> tuple[F64, F64, F64, F64]:
+    """On [-1, 1]: the n Chebyshev (first-kind) nodes t (ascending), the matrix (n, n) of
+    ∫_{-1}^{t} at them and the weights (n,) of ∫_{-1}^{1}, each of the interpolant of nodal
+    values, and the map V⁻¹ (n, n) from nodal values to Chebyshev coefficients, in closed form
+    (the nodes' discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``); cached: a grid of any
+    length scales them."""
+    values = _at_nodes(n, n + 1)
+    vinv = values[:, :n].T * (2.0 / n)
+    vinv[0] *= 0.5
+    rows = np.empty((n + 1, n + 1))
+    rows[:n], rows[n] = values, 1.0  # and T_m(1) = 1, for the weights
+    integrals = _integrals(rows, n) @ vinv
+    t = values[:, 1].copy()  # T_1(t) = t
+    for arr in (t, integrals, vinv):
+        arr.setflags(write=False)
+    return t, integrals[:n], integrals[n], vinv
+
+
+def _coefficients(n: int) -> F64:
+    """The map V⁻¹ (n, n) from values at the n nodes to Chebyshev coefficients
+    (:func:`_reference`)."""
+    return _reference(n)[3]
+
+
+@lru_cache(maxsize=64)
+def _uniform_reference(n: int, m: int) -> F64:
+    """Matrix (m, n): ∫_{-1}^{x} of the interpolant of n nodal values at m uniform x from −1
+    to 1 (cached: the output grid of every one-piece grid)."""
+    x = np.linspace(-1.0, 1.0, m)
+    half = m // 2  # x ≥ 0 from here on; the rows before mirror them: T_k(−x) = (−1)^k T_k(x)
+    values = np.empty((m, n + 1))
+    values[half:] = np.cos(np.multiply.outer(np.arccos(x[half:]), np.arange(n + 1.0)))
+    values[:half] = values[m - 1:m - 1 - half:-1] * np.where(np.arange(n + 1) % 2 == 0, 1.0,
+                                                              -1.0)
+    out = np.asarray(_integrals(values, n) @ _coefficients(n), dtype=np.float64)
+    out.setflags(write=False)
+    return out
 
 
 def _cumulative(n: int, t_query: F64) -> F64:
     """Matrix (q, n): values at t_query of ∫_{-1}^t p, p the interpolant of nodal values."""
-    _, _, kv = _reference(n)
-    return np.asarray(cheb.chebvander(t_query, n) @ kv, dtype=np.float64)
+    phi = np.arccos(np.clip(t_query, -1.0, 1.0))
+    values = np.cos(np.multiply.outer(phi, np.arange(n + 1.0)))  # T_m(cos φ) = cos(m φ)
+    return np.asarray(_integrals(values, n) @ _coefficients(n), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -73,7 +139,11 @@ class Grid:
         """Uniform arc lengths (m,) from 0 to L and their :meth:`cumulative_at` matrix (cached)."""
         if m not in self._memo:
             s_out = np.linspace(0.0, float(self.bounds[-1]), m)
-            cum = self.cumulative_at(s_out)
+            if len(self.sizes) == 1:  # one piece: the reference's, scaled
+                cum = 0.5 * float(self.bounds[1] - self.bounds[0]) * _uniform_reference(
+                    self.sizes[0], m)
+            else:
+                cum = self.cumulative_at(s_out)
             for arr in (s_out, cum):
                 arr.setflags(write=False)
             self._memo[m] = (s_out, cum)
@@ -88,13 +158,13 @@ class Grid:
         w = np.empty(total)
         start = 0
         for k, n in enumerate(sizes):
-            t, _, _ = _reference(n)
+            t, at_nodes, weights, _ = _reference(n)
             h = 0.5 * (bounds[k + 1] - bounds[k])
             sl = slice(start, start + n)
             s[sl] = bounds[k] + h * (t + 1.0)
             piece[sl] = k
-            C[sl, sl] = h * _cumulative(n, t)
-            w[sl] = h * _cumulative(n, np.array([1.0]))[0]
+            C[sl, sl] = h * at_nodes
+            w[sl] = h * weights
             C[start + n:, sl] = w[sl]  # later pieces see the whole of this one
             start += n
         R = w[None, :] - C
@@ -139,6 +209,22 @@ class Problem:
     #: (2, N) μ(s) (B_x, B_z) at the nodes, N: a uniform field's couple per length μ t × B, whose
     #: y-component μ (B_x cos θ − B_z sin θ) adds to g (no force: it is not in N)
     couple: F64 | None = None
+    #: (N, N) ``P diag(loaded)`` (Fortran order), rad per N: the influence of the point force
+    #: alone, precomputed per grid (:func:`point_influence`); None: formed when first needed
+    point: F64 | None = None
+
+    @property
+    def point_only(self) -> bool:
+        """Whether the dead point force is the only load (no drag, no couple): the fast path."""
+        return self.drag is None and self.couple is None
+
+    def point_matrix(self) -> F64:
+        """``P diag(loaded)`` (N, N), rad per N (:attr:`point`, formed on first use if not
+        given)."""
+        if self.point is None:
+            object.__setattr__(self, "point", point_influence(self.influence, self.loaded))
+        assert self.point is not None  # for mypy: set above
+        return self.point
 
     def moment_density(self, theta: F64, scale: float = 1.0) -> F64:
         """g = cos θ N_x − sin θ N_z at the nodes, N, same shape as ``theta`` ((N,) or (b, N));
@@ -174,7 +260,8 @@ class Problem:
         once the residual is below ``tol`` or not finite, or if the Jacobian is singular.
 
         Point load: analytic Jacobian ``I − P diag(g'(θ))`` (``P`` the influence matrix; O(N²)
-        per step); with drag (shape-dependent): batched central differences.
+        per step); with drag (shape-dependent): batched central differences. (:func:`newton`
+        solves a point force alone by its fused loop instead; this stays its reference.)
         """
         r = self.residual(theta, scale)
         err = float(np.abs(r).max())
@@ -194,6 +281,15 @@ class Problem:
             jac = (res[:n] - res[n:]).T / (2.0 * h)
         *_, step, info = dgesv(jac, r)
         return err, (-step if info == 0 else None)
+
+
+def point_influence(influence: F64, loaded: F64) -> F64:
+    """``P diag(loaded)`` (N, N), rad per N, in Fortran order (``dgesv`` factors a Jacobian
+    built from it in place, without a transposed copy), read-only: the influence of a point
+    force on the nodes it loads."""
+    out = np.asfortranarray(influence * loaded)
+    out.setflags(write=False)
+    return out
 
 
 @lru_cache(maxsize=8)
@@ -223,7 +319,13 @@ class Steppable(Protocol):
 
 def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
            max_iter: int = 40) -> Solution | None:
-    """Newton's method at one load factor; None if it does not converge."""
+    """Newton's method at one load factor; None if it does not converge.
+
+    A planar :class:`Problem` with a point force alone (:attr:`Problem.point_only`) is solved by
+    :func:`_newton_point`, the same iteration fused; every other load case by its
+    :meth:`~Steppable.newton_step` (the reference the fused loop is tested against)."""
+    if isinstance(problem, Problem) and problem.point_only:
+        return _newton_point(problem, scale, guess, tol, max_iter)
     theta = guess
     prev = math.inf
     worse = 0
@@ -235,7 +337,73 @@ def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
         if step is None or worse >= 3:  # diverging, singular or not finite
             return None
         prev = err
-        size = float(np.max(np.abs(step)))
+        size = float(np.abs(step).max())
+        if size > 1.0:  # damp steps of more than a radian
+            step *= 1.0 / size
+        theta = theta + step
+        if size < 1e-14:
+            err = float(np.max(np.abs(problem.residual(theta, scale))))
+            return Solution(theta, err, it) if err < 1e3 * tol else None
+    return None
+
+
+#: largest residual (rad) at which :func:`_newton_point` reuses the last step's LU factors (a
+#: chord step, whose error is about the last step's size times this residual: below Newton's
+#: tolerance here; the step after it is a full one again). 1e-6 cost a fifth step on some pushing
+#: loads that Newton converges in four; 1e-8 none (tests/mechanics/test_newton_point.py)
+CHORD_RESIDUAL = 1e-8
+
+
+def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
+                  max_iter: int) -> Solution | None:
+    """:func:`newton` of a point force alone: :meth:`Problem.newton_step`'s iteration (steps
+    damped to a radian, given up after three rising residuals, a singular Jacobian or a
+    non-finite residual) in as few array operations as it takes (a bend's time is mostly these
+    steps). The residual is negated in place into the right-hand side; the Jacobian
+    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built in Fortran order, which ``dgesv``
+    factors in place; the largest entries come from BLAS's ``idamax`` (a non-finite residual is
+    caught at the end by its squared norm); below :data:`CHORD_RESIDUAL` a step after a full one
+    reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
+    point = problem.point_matrix()
+    fx, fz = (scale * problem.force).tolist()
+    jac = np.empty_like(point)  # each full step's Jacobian, then its LU factors (Fortran order)
+    diagonal = jac.reshape(-1, order="A")[:: guess.size + 1]  # a view of its diagonal
+    theta = guess
+    prev = math.inf
+    worse = 0
+    factors: tuple[F64, NDArray[np.int32]] | None = None  # of the last step, if a full one
+    if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
+        point = point * fx  # Fortran order kept
+    for it in range(1, max_iter + 1):
+        cos = np.cos(theta)
+        if fz == 0.0:
+            sin = None
+            minus = point @ cos
+        else:
+            sin = np.sin(theta)
+            minus = point @ (fx * cos - fz * sin)
+        minus -= theta  # −(θ − P g)
+        err = abs(float(minus[idamax(minus)]))
+        if err < tol:
+            if not math.isfinite(float(minus @ minus)):  # a NaN that idamax passed over
+                return None
+            return Solution(theta, err, it - 1)
+        worse = worse + 1 if err > prev else 0
+        if not err < math.inf or worse >= 3:  # not finite, or diverging
+            return None
+        prev = err
+        if factors is not None and err < CHORD_RESIDUAL:
+            step, info = dgetrs(*factors, minus, overwrite_b=1)
+            factors = None
+        else:
+            # I + P diag(loaded) diag(F_x sin θ + F_z cos θ), into the buffer
+            np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
+            diagonal += 1.0
+            lu, piv, step, info = dgesv(jac, minus, overwrite_a=1, overwrite_b=1)
+            factors = (lu, piv)
+        if info != 0:  # singular
+            return None
+        size = abs(float(step[idamax(step)]))
         if size > 1.0:  # damp steps of more than a radian
             step *= 1.0 / size
         theta = theta + step

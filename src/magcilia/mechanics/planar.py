@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -20,7 +21,14 @@ from magcilia._errors import MagciliaError
 from magcilia.device.cilium import Cilium
 from magcilia.device.setup import Setup
 from magcilia.mechanics.drag import check_reynolds, drag_per_length, free_log, wall_log
-from magcilia.mechanics.elastica import ContinuationError, Grid, Problem, Solution, solve
+from magcilia.mechanics.elastica import (
+    ContinuationError,
+    Grid,
+    Problem,
+    Solution,
+    point_influence,
+    solve,
+)
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.sections import check_nodes, sections
 from magcilia.mechanics.shape import BentShape, Load
@@ -33,23 +41,65 @@ logger = logging.getLogger(__name__)
 OUTPUT_POINTS = 129
 
 
+@dataclass(frozen=True)
+class _PointMaps:
+    """What a dead point force alone needs beyond :class:`Statics`, once per load case (its
+    bends then cost a few array operations a Newton step and two products for the shape).
+
+    Shape letters: ``N`` nodes, ``m`` output points (:data:`OUTPUT_POINTS`).
+    """
+
+    point: F64  # (N, N) P diag(loaded), Fortran order: rad per N (Problem.point)
+    linear: F64  # (N,) P loaded: the linear-beam angles per unit F_x, rad/N
+    s_out: F64  # (m,) the output arc lengths, m
+    positions: F64  # (m, N) ∫₀ˢ of the nodal interpolant, m: points = positions (sin θ, 0, cos θ)
+    angles: F64  # (m, N) ∫₀ˢ diag(1/EI) R diag(loaded), rad per N: output angles = angles g
+
+
+@dataclass(frozen=True)
+class Statics:
+    """What a load case keeps fixed (:func:`_static`): the grid, EI (N·m², (N,)), diameter
+    (m, (N,)), ``loaded`` (1 below the point load, (N,)) and the influence matrix
+    ``C diag(1/EI) R`` ((N, N), rad per N), all read-only; and, formed on first use,
+    :attr:`maps` for a point force alone."""
+
+    grid: Grid
+    ei: F64
+    diameter: F64
+    loaded: F64
+    influence: F64
+
+    @cached_property
+    def maps(self) -> _PointMaps:
+        """The :class:`_PointMaps` of the point load (``loaded``)."""
+        grid, loaded = self.grid, self.loaded
+        # a tip load loads every node: P itself (stored in Fortran order), not a copy of it
+        point = self.influence if bool(np.all(loaded == 1.0)) else point_influence(
+            self.influence, loaded)
+        s_out, positions = grid.uniform_output(OUTPUT_POINTS)
+        linear = point @ np.ones(loaded.size)
+        angles = positions @ (grid.R * loaded / self.ei[:, None])
+        for arr in (linear, angles):
+            arr.setflags(write=False)
+        return _PointMaps(point, linear, s_out, positions, angles)
+
+
 @lru_cache(maxsize=64)
 def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
-            nodes: int | None) -> tuple[Grid, F64, F64, F64, F64]:
-    """What a load case keeps fixed (cached: sweeps and repeated bends share it): the grid,
-    EI (N·m², (N,)), diameter (m, (N,)), ``loaded`` (1 below the point load, (N,)) and the
-    influence matrix ``C diag(1/EI) R`` ((N, N), rad per N); at most
-    :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
+            nodes: int | None) -> Statics:
+    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them; the
+    influence matrix in Fortran order, see :func:`magcilia.mechanics.elastica.point_influence`); at
+    most :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
     (:func:`magcilia.mechanics.sections.sections`)."""
     sec = sections(cilium, at, point_load, nodes)
     grid = sec.grid
     ei = modulus * sec.second_moment
     diameter = 2.0 * sec.radius
     loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
-    influence = grid.C @ (grid.R / ei[:, None])
+    influence = np.asfortranarray(grid.C @ (grid.R / ei[:, None]))  # as Problem.point wants
     for arr in (ei, diameter, loaded, influence):
         arr.setflags(write=False)
-    return grid, ei, diameter, loaded, influence
+    return Statics(grid, ei, diameter, loaded, influence)
 
 
 class _Case:
@@ -57,14 +107,16 @@ class _Case:
 
     def __init__(self, setup: Setup, at: float, direction: float, point_load: bool,
                  flow: Flow | None, nodes: int | None) -> None:
-        self.grid, self.ei, self.diameter, self.loaded, self.influence = _static(
-            setup.cilium, setup.youngs_modulus, at, point_load, nodes)
+        static = _static(setup.cilium, setup.youngs_modulus, at, point_load, nodes)
+        self.grid, self.ei, self.diameter = static.grid, static.ei, static.diameter
+        self.loaded, self.influence = static.loaded, static.influence
         self.unit = np.array([math.sin(direction), math.cos(direction)])
         # the rod turns toward a dead force (or along the flow), never past it: |θ| ≤ limit
         self.limit = abs(math.remainder(direction, 2.0 * math.pi)) if point_load \
             else 0.5 * math.pi
         self.flow = flow
         self.length = setup.cilium.height
+        self.maps = static.maps if point_load else None
 
     @cached_property
     def free_log(self) -> F64:
@@ -82,14 +134,20 @@ class _Case:
                 return drag_per_length(flow.velocity(z) * cos_t, d, flow.fluid,
                                        lambda: self.free_log - wall_log(z, 0.5 * d, length))
 
-        return Problem(self.grid, self.ei, self.influence, force * self.unit, self.loaded, drag)
+        return Problem(self.grid, self.ei, self.influence, force * self.unit, self.loaded, drag,
+                       point=None if self.maps is None else self.maps.point)
 
     def guess(self, force: float, speed: float) -> F64:
         """Newton's start from the straight rod, rad (N,): the linear-beam angles θ_lin saturated
         at the load's direction, ``limit · tanh(θ_lin / limit)`` (θ_lin itself overshoots:
         several radians at P L² / EI₀ = 1 on a tapered cilium)."""
-        lin = self.problem(force, speed).linear(1.0)
-        return self.limit * np.tanh(lin / self.limit) if self.limit > 0.0 else lin
+        if self.maps is not None and (self.flow is None or speed == 0.0):
+            lin = (force * float(self.unit[0])) * self.maps.linear  # g(0) = F_x below the load
+        else:
+            lin = self.problem(force, speed).linear(1.0)
+        if self.limit > 0.0:
+            return np.asarray(self.limit * np.tanh(lin * (1.0 / self.limit)), dtype=np.float64)
+        return lin
 
     def solve(self, start: tuple[float, float], end: tuple[float, float], theta: F64,
               slope: F64) -> Solution:
@@ -104,6 +162,8 @@ class _Case:
 
     def shape_data(self, sol: Solution, force: float, speed: float) -> tuple[F64, F64, F64]:
         """Arc lengths (m,), angles (m,) and points (m, 3) on the output grid."""
+        if self.maps is not None and (self.flow is None or speed == 0.0):
+            return _point_shape(self.maps, sol.theta, force * self.unit)
         s_out, cum = self.grid.uniform_output(OUTPUT_POINTS)
         kappa = self.problem(force, speed).curvature(sol.theta)
         x, z, th = (cum @ np.stack([np.sin(sol.theta), np.cos(sol.theta), kappa], axis=1)).T
@@ -113,6 +173,22 @@ class _Case:
         th[0] = 0.0  # clamped base, exactly (the quadrature gives ~1e-17)
         pts[0] = 0.0
         return s_out, th, pts
+
+
+def _point_shape(maps: _PointMaps, theta: F64, force: F64) -> tuple[F64, F64, F64]:
+    """:meth:`_Case.shape_data` of a point force alone (``force``: (F_x, F_z), N; ``theta``:
+    the nodal angles, rad (N,)): arc lengths (m,), angles (m,) and points (m, 3), each output
+    array by one product with the maps."""
+    fx, fz = force.tolist()
+    sin, cos = np.sin(theta), np.cos(theta)
+    g = cos * fx if fz == 0.0 else fx * cos - fz * sin  # the moment density per loaded node
+    th = maps.angles @ g
+    tangents = np.zeros((theta.size, 3))
+    tangents[:, 0], tangents[:, 2] = sin, cos
+    pts = maps.positions @ tangents
+    th[0] = 0.0  # clamped base, exactly (the quadrature gives ~1e-17)
+    pts[0] = 0.0
+    return maps.s_out, th, pts
 
 
 #: why a sharp cone (tip_radius 0) cannot carry each kind of load
@@ -188,8 +264,8 @@ def _bend_plane(setup: Setup, force: float = 0.0, *, at: float | None = None,
         value = force if by_force else speed
         raise MagciliaError(_message(by_force, value, exc.reached * value)) from None
     s, th, pts = case.shape_data(sol, force, speed)
-    return BentShape(s, th[None], pts[None], load=load, residual=sol.residual,
-                     iterations=sol.iterations, nodes=int(case.grid.s.size))
+    return BentShape._solved(s, th[None], pts[None], load, sol.residual, sol.iterations,
+                             int(case.grid.s.size))
 
 
 def _sweep_plane(setup: Setup, forces: ArrayLike | None = None, *,

@@ -101,7 +101,7 @@ def piece_nodes(cilium: Cilium, bounds: F64) -> tuple[int, ...]:
                 n = 64
             else:
                 rho = t + math.sqrt(t * t - 1.0)
-                n = int(np.clip(math.ceil(30.0 / math.log(rho)) + 6, 24, 96))
+                n = min(max(math.ceil(30.0 / math.log(rho)) + 6, 24), 96)
         sizes.append(n)
     return tuple(sizes)
 

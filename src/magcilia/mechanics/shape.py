@@ -85,6 +85,22 @@ class BentShape(Centreline):
     iterations: int = 0
     nodes: int = 0
 
+    @classmethod
+    def _solved(cls, s: F64, angles: F64, points: F64, load: Load, residual: float,
+                iterations: int, nodes: int) -> BentShape:
+        """The shape of the solver's own arrays, ``s`` (m,), ``angles`` (1, m) and ``points``
+        (1, m, 3) (float64, finite and of matching shapes by construction: a converged
+        solution), made read-only as the constructor makes them, without the constructor's
+        checks of user input (a tenth of a bend's time)."""
+        shape = object.__new__(cls)
+        for arr in (s, angles, points):
+            arr.setflags(write=False)
+        for name, value in (("s", s), ("angles", angles), ("points", points), ("load", load),
+                            ("residual", residual), ("iterations", iterations),
+                            ("nodes", nodes)):
+            object.__setattr__(shape, name, value)
+        return shape
+
     @property
     def tip(self) -> F64:  # one shape: (3,) rather than (1, 3)
         """Tip position relative to the base centre, m, shape (3,): x along +x (the default

@@ -163,8 +163,9 @@ class _PlaneCase:
 
     def __init__(self, setup: Setup, res: _Resolved, nodes: int | None) -> None:
         point_load = res.magnitude != 0.0
-        self.grid, self.ei, self.diameter, self.loaded, self.influence = _static(
-            setup.cilium, setup.youngs_modulus, res.at, point_load, nodes)
+        static = _static(setup.cilium, setup.youngs_modulus, res.at, point_load, nodes)
+        self.grid, self.ei, self.diameter = static.grid, static.ei, static.diameter
+        self.loaded, self.influence = static.loaded, static.influence
         self.force = res.magnitude * np.array([math.sin(res.direction), math.cos(res.direction)])
         flow = res.planar_flow
         self.flow = flow if flow is not None and flow.speed != 0.0 else None
@@ -304,7 +305,8 @@ def _bend_rod(setup: Setup, res: _Resolved, nodes: int | None) -> SpatialBentSha
     """The 3-D rod (:mod:`magcilia.mechanics.rod`) for the resolved loads."""
     c = setup.cilium
     point_load = bool(np.any(res.force != 0.0))
-    grid, ei, diameter, loaded, _ = _static(c, setup.youngs_modulus, res.at, point_load, nodes)
+    static = _static(c, setup.youngs_modulus, res.at, point_load, nodes)
+    grid, ei, diameter, loaded = static.grid, static.ei, static.diameter, static.loaded
     mu = _moment_per_length(setup, sections(c, res.at, point_load, nodes))
     the_rod = Rod(grid, ei, diameter, loaded, mu,
                   setup.base_centre, free_log(grid.s, 0.5 * diameter, c.height))
@@ -379,8 +381,8 @@ def buckling_load(setup: Setup, at: float | None = None, nodes: int | None = Non
     ``π² E I / (4 L²)`` for a uniform rod loaded at the tip."""
     _, at_s, _ = _check(setup, 1.0, at, math.pi, None)
     count = check_nodes(nodes)
-    _, _, _, loaded, influence = _static(setup.cilium, setup.youngs_modulus, at_s, True, count)
-    return 1.0 / float(np.max(np.linalg.eigvals(influence * loaded).real))
+    static = _static(setup.cilium, setup.youngs_modulus, at_s, True, count)
+    return 1.0 / float(np.max(np.linalg.eigvals(static.influence * static.loaded).real))
 
 
 def flip_field(setup: Setup, nodes: int | None = None) -> float:
@@ -394,8 +396,8 @@ def flip_field(setup: Setup, nodes: int | None = None) -> float:
     if setup.spec.magnetization == 0.0:
         return math.inf
     count = check_nodes(nodes)
-    _, _, _, _, influence = _static(setup.cilium, setup.youngs_modulus, setup.cilium.height,
-                                    False, count)
+    influence = _static(setup.cilium, setup.youngs_modulus, setup.cilium.height, False,
+                        count).influence
     mu = np.abs(_moment_per_length(setup, sections(setup.cilium, setup.cilium.height, False,
                                                    count)))
     return 1.0 / float(np.max(np.linalg.eigvals(influence * mu).real))
