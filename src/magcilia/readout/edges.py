@@ -96,3 +96,25 @@ def read_beyond(table: InverseTable,
             slope[side] = est_slope
             flags[side] = direction | FLAG_DTYPE(Flag.EXTRAPOLATED)
     return value, slope, bias, flags
+
+
+def outside_text(quantity: str, span: tuple[float, float], unit: str, table: InverseTable,
+                 edge_tables: tuple[InverseTable | None, InverseTable | None], edge: str) -> str:
+    """What a reading outside a read-out's reach should be, for its one-line error: within the
+    span's output range (the span, a fold), or up to how far beyond its ends it is continued."""
+    lo, hi = span
+    what = f"{quantity} {lo:.4g}…{hi:.4g} {unit}"
+    if table.fold is not None:
+        what += f", folding at {table.fold:.4g} {unit}"
+    text = (f"within the span's output range {min(table.output_range):.6g}…"
+            f"{max(table.output_range):.6g} V ({what})")
+    low, high = (0.0 if t is None else abs(float(t.quantity[-1] - t.quantity[0]))
+                 for t in edge_tables)
+    if not (low or high):
+        return text
+    ends = [t.volts[[0, -1]] for t in edge_tables if t is not None]
+    a = min(table.volts[0], *(e[0] for e in ends))
+    b = max(table.volts[-1], *(e[1] for e in ends))
+    reach = f"{low:.4g} {unit} below" if low else ""
+    reach += (" and " if low and high else "") + (f"{high:.4g} {unit} above" if high else "")
+    return f"{text}, or up to {reach} it ({a:.6g}…{b:.6g} V, edge={edge!r})"

@@ -44,6 +44,7 @@ from magcilia.readout.edges import (
     EDGES,
     edge_table,
     noise_reach,
+    outside_text,
     read_beyond,
 )
 from magcilia.readout.forward import (
@@ -385,31 +386,12 @@ class Readout(Display):
             if bad.size:
                 first = np.unravel_index(int(bad[0]), x.shape)
                 where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
-                raise v.fail(where, f"{float(x[first]):.6g} V", f"within the span's output range "
-                             f"{min(self.output_range):.6g}…{max(self.output_range):.6g} V "
-                             f"({self._span_text()}){self._reach_text()}")
+                raise v.fail(where, f"{float(x[first]):.6g} V", outside_text(
+                    self.quantity, self.span, self.unit, self.table, self.edge_tables, self.edge))
             value = table.lookup(flat)
             value[out] = beyond
             return value.reshape(x.shape)
         return table.lookup(x.reshape(-1)).reshape(x.shape)
-
-    def _span_text(self) -> str:
-        lo, hi = self.span
-        text = f"{self.quantity} {lo:.4g}…{hi:.4g} {self.unit}"
-        return text + (f", folding at {self.fold:.4g} {self.unit}" if self.fold is not None else "")
-
-    def _reach_text(self) -> str:
-        """``, or within ... beyond its ends (a…b V)`` where the span's ends are continued."""
-        low, high = self.edge_reach
-        if not (low or high):
-            return ""
-        ends = [t.volts[[0, -1]] for t in self.edge_tables if t is not None]
-        a = min(self.table.volts[0], *(e[0] for e in ends))
-        b = max(self.table.volts[-1], *(e[1] for e in ends))
-        reach = f"{low:.4g} {self.unit} below" if low else ""
-        reach += (" and " if low and high else "") + (f"{high:.4g} {self.unit} above" if high
-                                                       else "")
-        return f", or up to {reach} it ({a:.6g}…{b:.6g} V, edge={self.edge!r})"
 
     def _beyond(self, x: F64) -> tuple[F64, F64, F64, NDArray[np.uint16]]:
         """:func:`~magcilia.readout.edges.read_beyond` of readings ``x`` (V, (b,))."""
