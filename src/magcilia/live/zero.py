@@ -19,6 +19,7 @@ never tracked away. A load applied more slowly than ``tau`` and within the band 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,9 +30,9 @@ from magcilia.readout.tare import Tare
 F64 = NDArray[np.float64]
 
 
-def difference_noise(volts: F64) -> float:
+def difference_noise(volts: F64) -> Any:
     """Noise RMS of one reading from the spread of successive differences, V (NaN with fewer
-    than 3 finite readings).
+    than 3 finite readings); readings (t, c) of several channels give one per channel, (c,).
 
     ``1.4826 · MAD(diff(volts)) / √2``: for white noise the standard deviation, unmoved by a
     slowly changing signal and by the few differences that straddle a step. What it misses is
@@ -39,9 +40,11 @@ def difference_noise(volts: F64) -> float:
 
     Parameters
     ----------
-    volts : ndarray, shape (t,)
-        Consecutive readings, V.
+    volts : ndarray, shape (t,) or (t, c)
+        Consecutive readings, V (or a channel's unit).
     """
+    if np.ndim(volts) == 2:
+        return np.array([difference_noise(column) for column in np.asarray(volts).T])
     d = np.diff(volts[np.isfinite(volts)])
     if d.size < 2:
         return math.nan
@@ -53,8 +56,10 @@ class Zero:
 
     Parameters
     ----------
-    rest : float
-        The model's output at rest, V.
+    rest : float or ndarray, shape (c,)
+        The model's output at rest, V (several channels: each one's reading at rest, their
+        unit; then ``correction``, ``noise`` and ``drift`` are arrays (c,) too, and tracking
+        follows only while every channel lies within its band).
     tau : float or None
         Zero-tracking time constant, s (None: no tracking).
     band : float
@@ -72,13 +77,14 @@ class Zero:
         Time of the last tare, s (the read-out's clock).
     """
 
-    def __init__(self, rest: float, tau: float | None = 30.0, band: float = 3.0) -> None:
-        self.rest = v.real("rest", rest, "V")
+    def __init__(self, rest: Any, tau: float | None = 30.0, band: float = 3.0) -> None:
+        self.rest: Any = v.real("rest", rest, "V") if np.ndim(rest) == 0 else \
+            v.finite_array("rest", rest, ndim=1)
         self.tau = None if tau is None else v.positive("tau", tau, "s", "time constant")
         self.band = v.positive("band", band, "σ", "band")
-        self.correction = 0.0
-        self.noise: float | None = None
-        self.drift = 0.0
+        self.correction: Any = 0.0 * self.rest
+        self.noise: Any = None
+        self.drift: Any = 0.0 * self.rest
         self.tared_at: float | None = None
 
     def tare(self, volts: F64, at: float) -> None:
@@ -92,13 +98,16 @@ class Zero:
         tare = Tare.from_readings(volts, self.rest)  # the arithmetic of Readout.tare
         self.correction = tare.correction
         self.noise = tare.noise
-        self.drift = 0.0
+        self.drift = 0.0 * self.rest
         self.tared_at = at
 
     def track(self, volts: F64, dt: float) -> None:
         """Let the correction follow a batch of readings ``volts`` (V, uncorrected, shape (w,),
-        spaced ``dt`` s) whose mean lies within the band around the rest output; nothing before
-        a tare."""
+        or (w, c) for several channels, spaced ``dt`` s) whose mean lies within the band around
+        the rest output; nothing before a tare."""
+        if np.ndim(self.rest):
+            self._track_channels(np.asarray(volts).reshape(-1, np.size(self.rest)), dt)
+            return
         good = volts[np.isfinite(volts)]
         if self.tau is None or self.noise is None or good.size == 0:
             return
@@ -111,3 +120,17 @@ class Zero:
         step = alpha * (target - self.correction)
         self.correction += step
         self.drift += step
+
+    def _track_channels(self, readings: F64, dt: float) -> None:
+        """:meth:`track` of several channels: all follow, or (one beyond its band) none."""
+        rows = readings[np.isfinite(readings).all(axis=1)]
+        if self.tau is None or self.noise is None or rows.shape[0] == 0:
+            return
+        mean = rows.mean(axis=0)
+        n = rows.shape[0]
+        if np.any(np.abs(mean + self.correction - self.rest) > self.band * self.noise
+                  / math.sqrt(n)):
+            return
+        step = -math.expm1(-n * dt / self.tau) * (self.rest - mean - self.correction)
+        self.correction = self.correction + step
+        self.drift = self.drift + step
