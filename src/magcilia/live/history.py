@@ -235,10 +235,13 @@ class History:
             else columns
         m = int(np.shape(cols["time"])[0])
         kept = min(m, self.capacity)
+        first = (self._total + m - kept) % self.capacity
+        split = min(kept, self.capacity - first)  # the part before the ring wraps
         with self._lock:
-            idx = (self._total + m - kept + np.arange(kept)) % self.capacity
             for name in COLUMNS:
-                self._ring[name][idx] = np.asarray(cols[name])[m - kept:]
+                new, ring = np.asarray(cols[name])[m - kept:], self._ring[name]
+                ring[first:first + split] = new[:split]
+                ring[:kept - split] = new[split:]
             self._total += m
             self._lock.notify_all()
 

@@ -94,7 +94,9 @@ class LiveReadout:
     tare_seconds : float
         Seconds of unloaded readings a tare averages.
     tare_at_start : bool
-        Tare on the first ``tare_seconds`` (the cilium must be unloaded when it starts).
+        Tare on the first ``tare_seconds`` (the cilium must be unloaded when it starts). Force
+        vectors are not estimated before that first tare (flag OUTSIDE_SPAN): their readings
+        still hold the Earth's field and the parts' offsets.
     tracking : float or None
         Zero-tracking time constant, s (None: off); see :mod:`magcilia.live.zero`.
     band : float
@@ -164,6 +166,7 @@ class LiveReadout:
         self._offset: float | None = None
         self._spread: Any = math.nan  # difference_noise of the last second, before a tare
         self._spread_at = -math.inf
+        self._limits: tuple[bytes, Limits] | None = None
 
     def _new_history(self, capacity: int) -> History:
         s = self.sensor
@@ -300,8 +303,13 @@ class LiveReadout:
             unit=self.sensor.channel_unit)
 
     def limits(self) -> Limits:
-        """The span, the usable range within it and the minimum detectable change at rest."""
-        return self.sensor.limits(np.atleast_1d(np.asarray(self.noise, dtype=np.float64)))
+        """The span, the usable range within it and the minimum detectable change at rest (kept
+        while the noise it is computed with stays the same)."""
+        noise = np.atleast_1d(np.asarray(self.noise, dtype=np.float64))
+        kept = self._limits
+        if kept is None or kept[0] != noise.tobytes():
+            kept = self._limits = (noise.tobytes(), self.sensor.limits(noise))
+        return kept[1]
 
     @property
     def noise(self) -> Any:
@@ -481,8 +489,12 @@ class LiveReadout:
             self._spread = difference_noise(self.history.last(1.0, self.rate).raw)
             self._spread_at = float(t[-1])
         readings = (w.volts + zero.correction).reshape(w.time.size, -1)
-        result = self.sensor.view.read(readings, noise=self.noise)
-        flags = np.asarray(result.flags, dtype=FLAG_DTYPE)
+        if self.sensor.kind != "scalar" and zero.tared_at is None and self._tare_wanted:
+            value, sigma, flags = self._untared(w.time.size)  # the first tare's baseline
+        else:
+            result = self.sensor.view.read(readings, noise=self.noise)
+            value, sigma = np.asarray(result.value), np.asarray(result.sigma)
+            flags = np.asarray(result.flags, dtype=FLAG_DTYPE)
         saturated = np.where(w.beyond, FLAG_DTYPE(Flag.SATURATED), FLAG_DTYPE(0))
         flags = flags | saturated.reshape(-1, *(1 for _ in flags.shape[1:]))
         if self.sensor.kind == "scalar":  # any flag: no value (as the views always showed it)
@@ -494,14 +506,22 @@ class LiveReadout:
         now = time.time()
         received = block.received if block.received is not None else now
         m = w.time.size
-        columns = {"time": w.time, "raw": w.volts, "value": np.asarray(result.value) * bad,
-                   "sigma": np.asarray(result.sigma) * bad, "flags": flags,
+        columns = {"time": w.time, "raw": w.volts, "value": value * bad, "sigma": sigma * bad,
+                   "flags": flags,
                    "correction": np.broadcast_to(zero.correction, w.volts.shape),
                    "received": np.full(m, received), "published": np.full(m, now)}
         self.history.append(columns)
         with self._lock:
             if self._writer is not None:
                 self._record(block, t, raw, columns)
+
+    def _untared(self, m: int) -> tuple[F64, F64, NDArray[np.uint16]]:
+        """No estimates for ``m`` windows of force vectors before their first tare: they are its
+        baseline, and readings that still hold the Earth's field and the parts' offsets lie
+        beyond the model's reach (an array's inverse would spend tens of ms on each)."""
+        s = self.sensor
+        nan = np.full((m, *s.value_shape), np.nan)
+        return nan, nan.copy(), np.full((m, *s.flags_shape), Flag.OUTSIDE_SPAN, FLAG_DTYPE)
 
     def _collect_tare(self, volts: F64, at: float) -> None:
         if not self._tare_wanted:
