@@ -160,13 +160,13 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                 what = "an array" if array else "a 3-axis sensor (--sensor)"
                 raise fail(name, value, f"left out for {what}: it reads force vectors from "
                            "its parts' field channels")
-        readout, source, part_rate = (_array(setup_arg, span_text, sensor_name, tip_radius, modulus,
-                                  source_spec, source_rate, seed) if array else
-                           _vector(setup_arg, span_text, sensor_name or "", sensor_noise,
-                                   tip_radius, modulus, source_spec, source_rate, seed))
-        return LiveReadout(source, readout, rate=part_rate if rate is None else rate,
-                           tare_at_start=not no_tare,
-                           tracking=tracking or None)
+        field: tuple[ArrayReadout | BiaxialReadout, Source, float] = (
+            _array(setup_arg, span_text, sensor_name, tip_radius, modulus, source_spec,
+                   source_rate, seed) if array else
+            _vector(setup_arg, span_text, sensor_name or "", sensor_noise, tip_radius, modulus,
+                    source_spec, source_rate, seed))
+        return LiveReadout(field[1], field[0], rate=field[2] if rate is None else rate,
+                           tare_at_start=not no_tare, tracking=tracking or None)
     if sensor_noise is not None:
         raise fail("--sensor-noise", sensor_noise, "given with --sensor only")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)

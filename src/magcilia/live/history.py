@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, column, count, dataframe
@@ -141,13 +141,13 @@ class LiveSamples(Display):
             return (f"{len(self)} {what} over {self.time[-1] - self.time[0]:.3g} s, {n_good} "
                     f"good; {last}; latency median {np.median(lat):.2g} ms, max "
                     f"{np.max(lat):.2g} ms")
-        good = np.nonzero(self.good)[0]
-        last = (f"last {q.to_display(self.value[good[-1]]):.4g} ± "
-                f"{q.to_display(self.sigma[good[-1]]):.2g} {q.display}" if good.size
+        index = np.nonzero(self.good)[0]
+        last = (f"last {q.to_display(self.value[index[-1]]):.4g} ± "
+                f"{q.to_display(self.sigma[index[-1]]):.2g} {q.display}" if index.size
                 else "no good reading")
         lat = self.latency * 1e3
         return (f"{len(self)} {self.quantity} samples over {self.time[-1] - self.time[0]:.3g} s, "
-                f"{good.size} good; {last}; latency median {np.median(lat):.2g} ms, "
+                f"{index.size} good; {last}; latency median {np.median(lat):.2g} ms, "
                 f"max {np.max(lat):.2g} ms")
 
     # -- display --------------------------------------------------------------------------------
@@ -227,7 +227,7 @@ class History:
         """Samples appended so far (the cursor of a view that has seen them all)."""
         return self._total
 
-    def append(self, columns: F64 | dict[str, ArrayLike]) -> None:
+    def append(self, columns: F64 | dict[str, Any]) -> None:
         """Append m samples: a mapping of every column of :data:`COLUMNS` to its values (shape
         (m, *its shape)), or, when every column is a number, an array (len(COLUMNS), m) in
         :data:`COLUMNS` order."""

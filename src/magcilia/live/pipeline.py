@@ -506,10 +506,10 @@ class LiveReadout:
         now = time.time()
         received = block.received if block.received is not None else now
         m = w.time.size
-        columns = {"time": w.time, "raw": w.volts, "value": value * bad, "sigma": sigma * bad,
-                   "flags": flags,
-                   "correction": np.broadcast_to(zero.correction, w.volts.shape),
-                   "received": np.full(m, received), "published": np.full(m, now)}
+        columns: dict[str, Any] = {
+            "time": w.time, "raw": w.volts, "value": value * bad, "sigma": sigma * bad,
+            "flags": flags, "correction": np.broadcast_to(zero.correction, w.volts.shape),
+            "received": np.full(m, received), "published": np.full(m, now)}
         self.history.append(columns)
         with self._lock:
             if self._writer is not None:

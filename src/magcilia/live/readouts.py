@@ -229,11 +229,11 @@ def protocol_view(readout: Any) -> SensorReadout:
     if isinstance(readout, SensorReadout):
         return readout
     if isinstance(readout, Readout):
-        return _ScalarView(readout)  # type: ignore[return-value]
+        return _ScalarView(readout)
     if isinstance(readout, BiaxialReadout):
-        return _VectorView(readout)  # type: ignore[return-value]
+        return _VectorView(readout)
     if isinstance(readout, ArrayReadout):
-        return _ArrayView(readout)  # type: ignore[return-value]
+        return _ArrayView(readout)
     raise v.fail("readout", type(readout).__name__, "a read-out: magcilia.Readout, "
                  "BiaxialReadout, ArrayReadout or one that follows the SensorReadout protocol")
 
