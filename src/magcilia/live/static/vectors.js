@@ -38,6 +38,7 @@
     T = [];
     cols = Array.from({ length: C }, () => [[], [], [], [], []]);
     latest = Array.from({ length: C }, () => null);
+    if (window.magcilia) window.magcilia.vectors = latest;
   }
 
   V.init = function (inf) {
@@ -46,7 +47,6 @@
     clearData();
     chosen = 0;
     window.magcilia.chosen = 0;
-    window.magcilia.vectors = latest;
     document.body.classList.add(inf.kind === "array" ? "kind-array" : "kind-vector");
     $("vector-view").hidden = false;
     $("map-card").hidden = inf.kind !== "array";
