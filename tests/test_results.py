@@ -23,6 +23,7 @@ from magcilia._atomic import json_text
 from magcilia.acquire.synthetic import synthetic_recording
 from magcilia.analysis import placement_map
 from magcilia.io import Measurement, fixed_point_format, measurement_from_samples
+from magcilia.live.readouts import protocol_view
 from magcilia.readout.actuated import measure_coupling
 
 SETUP = mc.Setup.paper()
@@ -185,6 +186,12 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
         "magcilia.io.recording_state").RecordingState.from_properties(
         {"magcilia_version": "0", "complete": False, "planned_angles_deg": "[0, 10, 20]",
          "samples_per_angle": 40, "stopped": "stopped at angle 3: interrupted"}),
+})
+FACTORIES.update({  # issue 26: the live views' protocol view of every read-out
+    "_ScalarView": lambda: protocol_view(FACTORIES["Readout"]()),
+    "_VectorView": lambda: protocol_view(_biaxial()),
+    "_ArrayView": lambda: protocol_view(_array()),
+    "Values": lambda: protocol_view(_biaxial()).read(_biaxial().rest[None].repeat(2, axis=0)),
 })
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer")

@@ -18,6 +18,7 @@ Shape letters: ``n`` readings (windows), ``c`` channels, ``C`` cilia.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Self
@@ -26,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia._display import Display, Item
 from magcilia.device.sensor import DEFAULT_BANDWIDTH, beyond_range
 from magcilia.io.array_file import array_to_dict
 from magcilia.io.recordings import beyond_range as output_beyond_range
@@ -47,10 +49,10 @@ NO_VALUE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.UNDETERMINED
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class Values:
+class Values(Display):
     """A protocol result (:class:`~magcilia.readout.protocol.ReadoutValues`) of an adapted
-    read-out: ``value``, ``sigma`` (SI, (n,), (n, 2) or (n, C, 2)), ``flags`` (:class:`Flag`,
-    (n,) or (n, C)), ``unit``."""
+    read-out (immutable): ``value``, ``sigma`` (SI, (n,), (n, 2) or (n, C, 2)), ``flags``
+    (:class:`Flag`, (n,) or (n, C)), ``unit``."""
 
     value: F64
     sigma: F64
@@ -58,8 +60,10 @@ class Values:
     unit: str
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        return {"value": self.value.tolist(), "sigma": self.sigma.tolist(),
+        """JSON-ready content (SI; NaN as None)."""
+        def plain(a: F64) -> Any:
+            return np.where(np.isfinite(a), a.astype(object), None).tolist()  # type: ignore[call-overload]
+        return {"value": plain(self.value), "sigma": plain(self.sigma),
                 "flags": self.flags.tolist(), "unit": self.unit}
 
     def report(self) -> str:
@@ -67,10 +71,17 @@ class Values:
         good = int(np.count_nonzero(self.flags == 0))
         return f"{self.flags.size} estimates in {self.unit}, {good} unflagged"
 
+    def _display_items(self) -> list[Item]:
+        return [("estimates", str(self.flags.size)), ("shape", str(self.value.shape)),
+                ("unflagged", str(int(np.count_nonzero(self.flags == 0)))), ("unit", self.unit)]
 
-class _View:
-    """What the adapters share: the tare the protocol asks for, added to every reading."""
 
+@dataclass(frozen=True, eq=False, repr=False)
+class _View(Display):
+    """What the adapters share (immutable): the read-out, its inputs and rest, the tare the
+    protocol asks for (added to every reading), its report."""
+
+    readout: Any
     inputs: tuple[str, ...]
     rest: F64
     unit: str = "T"
@@ -80,9 +91,7 @@ class _View:
         """A copy whose zero is the mean of unloaded samples ``baseline`` ((n, c))."""
         tare = Tare.from_readings(np.asarray(baseline, dtype=np.float64).reshape(
             -1, self.rest.size), self.rest, unit=self.unit, names=self.inputs)
-        new = copy.copy(self)
-        new.baseline = tare
-        return new
+        return dataclasses.replace(self, baseline=tare)
 
     def _samples(self, samples: ArrayLike) -> F64:
         x = np.asarray(samples, dtype=np.float64)
@@ -103,18 +112,32 @@ class _View:
             return np.broadcast_to(np.asarray(self.baseline.noise), self.rest.shape).copy()
         return None
 
+    def _readout_dict(self) -> dict[str, Any]:
+        """JSON-ready content (SI): the read-out's (each adapter's ``to_dict``)."""
+        return dict(self.readout.to_dict())
 
+    def report(self) -> str:
+        """Text for people: the read-out's report."""
+        return str(self.readout.report())
+
+    def _display_items(self) -> list[Item]:
+        return [("", type(self.readout).__name__), ("inputs", str(len(self.inputs))),
+                ("tared", "yes" if self.baseline is not None else "no")]
+
+
+@dataclass(frozen=True, eq=False, repr=False)
 class _ScalarView(_View):
     """The protocol's view of a single-axis :class:`~magcilia.Readout`: input ``output`` (V)."""
 
-    def __init__(self, readout: Readout) -> None:
-        self.readout = readout
+    to_dict = _View._readout_dict
+
+    @classmethod
+    def of(cls, readout: Readout) -> _ScalarView:
+        """The view of ``readout``."""
         flow = readout.flow if readout.quantity == "flow" else None
-        self.rest = np.array([float(output_at(readout.setup, readout.quantity, np.zeros(1),
-                                              flow)[0])])
-        self.inputs = ("output",)
-        self.unit = "V"
-        self.baseline = None
+        rest = np.array([float(output_at(readout.setup, readout.quantity, np.zeros(1),
+                                         flow)[0])])
+        return cls(readout, ("output",), rest, "V")
 
     def read(self, samples: ArrayLike, /, *, noise: ArrayLike | None = None) -> Values:
         """Estimates (n,) of samples (n, 1) or (n,), V."""
@@ -124,24 +147,19 @@ class _ScalarView(_View):
         return Values(np.asarray(r.value), np.asarray(r.sigma),
                       np.asarray(r.flags, dtype=FLAG_DTYPE), r.unit)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        return self.readout.to_dict()
 
-    def report(self) -> str:
-        """Text for people."""
-        return self.readout.report()
-
-
+@dataclass(frozen=True, eq=False, repr=False)
 class _VectorView(_View):
     """The protocol's view of a :class:`~magcilia.BiaxialReadout`: its channels (T) in, (n, 2)
     force vectors out."""
 
-    def __init__(self, readout: BiaxialReadout) -> None:
-        self.readout = readout
-        self.rest = np.asarray(readout.rest, dtype=np.float64)
-        self.inputs = tuple(c.name for c in readout.channels)
-        self.baseline = None
+    to_dict = _View._readout_dict
+
+    @classmethod
+    def of(cls, readout: BiaxialReadout) -> _VectorView:
+        """The view of ``readout``."""
+        return cls(readout, tuple(c.name for c in readout.channels),
+                   np.asarray(readout.rest, dtype=np.float64))
 
     def read(self, samples: ArrayLike, /, *, noise: ArrayLike | None = None) -> Values:
         """Force vectors (n, 2), N, of samples (n, c), T."""
@@ -151,43 +169,41 @@ class _VectorView(_View):
         sigma = np.stack([r.sigma_fx, r.sigma_fy], axis=-1)
         return Values(value, sigma, np.asarray(r.flags, dtype=FLAG_DTYPE), "N")
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        return self.readout.to_dict()
-
-    def report(self) -> str:
-        """Text for people."""
-        return self.readout.report()
-
 
 #: ArrayFlag bits -> Flag bits (same names)
 _ARRAY_FLAGS = tuple((int(f), int(Flag[str(f.name)])) for f in ArrayFlag if f.value)
 
 
+@dataclass(frozen=True, eq=False, repr=False)
 class _ArrayView(_View):
     """The protocol's view of an :class:`~magcilia.ArrayReadout`: every sensor's three axes (T,
     in the array's sensor order) in, (n, C, 2) force vectors out (one solve per reading set)."""
 
-    def __init__(self, readout: ArrayReadout) -> None:
-        self.readout = readout
+    #: the read-out weighting by the last noise asked for (noise bytes -> read-out)
+    noisy: dict[bytes, ArrayReadout] = dataclasses.field(default_factory=dict)
+
+    to_dict = _View._readout_dict
+
+    @classmethod
+    def of(cls, readout: ArrayReadout) -> _ArrayView:
+        """The view of ``readout``."""
         arr = readout.array
-        self.rest = np.asarray(readout.rest, dtype=np.float64).reshape(-1)
-        self.inputs = tuple(f"{s.name}.{a}" for s in arr.sensors for a in "xyz")
-        self.baseline = None
-        self._noisy: tuple[bytes, ArrayReadout] | None = None
+        return cls(readout, tuple(f"{s.name}.{a}" for s in arr.sensors for a in "xyz"),
+                   np.asarray(readout.rest, dtype=np.float64).reshape(-1))
 
     def _with_noise(self, noise: F64 | None) -> ArrayReadout:
         """The read-out weighting the readings by ``noise`` (3S,) instead of the parts' own."""
         if noise is None:
             return self.readout
         key = noise.tobytes()
-        if self._noisy is None or self._noisy[0] != key:
+        if key not in self.noisy:
             arr = copy.copy(self.readout.array)
             arr.__dict__["sigma"] = noise.reshape(-1, 3).copy()  # (the cached property's slot)
             noisy = copy.copy(self.readout)
             object.__setattr__(noisy, "array", arr)
-            self._noisy = (key, noisy)
-        return self._noisy[1]
+            self.noisy.clear()
+            self.noisy[key] = noisy
+        return self.noisy[key]
 
     def read(self, samples: ArrayLike, /, *, noise: ArrayLike | None = None) -> Values:
         """Force vectors (n, C, 2), N, of samples (n, 3S), T."""
@@ -207,14 +223,6 @@ class _ArrayView(_View):
                 flags[k] |= np.where(est.flags & bit, to, 0).astype(FLAG_DTYPE)
         return Values(value, sigma, flags, "N")
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        return self.readout.to_dict()
-
-    def report(self) -> str:
-        """Text for people."""
-        return self.readout.report()
-
 
 def protocol_view(readout: Any) -> SensorReadout:
     """``readout`` as a :class:`~magcilia.readout.protocol.SensorReadout`: itself when it offers
@@ -229,11 +237,11 @@ def protocol_view(readout: Any) -> SensorReadout:
     if isinstance(readout, SensorReadout):
         return readout
     if isinstance(readout, Readout):
-        return _ScalarView(readout)
+        return _ScalarView.of(readout)
     if isinstance(readout, BiaxialReadout):
-        return _VectorView(readout)
+        return _VectorView.of(readout)
     if isinstance(readout, ArrayReadout):
-        return _ArrayView(readout)
+        return _ArrayView.of(readout)
     raise v.fail("readout", type(readout).__name__, "a read-out: magcilia.Readout, "
                  "BiaxialReadout, ArrayReadout or one that follows the SensorReadout protocol")
 
