@@ -141,9 +141,16 @@ class _ScalarView(_View):
 
     def read(self, samples: ArrayLike, /, *, noise: ArrayLike | None = None) -> Values:
         """Estimates (n,) of samples (n, 1) or (n,), V."""
-        x = self._samples(samples)[:, 0]
-        sig = self._noise(noise)
-        r = self.readout.read(x, noise=None if sig is None else float(sig[0]))
+        x = np.asarray(samples, dtype=np.float64)
+        if x.ndim == 2 and x.shape[1] == 1:
+            x = x[:, 0]
+        elif x.ndim != 1:
+            self._samples(x)  # the one-line error of a wrong shape
+        if self.baseline is not None:
+            x = x + float(self.baseline.correction)
+        if noise is None and self.baseline is not None:
+            noise = self.baseline.noise
+        r = self.readout.read(x, noise=None if noise is None else float(np.ravel(noise)[0]))
         return Values(np.asarray(r.value), np.asarray(r.sigma),
                       np.asarray(r.flags, dtype=FLAG_DTYPE), r.unit)
 
