@@ -113,6 +113,11 @@ class LiveSamples(Display):
             return np.full(self.value.shape, np.nan)
         return np.asarray(np.arctan2(self.value[..., 1], self.value[..., 0]))
 
+    def first(self, count: int) -> LiveSamples:
+        """The first ``count`` samples."""
+        return LiveSamples(self.quantity, self.unit,
+                           **{name: getattr(self, name)[:count] for name in COLUMNS})
+
     @property
     def latency(self) -> F64:
         """Sample in -> value out for each sample, s (``published − received``)."""

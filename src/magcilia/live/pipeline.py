@@ -1,4 +1,5 @@
-"""The streaming read-out: a source's samples in, force, angle or flow speed with σ and flags out.
+"""The streaming read-out: a source's samples in, force, angle or flow speed — or force vectors of a
+3-axis sensor or an array — with σ and flags out.
 
 ::
 
@@ -6,20 +7,23 @@
               (acquire)        (overruns)     average, demodulate,          (terminal, browser),
                                               tare, read-out, record        each with a cursor
 
-The read-out thread takes the samples in chunks of ``batch`` seconds, averages each window of
-``factor = source rate / output rate`` samples (:mod:`magcilia.live.windows`, set/reset
-demodulated), adds the tare correction (:mod:`magcilia.live.zero`), flags windows in which any raw
-sample left the sensor's range, and turns the readings into estimates with
-:meth:`Readout.read <magcilia.Readout.read>` (σ from the noise measured at the last tare, else
-the larger of the sensor's noise over half the output rate and the spread of the last second's
-successive readings, :func:`~magcilia.live.zero.difference_noise`). It appends them to a
-:class:`History` that any number of views read at their own pace: a slow or stalled view never
-delays acquisition.
+The read-out thread takes the samples of the channels the read-out names (its ``inputs``: the
+output, or every part's ``NAME.x``, ``.y``, ``.z``) in chunks of ``batch`` seconds, averages each
+window of ``factor = source rate / output rate`` samples per channel
+(:mod:`magcilia.live.windows`, set/reset demodulated), adds the tare and zero-tracking correction
+per channel (:mod:`magcilia.live.zero`), flags windows in which any raw sample left its channel's
+range, and turns the chunk's readings into estimates with one call of the read-out's protocol
+``read(samples, noise=)`` (:mod:`magcilia.live.readouts`; σ from the noise measured at the last
+tare, else the larger of the sensor model's noise of a reading and the spread of the last second's
+successive readings, :func:`~magcilia.live.zero.difference_noise`). It appends them — a number, a
+force vector (2,) or one per cilium (C, 2) per reading — to a :class:`History` that any number of
+views read at their own pace: a slow or stalled view never delays acquisition.
 
 **Latency** (sample in -> value out): a sample *arrives* when the source hands over the chunk that
 holds it (the reader thread stamps the chunk's wall-clock time), and its value is *out* when the
 window's estimate is in the History. That takes the wait for the rest of the read-out chunk
-(``batch``, 5 ms by default) plus the processing (≈ 0.1 ms); every sample's
+(``batch``, 5 ms by default) plus the processing (≈ 0.1 ms for one output; an array's inverse
+≈ 3 ms per window for 16 cilia, ``benchmarks/bench_live_vectors.py``); every sample's
 ``published − received`` is kept (:attr:`LiveSamples.latency`). Before a sample arrives it has
 spent up to one source chunk on the way (``batch`` for the simulation, a frame for a serial
 device) and its window up to ``1/rate``; after it, a view's refresh period and drawing add the
@@ -48,7 +52,7 @@ from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Block, Counters, Source
 from magcilia.io.recording_file import RecordingWriter, chunk_for
-from magcilia.live.history import COLUMNS, History, LiveSamples
+from magcilia.live.history import History, LiveSamples
 from magcilia.live.readouts import LiveSensor, live_sensor
 from magcilia.live.recording import new_recording_path, readout_group, sample_columns
 from magcilia.live.status import EVENTS, Event, Limits, LiveStatus
@@ -272,7 +276,7 @@ class LiveReadout:
                                        f"{count} read-out samples in {timeout:g} s "
                                        f"({self.status.report()})")
             self.history.wait(cursor + count - 1, min(left, 0.1))
-        return LiveSamples(**_first(self.history.since(cursor)[0], count))
+        return self.history.since(cursor)[0].first(count)
 
     @property
     def status(self) -> LiveStatus:
@@ -490,7 +494,7 @@ class LiveReadout:
             self._spread_at = float(t[-1])
         readings = (w.volts + zero.correction).reshape(w.time.size, -1)
         if self.sensor.kind != "scalar" and zero.tared_at is None and self._tare_wanted:
-            value, sigma, flags = self._untared(w.time.size)  # the first tare's baseline
+            value, sigma, flags = self.sensor.no_estimates(w.time.size)  # the tare's baseline
         else:
             result = self.sensor.view.read(readings, noise=self.noise)
             value, sigma = np.asarray(result.value), np.asarray(result.sigma)
@@ -514,14 +518,6 @@ class LiveReadout:
         with self._lock:
             if self._writer is not None:
                 self._record(block, t, raw, columns)
-
-    def _untared(self, m: int) -> tuple[F64, F64, NDArray[np.uint16]]:
-        """No estimates for ``m`` windows of force vectors before their first tare: they are its
-        baseline, and readings that still hold the Earth's field and the parts' offsets lie
-        beyond the model's reach (an array's inverse would spend tens of ms on each)."""
-        s = self.sensor
-        nan = np.full((m, *s.value_shape), np.nan)
-        return nan, nan.copy(), np.full((m, *s.flags_shape), Flag.OUTSIDE_SPAN, FLAG_DTYPE)
 
     def _collect_tare(self, volts: F64, at: float) -> None:
         if not self._tare_wanted:
@@ -585,10 +581,3 @@ class LiveReadout:
                                              units={"event_time_s": "s"})
                 except MagciliaError as exc:
                     self._message = str(exc)
-
-
-def _first(samples: LiveSamples, count: int) -> dict[str, Any]:
-    """The fields of the first ``count`` samples."""
-    out: dict[str, Any] = {"quantity": samples.quantity, "unit": samples.unit}
-    out.update({name: getattr(samples, name)[:count] for name in COLUMNS})
-    return out

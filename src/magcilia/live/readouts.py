@@ -310,6 +310,14 @@ class LiveSensor:
         """Number of channels read (c)."""
         return len(self.inputs)
 
+    def no_estimates(self, m: int) -> tuple[F64, F64, NDArray[np.uint16]]:
+        """Value, σ (NaN) and flags (OUTSIDE_SPAN) of ``m`` readings without an estimate: force
+        vectors before their first tare, whose readings still hold the Earth's field and the
+        parts' offsets (beyond the model's reach: an array's inverse would spend tens of ms on
+        each)."""
+        nan = np.full((m, *self.value_shape), np.nan)
+        return nan, nan.copy(), np.full((m, *self.flags_shape), Flag.OUTSIDE_SPAN, FLAG_DTYPE)
+
     def beyond(self, raw: F64) -> NDArray[np.bool_]:
         """Raw samples (n, c) beyond their channel's range (the one saturation rule), (n,):
         whether any channel of a sample is."""
