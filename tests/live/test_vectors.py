@@ -217,3 +217,83 @@ def test_the_array_source_uses_the_exact_forward_map() -> None:
     with source:
         block = source.read(4)
     assert block.data.shape == (48, 4) and source.rate == arr.sensors[0].rate
+
+
+# -- the pure parts, per channel ------------------------------------------------------------------
+def test_windows_average_and_demodulate_every_channel() -> None:
+    from magcilia.live import Averager
+
+    t = np.arange(40.0)
+    x = np.stack([np.arange(40.0), -np.arange(40.0), np.full(40, 5.0)], axis=-1)
+    w = Averager(10).push(t, x, np.zeros(40, bool))
+    assert w.volts.shape == (4, 3) and w.volts[:, 0].tolist() == [4.5, 14.5, 24.5, 34.5]
+    sr = np.where((np.arange(40) // 5) % 2 == 0, 1, -1).astype(np.int8)
+    bridge = np.array([1e-3, -2e-3, 0.0])
+    offset = np.array([0.1, 0.2, 0.3])
+    raw = sr[:, None] * bridge + offset  # the bridge flips with the pulses, the offset does not
+    w = Averager(10, offset=np.zeros(3)).push(t, raw, np.zeros(40, bool), sr)
+    assert np.allclose(w.volts, bridge)
+
+
+def test_zero_tracking_of_channels_follows_a_drift_and_never_a_load() -> None:
+    from magcilia.live import Zero
+
+    rest = np.array([1e-5, -2e-5, 3e-5])
+    zero = Zero(rest, tau=1.0, band=3.0)
+    rng = np.random.default_rng(0)
+    zero.tare(rest + 4e-8 * rng.standard_normal((25, 3)), 0.0)
+    assert zero.correction.shape == (3,) and zero.noise.shape == (3,)
+    drift = np.array([2e-9, 0.0, -1e-9])  # T per batch: within the band
+    for k in range(200):
+        zero.track(rest + drift * k + 4e-8 * rng.standard_normal((10, 3)), 0.02)
+    assert np.allclose(zero.correction, -drift * 199, atol=3e-8)
+    before = zero.correction.copy()
+    load = np.array([0.0, 5e-7, 0.0])  # one channel beyond its band: none follows
+    zero.track(rest + drift * 200 + load + np.zeros((10, 3)), 0.02)
+    assert np.array_equal(zero.correction, before)
+
+
+def test_the_terminal_view_of_vectors_and_of_an_array() -> None:
+    pytest.importorskip("rich")
+    from rich.console import Console
+
+    from magcilia.acquire.source import Counters
+    from magcilia.live import Limits, LiveStatus
+    from magcilia.live.render import render
+
+    status = LiveStatus("running", "", Counters(100, 0, 0), 0, 100, 50.0, True,
+                        np.zeros(3), np.zeros(3), np.full(3, 4e-8), None, 1e-3, 2e-3, "T")
+    limits = Limits("force", "N", (0.0, 4e-5), (0.0, 4e-5), 1e-7, "span")
+
+    def text(samples: object, **kw: object) -> str:
+        console = Console(record=True, width=120, force_terminal=False)
+        console.print(render(status, samples, limits, [], **kw))  # type: ignore[arg-type]
+        return console.export_text()
+
+    m = 50
+    t = np.arange(m) / 50.0
+    h = History("force", "N", m, {"value": (2,), "sigma": (2,), "raw": (3,),
+                                  "correction": (3,)})
+    h.append({"time": t, "raw": np.zeros((m, 3)), "value": np.tile([0.0, 2e-5], (m, 1)),
+              "sigma": np.full((m, 2), 1e-6), "flags": np.zeros(m), "correction": np.zeros((m, 3)),
+              "received": t, "published": t})
+    out = text(h.since(0)[0])
+    assert "|F|: 0.0200 ± 0.001 mN" in out and "toward +90.0°" in out and "↑" in out
+    assert "Fx +0.0000 ± 0.001 mN" in out and "Fy last 10 s" in out
+    assert "3 channels" in out and "all 6 readings good" in out  # the last 0.1 s
+
+    names = ("a", "b", "c", "d")
+    positions = np.array([[0.0, 0.0], [1e-3, 0.0], [0.0, 1e-3], [1e-3, 1e-3]])
+    h = History("force", "N", m, {"value": (4, 2), "sigma": (4, 2), "flags": (4,)}, names)
+    value = np.zeros((m, 4, 2))
+    value[:, 3] = [-1e-5, 0.0]
+    flags = np.zeros((m, 4))
+    flags[:, 1] = Flag.ABOVE_SPAN
+    h.append({"time": t, "raw": np.zeros(m), "value": value, "sigma": np.full((m, 4, 2), 1e-6),
+              "flags": flags, "correction": np.zeros(m), "received": t, "published": t})
+    out = text(h.since(0)[0], names=names, positions=positions, chosen=3)
+    rows = [line for line in out.splitlines() if " a " in f" {line} " or "c " in line]
+    top = next(line for line in out.splitlines() if "c " in line and "d " in line)
+    assert top.index("c ") < top.index("d ") and "←" in top  # +y up: c and d on top
+    assert rows and "cilium d |F|: 0.0100" in out and "ABOVE SPAN" in out
+    assert "n/p next/previous cilium" in out
