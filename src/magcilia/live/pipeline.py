@@ -285,7 +285,8 @@ class LiveReadout:
         lat = recent.latency if recent is not None else np.zeros(0)
         lat = lat[np.isfinite(lat)]
         message = self._message
-        if recent is not None and not message and len(recent) and np.mean(
+        untared = self.sensor.kind != "scalar" and self.zero.tared_at is None  # (no estimates)
+        if recent is not None and not message and not untared and len(recent) and np.mean(
                 recent.flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN) > 0) > _OUTSIDE_WARNING:
             message = ("readings lie outside the read-out's output range: tare with the cilium "
                        "unloaded, or check that the setup matches this sensor")
