@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia.acquire.simulated import Paced
 from magcilia.acquire.source import Block, Channel, Source
 from magcilia.device.magnetometer import Magnetometer
 from magcilia.device.setup import Setup
@@ -172,7 +172,7 @@ def single_cilium(setup: Setup, sensor: Magnetometer) -> FieldModel:
     return field
 
 
-class SimulatedFieldSource(Source):
+class SimulatedFieldSource(Paced, Source):
     """A simulated 3-axis sensor or array (see the module docstring).
 
     Parameters
@@ -270,7 +270,7 @@ class SimulatedFieldSource(Source):
     def _open(self) -> None:
         if self._index == 0:  # the first solve loads compiled code: before the pace starts
             self.fields(self.script.loads(np.zeros(1)))
-        self._started = time.monotonic() - self._index / (self.rate * self.speed)
+        self._start_pace()
 
     def _close(self) -> None:
         return
@@ -283,10 +283,7 @@ class SimulatedFieldSource(Source):
         for s, part in enumerate(self.sensors):
             data[s] = part.measure(b[:, s, :], self._gen).T
         self._index += n
-        if self.realtime:
-            wait = self._started + self._index / (self.rate * self.speed) - time.monotonic()
-            if wait > 0.0:
-                time.sleep(wait)
+        self._pace()
         return Block(time=t, data=data.reshape(-1, n), channels=self.channels,
                      first=int(index[0]))
 

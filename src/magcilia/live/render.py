@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from magcilia._errors import require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.live.history import COLUMNS, LiveSamples
-from magcilia.live.render_vector import vector_fractions, vector_lines
+from magcilia.live.render_vector import trace_line, vector_fractions, vector_lines
 from magcilia.live.status import Event, Limits, LiveStatus
 from magcilia.readout.inverse import NO_ESTIMATE, ReadoutFlag
 
@@ -373,18 +373,11 @@ def _scalar_lines(samples: LiveSamples, q: Any, *, window: float, seconds: float
     lines.append(value)
 
     # sparkline
-    if len(samples):
-        end = float(samples.time[-1]) + (0.0 if now is None else
-                                         max(0.0, now - float(samples.published[-1])))
-        good = np.where(samples.flags & np.uint8(NO_ESTIMATE) == 0, samples.value / scale, np.nan)
-        line, lo, hi = sparkline(samples.time, good, end=end, seconds=seconds, width=width)
-    else:
-        line, lo, hi = " " * max(1, width), math.nan, math.nan
-    spark = Text(f"last {seconds:g} s ", style="dim")
-    spark.append(line, style="cyan")
-    if math.isfinite(lo):
-        spark.append(f"  {lo:.4g} … {hi:.4g} {q.display}", style="dim")
-    lines.append(spark)
+    end = float(samples.time[-1]) + (0.0 if now is None else max(
+        0.0, now - float(samples.published[-1]))) if len(samples) else 0.0
+    good = np.where(samples.flags & np.uint8(NO_ESTIMATE) == 0, samples.value / scale, np.nan)
+    lines.append(trace_line("", samples.time, good, end=end, seconds=seconds, width=width,
+                            unit=q.display, sparkline=sparkline))
     return lines
 
 

@@ -153,6 +153,23 @@ def grid_of(positions: F64) -> tuple[NDArray[np.intp], NDArray[np.intp], int, in
     return rows, cols, n_rows, n_cols
 
 
+def trace_line(label: str, time_s: F64, values: F64, *, end: float, seconds: float, width: int,
+               unit: str, sparkline: Any) -> Any:
+    """One sparkline row as ``rich`` Text: ``label``, the line of ``values`` (display units,
+    NaN for none) over the ``seconds`` up to ``end``, and its lowest and highest bin."""
+    from rich.text import Text
+
+    if time_s.size:
+        line, lo, hi = sparkline(time_s, values, end=end, seconds=seconds, width=width)
+    else:
+        line, lo, hi = " " * max(1, width), math.nan, math.nan
+    spark = Text(f"{label}last {seconds:g} s ", style="dim")
+    spark.append(line, style="cyan")
+    if math.isfinite(lo):
+        spark.append(f"  {lo:.4g} … {hi:.4g} {unit}", style="dim")
+    return spark
+
+
 def vector_lines(samples: LiveSamples, *, window: float, seconds: float, width: int,
                  now: float | None, names: Sequence[str] = (), positions: F64 | None = None,
                  chosen: int = 0, sparkline: Any = None, big_text: Any = None) -> list[Any]:
@@ -240,14 +257,7 @@ def vector_lines(samples: LiveSamples, *, window: float, seconds: float, width: 
             0.0, now - float(samples.published[-1])))) if m else 0.0
         series = samples.value.reshape(m, -1, 2)[:, c] / k
         for axis in range(2):
-            if m:
-                line, lo, hi = sparkline(samples.time, series[:, axis], end=end,
-                                         seconds=seconds, width=width)
-            else:
-                line, lo, hi = " " * max(1, width), math.nan, math.nan
-            spark = Text(f"F{'xy'[axis]} last {seconds:g} s ", style="dim")
-            spark.append(line, style="cyan")
-            if math.isfinite(lo):
-                spark.append(f"  {lo:.4g} … {hi:.4g} {q.display}", style="dim")
-            lines.append(spark)
+            lines.append(trace_line(f"F{'xy'[axis]} ", samples.time, series[:, axis], end=end,
+                                    seconds=seconds, width=width, unit=q.display,
+                                    sparkline=sparkline))
     return lines
