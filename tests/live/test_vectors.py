@@ -10,6 +10,7 @@ import io
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -297,3 +298,35 @@ def test_the_terminal_view_of_vectors_and_of_an_array() -> None:
     assert top.index("c ") < top.index("d ") and "←" in top  # +y up: c and d on top
     assert rows and "cilium d |F|: 0.0100" in out and "ABOVE SPAN" in out
     assert "n/p next/previous cilium" in out
+
+
+def test_a_3_axis_source_that_vanishes_is_reopened_and_read_on(
+        biaxial: mc.BiaxialReadout) -> None:
+    from magcilia._errors import AcquisitionError
+
+    class Vanishing(SimulatedFieldSource):
+        """Fails its 30th read and its first reopening, then works again."""
+
+        reads = 0
+        opens = 0
+
+        def _open(self) -> None:
+            self.opens += 1
+            if self.opens == 2:
+                raise AcquisitionError("sim: no such device (unplugged)")
+            super()._open()
+
+        def _read(self, n: int) -> Any:
+            self.reads += 1
+            if self.reads == 30:
+                raise AcquisitionError("sim: device vanished")
+            return super()._read(n)
+
+    source = Vanishing(PART, single_cilium(SETUP, PART), LoadScript.constant(LOAD), rng=0,
+                       realtime=True, speed=4.0)
+    with LiveReadout(source, biaxial, rate=50, reconnect=0.05, tare_at_start=False) as live:
+        live.wait(28, timeout=30)
+        after = live.wait(40, timeout=30)  # across the gap
+        kinds = [e.kind for e in live.events]
+    assert "disconnected" in kinds and "reconnected" in kinds
+    assert after.value.shape == (40, 2) and live.status.state == "stopped"
