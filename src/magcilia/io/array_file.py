@@ -53,6 +53,7 @@ import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -409,6 +410,15 @@ def array_from_dict(doc: dict[str, Any], source: str = "array") -> CiliaArray:
         raise v.MagciliaError(f"{source}: {exc}") from None
 
 
+def is_array_file(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is an array setup file (a TOML file with any of :data:`ARRAY_TABLES`):
+    False for anything else (a preset name, a missing file, a single-cilium setup file)."""
+    if not Path(path).is_file():
+        return False
+    doc = _read_document(path)
+    return any(table in doc for table in ARRAY_TABLES)
+
+
 def load_array(path: str | os.PathLike[str]) -> CiliaArray:
     """Read an array setup file (see the module for the format; bounded as setup files are).
 
@@ -493,8 +503,8 @@ def save_array(array: CiliaArray, path: str | os.PathLike[str]) -> None:
 
 
 __all__ = ["ARRAY_TABLES", "MAX_ARRAY_ITEMS", "ArrayGrid", "array_from_dict", "array_to_dict",
-           "grid_from_dict", "load_array", "load_array_grid", "read_loads", "save_array",
-           "sensor_from_dict", "sensor_to_dict"]
+           "grid_from_dict", "is_array_file", "load_array", "load_array_grid", "read_loads",
+           "save_array", "sensor_from_dict", "sensor_to_dict"]
 
 
 #: largest loads CSV read, bytes
