@@ -9,8 +9,6 @@ from __future__ import annotations
 import functools
 import io
 import json
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -23,6 +21,7 @@ from magcilia.acquire import LoadScript, SimulatedFieldSource, single_cilium
 from magcilia.cli import main
 from magcilia.device.magnetometer import Magnetometer
 from magcilia.live import LiveReadout
+from magcilia.live.readouts import live_sensor
 from magcilia.live.recorded import recorded_kind, recorded_readout
 from magcilia.live.render import render
 from magcilia.live.render_vector import VECTOR_FLAG_NAMES
@@ -186,27 +185,22 @@ def test_a_replay_of_an_array_gives_the_live_values(small_array: mc.ArrayReadout
     assert _same_values(shown, replayed) < 1e-3
 
 
-def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "magcilia", *args], cwd=cwd, text=True,
-                          capture_output=True, timeout=300, check=False)
-
-
 def test_live_record_then_source_of_a_3_axis_sensor_through_the_cli(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The done-when check for a 3-axis sensor: ``live --sensor … --record`` then ``live --source
     FILE``, force vector for force vector within 1e-3 σ; ``readout FILE`` says how to read it;
     a second ``--record FILE`` is refused without ``--force`` and leaves the file as it was."""
     rec = tmp_path / "vector.tdms"
-    first = _cli("live", "--sensor", "MMC5983MA", "--duration", "1", "--record", str(rec),
-                 "--json-lines", cwd=tmp_path)
-    assert first.returncode == 0, first.stderr
-    again = _cli("live", "--source", str(rec), "--json-lines", cwd=tmp_path)
-    assert again.returncode == 0, again.stderr
+    assert main(["live", "--sensor", "MMC5983MA", "--duration", "1", "--record", str(rec),
+                 "--json-lines"]) == 0
+    first = capsys.readouterr().out
+    assert main(["live", "--source", str(rec), "--json-lines"]) == 0
+    again = capsys.readouterr().out
 
     def lines(text: str) -> list[dict[str, object]]:
         return [d for d in (json.loads(x) for x in text.splitlines() if x.startswith("{"))
                 if "value" in d]
-    shown, replayed = lines(first.stdout), {d["t"]: d for d in lines(again.stdout)}
+    shown, replayed = lines(first), {d["t"]: d for d in lines(again)}
     assert len(shown) >= 60
     matched = 0
     for d in shown:
@@ -219,7 +213,6 @@ def test_live_record_then_source_of_a_3_axis_sensor_through_the_cli(
             diff = np.subtract(r["value"], d["value"])  # type: ignore[arg-type]
             assert np.all(np.abs(diff) < 1e-3 * np.asarray(d["sigma"]))
     assert matched >= len(shown) - 2
-    capsys.readouterr()
     code = main(["readout", str(rec), "--csv", str(tmp_path / "v.csv")])
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1
@@ -255,3 +248,60 @@ def test_a_3_axis_zero_that_drifts_under_a_held_load_is_flagged(
     assert not (s.flags[rest] & Flag.ZERO_DRIFT).any()
     assert (s.flags[late] & Flag.ZERO_DRIFT).all()
     assert np.median(s.sigma[late]) > 1.5 * np.median(s.sigma[rest])
+
+
+def test_the_zero_s_channel_flags_reach_the_cilia_they_inform(
+        small_array: mc.ArrayReadout, biaxial: mc.BiaxialReadout) -> None:
+    """A channel's ZERO_DRIFT flags the cilia whose fit it informs (≥ its noise over their span,
+    the array's rule for SATURATED and MISSING, recomputed here cilium by cilium); a tare under
+    load (every channel) flags every cilium; one cilium gets all channels' flags."""
+    sensor = live_sensor(small_array)
+    c, c_n = small_array.rest.size, len(small_array.array)
+    for ch in (0, 5, c - 1):
+        bits = np.zeros(c, dtype=np.uint16)
+        bits[ch] = Flag.ZERO_DRIFT
+        out = sensor.zero_flags(bits)
+        for k in range(c_n):
+            dfield = np.abs(small_array.jacobian[ch, 2 * k:2 * k + 2]) * small_array.span[k]
+            informed = bool(np.any(dfield >= small_array.sigma[ch]))
+            assert bool(out[k] & Flag.ZERO_DRIFT) == informed
+    assert (sensor.zero_flags(np.full(c, Flag.TARE_UNDER_LOAD, np.uint16))
+            == Flag.TARE_UNDER_LOAD).all()
+    one = live_sensor(biaxial)
+    assert one.zero_flags(np.array([0, Flag.ZERO_DRIFT, 0], np.uint16)) == Flag.ZERO_DRIFT
+
+
+def test_live_record_then_source_of_an_array_through_the_cli(
+        small_array: mc.ArrayReadout, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The done-when check for an array (a 2 × 2 array file, to keep it short): every cilium's
+    force vector of the replay within 1e-3 σ of the live run's, flags equal."""
+    from magcilia.io.array_file import save_array
+
+    setup, rec = tmp_path / "array.toml", tmp_path / "array.tdms"
+    save_array(small_array.array, setup)
+    assert main(["live", "--setup", str(setup), "--rate", "50", "--duration", "1", "--record",
+                 str(rec), "--json-lines"]) == 0
+    first = capsys.readouterr().out
+    assert main(["live", "--source", str(rec), "--json-lines"]) == 0
+    again = capsys.readouterr().out
+
+    def lines(text: str) -> list[dict[str, object]]:
+        return [d for d in (json.loads(x) for x in text.splitlines() if x.startswith("{"))
+                if "value" in d]
+    shown, replayed = lines(first), {d["t"]: d for d in lines(again)}
+    assert len(shown) >= 40 and len(shown[-1]["value"]) == 4  # type: ignore[arg-type]
+    matched = valued = 0
+    for d in shown:
+        r = replayed.get(d["t"])
+        if r is None:
+            continue
+        matched += 1
+        assert r["flags"] == d["flags"]
+        value = np.array(d["value"], dtype=float)
+        good = np.isfinite(value)
+        if good.any():
+            valued += 1
+            diff = np.abs(np.array(r["value"], dtype=float) - value)[good]
+            assert np.all(diff < 1e-3 * np.array(d["sigma"], dtype=float)[good])
+    assert matched >= len(shown) - 2 and valued >= 20

@@ -522,7 +522,7 @@ class LiveReadout:
             bad = np.where(flags != 0, np.nan, 1.0)
         else:  # a vector near zero or ambiguous in direction keeps its components
             bad = np.where(flags & FLAG_DTYPE(_NO_VALUE) != 0, np.nan, 1.0)[..., None]
-        flags = flags | FLAG_DTYPE(zero.flags)  # warnings (TARE_UNDER_LOAD, ZERO_DRIFT): kept
+        flags = flags | self.sensor.zero_flags(zero.channel_flags)  # TARE_UNDER_LOAD, ZERO_DRIFT
         if not (collecting and self._tare_wanted):
             zero.track(w.volts, 1.0 / self.rate, at=float(w.time[-1]))
         now = time.time()

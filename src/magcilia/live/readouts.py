@@ -93,6 +93,10 @@ class LiveSensor:
         Largest |value| the read-out covers (SI; an array: its largest cilium span).
     setup : dict
         The setup as a setup or array file holds it (for recordings and the dashboard).
+    informs : ndarray of bool, shape (c, C), or None
+        An array's channels that inform each cilium (its model field changes by at least the
+        channel's noise over the cilium's span, the rule of the array's SATURATED and MISSING
+        flags); None for one cilium.
     """
 
     readout: Any
@@ -110,11 +114,22 @@ class LiveSensor:
     positions: F64
     span: float
     setup: dict[str, Any] = field(default_factory=dict)
+    informs: Any = None
 
     @property
     def channels(self) -> int:
         """Number of channels read (c)."""
         return len(self.inputs)
+
+    def zero_flags(self, channel_flags: NDArray[np.uint16]) -> Any:
+        """The flags the zero's channel flags (:attr:`Zero.channel_flags
+        <magcilia.live.zero.Zero.channel_flags>`, (c,)) put on one reading's estimates: all of
+        them together for one output or a force vector; per cilium of an array, those of the
+        channels that inform it (:attr:`informs`), (C,)."""
+        bits = np.asarray(channel_flags, dtype=FLAG_DTYPE)
+        if self.informs is None:
+            return FLAG_DTYPE(np.bitwise_or.reduce(bits)) if bits.size else FLAG_DTYPE(0)
+        return np.bitwise_or.reduce(np.where(self.informs, bits[:, None], FLAG_DTYPE(0)), axis=0)
 
     def no_estimates(self, m: int) -> tuple[F64, F64, NDArray[np.uint16]]:
         """Value, σ (NaN) and flags (OUTSIDE_SPAN) of ``m`` readings without an estimate: force
@@ -219,9 +234,11 @@ def live_sensor(readout: Any) -> LiveSensor:
     if isinstance(readout, ArrayReadout):
         arr = readout.array
         c_n = len(arr)
+        informs = (np.abs(readout.jacobian / readout.sigma[:, None])
+                   * np.repeat(readout.span, 2) >= 1.0).reshape(rest.size, c_n, 2).any(axis=2)
         return LiveSensor(readout, view, "array", "force", "N", inputs, "T", rest,
                           np.zeros(rest.size), (c_n, 2), (c_n,), arr.names,
                           np.asarray(arr.bases[:, :2], dtype=np.float64),
-                          float(np.max(readout.span)), array_to_dict(arr))
+                          float(np.max(readout.span)), array_to_dict(arr), informs)
     raise v.fail("readout", type(readout).__name__, "a Readout, BiaxialReadout or ArrayReadout "
                  "(the live views know one value, a force vector and an array)")
