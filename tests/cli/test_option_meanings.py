@@ -223,6 +223,17 @@ def test_every_option_has_its_one_meaning(name: str) -> None:
                                             f"{meaning!r} ({shapes}) everywhere")
 
 
+def test_every_command_that_writes_a_recording_replaces_it_only_with_force() -> None:
+    """``--force`` means overwrite across the CLI: each command with ``--record FILE`` takes it
+    (``record``, ``live``, ``dashboard``)."""
+    def options(command: click.Command) -> set[str]:
+        return {o for p in command.params if isinstance(p, click.Option) for o in p.opts}
+    recording = {name for name, c in COMMANDS.items() if "--record" in options(c)}
+    assert recording == {"record", "live", "dashboard"}
+    for name in recording:
+        assert "--force" in options(COMMANDS[name]), name
+
+
 def test_the_check_fails_on_a_second_meaning() -> None:
     """A command that adds ``--force`` as a number, or ``--out`` as a file, is caught."""
     as_number = click.Option(["--force"], type=Physical.of("force"))

@@ -1,9 +1,15 @@
-"""What the live tests share: a simulated sensor whose cable can be pulled."""
+"""What the live tests share: a simulated sensor whose cable can be pulled, and a headless
+Chromium for the dashboard's browser tests (skipped without one)."""
 
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import subprocess
 import time
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -52,3 +58,51 @@ class Unplugged(SimulatedSource):
 def unplugged() -> type[Unplugged]:
     """The class :class:`Unplugged` (a fixture: test modules are not importable here)."""
     return Unplugged
+
+
+# -- the page in a real browser ---------------------------------------------------------------
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update",
+                 "--disable-sync"]
+
+
+def _find_chromium() -> str | None:
+    for candidate in ("/usr/bin/chromium", shutil.which("chromium"),
+                      shutil.which("chromium-browser")):
+        if candidate and Path(candidate).exists():
+            return candidate
+    return None
+
+
+@pytest.fixture(scope="session")
+def chromium() -> str:
+    """Debian's Chromium, installed with apt-get where it is missing and we may."""
+    path = _find_chromium()
+    if path is not None:
+        return path
+    if not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get")):
+        pytest.skip("no Chromium: not installed, and installing it needs root and apt-get")
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    why = "apt-get install -y chromium did not install it"
+    try:
+        for command in (["apt-get", "install", "-y", "chromium"], ["apt-get", "update"],
+                        ["apt-get", "install", "-y", "chromium"]):
+            subprocess.run(command, env=env, capture_output=True, timeout=600, check=False)
+            if _find_chromium():
+                break
+    except subprocess.TimeoutExpired:
+        why = "apt-get took longer than 600 s"
+    path = _find_chromium()
+    if path is None:
+        pytest.skip(f"no Chromium: {why}")
+    return path
+
+
+@pytest.fixture(scope="module")
+def browser(chromium: str) -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        launched = p.chromium.launch(executable_path=chromium, headless=True,
+                                     args=CHROMIUM_ARGS)
+        yield launched
+        launched.close()

@@ -17,7 +17,6 @@ import contextlib
 import json
 import os
 import re
-import shutil
 import signal
 import socket
 import struct
@@ -56,9 +55,6 @@ from magcilia.live.history import COLUMNS
 
 SETUP = mc.Setup.paper(tip_radius=5e-5)
 SPAN = (-3e-4, 3e-4)
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync"]
 #: seconds any single wait may take before a test calls it a hang (not a timing)
 HANG = 10.0
 EVIL = "http://evil.example"
@@ -707,48 +703,6 @@ def test_the_cli_serves_until_ctrl_c_and_stops_cleanly(tmp_path: Path) -> None:
 
 
 # -- the page in a real browser ---------------------------------------------------------------
-def _find_chromium() -> str | None:
-    for candidate in ("/usr/bin/chromium", shutil.which("chromium"),
-                      shutil.which("chromium-browser")):
-        if candidate and Path(candidate).exists():
-            return candidate
-    return None
-
-
-@pytest.fixture(scope="session")
-def chromium() -> str:
-    """Debian's Chromium, installed with apt-get where it is missing and we may."""
-    path = _find_chromium()
-    if path is not None:
-        return path
-    if not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get")):
-        pytest.skip("no Chromium: not installed, and installing it needs root and apt-get")
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    why = "apt-get install -y chromium did not install it"
-    try:
-        for command in (["apt-get", "install", "-y", "chromium"], ["apt-get", "update"],
-                        ["apt-get", "install", "-y", "chromium"]):
-            subprocess.run(command, env=env, capture_output=True, timeout=600, check=False)
-            if _find_chromium():
-                break
-    except subprocess.TimeoutExpired:
-        why = "apt-get took longer than 600 s"
-    path = _find_chromium()
-    if path is None:
-        pytest.skip(f"no Chromium: {why}")
-    return path
-
-
-@pytest.fixture(scope="module")
-def browser(chromium: str) -> Iterator[Any]:
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as p:
-        launched = p.chromium.launch(executable_path=chromium, headless=True,
-                                     args=CHROMIUM_ARGS)
-        yield launched
-        launched.close()
-
-
 def _value_after_step(page: Any, source: SimulatedSource, force: float) -> None:
     """Set the simulated force (N) and wait until the page's value has come more than half the
     way (from a flagged reading: to within 0.05 mN)."""

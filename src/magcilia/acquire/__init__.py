@@ -2,6 +2,8 @@
 
 * :mod:`.source`: the protocol every source follows (:class:`Source`, :class:`Block`);
 * :mod:`.simulated`: a simulated sensor driven by a scripted pose (:class:`SimulatedSource`);
+* :mod:`.simulated_loads`: a simulated 3-axis sensor or array driven by scripted tip forces
+  (:class:`SimulatedFieldSource`, :class:`LoadScript`);
 * :mod:`.buffer`: a reader thread filling a bounded ring buffer (:class:`BackgroundReader`);
 * :mod:`.serial`: a microcontroller streaming magcilia's framed protocol (:class:`SerialSource`),
   :mod:`.protocol` the frames, :mod:`.emulator` a device on a pseudo-terminal for tests;
@@ -25,6 +27,7 @@ from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
 from magcilia.acquire.replay import ReplaySource
 from magcilia.acquire.serial import SerialSource
 from magcilia.acquire.simulated import Script, SimulatedSource
+from magcilia.acquire.simulated_loads import LoadScript, SimulatedFieldSource, single_cilium
 from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
 from magcilia.acquire.stream import StreamResult, record_stream
 from magcilia.acquire.sweep import SweepPoint, SweepResult, record_sweep
@@ -37,12 +40,14 @@ __all__ = [
     "Channel",
     "Counters",
     "DeviceEmulator",
+    "LoadScript",
     "NidaqSource",
     "Recording",
     "ReplaySource",
     "RingBuffer",
     "Script",
     "SerialSource",
+    "SimulatedFieldSource",
     "SimulatedSource",
     "Source",
     "StreamResult",
@@ -53,6 +58,7 @@ __all__ = [
     "read_photo",
     "record_stream",
     "record_sweep",
+    "single_cilium",
     "source_from_spec",
     "synthetic_recording",
 ]

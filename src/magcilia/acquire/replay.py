@@ -6,7 +6,8 @@ Record button) a chunk at a time, with the times, set/reset marks and further ch
 holds, so that anything that reads a :class:`~magcilia.acquire.source.Source` — the live read-out
 above all (:mod:`magcilia.live.replay`) — can run on it again. It has the recorded rate and
 channels (the sensor output, stored as ``voltage_V``, under the channel name the recording
-names, ``output`` by default), and:
+names, ``output`` by default; a recording of field channels only — a 3-axis sensor's or an
+array's ``NAME.x``, ``.y``, ``.z`` — has those alone), and:
 
 * ``realtime=False`` (default): samples as fast as they are read (a reader waits for room
   instead of losing them: :mod:`magcilia.acquire.buffer`); ``realtime=True``: paced by the wall
@@ -121,15 +122,16 @@ class ReplaySource(Source):
         self.finished = False
         with self._opened() as group:
             names = [c.name for c in group.channels()]
-            if "time_s" not in names or "voltage_V" not in names:
+            self._extra = tuple(n for n in names if n not in _BOOKKEEPING)
+            self._volts = "voltage_V" in names
+            if "time_s" not in names or not (self._volts or self._extra):
                 raise MagciliaError(f"{self.path}: no samples (group {GROUP!r} lacks time_s or "
                                     "voltage_V); nothing to replay")
             self.length = len(group["time_s"])
-            self._extra = tuple(n for n in names if n not in _BOOKKEEPING)
             self._setreset = "setreset" in names
             self.tare_samples = frozenset(int(x) for x in self._tares())
-        self.channels = (Channel(self.channel, str(units.get(self.channel, "V"))),
-                         *(Channel(n, str(units.get(n, ""))) for n in self._extra))
+        own = (Channel(self.channel, str(units.get(self.channel, "V"))),) if self._volts else ()
+        self.channels = (*own, *(Channel(n, str(units.get(n, ""))) for n in self._extra))
 
     # -- the file ---------------------------------------------------------------------------------
     @contextlib.contextmanager
@@ -192,7 +194,8 @@ class ReplaySource(Source):
         try:
             with quiet_nptdms():
                 t = np.asarray(group["time_s"][start:stop], dtype=np.float64)
-                data = [np.asarray(group["voltage_V"][start:stop], dtype=np.float64)]
+                data = ([np.asarray(group["voltage_V"][start:stop], dtype=np.float64)]
+                        if self._volts else [])
                 data += [np.asarray(group[k][start:stop], dtype=np.float64)
                          for k in self._extra]
                 sr = (np.asarray(group["setreset"][start:stop]).astype(np.int8)

@@ -115,7 +115,29 @@ class Script:
         return f"{self.quantity} ({unit}): {shown}{more}"
 
 
-class SimulatedSource(Source):
+class Paced:
+    """The wall-clock pace of a simulated source: with ``realtime``, sample ``index`` is handed
+    over no earlier than ``index / (rate · speed)`` s after the pace started."""
+
+    rate: float
+    speed: float
+    realtime: bool
+    _index: int
+    _started: float
+
+    def _start_pace(self) -> None:
+        """Start (or resume after a reopening) the pace at the next sample."""
+        self._started = time.monotonic() - self._index / (self.rate * self.speed)
+
+    def _pace(self) -> None:
+        """Wait, when real time, until the samples read so far are due."""
+        if self.realtime:
+            wait = self._started + self._index / (self.rate * self.speed) - time.monotonic()
+            if wait > 0.0:
+                time.sleep(wait)
+
+
+class SimulatedSource(Paced, Source):
     """A simulated sensor (see the module docstring).
 
     Parameters
@@ -204,7 +226,7 @@ class SimulatedSource(Source):
     def _open(self) -> None:
         if self._index == 0:  # the model's first evaluation loads compiled code: before the pace
             self._clean(self.script.values(np.zeros(1)))
-        self._started = time.monotonic() - self._index / (self.rate * self.speed)
+        self._start_pace()
 
     def _close(self) -> None:
         return
@@ -222,10 +244,7 @@ class SimulatedSource(Source):
         volts = (volts + self._sensor_noise(n) + self.bias + self.drift * t
                  + self.readout_noise * self._gen.standard_normal(n))
         self._index += n
-        if self.realtime:
-            wait = self._started + self._index / (self.rate * self.speed) - time.monotonic()
-            if wait > 0.0:
-                time.sleep(wait)
+        self._pace()
         return Block(time=t, data=volts[None, :], channels=self.channels, first=int(index[0]),
                      setreset=polarity)
 

@@ -3,28 +3,55 @@ build from them (how they end: :mod:`magcilia.cli._signals`)."""
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
+import os
+from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
+from magcilia._atomic import _exists_message
+from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.acquire import Script, SimulatedSource, Source, source_from_spec
+from magcilia.acquire import (
+    LoadScript,
+    Script,
+    SimulatedFieldSource,
+    SimulatedSource,
+    Source,
+    single_cilium,
+    source_from_spec,
+)
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
-from magcilia.cli.readout import parse_span
+from magcilia.cli.array import DEFAULT_SPAN
+from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
 from magcilia.design import design_metrics
+from magcilia.device.magnetometer import MAGNETOMETERS
 from magcilia.device.setup import Setup
+from magcilia.io import presets
+from magcilia.io.array_file import is_array_file, load_array
 from magcilia.live import LiveReadout
 from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout import Readout
+from magcilia.readout import ArrayReadout, BiaxialReadout, Readout, field_for_loads
 
 logger = logging.getLogger(__name__)
 
 #: the simulated cilium's script, as fractions of the range: (seconds, fraction), repeated
 DEMO_STEPS = ((3.0, 0.0), (2.0, 0.5), (2.0, 0.0), (2.0, -0.3), (1.0, 0.0), (2.0, 0.8))
+#: the simulated field sources' constant field (the Earth's and the lab's, board frame), T, and
+#: their slow drift, T/s: 0.4 G, and 1 µG/s (a tenth of an MMC5983MA's noise per minute)
+SIM_BIAS = (2e-5, -1e-5, -3.3e-5)
+SIM_DRIFT = (1e-10, -0.5e-10, 1e-10)
+#: the single-axis defaults of --rate and --source-rate, Hz (a 3-axis part: its own rate)
+RATE, SOURCE_RATE = 1000.0, 10000.0
+#: the default --rate of an array, Hz (at most its parts' rate): its inverse solves every
+#: window (3-8 ms for the 16 cilia of examples/array.toml on one core), so that 50 Hz keeps a
+#: core less than half busy
+ARRAY_RATE = 50.0
 
 
 def demo_script(quantity: str, amplitude: float) -> Script:
@@ -54,18 +81,31 @@ def live_options(command: Any) -> Any:
     """The options of a live read-out (source, setup, quantity, span, rates, tare)."""
     options = [
         click.option("--source", "source_spec", default="sim", show_default=True,
-                     help="sim (a simulated sensor pushed in a repeating pattern), serial:PORT "
-                          "(magcilia's framed protocol), nidaq:DEV/aiN, or FILE.tdms: a "
-                          "recording of --record, replayed with its stored setup, span, "
-                          "calibration, tares and zero tracking (as fast as it goes when "
-                          "stdout is not a terminal, in real time otherwise; the other "
-                          "read-out options are ignored)."),
+                     help="sim (a simulated sensor pushed in a repeating pattern; a 3-axis "
+                          "sensor or an array by tip forces in changing directions), "
+                          "serial:PORT (magcilia's framed protocol), nidaq:DEV/aiN, or "
+                          "FILE.tdms: a recording of --record (any sensor), replayed with its "
+                          "stored setup, span, calibration, tares and zero tracking (as fast as "
+                          "it goes when stdout is not a terminal, in real time otherwise; the "
+                          "other read-out options are ignored)."),
         click.option("--record", "record_path", default=None, type=click.Path(dir_okay=False),
-                     help="Record from the first sample into this TDMS file (replaced if it "
-                          "exists): raw samples, read-out values, events, tares and what a "
-                          "replay (--source FILE.tdms) needs."),
+                     help="Record from the first sample into this TDMS file (an existing one "
+                          "only with --force): raw samples, read-out values, events, tares and "
+                          "what a replay (--source FILE.tdms) needs."),
+        click.option("--force", is_flag=True,
+                     help="Replace an existing --record file."),
         setup_option("The (fitted) sensor setup (force-sensor: the paper's cilium with a 0.05 mm "
-                     "tip radius)", default="force-sensor", positional=False),
+                     "tip radius; an array setup file ([array], or [[cilia]] and [[sensors]]) "
+                     "or the array preset reads one force vector per cilium)",
+                     default="force-sensor", positional=False),
+        click.option("--sensor", "sensor_name", default=None,
+                     type=click.Choice(sorted(MAGNETOMETERS), case_sensitive=False),
+                     help="A 3-axis magnetometer preset at the element (its axes along the "
+                          "board's x, y, z): read the tip force vector (Fx, Fy) instead of one "
+                          "output."),
+        click.option("--sensor-noise", "sensor_noise", default=None, metavar="B or BX,BY,BZ",
+                     help="With --sensor: RMS noise of one reading per axis, gauss or with a "
+                          "unit (2mG, or 2mG,2mG,3mG); required for the MLX90393 and TLV493D."),
         click.option("--quantity", type=click.Choice(["angle", "force", "flow"]),
                      default="force", show_default=True,
                      help="What to estimate: tilt angle (deg), tip force (mN) or flow speed "
@@ -73,20 +113,21 @@ def live_options(command: Any) -> Any:
         click.option("--span", "span_text", default=None,
                      help="Read-out range LO:HI in deg, mN or m/s, or with units (0:0.2mN, "
                           "-0.1mN:100uN); default ± the design range (to the sensor's range or a "
-                          "fold)."),
+                          "fold). A force vector or an array: the largest magnitude, HIGH or "
+                          "0:HIGH (default: the design range; an array 0.02 mN)."),
         click.option("--calibration", "calibration_path", type=click.Path(),
                      help="result.json (or folder) of `magcilia calibrate`: adds its parameter "
                           "uncertainty to sigma."),
         click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water",
                      show_default=True, help="Fluid for --quantity flow."),
-        click.option("--rate", default="1000", show_default=True,
-                     type=Physical.of("frequency", "1kHz"),
+        click.option("--rate", default=None, type=Physical.of("frequency", "1kHz"),
                      help="Read-out samples per second: Hz, or with a unit (1kHz; each averages "
-                          "source rate / rate samples)."),
-        click.option("--source-rate", default="10000", show_default=True,
-                     type=Physical.of("frequency", "10kHz"),
+                          "source rate / rate samples). Default 1 kHz; a 3-axis sensor: the "
+                          "part's output data rate; an array: 50 Hz (at most its parts' rate)."),
+        click.option("--source-rate", default=None, type=Physical.of("frequency", "10kHz"),
                      help="Sample rate of sim and nidaq sources: Hz, or with a unit (a serial "
-                          "device sends its own)."),
+                          "device sends its own). Default 10 kHz; a simulated 3-axis sensor or "
+                          "array: the part's output data rate."),
         click.option("--channel", default="output", show_default=True,
                      help="The source's channel that carries the sensor output."),
         click.option("--set-reset", "set_reset", default=None, type=int,
@@ -109,29 +150,59 @@ def live_options(command: Any) -> Any:
 
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
-             "seed", "tip_radius", "modulus", "record_path")
+             "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
+             "force")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
-               calibration_path: str | None, fluid: str, rate: float, source_rate: float,
-               channel: str, set_reset: int | None, no_tare: bool, tracking: float,
-               seed: int, tip_radius: str | None, modulus: str | None,
-               record_path: str | None = None, replay_realtime: bool | None = None,
-               **_: Any) -> LiveReadout:
-    """The live read-out the options describe (not started); a ``.tdms`` source is a replay,
-    in real time with ``replay_realtime`` (None: when stdout is a terminal)."""
+               calibration_path: str | None, fluid: str, rate: float | None,
+               source_rate: float | None, channel: str, set_reset: int | None, no_tare: bool,
+               tracking: float, seed: int, tip_radius: str | None, modulus: str | None,
+               sensor_name: str | None = None, sensor_noise: str | None = None,
+               record_path: str | None = None, force: bool = False,
+               replay_realtime: bool | None = None, **_: Any) -> LiveReadout:
+    """The live read-out the options describe (not started): one output of a single-axis
+    sensor; the force vector of a 3-axis sensor (``--sensor``); every cilium's force vector of an
+    array (an array setup file or preset). A ``.tdms`` source is a replay, in real time with
+    ``replay_realtime`` (None: when stdout is a terminal)."""
     logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
     if source_spec.lower().endswith(".tdms"):
         return replay_live(source_spec, record_path, replay_realtime)
+    if record_path is not None and os.path.lexists(record_path) and not force:
+        raise MagciliaError(_exists_message(Path(record_path), "--record"))
+    if tracking < 0:
+        raise fail("--tracking", tracking, "a time constant ≥ 0 s (0: off)")
+    array_file = presets.file(setup_arg) if setup_arg in presets.NAMES else setup_arg
+    array = array_file is not None and is_array_file(array_file)
+    if array:
+        setup_arg = str(array_file)
+    if array or sensor_name is not None:
+        for name, value, default in (("--quantity", quantity, "force"),
+                                     ("--channel", channel, "output"),
+                                     ("--calibration", calibration_path, None),
+                                     ("--set-reset", set_reset, None)):
+            if value != default:
+                what = "an array" if array else "a 3-axis sensor (--sensor)"
+                raise fail(name, value, f"left out for {what}: it reads force vectors from "
+                           "its parts' field channels")
+        field: tuple[ArrayReadout | BiaxialReadout, Source, float] = (
+            _array(setup_arg, span_text, sensor_name, tip_radius, modulus, source_spec,
+                   source_rate, seed) if array else
+            _vector(setup_arg, span_text, sensor_name or "", sensor_noise, tip_radius, modulus,
+                    source_spec, source_rate, seed))
+        return LiveReadout(field[1], field[0], rate=field[2] if rate is None else rate,
+                           tare_at_start=not no_tare, tracking=tracking or None,
+                           record=record_path)
+    if sensor_noise is not None:
+        raise fail("--sensor-noise", sensor_noise, "given with --sensor only")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance,
                       flow=flow if quantity == "flow" else None)
-    if tracking < 0:
-        raise fail("--tracking", tracking, "a time constant ≥ 0 s (0: off)")
     source: Source
+    source_rate = SOURCE_RATE if source_rate is None else source_rate
     if source_spec == "sim":
         amplitude = 0.8 * max(abs(span[0]), abs(span[1]))
         source = SimulatedSource(setup, demo_script(quantity, amplitude), rate=source_rate,
@@ -141,15 +212,15 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     else:
         source = source_from_spec(source_spec, setup=setup, rate=source_rate, rng=seed,
                                   set_reset=set_reset, realtime=True)
-    return LiveReadout(source, readout, rate=rate, channel=channel, tare_at_start=not no_tare,
-                       tracking=tracking or None, record=record_path)
+    return LiveReadout(source, readout, rate=RATE if rate is None else rate, channel=channel,
+                       tare_at_start=not no_tare, tracking=tracking or None,
+                       record=record_path)
 
 
 def replay_live(path: str, record_path: str | None, realtime: bool | None) -> LiveReadout:
     """``--source FILE.tdms``: the recording replayed (:func:`magcilia.live.replay.replay`), its
     whole read-out kept for the views when it runs as fast as it goes."""
     import sys
-    from pathlib import Path
 
     from magcilia.live.replay import replay
 
@@ -161,3 +232,46 @@ def replay_live(path: str, record_path: str | None, realtime: bool | None) -> Li
     realtime = sys.stdout.isatty() if realtime is None else realtime
     return replay(path, realtime=realtime)
 
+
+def _field_source(spec: str, sensors: Any, field: Any, cilia: int, span: float,
+                  source_rate: float | None, seed: int, setup: Setup) -> Source:
+    """``--source`` of a 3-axis sensor or an array: the simulation pushes every cilium to 80 %
+    of the span in changing directions (:meth:`LoadScript.demo`)."""
+    if spec == "sim":
+        return SimulatedFieldSource(sensors, field, LoadScript.demo(cilia, 0.8 * span),
+                                    rate=source_rate, drift=SIM_DRIFT, bias=SIM_BIAS,
+                                    realtime=True, rng=seed)
+    return source_from_spec(spec, setup=setup, rate=source_rate or SOURCE_RATE, rng=seed,
+                            realtime=True)
+
+
+def _vector(setup_arg: str, span_text: str | None, sensor_name: str, sensor_noise: str | None,
+            tip_radius: str | None, modulus: str | None, spec: str, source_rate: float | None,
+            seed: int) -> tuple[BiaxialReadout, Source, float]:
+    """The force-vector read-out of a 3-axis part at the element, its source and the part's
+    rate (Hz)."""
+    setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
+    part = element_magnetometer(sensor_name, sensor_noise)
+    span = magnitude_span(span_text, "--sensor") if span_text else \
+        live_span(setup, "force", Flow.uniform(1.0, FLUIDS["water"]))[1]
+    readout = BiaxialReadout(setup, part, span)
+    return readout, _field_source(spec, part, single_cilium(setup, part), 1, span, source_rate,
+                                  seed, setup), part.rate
+
+
+def _array(setup_arg: str, span_text: str | None, sensor_name: str | None,
+           tip_radius: str | None, modulus: str | None, spec: str, source_rate: float | None,
+           seed: int) -> tuple[ArrayReadout, Source, float]:
+    """The array read-out of an array setup file, its source and its slowest part's rate
+    (Hz)."""
+    for name, value in (("--sensor", sensor_name), ("--tip-radius", tip_radius),
+                        ("--modulus", modulus)):
+        if value is not None:
+            raise fail(name, value, f"left out with an array setup file ({setup_arg} names "
+                       "its parts and cilia)")
+    array = load_array(setup_arg)
+    span = magnitude_span(span_text, "an array") if span_text else DEFAULT_SPAN
+    readout = ArrayReadout(array, span)
+    source = _field_source(spec, array.sensors, functools.partial(field_for_loads, array),
+                           len(array), span, source_rate, seed, array.cilia[0])
+    return readout, source, min(ARRAY_RATE, *(s.rate for s in array.sensors))

@@ -30,10 +30,13 @@ from magcilia.cli._signals import stop_signals
 def command(host: str, port: int, window: float, open_browser: bool, **kwargs: Any) -> None:
     """Serve a browser dashboard of the live read-out: the value with its σ, flags, plots of
     the estimate (σ band, range, minimum detectable) and of the raw output, tare and record
-    buttons, the setup and calibration in use. Ctrl-C, SIGTERM and a closed SSH session (SIGHUP)
-    stop it the same way, at any moment: the recording is closed complete (and named), exit
-    status 0. The server obeys only its own page: a foreign Host or Origin is refused, and tare
-    and record carry a token that only the served page holds."""
+    buttons, the setup and calibration in use. With --sensor (a 3-axis magnetometer at the
+    element): |F|, its direction, a polar view of the force vector and Fx, Fy with σ bands; with
+    an array setup file: a map of the cilia (click one to follow its traces). Ctrl-C, SIGTERM
+    and a closed SSH session (SIGHUP) stop it the same way, at any moment: the recording is
+    closed complete (and named), exit status 0. The server obeys only its own page: a foreign
+    Host or Origin is refused, and tare and record carry a token that only the served page
+    holds."""
     with stop_signals() as stop:
         from magcilia.live.dashboard import (
             DashboardServer,

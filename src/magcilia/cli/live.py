@@ -19,7 +19,9 @@ from magcilia.live.pipeline import LiveStatus
 @live_options
 @click.option("--json-lines", "json_lines", is_flag=True,
               help="Stream one JSON object per read-out sample to stdout instead of the view, "
-                   'in SI units: {"t": s, "value", "sigma", "flags", "unit", "raw_V": V}; '
+                   'in SI units: {"t": s, "value", "sigma", "flags", "unit", "raw_V": V}; a '
+                   "force vector's value and sigma are [fx, fy], an array's one [fx, fy] per "
+                   "cilium in the file's order (flags: one per cilium); "
                    'events as {"event": kind, "text", "t"}.')
 @click.option("--duration", type=Physical.of("time", "10s"), default=None,
               help="Stop after this long (for scripts): s, or with a unit; default: until q or "
@@ -28,7 +30,10 @@ from magcilia.live.pipeline import LiveStatus
               help="With --json-lines: write every N-th read-out sample.")
 def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any) -> None:
     """Watch a sensor live: the force, angle or flow speed ± σ, a sparkline of the last 10 s,
-    the flags (outside the span, fold, saturated), the state and the drop counters.
+    the flags (outside the span, fold, saturated), the state and the drop counters. With
+    --sensor (a 3-axis magnetometer at the element) the force vector: magnitude, direction and
+    each component ± σ; with an array setup file every cilium's (a map of the cilia and a chosen
+    one's traces: n/p choose it).
 
     Keys: t tare, r start/stop recording (into --record-dir), q quit. Works over SSH. When
     stdout is not a terminal, a plain status line is printed every second instead;

@@ -38,7 +38,13 @@ from magcilia.device.setup import Setup
 from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
 from magcilia.io.quality import screen
-from magcilia.live.recorded import read_recorded, recorded_readings, recorded_readout, stored
+from magcilia.live.recorded import (
+    read_recorded,
+    recorded_kind,
+    recorded_readings,
+    recorded_readout,
+    stored,
+)
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
@@ -321,6 +327,38 @@ def _compensation(setup: Setup, actuation: Actuation, flags: int,
                   "sensor_flag_names": flag_names(flags)}
 
 
+def element_magnetometer(name: str, noise: str | None) -> Magnetometer:
+    """``--sensor`` (a 3-axis magnetometer preset at the element, its axes along the board's)
+    with ``--sensor-noise`` (its RMS noise per axis, required where the preset does not know
+    it)."""
+    key = next((k for k in MAGNETOMETERS if k.lower() == name.lower()), None)
+    if key is None:
+        raise fail("--sensor", name, "a 3-axis magnetometer preset: one of "
+                   + ", ".join(sorted(MAGNETOMETERS)))
+    overrides = {} if noise is None else {"noise": _sensor_noise(noise)}
+    if noise is None and key in ("MLX90393", "TLV493D-A1B6"):
+        raise fail("--sensor-noise", None, f"the RMS noise per axis of the {key} at your "
+                   "settings, gauss or with a unit (e.g. 5mG or 5mG,5mG,8mG): magcilia does "
+                   "not guess it")
+    return Magnetometer.preset(key, **overrides)
+
+
+def magnitude_span(text: str, what: str) -> float:
+    """``--span`` of a force vector: HIGH or 0:HIGH (mN or with a unit) -> the largest
+    magnitude, N (``what`` names the mode in the message)."""
+    if ":" in text:
+        lo, hi = parse_span(text, "force")
+        if lo != 0.0:
+            raise fail("--span", text, f"0:HIGH or HIGH with {what} (the force magnitude's "
+                       "range starts at 0)")
+        return hi
+    q = MEASURANDS["force"]
+    hi = parse_value(text, q.dimension, q.display, "--span", "0.2mN")
+    if not hi > 0.0:
+        raise fail("--span", text, "a positive force magnitude, mN or with a unit (0.02mN)")
+    return hi
+
+
 def _sensor_noise(text: str) -> tuple[float, float, float]:
     """``--sensor-noise``: one value or BX,BY,BZ, gauss or with units -> T (3,)."""
     p = PARAMETERS["field_range"]
@@ -350,21 +388,8 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     if sensor_name is None:
         raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
                    + ", ".join(sorted(MAGNETOMETERS)))
-    key = next(k for k in MAGNETOMETERS if k.lower() == sensor_name.lower())
-    overrides = {} if sensor_noise is None else {"noise": _sensor_noise(sensor_noise)}
-    if sensor_noise is None and key in ("MLX90393", "TLV493D-A1B6"):
-        raise fail("--sensor-noise", None, f"the RMS noise per axis of the {key} at your "
-                   "settings, gauss or with a unit (e.g. 5mG or 5mG,5mG,8mG): magcilia does "
-                   "not guess it")
-    sensor = Magnetometer.preset(key, **overrides)
-    if ":" in span_text:
-        lo, hi = parse_span(span_text, "force")
-        if lo != 0.0:
-            raise fail("--span", span_text, "0:HIGH or HIGH with --biaxial (the force "
-                                            "magnitude's range starts at 0)")
-    else:
-        q = MEASURANDS["force"]
-        hi = parse_value(span_text, q.dimension, q.display, "--span", "0.2mN")
+    sensor = element_magnetometer(sensor_name, sensor_noise)
+    hi = magnitude_span(span_text, "--biaxial")
     quiet = quiet_requested(quiet)
 
     checked: list[tuple[list[str], dict[str, object]]] = []
@@ -454,6 +479,12 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
     """``magcilia readout [SETUP] FILE.tdms`` of a live recording: the readings the view read,
     corrected as it corrected them, through the stored read-out (each part replaced where
     given)."""
+    kind = recorded_kind(path)
+    if kind != "scalar":  # force vectors: a replay reads them with what the recording stores
+        what = "an array's" if kind == "array" else "a 3-axis sensor's"
+        raise MagciliaError(f"{path}: a live recording of {what} force vectors; readout reads "
+                            f"a single output's: replay it with `magcilia live --source {path} "
+                            "--json-lines`")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus) if setup_arg else None
     q = quantity or str(stored(stored_properties(path), Path(path))[1]["quantity"])
     span = parse_span(span_text, q) if span_text else None

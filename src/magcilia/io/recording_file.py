@@ -22,7 +22,8 @@ before that removes its temporary file and leaves the old one as it was, and one
 before that leaves it to the next run that writes in the folder, which removes it
 (:func:`magcilia._atomic.remove_leftovers`). ``overwrite=False`` refuses an existing file.
 
-Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V), and where given
+Layout: group ``recording`` with channels ``time_s`` (s), ``voltage_V`` (V; none for a source of
+field channels only, e.g. a live 3-axis sensor's ``NAME.x``, ``.y``, ``.z``), and where given
 ``angle_deg`` (the tilt of each sample, deg), ``setreset`` (+1 set, −1 reset) and any extra
 channels of the source. Further groups (:meth:`RecordingWriter.write_group`: a live read-out's
 values, its events) go into the same flushed segments; their channel names differ from the
@@ -318,7 +319,8 @@ class RecordingWriter:
                    stopped=None if exc is None else f"{type(exc).__name__}: {exc}")
 
     # -- writing ----------------------------------------------------------------------------------
-    def write(self, time: ArrayLike, volts: ArrayLike, *, angle_deg: ArrayLike | None = None,
+    def write(self, time: ArrayLike, volts: ArrayLike | None, *,
+              angle_deg: ArrayLike | None = None,
               setreset: ArrayLike | None = None,
               extra: Mapping[str, ArrayLike] | None = None) -> None:
         """Append samples; every ``chunk`` samples go to disk as one flushed segment.
@@ -327,8 +329,8 @@ class RecordingWriter:
         ----------
         time : array-like, shape (n,)
             Sample times, s.
-        volts : array-like, shape (n,)
-            Sensor output, V.
+        volts : array-like, shape (n,), or None
+            Sensor output, V (None: a source without one, e.g. field channels in ``extra``).
         angle_deg : array-like, shape (n,), optional
             Tilt angle of each sample, deg.
         setreset : array-like, shape (n,), optional
@@ -340,7 +342,9 @@ class RecordingWriter:
         -----
         The same channels must be given on every call.
         """
-        columns = {"time_s": time, "voltage_V": volts}
+        columns: dict[str, ArrayLike] = {"time_s": time}
+        if volts is not None:
+            columns["voltage_V"] = volts
         if angle_deg is not None:
             columns["angle_deg"] = angle_deg
         if setreset is not None:

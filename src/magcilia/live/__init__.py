@@ -1,4 +1,5 @@
-"""Live read-out: force, angle and flow speed as they happen, with σ, flags, tare and recording.
+"""Live read-out: force, angle and flow speed — or the force vectors of a 3-axis sensor or an
+array — as they happen, with σ, flags, tare and recording.
 
 :class:`LiveReadout` is the streaming pipeline (a source in, a :class:`History` of estimates
 out); the terminal view (:mod:`magcilia.live.terminal`, needs ``rich``) and the browser dashboard
@@ -7,8 +8,9 @@ out); the terminal view (:mod:`magcilia.live.terminal`, needs ``rich``) and the 
 
 from magcilia.live.history import History, LiveSamples
 from magcilia.live.pipeline import EVENTS, Event, Limits, LiveReadout, LiveStatus
+from magcilia.live.readouts import LiveSensor, live_sensor, protocol_view
 from magcilia.live.windows import Averager, Windows
 from magcilia.live.zero import Zero
 
 __all__ = ["EVENTS", "Averager", "Event", "History", "Limits", "LiveReadout", "LiveSamples",
-           "LiveStatus", "Windows", "Zero"]
+           "LiveSensor", "LiveStatus", "Windows", "Zero", "live_sensor", "protocol_view"]

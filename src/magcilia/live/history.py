@@ -5,7 +5,11 @@ has seen) and asks for what came since. Views never block the writer for longer 
 what they asked for, and a view that falls behind loses the oldest samples (counted), never the
 read-out's.
 
-Shape letters: ``m`` output samples.
+Each sample holds, per column, a scalar or an array of a fixed shape: a single-axis read-out's
+value is a number, a 3-axis sensor's a force vector (2,), an array's one force vector per cilium
+(C, 2); ``raw`` and ``correction`` hold one entry per channel read (c,) when there are several.
+
+Shape letters: ``m`` output samples, ``c`` channels, ``C`` cilia.
 """
 
 from __future__ import annotations
@@ -20,17 +24,20 @@ from numpy.typing import NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, column, count, dataframe
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout.inverse import NO_ESTIMATE
+from magcilia.readout.protocol import FLAG_DTYPE, Flag
 
 F64 = NDArray[np.float64]
 
-#: the columns of a LiveSamples, in order (flags are stored as float in the ring)
+#: the columns of a LiveSamples, in order
 COLUMNS = ("time", "raw", "value", "sigma", "flags", "correction", "received", "published")
+#: the flags that leave a sample without a value (NaN value and σ)
+NO_ESTIMATE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED | Flag.UNDETERMINED
 
 
 @dataclass(frozen=True, eq=False, repr=False)
 class LiveSamples(Display):
-    """Output samples of a live read-out (immutable; arrays of shape (m,)).
+    """Output samples of a live read-out (immutable; arrays of shape (m,) for a single-axis
+    read-out, (m, ...) for the others).
 
     Attributes
     ----------
@@ -38,18 +45,19 @@ class LiveSamples(Display):
         ``"angle"``, ``"force"`` or ``"flow"``.
     unit : str
         SI unit of ``value`` and ``sigma``.
-    time : ndarray
+    time : ndarray, shape (m,)
         Time of each sample, s since the read-out started (centre of its averaging window).
-    raw : ndarray
-        Averaged (set/reset-demodulated) sensor output, V, before the tare correction.
-    value, sigma : ndarray
-        Estimate and its 1-σ uncertainty, SI (NaN where a flag of
-        :data:`~magcilia.readout.inverse.NO_ESTIMATE` is set).
-    flags : ndarray of uint16
-        :class:`~magcilia.readout.inverse.ReadoutFlag` bits (0: a good reading; EXTRAPOLATED or
+    raw : ndarray, shape (m,) or (m, c)
+        Averaged (set/reset-demodulated) readings before the tare correction: the sensor output,
+        V; several field channels, T (one column per channel).
+    value, sigma : ndarray, shape (m,), (m, 2) or (m, C, 2)
+        Estimate and its 1-σ uncertainty, SI: a number, a force vector (Fx, Fy), or one per
+        cilium (NaN where a flag of :data:`NO_ESTIMATE` is set).
+    flags : ndarray of uint16, shape (m,) or (m, C)
+        :class:`~magcilia.readout.protocol.Flag` bits (0: a good reading; EXTRAPOLATED or
         CLIPPED readings just beyond the span have values).
-    correction : ndarray
-        Tare + zero-tracking correction added to ``raw`` before the read-out, V.
+    correction : ndarray, shape (m,) or (m, c)
+        Tare + zero-tracking correction added to ``raw`` before the read-out (its unit).
     received : ndarray
         Wall-clock time (:func:`time.time`) at which the window's last sample reached the
         computer, s.
@@ -71,12 +79,44 @@ class LiveSamples(Display):
     def __post_init__(self) -> None:
         for name in COLUMNS:
             arr = np.asarray(getattr(self, name),
-                             dtype=np.uint16 if name == "flags" else np.float64)
+                             dtype=FLAG_DTYPE if name == "flags" else np.float64)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
 
     def __len__(self) -> int:
         return int(self.time.size)
+
+    @property
+    def kind(self) -> str:
+        """``"scalar"`` (one value per sample), ``"vector"`` (a force vector) or ``"array"``
+        (one force vector per cilium)."""
+        return ("scalar", "vector", "array")[min(self.value.ndim, 3) - 1]
+
+    @property
+    def good(self) -> NDArray[np.bool_]:
+        """Whether each estimate has a value (no flag of :data:`NO_ESTIMATE`), shape of
+        ``flags``."""
+        return np.asarray(self.flags & FLAG_DTYPE(NO_ESTIMATE) == 0)
+
+    @property
+    def magnitude(self) -> F64:
+        """|F| of each force vector, N, shape of ``flags`` (a scalar read-out: ``value``)."""
+        if self.kind == "scalar":
+            return self.value
+        return np.asarray(np.hypot(self.value[..., 0], self.value[..., 1]))
+
+    @property
+    def direction(self) -> F64:
+        """Direction atan2(Fy, Fx) of each force vector, rad, shape of ``flags`` (NaN for a
+        scalar read-out)."""
+        if self.kind == "scalar":
+            return np.full(self.value.shape, np.nan)
+        return np.asarray(np.arctan2(self.value[..., 1], self.value[..., 0]))
+
+    def first(self, count: int) -> LiveSamples:
+        """The first ``count`` samples."""
+        return LiveSamples(self.quantity, self.unit,
+                           **{name: getattr(self, name)[:count] for name in COLUMNS})
 
     @property
     def latency(self) -> F64:
@@ -94,20 +134,35 @@ class LiveSamples(Display):
         if not len(self):
             return f"no {self.quantity} samples"
         q = MEASURANDS[self.quantity]
-        good = np.nonzero(self.flags & np.uint16(NO_ESTIMATE) == 0)[0]
-        last = (f"last {q.to_display(self.value[good[-1]]):.4g} ± "
-                f"{q.to_display(self.sigma[good[-1]]):.2g} {q.display}" if good.size
+        if self.kind != "scalar":
+            good = self.good.reshape(len(self), -1)
+            n_good = int(good.all(axis=1).sum())
+            mag = np.where(good, self.magnitude.reshape(len(self), -1), np.nan)[-1]
+            last = (f"last |F| up to {q.to_display(float(np.nanmax(mag))):.4g} {q.display}"
+                    if np.isfinite(mag).any() else "no good reading")
+            lat = self.latency * 1e3
+            what = "force vectors" if self.kind == "vector" else \
+                f"array samples ({self.value.shape[1]} cilia)"
+            return (f"{len(self)} {what} over {self.time[-1] - self.time[0]:.3g} s, {n_good} "
+                    f"good; {last}; latency median {np.median(lat):.2g} ms, max "
+                    f"{np.max(lat):.2g} ms")
+        index = np.nonzero(self.good)[0]
+        last = (f"last {q.to_display(self.value[index[-1]]):.4g} ± "
+                f"{q.to_display(self.sigma[index[-1]]):.2g} {q.display}" if index.size
                 else "no good reading")
         lat = self.latency * 1e3
         return (f"{len(self)} {self.quantity} samples over {self.time[-1] - self.time[0]:.3g} s, "
-                f"{good.size} good; {last}; latency median {np.median(lat):.2g} ms, "
+                f"{index.size} good; {last}; latency median {np.median(lat):.2g} ms, "
                 f"max {np.max(lat):.2g} ms")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         q = MEASURANDS[self.quantity]
         items = [("", self.quantity), ("", count(self.time.size, "sample"))]
-        if self.time.size:
+        if self.time.size and self.kind != "scalar":
+            items += [("time", f"{self.time[0]:.4g}…{self.time[-1]:.4g} s"),
+                      ("shape", " × ".join(str(k) for k in self.value.shape[1:]))]
+        elif self.time.size:
             last = f"{q.text(float(self.value[-1]))} ± {q.text(float(self.sigma[-1]))}"
             items += [("time", f"{self.time[0]:.4g}…{self.time[-1]:.4g} s"), ("last", last)]
         return items
@@ -115,7 +170,25 @@ class LiveSamples(Display):
     def to_dataframe(self) -> Any:
         """The samples as a ``pandas.DataFrame``, SI, one row per reading: ``time_s``, ``raw_V``,
         the value and ``sigma`` named by quantity and unit (``force_N``, ``sigma_N``), ``flags``,
-        ``correction_V``, ``received_s``, ``published_s``."""
+        ``correction_V``, ``received_s``, ``published_s``. A force vector: ``force_x_N``,
+        ``force_y_N``, ``sigma_x_N``, ``sigma_y_N``, ``flags``; an array: one row per reading
+        and cilium (``cilium`` its index) with those columns; the channels' raw readings and
+        corrections are left out of both."""
+        if self.kind != "scalar":
+            m = len(self)
+            per = int(np.prod(self.flags.shape[1:], dtype=np.int64))
+            cols: dict[str, Any] = {"time_s": np.repeat(self.time, per)}
+            if self.kind == "array":
+                cols["cilium"] = np.tile(np.arange(per), m)
+            value = self.value.reshape(m * per, 2)
+            sigma = self.sigma.reshape(m * per, 2)
+            cols.update({column(f"{self.quantity}_x", self.unit): value[:, 0],
+                         column(f"{self.quantity}_y", self.unit): value[:, 1],
+                         column("sigma_x", self.unit): sigma[:, 0],
+                         column("sigma_y", self.unit): sigma[:, 1],
+                         "flags": self.flags.reshape(-1),
+                         "published_s": np.repeat(self.published, per)})
+            return dataframe(cols)
         return dataframe({"time_s": self.time, "raw_V": self.raw,
                           column(self.quantity, self.unit): self.value,
                           column("sigma", self.unit): self.sigma, "flags": self.flags,
@@ -132,13 +205,25 @@ class History:
         What the samples estimate.
     capacity : int
         Samples kept.
+    shapes : mapping of str to tuple of int, optional
+        The shape of one sample of a column where it is not a number: ``value`` and ``sigma``
+        (2,) for a force vector or (C, 2) for an array, ``flags`` (C,) for an array, ``raw``
+        and ``correction`` (c,) for several channels.
+    names : tuple of str
+        The cilia of an array read-out, in order (() otherwise).
     """
 
-    def __init__(self, quantity: str, unit: str, capacity: int) -> None:
+    def __init__(self, quantity: str, unit: str, capacity: int,
+                 shapes: dict[str, tuple[int, ...]] | None = None,
+                 names: tuple[str, ...] = ()) -> None:
         self.quantity = quantity
         self.unit = unit
         self.capacity = v.integer("capacity", capacity, 1)
-        self._ring = np.full((len(COLUMNS), self.capacity), np.nan)
+        self.shapes = {name: tuple((shapes or {}).get(name, ())) for name in COLUMNS}
+        self.names = tuple(names)
+        self._ring = {name: np.full((self.capacity, *self.shapes[name]), 0 if name == "flags"
+                                    else np.nan, dtype=FLAG_DTYPE if name == "flags"
+                                    else np.float64) for name in COLUMNS}
         self._total = 0
         self._lock = threading.Condition()
 
@@ -147,14 +232,21 @@ class History:
         """Samples appended so far (the cursor of a view that has seen them all)."""
         return self._total
 
-    def append(self, columns: F64) -> None:
-        """Append samples: ``columns`` of shape (len(COLUMNS), m), in :data:`COLUMNS` order."""
-        m = columns.shape[1]
+    def append(self, columns: F64 | dict[str, Any]) -> None:
+        """Append m samples: a mapping of every column of :data:`COLUMNS` to its values (shape
+        (m, *its shape)), or, when every column is a number, an array (len(COLUMNS), m) in
+        :data:`COLUMNS` order."""
+        cols = dict(zip(COLUMNS, columns, strict=True)) if not isinstance(columns, dict) \
+            else columns
+        m = int(np.shape(cols["time"])[0])
         kept = min(m, self.capacity)
+        first = (self._total + m - kept) % self.capacity
+        split = min(kept, self.capacity - first)  # the part before the ring wraps
         with self._lock:
-            idx = (self._total + m - kept + np.arange(kept)) % self.capacity
-            columns = columns[:, m - kept:]
-            self._ring[:, idx] = columns
+            for name in COLUMNS:
+                new, ring = np.asarray(cols[name])[m - kept:], self._ring[name]
+                ring[first:first + split] = new[:split]
+                ring[:kept - split] = new[split:]
             self._total += m
             self._lock.notify_all()
 
@@ -169,8 +261,8 @@ class History:
             if limit is not None:
                 start = max(start, total - limit)
             idx = np.arange(start, total) % self.capacity
-            block = self._ring[:, idx]
-        return self._samples(block), total, lost
+            block = {name: self._ring[name][idx] for name in COLUMNS}
+        return LiveSamples(self.quantity, self.unit, **block), total, lost
 
     def last(self, seconds: float, rate: float) -> LiveSamples:
         """The samples of the last ``seconds`` at output ``rate`` Hz (at most ``capacity``)."""
@@ -181,8 +273,3 @@ class History:
         """Wait up to ``timeout`` s for samples past ``cursor``; whether there are some."""
         with self._lock:
             return self._lock.wait_for(lambda: self._total > cursor, timeout)
-
-    def _samples(self, block: F64) -> LiveSamples:
-        values = dict(zip(COLUMNS, block, strict=True))
-        return LiveSamples(self.quantity, self.unit, **values)
-

@@ -1,4 +1,5 @@
-"""The streaming read-out: a source's samples in, force, angle or flow speed with σ and flags out.
+"""The streaming read-out: a source's samples in, force, angle or flow speed — or force vectors of a
+3-axis sensor or an array — with σ and flags out.
 
 ::
 
@@ -6,20 +7,22 @@
               (acquire)        (overruns)     average, demodulate,          (terminal, browser),
                                               tare, read-out, record        each with a cursor
 
-The read-out thread takes the samples in chunks of ``batch`` seconds, averages each window of
-``factor = source rate / output rate`` samples (:mod:`magcilia.live.windows`, set/reset
-demodulated), adds the tare correction (:mod:`magcilia.live.zero`), flags windows in which any raw
-sample left the sensor's range, and turns the readings into estimates with
-:meth:`Readout.read <magcilia.Readout.read>` (σ from the noise measured at the last tare, else
-the larger of the sensor's noise over half the output rate and the spread of the last second's
-successive readings, :func:`~magcilia.live.zero.difference_noise`). It appends them to a
-:class:`History` that any number of views read at their own pace: a slow or stalled view never
-delays acquisition.
+The read-out thread takes the samples of the channels the read-out names (its ``inputs``: the
+output, or every part's ``NAME.x``, ``.y``, ``.z``) in chunks of ``batch`` seconds, averages each
+window of ``factor = source rate / output rate`` samples per channel
+(:mod:`magcilia.live.windows`, set/reset demodulated), adds the tare and zero-tracking correction
+per channel (:mod:`magcilia.live.zero`), flags windows in which any raw sample left its channel's
+range, and reads the chunk with one call of the read-out's ``read(samples, noise=)``: the noise
+measured at the tare (else the larger of the model's and the last second's spread) with the
+zero's σ added; every estimate carries the zero's TARE_UNDER_LOAD and ZERO_DRIFT. It appends
+them — a number, a force vector (2,) or one per cilium (C, 2) per reading — to a
+:class:`History` that views read at their own pace: a stalled view never delays acquisition.
 
 **Latency** (sample in -> value out): a sample *arrives* when the source hands over the chunk that
 holds it (the reader thread stamps the chunk's wall-clock time), and its value is *out* when the
 window's estimate is in the History. That takes the wait for the rest of the read-out chunk
-(``batch``, 5 ms by default) plus the processing (≈ 0.1 ms); every sample's
+(``batch``, 5 ms by default) plus the processing (≈ 0.1 ms for one output; an array's inverse
+≈ 2 ms per window for 16 cilia, ``benchmarks/bench_live_vectors.py``); every sample's
 ``published − received`` is kept (:attr:`LiveSamples.latency`). Before a sample arrives it has
 spent up to one source chunk on the way (``batch`` for the simulation, a frame for a serial
 device) and its window up to ``1/rate``; after it, a view's refresh period and drawing add the
@@ -33,11 +36,9 @@ event; what the views show resumes when the source comes back.
 from __future__ import annotations
 
 import contextlib
-import datetime as dt
 import math
 import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -46,191 +47,32 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
-from magcilia._display import Display, Item, si
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Block, Counters, Source
-from magcilia.device.parameters import MEASURANDS
-from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.io.recording_file import RecordingWriter, chunk_for
-from magcilia.io.recordings import beyond_range
-from magcilia.io.setup_files import setup_to_dict
-from magcilia.live.history import COLUMNS, History, LiveSamples
-from magcilia.live.recorded import recorded_clock, replay_finished, replay_metadata, replayed_tare
+from magcilia.live.history import History, LiveSamples
+from magcilia.live.readouts import LiveSensor, live_sensor
+from magcilia.live.recorded import (
+    recorded_clock,
+    recording_metadata,
+    replay_finished,
+    replayed_tare,
+)
+from magcilia.live.recording import new_recording_path, readout_group, sample_columns
+from magcilia.live.status import EVENTS, Event, Limits, LiveStatus, tare_text
 from magcilia.live.windows import Averager
 from magcilia.live.zero import Zero, difference_noise
-from magcilia.mechanics import output_at
-from magcilia.readout.inverse import Readout, ReadoutFlag
+from magcilia.readout.protocol import FLAG_DTYPE, Flag
 
 F64 = NDArray[np.float64]
 
-#: event codes stored in a live recording's ``events`` group (channel ``event_code``)
-EVENTS = {"start": 0, "tare": 1, "disconnected": 2, "reconnected": 3, "recording": 4}
+__all__ = ["EVENTS", "Event", "Limits", "LiveReadout", "LiveStatus"]
+
 #: fraction of the last second's readings outside the span above which the status warns
 _OUTSIDE_WARNING = 0.9
-
-
-@dataclass(frozen=True, repr=False)
-class Event(Display):
-    """Something that happened during a live read-out (immutable).
-
-    Attributes
-    ----------
-    time : float
-        s since the read-out started.
-    kind : str
-        One of :data:`EVENTS`.
-    text : str
-        What happened, one line.
-    """
-
-    time: float
-    kind: str
-    text: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content."""
-        return {"time_s": self.time, "kind": self.kind, "text": self.text}
-
-    def report(self) -> str:
-        """One line."""
-        return f"{self.time:8.2f} s  {self.kind}: {self.text}"
-
-    # -- display --------------------------------------------------------------------------------
-    def _display_items(self) -> list[Item]:
-        return [("", self.kind), ("time", f"{self.time:.6g} s"), ("", self.text)]
-
-
-@dataclass(frozen=True, repr=False)
-class LiveStatus(Display):
-    """Where a live read-out stands (immutable; :attr:`LiveReadout.status`).
-
-    Attributes
-    ----------
-    state : str
-        ``"starting"``, ``"running"``, ``"taring"``, ``"disconnected"``, ``"failed"`` or
-        ``"stopped"``.
-    message : str
-        One line for people: the last fault, a hint, or "".
-    counters : Counters
-        Samples delivered by the source, dropped (by the device and by buffer overruns, summed
-        over reconnections) and corrupt frames.
-    overruns : int
-        Samples the ring buffer overwrote because the read-out fell behind.
-    samples : int
-        Output samples so far.
-    rate : float
-        Output samples per second, Hz.
-    tared : bool
-        Whether a tare was taken.
-    correction : float
-        Current tare + zero-tracking correction, V.
-    drift : float
-        Zero tracking's share of it since the last tare, V.
-    noise : float
-        Noise RMS of one reading used for σ, V: measured at the tare; before one, the larger of
-        the sensor model's and the spread of the last second's readings.
-    recording : str or None
-        The file being recorded.
-    latency_median, latency_p99 : float
-        Sample in -> value out over the last second, s (NaN before any output).
-    """
-
-    state: str
-    message: str
-    counters: Counters
-    overruns: int
-    samples: int
-    rate: float
-    tared: bool
-    correction: float
-    drift: float
-    noise: float
-    recording: str | None
-    latency_median: float
-    latency_p99: float
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        c = self.counters
-        return {"state": self.state, "message": self.message, "delivered": c.samples,
-                "dropped": c.dropped, "corrupt": c.corrupt, "overruns": self.overruns,
-                "samples": self.samples, "rate_Hz": self.rate, "tared": self.tared,
-                "correction_V": self.correction, "drift_V": self.drift, "noise_V": self.noise,
-                "recording": self.recording, "latency_median_s": self.latency_median,
-                "latency_p99_s": self.latency_p99}
-
-    def report(self) -> str:
-        """One line."""
-        tare = (f"tared (correction {self.correction * 1e3:+.4g} mV, drift "
-                f"{self.drift * 1e6:+.3g} µV)" if self.tared else "not tared")
-        rec = f", recording {self.recording}" if self.recording else ""
-        msg = f" — {self.message}" if self.message else ""
-        return (f"{self.state}: {self.samples} samples at {self.rate:g} Hz, {tare}; "
-                f"{self.counters.dropped} dropped, {self.overruns} overruns, latency "
-                f"{self.latency_median * 1e3:.2g} ms (p99 {self.latency_p99 * 1e3:.2g} ms)"
-                f"{rec}{msg}")
-
-    # -- display --------------------------------------------------------------------------------
-    def _display_items(self) -> list[Item]:
-        items = [("", self.state), ("samples", str(self.samples)), ("rate", f"{self.rate:.4g} Hz"),
-                 ("tared", "yes" if self.tared else "no"), ("noise", si(self.noise, "V")),
-                 ("dropped", str(self.counters.dropped)), ("overruns", str(self.overruns))]
-        if self.message:
-            items.append(("message", self.message))
-        if self.recording:
-            items.append(("recording", self.recording))
-        return items
-
-
-@dataclass(frozen=True, repr=False)
-class Limits(Display):
-    """What the read-out can measure (immutable; SI, :meth:`LiveReadout.limits`).
-
-    Attributes
-    ----------
-    quantity, unit : str
-    span : (float, float)
-        The read-out's span.
-    range : (float, float)
-        The part of the span inside the sensor's linear range and before any fold.
-    minimum : float
-        Minimum detectable change at rest: the noise of one reading through the slope there.
-    limited_by : str
-        What ends the range ("span", "sensor range", "fold").
-    scale_note : str
-        Where a force's or flow's scale comes from (:meth:`magcilia.Modulus.note`: its σ is in
-        every reading's ± σ); "" for an angle.
-    """
-
-    quantity: str
-    unit: str
-    span: tuple[float, float]
-    range: tuple[float, float]
-    minimum: float
-    limited_by: str
-    scale_note: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready content (SI)."""
-        return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
-                "range": list(self.range), "minimum": self.minimum,
-                "limited_by": self.limited_by, "scale_note": self.scale_note}
-
-    def report(self) -> str:
-        """One line in display units (and the force scale's note for a force or flow)."""
-        q = MEASURANDS[self.quantity]
-        lo, hi = (q.to_display(x) for x in self.range)
-        note = f"; ± σ includes the {self.scale_note}" if self.scale_note else ""
-        return (f"{q.label} range {lo:.4g}…{hi:.4g} {q.display} ({self.limited_by}), minimum "
-                f"detectable {q.to_display(self.minimum):.3g} {q.display}{note}")
-
-    # -- display --------------------------------------------------------------------------------
-    def _display_items(self) -> list[Item]:
-        q = MEASURANDS[self.quantity]
-        return [("", self.quantity), ("span", f"{q.text(self.span[0])}…{q.text(self.span[1])}"),
-                ("range", f"{q.text(self.range[0])}…{q.text(self.range[1])}"),
-                ("minimum", q.text(self.minimum)), ("limited by", self.limited_by)]
+#: the flags that leave a reading without a value (NaN value and σ in the History)
+_NO_VALUE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED | Flag.UNDETERMINED
 
 
 class LiveReadout:
@@ -240,13 +82,19 @@ class LiveReadout:
     ----------
     source : Source
         Where the samples come from (opened by :meth:`start`, closed by :meth:`stop`).
-    readout : Readout
-        The inverse read-out (setup, quantity, span, calibration).
+    readout : SensorReadout
+        Any read-out that follows :class:`~magcilia.readout.protocol.SensorReadout`: the
+        single-axis :class:`~magcilia.Readout` (setup, quantity, span, calibration; one value per
+        sample), the force vector of a 3-axis sensor (:class:`~magcilia.BiaxialReadout`: (Fx, Fy)
+        per sample) or every cilium's force vector of an array (:class:`~magcilia.ArrayReadout`:
+        (C, 2) per sample). It reads the source's channels named by its ``inputs``
+        (:func:`~magcilia.live.readouts.live_sensor`).
     rate : float
         Output samples per second, Hz; each averages ``round(source rate / rate)`` samples
         (the actual output rate is :attr:`rate` after :meth:`start`).
     channel : str
-        The source's channel that carries the sensor output.
+        The source's channel that carries the sensor output (a single-axis read-out; the others
+        read the channels their ``inputs`` name).
     history : float
         Seconds of output kept for the views.
     batch : float
@@ -255,7 +103,9 @@ class LiveReadout:
     tare_seconds : float
         Seconds of unloaded readings a tare averages.
     tare_at_start : bool
-        Tare on the first ``tare_seconds`` (the cilium must be unloaded when it starts).
+        Tare on the first ``tare_seconds`` (the cilium must be unloaded when it starts). Force
+        vectors are not estimated before that first tare (flag OUTSIDE_SPAN): their readings
+        still hold the Earth's field and the parts' offsets.
     tracking : float or None
         Zero-tracking time constant, s (None: off); see :mod:`magcilia.live.zero`.
     band : float
@@ -284,7 +134,7 @@ class LiveReadout:
     (50, 0.2)
     """
 
-    def __init__(self, source: Source, readout: Readout, *, rate: float = 1000.0,
+    def __init__(self, source: Source, readout: Any, *, rate: float = 1000.0,
                  channel: str = OUTPUT, history: float = 60.0, batch: float = 0.005,
                  tare_seconds: float = 0.5, tare_at_start: bool = False,
                  tracking: float | None = 30.0, band: float = 3.0,
@@ -292,8 +142,7 @@ class LiveReadout:
                  reconnect: float = 1.0, record: str | Path | None = None) -> None:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
-        if not isinstance(readout, Readout):
-            raise v.fail("readout", type(readout).__name__, "a magcilia.Readout")
+        self.sensor: LiveSensor = live_sensor(readout)
         self.source = source
         self.readout = readout
         self.requested_rate = v.positive("rate", rate, "Hz", "frequency")
@@ -304,17 +153,19 @@ class LiveReadout:
         self.demodulate = demodulate
         self.stall = v.positive("stall", stall, "s", "duration")
         self.reconnect = v.positive("reconnect", reconnect, "s", "duration")
-        setup = readout.setup
-        flow = readout.flow if readout.quantity == "flow" else None
-        rest = float(output_at(setup, readout.quantity, np.zeros(1), flow)[0])
-        self.zero = Zero(rest, tracking, band)
+        sensor = self.sensor
+        #: the source channels read, in the read-out's order
+        self.inputs = (self.channel,) if sensor.kind == "scalar" else sensor.inputs
+        scalar = sensor.kind == "scalar"
+        self.zero = Zero(float(sensor.rest[0]) if scalar else sensor.rest, tracking, band,
+                         unit=sensor.channel_unit, names=() if scalar else sensor.inputs)
         self.factor = 1
         self.rate = self.requested_rate
-        self.history = History(readout.quantity, readout.unit, 1)
+        self.history = self._new_history(1)
         self.events: list[Event] = []
         self._tare_wanted = bool(tare_at_start)
         self._tare_readings: list[F64] = []
-        self._averager = Averager(1, setup.sensor.offset)
+        self._averager = self._new_averager(1)
         self._reader: BackgroundReader | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
@@ -327,11 +178,23 @@ class LiveReadout:
         self._lost_overruns = 0
         self._t0 = 0.0
         self._offset: float | None = None
-        self._spread = math.nan  # difference_noise of the last second, before a tare
+        self._spread: Any = math.nan  # difference_noise of the last second, before a tare
         self._spread_at = -math.inf
+        self._limits: tuple[bytes, Limits] | None = None
         self._record_at_start = None if record is None else Path(record)
         self._tare_started = False  # a tare's first readings are in this block (for replays)
-        self._noise_used = math.nan  # the noise σ used for the last block, V
+        self._noise_used: Any = math.nan  # the noise σ used for the last block, channel units
+
+    def _new_history(self, capacity: int) -> History:
+        s = self.sensor
+        c = () if s.kind == "scalar" else (s.channels,)
+        return History(s.quantity, s.unit, capacity, {
+            "value": s.value_shape, "sigma": s.value_shape, "flags": s.flags_shape, "raw": c,
+            "correction": c}, s.names)
+
+    def _new_averager(self, factor: int) -> Averager:
+        offset = self.sensor.offset
+        return Averager(factor, float(offset[0]) if self.sensor.kind == "scalar" else offset)
 
     # -- life cycle -------------------------------------------------------------------------------
     def start(self) -> Self:
@@ -357,9 +220,8 @@ class LiveReadout:
         self.rate = rate / self.factor
         assert self._reader is not None
         self._reader.chunk = self._chunk()
-        self.history = History(self.readout.quantity, self.readout.unit,
-                               max(2, round(self.history_seconds * self.rate)))
-        self._averager = Averager(self.factor, self.readout.setup.sensor.offset)
+        self.history = self._new_history(max(2, round(self.history_seconds * self.rate)))
+        self._averager = self._new_averager(self.factor)
         self._event("start", f"{self.source.name} at {rate:g} Hz, read-out at {self.rate:g} Hz "
                     f"({self.factor} samples per reading)")
         self._state = "taring" if self._tare_wanted else "running"
@@ -433,7 +295,7 @@ class LiveReadout:
                                        f"{count} read-out samples in {timeout:g} s "
                                        f"({self.status.report()})")
             self.history.wait(cursor + count - 1, min(left, 0.1))
-        return LiveSamples(**_first(self.history.since(cursor)[0], count))
+        return self.history.since(cursor)[0].first(count)
 
     @property
     def status(self) -> LiveStatus:
@@ -442,8 +304,9 @@ class LiveReadout:
         lat = recent.latency if recent is not None else np.zeros(0)
         lat = lat[np.isfinite(lat)]
         message = self._message
-        if recent is not None and not message and len(recent) and np.mean(
-                recent.flags & ReadoutFlag.OUTSIDE_SPAN > 0) > _OUTSIDE_WARNING:
+        untared = self.sensor.kind != "scalar" and self.zero.tared_at is None  # (no estimates)
+        if recent is not None and not message and not untared and len(recent) and np.mean(
+                recent.flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN) > 0) > _OUTSIDE_WARNING:
             message = ("readings lie outside the read-out's output range: tare with the cilium "
                        "unloaded, or check that the setup matches this sensor")
         reader = self._reader
@@ -460,33 +323,26 @@ class LiveReadout:
             tared=self.zero.tared_at is not None, correction=self.zero.correction,
             drift=self.zero.drift, noise=noise, recording=recording,
             latency_median=float(np.median(lat)) if lat.size else math.nan,
-            latency_p99=float(np.quantile(lat, 0.99)) if lat.size else math.nan)
+            latency_p99=float(np.quantile(lat, 0.99)) if lat.size else math.nan,
+            unit=self.sensor.channel_unit)
 
     def limits(self) -> Limits:
-        """The span, the usable range within it and the minimum detectable change at rest."""
-        r = self.readout
-        table = r.table
-        sensor = r.setup.sensor
-        ok = sensor.in_range(sensor.field(table.output))
-        q = table.quantity
-        limited = "fold" if r.fold is not None else "span"
-        if not ok.all():
-            limited = "sensor range"
-        inside = q[ok] if ok.any() else q[:1]
-        rest_slope = abs(float(np.interp(self.zero.rest, table.volts, table.slope)))
-        return Limits(r.quantity, r.unit, r.span, (float(inside.min()), float(inside.max())),
-                      self.noise * rest_slope, limited, r.scale_note)
+        """The span, the usable range within it and the minimum detectable change at rest (kept
+        while the noise it is computed with stays the same)."""
+        noise = np.atleast_1d(np.asarray(self.noise, dtype=np.float64))
+        kept = self._limits
+        if kept is None or kept[0] != noise.tobytes():
+            kept = self._limits = (noise.tobytes(), self.sensor.limits(noise))
+        return kept[1]
 
     @property
-    def noise(self) -> float:
-        """Noise RMS of one reading that σ uses, V (see :attr:`LiveStatus.noise`)."""
-        if self.zero.noise is not None:
-            return self.zero.noise
-        model = self.readout.setup.sensor.output_noise_rms(*self._bandwidth())
-        return max(model, self._spread) if math.isfinite(self._spread) else model
+    def noise(self) -> Any:
+        """Noise RMS of one reading that σ uses (see :attr:`LiveStatus.noise`): V, a float, for
+        a single-axis read-out; per channel (c,) in their unit for the others."""
+        return self.zero.noise if self.zero.noise is not None else self._rest_noise()
 
-    def _bandwidth(self) -> tuple[float, float]:
-        return DEFAULT_BANDWIDTH[0], max(self.rate / 2.0, DEFAULT_BANDWIDTH[0] * 2.0)
+    def _rest_noise(self) -> Any:
+        return self.sensor.rest_noise(self.rate, self.factor, self._spread)
 
     # -- recording ------------------------------------------------------------------------------
     def start_recording(self, path: str | Path | None = None,
@@ -505,14 +361,8 @@ class LiveReadout:
         with self._recording_lock:  # one start or stop at a time; each file its own name
             reserved = path is None
             if path is None:
-                path = _new_recording_path(Path(directory))
-            r = self.readout
-            metadata = {**self.source.metadata(), "live": True, "readout": r.to_dict(),
-                        "setup": setup_to_dict(r.setup), "output_rate_Hz": self.rate,
-                        "factor": self.factor, "event_codes": EVENTS,
-                        "tare_correction_V": self.zero.correction,
-                        **replay_metadata(self)}
-            writer = RecordingWriter(path, metadata=metadata, reserved=reserved,
+                path = new_recording_path(Path(directory))
+            writer = RecordingWriter(path, metadata=recording_metadata(self), reserved=reserved,
                                      chunk=chunk_for(self.source.rate))
             try:
                 writer.open()
@@ -567,11 +417,16 @@ class LiveReadout:
                 reader.stop()
             raise
         names = [c.name for c in self.source.channels]
-        if self.channel not in names:
+        missing = [name for name in self.inputs if name not in names]
+        if missing:
             with contextlib.suppress(Exception):
                 reader.stop()
-            raise v.fail("channel", self.channel, f"a channel of {self.source.name} (it has "
-                         f"{', '.join(names)}; choose one with --channel)")
+            if self.sensor.kind == "scalar":
+                raise v.fail("channel", self.channel, f"a channel of {self.source.name} (it "
+                             f"has {', '.join(names)}; choose one with --channel)")
+            raise v.fail("source", self.source.name, f"a source of the read-out's channels "
+                         f"({', '.join(missing[:3])}{' …' if len(missing) > 3 else ''} are "
+                         f"missing; it has {', '.join(names[:6])})")
         reader.chunk = self._chunk()  # the rate is known once the source is open
         self._reader = reader
         self._offset = None
@@ -635,52 +490,65 @@ class LiveReadout:
         if replayed_tare(self.source, block):  # where the recorded run's tare began
             self.tare()
         t = block.time + self._offset
-        raw = block[self.channel]
-        sensor = self.readout.setup.sensor
+        raw = self.sensor.samples(block, self.channel)
         sr = block.setreset if self.demodulate is not False else None
         if self.demodulate and sr is None:
             raise MagciliaError(f"{self.source.name} does not mark set/reset samples; "
                                 "demodulation needs them")
-        w = self._averager.push(t, raw, beyond_range(raw, sensor), sr)
+        beyond = self.sensor.beyond(raw.reshape(raw.shape[0], -1))
+        w = self._averager.push(t, raw, beyond, sr)
         zero = self.zero
         with self._lock:  # a tare asked for from now on begins with the next block
             collecting = self._tare_wanted
             self._tare_started = collecting and not self._tare_readings
         if collecting:
             self._collect_tare(w.volts, float(w.time[-1]))
-        if zero.noise is None and t[-1] - self._spread_at >= 0.25 and self.history.total:
+        untared = zero.noise is None or zero.under_load  # (the spread is σ's, or the rest's)
+        if untared and t[-1] - self._spread_at >= 0.25 and self.history.total:
             self._spread = difference_noise(self.history.last(1.0, self.rate).raw)
             self._spread_at = float(t[-1])
         self._noise_used = zero.total_noise(self.noise)  # with the zero's σ (and recorded)
         correction = zero.correction  # the one this block is read with (tracking moves it)
-        result = self.readout.read(w.volts + correction, noise=self._noise_used)
-        flags = result.flags | np.where(w.beyond, np.uint16(ReadoutFlag.SATURATED), np.uint16(0))
-        bad = np.where(flags != 0, np.nan, 1.0)
-        flags = flags | np.uint16(zero.flags)  # warnings (TARE_UNDER_LOAD, ZERO_DRIFT): kept
+        readings = w.volts + correction  # (m,) for one output, (m, c) for several
+        if self.sensor.kind != "scalar" and zero.tared_at is None and self._tare_wanted:
+            value, sigma, flags = self.sensor.no_estimates(w.time.size)  # the tare's baseline
+        else:
+            result = self.sensor.view.read(readings, noise=self._noise_used)
+            value, sigma = np.asarray(result.value), np.asarray(result.sigma)
+            flags = np.asarray(result.flags, dtype=FLAG_DTYPE)
+        saturated = np.where(w.beyond, FLAG_DTYPE(Flag.SATURATED), FLAG_DTYPE(0))
+        flags = flags | saturated.reshape(-1, *(1 for _ in flags.shape[1:]))
+        if self.sensor.kind == "scalar":  # any flag: no value (as the views always showed it)
+            bad = np.where(flags != 0, np.nan, 1.0)
+        else:  # a vector near zero or ambiguous in direction keeps its components
+            bad = np.where(flags & FLAG_DTYPE(_NO_VALUE) != 0, np.nan, 1.0)[..., None]
+        flags = flags | self.sensor.zero_flags(zero.channel_flags)  # TARE_UNDER_LOAD, ZERO_DRIFT
         if not (collecting and self._tare_wanted):
             zero.track(w.volts, 1.0 / self.rate, at=float(w.time[-1]))
         now = time.time()
         received = block.received if block.received is not None else now
-        columns = np.array([w.time, w.volts, result.value * bad, result.sigma * bad, flags,
-                            np.full(w.time.size, correction), np.full(w.time.size, received),
-                            np.full(w.time.size, now)])
+        m = w.time.size
+        columns: dict[str, Any] = {
+            "time": w.time, "raw": w.volts, "value": value * bad, "sigma": sigma * bad,
+            "flags": flags, "correction": np.broadcast_to(correction, w.volts.shape),
+            "received": np.full(m, received), "published": np.full(m, now)}
         self.history.append(columns)
         with self._lock:
             if self._writer is not None:
-                self._record(block, t, dict(zip(COLUMNS, columns, strict=True)))
+                self._record(block, t, raw, columns)
 
     def _collect_tare(self, volts: F64, at: float) -> None:
-        if not self._tare_wanted:
-            return
         with self._lock:
             self._tare_readings.append(volts)
-            have = sum(x.size for x in self._tare_readings)
+            have = sum(x.shape[0] for x in self._tare_readings)
             if have < max(2, round(self.tare_seconds * self.rate)):
                 return
             readings = np.concatenate(self._tare_readings)
             self._tare_readings = []
             try:
-                taken = self.zero.tare(readings, at, dt=1.0 / self.rate)
+                z = self.zero  # the rest check's noise: a tare's at rest, else the model's
+                taken = z.tare(readings, at, dt=1.0 / self.rate, expected_noise=(
+                    z.noise if z.noise is not None and not z.under_load else self._rest_noise()))
             except MagciliaError as exc:
                 self._message = str(exc)
                 return
@@ -691,26 +559,26 @@ class LiveReadout:
             if not taken:
                 self._event("tare", self.zero.notice)
                 return
-            self._event("tare", f"zero at {readings.mean() * 1e3:.6g} mV (correction "
-                        f"{self.zero.correction * 1e3:+.4g} mV, noise "
-                        f"{(self.zero.noise or 0.0) * 1e6:.3g} µV per reading)"
-                        + (" — NOT AT REST" if self.zero.under_load else ""))
+            self._event("tare", tare_text(self.zero, readings))
 
-    def _record(self, block: Block, t: F64, out: dict[str, F64]) -> None:
+    def _record(self, block: Block, t: F64, raw: F64, out: dict[str, Any]) -> None:
         """Write the block's samples and read-out values (the lock is held)."""
         assert self._writer is not None
+        s = self.sensor
         try:
             if self._tare_started:  # where a replay re-takes this tare
                 self._writer.write_group("tares", {"tare_sample": [self._writer.written]})
-            self._writer.write(t, block[self.channel], setreset=block.setreset,
-                               extra={k: x for k, x in (block.extra() or {}).items()
-                                      if k != self.channel} or None)
-            self._writer.write_group("readout", {
-                "readout_time_s": out["time"], "raw_V": out["raw"], "value": out["value"],
-                "sigma": out["sigma"], "flags": out["flags"], "correction_V": out["correction"],
-                "noise_V": np.full(out["time"].size, self._noise_used),
-            }, units={"readout_time_s": "s", "raw_V": "V", "value": self.readout.unit,
-                      "sigma": self.readout.unit, "correction_V": "V", "noise_V": "V"})
+            if s.kind == "scalar":
+                self._writer.write(t, raw, setreset=block.setreset,
+                                   extra={k: x for k, x in (block.extra() or {}).items()
+                                          if k != self.channel} or None)
+            else:
+                self._writer.write(t, None, setreset=block.setreset,
+                                   extra=sample_columns(self.inputs, raw))
+            columns, units = readout_group(out, unit=s.unit, channel_unit=s.channel_unit,
+                                           inputs=self.inputs, names=s.names,
+                                           noise=self._noise_used)
+            self._writer.write_group("readout", columns, units=units)
         except MagciliaError as exc:
             path = self._writer.path
             kept = self._writer.abort(f"stopped: {exc}")
@@ -730,25 +598,3 @@ class LiveReadout:
                                              units={"event_time_s": "s"})
                 except MagciliaError as exc:
                     self._message = str(exc)
-
-
-def _new_recording_path(directory: Path) -> Path:
-    """``live-YYYYmmdd-HHMMSS.tdms`` in ``directory``, made unique with ``-2``, ``-3`` …, and
-    reserved: created empty at once (exclusively), so that no other recording takes the name."""
-    directory.mkdir(parents=True, exist_ok=True)
-    base = directory / f"live-{dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
-    path, k = base.with_suffix(".tdms"), 2
-    while True:
-        try:
-            path.open("xb").close()
-        except FileExistsError:
-            path, k = Path(f"{base}-{k}.tdms"), k + 1
-        else:
-            return path
-
-
-def _first(samples: LiveSamples, count: int) -> dict[str, Any]:
-    """The fields of the first ``count`` samples."""
-    out: dict[str, Any] = {"quantity": samples.quantity, "unit": samples.unit}
-    out.update({name: getattr(samples, name)[:count] for name in COLUMNS})
-    return out

@@ -5,11 +5,16 @@ the raw samples (group ``recording``) and the values the view showed (group ``re
 reading ``raw_V``, the ``correction_V`` of tare and zero tracking, ``value``, ``sigma``,
 ``flags`` and the ``noise_V`` that σ used), what it takes to compute those values again:
 
-* the file property ``replay`` (:func:`replay_metadata`): the read-out's own settings (quantity,
-  span, table size, edge rule, fluid, the calibration's covariance; the setup is the property
-  ``setup``), the pipeline's (channel, samples per processing step, tare seconds, set/reset
-  demodulation) and the whole state of zero tracking when the recording started
+* the file property ``replay`` (:func:`replay_metadata`): the read-out's own settings
+  (:func:`readout_spec`: its ``kind`` — ``scalar``, ``vector`` or ``array`` —, its ``inputs``, the
+  ``cilia`` of an array; a single output's quantity, span, table size, edge rule, fluid and the
+  calibration's covariance; a force vector's span, grid, edge tolerance and channels; an array's
+  spans, table size, regularisation and stopping rule; the setup, or the array file's document,
+  is the property ``setup``), the pipeline's (channel, samples per processing step, tare
+  seconds, set/reset demodulation) and the whole state of zero tracking when the recording started
   (:meth:`~magcilia.live.zero.Zero.state`: a recording started mid-run goes on from there);
+* for force vectors, the ``readout`` group's ``noise_T[NAME]`` per channel instead of
+  ``noise_V`` (:mod:`magcilia.live.recording`);
 * the group ``tares``, channel ``tare_sample``: the index of the first sample of every tare
   request's window — a replay takes the tare again there, from the same readings, with the same
   rest check.
@@ -18,7 +23,8 @@ The pipeline's hooks for a replay (:func:`recorded_clock`, :func:`replayed_tare`
 :func:`replay_finished`) live here, the replay itself in :mod:`magcilia.live.replay`.
 :func:`recorded_readout`, :func:`recorded_readings` and :func:`read_recorded` are what
 ``magcilia readout FILE`` of a live recording uses: the stored read-out and the readings the
-view read, corrected as the view corrected them, with the noise σ used.
+view read, corrected as the view corrected them, with the noise σ used (a single output's;
+a recording of force vectors is replayed, :mod:`magcilia.live.replay`).
 """
 
 from __future__ import annotations
@@ -34,8 +40,12 @@ from magcilia._errors import MagciliaError
 from magcilia.acquire.replay import ReplaySource
 from magcilia.acquire.source import Block, Source
 from magcilia.calibration import ParameterCovariance
+from magcilia.io.array_file import array_from_dict
 from magcilia.io.setup_files import setup_from_dict
 from magcilia.mechanics import FLUIDS, Flow
+from magcilia.readout.array_readout import ArrayReadout
+from magcilia.readout.biaxial import BiaxialReadout
+from magcilia.readout.channel import Channel
 from magcilia.readout.inverse import Readout
 
 F64 = NDArray[np.float64]
@@ -62,12 +72,23 @@ def replayed_tare(source: Source, block: Block) -> bool:
     return isinstance(source, ReplaySource) and block.first in source.tare_samples
 
 
-def readout_spec(readout: Readout) -> dict[str, Any]:
-    """What rebuilds ``readout`` with the setup (JSON-ready): quantity, span, table size, edge
-    rule, the flow's fluid, the calibration's covariance."""
+def readout_spec(readout: Any) -> dict[str, Any]:
+    """What rebuilds ``readout`` with the setup (JSON-ready; see the module docstring)."""
+    inputs = list(readout.inputs)
+    if isinstance(readout, BiaxialReadout):
+        return {"kind": "vector", "inputs": inputs, "span": readout.span,
+                "table_size": [int(readout.forces.size), int(readout.azimuths.size)],
+                "edge_tolerance": readout.edge_tolerance,
+                "channels": [c.to_dict() for c in readout.channels]}
+    if isinstance(readout, ArrayReadout):
+        return {"kind": "array", "inputs": inputs, "cilia": list(readout.array.names),
+                "span": readout.span.tolist(), "table_size": readout.table_size,
+                "regularization": readout.regularization,
+                "max_iterations": readout.max_iterations, "tolerance": readout.tolerance}
     calibration = readout.calibration
     fluid = next((name for name, f in FLUIDS.items() if f == readout.flow.fluid), None)
-    return {"quantity": readout.quantity, "span": list(readout.span),
+    return {"kind": "scalar", "inputs": inputs, "quantity": readout.quantity,
+            "span": list(readout.span),
             "table_size": int(readout.table_quantity.size), "edge": readout.edge,
             "edge_tolerance": list(readout.edge_tolerance), "fluid": fluid,
             "calibration": (calibration.to_dict() if isinstance(calibration, ParameterCovariance)
@@ -82,6 +103,24 @@ def replay_metadata(live: Any) -> dict[str, Any]:
         "batch_samples": live._chunk(),  # the pipeline's own step, for its replay
         "tare_seconds": live.tare_seconds, "demodulate": live.demodulate,
         "readout": readout_spec(live.readout), "zero": live.zero.state()}}
+
+
+def recording_metadata(live: Any) -> dict[str, Any]:
+    """The file properties of a recording of ``live`` (a
+    :class:`~magcilia.live.pipeline.LiveReadout`): the source's, the read-out's description,
+    the setup (or array document), rates, event codes, kind, inputs, cilia, the tare's
+    correction and :func:`replay_metadata`."""
+    from magcilia.live.status import EVENTS
+
+    s = live.sensor
+    metadata = {**live.source.metadata(), "live": True, "readout": s.view.to_dict(),
+                "setup": s.setup, "output_rate_Hz": live.rate, "factor": live.factor,
+                "event_codes": EVENTS, "kind": s.kind, "inputs": list(live.inputs),
+                f"tare_correction_{s.channel_unit}": np.asarray(live.zero.correction).tolist(),
+                **replay_metadata(live)}
+    if s.names:
+        metadata["cilia"] = list(s.names)
+    return metadata
 
 
 # -- reading a live recording back --------------------------------------------------------------
@@ -103,21 +142,62 @@ def stored(props: dict[str, Any], path: Path) -> tuple[dict[str, Any], dict[str,
     return setup, spec
 
 
+def recorded_kind(path: str | Path) -> str:
+    """The kind of read-out a live recording stores: ``"scalar"``, ``"vector"`` or
+    ``"array"``."""
+    from magcilia.acquire.replay import stored_properties
+
+    p = Path(path)
+    return str(stored(stored_properties(p), p)[1].get("kind", "scalar"))
+
+
+def _field_readout(p: Path, setup_doc: dict[str, Any], spec: dict[str, Any]) -> Any:
+    """The force-vector read-out (3-axis sensor or array) that ``spec`` describes."""
+    try:
+        if spec["kind"] == "array":
+            return ArrayReadout(array_from_dict(setup_doc, source=f"{p} (stored array)"),
+                                spec["span"], table_size=int(spec["table_size"]),
+                                regularization=float(spec["regularization"]),
+                                max_iterations=int(spec["max_iterations"]),
+                                tolerance=float(spec["tolerance"]))
+        doc = {k: x for k, x in setup_doc.items() if k != "channels"}
+        channels = [Channel(c["position"], c["axis"], c["sigma"],
+                            float("inf") if c["field_range"] is None else c["field_range"],
+                            c["name"], c["resolution"]) for c in spec["channels"]]
+        return BiaxialReadout(setup_from_dict(doc, source=f"{p} (stored setup)"), channels,
+                              float(spec["span"]), table_size=tuple(spec["table_size"]),
+                              edge_tolerance=float(spec["edge_tolerance"]))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise MagciliaError(f"{p}: the stored read-out is incomplete ({exc})") from None
+    except MagciliaError as exc:
+        raise MagciliaError(f"{p}: the stored read-out: {exc}") from None
+
+
 def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | None = None,
-                     span: tuple[float, float] | None = None) -> Readout:
-    """The read-out a live recording stores (its setup, quantity, span, table, edge rule,
-    fluid and calibration), each replaced where given.
+                     span: tuple[float, float] | None = None) -> Any:
+    """The read-out a live recording stores, each of its setup, quantity and span replaced
+    where given (a single output: its setup, quantity, span, table, edge rule, fluid and
+    calibration, a :class:`~magcilia.Readout`; force vectors: the
+    :class:`~magcilia.BiaxialReadout` or :class:`~magcilia.ArrayReadout` recorded, as stored).
 
     Raises
     ------
     MagciliaError
-        If ``path`` is not a live recording, or what it stores does not make a read-out.
+        If ``path`` is not a live recording, or what it stores does not make a read-out, or
+        a replacement is given for force vectors.
     """
     from magcilia.acquire.replay import stored_properties
 
     p = Path(path)
     props = stored_properties(p)
     setup_doc, spec = stored(props, p)
+    if spec.get("kind", "scalar") != "scalar":
+        given = [name for name, x in (("setup", setup), ("quantity", quantity), ("span", span))
+                 if x is not None]
+        if given:
+            raise MagciliaError(f"{p}: a recording of force vectors ({spec['kind']}) is read "
+                                f"with what it stores; leave out {', '.join(given)}")
+        return _field_readout(p, setup_doc, spec)
     stored_setup = setup_from_dict(setup_doc, source=f"{p} (stored setup)")
     q = quantity or spec["quantity"]
     same = q == spec["quantity"]

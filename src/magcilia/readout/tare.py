@@ -59,9 +59,10 @@ TREND_SIGMAS = 5.0
 SPREAD_SIGMAS = 5.0
 
 
-def difference_noise(readings: ArrayLike) -> float:
+def difference_noise(readings: ArrayLike) -> Any:
     """Noise RMS of one reading from the spread of successive differences, in the readings'
-    unit (NaN with fewer than 3 finite readings).
+    unit (NaN with fewer than 3 finite readings); readings (t, c) of several channels give one
+    per channel, an array (c,).
 
     ``1.4826 · MAD(diff(readings)) / √2``: for white noise the standard deviation, unmoved by a
     slowly changing signal and by the few differences that straddle a step. What it misses is
@@ -69,9 +70,11 @@ def difference_noise(readings: ArrayLike) -> float:
 
     Parameters
     ----------
-    readings : array-like, shape (t,)
+    readings : array-like, shape (t,) or (t, c)
         Consecutive readings (V, T, …).
     """
+    if np.ndim(readings) == 2:
+        return np.array([difference_noise(col) for col in np.asarray(readings).T])
     x = np.asarray(readings, dtype=np.float64).reshape(-1)
     d = np.diff(x[np.isfinite(x)])
     if d.size < 2:

@@ -1,7 +1,9 @@
 /* magcilia dashboard: plain JavaScript, no build step; uPlot draws the traces.
  *
  * The server sends binary frames (little-endian float64: a 7-number header, then the columns
- * time s, raw mV, value, sigma (display units), flags) and JSON status messages over /ws.
+ * time s, raw mV, value, sigma (display units), flags) and JSON status messages over /ws. A
+ * 3-axis sensor's or an array's frames are version 2 (force vectors): vectors.js reads and
+ * draws them, this file shows the value (|F| and its direction), the badges and the status.
  * After drawing a frame the page answers {"drawn": [frame ids]} so that the server can measure
  * sample-to-screen latency. window.magcilia exposes what is shown (for tests and curious users).
  * Commands (tare, record) carry the run's token, which the server wrote into the page's
@@ -13,11 +15,17 @@
 
   const HEADER = 7;
   const COLUMNS = 5;
+  // the Flag bits a single output's badge shows (magcilia.readout.protocol.Flag); a tare kept
+  // under load and a drift not tracked are warnings: the value stays, the badge says so
   const FLAGS = [[1, "OUTSIDE SPAN", "warn"], [2, "FOLD", "bad"], [4, "SATURATED", "bad"],
-    [8, "EXTRAPOLATED", "warn"], [16, "CLIPPED", "warn"]];
+    [8, "EXTRAPOLATED", "warn"], [16, "CLIPPED", "warn"], [4096, "TARE UNDER LOAD", "bad"],
+    [8192, "ZERO DRIFT", "warn"]];
   const BLUE = "#1f4e9c";
   const RED = "#b8261c";
   const GREY = "rgba(100, 110, 125, 0.9)";
+  const VEC = window.magciliaVectors;
+  // a force vector's flags: vectors.js's table
+  const VFLAGS = VEC.FLAGS;
 
   const M = (window.magcilia = {
     lastValue: null, // newest value shown, display units (null: flagged or none yet)
@@ -42,6 +50,7 @@
   let lastT = null;
   let binSeconds = 0.005;
   let newest = null;
+  let vectors = false; // a 3-axis sensor or an array (info.kind)
 
   // -- formatting ------------------------------------------------------------------------------
   function decimals(sigma) {
@@ -199,11 +208,28 @@
     T = []; V = []; HI = []; LO = []; RAW = []; FL = [];
     lastT = null;
     newest = null;
+    if (vectors) VEC.clear();
+  }
+
+  function queue(id) {
+    M.frames++;
+    pending.push(id);
+    if (pending.length > 64) pending.splice(0, pending.length - 64); // a hidden tab draws nothing
+    if (!drawQueued) {
+      drawQueued = true;
+      requestAnimationFrame(draw);
+    }
   }
 
   function onFrame(buffer) {
     const dv = new DataView(buffer);
     const h = (i) => dv.getFloat64(8 * i, true);
+    if (vectors && h(0) === 2) {
+      const got = VEC.onFrame(dv);
+      if (got) newest = got;
+      queue(h(1));
+      return;
+    }
     if (h(0) !== 1) return;
     const id = h(1), n = h(2);
     binSeconds = h(5) || binSeconds;
@@ -237,24 +263,25 @@
     if (k > 0) {
       for (const a of [T, V, HI, LO, RAW, FL]) a.splice(0, k);
     }
-    M.frames++;
-    pending.push(id);
-    if (pending.length > 64) pending.splice(0, pending.length - 64); // a hidden tab draws nothing
-    if (!drawQueued) {
-      drawQueued = true;
-      requestAnimationFrame(draw);
-    }
+    queue(id);
   }
 
   function draw() {
     drawQueued = false;
-    plotV.setData([T, V, HI, LO]);
-    plotR.setData([T, RAW]);
+    if (vectors) {
+      VEC.draw();
+    } else {
+      plotV.setData([T, V, HI, LO]);
+      plotR.setData([T, RAW]);
+    }
     if (newest) {
-      // what the page shows from now on (window.magcilia.lastValue: display units)
+      // what the page shows from now on (window.magcilia.lastValue: display units; for force
+      // vectors |F| of the chosen cilium, lastDirection its direction in rad)
       M.lastValue = newest.value;
       M.lastSigma = newest.sigma;
       M.lastFlags = newest.flags;
+      M.lastDirection = newest.direction === undefined ? null : newest.direction;
+      M.lastComponents = newest.components || null;
       newest = null;
     }
     showValue();
@@ -277,7 +304,21 @@
       $("value").textContent = (v >= 0 ? "\u2007" : "−") + Math.abs(v).toFixed(d);
       $("sigma").textContent = s === null ? "" : `± ${s.toFixed(d)}`;
     }
+    if (vectors) showDirection();
     showBadges();
+  }
+
+  function showDirection() {
+    const c = M.lastComponents, dir = M.lastDirection;
+    if (!c) {
+      $("direction").textContent = "";
+      return;
+    }
+    const d = decimals(Math.max(c[2], c[3]));
+    const angle = dir === null ? "direction — (near zero)"
+      : `toward ${(dir * 180 / Math.PI).toFixed(1)}°`;
+    $("direction").textContent = `${angle} · Fx ${c[0].toFixed(d)} ± ${c[2].toFixed(d)} · ` +
+      `Fy ${c[1].toFixed(d)} ± ${c[3].toFixed(d)} ${info.unit}`;
   }
 
   function showBadges() {
@@ -294,7 +335,11 @@
       if (st.recording) badges.push(["REC", "bad"]);
     }
     const live = st && (st.state === "running" || st.state === "taring");
-    if (live) for (const [bit, name, cls] of FLAGS) if (M.lastFlags & bit) badges.push([name, cls]);
+    if (live) {
+      for (const [bit, name, cls] of vectors ? VFLAGS : FLAGS) {
+        if (M.lastFlags & bit) badges.push([name, cls]);
+      }
+    }
     if (live && !badges.length) badges.push(["OK", "ok"]);
     const key = badges.map((b) => b.join(":")).join("|");
     if (box.dataset.key === key) return;
@@ -314,9 +359,9 @@
       : `${ms(st.screen_latency_median_s)} (p99 ${ms(st.screen_latency_p99_s)})`;
     $("c-clients").textContent = count(st.clients);
     $("message").textContent = st.message || "";
-    $("tared").textContent = st.tared
-      ? `tared: correction ${(st.correction_V * 1e3).toFixed(4)} mV, drift ${(st.drift_V * 1e6).toFixed(2)} µV`
-      : "not tared";
+    $("tared").textContent = !st.tared ? "not tared" : st.correction_T !== undefined
+      ? `tared: ${st.correction_T.length} channels, largest correction ${(Math.max(...st.correction_T.map(Math.abs)) * 1e4).toFixed(4)} G, drift ${(Math.max(...st.drift_T.map(Math.abs)) * 1e7).toFixed(3)} mG`
+      : `tared: correction ${(st.correction_V * 1e3).toFixed(4)} mV, drift ${(st.drift_V * 1e6).toFixed(2)} µV`;
     const rec = $("record");
     rec.textContent = st.recording ? "■ Stop recording" : "● Record";
     rec.classList.toggle("recording", Boolean(st.recording));
@@ -344,7 +389,8 @@
 
   function showInfo() {
     document.title = `magcilia live: ${info.label}`;
-    $("label").textContent = info.label.charAt(0).toUpperCase() + info.label.slice(1);
+    const label = vectors ? `${info.label} |F|` : info.label;
+    $("label").textContent = label.charAt(0).toUpperCase() + label.slice(1);
     $("unit").textContent = info.unit;
     $("value-title").textContent = `${info.label} (${info.unit}) with its σ band`;
     $("source").textContent =
@@ -438,8 +484,10 @@
       setTimeout(start, 1000);
       return;
     }
+    vectors = info.kind === "vector" || info.kind === "array";
     showInfo();
-    makePlots();
+    if (vectors) VEC.init(info);
+    else makePlots();
     button("tare", "api/tare", () => ({}), () => { $("tared").textContent = "taring…"; });
     // start or stop as the button shows it, so that repeated clicks never open two recordings
     const recordAction = () => ({ action: M.status && M.status.recording ? "stop" : "start" });
@@ -449,7 +497,7 @@
     $("fit").addEventListener("click", () => {
       fit = !fit;
       $("fit").textContent = fit ? "Whole span" : "Fit data";
-      plotV.setData([T, V, HI, LO]);
+      if (plotV) plotV.setData([T, V, HI, LO]);
     });
     connect();
   }
