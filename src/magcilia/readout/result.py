@@ -131,7 +131,7 @@ class ReadoutResult(Display):
     def _display_table(self) -> Table:
         q = MEASURANDS[self.quantity]
         return ((f"{self.quantity} ({q.display})", f"σ ({q.display})", "flags"),
-                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], ReadoutFlag(int(f)).name
+                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], Flag(int(f)).name
                   or "ok") for v, s, f in zip(self.value, self.sigma, self.flags, strict=True)])
 
     def to_dataframe(self) -> Any:
