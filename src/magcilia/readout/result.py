@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from magcilia._display import Display, Item, Table, column, dataframe
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout.protocol import Flag
+from magcilia.readout.protocol import Flag, flag_counts
 
 F64 = NDArray[np.float64]
 
@@ -88,14 +88,8 @@ class ReadoutResult(Display):
     def counts(self) -> dict[str, int]:
         """Readings per flag name (lower case, as in the CSV's ``flag_names``), and ``"readings"``,
         ``"estimated"`` and ``"ok"``."""
-        out = {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
-               "ok": int(self.ok.sum())}
-        flat = self.flags.reshape(-1)
-        for f in Flag:
-            hits = int(np.count_nonzero(flat & int(f)))
-            if hits or f in _OWN:
-                out[str(f.name).lower()] = hits
-        return out
+        return {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
+                "ok": int(self.ok.sum()), **flag_counts(self.flags, _OWN)}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; flagged estimates are NaN, written as null)."""
