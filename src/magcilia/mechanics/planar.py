@@ -243,8 +243,8 @@ def _check(setup: Setup, force: float, at: float | None, direction: float,
 def _bend_plane(setup: Setup, force: float = 0.0, *, at: float | None = None,
                 direction: float = 0.5 * math.pi, flow: Flow | None = None,
                 nodes: int | None = None) -> BentShape:
-    """:func:`bend` of loads in the x–z plane given as today (a force magnitude, a flow along
-    ±x, no actuation): the planar solver, unchanged."""
+    """:func:`~magcilia.mechanics.bend.bend` of loads in the x–z plane given as today (a force
+    magnitude, a flow along ±x, no actuation): the planar solver, unchanged."""
     force, at_s, direction = _check(setup, force, at, direction, flow)
     nodes = check_nodes(nodes)
     speed = 0.0 if flow is None else flow.speed
@@ -272,7 +272,7 @@ def _sweep_plane(setup: Setup, forces: ArrayLike | None = None, *,
                  speeds: ArrayLike | None = None, flow: Flow | None = None,
                  at: float | None = None, direction: float = 0.5 * math.pi,
                  nodes: int | None = None) -> Centreline:
-    """:func:`bend_sweep` in the x–z plane (today's)."""
+    """:func:`~magcilia.mechanics.bend.bend_sweep` in the x–z plane (today's)."""
     nodes = check_nodes(nodes)
     if (forces is None) == (speeds is None):
         raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
