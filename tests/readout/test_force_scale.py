@@ -20,8 +20,9 @@ from magcilia.device.magnetometer import Magnetometer
 from magcilia.mechanics import output_at
 from magcilia.mechanics.drag import AIR, WATER, Fluid, drag_exponent, drag_per_length
 from magcilia.readout.actuated import ActuatedReadout
-from magcilia.readout.biaxial import _actuated_model, channels
+from magcilia.readout.biaxial import channels
 from magcilia.readout.inverse import model_output
+from magcilia.readout.vector_model import actuated_polar_model
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 #: draws of E in a Monte Carlo (each a root finding through the model)
@@ -198,7 +199,8 @@ def test_force_vector_scale_is_along_the_force(setup: mc.Setup) -> None:
 def test_actuated_force_vector_share_against_readouts_at_other_moduli(setup: mc.Setup) -> None:
     sensor = Magnetometer(field_range=1e-3, resolution=1e-9, noise=2e-8, rate=100.0)
     act = mc.Actuation.uniform((0.0, 0.0, 5e-4))
-    fields, _ = _actuated_model(setup, channels(sensor), np.array([2e-5]), np.array([0.5]), act)
+    fields, _ = actuated_polar_model(setup, channels(sensor), np.array([2e-5]), np.array([0.5]),
+                                     act)
     r = mc.BiaxialReadout(setup, sensor, span=4e-5, table_size=(17, 32), actuation=act)
     res = r.read(fields[0])
     e = setup.youngs_modulus

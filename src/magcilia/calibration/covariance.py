@@ -25,7 +25,8 @@ F64 = NDArray[np.float64]
 @dataclass(frozen=True, eq=False, repr=False)
 class ParameterCovariance(Display):
     """Standard errors and correlations of calibrated parameters: what read-out needs of a
-    calibration (a :class:`CalibrationResult` holds one as ``uncertainty``).
+    calibration (a :class:`~magcilia.calibration.result.CalibrationResult` holds one as
+    ``uncertainty``).
 
     Attributes
     ----------

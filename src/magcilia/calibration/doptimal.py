@@ -13,8 +13,9 @@ package (pyDOE's ``jacobian_optimal_design`` does the same candidate-set D-optim
 nuisance parameters or repeats of a multi-row candidate).
 
 :func:`evaluate_design` gives the same figures (log det, rank, condition number, expected standard
-errors) for any design, e.g. the paper's equally spaced angles; :func:`plan_calibration` builds the
-candidates of a tilt-table calibration of a :class:`~magcilia.device.setup.Setup` (tilt angles ×
+errors) for any design, e.g. the paper's equally spaced angles;
+:func:`~magcilia.calibration.plan.plan_calibration` builds the candidates of a tilt-table
+calibration of a :class:`~magcilia.device.setup.Setup` (tilt angles ×
 azimuths, the AMR output or the three field components) and compares the plan with the paper's
 single path at the same budget.
 

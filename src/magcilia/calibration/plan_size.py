@@ -19,7 +19,8 @@ MAX_INFORMATION = 50_000_000
 
 def exchange_work(budget: int, candidates: int, parameters: int,
                   restarts: int) -> float:
-    """The work bound of :func:`d_optimal` (units of p³, compared with :data:`MAX_WORK`):
+    """The work bound of :func:`~magcilia.calibration.doptimal.d_optimal` (units of p³,
+    compared with :data:`MAX_WORK`):
     ``(restarts + 2) · N · min(N, c) · c · p³`` for N readings, c candidates and p parameters
     (the greedy start, its exchange and each random start's)."""
     n, c, p = float(budget), float(candidates), float(max(parameters, 1))

@@ -34,6 +34,7 @@ from magcilia.calibration.experiments import (
 from magcilia.calibration.parameters import ParameterKey
 from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
+from magcilia.fitting import NONFINITE_PENALTY
 from magcilia.io.recordings import Measurement
 from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.flow import Flow
@@ -58,8 +59,9 @@ LOAD_PARAMETER = "youngs_modulus"
 #: the cost given to a candidate whose model is not finite (its element on a dipole, an
 #: overflow, a bend that does not converge): worse than any real fit but finite, so that a
 #: search's population statistics stay finite and such candidates are simply never chosen; real
-#: costs are clipped to it too. Its residual rows are each ``sqrt(NONFINITE_COST / rows)``.
-NONFINITE_COST = 1e100
+#: costs are clipped to it too. Its residual rows are each ``sqrt(NONFINITE_COST / rows)``. The
+#: fitter's own (:data:`magcilia.fitting.NONFINITE_PENALTY`), one number for both.
+NONFINITE_COST = NONFINITE_PENALTY
 
 
 class Problem:

@@ -27,12 +27,12 @@ read_range`, as design_metrics; :mod:`magcilia.design.ranges`), the first of
    linear read-out; for one axis the output itself) turns back, so readings become ambiguous.
 
 The sweep runs to the elastica's large-deflection limit, the force ``3 L / C`` whose *linear* tip
-deflection would be three cilium heights (C = :func:`magcilia.tip_compliance`), where the cilium
-is bent far over; for flow, to the speed whose drag on the upright cilium is that force, or the
-drag law's Reynolds limit, whichever is lower (:mod:`magcilia.design.sweeps`). When the sweep
-ends before the read-out does, the range is *not reached*: its value is the sweep's end, a lower
-bound (``Candidate.reached`` is False, reports print "≥ X"), and a range comparison with it says
-so.
+deflection would be three cilium heights (C = :func:`magcilia.mechanics.tip_compliance`),
+where the cilium is bent far over; for flow, to the speed whose drag on the upright cilium is
+that force, or the drag law's Reynolds limit, whichever is lower (:mod:`magcilia.design.sweeps`).
+When the sweep ends before the read-out does, the range is *not reached*: its value is the
+sweep's end, a lower bound (``Candidate.reached`` is False, reports print "≥ X"), and a range
+comparison with it says so.
 
 **Constraints.** Every returned design lies within ``bounds`` (fabrication limits: the registry's
 calibration bounds by default, :data:`DEFAULT_BOUNDS`), has ``tip_radius ≤ base_radius``, keeps

@@ -21,7 +21,7 @@ class Candidate(Display):
     Attributes
     ----------
     params : dict of str to float
-        The design variables (:data:`VARIABLES` searched or fixed), SI.
+        The design variables (:data:`~magcilia.design.optimise.VARIABLES` searched or fixed), SI.
     sensor : str
         The sensor choice's name.
     sensitivity : float
@@ -105,7 +105,7 @@ class Candidate(Display):
 
 @dataclass(frozen=True, eq=False, repr=False)
 class DesignOptimum(Display):
-    """Result of :func:`optimise_design` (all SI).
+    """Result of :func:`~magcilia.design.optimise.optimise_design` (all SI).
 
     Attributes
     ----------

@@ -86,8 +86,8 @@ class SensorChoice:
 
 def sensor_choices(sensors: Sequence[str | Sensor | Magnetometer], setup: Setup
                    ) -> tuple[SensorChoice, ...]:
-    """The checked ``sensors`` of :func:`optimise_design`: ``"HMC1021Z"`` (the setup's own
-    single-axis sensor, its gain and bridge as given), a name of
+    """The checked ``sensors`` of :func:`~magcilia.design.optimise.optimise_design`:
+    ``"HMC1021Z"`` (the setup's own single-axis sensor, its gain and bridge as given), a name of
     :data:`~magcilia.device.magnetometer.MAGNETOMETERS` (the preset's defaults), a
     :class:`~magcilia.Sensor` or a :class:`~magcilia.device.magnetometer.Magnetometer`."""
     if isinstance(sensors, (str, Sensor, Magnetometer)):

@@ -2,7 +2,7 @@
 
 A force sweep runs to the elastica's large-deflection limit: the force whose *linear* tip
 deflection would be :data:`DEFLECTION_LIMIT` cilium heights, ``3 L / C`` (C the small-load tip
-compliance, :func:`magcilia.tip_compliance`), where the cilium is bent far over
+compliance, :func:`magcilia.mechanics.tip_compliance`), where the cilium is bent far over
 (:func:`force_limit`). A flow sweep runs to the speed whose drag on the upright cilium is that
 force, or to the drag law's Reynolds limit, whichever is lower (:func:`flow_limit`). Both the
 design metrics and the optimiser's exact metrics and screen end their sweeps here; a range that

@@ -28,6 +28,7 @@ from magcilia.mechanics.planar import (
     _bend_plane,
     _sweep_plane,
     require_tip_radius,
+    sweep_values,
 )
 from magcilia.mechanics.shape import BentShape, SpatialBentShape
 from magcilia.mechanics.spatial import (
@@ -210,16 +211,7 @@ def _sweep_each(setup: Setup, forces: ArrayLike | None, speeds: ArrayLike | None
                 flow: Flow | None, at: float | None, direction: float, azimuth: float,
                 actuation: Actuation, nodes: int | None) -> Centreline | SpatialCentreline:
     """:func:`bend_sweep` with an actuation: one :func:`bend` per load, stacked."""
-    if (forces is None) == (speeds is None):
-        raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
-    if speeds is not None and not isinstance(flow, Flow):
-        raise v.fail("flow", None if flow is None else type(flow).__name__,
-                     "a Flow when sweeping speeds")
-    given = forces if forces is not None else speeds
-    assert given is not None  # for mypy: exactly one of them is set (checked above)
-    values = v.finite_array("forces" if forces is not None else "speeds", given, ndim=1)
-    if values.size == 0:
-        raise v.fail("forces", "an empty array", "at least one load")
+    values = sweep_values(forces, speeds, flow)
     shapes = []
     for value in values.tolist():
         if forces is not None:

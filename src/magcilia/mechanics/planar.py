@@ -243,8 +243,8 @@ def _check(setup: Setup, force: float, at: float | None, direction: float,
 def _bend_plane(setup: Setup, force: float = 0.0, *, at: float | None = None,
                 direction: float = 0.5 * math.pi, flow: Flow | None = None,
                 nodes: int | None = None) -> BentShape:
-    """:func:`bend` of loads in the x–z plane given as today (a force magnitude, a flow along
-    ±x, no actuation): the planar solver, unchanged."""
+    """:func:`~magcilia.mechanics.bend.bend` of loads in the x–z plane given as today (a force
+    magnitude, a flow along ±x, no actuation): the planar solver, unchanged."""
     force, at_s, direction = _check(setup, force, at, direction, flow)
     nodes = check_nodes(nodes)
     speed = 0.0 if flow is None else flow.speed
@@ -272,17 +272,9 @@ def _sweep_plane(setup: Setup, forces: ArrayLike | None = None, *,
                  speeds: ArrayLike | None = None, flow: Flow | None = None,
                  at: float | None = None, direction: float = 0.5 * math.pi,
                  nodes: int | None = None) -> Centreline:
-    """:func:`bend_sweep` in the x–z plane (today's)."""
+    """:func:`~magcilia.mechanics.bend.bend_sweep` in the x–z plane (today's)."""
     nodes = check_nodes(nodes)
-    if (forces is None) == (speeds is None):
-        raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
-    if speeds is not None and flow is None:
-        raise v.fail("flow", None, "a Flow when sweeping speeds")
-    given = forces if forces is not None else speeds
-    assert given is not None  # for mypy: exactly one of them is set (checked above)
-    values = v.finite_array("forces" if forces is not None else "speeds", given, ndim=1)
-    if values.size == 0:
-        raise v.fail("forces", "an empty array", "at least one load")
+    values = sweep_values(forces, speeds, flow)
     is_force = forces is not None
     biggest = float(values[np.argmax(np.abs(values))])
     test_flow = flow.with_speed(biggest) if (flow is not None and not is_force) else flow
@@ -314,6 +306,22 @@ def _sweep_plane(setup: Setup, forces: ArrayLike | None = None, *,
         rows_th.append(th)
         rows_pts.append(pts)
     return Centreline(s_out, np.stack(rows_th), np.stack(rows_pts))
+
+
+def sweep_values(forces: ArrayLike | None, speeds: ArrayLike | None, flow: Flow | None) -> F64:
+    """The loads a sweep runs through, shape (a,): ``forces`` (N) or ``speeds`` (m/s, with a
+    :class:`Flow`), exactly one of them, finite and not empty."""
+    if (forces is None) == (speeds is None):
+        raise v.fail("bend_sweep", "both or neither of forces/speeds", "given forces or speeds")
+    if speeds is not None and not isinstance(flow, Flow):
+        raise v.fail("flow", None if flow is None else type(flow).__name__,
+                     "a Flow when sweeping speeds")
+    given = forces if forces is not None else speeds
+    assert given is not None  # for mypy: exactly one of them is set (checked above)
+    values = v.finite_array("forces" if forces is not None else "speeds", given, ndim=1)
+    if values.size == 0:
+        raise v.fail("forces", "an empty array", "at least one load")
+    return values
 
 
 def _extrapolate(solved: list[tuple[float, F64]], value: float) -> F64:

@@ -209,7 +209,8 @@ class ArrayReadout(Display):
 
     def field(self, forces: ArrayLike) -> F64:
         """Field at every sensor (T, board frame, shape (S, 3)) with every cilium bent by its
-        horizontal force ((C, 2), N), from the tables (:func:`field_for_loads` solves exactly)."""
+        horizontal force ((C, 2), N), from the tables
+        (:func:`~magcilia.readout.array_model.field_for_loads` solves exactly)."""
         f = checked_forces(self.array, forces)
         if f.shape[1] == 3 and np.any(f[:, 2] != 0.0):
             raise v.fail("forces", "a vertical component", "horizontal forces (C, 2) for the "

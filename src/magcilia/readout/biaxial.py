@@ -90,9 +90,6 @@ FIT_XTOL = 5e-11
 #: the normal matrix's condition number above which the two components are not both determined
 CONDITION_LIMIT = 1e10
 
-#: the model's former internal name (kept for code that imported it)
-_actuated_model = actuated_polar_model
-
 
 @dataclass(frozen=True, eq=False, init=False, repr=False)
 class BiaxialReadout(Display):

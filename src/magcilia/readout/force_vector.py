@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._display import Display, Item, Table, column, dataframe, scaled
-from magcilia.readout.protocol import FLAG_DTYPE, Flag, flag_names
+from magcilia.readout.protocol import Flag, flag_counts, flag_names
 
 F64 = NDArray[np.float64]
 
@@ -134,14 +134,9 @@ class ForceVectorResult(Display):
 
     def counts(self) -> dict[str, int]:
         """Readings per flag name (lower case), and ``"readings"``, ``"estimated"``, ``"ok"``."""
-        flags = self.flags.reshape(-1)
-        out = {"readings": int(flags.size), "estimated": int(self.estimated.sum()),
-               "ok": int(self.ok.sum())}
-        for f in Flag:  # the bits a force vector raises, and any other set (e.g. by a view)
-            n = int(np.count_nonzero(flags & FLAG_DTYPE(f)))
-            if f in VECTOR_FLAGS or n:
-                out[str(f.name).lower()] = n
-        return out
+        # the bits a force vector raises, and any other set (e.g. by a view)
+        return {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
+                "ok": int(self.ok.sum()), **flag_counts(self.flags, VECTOR_FLAGS)}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; the JSON writer turns NaN and inf into null: the flags say

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia.model.azimuth import turn_xy
+
 F64 = NDArray[np.float64]
 
 _HERMITE = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0],
@@ -147,8 +149,8 @@ def evaluate(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
     safe = np.where(mag > 0.0, mag, 1.0)[:, None]
     uq = np.where(first, np.stack([zero, one, u, u * u], -1) / h_f, uu / safe)
     d_phi_over_f = np.einsum("bckl,bk,bl->bc", cell, uq, dw)
-    c, s = (np.cos(phi)[:, None], np.sin(phi)[:, None])
-    return val, c * d_f - s * d_phi_over_f, s * d_f + c * d_phi_over_f
+    d_x, d_y = turn_xy(d_f, d_phi_over_f, phi[:, None])  # (∂/∂F, ∂/(F ∂φ)) turned by φ
+    return val, d_x, d_y
 
 
 def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:

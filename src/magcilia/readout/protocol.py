@@ -112,6 +112,23 @@ def flag_names(bits: int) -> tuple[str, ...]:
     return tuple(str(f.name) for f in Flag if value & f.value)  # canonical bits only
 
 
+def flag_counts(flags: ArrayLike, always: Any = ()) -> dict[str, int]:
+    """How many of the estimates' ``flags`` (any shape) carry each :class:`Flag` bit, by lower-case
+    name (as in the CSVs' ``flag_names``), in the enum's order: the bits in ``always`` (Flags, or
+    one combined Flag) even where none carries them, any other only where some do.
+
+    >>> flag_counts([0, int(Flag.FOLD), int(Flag.FOLD | Flag.SATURATED)], always=(Flag.MISSING,))
+    {'fold': 2, 'saturated': 1, 'missing': 0}
+    """
+    flat = np.asarray(flags).reshape(-1)
+    out: dict[str, int] = {}
+    for f in Flag:
+        hits = int(np.count_nonzero(flat & int(f)))
+        if hits or f in always:
+            out[str(f.name).lower()] = hits
+    return out
+
+
 @runtime_checkable
 class ReadoutValues(Protocol):
     """What every read-out's result holds (SI; shapes in the module's table)."""

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from magcilia._display import Display, Item, Table, column, dataframe
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout.protocol import Flag
+from magcilia.readout.protocol import Flag, flag_counts
 
 F64 = NDArray[np.float64]
 
@@ -88,14 +88,8 @@ class ReadoutResult(Display):
     def counts(self) -> dict[str, int]:
         """Readings per flag name (lower case, as in the CSV's ``flag_names``), and ``"readings"``,
         ``"estimated"`` and ``"ok"``."""
-        out = {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
-               "ok": int(self.ok.sum())}
-        flat = self.flags.reshape(-1)
-        for f in Flag:
-            hits = int(np.count_nonzero(flat & int(f)))
-            if hits or f in _OWN:
-                out[str(f.name).lower()] = hits
-        return out
+        return {"readings": int(self.flags.size), "estimated": int(self.estimated.sum()),
+                "ok": int(self.ok.sum()), **flag_counts(self.flags, _OWN)}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; flagged estimates are NaN, written as null)."""
@@ -131,7 +125,7 @@ class ReadoutResult(Display):
     def _display_table(self) -> Table:
         q = MEASURANDS[self.quantity]
         return ((f"{self.quantity} ({q.display})", f"σ ({q.display})", "flags"),
-                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], ReadoutFlag(int(f)).name
+                [(q.text(v, 5).split(" ")[0], q.text(s).split(" ")[0], Flag(int(f)).name
                   or "ok") for v, s, f in zip(self.value, self.sigma, self.flags, strict=True)])
 
     def to_dataframe(self) -> Any:

@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from magcilia.device.setup import Setup
 from magcilia.device.stiffness import Modulus
+from magcilia.model.azimuth import turn_xy
 
 F64 = NDArray[np.float64]
 
@@ -104,8 +105,7 @@ def least_squares_rate(jx: F64, jy: F64, g: F64, weight: F64) -> F64:
 
 def to_polar(rate: F64, direction: F64) -> F64:
     """Rates (b, 2) in x, y as components along and across the directions (b,), rad."""
-    c, s = np.cos(direction), np.sin(direction)
-    return np.stack([c * rate[:, 0] + s * rate[:, 1], -s * rate[:, 0] + c * rate[:, 1]], -1)
+    return np.stack(turn_xy(rate[:, 0], rate[:, 1], direction, inverse=True), -1)
 
 
 def vector_rate(fx: F64, fy: F64, grid: tuple[F64, F64, F64] | None) -> F64:
@@ -118,8 +118,7 @@ def vector_rate(fx: F64, fy: F64, grid: tuple[F64, F64, F64] | None) -> F64:
         return np.stack([fx, fy], axis=-1)
     direction = np.arctan2(fy, fx)
     polar = _bilinear(grid, np.hypot(fx, fy), direction)
-    c, s = np.cos(direction), np.sin(direction)
-    return np.stack([c * polar[:, 0] - s * polar[:, 1], s * polar[:, 0] + c * polar[:, 1]], -1)
+    return np.stack(turn_xy(polar[:, 0], polar[:, 1], direction), -1)
 
 
 def _bilinear(grid: tuple[F64, F64, F64], magnitude: F64, direction: F64) -> F64:

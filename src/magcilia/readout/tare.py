@@ -82,6 +82,11 @@ def difference_noise(readings: ArrayLike) -> Any:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2.0))
 
 
+def _plain(a: Any) -> Any:
+    """A float or an array as JSON-ready Python (a number or nested lists)."""
+    return np.asarray(a).tolist()
+
+
 @dataclass(frozen=True, eq=False, repr=False)
 class RestCheck(Display):
     """Whether a tare's window was at rest, per channel (immutable; see the module docstring).
@@ -162,11 +167,9 @@ class RestCheck(Display):
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI)."""
-        def plain(a: Any) -> Any:
-            return np.asarray(a).tolist()
-        return {"at_rest": self.at_rest, "noise": plain(self.noise),
-                "reference": plain(self.reference), "trend": plain(self.trend),
-                "trend_sigma": plain(self.trend_sigma), "count": self.count, "unit": self.unit,
+        return {"at_rest": self.at_rest, "noise": _plain(self.noise),
+                "reference": _plain(self.reference), "trend": _plain(self.trend),
+                "trend_sigma": _plain(self.trend_sigma), "count": self.count, "unit": self.unit,
                 "noise_limit": self.noise_limit, "trend_sigmas": TREND_SIGMAS,
                 "reason": self.reason, "units": "SI"}
 
@@ -372,11 +375,9 @@ class Tare(Display):
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI)."""
-        def plain(a: Any) -> Any:
-            return np.asarray(a).tolist()
-        out = {"rest": plain(self.rest), "mean": plain(self.mean), "noise": plain(self.noise),
-               "count": plain(self.count), "correction": plain(self.correction),
-               "standard_error": plain(self.standard_error), "unit": self.unit, "units": "SI"}
+        out = {"rest": _plain(self.rest), "mean": _plain(self.mean), "noise": _plain(self.noise),
+               "count": _plain(self.count), "correction": _plain(self.correction),
+               "standard_error": _plain(self.standard_error), "unit": self.unit, "units": "SI"}
         if self.names:
             out["names"] = list(self.names)
         if self.check is not None:

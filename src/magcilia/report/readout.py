@@ -18,8 +18,9 @@ from numpy.typing import NDArray
 
 from magcilia._atomic import atomic_open
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout import Readout, ReadoutFlag, ReadoutResult
+from magcilia.readout import Readout, ReadoutResult
 from magcilia.readout.inverse import summary_line
+from magcilia.readout.protocol import flag_names as _flag_names
 from magcilia.report import csvtext
 
 #: rows of the CSV formatted at a time (their text stays small)
@@ -28,7 +29,7 @@ ROWS = 65536
 
 def flag_names(flags: int) -> str:
     """The names of a reading's flags, ``|``-separated (empty for a good reading)."""
-    return "|".join(str(f.name).lower() for f in ReadoutFlag if f and flags & f)
+    return "|".join(name.lower() for name in _flag_names(flags))
 
 
 def units(quantity: str, si: bool = False) -> tuple[str, float]:
