@@ -92,12 +92,18 @@ def test_every_room_has_a_layer() -> None:
     assert rooms <= set(RANK), f"rooms without a layer: {rooms - set(RANK)}"
 
 
+#: deprecated forwards kept for one release: a room's face that lazily hands out names which
+#: moved up a layer (in its module ``__getattr__``, behind a DeprecationWarning). Issue 26 moved
+#: the design metrics from readout/ to design/; remove the entry with the alias.
+DEPRECATED_FORWARDS = {("magcilia.readout", "magcilia.design")}
+
+
 @pytest.mark.parametrize("module", sorted(MODULES))
 def test_imports_point_down(module: str) -> None:
     room = room_of(module)
     for target in sorted(GRAPH[module]):
         other = room_of(target)
-        if other == room:
+        if other == room or (module, target) in DEPRECATED_FORWARDS:
             continue
         assert RANK[other] < RANK[room], (
             f"{module} ({room}, layer {RANK[room]}) imports {target} ({other}, layer "
@@ -145,3 +151,14 @@ def test_the_layer_test_sees_real_arrows() -> None:
     assert room_of("magcilia.__main__") == "cli"
     assert room_of("magcilia.plot") == "api" and "magcilia.report.calibration" in GRAPH[
         "magcilia.plot"]
+
+
+def test_a_deprecated_forward_warns_and_gives_the_moved_name() -> None:
+    import magcilia
+    import magcilia.readout
+
+    for name in ("design_metrics", "DesignMetrics", "Metric"):
+        with pytest.warns(DeprecationWarning, match=f"magcilia.readout.{name} moved"):
+            assert getattr(magcilia.readout, name) is getattr(magcilia.design, name)
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        magcilia.readout.nothing  # noqa: B018

@@ -24,11 +24,14 @@
 * :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
 
 What a design can resolve (``design_metrics``, ``DesignMetrics``, ``Metric``) and design
-optimisation moved to :mod:`magcilia.design` (a room above this one); they are importable from
-there and from ``magcilia``, no longer from ``magcilia.readout``.
+optimisation moved to :mod:`magcilia.design` (a room above this one); import them from there or
+from ``magcilia``. ``magcilia.readout.design_metrics`` and its two classes still work in this
+release, with a ``DeprecationWarning`` (the architecture test allows this one forward).
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
 from magcilia.readout.array import (
@@ -87,3 +90,20 @@ __all__ = [
     "loaded_poses",
     "measure_coupling",
 ]
+
+#: names that moved up to :mod:`magcilia.design` in this release: still reachable here, deprecated
+_MOVED_TO_DESIGN = frozenset({"design_metrics", "DesignMetrics", "Metric"})
+
+
+def __getattr__(name: str) -> Any:
+    """The names that moved to :mod:`magcilia.design`, with a ``DeprecationWarning`` (removed in
+    the next release)."""
+    if name in _MOVED_TO_DESIGN:
+        import warnings
+
+        from magcilia import design
+
+        warnings.warn(f"magcilia.readout.{name} moved to magcilia.design (also magcilia.{name}); "
+                      "this alias goes in the next release", DeprecationWarning, stacklevel=2)
+        return getattr(design, name)
+    raise AttributeError(f"module 'magcilia.readout' has no attribute {name!r}")
