@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from magcilia import _validate as v
 from magcilia.readout.biaxial import ForceVectorResult, polar_sigmas
+from magcilia.report.readout import flag_names
 
 #: the ellipses' radius in σ (2σ: ~86 % of a 2-D normal's draws lie inside)
 ELLIPSE_SIGMAS = 2.0
@@ -218,10 +219,9 @@ VECTOR_COLUMNS = (("fx", "fx", "force"), ("fy", "fy", "force"),
 
 
 def vector_flag_names(flags: int) -> str:
-    """The names of a force-vector reading's flags, ``|``-separated (empty for a good one)."""
-    from magcilia.readout.biaxial import ForceFlag
-
-    return "|".join(str(f.name).lower() for f in ForceFlag if f and flags & f)
+    """The names of a force-vector reading's flags, ``|``-separated (empty for a good one): the
+    read-out CSV's :func:`~magcilia.report.readout.flag_names` (one flag set)."""
+    return flag_names(flags)
 
 
 def vector_csv(result: ForceVectorResult, times: Any = None, si: bool = False) -> str:

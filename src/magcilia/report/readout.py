@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from magcilia._atomic import atomic_open
 from magcilia.device.parameters import MEASURANDS
-from magcilia.readout import Readout, ReadoutFlag, ReadoutResult
+from magcilia.readout import Readout, ReadoutResult, protocol
 from magcilia.readout.inverse import summary_line
 from magcilia.report import csvtext
 
@@ -27,8 +27,9 @@ ROWS = 65536
 
 
 def flag_names(flags: int) -> str:
-    """The names of a reading's flags, ``|``-separated (empty for a good reading)."""
-    return "|".join(str(f.name).lower() for f in ReadoutFlag if f and flags & f)
+    """The names of a reading's flags, lower case, ``|``-separated (empty for a good reading):
+    :func:`magcilia.readout.protocol.flag_names`'s."""
+    return "|".join(name.lower() for name in protocol.flag_names(flags))
 
 
 def units(quantity: str, si: bool = False) -> tuple[str, float]:
