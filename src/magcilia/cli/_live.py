@@ -49,8 +49,8 @@ SIM_DRIFT = (1e-10, -0.5e-10, 1e-10)
 #: the single-axis defaults of --rate and --source-rate, Hz (a 3-axis part: its own rate)
 RATE, SOURCE_RATE = 1000.0, 10000.0
 #: the default --rate of an array, Hz (at most its parts' rate): its inverse solves every
-#: window (3-8 ms for the 16 cilia of examples/array.toml on one core), so that 50 Hz keeps a
-#: core less than half busy
+#: window (for the 16 cilia of examples/array.toml 1.7 ms median, 3.7 ms p99 on one core:
+#: benchmarks/bench_live_vectors.py, the README), so that 50 Hz keeps a core less than half busy
 ARRAY_RATE = 50.0
 
 
