@@ -286,7 +286,7 @@ class RecordingArgs:
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`magcilia.read_measurements` and
-        :func:`magcilia.read_samples`."""
+        :func:`magcilia.io.read_samples`."""
         return {"columns": self.columns, "delimiter": self.delimiter, "decimal": self.decimal,
                 "group": self.group}
 
