@@ -62,8 +62,9 @@ from magcilia.live.recorded import (
 from magcilia.live.recording import new_recording_path, readout_group, sample_columns
 from magcilia.live.status import EVENTS, Event, Limits, LiveStatus, tare_text
 from magcilia.live.windows import Averager
-from magcilia.live.zero import Zero, difference_noise
+from magcilia.live.zero import Zero
 from magcilia.readout.protocol import FLAG_DTYPE, Flag
+from magcilia.readout.tare import difference_noise
 
 F64 = NDArray[np.float64]
 
