@@ -153,9 +153,9 @@ class LiveReadout:
         self.stall = v.positive("stall", stall, "s", "duration")
         self.reconnect = v.positive("reconnect", reconnect, "s", "duration")
         sensor = self.sensor
-        #: the source channels read, in the read-out's order
-        self.inputs = (self.channel,) if sensor.kind == "scalar" else sensor.inputs
         scalar = sensor.kind == "scalar"
+        #: the source channels read, in the read-out's order
+        self.inputs = (self.channel,) if scalar else sensor.inputs
         self.zero = Zero(float(sensor.rest[0]) if scalar else sensor.rest, tracking, band,
                          unit=sensor.channel_unit, names=() if scalar else sensor.inputs)
         self.factor = 1
