@@ -24,8 +24,7 @@ from magcilia.device.parameters import MEASURANDS
 from magcilia.live.history import COLUMNS, LiveSamples
 from magcilia.live.render_vector import trace_line, vector_fractions, vector_lines, view_flag_names
 from magcilia.live.status import Event, Limits, LiveStatus
-from magcilia.readout.inverse import NO_ESTIMATE
-from magcilia.readout.protocol import FLAG_DTYPE, Flag
+from magcilia.readout.protocol import Flag
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
@@ -106,7 +105,7 @@ def current(samples: LiveSamples, window: float = 0.1, now: float | None = None)
     if not len(samples):
         return Reading(math.nan, math.nan, 0, 0, window, math.nan)
     inside = samples.time >= samples.time[-1] - window
-    good = inside & (samples.flags & FLAG_DTYPE(NO_ESTIMATE) == 0) & np.isfinite(samples.value)
+    good = inside & samples.good & np.isfinite(samples.value)
     age = 0.0 if now is None else now - float(samples.published[-1])
     if not good.any():
         return Reading(math.nan, math.nan, 0, int(inside.sum()), window, age)
@@ -375,7 +374,7 @@ def _scalar_lines(samples: LiveSamples, q: Any, *, window: float, seconds: float
     # sparkline
     end = float(samples.time[-1]) + (0.0 if now is None else max(
         0.0, now - float(samples.published[-1]))) if len(samples) else 0.0
-    good = np.where(samples.flags & FLAG_DTYPE(NO_ESTIMATE) == 0, samples.value / scale, np.nan)
+    good = np.where(samples.good, samples.value / scale, np.nan)
     lines.append(trace_line("", samples.time, good, end=end, seconds=seconds, width=width,
                             unit=q.display, sparkline=sparkline))
     return lines
