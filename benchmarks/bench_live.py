@@ -28,7 +28,6 @@ import argparse
 import contextlib
 import json
 import math
-import shutil
 import subprocess
 import sys
 import threading
@@ -41,11 +40,9 @@ import numpy as np
 import magcilia as mc
 from magcilia.acquire import Script, SimulatedSource
 from magcilia.live import LiveReadout
+from magcilia.live.chromium import CHROMIUM_ARGS, find_chromium
 from magcilia.live.dashboard import DashboardServer
 
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync"]
 SPAN = (-3e-4, 3e-4)  # N
 STEP = 1.5e-4  # N, half the span
 PERIOD = 0.5  # s between steps
@@ -67,14 +64,6 @@ OBSERVER = """threshold => {
 }"""
 
 
-def chromium() -> str | None:
-    for candidate in ("/usr/bin/chromium", shutil.which("chromium"),
-                      shutil.which("chromium-browser")):
-        if candidate and Path(candidate).exists():
-            return candidate
-    return None
-
-
 def drive(url: str, pages: int, seconds: float, threshold: float) -> None:
     """The browser side (a separate process): open ``pages`` tabs, say "ready", watch for
     ``seconds``, print what one page saw as JSON."""
@@ -84,7 +73,7 @@ def drive(url: str, pages: int, seconds: float, threshold: float) -> None:
 
     errors: list[str] = []
     with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium(), headless=True,
+        browser = p.chromium.launch(executable_path=find_chromium(), headless=True,
                                     args=CHROMIUM_ARGS)
         tabs = [browser.new_page(viewport={"width": 1280, "height": 800})
                 for _ in range(pages)]
@@ -160,7 +149,7 @@ def main() -> None:
     if args.drive:
         drive(args.drive, args.pages, args.seconds, STEP * 1e3 / 2)
         return
-    if chromium() is None:
+    if find_chromium() is None:
         sys.exit("bench_live: no Chromium found (Debian: apt-get install chromium)")
 
     pinned = "not pinned (no sched_setaffinity here)"

@@ -25,7 +25,6 @@ the ``dashboard`` extra, Playwright and Chromium: Debian's ``apt-get install chr
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
 import tempfile
 import time
@@ -35,6 +34,7 @@ import magcilia as mc
 from magcilia.acquire import Script, SimulatedSource
 from magcilia.cli._common import load_setup_arg
 from magcilia.live import LiveReadout
+from magcilia.live.chromium import CHROMIUM_ARGS, find_chromium
 from magcilia.live.dashboard import DashboardServer
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,23 +46,12 @@ OUTS = {"scalar": OUT, "vector": ROOT / "docs" / "images" / "dashboard-vector.pn
 VECTOR_SECONDS = 11.0
 #: the array's cilium clicked on the map (r2c3)
 CHOSEN = 6
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync"]
 #: the read-out's span, N (tip deflections up to about L/2 at the presets' modulus)
 SPAN = 6e-5
 #: what the simulated cilium does: (force in N, seconds held after the page shows it)
 STEPS = ((3e-5, 1.0), (0.0, 0.8), (-2e-5, 0.8), (7.2e-5, 0.6), (0.0, 0.5))
 #: the force held while a recording is started and stopped from the page, N
 RECORDED = 4e-5
-
-
-def chromium() -> str | None:
-    for candidate in ("/usr/bin/chromium", shutil.which("chromium"),
-                      shutil.which("chromium-browser")):
-        if candidate and Path(candidate).exists():
-            return candidate
-    return None
 
 
 def vectors(kind: str, out: Path, browser_path: str) -> None:
@@ -103,7 +92,7 @@ def main() -> None:
                         help="a single output (default), a 3-axis sensor or the array")
     parser.add_argument("--out", type=Path, default=None, help="the PNG to write")
     args = parser.parse_args()
-    browser_path = chromium()
+    browser_path = find_chromium()
     if browser_path is None:
         sys.exit("dashboard_screenshot: no Chromium found (Debian: apt-get install chromium)")
     args.out = args.out or OUTS[args.kind]

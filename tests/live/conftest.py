@@ -9,7 +9,6 @@ import shutil
 import subprocess
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -17,6 +16,7 @@ import pytest
 from magcilia._errors import AcquisitionError
 from magcilia.acquire import SimulatedSource
 from magcilia.acquire.source import Block
+from magcilia.live.chromium import CHROMIUM_ARGS, find_chromium
 
 
 class Unplugged(SimulatedSource):
@@ -61,23 +61,12 @@ def unplugged() -> type[Unplugged]:
 
 
 # -- the page in a real browser ---------------------------------------------------------------
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                 "--disable-background-networking", "--disable-component-update",
-                 "--disable-sync"]
-
-
-def _find_chromium() -> str | None:
-    for candidate in ("/usr/bin/chromium", shutil.which("chromium"),
-                      shutil.which("chromium-browser")):
-        if candidate and Path(candidate).exists():
-            return candidate
-    return None
 
 
 @pytest.fixture(scope="session")
 def chromium() -> str:
     """Debian's Chromium, installed with apt-get where it is missing and we may."""
-    path = _find_chromium()
+    path = find_chromium()
     if path is not None:
         return path
     if not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("apt-get")):
@@ -88,11 +77,11 @@ def chromium() -> str:
         for command in (["apt-get", "install", "-y", "chromium"], ["apt-get", "update"],
                         ["apt-get", "install", "-y", "chromium"]):
             subprocess.run(command, env=env, capture_output=True, timeout=600, check=False)
-            if _find_chromium():
+            if find_chromium():
                 break
     except subprocess.TimeoutExpired:
         why = "apt-get took longer than 600 s"
-    path = _find_chromium()
+    path = find_chromium()
     if path is None:
         pytest.skip(f"no Chromium: {why}")
     return path

@@ -47,7 +47,7 @@ def _vector_source(script: LoadScript, seed: int = 0, **kw: object) -> Simulated
 
 
 # -- the protocol's view --------------------------------------------------------------------------
-def test_the_adapters_give_every_read_out_the_protocol(biaxial: mc.BiaxialReadout) -> None:
+def test_every_read_out_follows_the_protocol_unchanged(biaxial: mc.BiaxialReadout) -> None:
     view = protocol_view(biaxial)
     assert isinstance(view, SensorReadout)
     assert view.inputs == tuple(f"{PART.name}.{a}" for a in "xyz")
@@ -195,6 +195,16 @@ def test_options_of_one_output_are_refused_for_an_array(
                  "--json-lines"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("magcilia: error: --quantity") and "array" in err
+
+
+def test_sensor_noise_without_sensor_is_refused_for_an_array_too(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """--sensor-noise belongs to --sensor: an array setup (whose parts know their noise) does
+    not ignore it silently."""
+    assert main(["live", "--setup", str(ARRAY), "--sensor-noise", "2mG", "--duration", "1",
+                 "--json-lines"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("magcilia: error: --sensor-noise") and err.count("\n") == 1
 
 
 def test_the_array_view_places_the_cilia_as_on_the_board() -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import io
 import json
+import re
 import time
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from magcilia.device.magnetometer import Magnetometer
 from magcilia.live import LiveReadout
 from magcilia.live.readouts import live_sensor
 from magcilia.live.recorded import recorded_kind, recorded_readout
-from magcilia.live.render import render
+from magcilia.live.render import FLAG_NAMES, render
 from magcilia.live.render_vector import VECTOR_FLAG_NAMES
 from magcilia.live.replay import replay
 from magcilia.readout.protocol import Flag
@@ -136,6 +137,26 @@ def test_the_dashboard_knows_the_zero_s_flags() -> None:
     assert '[4096, "TARE UNDER LOAD", "bad"]' in scalar and '[8192, "ZERO DRIFT", "warn"]' in scalar
     assert "TARE_UNDER_LOAD = 4096" in vectors and "ZERO_DRIFT = 8192" in vectors
     assert '[TARE_UNDER_LOAD, "TARE UNDER LOAD", "bad"]' in vectors
+
+
+def _badge_table(script: str, start: str) -> dict[int, str]:
+    """A dashboard script's badge table (``[bit, "NAME", "warn"|"bad"]`` rows after ``start``)
+    as bit -> name (a bit written as a Flag's name resolved through Flag)."""
+    body = script[script.index(start):]
+    body = body[:body.index("]];") + 2]
+    rows = re.findall(r'\[(\w+), "([A-Z ]+)", "(?:warn|bad)"\]', body)
+    return {int(b) if b.isdigit() else int(Flag[b]): name for b, name in rows}
+
+
+def test_the_dashboard_badges_are_the_terminal_s() -> None:
+    """The scripts' badge tables (the one copy the browser needs) show the same bits under the
+    same names as the terminal's tables, which come from Flag itself."""
+    static = Path(mc.__file__).parent / "live" / "static"
+    scalar = _badge_table((static / "dashboard.js").read_text(), "const FLAGS =")
+    vectors = _badge_table((static / "vectors.js").read_text(), "V.FLAGS =")
+    assert scalar == {int(f): name for f, name in FLAG_NAMES.items()}
+    assert vectors == {int(f): name for f, name in VECTOR_FLAG_NAMES.items()}
+    assert all(name == str(Flag(bit).name).replace("_", " ") for bit, name in vectors.items())
 
 
 # -- replay ----------------------------------------------------------------------------------------

@@ -131,8 +131,8 @@ def _checked_override(name: str, option: str, text: str, example: str) -> float:
 
 
 def load_mechanics_setup(arg: str, tip_radius: str | None, modulus: str | None) -> Setup:
-    """SETUP argument with the optional --tip-radius (bare: mm) / --modulus (bare: MPa; VALUE or
-    VALUE:SIGMA) overrides applied."""
+    """The ``--setup`` value (a preset or a setup file) with the optional --tip-radius (bare: mm)
+    / --modulus (bare: MPa; VALUE or VALUE:SIGMA) overrides applied."""
     setup = load_setup_arg(arg)
     changes: dict[str, float] = {}
     if tip_radius is not None:
@@ -286,7 +286,7 @@ class RecordingArgs:
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`magcilia.read_measurements` and
-        :func:`magcilia.read_samples`."""
+        :func:`magcilia.io.read_samples`."""
         return {"columns": self.columns, "delimiter": self.delimiter, "decimal": self.decimal,
                 "group": self.group}
 

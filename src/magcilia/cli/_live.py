@@ -49,8 +49,8 @@ SIM_DRIFT = (1e-10, -0.5e-10, 1e-10)
 #: the single-axis defaults of --rate and --source-rate, Hz (a 3-axis part: its own rate)
 RATE, SOURCE_RATE = 1000.0, 10000.0
 #: the default --rate of an array, Hz (at most its parts' rate): its inverse solves every
-#: window (3-8 ms for the 16 cilia of examples/array.toml on one core), so that 50 Hz keeps a
-#: core less than half busy
+#: window (for the 16 cilia of examples/array.toml 1.7 ms median, 3.7 ms p99 on one core:
+#: benchmarks/bench_live_vectors.py, the README), so that 50 Hz keeps a core less than half busy
 ARRAY_RATE = 50.0
 
 
@@ -172,6 +172,8 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         raise MagciliaError(_exists_message(Path(record_path), "--record"))
     if tracking < 0:
         raise fail("--tracking", tracking, "a time constant ≥ 0 s (0: off)")
+    if sensor_noise is not None and sensor_name is None:
+        raise fail("--sensor-noise", sensor_noise, "given with --sensor only")
     array_file = presets.file(setup_arg) if setup_arg in presets.NAMES else setup_arg
     array = array_file is not None and is_array_file(array_file)
     if array:
@@ -193,8 +195,6 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         return LiveReadout(field[1], field[0], rate=field[2] if rate is None else rate,
                            tare_at_start=not no_tare, tracking=tracking or None,
                            record=record_path)
-    if sensor_noise is not None:
-        raise fail("--sensor-noise", sensor_noise, "given with --sensor only")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)

@@ -476,8 +476,8 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
                     out_path: str, tare_spec: str | None, tare_file: str | None,
                     tip_radius: str | None, modulus: str | None, si: bool, as_json: bool,
                     reading: RecordingArgs, suspect: str, quiet: bool) -> None:
-    """``magcilia readout [SETUP] FILE.tdms`` of a live recording: the readings the view read,
-    corrected as it corrected them, through the stored read-out (each part replaced where
+    """``magcilia readout FILE.tdms [--setup SETUP]`` of a live recording: the readings the view
+    read, corrected as it corrected them, through the stored read-out (each part replaced where
     given)."""
     kind = recorded_kind(path)
     if kind != "scalar":  # force vectors: a replay reads them with what the recording stores

@@ -4,7 +4,7 @@ A recording has up to eight *roles*, each read from one column (CSV), variable (
 (TDMS) or dataset (HDF5):
 
 ========  ===========  ============  ===========================================
-role      default      dimension     becomes (:func:`magcilia.read_samples` key)
+role      default      dimension     becomes (:func:`magcilia.io.read_samples` key)
 ========  ===========  ============  ===========================================
 angle     angle_deg    angle         ``angle_deg``, tilt in degrees
 voltage   voltage_V    voltage       ``voltage_V``, sensor output in volts

@@ -4,8 +4,8 @@ The writer appends one TDMS segment (all channels) and flushes it to the operati
 ``chunk`` samples, or sooner, once the oldest sample waiting has waited ``flush_interval``
 seconds (checked at each write): a ``kill -9`` at any moment loses at most the samples not yet
 flushed — about half a second of them with :func:`chunk_for` — and leaves a file that
-:func:`magcilia.read_samples` and ``magcilia calibrate`` open (``tests/acquire`` kills recorders to
-prove it; npTDMS reads a file cut inside its last segment).
+:func:`magcilia.io.read_samples` and ``magcilia calibrate`` open (``tests/acquire`` kills
+recorders to prove it; npTDMS reads a file cut inside its last segment).
 
 The first segment, written when the file opens, holds the file's properties: the metadata
 (source, rate, channels and their units, sensor, setup, planned angles of a sweep, start time,

@@ -117,36 +117,30 @@ class Dashboard:
         live, r, q = self.live, self.live.readout, self.quantity
         limits = live.limits()
         sensor = live.sensor
+        doc: dict[str, Any] = {
+            "kind": sensor.kind, "quantity": sensor.quantity, "label": q.label,
+            "unit": q.display, "si_unit": sensor.unit,
+            "range": [q.to_display(x) for x in limits.range],
+            "minimum": q.to_display(limits.minimum), "limited_by": limits.limited_by,
+            "source": {"name": live.source.name, "rate_Hz": live.source.rate},
+            "rate_Hz": live.rate, "window_s": self.window, "fps": self.fps,
+            "points": MAX_POINTS, "factor": display_factor(self.window, live.rate)}
         if sensor.kind != "scalar":
-            return _jsonable({
-                "kind": sensor.kind, "quantity": sensor.quantity, "label": q.label,
-                "unit": q.display, "si_unit": sensor.unit,
+            doc.update({
                 "span": [q.to_display(x) for x in limits.span],
-                "range": [q.to_display(x) for x in limits.range],
-                "minimum": q.to_display(limits.minimum), "limited_by": limits.limited_by,
                 "readout": sensor.report(), "scale_note": limits.scale_note,
                 "setup": _sections(sensor.setup), "calibration": None,
                 "cilia": list(sensor.names) or [(sensor.kind == "vector" and "F") or ""],
                 "positions_mm": (sensor.positions * 1e3).tolist(),
                 "inputs": list(sensor.inputs),
-                "source": {"name": live.source.name, "rate_Hz": live.source.rate},
-                "rate_Hz": live.rate, "window_s": self.window, "fps": self.fps,
-                "points": MAX_POINTS, "factor": display_factor(self.window, live.rate),
-                "columns": ["time", *VECTOR_COLUMNS], "header": list(VECTOR_HEADER),
-            })
-        return _jsonable({
-            "kind": "scalar",
-            "quantity": r.quantity, "label": q.label, "unit": q.display, "si_unit": r.unit,
-            "span": [q.to_display(x) for x in r.span],
-            "range": [q.to_display(x) for x in limits.range],
-            "minimum": q.to_display(limits.minimum), "limited_by": limits.limited_by,
-            "readout": r.report(), "scale_note": r.scale_note, "setup": sensor.setup,
-            "calibration": r.calibration.report() if r.calibration is not None else None,
-            "source": {"name": live.source.name, "rate_Hz": live.source.rate},
-            "rate_Hz": live.rate, "window_s": self.window, "fps": self.fps,
-            "points": MAX_POINTS, "factor": display_factor(self.window, live.rate),
-            "columns": list(FRAME_COLUMNS), "header": list(FRAME_HEADER),
-        })
+                "columns": ["time", *VECTOR_COLUMNS], "header": list(VECTOR_HEADER)})
+        else:
+            doc.update({
+                "span": [q.to_display(x) for x in r.span],
+                "readout": r.report(), "scale_note": r.scale_note, "setup": sensor.setup,
+                "calibration": r.calibration.report() if r.calibration is not None else None,
+                "columns": list(FRAME_COLUMNS), "header": list(FRAME_HEADER)})
+        return _jsonable(doc)
 
     def status(self, max_age: float = STATUS_PERIOD / 2) -> dict[str, Any]:
         """The read-out's status (:meth:`LiveStatus.to_dict`, SI) with the limits in display

@@ -51,7 +51,7 @@ from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia.acquire.buffer import BackgroundReader
 from magcilia.acquire.source import OUTPUT, Block, Counters, Source
 from magcilia.io.recording_file import RecordingWriter, chunk_for
-from magcilia.live.history import History, LiveSamples
+from magcilia.live.history import NO_ESTIMATE, History, LiveSamples
 from magcilia.live.readouts import LiveSensor, live_sensor
 from magcilia.live.recorded import (
     recorded_clock,
@@ -62,8 +62,9 @@ from magcilia.live.recorded import (
 from magcilia.live.recording import new_recording_path, readout_group, sample_columns
 from magcilia.live.status import EVENTS, Event, Limits, LiveStatus, tare_text
 from magcilia.live.windows import Averager
-from magcilia.live.zero import Zero, difference_noise
+from magcilia.live.zero import Zero
 from magcilia.readout.protocol import FLAG_DTYPE, Flag
+from magcilia.readout.tare import difference_noise
 
 F64 = NDArray[np.float64]
 
@@ -71,8 +72,6 @@ __all__ = ["EVENTS", "Event", "Limits", "LiveReadout", "LiveStatus"]
 
 #: fraction of the last second's readings outside the span above which the status warns
 _OUTSIDE_WARNING = 0.9
-#: the flags that leave a reading without a value (NaN value and σ in the History)
-_NO_VALUE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED | Flag.UNDETERMINED
 
 
 class LiveReadout:
@@ -154,9 +153,9 @@ class LiveReadout:
         self.stall = v.positive("stall", stall, "s", "duration")
         self.reconnect = v.positive("reconnect", reconnect, "s", "duration")
         sensor = self.sensor
-        #: the source channels read, in the read-out's order
-        self.inputs = (self.channel,) if sensor.kind == "scalar" else sensor.inputs
         scalar = sensor.kind == "scalar"
+        #: the source channels read, in the read-out's order
+        self.inputs = (self.channel,) if scalar else sensor.inputs
         self.zero = Zero(float(sensor.rest[0]) if scalar else sensor.rest, tracking, band,
                          unit=sensor.channel_unit, names=() if scalar else sensor.inputs)
         self.factor = 1
@@ -521,7 +520,7 @@ class LiveReadout:
         if self.sensor.kind == "scalar":  # any flag: no value (as the views always showed it)
             bad = np.where(flags != 0, np.nan, 1.0)
         else:  # a vector near zero or ambiguous in direction keeps its components
-            bad = np.where(flags & FLAG_DTYPE(_NO_VALUE) != 0, np.nan, 1.0)[..., None]
+            bad = np.where(flags & FLAG_DTYPE(NO_ESTIMATE) != 0, np.nan, 1.0)[..., None]
         flags = flags | self.sensor.zero_flags(zero.channel_flags)  # TARE_UNDER_LOAD, ZERO_DRIFT
         if not (collecting and self._tare_wanted):
             zero.track(w.volts, 1.0 / self.rate, at=float(w.time[-1]))

@@ -38,8 +38,6 @@ F64 = NDArray[np.float64]
 
 #: the kinds of read-out the live views know: one value, a force vector, one per cilium
 KINDS = ("scalar", "vector", "array")
-#: the flags that leave an estimate without a value (every kind)
-NO_VALUE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.UNDETERMINED
 
 
 def protocol_view(readout: Any) -> SensorReadout:

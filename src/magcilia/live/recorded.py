@@ -219,7 +219,8 @@ def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | Non
             # a folded table keeps fewer points than it was built with: the default was used
             readout = build(_DEFAULT_TABLE)
     except MagciliaError as exc:
-        raise MagciliaError(f"{p}: the stored read-out: {exc}") from None
+        what = "the stored read-out" if setup is None else "the read-out on the setup given"
+        raise MagciliaError(f"{p}: {what}: {exc}") from None
     return readout
 
 

@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from magcilia._errors import require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.live.history import COLUMNS, LiveSamples
-from magcilia.live.render_vector import trace_line, vector_fractions, vector_lines
+from magcilia.live.render_vector import trace_line, vector_fractions, vector_lines, view_flag_names
 from magcilia.live.status import Event, Limits, LiveStatus
-from magcilia.readout.inverse import NO_ESTIMATE, ReadoutFlag
+from magcilia.readout.protocol import Flag
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
@@ -35,10 +35,8 @@ F64 = NDArray[np.float64]
 #: the sparkline's levels, lowest first
 SPARKS = "▁▂▃▄▅▆▇█"
 #: names of the flag bits as the view shows them
-FLAG_NAMES = {ReadoutFlag.OUTSIDE_SPAN: "OUTSIDE SPAN", ReadoutFlag.FOLD: "FOLD",
-              ReadoutFlag.SATURATED: "SATURATED", ReadoutFlag.EXTRAPOLATED: "EXTRAPOLATED",
-              ReadoutFlag.CLIPPED: "CLIPPED", ReadoutFlag.TARE_UNDER_LOAD: "TARE UNDER LOAD",
-              ReadoutFlag.ZERO_DRIFT: "ZERO DRIFT"}
+FLAG_NAMES = view_flag_names(Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED,
+                             Flag.CLIPPED, Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT)
 #: the key help line
 KEYS = "t tare · r start/stop recording · q quit (Ctrl-C)"
 #: the key help line of an array's view
@@ -107,7 +105,7 @@ def current(samples: LiveSamples, window: float = 0.1, now: float | None = None)
     if not len(samples):
         return Reading(math.nan, math.nan, 0, 0, window, math.nan)
     inside = samples.time >= samples.time[-1] - window
-    good = inside & (samples.flags & np.uint8(NO_ESTIMATE) == 0) & np.isfinite(samples.value)
+    good = inside & samples.good & np.isfinite(samples.value)
     age = 0.0 if now is None else now - float(samples.published[-1])
     if not good.any():
         return Reading(math.nan, math.nan, 0, int(inside.sum()), window, age)
@@ -376,7 +374,7 @@ def _scalar_lines(samples: LiveSamples, q: Any, *, window: float, seconds: float
     # sparkline
     end = float(samples.time[-1]) + (0.0 if now is None else max(
         0.0, now - float(samples.published[-1]))) if len(samples) else 0.0
-    good = np.where(samples.flags & np.uint8(NO_ESTIMATE) == 0, samples.value / scale, np.nan)
+    good = np.where(samples.good, samples.value / scale, np.nan)
     lines.append(trace_line("", samples.time, good, end=end, seconds=seconds, width=width,
                             unit=q.display, sparkline=sparkline))
     return lines

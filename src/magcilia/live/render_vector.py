@@ -29,12 +29,19 @@ F64 = NDArray[np.float64]
 
 #: arrows for eight directions, counter-clockwise from +x
 ARROWS = "→↗↑↖←↙↓↘"
+
+
+def view_flag_names(*flags: Flag) -> dict[Flag, str]:
+    """The names the views show for ``flags``: each :class:`Flag`'s name with spaces
+    (``TARE_UNDER_LOAD`` → ``TARE UNDER LOAD``), in the order given."""
+    return {flag: str(flag.name).replace("_", " ") for flag in flags}
+
+
 #: names of the flag bits a force vector's view shows (NEAR_ZERO is said by the direction's "—")
-VECTOR_FLAG_NAMES = {Flag.OUTSIDE_SPAN: "OUTSIDE SPAN", Flag.SATURATED: "SATURATED",
-                     Flag.EXTRAPOLATED: "EXTRAPOLATED", Flag.ABOVE_SPAN: "ABOVE SPAN",
-                     Flag.AMBIGUOUS: "AMBIGUOUS", Flag.UNDETERMINED: "UNDETERMINED",
-                     Flag.NOT_CONVERGED: "NOT CONVERGED", Flag.MISSING: "MISSING",
-                     Flag.TARE_UNDER_LOAD: "TARE UNDER LOAD", Flag.ZERO_DRIFT: "ZERO DRIFT"}
+VECTOR_FLAG_NAMES = view_flag_names(Flag.OUTSIDE_SPAN, Flag.SATURATED, Flag.EXTRAPOLATED,
+                                    Flag.ABOVE_SPAN, Flag.AMBIGUOUS, Flag.UNDETERMINED,
+                                    Flag.NOT_CONVERGED, Flag.MISSING, Flag.TARE_UNDER_LOAD,
+                                    Flag.ZERO_DRIFT)
 #: a direction within this many σ of the magnitude from zero is undefined (as the read-outs')
 NEAR_ZERO_SIGMAS = 3.0
 

@@ -13,12 +13,12 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from typing import IO, Any
+from typing import IO
 
 import numpy as np
-from numpy.typing import NDArray
 
 from magcilia import _validate as v
+from magcilia._atomic import jsonable
 from magcilia.live.pipeline import LiveReadout, LiveStatus
 from magcilia.live.render import summary_line
 
@@ -91,11 +91,6 @@ def _number(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def _numbers(x: NDArray[np.float64]) -> Any:
-    """An array as (nested) lists of floats, NaN as None (JSON null)."""
-    if np.ndim(x) > 1:
-        return [_numbers(row) for row in x]
-    return [_number(float(a)) for a in x]
 
 
 def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
@@ -167,7 +162,7 @@ def stream_json_lines(live: LiveReadout, out: IO[str] | None = None, *,
                 else:
                     lines.append(json.dumps({
                         "t": round(float(samples.time[k]), 6),
-                        "value": _numbers(samples.value[k]), "sigma": _numbers(samples.sigma[k]),
+                        "value": jsonable(samples.value[k]), "sigma": jsonable(samples.sigma[k]),
                         "flags": np.asarray(samples.flags[k]).tolist(), "unit": unit}))
             if not live.running and live.status.state == "failed":
                 lines.append(json.dumps({"event": "failed", "text": live.status.message,

@@ -57,6 +57,7 @@ from magcilia.readout.tare import Tare, difference_noise
 
 F64 = NDArray[np.float64]
 
+# difference_noise lives in readout.tare; it stays importable from here for earlier code
 __all__ = ["Zero", "difference_noise"]
 
 #: the running sums of the fit, per channel: weights, Σw·τ, Σw·τ², Σw·y, Σw·τ·y, and the
