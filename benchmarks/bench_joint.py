@@ -8,11 +8,12 @@ and, as the anchor, SciPy's ``least_squares`` run one start at a time from the s
 the same residuals; then the posterior of the geometry (``posterior=True``: emcee until every
 parameter has 1000 effective samples; issue 14's target ≤ 60 s on one core).
 
-Run: ``python benchmarks/bench_joint.py``
+Run: ``python benchmarks/bench_joint.py [--quick]``
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
@@ -57,6 +58,9 @@ def experiments(rng: np.random.Generator) -> list[Measurement]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2 seeds instead of 5")
+    args = parser.parse_args()
     data = experiments(np.random.default_rng(0))
     initial = TRUTH.replace(height=3.0e-3, base_radius=0.2e-3, x=1.0e-3, y=1.5e-3, z=0.5e-3)
     layout = mc.calibration.converged_layout(TRUTH)
@@ -83,7 +87,7 @@ def main() -> None:
 
     ours(0)  # numba's kernels loaded, the layout's tables built
     runs: dict[str, list[tuple[float, float]]] = {"ours": [], "anchor": []}
-    for seed in range(5):
+    for seed in range(2 if args.quick else 5):
         runs["ours"].append(ours(seed))
         runs["anchor"].append(anchor(seed))
     t = {k: np.array([r[0] for r in v]) for k, v in runs.items()}

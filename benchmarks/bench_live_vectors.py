@@ -8,7 +8,7 @@ solves every window), the pipeline latency (sample in -> value out, median and p
 and the samples lost (overruns). Target: the time per window well under the window (20 ms at
 50 Hz), 0 overruns, latency median within a window plus a chunk.
 
-Run: python benchmarks/bench_live_vectors.py [--seconds 10]
+Run: python benchmarks/bench_live_vectors.py [--seconds 10] [--quick]
 """
 
 from __future__ import annotations
@@ -67,7 +67,10 @@ def run(name: str, seconds: float, **kw: Any) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--quick", action="store_true", help="2 s per sensor (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.seconds = min(args.seconds, 2.0)
     run("array (16 cilia)", args.seconds, setup_arg=str(ROOT / "examples" / "array.toml"),
         sensor_name=None, rate=50.0)
     run("3-axis sensor", args.seconds, setup_arg="force-sensor", sensor_name="MMC5983MA",

@@ -8,7 +8,7 @@ Times, on the README's example (the force-sensor preset, ``min_force`` 0.1 uN, s
   model: what ``design_metrics`` does for the force), per design;
 * the whole search in process (``workers=1``) for N designs screened and 64 refined.
 
-Run: python benchmarks/bench_optimise.py [--designs N]
+Run: python benchmarks/bench_optimise.py [--designs N] [--quick]
 """
 
 from __future__ import annotations
@@ -33,7 +33,10 @@ from magcilia.design.screen import screen as _screen
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--designs", type=int, default=4096)
+    parser.add_argument("--quick", action="store_true", help="256 designs (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.designs = min(args.designs, 256)
     setup = mc.Setup.paper(tip_radius=5e-5, layout="converged")  # the force-sensor preset
     choices = sensor_choices(("HMC1021Z",), setup)
     searched, fixed = _bounds(setup, None)

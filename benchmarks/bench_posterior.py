@@ -6,7 +6,7 @@ result (converged, the spread) but not the time: speed depends on the machine, s
 Times ``sample_posterior`` (emcee's ensemble sampler behind it) on one thread, the best and the
 median of ``--repeat`` runs, and prints the effective sample size and the sampler's steps.
 
-Run: ``python benchmarks/bench_posterior.py [--repeat 5]``
+Run: ``python benchmarks/bench_posterior.py [--repeat 5] [--quick]``
 """
 
 from __future__ import annotations
@@ -36,7 +36,10 @@ def problem() -> tuple[np.ndarray, np.ndarray]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--quick", action="store_true", help="one repeat (a smoke run)")
     args = parser.parse_args()
+    if args.quick:
+        args.repeat = 1
     mu, cov = problem()
     prec = np.linalg.inv(cov)
 
