@@ -15,3 +15,17 @@ def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str,
             run()
             times[name].append(time.perf_counter() - t0)
     return times
+
+
+def numpy_reference(fn: Callable[[], object]) -> Callable[[], object]:
+    """``fn`` run with magcilia's compiled kernels switched off (its NumPy reference paths)."""
+    from magcilia.model import compiled
+
+    def run() -> object:
+        compiled.ENABLED = False
+        try:
+            return fn()
+        finally:
+            compiled.ENABLED = True
+
+    return run

@@ -43,28 +43,15 @@ from pathlib import Path
 
 import magpylib as magpy
 import numpy as np
+from _timing import numpy_reference
 from scipy.spatial.transform import Rotation
 
 import magcilia as mc
 from magcilia.constants import MU0
-from magcilia.model import compiled
 from magcilia.model.batch import TiltBatch
 from magcilia.model.kernels import dipole_field
 
 ANGLES = np.radians(np.linspace(0.0, 85.0, 33))
-
-
-def numpy_reference(fn: Callable[[], object]) -> Callable[[], object]:
-    """``fn`` run with the compiled kernels switched off."""
-
-    def run() -> object:
-        compiled.ENABLED = False
-        try:
-            return fn()
-        finally:
-            compiled.ENABLED = True
-
-    return run
 
 
 def interleaved(fns: dict[str, Callable[[], object]], repeat: int,

@@ -35,14 +35,12 @@ import subprocess
 import sys
 import time
 import warnings
-from collections.abc import Callable
 
 import numpy as np
-from _timing import interleaved
+from _timing import interleaved, numpy_reference
 from scipy.integrate import solve_bvp
 
 import magcilia as mc
-from magcilia.model import compiled
 
 E = 2.0e6
 L = 3e-3
@@ -205,19 +203,6 @@ def first_calls(processes: int) -> list[float]:
     return times
 
 
-def numpy_path(fn: Callable[[], object]) -> Callable[[], object]:
-    """``fn`` run with the compiled kernels switched off (the NumPy reference paths)."""
-
-    def run() -> object:
-        compiled.ENABLED = False
-        try:
-            return fn()
-        finally:
-            compiled.ENABLED = True
-
-    return run
-
-
 def readout(s: mc.Setup, quick: bool) -> None:
     t0 = time.perf_counter()
     r = mc.Readout(s, quantity="force", span=(0.0, 2e-4))
@@ -232,7 +217,7 @@ def readout(s: mc.Setup, quick: bool) -> None:
         "np.interp": lambda: np.interp(volts, table.volts, table.values),
         "estimate": lambda: r.estimate(volts),
         "read": lambda: r.read(volts, noise=1e-4),
-        "read NumPy": numpy_path(lambda: r.read(volts, noise=1e-4)),
+        "read NumPy": numpy_reference(lambda: r.read(volts, noise=1e-4)),
     }, 5 if quick else 15)
     anchor = stats(times["np.interp"])
     for name, label in (("np.interp", "np.interp over the table (value)"),
