@@ -393,14 +393,16 @@ class Tare(Display):
     def report(self) -> str:
         """One line: the zero, its correction and uncertainty, the noise of one reading."""
         if np.ndim(self.rest) == 0:
-            return (f"tare: zero at {self.mean * 1e3:.6g} mV from {self.count} readings "
-                    f"(correction {self.correction * 1e3:+.4g} mV ± "
-                    f"{self.standard_error * 1e6:.3g} µV; noise {self.noise * 1e6:.3g} µV per "
-                    f"reading){self._rest_note()}") if self.unit == "V" else (
-                    f"tare: zero at {self._text(self.mean)} from {self.count} readings "
-                    f"(correction {self._text(self.correction)} ± "
-                    f"{self._text(self.standard_error)}; noise {self._text(self.noise)} per "
-                    f"reading){self._rest_note()}")
+            if self.unit == "V":
+                zero, corr, error, noise = (f"{self.mean * 1e3:.6g} mV",
+                                            f"{self.correction * 1e3:+.4g} mV",
+                                            f"{self.standard_error * 1e6:.3g} µV",
+                                            f"{self.noise * 1e6:.3g} µV")
+            else:
+                zero, corr, error, noise = (self._text(x) for x in (
+                    self.mean, self.correction, self.standard_error, self.noise))
+            return (f"tare: zero at {zero} from {self.count} readings (correction {corr} ± "
+                    f"{error}; noise {noise} per reading){self._rest_note()}")
         corr = ", ".join(self._text(c) for c in self.correction)
         noise = ", ".join(self._text(n) for n in self.noise)
         return (f"tare: {int(np.min(self.count))}+ readings per channel; corrections {corr}; "
