@@ -79,6 +79,12 @@ def _same_values(shown: object, replayed: object) -> float:
 
 
 # -- honest over time ------------------------------------------------------------------------------
+def _lines(text: str) -> list[dict[str, object]]:
+    """The read-out lines (those with a value) of ``--json-lines`` output."""
+    return [d for d in (json.loads(x) for x in text.splitlines() if x.startswith("{"))
+            if "value" in d]
+
+
 def test_a_3_axis_tare_under_load_is_flagged_then_a_loaded_one_refused(
         biaxial: mc.BiaxialReadout) -> None:
     """The first tare is taken while the cilium is pushed back and forth: kept, every estimate
@@ -218,10 +224,7 @@ def test_live_record_then_source_of_a_3_axis_sensor_through_the_cli(
     assert main(["live", "--source", str(rec), "--json-lines"]) == 0
     again = capsys.readouterr().out
 
-    def lines(text: str) -> list[dict[str, object]]:
-        return [d for d in (json.loads(x) for x in text.splitlines() if x.startswith("{"))
-                if "value" in d]
-    shown, replayed = lines(first), {d["t"]: d for d in lines(again)}
+    shown, replayed = _lines(first), {d["t"]: d for d in _lines(again)}
     assert len(shown) >= 60
     matched = 0
     for d in shown:
@@ -307,10 +310,7 @@ def test_live_record_then_source_of_an_array_through_the_cli(
     assert main(["live", "--source", str(rec), "--json-lines"]) == 0
     again = capsys.readouterr().out
 
-    def lines(text: str) -> list[dict[str, object]]:
-        return [d for d in (json.loads(x) for x in text.splitlines() if x.startswith("{"))
-                if "value" in d]
-    shown, replayed = lines(first), {d["t"]: d for d in lines(again)}
+    shown, replayed = _lines(first), {d["t"]: d for d in _lines(again)}
     assert len(shown) >= 40 and len(shown[-1]["value"]) == 4  # type: ignore[arg-type]
     matched = valued = 0
     for d in shown:
