@@ -24,6 +24,7 @@ from magcilia.design.ranges import read_range
 from magcilia.design.sensors import SensorChoice
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Fluid
+from magcilia.mechanics.response import response_figures
 
 F64 = NDArray[np.float64]
 
@@ -52,7 +53,9 @@ def information(slope: F64, sigma: F64) -> float:
 def evaluate(task: ExactTask) -> dict[str, Any]:
     """The exact metrics of one design (a top-level function: runs in worker processes), its
     layout by the layout rule at the sensing element: ``sensitivity`` (T per unit), ``minimum``,
-    ``range`` (SI), ``limited_by``, ``peak_field`` (T) and ``reached``."""
+    ``range`` (SI), ``limited_by``, ``peak_field`` (T), ``reached`` and the dynamics of the
+    response to the measurand in the fluid, ``bandwidth`` (−3 dB, Hz) and ``settling_time``
+    (2 %, s)."""
     setup, choice = task.setup.resolve_layout(), task.choice
     sigma = choice.sigma(task.bandwidth)
     sweep = task.measurand.sweep(setup, task.fluid, task.points)
@@ -74,8 +77,9 @@ def evaluate(task: ExactTask) -> dict[str, Any]:
     rng, why, last, reached = read_range(q, reading, b, choice.full_scale, task.total, signal,
                                          choice.axes, sweep.end)
     peak = float(np.max(np.linalg.norm(b[:last + 1], axis=1)))
+    band, settle = response_figures(setup, task.fluid, task.measurand.name, task.speed)
     return {"sensitivity": sensitivity, "minimum": minimum, "range": rng, "limited_by": why,
-            "peak_field": peak, "reached": reached}
+            "peak_field": peak, "reached": reached, "bandwidth": band, "settling_time": settle}
 
 
 def evaluate_many(tasks: Sequence[ExactTask]) -> list[dict[str, Any]]:

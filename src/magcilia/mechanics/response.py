@@ -344,6 +344,21 @@ def frequency_response(setup: Setup, frequencies: ArrayLike, *, fluid: Fluid | s
                              model.gains, modal_static)
 
 
+def response_figures(setup: Setup, fluid: Fluid | None, load: str = "force",
+                     point: float = 0.0) -> tuple[float, float]:
+    """The −3 dB bandwidth (Hz) and the 2 % settling time (s) of a design's response to
+    ``load`` about ``point`` (N or m/s) in ``fluid``; (NaN, NaN) where the model refuses the
+    design (a sharp tip, a hair that buckles): the design metrics' and the optimiser's figures
+    of merit."""
+    try:
+        r = frequency_response(setup, [0.0], fluid=fluid, load=load,
+                               force=point if load == "force" else 0.0,
+                               flow=point if load == "flow" else 0.0)
+    except (ValueError, ArithmeticError):  # MagciliaError included
+        return math.nan, math.nan
+    return r.bandwidth, r.settling_time
+
+
 def _build(setup: Setup, medium: Fluid | None, gravity: bool, load: str, point: float,
            band: float, n_el: int) -> _Model:
     """The linear model at the operating point: modes, κ, gains, drag slope, scale."""
