@@ -29,7 +29,7 @@ def modes_record(result: Modes, label: str) -> dict[str, Any]:
 @click.option("--count", default=3, show_default=True, type=click.IntRange(1, MAX_COUNT),
               help="Number of modes.")
 @click.option("--elements", default=None, type=click.IntRange(2, MAX_ELEMENTS),
-              help="Beam elements (default 24: the first three frequencies to ~1e-5).")
+              help="Beam elements (default 24: the first three frequencies to ~1e-5; at most 200).")
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (SI: Hz, kg, N/m, N·s/m, m).")
