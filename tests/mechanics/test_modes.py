@@ -214,7 +214,7 @@ def test_hydrodynamic_function_limits_and_table() -> None:
     parts at low Re, and the spline table within 1e-9 of the exact Bessel form."""
     from magcilia.mechanics.hydrodynamic import gamma_table
 
-    for re in (1e8, 1e10):
+    for re in (1e10, 1e12):  # the next term is O(1/Re)
         assert complex(circular_gamma(re)) == pytest.approx(
             1 + 2 * math.sqrt(2) * (1 + 1j) / math.sqrt(re), rel=1e-9)
     low = circular_gamma([1e-6, 1e-4, 1e-2])
