@@ -84,7 +84,7 @@ from numpy.typing import NDArray
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.design.exact import ExactTask, evaluate_many
+from magcilia.design.exact import ExactTask, dynamics, evaluate_many
 from magcilia.design.measurands import BY_OBJECTIVE, Measurand
 from magcilia.design.pareto import pareto_ranks
 from magcilia.design.results import Candidate, DesignOptimum
@@ -387,6 +387,14 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     ranked = {id(d): int(r) for d, r in zip(feasible, ranks_exact, strict=True)}
     designs = [replace(d, rank=ranked.get(id(d), -1)) for d in designs]
     best = measurand.best([d for d in designs if d.eligible])
+    # the dynamics of the designs shown (the front, the chosen one, the reference) when no
+    # constraint needed them for every design
+    shown_ids = {id(d) for d in designs if d.rank == 0} | {id(best)}
+    by_id = {id(d): _dynamic(d, designs_from, measurand, fixed_c, fluid, by_name)
+             for d in designs if id(d) in shown_ids}
+    designs = [by_id.get(id(d), d) for d in designs]
+    best = by_id[id(best)]
+    reference = _dynamic(reference, setup, measurand, fixed_c, fluid, by_name)
     best_setup = _design_setup(designs_from, best.params).resolve_layout()
     return DesignOptimum(
         objective=objective, measurand=measurand, designs=tuple(designs), best=best,
@@ -452,7 +460,22 @@ def _task(setup: Setup, choice: SensorChoice, measurand: Measurand, fixed: dict[
           bandwidth: tuple[float, float], fluid: Fluid, points: int) -> ExactTask:
     return ExactTask(setup, choice, measurand, fixed.get("speed", 0.0),
                  (float(bandwidth[0]), float(bandwidth[1])), fluid, points,
-                 choice.total_limit(fixed.get("field")))
+                 choice.total_limit(fixed.get("field")),
+                 dynamics="bandwidth" in fixed or "settling" in fixed)
+
+
+def _dynamic(d: Candidate, base: Setup, measurand: Measurand, fixed: dict[str, float],
+             fluid: Fluid, by_name: Mapping[str, SensorChoice]) -> Candidate:
+    """``d`` with its bandwidth and settling time measured (when not yet)."""
+    if not math.isnan(d.bandwidth) or d.sensor not in by_name:
+        return d
+    try:
+        setup = _design_setup(base, d.params).resolve_layout()
+    except MagciliaError:
+        return d
+    task = _task(setup, by_name[d.sensor], measurand, fixed, DEFAULT_BANDWIDTH, fluid, 11)
+    band, settle = dynamics(task)
+    return replace(d, bandwidth=band, settling_time=settle)
 
 
 

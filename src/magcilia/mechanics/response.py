@@ -447,7 +447,7 @@ def _bandwidth(model: _Model) -> float:
     """The lowest frequency where |H| falls to |H(0)|/√2, Hz."""
     h0 = abs(model.transfer(np.zeros(1))[0])
     f1 = float(model.model.modes.frequencies[0])
-    grid = np.geomspace(1e-4 * f1, 1e3 * float(model.model.modes.frequencies[-1]), 240)
+    grid = np.geomspace(1e-4 * f1, 1e3 * float(model.model.modes.frequencies[-1]), 100)
     ratio = np.abs(model.transfer(2 * math.pi * grid)) / h0 - 1.0 / math.sqrt(2.0)
     below = np.flatnonzero(ratio < 0.0)
     if below.size == 0:
