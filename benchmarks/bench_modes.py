@@ -23,7 +23,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ[_var] = "1"  # single thread, before NumPy loads BLAS
 
 import argparse
-import itertools
+import importlib.util
 import math
 import statistics
 import time
@@ -32,8 +32,6 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg
 from _timing import interleaved
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 import magcilia as mc
 from magcilia.mechanics.beam import mesh
@@ -46,32 +44,15 @@ def stats(t: list[float]) -> tuple[float, float]:
 
 
 def shooting(setup: mc.Setup, count: int = 3) -> np.ndarray:
-    """The first ``count`` vacuum frequencies (Hz) by shooting on (EI w'')'' = ρ A ω² w."""
-    c, e, rho = setup.cilium, setup.youngs_modulus, setup.material.density
-    knots = np.asarray(c.shape[0]) * c.height
-    radii = c.radius(knots)
-
-    def tip(omega: float) -> float:
-        def rhs(s: float, y: np.ndarray) -> np.ndarray:
-            r = float(np.interp(s, knots, radii))
-            ei, rho_a = e * math.pi * r**4 / 4, rho * math.pi * r * r
-            return np.array([y[1], y[2] / ei, y[3], rho_a * omega**2 * y[0],
-                             y[5], y[6] / ei, y[7], rho_a * omega**2 * y[4]])
-
-        y = np.array([0, 0, 1, 0, 0, 0, 0, 1], dtype=float)
-        for a, b in itertools.pairwise(knots):
-            y = solve_ivp(rhs, (a, b), y, rtol=1e-10, atol=1e-30, method="DOP853").y[:, -1]
-        return float(y[2] * y[7] - y[3] * y[6])
-
-    grid = np.geomspace(2 * math.pi * 20, 2 * math.pi * 1500 * count, 40 * count)
-    values = [tip(w) for w in grid]
-    roots = []
-    for a, b, fa, fb in zip(grid[:-1], grid[1:], values[:-1], values[1:], strict=True):
-        if fa * fb < 0:
-            roots.append(brentq(tip, a, b, xtol=1e-10))
-        if len(roots) == count:
-            break
-    return np.array(roots) / (2 * math.pi)
+    """The first ``count`` vacuum frequencies (Hz) by the tests' independent model: the
+    Euler-Bernoulli ODE by shooting (``tests/mechanics/test_modes.py``, one copy)."""
+    spec = importlib.util.spec_from_file_location(
+        "_modes_reference", ROOT / "tests" / "mechanics" / "test_modes.py")
+    assert spec is not None
+    assert spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return np.asarray(module._shooting_frequencies(setup, count))
 
 
 def matrices(setup: mc.Setup, elements: int = 24) -> tuple[np.ndarray, np.ndarray]:
