@@ -36,6 +36,16 @@ def test_text_and_json_match_the_library(capsys: pytest.CaptureFixture[str],
     assert all(m["overdamped"] and m["damped_frequency_Hz"] == 0.0 for m in doc["modes"])
 
 
+def test_plot_writes_the_shapes(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    target = tmp_path / "modes.png"
+    code, _, err = _run(capsys, ["modes", "--setup", "force-sensor", "--fluid", "water",
+                                 "--plot", str(target)])
+    assert code == 0 and not err and target.stat().st_size > 1000
+    code, _, err = _run(capsys, ["modes", "--setup", "force-sensor", "--plot",
+                                 str(tmp_path / "m.nope")])
+    assert code == 2 and "--plot" in err and not (tmp_path / "m.nope").exists()
+
+
 def test_modulus_override_scales_the_frequencies(capsys: pytest.CaptureFixture[str]) -> None:
     _, out, _ = _run(capsys, ["modes", "--setup", "force-sensor", "--modulus", "0.5",
                               "--count", "1", "--json"])

@@ -55,6 +55,9 @@ MAX_ELEMENTS = 200
 #: most modes a caller may ask for (higher ones leave the slender-beam theory: the wavelength
 #: approaches the radius)
 MAX_COUNT = 20
+#: shape samples per beam element in :attr:`Modes.arc` (the nodes and the elements' cubics
+#: between them)
+SAMPLES_PER_ELEMENT = 4
 #: vacuum modes kept as the Ritz basis of the fluid-loaded problem (besides the ``count`` asked)
 _EXTRA_BASIS = 12
 
@@ -76,7 +79,8 @@ class Modes(Display):
     damped_frequencies : ndarray, shape (count,)
         f_n √(1 − ζ_n²), Hz; 0 where overdamped (never NaN).
     arc : ndarray, shape (nodes,)
-        Arc length of the shape samples, m: 0 at the base … L at the tip (the mesh's nodes).
+        Arc length of the shape samples, m: 0 at the base … L at the tip, uniform (the mesh's
+        nodes and :data:`SAMPLES_PER_ELEMENT` − 1 points of each element's cubic between).
     shapes : ndarray, shape (count, nodes)
         Lateral displacement of each mode at ``arc``, normalised to 1 at the tip.
     modal_masses : ndarray, shape (count,)
@@ -323,8 +327,9 @@ def modal_model(setup: Setup, medium: Fluid | None, gravity: bool, count: int, n
     over = zeta >= 1.0
     freq = omega / (2.0 * math.pi)
     damped = np.where(over, 0.0, freq * np.sqrt(np.clip(1.0 - zeta**2, 0.0, None)))
-    nodal = np.concatenate([np.zeros((count, 1)), shapes[:, 0::2]], axis=1)
-    result = Modes(freq, zeta, over, damped, grid.nodes.copy(), nodal, masses, stiffnesses,
+    arc = np.linspace(0.0, grid.nodes[-1], SAMPLES_PER_ELEMENT * n_el + 1)
+    sampled = interpolate(grid, shapes, arc, "values")  # the elements' own cubics
+    result = Modes(freq, zeta, over, damped, arc, sampled, masses, stiffnesses,
                    dampings, medium, bool(gravity), modulus, density, eta, n_el)
     return ModalModel(result, grid, shapes, np.einsum("ki,ij,kj->k", shapes, mass, shapes))
 

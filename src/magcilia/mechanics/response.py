@@ -201,6 +201,8 @@ class _Model:
     load: str
     scale: float         # S / Σ g_n Q_n(0) / κk_n
     sensor_omega: float  # rad/s
+    sensitivity: float   # S, V per unit load
+    modal_static: float  # Σ g_n Q_n(0) / κk_n
 
     def loads(self, omega: F64) -> tuple[C128, C128]:
         """Modal loads Q_n(ω) and dynamic stiffnesses D_n(ω), shapes (n, w)."""
@@ -336,12 +338,9 @@ def frequency_response(setup: Setup, frequencies: ArrayLike, *, fluid: Fluid | s
     n_el = ELEMENTS if elements is None else v.integer("elements", elements, 2)
     model = _build(setup, medium, bool(gravity), load, point, band, n_el)
     omega = 2.0 * math.pi * freq
-    static = model.scale * float(np.sum(model.gains * model.loads(np.zeros(1))[0][:, 0].real
-                                        / model.stiffness))
-    modal_static = static / model.scale
-    return FrequencyResponse(freq, model.transfer(omega), load, point, static,
+    return FrequencyResponse(freq, model.transfer(omega), load, point, model.sensitivity,
                              _bandwidth(model), _settling(model), band, model.model.modes,
-                             model.gains, modal_static)
+                             model.gains, model.modal_static)
 
 
 def response_figures(setup: Setup, fluid: Fluid | None, load: str = "force",
@@ -395,11 +394,12 @@ def _build(setup: Setup, medium: Fluid | None, gravity: bool, load: str, point: 
         outputs = [setup.output(bend(setup, force=point + d * step_force))[0]
                    for d in (1.0, -1.0)]
         sensitivity = float(outputs[0] - outputs[1]) / (2 * step_force)
-    probe = _Model(model, medium, kappa * stiff, gains, slope, load, 1.0, 2 * math.pi * band)
+    parts = (model, medium, kappa * stiff, gains, slope, load)
+    probe = _Model(*parts, 1.0, 2 * math.pi * band, sensitivity, math.nan)
     q0 = probe.loads(np.zeros(1))[0][:, 0].real
     modal_static = float(np.sum(gains * q0 / probe.stiffness))
     scale = sensitivity / modal_static if modal_static != 0.0 else 0.0
-    return _Model(model, medium, kappa * stiff, gains, slope, load, scale, 2 * math.pi * band)
+    return _Model(*parts, scale, 2 * math.pi * band, sensitivity, modal_static)
 
 
 def _gains(setup: Setup, model: ModalModel, shape: Centreline) -> F64:
@@ -477,8 +477,7 @@ def _settling(model: _Model) -> float:
         return math.inf
     period = 2 * math.pi / float(modes.angular_frequencies[0])
     end = max(math.log(1e4) / slowest, 20 * period)
-    final = model.scale * float(np.sum(model.gains * model.loads(np.zeros(1))[0][:, 0].real
-                                       / model.stiffness))
+    final = model.sensitivity
     band = SETTLING_BAND * abs(final)
     # coarse: 24 samples a period of the first mode; then the last exit, finely
     t = np.linspace(0.0, end, int(min(max(24 * end / period, 2000), 200_000)))

@@ -1,5 +1,6 @@
-"""Figures of the cilium in time: the Bode plot of the sensor's frequency response
-(:func:`bode_figure`; matplotlib imported lazily, no pyplot state)."""
+"""Figures of the cilium in time: the bending modes' shapes (:func:`modes_figure`) and the Bode
+plot of the sensor's frequency response (:func:`bode_figure`; matplotlib imported lazily, no
+pyplot state)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from magcilia.mechanics.modal import Modes
 from magcilia.mechanics.response import FrequencyResponse
 from magcilia.report.figures import new_figure
 
@@ -45,4 +47,24 @@ def bode_figure(responses: Sequence[FrequencyResponse],
     mag.legend(fontsize="small")
     mag.grid(True, which="both", alpha=0.3)
     ph.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def modes_figure(modes: Modes) -> Any:
+    """The mode shapes (lateral displacement, 1 at the tip) against the height along the hair
+    (mm), each labelled with its frequency and damping ratio; returns the matplotlib Figure."""
+    fig, axes = new_figure(size=(4.0, 4.4))
+    ax = axes[0, 0]
+    ax.axvline(0.0, color="0.6", lw=0.8)
+    for n in range(modes.count):
+        state = " overdamped" if modes.overdamped[n] else ""
+        ax.plot(modes.shapes[n], modes.arc * 1e3,
+                label=f"mode {n + 1}: {modes.frequencies[n]:.4g} Hz, "
+                      f"ζ {modes.damping_ratios[n]:.2g}{state}")
+    medium = "vacuum" if modes.fluid is None else modes.fluid.name
+    ax.set_title(f"bending modes in {medium}{' with gravity' if modes.gravity else ''}",
+                 fontsize="medium")
+    ax.set_xlabel("lateral displacement (tip = 1)")
+    ax.set_ylabel("arc length from the base (mm)")
+    ax.legend(fontsize="small")
     return fig
