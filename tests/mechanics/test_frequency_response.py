@@ -116,12 +116,3 @@ def test_result_protocol() -> None:
     assert "bandwidth" in repr(r) and "static sensitivity" in r.report()
     assert r.table()[1]["frequency_Hz"] == 100.0
 
-
-def test_bode_figure_draws_each_response(tmp_path: Path) -> None:
-    from magcilia.report.dynamics import bode_figure
-
-    curves = [mc.frequency_response(SENSOR, FREQ[::10], fluid=f) for f in ("air", "water")]
-    fig = bode_figure(curves)
-    assert len(fig.axes) == 2 and len(fig.axes[0].get_lines()) >= 2
-    fig.savefig(tmp_path / "bode.png")
-    assert (tmp_path / "bode.png").stat().st_size > 1000

@@ -33,8 +33,8 @@ def bode_figure(responses: Sequence[FrequencyResponse],
     for k, r in enumerate(responses):
         m = r.modes
         label = (labels[k] if labels is not None else
-                 f"{'vacuum' if m.fluid is None else m.fluid.name}: f₁ {m.frequencies[0]:.4g} Hz, "
-                 f"ζ₁ {m.damping_ratios[0]:.2g}")
+                 f"{'vacuum' if m.fluid is None else m.fluid.name}: $f_1$ "
+                 f"{m.frequencies[0]:.4g} Hz, $\\zeta_1$ {m.damping_ratios[0]:.2g}")
         line, = mag.semilogx(r.frequencies, r.magnitude_db, label=label)
         ph.semilogx(r.frequencies, np.degrees(r.phase), color=line.get_color())
         if math.isfinite(r.bandwidth) and r.frequencies[0] <= r.bandwidth <= r.frequencies[-1]:
