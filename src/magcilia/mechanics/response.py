@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -204,10 +205,15 @@ class _Model:
     sensitivity: float   # S, V per unit load
     modal_static: float  # Σ g_n Q_n(0) / κk_n
 
+    @cached_property
+    def shapes_at_points(self) -> F64:
+        """The mode shapes at the quadrature points, shape (n, q)."""
+        return self.model.grid.at_points(self.model.vectors)
+
     def loads(self, omega: F64) -> tuple[C128, C128]:
         """Modal loads Q_n(ω) and dynamic stiffnesses D_n(ω), shapes (n, w)."""
         m = self.model
-        phi = m.grid.at_points(m.vectors)  # (n, q)
+        phi = self.shapes_at_points
         w = m.grid.weight
         mass = np.repeat(m.structural_masses[:, None], omega.size, axis=1).astype(complex)
         damping = np.zeros((phi.shape[0], omega.size))
@@ -263,7 +269,7 @@ class _Model:
         if self.load == "force":
             b0, b1 = np.ones(m.size), np.zeros(m.size)
         else:
-            phi = self.model.grid.at_points(self.model.vectors)
+            phi = self.shapes_at_points
             w = self.model.grid.weight
             b0 = (phi * w) @ self.drag_slope
             b1 = np.array([(phi[n] * w) @ self._flow_inertia(omega_n[n:n + 1])[0]
