@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
+from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number, si
@@ -351,14 +352,21 @@ def _fluid_modes(grid: Mesh, lam: F64, vec: F64, fluid: Fluid,
 
     omegas, shapes, dampings = np.empty(count), np.empty((count, vec.shape[0])), np.empty(count)
     for n in range(count):
-        x0 = 0.5 * math.log(lam[n])
-        h0 = x0 - 0.5 * math.log(reduced(math.exp(x0))[0][n])
+        # h(x) = x − ½ ln λ_n(eˣ) rises with slope ½ … 1 (the added mass falls at most as 1/ω)
+        # and is ≥ 0 at the vacuum frequency: one root below it, found by the secant method
+        def h(x: float, n: int = n) -> float:
+            return x - 0.5 * math.log(reduced(math.exp(x))[0][n])
+
+        top = 0.5 * math.log(lam[n])
+        x0, h0 = top, h(top)
         x1 = x0 - h0
         for _ in range(60):
-            h1 = x1 - 0.5 * math.log(reduced(math.exp(x1))[0][n])
+            h1 = h(x1)
             if abs(h1) < 1e-12 or h1 == h0:
                 break
             x0, x1, h0 = x1, x1 - h1 * (x1 - x0) / (h1 - h0), h1
+        if not abs(h1) < 1e-9:  # a safe fallback: bisection-like on the bracket
+            x1 = float(brentq(h, top - 60.0, top, xtol=1e-13))
         omega = math.exp(x1)
         w2, x, c_r = reduced(omega)
         omegas[n] = math.sqrt(w2[n])
