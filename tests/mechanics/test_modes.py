@@ -213,6 +213,18 @@ def test_bad_input_names_the_value() -> None:
             mc.modes(SENSOR, **kwargs)  # type: ignore[arg-type]
 
 
+def test_the_modulus_uncertainty_is_carried() -> None:
+    """f ∝ √E in vacuum: the assumed modulus's ±27 % is ±13 % on every frequency."""
+    m = mc.modes(SENSOR)
+    assert m.modulus_source == "assumed"
+    assert m.modulus_sigma == pytest.approx(SENSOR.modulus.relative)
+    assert "every frequency ±13 %" in m.report()
+    up = mc.modes(SENSOR.replace(youngs_modulus=SENSOR.youngs_modulus * 1.21))
+    np.testing.assert_allclose(up.frequencies / m.frequencies, 1.1, rtol=1e-7)
+    exact = mc.modes(SENSOR.replace(youngs_modulus=5e5))
+    assert exact.modulus_sigma == 0.0 and "every frequency" not in exact.report()
+
+
 def test_result_protocol() -> None:
     m = mc.modes(SENSOR, "water", count=2)
     doc = m.to_dict()

@@ -102,6 +102,11 @@ class Modes(Display):
         Material loss factor η, dimensionless.
     elements : int
         Beam elements of the mesh.
+    modulus_sigma : float
+        Relative 1 σ of E (``setup.modulus``: the assumed modulus's ±27 %, a measured one's,
+        0 if exact): in vacuum every frequency scales as √E, so it carries half of it.
+    modulus_source : str
+        Where E comes from: "assumed", "measured" or "exact".
     """
 
     frequencies: F64
@@ -119,6 +124,8 @@ class Modes(Display):
     density: float = 0.0
     loss_factor: float = 0.0
     elements: int = ELEMENTS
+    modulus_sigma: float = 0.0
+    modulus_source: str = "exact"
 
     def __post_init__(self) -> None:
         for name in ("frequencies", "damping_ratios", "overdamped", "damped_frequencies", "arc",
@@ -169,6 +176,8 @@ class Modes(Display):
         return {"fluid": fluid, "gravity": self.gravity,
                 "youngs_modulus_Pa": self.youngs_modulus, "density_kg_per_m3": self.density,
                 "loss_factor": self.loss_factor, "elements": self.elements,
+                "modulus_sigma_relative": self.modulus_sigma,
+                "modulus_source": self.modulus_source,
                 "modes": self.table(), "arc_m": self.arc.tolist(),
                 "shapes": self.shapes.tolist()}
 
@@ -186,6 +195,11 @@ class Modes(Display):
                          f"ζ = {number(self.damping_ratios[n], 3)} ({state}), "
                          f"m = {number(self.modal_masses[n], 3)} kg, "
                          f"k = {number(self.modal_stiffnesses[n], 3)} N/m")
+        if self.modulus_sigma:
+            article = "an" if self.modulus_source == "assumed" else "a"
+            lines.append(f"  E from {article} {self.modulus_source} modulus "
+                         f"±{100 * self.modulus_sigma:.2g} %: every frequency "
+                         f"±{50 * self.modulus_sigma:.2g} % (f ∝ √E in vacuum)")
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
@@ -331,7 +345,8 @@ def modal_model(setup: Setup, medium: Fluid | None, gravity: bool, count: int, n
     arc = np.linspace(0.0, grid.nodes[-1], SAMPLES_PER_ELEMENT * n_el + 1)
     sampled = interpolate(grid, shapes, arc, "values")  # the elements' own cubics
     result = Modes(freq, zeta, over, damped, arc, sampled, masses, stiffnesses,
-                   dampings, medium, bool(gravity), modulus, density, eta, n_el)
+                   dampings, medium, bool(gravity), modulus, density, eta, n_el,
+                   setup.modulus.relative, setup.modulus.source)
     return ModalModel(result, grid, shapes, np.einsum("ki,ij,kj->k", shapes, mass, shapes))
 
 
