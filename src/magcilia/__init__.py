@@ -72,14 +72,19 @@ from magcilia.io import (
 from magcilia.live import LiveReadout
 from magcilia.mechanics import (
     AIR,
+    GLYCEROL,
     WATER,
     BentShape,
     Flow,
     Fluid,
+    FrequencyResponse,
+    Modes,
     SpatialBentShape,
     bend,
     bend_sweep,
     drag_coefficient,
+    frequency_response,
+    modes,
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
@@ -108,6 +113,7 @@ from magcilia.readout import (
 
 __all__ = [
     "AIR",
+    "GLYCEROL",
     "MAGNETOMETERS",
     "WATER",
     "ActuatedReadout",
@@ -132,6 +138,7 @@ __all__ = [
     "Fluid",
     "ForceFlag",
     "ForceVectorResult",
+    "FrequencyResponse",
     "LayoutWarning",
     "LiveReadout",
     "LookupTable",
@@ -142,6 +149,7 @@ __all__ = [
     "Measurement",
     "Metric",
     "MissingDependencyError",
+    "Modes",
     "Modulus",
     "OATResult",
     "ParameterCovariance",
@@ -170,9 +178,11 @@ __all__ = [
     "drag_coefficient",
     "exact_field",
     "field_for_loads",
+    "frequency_response",
     "load_array",
     "load_setup",
     "lookup_table",
+    "modes",
     "oat_sweep",
     "optimise_design",
     "piecewise_linear",

@@ -10,7 +10,13 @@
   :func:`slender_log` (the low-Re drag of a finite slender body standing on the wall);
 * :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference, and
   :func:`uniform_field_tip` (a uniform rod in a uniform perpendicular field, by quadrature);
-* :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance.
+* :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance;
+* :func:`modes` (:class:`Modes`): the bending modes, in vacuum or a fluid (Sader's hydrodynamic
+  function, :mod:`.hydrodynamic`), with or without the hair's own weight (:mod:`.modal`, on the
+  beam elements of :mod:`.beam`);
+* :func:`frequency_response` (:class:`FrequencyResponse`): the sensor's transfer from a tip force
+  or a flow to its output about a static operating point, its −3 dB bandwidth and settling time
+  (:mod:`.response`).
 
 Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z solver and sweeps),
 :mod:`.spatial` (loads in any direction, actuation, the 3-D rod, buckling), :mod:`.compliance`.
@@ -23,6 +29,7 @@ from magcilia.mechanics.compliance import frustum_compliance, tip_compliance
 from magcilia.mechanics.drag import (
     AIR,
     FLUIDS,
+    GLYCEROL,
     WATER,
     Fluid,
     drag_coefficient,
@@ -31,19 +38,24 @@ from magcilia.mechanics.drag import (
 )
 from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
 from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.modal import Modes, modes
 from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
+from magcilia.mechanics.response import FrequencyResponse, frequency_response
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.mechanics.spatial import buckling_load, flip_field
 
 __all__ = [
     "AIR",
     "FLUIDS",
+    "GLYCEROL",
     "SHARP_TIP",
     "WATER",
     "BentShape",
     "Flow",
     "Fluid",
+    "FrequencyResponse",
     "Load",
+    "Modes",
     "SpatialBentShape",
     "bend",
     "bend_3d",
@@ -53,7 +65,9 @@ __all__ = [
     "drag_coefficient",
     "drag_per_length",
     "flip_field",
+    "frequency_response",
     "frustum_compliance",
+    "modes",
     "output_at",
     "poses_at",
     "require_tip_radius",
