@@ -53,6 +53,8 @@ SIZE = ("height", "base_radius", "tip_radius")
 STEP = 1e-4
 #: the fixed-point iteration stops when the modal frequency matches to this fraction
 FREQUENCY_TOLERANCE = 1e-10
+#: the fitted decay rate must stand this many σ above zero (else: no decay)
+DECAY_SIGMAS = 3.0
 #: modulus used for the first modal solve where the setup has none, Pa
 START_MODULUS = 1e6
 
@@ -306,17 +308,19 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
     x0 = rf.first_guess(t, part[None, :], rate, np.array([seg.frequency]),
                         np.array([seg.noise]))
     if x0[0, 2] <= 0.0:
-        raise MagciliaError(f"{name}: no free oscillation: the signal after the flick does "
-                            f"not decay (decay rate {x0[0, 2]:.3g} 1/s); a ring-down needs an "
-                            "oscillation that dies away")
+        raise MagciliaError(f"{name}: no free oscillation: the signal after the flick grows or "
+                            f"holds (envelope decay rate {x0[0, 2]:.3g} 1/s); a ring-down "
+                            "needs an oscillation that dies away")
     if second_mode:
         x0 = _with_second_mode(t, part, rate, x0)
     fit = rf.fit_damped(t, part[None, :], x0)
     x, cov = fit.x[0], fit.covariance[0]
-    if not (x[2] > 0.0 and math.isfinite(fit.noise[0])):
+    if not (x[2] > DECAY_SIGMAS * math.sqrt(max(cov[2, 2], 0.0))
+            and math.isfinite(fit.noise[0])):
         raise MagciliaError(f"{name}: no free oscillation: the fitted decay rate is "
-                            f"{x[2]:.3g} 1/s (growing or steady); a ring-down needs an "
-                            "oscillation that dies away")
+                            f"{x[2]:.3g} ± {math.sqrt(max(cov[2, 2], 0.0)):.2g} 1/s (growing, "
+                            "or not decaying beyond its σ); a ring-down needs an oscillation "
+                            "that dies away")
     f = _fitted(x, cov)
     if f.frequency < 2.0 / ((seg.stop - seg.start) / rate):
         raise MagciliaError(f"{name}: the fitted oscillation spans fewer than 2 periods "

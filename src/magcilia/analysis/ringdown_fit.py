@@ -5,11 +5,12 @@ sinusoid on an offset, ``y(t) = c + e^(−γt) (a cos ωt + b sin ωt)``, until 
 sensor's noise. The steps (:func:`free_segment`, :func:`first_guess`, :func:`fit_damped`):
 
 1. **Segment.** The free oscillation starts at the largest deviation from the rest level (the
-   median of the record's last fifth), or just after it where the deviation is held (a
-   deflection held and released, or a clipped flick), and ends where its envelope (the
-   Hilbert transform's magnitude, averaged over one period) falls below
-   :data:`FLOOR_SIGMAS` × the noise σ (the robust spread before the flick, or of the
-   tail's sample-to-sample differences).
+   median of the record's last fifth), or where a deflection held there is released (the last
+   sample within :data:`FLOOR_SIGMAS` noise σ of the peak before the signal crosses the rest
+   level: a flick held and let go, or a clipped top), and ends where its envelope (the
+   largest deviation in blocks of one period) falls to the noise (:func:`floor`: at least
+   :data:`FLOOR_SIGMAS` × the noise σ, the robust spread before the flick or of the tail's
+   sample-to-sample differences).
 2. **First guess.** The frequency from the spectral peak of the segment (Hann window, zero
    padded, parabolic interpolation of the log magnitude); the decay rate from a straight line
    through the log of the envelope where it stands above the floor; ``a, b, c`` by linear least
@@ -36,7 +37,7 @@ from magcilia.fitting import fit_batch
 
 F64 = NDArray[np.float64]
 
-#: the envelope's end: this many noise σ (the Hilbert envelope of noise alone averages ≈ 1.25 σ)
+#: the envelope's end: at least this many noise σ (:func:`floor`)
 FLOOR_SIGMAS = 3.0
 #: fewest periods a ring-down must hold
 MIN_PERIODS = 2.0
@@ -44,6 +45,8 @@ MIN_PERIODS = 2.0
 CLIP_RUN = 3
 #: the spectral peak above this fraction of the sample rate is too close to the Nyquist frequency
 NYQUIST_FRACTION = 0.4
+#: the flick's largest deviation must stand this many noise σ above the rest level
+MIN_SIGNAL_SIGMAS = 10.0
 #: fewest samples before the flick for the noise σ from them (else from the tail)
 MIN_REST_SAMPLES = 64
 #: names of the fitted parameters (the second mode's four follow the first's with a ``2``)
@@ -131,24 +134,25 @@ def spectral_peak(y: ArrayLike, rate: float) -> F64:
     return np.asarray((k + np.clip(shift, -0.5, 0.5)) * rate / size, dtype=np.float64)
 
 
-def envelope(y: ArrayLike, rate: float, frequency: ArrayLike) -> F64:
-    """The envelope of each row of ``y`` (s, n) about zero: the magnitude of its analytic signal
-    averaged over one period of ``frequency`` (Hz, per row), same shape."""
-    from scipy.signal import hilbert
-
+def envelope(y: ArrayLike, rate: float, frequency: ArrayLike) -> tuple[F64, F64]:
+    """The envelope of each row of ``y`` (s, n) about zero: the largest ``|y|`` in blocks of one
+    period of ``frequency`` (Hz, the batch's median; a partial last block left out), with the
+    blocks' centre sample indices: (s, blocks) and (blocks,)."""
     y = np.atleast_2d(np.asarray(y, dtype=np.float64))
-    env = np.abs(hilbert(y, axis=1))
-    width = np.maximum(1, np.round(rate / np.asarray(frequency, dtype=np.float64)).astype(int))
-    width = np.broadcast_to(width, (y.shape[0],))
-    out = np.empty_like(env)
-    csum = np.concatenate([np.zeros((y.shape[0], 1)), np.cumsum(env, axis=1)], axis=1)
-    n = y.shape[1]
-    idx = np.arange(n)
-    for i, w in enumerate(width):  # one moving mean per row (rows of one batch share w)
-        lo = np.clip(idx - w // 2, 0, n)
-        hi = np.clip(idx - w // 2 + w, 0, n)
-        out[i] = (csum[i, hi] - csum[i, lo]) / np.maximum(hi - lo, 1)
-    return out
+    width = max(2, round(rate / float(np.median(np.asarray(frequency, dtype=np.float64)))))
+    blocks = max(1, y.shape[1] // width)
+    width = min(width, y.shape[1])
+    env = np.abs(y[:, : blocks * width]).reshape(y.shape[0], blocks, width).max(axis=2)
+    return env, np.arange(blocks) * width + 0.5 * (width - 1)
+
+
+def floor(noise: ArrayLike, rate: float, frequency: float) -> F64:
+    """Where the envelope of :func:`envelope` meets the noise: :data:`FLOOR_SIGMAS` noise σ, or
+    more where a period holds many samples (the largest of w samples of noise alone is
+    ≈ σ √(2 ln w))."""
+    w = max(rate / frequency, 2.0)
+    return np.asarray(noise, dtype=np.float64) * max(FLOOR_SIGMAS,
+                                                     math.sqrt(2.0 * math.log(w)) + 1.0)
 
 
 def noise_sigma(y: F64, peak: int) -> float:
@@ -179,17 +183,31 @@ def free_segment(y: ArrayLike, rate: float, start: int | None = None, *,
                             "of free oscillation, many samples each")
     rest = float(np.median(y[-max(y.size // 5, 8):]))
     dev = np.abs(y - rest)
-    if start is None:
-        peak = int(np.argmax(dev))
-        runs = np.flatnonzero(y[peak:] != y[peak])  # a held (or clipped) peak: start at release
-        start = peak + (int(runs[0]) - 1 if runs.size else 0)
-    else:
-        peak = start
+    found = start is None
+    if start is not None and not 0 <= start < y.size:
+        raise MagciliaError(f"{where}: the start (sample {start}) lies outside its {y.size} "
+                            "samples; give a start within the record")
+    peak = int(np.argmax(dev)) if start is None else start
+    noise = noise_sigma(y, peak)
+    largest = float(dev[peak:].max())
+    if largest < MIN_SIGNAL_SIGMAS * noise:
+        raise MagciliaError(
+            f"{where}: no free oscillation: the largest deviation from the rest level is "
+            f"{largest / noise:.3g} noise σ; a ring-down needs a flick that stands well "
+            f"above the noise (≥ {MIN_SIGNAL_SIGMAS:g} σ)")
+    if start is None:  # a held deflection (or a flat top): start where it is released
+        swing = (y[peak:] - rest) * np.sign(y[peak] - rest)
+        crossed = np.flatnonzero(swing < 0.0)
+        top = swing[: int(crossed[0]) if crossed.size else swing.size]
+        start = peak + int(np.flatnonzero(top >= top[0] - FLOOR_SIGMAS * noise)[-1])
+    if y.size - start < 16 and found:
+        raise MagciliaError(f"{where}: no free oscillation: the largest deviation comes at the "
+                            "end of the record (the signal grows, or the record stops during "
+                            "the flick); record the ring-down after the flick")
     if y.size - start < 16:
         raise MagciliaError(f"{where}: the free oscillation starts {y.size - start} samples "
                             "before the end; record longer after the flick (at least two "
                             "periods)")
-    noise = noise_sigma(y, peak)
     seg = y[start:] - rest
     f0 = float(spectral_peak(seg, rate)[0])
     if f0 >= NYQUIST_FRACTION * rate:
@@ -197,9 +215,9 @@ def free_segment(y: ArrayLike, rate: float, start: int | None = None, *,
             f"{where}: the oscillation's frequency is at or beyond what {rate:g} samples/s "
             f"resolve (spectral peak {f0:.4g} Hz, Nyquist {rate / 2:g} Hz); sample at least "
             "five times faster than the ring-down's frequency")
-    env = envelope(seg, rate, f0)[0]
-    below = np.flatnonzero(env < FLOOR_SIGMAS * noise)
-    stop = start + (int(below[0]) if below.size else seg.size)
+    env, centre = envelope(seg, rate, f0)
+    below = np.flatnonzero(env[0] < floor(noise, rate, f0))
+    stop = start + (int(centre[below[0]]) if below.size else seg.size)
     return Segment(start, max(stop, start + 2), rest, noise, f0)
 
 
@@ -207,27 +225,28 @@ def first_guess(t: F64, y: F64, rate: float, frequency: F64 | None = None,
                 noise: F64 | None = None) -> F64:
     """Starting points ``[a, b, decay, omega, offset]`` (s, 5) for segments ``y`` (s, n) at
     times ``t`` (n,): the spectral peak (or ``frequency``, Hz, per row), the decay from a line
-    through the log envelope above :data:`FLOOR_SIGMAS` × ``noise`` (per row; the last tenth's
-    spread by default), and ``a, b, offset`` by linear least squares."""
+    through the log of the envelope's blocks that stand twice above its floor (:func:`floor` of
+    ``noise``, per row; the last tenth's spread by default), and ``a, b, offset`` by linear
+    least squares."""
     s, n = y.shape
     c0 = np.median(y[:, -max(n // 10, 4):], axis=1)
     f = spectral_peak(y, rate) if frequency is None else np.asarray(frequency, dtype=np.float64)
     f = np.broadcast_to(f, (s,))
-    env = envelope(y - c0[:, None], rate, f)
+    env, centre = envelope(y - c0[:, None], rate, f)
     if noise is None:
         noise = 1.4826 * np.median(np.abs(y[:, -max(n // 10, 4):] - c0[:, None]), axis=1)
-    floor = FLOOR_SIGMAS * np.broadcast_to(np.asarray(noise, dtype=np.float64), (s,))
-    period = np.maximum(1, (rate / f).astype(int))
-    use = (env > floor[:, None]) & (np.arange(n) >= (period // 2)[:, None]) \
-        & (np.arange(n) < n - (period // 2)[:, None])
-    use[use.sum(axis=1) < 4] = True  # too few above the floor: the whole segment
+    level = floor(np.broadcast_to(np.asarray(noise, dtype=np.float64), (s,)), rate,
+                  float(np.median(f)))
+    use = env > 2.0 * level[:, None]
+    use[use.sum(axis=1) < 2] = True  # too few blocks above the floor: all of them
     w = use.astype(np.float64)
+    tb = centre / rate
     logenv = np.log(np.maximum(env, 1e-300))
     sw = w.sum(axis=1)
-    tm = (w * t).sum(axis=1) / sw
+    tm = (w * tb).sum(axis=1) / sw
     lm = (w * logenv).sum(axis=1) / sw
-    slope = (w * (t - tm[:, None]) * (logenv - lm[:, None])).sum(axis=1) / np.maximum(
-        (w * (t - tm[:, None]) ** 2).sum(axis=1), 1e-300)
+    slope = (w * (tb - tm[:, None]) * (logenv - lm[:, None])).sum(axis=1) / np.maximum(
+        (w * (tb - tm[:, None]) ** 2).sum(axis=1), 1e-300)
     decay = -slope
     omega = 2.0 * np.pi * f
     e = np.exp(-decay[:, None] * t)
