@@ -193,6 +193,7 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
 FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_batch(  # issue 26
     lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
     [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
+FACTORIES["Modes"] = lambda: mc.modes(TAPERED, "water")  # issue 28: the cilium in time
 FACTORIES["RingdownResult"] = lambda: mc.ringdown(  # issue 28: a flicked cilium's ring-down
     0.1 + np.exp(-20.0 * np.arange(2000) / 5e3) * np.cos(2 * np.pi * 150.0 * np.arange(2000) / 5e3)
     + np.random.default_rng(0).normal(0.0, 1e-3, 2000), 5e3)

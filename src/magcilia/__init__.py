@@ -76,14 +76,17 @@ from magcilia.io import (
 from magcilia.live import LiveReadout
 from magcilia.mechanics import (
     AIR,
+    GLYCEROL,
     WATER,
     BentShape,
     Flow,
     Fluid,
+    Modes,
     SpatialBentShape,
     bend,
     bend_sweep,
     drag_coefficient,
+    modes,
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
@@ -112,6 +115,7 @@ from magcilia.readout import (
 
 __all__ = [
     "AIR",
+    "GLYCEROL",
     "MAGNETOMETERS",
     "WATER",
     "ActuatedReadout",
@@ -146,6 +150,7 @@ __all__ = [
     "Measurement",
     "Metric",
     "MissingDependencyError",
+    "Modes",
     "Modulus",
     "OATResult",
     "ParameterCovariance",
@@ -178,6 +183,7 @@ __all__ = [
     "load_array",
     "load_setup",
     "lookup_table",
+    "modes",
     "oat_sweep",
     "optimise_design",
     "piecewise_linear",

@@ -24,7 +24,7 @@ from magcilia.cli._common import (
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
-from magcilia.io.recordings import read_measurements
+from magcilia.io.recordings import FLUID_NAMES, read_measurements
 from magcilia.io.setup_files import load_priors
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
@@ -75,7 +75,7 @@ def _ringdown_priors(paths: tuple[str, ...]) -> dict[str, tuple[float, float]]:
               help="The modulus prior of a ring-down (the JSON `magcilia ringdown --setup ... "
                    "--json` prints; --model physical); --prior overrides it.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
-@click.option("--fluid", type=click.Choice(["water", "air"]), default="water", show_default=True,
+@click.option("--fluid", type=click.Choice(sorted(FLUID_NAMES)), default="water", show_default=True,
               help="Fluid of flow recordings (a flow_m_per_s column; --model physical).")
 @click.option("--posterior", is_flag=True,
               help="With --model physical: also sample the posterior of the geometry (emcee, "
