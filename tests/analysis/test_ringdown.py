@@ -74,10 +74,11 @@ def test_fit_sigma_covers_at_its_stated_rate(zeta: float, snr: float) -> None:
     rng = np.random.default_rng(7)
     fn, amp = 250.0, 1.0
     gamma, fd = zeta * 2 * math.pi * fn, fn * math.sqrt(1 - zeta**2)
-    t = np.arange(int(8.0 / gamma * RATE)) / RATE
+    rate = 20.0 * fn
+    t = np.arange(int(6.0 / gamma * rate)) / rate
     y = rf.damped_sinusoid(t, fd, gamma, amp, rng.uniform(0, 2 * math.pi, (SEEDS, 1)), 0.3)
     y = y + rng.normal(0.0, amp / snr, y.shape)
-    fit = rf.fit_damped(t, y, rf.first_guess(t, y, RATE))
+    fit = rf.fit_damped(t, y, rf.first_guess(t, y, rate))
     assert fit.converged.all()
     lo, hi = _band(SEEDS)
     for column, truth in ((3, 2 * math.pi * fd), (2, gamma)):
@@ -115,13 +116,13 @@ def test_vacuum_modulus_scales_with_the_square_of_the_frequency() -> None:
     f1 = _mode(None)[0]
     for ratio in (0.5, 1.0, 3.0):
         assert modulus_from_frequency(SETUP, ratio * f1) == pytest.approx(ratio**2 * E_TRUE,
-                                                                          rel=1e-9)
+                                                                          rel=1e-7)
 
 
 @pytest.mark.parametrize("fluid", ["air", "water"])
 def test_fluid_modulus_inverts_the_modal_model(fluid: str) -> None:
     f1 = _mode(fluid)[0]
-    assert modulus_from_frequency(SETUP, f1, fluid, start=3e6) == pytest.approx(E_TRUE, rel=1e-8)
+    assert modulus_from_frequency(SETUP, f1, fluid, start=3e6) == pytest.approx(E_TRUE, rel=1e-7)
 
 
 @pytest.mark.parametrize("fluid", ["air", "water"])
@@ -132,10 +133,11 @@ def test_modulus_recovered_and_covered_over_seeds(fluid: str) -> None:
     rng = np.random.default_rng(11)
     noise = 0.02 * _amplitude()
     gamma, fd = zeta * 2 * math.pi * fn, fn * math.sqrt(1 - zeta**2)
-    t = np.arange(int(min(6.0 / gamma, 1.0) * RATE)) / RATE
+    rate = 2000.0  # 15–25 samples a period: enough, and the batch stays small
+    t = np.arange(int(min(6.0 / gamma, 0.5) * rate)) / rate
     y = rf.damped_sinusoid(t, fd, gamma, _amplitude(), rng.uniform(0, 2 * math.pi, (SEEDS, 1)))
     y = y + rng.normal(0.0, noise, y.shape)
-    fit = rf.fit_damped(t, y, rf.first_guess(t, y, RATE))
+    fit = rf.fit_damped(t, y, rf.first_guess(t, y, rate))
     g, w = fit.x[:, 2], fit.x[:, 3]
     wn = np.hypot(g, w)
     c = fit.covariance
@@ -161,7 +163,7 @@ def test_ringdown_of_a_recording_gives_the_modulus(fluid: str) -> None:
     assert abs(r.youngs_modulus - E_TRUE) < 2 * r.youngs_modulus_sigma
     assert abs(r.damping_ratio - zeta) < 2 * r.damping_ratio_sigma + 1e-3 * zeta
     assert r.natural_frequency == pytest.approx(fn, rel=1e-2)
-    assert r.model_damping_ratio == pytest.approx(zeta, rel=1e-6)
+    assert r.model_damping_ratio == pytest.approx(zeta, rel=0.01)  # the fluid's, at the fit's E
     assert r.start == pytest.approx(0.15, abs=2e-3)  # released at the end of the hold
     assert r.fluid == fluid and r.periods >= 2
     assert r.dominant == "frequency" and set(r.modulus_terms) == {"frequency"}
@@ -223,11 +225,10 @@ def test_sample_rate_below_twice_the_mode_is_refused() -> None:
 
 
 def test_overdamped_fluid_is_said() -> None:
-    syrup = mc.Fluid(density=1260.0, viscosity=50.0, name="syrup")
-    assert mc.modes(SETUP, syrup).overdamped[0]
+    assert mc.modes(SETUP, "glycerol").overdamped[0]
     y = rf.damped_sinusoid(np.arange(4000) / RATE, 200.0, 10.0, 1.0)
-    with pytest.raises(MagciliaError, match="overdamped in syrup"):
-        ringdown(y, RATE, setup=SETUP, fluid=syrup)
+    with pytest.raises(MagciliaError, match="overdamped in glycerol"):
+        ringdown(y, RATE, setup=SETUP, fluid="glycerol")
 
 
 def test_bad_arguments_are_one_line_errors() -> None:

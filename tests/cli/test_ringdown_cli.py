@@ -27,15 +27,16 @@ def _samples(fluid: str = "air", seed: int = 0) -> tuple[np.ndarray, np.ndarray]
     fn, zeta = float(m.frequencies[0]), float(m.damping_ratios[0])
     gamma = zeta * 2 * math.pi * fn
     t = np.arange(int((0.15 + min(10.0 / gamma, 2.0)) * RATE)) / RATE
-    amp = 2e-3
+    rest, tilted = SETUP.output(np.radians([0.0, 2.0]))  # a flick: the tip ~0.1 mm aside
+    amp = float(tilted - rest)
     ring = damped_sinusoid(t - 0.15, fn * math.sqrt(1 - zeta**2), gamma, amp)
     y = np.where(t < 0.1, 0.0, np.where(t < 0.15, amp, ring))
-    return t, 0.05 + y + np.random.default_rng(seed).normal(0.0, 2e-5, t.size)
+    return t, rest + y + np.random.default_rng(seed).normal(0.0, 0.01 * abs(amp), t.size)
 
 
 def _csv(path: Path, t: np.ndarray, y: np.ndarray) -> Path:
-    path.write_text("time_s,voltage_V\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(t, y,
-                                                                                   strict=True)))
+    rows = zip(t.tolist(), y.tolist(), strict=True)
+    path.write_text("time_s,voltage_V\n" + "".join(f"{a!r},{b!r}\n" for a, b in rows))
     return path
 
 
@@ -85,9 +86,9 @@ def test_tdms_recording_and_size_sigma_from_the_setup_file(
 
 
 @pytest.mark.parametrize(("make", "args", "words"), [
-    (lambda t, y: (t, np.clip(y, None, 0.0512)), (), "clipped"),
-    (lambda t, y: (t[:1700], y[:1700]), (), "periods"),
-    (lambda t, y: (t, 0.05 + 2e-5 * np.random.default_rng(0).normal(size=t.size)), (),
+    (lambda t, y: (t, np.clip(y, None, np.quantile(y, 0.995))), (), "clipped"),
+    (lambda t, y: (t[:1620], y[:1620]), (), "periods"),
+    (lambda t, y: (t, y[0] + 1e-5 * np.random.default_rng(0).normal(size=t.size)), (),
      "no free oscillation"),
     (lambda t, y: (t, y), ("--fluid", "water", "--setup", "force-sensor"), None),
     (lambda t, y: (t, y), ("--size-sigma", "height=0.05"), "--size-sigma"),
@@ -108,9 +109,9 @@ def test_bad_input_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixt
 
 def test_missing_rate_and_columns_are_one_line(tmp_path: Path,
                                                capsys: pytest.CaptureFixture[str]) -> None:
-    t, y = _samples()
+    _, y = _samples()
     path = tmp_path / "v.csv"
-    path.write_text("voltage_V\n" + "".join(f"{b!r}\n" for b in y))
+    path.write_text("voltage_V\n" + "".join(f"{b!r}\n" for b in y.tolist()))
     code, _, err = _run(capsys, str(path))
     assert code == 2 and "--rate" in err and err.count("\n") == 1
     code, out, err = _run(capsys, str(path), "--rate", "10kHz", "--json")
@@ -128,20 +129,20 @@ def test_calibrate_takes_the_prior_from_the_ringdown_json(
     from magcilia.io import example_path
 
     rec = _csv(tmp_path / "flick.csv", *_samples())
-    code, out, _ = _run(capsys, str(rec), "--setup", "force-sensor", "--json")
+    _, out, _ = _run(capsys, str(rec), "--setup", "force-sensor", "--json")
     (tmp_path / "ringdown.json").write_text(out)
     doc = json.loads(out)
     seen: dict[str, Any] = {}
 
-    class Stop(Exception):
+    class StopError(Exception):
         pass
 
     def calibrate(*args: Any, **kwargs: Any) -> None:
         seen.update(kwargs)
-        raise Stop
+        raise StopError
 
     monkeypatch.setattr(cal, "calibrate", calibrate)
-    with pytest.raises(Stop):
+    with pytest.raises(StopError):
         cal.command.main(["--model", "physical", str(example_path()), "--out",
                           str(tmp_path / "cal"), "--prior-from", str(tmp_path / "ringdown.json")],
                          standalone_mode=False)

@@ -5,14 +5,14 @@ sinusoid on an offset, ``y(t) = c + e^(−γt) (a cos ωt + b sin ωt)``, until 
 sensor's noise. The steps (:func:`free_segment`, :func:`first_guess`, :func:`fit_damped`):
 
 1. **Segment.** The free oscillation starts at the largest deviation from the rest level (the
-   median of the record's last fifth), or where a deflection held there is released (the last
-   sample within :data:`FLOOR_SIGMAS` noise σ of the peak before the signal crosses the rest
-   level: a flick held and let go, or a clipped top), and ends where its envelope (the
-   largest deviation in blocks of one period) falls to the noise (:func:`floor`: at least
-   :data:`FLOOR_SIGMAS` × the noise σ, the robust spread before the flick or of the tail's
-   sample-to-sample differences).
-2. **First guess.** The frequency from the spectral peak of the segment (Hann window, zero
-   padded, parabolic interpolation of the log magnitude); the decay rate from a straight line
+   record's median: rest and ring-down outweigh a held flick), or where a deflection held
+   there is released (the last sample within :data:`FLOOR_SIGMAS` noise σ of the peak before
+   the signal crosses the rest level: a flick held and let go, or a clipped top), and ends
+   where its envelope (the largest deviation in blocks of one period) falls to the noise
+   (:func:`floor`: at least :data:`FLOOR_SIGMAS` × the noise σ, the robust spread before the
+   flick or of the tail's sample-to-sample differences).
+2. **First guess.** The frequency from the spectral peak of the segment (zero padded,
+   parabolic interpolation of the log magnitude); the decay rate from a straight line
    through the log of the envelope where it stands above the floor; ``a, b, c`` by linear least
    squares at that frequency and decay. Vectorised over many segments of one length.
 3. **Fit.** One :func:`magcilia.fitting.fit_batch` over all segments at once (analytic Jacobian;
@@ -118,14 +118,14 @@ def clipped_samples(y: ArrayLike) -> int:
 
 def spectral_peak(y: ArrayLike, rate: float) -> F64:
     """The frequency of the largest spectral peak of each row of ``y`` (s, n) or of ``y`` (n,),
-    Hz (mean removed, Hann window, zero padded to ≥ 4n, parabolic interpolation of the log
-    magnitude; the zero-frequency bin excluded)."""
+    Hz (mean removed, zero padded to ≥ 4n, parabolic interpolation of the log magnitude;
+    frequencies below two periods in the record excluded). No window: a ring-down tapers
+    itself, and a window would weight its decayed middle over its strong start."""
     y = np.atleast_2d(np.asarray(y, dtype=np.float64))
     n = y.shape[1]
     size = 1 << max(math.ceil(math.log2(max(n, 2))) + 2, 4)
-    w = np.hanning(n)
-    spec = np.abs(np.fft.rfft((y - y.mean(axis=1, keepdims=True)) * w, size, axis=1))
-    spec[:, :2] = 0.0
+    spec = np.abs(np.fft.rfft(y - y.mean(axis=1, keepdims=True), size, axis=1))
+    spec[:, : max(2, math.ceil(MIN_PERIODS * size / n))] = 0.0  # fewer than two periods
     k = np.clip(np.argmax(spec, axis=1), 1, spec.shape[1] - 2)
     rows = np.arange(y.shape[0])
     lo, mid, hi = (np.log(spec[rows, k + d] + 1e-300) for d in (-1, 0, 1))
@@ -181,7 +181,7 @@ def free_segment(y: ArrayLike, rate: float, start: int | None = None, *,
     if y.size < 16:
         raise MagciliaError(f"{where}: {y.size} samples; a ring-down needs at least two periods "
                             "of free oscillation, many samples each")
-    rest = float(np.median(y[-max(y.size // 5, 8):]))
+    rest = float(np.median(y))
     dev = np.abs(y - rest)
     found = start is None
     if start is not None and not 0 <= start < y.size:

@@ -17,6 +17,7 @@ from magcilia.cli._common import (
 )
 from magcilia.device.parameters import PARAMETERS
 from magcilia.io.setup_files import load_priors
+from magcilia.mechanics.drag import FLUIDS
 from magcilia.units import dimension_words, parse_values
 
 
@@ -45,7 +46,7 @@ def _size_sigma(items: tuple[str, ...]) -> dict[str, float]:
 @click.argument("recording", type=click.Path(dir_okay=False))
 @setup_option("The cilium whose size turns the frequency into a modulus (without it: frequency, "
               "decay and damping ratio only)", positional=False, optional=True)
-@click.option("--fluid", type=click.Choice(["air", "water", "vacuum"]), default="air",
+@click.option("--fluid", type=click.Choice([*sorted(FLUIDS), "vacuum"]), default="air",
               show_default=True,
               help="The fluid around the hair: its added mass lowers the frequency (the modal "
                    "model, Sader's hydrodynamic function).")
