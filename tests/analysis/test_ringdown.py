@@ -270,3 +270,50 @@ def test_prior_round_trips_through_json_and_the_option(tmp_path) -> None:
     path.write_text(json.dumps({"kind": "calibration"}))
     with pytest.raises(MagciliaError, match="not a ring-down"):
         ringdown_prior(path)
+
+
+def test_joint_fit_with_the_ringdown_prior_pulls_the_modulus_to_the_truth() -> None:
+    """Tilts at two azimuths and a tip-force sweep (3-axis field, the joint fit of
+    tests/calibration/test_joint_loads.py, smaller) leave E loose (≈ 40 %: E and the size trade
+    off); the ring-down's prior (size known to 0.05 mm and 5 µm) pins it to the truth."""
+    from magcilia.calibration.joint import PhysicalLayout, calibrate_joint
+    from magcilia.io.recordings import Measurement
+
+    truth = mc.Setup.paper(ring="rms", tip_radius=5e-5, youngs_modulus=E_TRUE).replace(
+        n_loops=16, dipoles_per_loop=5)
+    initial = truth.replace(height=3.0e-3, base_radius=0.2e-3, x=1.0e-3, y=1.5e-3, z=0.5e-3,
+                            youngs_modulus=2.5e6)
+    rng = np.random.default_rng(1)
+    noise = 0.2e-6  # T
+
+    def measurement(b: np.ndarray, name: str, phi: float = 0.0,
+                    angles: np.ndarray | None = None, **loads: np.ndarray) -> Measurement:
+        a = b.shape[0]
+        return Measurement(
+            angles=np.zeros(a) if angles is None else angles, volts=np.full(a, np.nan),
+            sem=np.full(a, np.nan), counts=np.full(a, 100), saturated=np.zeros(a, np.int64),
+            nonfinite=np.zeros(a, np.int64), source=name, azimuths=np.full(a, phi),
+            fields=b + rng.normal(0.0, 10e-6, 3) + rng.normal(0.0, noise, b.shape),
+            field_sem=np.full((a, 3), noise), **loads)
+
+    angles, forces = np.radians(np.linspace(0.0, 80.0, 9)), np.linspace(0.0, 2e-5, 5)
+    data = [measurement(truth.field(angles, azimuth=phi), f"tilt{i}", phi, angles)
+            for i, phi in enumerate((0.0, math.pi / 2))]
+    data.append(measurement(truth.field(mc.bend_sweep(truth, forces=forces)), "force",
+                            forces=forces))
+    m = mc.modes(truth, "air")
+    fn, zeta = float(m.frequencies[0]), float(m.damping_ratios[0])
+    t = np.arange(7500) / 5000.0
+    y = rf.damped_sinusoid(t, fn * math.sqrt(1 - zeta**2), zeta * 2 * math.pi * fn, 1e-3)
+    ring = ringdown(y + np.random.default_rng(2).normal(0.0, 2e-5, t.size), 5000.0,
+                    setup=truth, fluid="air", size_sigma={"height": 0.05e-3, "base_radius": 5e-6})
+    p = ring.prior()
+    loose = calibrate_joint(data, initial, rng=0, layout=PhysicalLayout(16, 5))
+    pinned = calibrate_joint(data, initial, rng=0, layout=PhysicalLayout(16, 5),
+                             priors={p.name: (p.value, p.sigma)})
+    e0, s0 = loose.values["youngs_modulus"], loose.stderr["youngs_modulus"]
+    e1, s1 = pinned.values["youngs_modulus"], pinned.stderr["youngs_modulus"]
+    assert s0 > 0.25 * E_TRUE  # the loads alone leave the modulus loose
+    assert s1 < min(0.3 * s0, 1.05 * p.sigma)
+    assert abs(e1 - E_TRUE) < 2 * s1
+    assert abs(e1 - E_TRUE) < abs(e0 - E_TRUE)
