@@ -4,8 +4,10 @@ and the modulus handed to the calibration as a prior.
 
 Synthetic ring-downs: the force-sensor cilium (examples/force-sensor.toml) at E = 0.5 MPa, its
 first mode in air and in water from the modal model (``mc.modes``: undamped frequency with the
-added mass, damping ratio), simulated as that mode's damped sinusoid on the output's rest level
-plus white noise, after a flick held and released. The coverage tests fit 200 seeds at once
+added mass, damping ratio), simulated as that mode's damped sinusoid (the output swing of a 2°
+tilt, ~46 µV) on the output's rest level plus the sensor's noise (``Sensor.noise``: the
+HMC1021Z's white + 1/f, 5–11 % of the swing per sample at 2–10 kHz), after a flick held and
+released. The coverage tests fit 200 seeds at once
 (``MAGCILIA_FUZZ=long``: 2000) and ask that the stated 2σ interval holds the truth at its
 stated rate (95.4 %; a binomial 3.4 σ band around it).
 """
@@ -51,9 +53,10 @@ def _amplitude() -> float:
     return float(abs(out[1] - out[0]))
 
 
-def _record(fn: float, zeta: float, noise: float, rng: np.random.Generator, seeds: int = 1,
-            *, rest: float = 0.1, hold: float = 0.05, ring: float | None = None) -> np.ndarray:
-    """Records (seeds, n): rest, a held deflection, then the mode rings down, plus white noise."""
+def _record(fn: float, zeta: float, rng: np.random.Generator, seeds: int = 1, *,
+            rest: float = 0.1, hold: float = 0.05, ring: float | None = None) -> np.ndarray:
+    """Records (seeds, n): rest, a held deflection, then the mode rings down, plus the sensor's
+    noise (the HMC1021Z's white + 1/f, :meth:`Sensor.noise`)."""
     gamma = zeta * 2 * math.pi * fn
     fd = fn * math.sqrt(1 - zeta**2)
     ring = ring if ring is not None else min(12.0 / gamma, 4.0)
@@ -63,7 +66,7 @@ def _record(fn: float, zeta: float, noise: float, rng: np.random.Generator, seed
     free = rf.damped_sinusoid(t - rest - hold, fd, gamma, amp, phase)
     y = np.where(t < rest, 0.0, np.where(t < rest + hold, amp * np.cos(phase), free))
     offset = float(SETUP.output(np.zeros(1))[0])
-    return np.asarray(offset + y + rng.normal(0.0, noise, (seeds, t.size)))
+    return np.asarray(offset + y + SETUP.sensor.noise(t.size, RATE, rng, size=seeds))
 
 
 # -- the fit alone: σ that covers ------------------------------------------------------------------
@@ -131,12 +134,11 @@ def test_modulus_recovered_and_covered_over_seeds(fluid: str) -> None:
     the seeds, E from the modal model (three exact inversions, interpolated in log-log)."""
     fn, zeta = _mode(fluid)
     rng = np.random.default_rng(11)
-    noise = 0.02 * _amplitude()
     gamma, fd = zeta * 2 * math.pi * fn, fn * math.sqrt(1 - zeta**2)
     rate = 2000.0  # 15–25 samples a period: enough, and the batch stays small
     t = np.arange(int(min(6.0 / gamma, 0.5) * rate)) / rate
     y = rf.damped_sinusoid(t, fd, gamma, _amplitude(), rng.uniform(0, 2 * math.pi, (SEEDS, 1)))
-    y = y + rng.normal(0.0, noise, y.shape)
+    y = y + SETUP.sensor.noise(t.size, rate, rng, size=SEEDS)  # white + 1/f, V
     fit = rf.fit_damped(t, y, rf.first_guess(t, y, rate))
     g, w = fit.x[:, 2], fit.x[:, 3]
     wn = np.hypot(g, w)
@@ -158,20 +160,23 @@ def test_modulus_recovered_and_covered_over_seeds(fluid: str) -> None:
 def test_ringdown_of_a_recording_gives_the_modulus(fluid: str) -> None:
     fn, zeta = _mode(fluid)
     rng = np.random.default_rng(5)
-    y = _record(fn, zeta, 0.01 * _amplitude(), rng)[0]
+    y = _record(fn, zeta, rng)[0]
     r = ringdown(y, RATE, setup=SETUP, fluid=fluid)
-    assert abs(r.youngs_modulus - E_TRUE) < 2 * r.youngs_modulus_sigma
-    assert abs(r.damping_ratio - zeta) < 2 * r.damping_ratio_sigma + 1e-3 * zeta
-    assert r.natural_frequency == pytest.approx(fn, rel=1e-2)
-    assert r.model_damping_ratio == pytest.approx(zeta, rel=0.01)  # the fluid's, at the fit's E
-    assert r.start == pytest.approx(0.15, abs=2e-3)  # released at the end of the hold
+    # one seed: within 3σ (the 2σ coverage over seeds is the test above)
+    assert abs(r.youngs_modulus - E_TRUE) < 3 * r.youngs_modulus_sigma
+    assert abs(r.damping_ratio - zeta) < 3 * r.damping_ratio_sigma
+    assert abs(r.natural_frequency - fn) < 3 * r.natural_frequency_sigma
+    assert r.model_damping_ratio == pytest.approx(zeta, rel=0.05)  # the fluid's, at the fit's E
+    # after the release at the end of the hold (0.15 s), within a few periods (a noisy later
+    # crest may stand highest in air)
+    assert 0.15 < r.start < 0.15 + 3.0 / fn
     assert r.fluid == fluid and r.periods >= 2
     assert r.dominant == "frequency" and set(r.modulus_terms) == {"frequency"}
 
 
 def test_size_sigma_propagates_and_dominates() -> None:
     fn, zeta = _mode("air")
-    y = _record(fn, zeta, 0.01 * _amplitude(), np.random.default_rng(2))[0]
+    y = _record(fn, zeta, np.random.default_rng(2))[0]
     bare = ringdown(y, RATE, setup=SETUP, fluid="air")
     sized = ringdown(y, RATE, setup=SETUP, fluid="air",
                      size_sigma={"height": 0.05e-3, "base_radius": 5e-6})
@@ -199,8 +204,8 @@ BAD = {
                 "no free oscillation"),
     "clipped": (lambda t, rng: np.clip(rf.damped_sinusoid(t, 200.0, 10.0, 1.0), -0.6, 0.6),
                 "clipped"),
-    "too short": (lambda t, rng: np.r_[rf.damped_sinusoid(t[:200], 12.0, 1.0, 1.0),
-                                       rng.normal(0.0, 1e-3, t.size - 200)], "periods"),
+    "too short": (lambda t, rng: np.r_[np.zeros(t.size - 75), rf.damped_sinusoid(
+        t[:75], 200.0, 10.0, 1.0)] + rng.normal(0.0, 1e-3, t.size), "periods"),  # 1.5 periods
     "near Nyquist": (lambda t, rng: rf.damped_sinusoid(t, 4700.0, 50.0, 1.0)
                      + rng.normal(0.0, 1e-3, t.size), "Nyquist"),
 }
@@ -250,7 +255,7 @@ def test_prior_round_trips_through_json_and_the_option(tmp_path) -> None:
     from magcilia.cli._common import parse_priors
 
     fn, zeta = _mode("air")
-    r = ringdown(_record(fn, zeta, 0.01 * _amplitude(), np.random.default_rng(4))[0], RATE,
+    r = ringdown(_record(fn, zeta, np.random.default_rng(4))[0], RATE,
                  setup=SETUP, fluid="air")
     p = r.prior()
     assert isinstance(p, Prior) and p.name == "youngs_modulus"
@@ -261,7 +266,7 @@ def test_prior_round_trips_through_json_and_the_option(tmp_path) -> None:
     name, _, text = r.prior_option().removeprefix("--prior ").partition("=")
     back = parse_priors((f"{name}={text}",), ("youngs_modulus",))["youngs_modulus"]
     assert back == pytest.approx((p.value, p.sigma), rel=1e-5)
-    bare = ringdown(_record(fn, zeta, 0.01 * _amplitude(), np.random.default_rng(4))[0], RATE)
+    bare = ringdown(_record(fn, zeta, np.random.default_rng(4))[0], RATE)
     with pytest.raises(MagciliaError, match="no modulus"):
         bare.prior()
     path.write_text(json_text(bare.to_dict()))

@@ -288,7 +288,8 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
     first = None if start is None else round(v.non_negative("start", start, "s", "time") * rate)
     seg = rf.free_segment(y, rate, first, where=name)
     part = y[seg.start:seg.stop]
-    periods = (seg.stop - seg.start) / rate * seg.frequency
+    after = (y.size - seg.start) / rate  # the record after the flick, s
+    periods = after * seg.frequency
     clipped = rf.clipped_samples(part)
     if clipped == 0 and setup is not None and key == "voltage_V":
         from magcilia.io.reduction import beyond_range
@@ -299,10 +300,7 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
                             "(held at the record's extreme or beyond the sensor's range); "
                             "flick more gently or lower the gain")
     if periods < rf.MIN_PERIODS:
-        raise MagciliaError(f"{name}: the free oscillation above the noise lasts "
-                            f"{periods:.2g} periods ({(seg.stop - seg.start) / rate:.3g} s at "
-                            f"{seg.frequency:.4g} Hz); a ring-down needs at least "
-                            f"{rf.MIN_PERIODS:g}: record longer or with less noise")
+        raise _too_short(name, periods, after, seg.frequency)
     t = np.arange(part.size) / rate
     x0 = rf.first_guess(t, part[None, :], rate, np.array([seg.frequency]),
                         np.array([seg.noise]))
@@ -321,10 +319,8 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
                             "or not decaying beyond its σ); a ring-down needs an oscillation "
                             "that dies away")
     f = _fitted(x, cov)
-    if f.frequency < 2.0 / ((seg.stop - seg.start) / rate):
-        raise MagciliaError(f"{name}: the fitted oscillation spans fewer than 2 periods "
-                            f"({f.frequency:.4g} Hz over {(seg.stop - seg.start) / rate:.3g} "
-                            "s); record longer")
+    if f.frequency * after < rf.MIN_PERIODS:
+        raise _too_short(name, f.frequency * after, after, f.frequency)
     extra: dict[str, Any] = {}
     if setup is not None:
         e, sigma, terms, zeta_model = _modulus_with_sigma(setup, f, flu, gravity, sizes)
@@ -341,6 +337,13 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
         offset=float(x[4]), noise=float(fit.noise[0]), unit=unit, rate=rate,
         start=seg.start / rate, duration=(seg.stop - seg.start) / rate,
         samples=seg.stop - seg.start, fluid=_fluid_name(flu), source=name, **extra)
+
+
+def _too_short(name: str, periods: float, after: float, frequency: float) -> MagciliaError:
+    """The error for a record that ends too soon after the flick."""
+    return MagciliaError(f"{name}: the record holds {periods:.2g} periods after the flick "
+                         f"({after:.3g} s at {frequency:.4g} Hz); a ring-down needs at least "
+                         f"{rf.MIN_PERIODS:g}: record longer after the flick")
 
 
 def _with_second_mode(t: F64, y: F64, rate: float, x0: F64) -> F64:

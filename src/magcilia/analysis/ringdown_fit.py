@@ -4,13 +4,14 @@ A flick or a coil pulse makes the cilium ring; the output (or a field channel) i
 sinusoid on an offset, ``y(t) = c + e^(−γt) (a cos ωt + b sin ωt)``, until it sinks into the
 sensor's noise. The steps (:func:`free_segment`, :func:`first_guess`, :func:`fit_damped`):
 
-1. **Segment.** The free oscillation starts at the largest deviation from the rest level (the
-   record's median: rest and ring-down outweigh a held flick), or where a deflection held
-   there is released (the last sample within :data:`FLOOR_SIGMAS` noise σ of the peak before
-   the signal crosses the rest level: a flick held and let go, or a clipped top), and ends
-   where its envelope (the largest deviation in blocks of one period) falls to the noise
-   (:func:`floor`: at least :data:`FLOOR_SIGMAS` × the noise σ, the robust spread before the
-   flick or of the tail's sample-to-sample differences).
+1. **Segment.** The free oscillation starts at the last sample above half the largest
+   deviation from the rest level (the record's median: rest and ring-down outweigh a held
+   flick) before the signal first crosses that level: past the release of a deflection held
+   at the peak (a flick held and let go, or a clipped top) whatever the noise, and 60° of
+   phase before the crossing. It ends one period after its envelope (the largest deviation
+   in blocks of one period) falls to the noise (:func:`floor`: at least :data:`FLOOR_SIGMAS`
+   × the noise σ, the robust spread before the flick or of the tail's sample-to-sample
+   differences), but not before :data:`FIT_PERIODS` periods where the record holds them.
 2. **First guess.** The frequency from the spectral peak of the segment (zero padded,
    parabolic interpolation of the log magnitude); the decay rate from a straight line
    through the log of the envelope where it stands above the floor; ``a, b, c`` by linear least
@@ -39,14 +40,18 @@ F64 = NDArray[np.float64]
 
 #: the envelope's end: at least this many noise σ (:func:`floor`)
 FLOOR_SIGMAS = 3.0
+#: fewest periods fitted where the record holds them (a heavily damped ring-down sinks into the
+#: noise within a period or two; the samples after it still pin its decay)
+FIT_PERIODS = 4.0
 #: fewest periods a ring-down must hold
 MIN_PERIODS = 2.0
 #: a run of at least this many equal samples at the segment's extreme is a clipped one
 CLIP_RUN = 3
 #: the spectral peak above this fraction of the sample rate is too close to the Nyquist frequency
 NYQUIST_FRACTION = 0.4
-#: the flick's largest deviation must stand this many noise σ above the rest level
-MIN_SIGNAL_SIGMAS = 10.0
+#: the flick's largest deviation must stand this many noise σ above the rest level (noise alone
+#: reaches 6 σ once in ~5e8 samples)
+MIN_SIGNAL_SIGMAS = 6.0
 #: fewest samples before the flick for the noise σ from them (else from the tail)
 MIN_REST_SAMPLES = 64
 #: names of the fitted parameters (the second mode's four follow the first's with a ``2``)
@@ -119,13 +124,13 @@ def clipped_samples(y: ArrayLike) -> int:
 def spectral_peak(y: ArrayLike, rate: float) -> F64:
     """The frequency of the largest spectral peak of each row of ``y`` (s, n) or of ``y`` (n,),
     Hz (mean removed, zero padded to ≥ 4n, parabolic interpolation of the log magnitude;
-    frequencies below two periods in the record excluded). No window: a ring-down tapers
+    frequencies below one period in the record excluded). No window: a ring-down tapers
     itself, and a window would weight its decayed middle over its strong start."""
     y = np.atleast_2d(np.asarray(y, dtype=np.float64))
     n = y.shape[1]
     size = 1 << max(math.ceil(math.log2(max(n, 2))) + 2, 4)
     spec = np.abs(np.fft.rfft(y - y.mean(axis=1, keepdims=True), size, axis=1))
-    spec[:, : max(2, math.ceil(MIN_PERIODS * size / n))] = 0.0  # fewer than two periods
+    spec[:, : max(2, math.ceil(size / n))] = 0.0  # less than one period in the record
     k = np.clip(np.argmax(spec, axis=1), 1, spec.shape[1] - 2)
     rows = np.arange(y.shape[0])
     lo, mid, hi = (np.log(spec[rows, k + d] + 1e-300) for d in (-1, 0, 1))
@@ -195,11 +200,11 @@ def free_segment(y: ArrayLike, rate: float, start: int | None = None, *,
             f"{where}: no free oscillation: the largest deviation from the rest level is "
             f"{largest / noise:.3g} noise σ; a ring-down needs a flick that stands well "
             f"above the noise (≥ {MIN_SIGNAL_SIGMAS:g} σ)")
-    if start is None:  # a held deflection (or a flat top): start where it is released
+    if start is None:  # a held deflection (or a flat top): start just after its release
         swing = (y[peak:] - rest) * np.sign(y[peak] - rest)
         crossed = np.flatnonzero(swing < 0.0)
         top = swing[: int(crossed[0]) if crossed.size else swing.size]
-        start = peak + int(np.flatnonzero(top >= top[0] - FLOOR_SIGMAS * noise)[-1])
+        start = peak + int(np.flatnonzero(top >= 0.5 * top[0])[-1])
     if y.size - start < 16 and found:
         raise MagciliaError(f"{where}: no free oscillation: the largest deviation comes at the "
                             "end of the record (the signal grows, or the record stops during "
@@ -217,7 +222,9 @@ def free_segment(y: ArrayLike, rate: float, start: int | None = None, *,
             "five times faster than the ring-down's frequency")
     env, centre = envelope(seg, rate, f0)
     below = np.flatnonzero(env[0] < floor(noise, rate, f0))
-    stop = start + (int(centre[below[0]]) if below.size else seg.size)
+    period = rate / f0
+    end = int(centre[below[0]] + period) if below.size else seg.size
+    stop = start + min(seg.size, max(end, round(FIT_PERIODS * period)))
     return Segment(start, max(stop, start + 2), rest, noise, f0)
 
 
