@@ -49,7 +49,7 @@ def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]
 def test_ringdown_json_gives_the_modulus(tmp_path: Path,
                                          capsys: pytest.CaptureFixture[str]) -> None:
     rec = _csv(tmp_path / "flick.csv", *_samples())
-    code, out, err = _run(capsys, str(rec), "--setup", "force-sensor", "--json")
+    code, out, err = _run(capsys, str(rec), "--setup", "force-sensor", "--fluid", "air", "--json")
     assert code == 0, err
     doc = json.loads(out)
     assert doc["kind"] == "ringdown" and doc["units"] == "SI" and doc["fluid"] == "air"
@@ -57,7 +57,7 @@ def test_ringdown_json_gives_the_modulus(tmp_path: Path,
     assert doc["prior"]["name"] == "youngs_modulus"
     assert doc["calibrate_option"].startswith("--prior youngs_modulus=0.5")
     # the report: MPa at the edge, the damping ratio with σ, the prior's option
-    code, out, _ = _run(capsys, str(rec), "--setup", "force-sensor")
+    code, out, _ = _run(capsys, str(rec), "--setup", "force-sensor", "--fluid", "air")
     assert code == 0
     assert "MPa" in out and "damping ratio" in out and "--prior youngs_modulus=" in out
 
@@ -75,13 +75,13 @@ def test_tdms_recording_and_size_sigma_from_the_setup_file(
     height = SETUP.cilium.height * 1e3
     setup.write_text(setup.read_text() + f'\n[priors]\nheight = "{height!r} mm +- 0.05 mm"\n')
     code, out, err = _run(capsys, str(tmp_path / "flick.tdms"), "--setup", str(setup),
-                          "--json")
+                          "--fluid", "air", "--json")
     assert code == 0, err
     doc = json.loads(out)
     assert doc["dominant"] == "height"
     assert abs(doc["youngs_modulus_Pa"] - E_TRUE) < 2 * doc["youngs_modulus_sigma_Pa"]
     code, out, err = _run(capsys, str(tmp_path / "flick.tdms"), "--setup", str(setup),
-                          "--size-sigma", "height=0.01", "--json")
+                          "--fluid", "air", "--size-sigma", "height=0.01", "--json")
     assert json.loads(out)["youngs_modulus_sigma_Pa"] < doc["youngs_modulus_sigma_Pa"] / 3
 
 
@@ -113,10 +113,10 @@ def test_missing_rate_and_columns_are_one_line(tmp_path: Path,
     path = tmp_path / "v.csv"
     path.write_text("voltage_V\n" + "".join(f"{b!r}\n" for b in y.tolist()))
     code, _, err = _run(capsys, str(path))
-    assert code == 2 and "--rate" in err and err.count("\n") == 1
-    code, out, err = _run(capsys, str(path), "--rate", "10kHz", "--json")
+    assert code == 2 and "--source-rate" in err and err.count("\n") == 1
+    code, out, err = _run(capsys, str(path), "--source-rate", "10kHz", "--json")
     assert code == 0 and json.loads(out)["rate_Hz"] == RATE
-    code, _, err = _run(capsys, str(path), "--rate", "10kHz", "--channel", "field_x")
+    code, _, err = _run(capsys, str(path), "--source-rate", "10kHz", "--channel", "field_x")
     assert code == 2 and "field_x_T" in err and err.count("\n") == 1
 
 
@@ -129,7 +129,7 @@ def test_calibrate_takes_the_prior_from_the_ringdown_json(
     from magcilia.io import example_path
 
     rec = _csv(tmp_path / "flick.csv", *_samples())
-    _, out, _ = _run(capsys, str(rec), "--setup", "force-sensor", "--json")
+    _, out, _ = _run(capsys, str(rec), "--setup", "force-sensor", "--fluid", "air", "--json")
     (tmp_path / "ringdown.json").write_text(out)
     doc = json.loads(out)
     seen: dict[str, Any] = {}

@@ -153,13 +153,13 @@ def _series(recording: Any, rate: float | None, channel: str | None,
         if key not in cols:
             raise MagciliaError(f"{recording}: no {key} column (it has "
                                 f"{', '.join(cols) or 'none'}); choose the channel with "
-                                "channel= (--channel)")
+                                "channel= (--channel: voltage, field_x, field_y, field_z)")
         y = cols[key]
         if rate is None:
             times = cols.get("time_s")
             if times is None or times.size < 2:
                 raise MagciliaError(f"{recording}: no time_s column to take the sample rate "
-                                    "from; give the rate (rate=, --rate) in Hz")
+                                    "from; give the rate (rate=, --source-rate) in Hz")
             steps = np.diff(times)
             if not np.all(steps > 0):
                 raise MagciliaError(f"{recording}: time_s does not rise at every sample; a "

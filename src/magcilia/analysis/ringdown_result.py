@@ -150,7 +150,7 @@ class RingdownResult(Display):
         lines = [
             (f"ring-down of {self.source}: {self.periods:.1f} periods over "
              f"{si(self.duration, 's')} from t = {si(self.start, 's')} ({self.samples} samples "
-             f"at {number(self.rate, 4)} Hz; noise {si(self.noise, self.unit)})"),
+             f"at {self.rate:g} Hz; noise {si(self.noise, self.unit)})"),
             f"  damped frequency   {_pm(self.frequency, self.frequency_sigma)} Hz",
             f"  decay rate         {_pm(self.decay_rate, self.decay_rate_sigma)} 1/s",
             f"  natural frequency  {_pm(self.natural_frequency, self.natural_frequency_sigma)} Hz",
@@ -163,7 +163,7 @@ class RingdownResult(Display):
             f = e.display_factor
             modulus = _pm(self.youngs_modulus / f, self.youngs_modulus_sigma / f)
             lines.append(f"  Young's modulus    {modulus} {e.display} "
-                         f"({self.youngs_modulus:.4g} Pa; {self.fluid})")
+                         f"({self.youngs_modulus:.6g} Pa; {self.fluid})")
             terms = ", ".join(f"{k} {number(100 * s / self.youngs_modulus, 2)} %"
                               for k, s in sorted(self.modulus_terms.items(),
                                                  key=lambda kv: -kv[1]))
