@@ -361,3 +361,16 @@ def test_ring_down_of_an_independent_full_solve() -> None:
         assert abs(r_.youngs_modulus - E_TRUE) < 3 * r_.youngs_modulus_sigma
         assert abs(r_.damping_ratio - zeta) < 3 * r_.damping_ratio_sigma
     assert two.second_frequency == pytest.approx(omega[1] / (2 * math.pi), rel=0.01)
+
+
+def test_a_given_start_and_a_field_channel() -> None:
+    """``start=`` picks the segment (here a crest after the release: the same modulus within
+    σ), and a field channel (T) rings as the output does."""
+    fn, zeta = _mode("air")
+    y = _record(fn, zeta, np.random.default_rng(6))[0]
+    found = ringdown(y, RATE, setup=SETUP, fluid="air")
+    later = ringdown(y, RATE, setup=SETUP, fluid="air", start=0.15 + 5.0 / fn)
+    assert later.start == pytest.approx(0.15 + 5.0 / fn, abs=1.0 / RATE)
+    assert abs(later.youngs_modulus - found.youngs_modulus) < 3 * later.youngs_modulus_sigma
+    field = ringdown(y / SETUP.sensor.scale, RATE, channel="field_x")
+    assert field.unit == "T" and field.frequency == pytest.approx(found.frequency, rel=1e-7)
