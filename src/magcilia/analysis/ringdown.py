@@ -64,7 +64,8 @@ START_MODULUS = 1e6
 # -- the modal model: frequency ↔ modulus ---------------------------------------------------------
 
 def _fluid(fluid: Fluid | str | None) -> Fluid | None:
-    """A fluid by name (``air``, ``water``), a :class:`Fluid`, or None (vacuum)."""
+    """A fluid by name (:data:`magcilia.mechanics.drag.FLUIDS`, or ``"vacuum"``), a
+    :class:`Fluid`, or None (vacuum)."""
     if fluid is None or isinstance(fluid, Fluid):
         return fluid
     if isinstance(fluid, str) and fluid.lower() in ("vacuum", "none"):
@@ -143,10 +144,9 @@ def _series(recording: Any, rate: float | None, channel: str | None,
             reading: dict[str, Any]) -> tuple[F64, float, str, str, str]:
     """The time series, its rate (Hz), its unit, its channel key and its source name."""
     if isinstance(recording, (str, Path)):
-        from magcilia.io.recordings import read_recording
+        from magcilia.io.recordings import read_samples
 
-        raw = read_recording(recording, ("observable",), **reading)
-        cols = raw.columns
+        cols = read_samples(recording, ("observable",), **reading)  # notes logged as warnings
         if channel is None:
             channel = "voltage" if "voltage_V" in cols else "field_x"
         key, unit = CHANNELS[v.choice("channel", channel, tuple(CHANNELS))]
@@ -228,7 +228,7 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
     ----------
     recording : str, Path or array-like, shape (n,)
         A recording file (CSV, TDMS of ``magcilia record`` or ``live --record``, .mat, HDF5:
-        :func:`magcilia.io.read_recording`) with a time series of the output (``voltage_V``) or a
+        :func:`magcilia.io.read_samples`) with a time series of the output (``voltage_V``) or a
         field channel, or the samples themselves (V or T).
     rate : float, optional
         Sample rate, Hz (from the file's ``time_s`` by default; needed for an array).
@@ -249,7 +249,7 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
     size_sigma : mapping of str to float, optional
         1 σ of ``height``, ``base_radius``, ``tip_radius``, m: propagated into the modulus's σ.
     columns, delimiter, decimal, group : optional
-        How to read the file (:func:`magcilia.io.read_recording`: its column names and units,
+        How to read the file (:func:`magcilia.io.read_samples`: its column names and units,
         CSV delimiter and decimal mark, HDF5/TDMS group).
 
     Returns
