@@ -111,6 +111,9 @@ def test_second_mode_is_fitted_beside_the_first() -> None:
     assert two.second_frequency == pytest.approx(1250.0, rel=1e-3)
     assert two.second_decay_rate == pytest.approx(30.0, rel=0.05)
     assert two.noise < 0.5 * one.noise  # the second mode is signal, not noise
+    single = rf.damped_sinusoid(t, 200.0, 8.0, 1.0, 0.2) + rng.normal(0.0, 1e-3, t.size)
+    with pytest.raises(MagciliaError, match="no second mode"):
+        ringdown(single, RATE, second_mode=True)
 
 
 # -- the modulus ----------------------------------------------------------------------------------
@@ -241,7 +244,7 @@ def test_bad_arguments_are_one_line_errors() -> None:
     for kwargs, words in (({}, "rate"), ({"rate": -1.0}, "rate"),
                           ({"rate": RATE, "fluid": "honey"}, "fluid"),
                           ({"rate": RATE, "size_sigma": {"width": 1e-5}}, "size_sigma"),
-                          ({"rate": RATE, "start": 10.0}, "start")):
+                          ({"rate": RATE, "start": 10.0}, "start must be a time within")):
         with pytest.raises(MagciliaError, match=words):
             ringdown(y, **kwargs)  # type: ignore[arg-type]
     with pytest.raises(MagciliaError, match="not finite"):

@@ -94,7 +94,11 @@ def test_tdms_recording_and_size_sigma_from_the_setup_file(
     (lambda t, y: (t, y), ("--size-sigma", "height=0.05"), "--size-sigma"),
     (lambda t, y: (t, y), ("--setup", "force-sensor", "--size-sigma", "width=0.05"),
      "--size-sigma"),
-], ids=["clipped", "short", "noise", "wrong-fluid", "sigma-without-setup", "sigma-name"])
+    (lambda t, y: (t, y), ("--source-rate", "100"), "not the file's"),
+    (lambda t, y: (t, y), ("--start", "9"), "start must be a time within"),
+    (lambda t, y: (t, y), ("--second-mode",), "no second mode"),
+], ids=["clipped", "short", "noise", "wrong-fluid", "sigma-without-setup", "sigma-name",
+        "rate-mismatch", "start-beyond", "no-second-mode"])
 def test_bad_input_is_one_line_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                       make: Any, args: tuple[str, ...],
                                       words: str | None) -> None:

@@ -57,6 +57,8 @@ STEP = 1e-4
 FREQUENCY_TOLERANCE = 1e-8
 #: the fitted decay rate must stand this many σ above zero (else: no decay)
 DECAY_SIGMAS = 3.0
+#: the second mode is sought above this multiple of the first's frequency
+SECOND_MODE_ABOVE = 1.5
 #: modulus used for the first modal solve where the setup has none, Pa
 START_MODULUS = 1e6
 
@@ -155,11 +157,8 @@ def _series(recording: Any, rate: float | None, channel: str | None,
                                 f"{', '.join(cols) or 'none'}); choose the channel with "
                                 "channel= (--channel: voltage, field_x, field_y, field_z)")
         y = cols[key]
-        if rate is None:
-            times = cols.get("time_s")
-            if times is None or times.size < 2:
-                raise MagciliaError(f"{recording}: no time_s column to take the sample rate "
-                                    "from; give the rate (rate=, --source-rate) in Hz")
+        times = cols.get("time_s")
+        if times is not None and times.size >= 2:
             steps = np.diff(times)
             if not np.all(steps > 0):
                 raise MagciliaError(f"{recording}: time_s does not rise at every sample; a "
@@ -169,7 +168,13 @@ def _series(recording: Any, rate: float | None, channel: str | None,
                 raise MagciliaError(f"{recording}: samples are not evenly spaced (steps "
                                     f"{steps.min():.4g} to {steps.max():.4g} s); a ring-down "
                                     "needs one stream at a fixed rate")
+            if rate is not None and abs(rate * dt - 1.0) > 0.01:
+                raise MagciliaError(f"{recording}: the rate given ({rate:g} Hz) is not the "
+                                    f"file's ({1.0 / dt:g} Hz from time_s); leave the rate out")
             rate = 1.0 / dt
+        elif rate is None:
+            raise MagciliaError(f"{recording}: no time_s column to take the sample rate "
+                                "from; give the rate (rate=, --source-rate) in Hz")
         name = Path(recording).name
     else:
         key, unit = CHANNELS[v.choice("channel", channel or "voltage", tuple(CHANNELS))]
@@ -285,7 +290,11 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
             raise MagciliaError(f"{name}: {rate:g} samples/s is below twice the first mode's "
                                 f"{f0:.4g} Hz at the setup's modulus; sample at least five "
                                 "times faster")
-    first = None if start is None else round(v.non_negative("start", start, "s", "time") * rate)
+    first = None
+    if start is not None:
+        first = round(v.non_negative("start", start, "s", "time") * rate)
+        if first >= y.size:
+            raise v.fail("start", start, f"a time within the record's {y.size / rate:.4g} s")
     seg = rf.free_segment(y, rate, first, where=name)
     part = y[seg.start:seg.stop]
     after = (y.size - seg.start) / rate  # the record after the flick, s
@@ -319,6 +328,8 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
                             "or not decaying beyond its σ); a ring-down needs an oscillation "
                             "that dies away")
     f = _fitted(x, cov)
+    if x.size == 9:
+        _check_second_mode(name, x, cov)
     if f.frequency * after < rf.MIN_PERIODS:
         raise _too_short(name, f.frequency * after, after, f.frequency)
     extra: dict[str, Any] = {}
@@ -339,6 +350,17 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
         samples=seg.stop - seg.start, fluid=_fluid_name(flu), source=name, **extra)
 
 
+def _check_second_mode(name: str, x: F64, cov: F64) -> None:
+    """Refuse a second mode that the data do not hold: its amplitude within 3σ of zero, or a
+    decay that is not positive."""
+    amp = math.hypot(x[5], x[6])
+    g = np.array([x[5], x[6]]) / max(amp, 1e-300)
+    sigma = math.sqrt(max(float(g @ cov[5:7, 5:7] @ g), 0.0))
+    if not (amp > DECAY_SIGMAS * sigma and x[7] > 0.0):
+        raise MagciliaError(f"{name}: no second mode in the ring-down (its fitted amplitude "
+                            f"{amp:.3g} ± {sigma:.2g}, decay rate {x[7]:.3g} 1/s); fit one mode")
+
+
 def _too_short(name: str, periods: float, after: float, frequency: float) -> MagciliaError:
     """The error for a record that ends too soon after the flick."""
     return MagciliaError(f"{name}: the record holds {periods:.2g} periods after the flick "
@@ -347,11 +369,14 @@ def _too_short(name: str, periods: float, after: float, frequency: float) -> Mag
 
 
 def _with_second_mode(t: F64, y: F64, rate: float, x0: F64) -> F64:
-    """Starts for two modes: the first's, and the spectral peak of its fit's residuals (its
-    decay as the first's, scaled with the frequency)."""
+    """Starts for two modes: the first's, and the spectral peak of its fit's residuals above
+    :data:`SECOND_MODE_ABOVE` × the first frequency (a clamped hair's second mode lies 3–6×
+    above the first; below it the residuals hold the sensor's 1/f noise), its decay from the
+    residuals' envelope (else the first's, scaled with the frequency)."""
     one = rf.fit_damped(t, y[None, :], x0)
-    rest = y - rf.damped_model(t, one.x)[0][0]
-    second = rf.first_guess(t, rest[None, :] + one.x[0, 4], rate)[0]
+    rest = (y - rf.damped_model(t, one.x)[0][0])[None, :]
+    above = SECOND_MODE_ABOVE * one.x[0, 3] / (2.0 * math.pi)
+    second = rf.first_guess(t, rest + one.x[0, 4], rate, rf.spectral_peak(rest, rate, above))[0]
     if not second[2] > 0.0:
         second[2] = one.x[0, 2] * second[3] / one.x[0, 3]
     return np.concatenate([one.x, second[None, :4]], axis=1)

@@ -121,16 +121,17 @@ def clipped_samples(y: ArrayLike) -> int:
     return int(runs[runs >= CLIP_RUN].sum())
 
 
-def spectral_peak(y: ArrayLike, rate: float) -> F64:
+def spectral_peak(y: ArrayLike, rate: float, above: float = 0.0) -> F64:
     """The frequency of the largest spectral peak of each row of ``y`` (s, n) or of ``y`` (n,),
     Hz (mean removed, zero padded to ≥ 4n, parabolic interpolation of the log magnitude;
-    frequencies below one period in the record excluded). No window: a ring-down tapers
-    itself, and a window would weight its decayed middle over its strong start."""
+    frequencies below one period in the record, and below ``above`` Hz, excluded). No window:
+    a ring-down tapers itself, and a window would weight its decayed middle over its strong
+    start."""
     y = np.atleast_2d(np.asarray(y, dtype=np.float64))
     n = y.shape[1]
     size = 1 << max(math.ceil(math.log2(max(n, 2))) + 2, 4)
     spec = np.abs(np.fft.rfft(y - y.mean(axis=1, keepdims=True), size, axis=1))
-    spec[:, : max(2, math.ceil(size / n))] = 0.0  # less than one period in the record
+    spec[:, : max(2, math.ceil(size / n), math.ceil(above * size / rate))] = 0.0
     k = np.clip(np.argmax(spec, axis=1), 1, spec.shape[1] - 2)
     rows = np.arange(y.shape[0])
     lo, mid, hi = (np.log(spec[rows, k + d] + 1e-300) for d in (-1, 0, 1))
