@@ -72,9 +72,11 @@ def _size_sigma(items: tuple[str, ...]) -> dict[str, float]:
 def command(recording: str, setup_arg: str | None, fluid: str | None, gravity: bool,
             rate: float | None, channel: str | None, start: float | None, second_mode: bool,
             size_items: tuple[str, ...], as_json: bool, reading: RecordingArgs) -> None:
-    """Find the free oscillation in RECORDING (CSV, .tdms of `magcilia record` or `live
+    """Young's modulus and damping ratio from the ring-down of a flicked cilium.
+
+    Finds the free oscillation in RECORDING (CSV, .tdms of `magcilia record` or `live
     --record`, .mat, .h5: a time series of the output or a field channel) after a flick or a
-    coil pulse, and fit its damped frequency and decay.
+    coil pulse, and fits its damped frequency and decay with σ.
 
     With --setup, the Young's modulus at which the modal model rings at the measured frequency
     (MPa, with σ from the frequency and the size's σ, and which dominates) and the calibration
