@@ -198,6 +198,9 @@ FACTORIES.update({  # issue 28: the cilium in time
     "FrequencyResponse": lambda: mc.frequency_response(TAPERED, [0.0, 10.0, 100.0],
                                                        fluid="water"),
 })
+FACTORIES["RingdownResult"] = lambda: mc.ringdown(  # issue 28: a flicked cilium's ring-down
+    0.1 + np.exp(-20.0 * np.arange(2000) / 5e3) * np.cos(2 * np.pi * 150.0 * np.arange(2000) / 5e3)
+    + np.random.default_rng(0).normal(0.0, 1e-3, 2000), 5e3)
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer", "ExperimentFit")
 

@@ -29,6 +29,10 @@ from magcilia.analysis import (
     sobol_indices,
 )
 
+# -- ring-down: the modulus and damping ratio of a flicked cilium ---------------------------------
+from magcilia.analysis.ringdown import ringdown
+from magcilia.analysis.ringdown_result import RingdownResult
+
 # -- firmware approximations ---------------------------------------------------------------------
 from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
 
@@ -158,6 +162,7 @@ __all__ = [
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
+    "RingdownResult",
     "SensitivityStudy",
     "Sensor",
     "SensorCheck",
@@ -190,6 +195,7 @@ __all__ = [
     "placement_tolerance",
     "presets",
     "read_measurements",
+    "ringdown",
     "save_array",
     "save_setup",
     "sensitivity_study",

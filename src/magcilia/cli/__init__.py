@@ -88,6 +88,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("batch", "batch"),
     ("optimise", "optimise"),
     ("modes", "modes"),
+    ("ringdown", "ringdown"),
 )
 
 

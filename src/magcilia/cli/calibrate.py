@@ -36,6 +36,18 @@ from magcilia.report.calibration import (
 from magcilia.report.recording_notes import notes_lines
 
 
+def _ringdown_priors(paths: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """The modulus priors of ring-down JSON files (the last one wins)."""
+    if not paths:
+        return {}
+    from magcilia.analysis.ringdown import ringdown_prior
+
+    out: dict[str, tuple[float, float]] = {}
+    for path in paths:
+        out |= ringdown_prior(path)
+    return out
+
+
 @click.command()
 @click.argument("data", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @setup_option("Initial setup", default="paper-initial", positional=False)
@@ -58,6 +70,10 @@ from magcilia.report.recording_notes import notes_lines
               help="Gaussian prior from a manual measurement (--model physical), lengths in mm "
                    "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
                    "file's [priors] table gives them too (these override it).")
+@click.option("--prior-from", "prior_files", multiple=True, metavar="RINGDOWN.json",
+              type=click.Path(dir_okay=False),
+              help="The modulus prior of a ring-down (the JSON `magcilia ringdown --setup ... "
+                   "--json` prints; --model physical); --prior overrides it.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
 @click.option("--fluid", type=click.Choice(sorted(FLUID_NAMES)), default="water", show_default=True,
               help="Fluid of flow recordings (a flow_m_per_s column; --model physical).")
@@ -86,7 +102,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             fit_scale: bool, nan_policy: str, saturation: str, as_json: bool, quiet: bool,
             force: bool, fix_items: tuple[str, ...], si: bool, style: str, reading: RecordingArgs,
             model: str, prior_items: tuple[str, ...], posterior: bool, fluid: str,
-            suspect: str) -> None:
+            suspect: str, prior_files: tuple[str, ...] = ()) -> None:
     """Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with --model
     physical to several recordings (experiments) at once.
 
@@ -109,6 +125,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                         for path in data]
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
+                  **_ringdown_priors(prior_files),
                   **parse_priors(prior_items, (*GEOMETRY, LOAD_PARAMETER))}
         if model == "both" and (measurements[0].observable != "output"
                                 or not measurements[0].single_azimuth):
@@ -118,7 +135,8 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
             raise MagciliaError("--posterior needs --model physical (the posterior of the hair's "
                                 "geometry; the paper's model searches n and k)")
         if model == "paper" and priors:
-            raise MagciliaError("priors (--prior, a setup file's [priors]) need --model physical "
+            raise MagciliaError("priors (--prior, --prior-from, a setup file's [priors]) need "
+                                "--model physical "
                                 "(in the paper's model height and base radius are model "
                                 "parameters, not the hair's dimensions)")
         result: CalibrationResult
