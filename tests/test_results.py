@@ -193,6 +193,7 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
 FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_batch(  # issue 26
     lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
     [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
+FACTORIES["Modes"] = lambda: mc.modes(TAPERED, "water")  # issue 28: the cilium in time
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer", "ExperimentFit")
 

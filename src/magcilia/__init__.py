@@ -72,14 +72,17 @@ from magcilia.io import (
 from magcilia.live import LiveReadout
 from magcilia.mechanics import (
     AIR,
+    GLYCEROL,
     WATER,
     BentShape,
     Flow,
     Fluid,
+    Modes,
     SpatialBentShape,
     bend,
     bend_sweep,
     drag_coefficient,
+    modes,
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
@@ -108,6 +111,7 @@ from magcilia.readout import (
 
 __all__ = [
     "AIR",
+    "GLYCEROL",
     "MAGNETOMETERS",
     "WATER",
     "ActuatedReadout",
@@ -142,6 +146,7 @@ __all__ = [
     "Measurement",
     "Metric",
     "MissingDependencyError",
+    "Modes",
     "Modulus",
     "OATResult",
     "ParameterCovariance",
@@ -173,6 +178,7 @@ __all__ = [
     "load_array",
     "load_setup",
     "lookup_table",
+    "modes",
     "oat_sweep",
     "optimise_design",
     "piecewise_linear",

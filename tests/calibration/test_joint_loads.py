@@ -141,7 +141,8 @@ def test_one_line_errors(data: dict) -> None:
         mc.calibrate(force, model="paper")
     assert "\n" not in str(info.value)
     honey = Measurement.from_dict({**data["flow"].to_dict(), "metadata": {"fluid": "honey"}})
-    with pytest.raises(MagciliaError, match=r"fluid must be one of air, water.*honey") as info:
+    with pytest.raises(MagciliaError,
+                       match=r"fluid must be one of air, glycerol, water.*honey") as info:
         calibrate_joint([*data["tilts"], honey], INITIAL, layout=LAYOUT)
     assert "\n" not in str(info.value)
     with pytest.raises(MagciliaError, match="tip_radius"):

@@ -24,7 +24,7 @@ from magcilia.cli._common import (
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
-from magcilia.io.recordings import read_measurements
+from magcilia.io.recordings import FLUID_NAMES, read_measurements
 from magcilia.io.setup_files import load_priors
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
@@ -59,7 +59,7 @@ from magcilia.report.recording_notes import notes_lines
                    "or with units (height=3.0:0.2, height=3mm:200um); repeatable. A setup "
                    "file's [priors] table gives them too (these override it).")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
-@click.option("--fluid", type=click.Choice(["water", "air"]), default="water", show_default=True,
+@click.option("--fluid", type=click.Choice(sorted(FLUID_NAMES)), default="water", show_default=True,
               help="Fluid of flow recordings (a flow_m_per_s column; --model physical).")
 @click.option("--posterior", is_flag=True,
               help="With --model physical: also sample the posterior of the geometry (emcee, "

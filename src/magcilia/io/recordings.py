@@ -189,7 +189,7 @@ logger = logging.getLogger(__name__)
 COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
            *LOAD_KEYS)
 #: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
-FLUID_NAMES = ("air", "water")
+FLUID_NAMES = ("air", "water", "glycerol")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
 Progress = Callable[[int, int], None]
 #: Most samples per column in any format (4 columns × 8 bytes × 50 million = 1.6 GB of arrays).

@@ -10,7 +10,10 @@
   :func:`slender_log` (the low-Re drag of a finite slender body standing on the wall);
 * :func:`cantilever_tip`: the exact elastica (elliptic integrals) used as a reference, and
   :func:`uniform_field_tip` (a uniform rod in a uniform perpendicular field, by quadrature);
-* :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance.
+* :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance;
+* :func:`modes` (:class:`Modes`): the bending modes, in vacuum or a fluid (Sader's hydrodynamic
+  function, :mod:`.hydrodynamic`), with or without the hair's own weight (:mod:`.modal`, on the
+  beam elements of :mod:`.beam`).
 
 Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z solver and sweeps),
 :mod:`.spatial` (loads in any direction, actuation, the 3-D rod, buckling), :mod:`.compliance`.
@@ -23,6 +26,7 @@ from magcilia.mechanics.compliance import frustum_compliance, tip_compliance
 from magcilia.mechanics.drag import (
     AIR,
     FLUIDS,
+    GLYCEROL,
     WATER,
     Fluid,
     drag_coefficient,
@@ -31,6 +35,7 @@ from magcilia.mechanics.drag import (
 )
 from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
 from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.modal import Modes, modes
 from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.mechanics.spatial import buckling_load, flip_field
@@ -38,12 +43,14 @@ from magcilia.mechanics.spatial import buckling_load, flip_field
 __all__ = [
     "AIR",
     "FLUIDS",
+    "GLYCEROL",
     "SHARP_TIP",
     "WATER",
     "BentShape",
     "Flow",
     "Fluid",
     "Load",
+    "Modes",
     "SpatialBentShape",
     "bend",
     "bend_3d",
@@ -54,6 +61,7 @@ __all__ = [
     "drag_per_length",
     "flip_field",
     "frustum_compliance",
+    "modes",
     "output_at",
     "poses_at",
     "require_tip_radius",

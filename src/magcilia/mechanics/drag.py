@@ -132,7 +132,11 @@ AIR = Fluid(density=1.204, viscosity=1.81e-5, name="air")
 #: water at 20 °C: ρ = 998.2 kg/m³, μ = 1.002e-3 Pa·s (CRC Handbook, 97th ed., "Properties of
 #: water in the range 0–100 °C"; IAPWS values)
 WATER = Fluid(density=998.2, viscosity=1.002e-3, name="water")
-FLUIDS = {"air": AIR, "water": WATER}
+#: glycerol (anhydrous) at 20 °C: ρ = 1261 kg/m³, μ = 1.412 Pa·s (CRC Handbook, 97th ed.,
+#: "Viscosity of liquids"; Segur & Oberstar, Ind. Eng. Chem. 43, 2117 (1951)): a viscous liquid in
+#: which every bending mode of a mm-scale hair is overdamped
+GLYCEROL = Fluid(density=1261.0, viscosity=1.412, name="glycerol")
+FLUIDS = {"air": AIR, "water": WATER, "glycerol": GLYCEROL}
 
 
 def _re_cd(re: F64) -> F64:
