@@ -64,6 +64,7 @@ from magcilia.mechanics.bend import poses_at
 from magcilia.mechanics.compliance import tip_compliance
 from magcilia.mechanics.drag import Fluid
 from magcilia.mechanics.flow import Flow
+from magcilia.mechanics.modal import modes as modes_of
 
 F64 = NDArray[np.float64]
 
@@ -93,10 +94,8 @@ class ModesLike(Protocol):
 
 def hair_modes(setup: Setup, fluid: Fluid | None, count: int) -> ModesLike:
     """The hair's lowest ``count`` modes in ``fluid`` (None: vacuum), by
-    :func:`magcilia.mechanics.modes` (imported here: the modal model is its module's)."""
-    from magcilia.mechanics import modes as modal  # type: ignore[attr-defined]
-
-    result: ModesLike = modal(setup, fluid, count=count)
+    :func:`magcilia.mechanics.modes`."""
+    result: ModesLike = modes_of(setup, fluid, count=count)
     return result
 
 

@@ -14,7 +14,9 @@ the load as a random-walk state:
   the last interval (N); ``s_{k+1} = F s_k + G w_k`` with the modes' exact discretisation (the
   load held over each interval) and the load's increment ``w_k`` of variance
   ``Q = (2π B / rate)² R``: a random walk that the filter follows with a −3 dB bandwidth of about
-  ``B`` Hz (``bandwidth``; default the first mode's natural frequency);
+  ``B`` Hz (``bandwidth``; default :data:`BANDWIDTH_FACTOR` (2) times the first mode's natural
+  frequency: a step then settles within about one period, and the noise σ stays below the
+  static read-out's, ``benchmarks/bench_dynamics.py``);
 * measurement ``z_k = H s_k + v_k`` of variance R: the static read-out's effective load at the
   sample (``averaged=False``: a sample at t_k) or its mean over the interval before it
   (``averaged=True``: the windows of ``magcilia live``, means of many source samples), exact for
@@ -74,7 +76,10 @@ from magcilia.readout.tare import Tare
 F64 = NDArray[np.float64]
 C128 = NDArray[np.complex128]
 
-__all__ = ["DynamicReadout", "KalmanFilter", "kalman_filter"]
+__all__ = ["BANDWIDTH_FACTOR", "DynamicReadout", "KalmanFilter", "kalman_filter"]
+
+#: the default load bandwidth, in first-mode frequencies (the module's docstring)
+BANDWIDTH_FACTOR = 2.0
 
 
 @dataclass(frozen=True)
@@ -191,7 +196,7 @@ class DynamicReadout(Display):
         or the read-out's flow's fluid for a flow.
     bandwidth : float, optional
         The load's bandwidth B, Hz (the random walk's per-reading variance (2π B / rate)² R);
-        default the first mode's natural frequency.
+        default :data:`BANDWIDTH_FACTOR` times the first mode's natural frequency.
     averaged : bool
         Readings are means over their interval (``magcilia live``'s windows) rather than samples.
     count : int
@@ -249,7 +254,7 @@ class DynamicReadout(Display):
                          f"(2 × {first:.4g} Hz = {2.0 * first:.4g} Hz) for a dynamic read-out: "
                          "read faster, or read statically")
         dynamics = full.below(0.5 * rate)
-        band = first if bandwidth is None else v.positive("bandwidth", bandwidth, "Hz",
+        band = BANDWIDTH_FACTOR * first if bandwidth is None else v.positive("bandwidth", bandwidth, "Hz",
                                                              "frequency")
         for name, value in (("static", readout), ("rate", rate), ("bandwidth", band),
                             ("averaged", bool(averaged)),

@@ -1,0 +1,166 @@
+"""The hair in time: the dynamic read-out against the static one on simulated force steps, and
+the speed of the time-domain simulator (issue #28, items 3 and 5).
+
+1. Settling. The force-sensor cilium (its modulus taken as known, so that σ is the read-out's
+   noise part) steps from rest to a force, simulated by the moving hair
+   (``SimulatedSource(..., dynamics=True)``, 10 kHz samples, the sensor's and the amplifier's
+   noise) in air and in water. The static read-out (:class:`magcilia.Readout`) and the dynamic
+   one (:class:`magcilia.readout.dynamic.DynamicReadout`, the Kalman filter on the modal model)
+   read the same samples; both are tared on the rest before the step (their noise: the tare's
+   spread). *Settled* is the first time after which the estimate of the noise-free output stays
+   within 2σ of the applied force (σ: what each read-out states for the noisy samples), in
+   periods of the first mode; the empirical share of the noisy estimates within 2σ after it is
+   printed beside it. Done when the dynamic read-out settles within 1.5 periods where the static
+   one rings for ≥ 5 (air; water where the mode is underdamped).
+2. Speed. :func:`magcilia.mechanics.transient.simulate_response` of 10 s of a random force at
+   10 kHz (10⁵ samples), one thread: the first call (modes and the static map built) and the
+   next calls (the same hair: a :class:`ResponseStream` pushed on), against real time (target:
+   ≥ 10×) and against SciPy's ``scipy.signal.lsim`` of the same three modes (the ordinary route,
+   interleaved).
+
+Run: ``python benchmarks/bench_dynamics.py`` (``--quick``: fewer repeats, a shorter series).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import interleaved  # noqa: E402
+
+import magcilia as mc  # noqa: E402
+from magcilia.acquire import Script, SimulatedSource  # noqa: E402
+from magcilia.mechanics.transient import ResponseStream, simulate_response  # noqa: E402
+from magcilia.readout.dynamic import DynamicReadout  # noqa: E402
+
+RATE = 10_000.0
+SPAN = (-4e-5, 4e-5)  # N: the steps' overshoot stays inside
+STEP = 1.6e-5  # N
+REST = 0.2  # s of rest before the step (the tare)
+#: white read-out noise of amplifier and ADC, V rms per sample (`magcilia live`'s simulation)
+NOISE = 2e-5
+
+
+def known_modulus(setup: mc.Setup) -> mc.Setup:
+    """The setup with its Young's modulus taken as known (σ_E = 0)."""
+    return setup.replace(youngs_modulus=setup.youngs_modulus, youngs_modulus_sigma=0.0)
+
+
+def settled(value: np.ndarray, sigma: np.ndarray, truth: float) -> int:
+    """Samples after which |value − truth| ≤ 2σ holds to the end (NaN: not within)."""
+    outside = ~(np.abs(value - truth) <= 2.0 * sigma)
+    bad = np.flatnonzero(outside)
+    return int(bad[-1] + 1) if bad.size else 0
+
+
+def settling(fluid: mc.Fluid, seconds: float, seed: int) -> dict[str, object]:
+    setup = known_modulus(mc.presets.load("force-sensor"))
+    modes = mc.modes(setup, fluid)
+    period = 1.0 / float(modes.frequencies[0])
+    n_rest, n = round(REST * RATE), round((REST + seconds) * RATE)
+    script = Script.from_steps([(0.0, 0.0), (REST, STEP)], "force")
+    with SimulatedSource(setup, script, rate=RATE, dynamics=True, fluid=fluid, rng=seed,
+                         readout_noise=NOISE) as src:
+        noisy = src.read(n).data[0]
+    # the same hair without noise
+    clean = simulate_response(src.setup, script.values(np.arange(n) / RATE), RATE, fluid=fluid,
+                              modes=modes).output
+    static = mc.Readout(setup, quantity="force", span=SPAN).tare(noisy[:n_rest])
+    dynamic = DynamicReadout(static, RATE, fluid=fluid, modes=modes)
+    out: dict[str, object] = {"fluid": fluid.name, "f1_Hz": float(modes.frequencies[0]),
+                              "zeta1": float(modes.damping_ratios[0]),
+                              "noise_gain": dynamic.filter.noise_gain}
+    for name, r in (("static", static), ("dynamic", dynamic)):
+        if isinstance(r, DynamicReadout):
+            r.reset()
+        got = r.read(noisy)
+        if isinstance(r, DynamicReadout):
+            r.reset()
+        ideal = r.read(clean, noise=float(np.nanmedian(_noise(r, noisy[:n_rest]))))
+        after = slice(n_rest, n)
+        k = settled(np.asarray(ideal.value)[after], np.asarray(got.sigma)[after], STEP)
+        tail = slice(n_rest + k, n)
+        within = np.abs(np.asarray(got.value)[tail] - STEP) <= 2 * np.asarray(got.sigma)[tail]
+        out[name] = {"settled_periods": k / RATE / period,
+                     "sigma_N": float(np.nanmedian(np.asarray(got.sigma)[after])),
+                     "within_2sigma_after": float(np.mean(within)) if within.size else float("nan")}
+    return out
+
+
+def _noise(readout: object, rest: np.ndarray) -> np.ndarray:
+    """The noise RMS (V) a tared read-out uses: its tare's spread."""
+    base = readout.static.baseline if isinstance(readout, DynamicReadout) else readout.baseline
+    return np.array([base.noise])
+
+
+def speed(seconds: float, repeat: int) -> dict[str, float]:
+    from scipy import signal
+
+    setup = mc.presets.load("force-sensor")
+    n = round(seconds * RATE)
+    rng = np.random.default_rng(0)
+    load = np.clip(np.cumsum(rng.normal(0.0, 2e-8, n)), -1e-5, 1e-5)
+    t0 = time.perf_counter()
+    simulate_response(setup, load, RATE, fluid=mc.AIR)
+    first = time.perf_counter() - t0
+    stream = ResponseStream(setup, "force", RATE, fluid=mc.AIR)
+    stream.prepare(load)
+    modes = mc.modes(setup, mc.AIR)
+    dyn = stream.dynamics
+    a, b, c, d = dyn.state_space()
+    system = signal.StateSpace(a, b[:, None], c[None, :], np.array([[d]]))
+    t = np.arange(n) / RATE
+
+    def anchor() -> object:
+        return signal.lsim(system, load, t, interp=False)
+
+    times = interleaved({"magcilia": lambda: stream.push(load), "lsim": anchor}, repeat)
+    ours, theirs = (statistics.median(times[k]) for k in ("magcilia", "lsim"))
+    return {"seconds": seconds, "first_s": first, "warm_s": ours, "lsim_s": theirs,
+            "f1_Hz": float(modes.frequencies[0])}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats, shorter series")
+    args = parser.parse_args()
+    seconds, repeat = (2.0, 3) if args.quick else (10.0, 7)
+    print(f"load: {os.getloadavg()[0]:.2f} (1-min average), one thread")
+    print("\n1. settling after a force step of "
+          f"{STEP * 1e3:.3g} mN (force-sensor, modulus known, {RATE / 1e3:g} kHz samples)")
+    print(f"{'fluid':6} {'f1 Hz':>7} {'zeta1':>6} {'read-out':9} {'settled (periods)':>18} "
+          f"{'sigma mN':>9} {'within 2σ after':>16}")
+    for fluid, length in ((mc.AIR, 0.3 if args.quick else 1.0), (mc.WATER, 0.2)):
+        res = settling(fluid, length, seed=1)
+        for name in ("static", "dynamic"):
+            part = res[name]
+            assert isinstance(part, dict)
+            print(f"{res['fluid']:6} {res['f1_Hz']:7.1f} {res['zeta1']:6.3f} {name:9} "
+                  f"{part['settled_periods']:18.2f} {part['sigma_N'] * 1e3:9.2e} "
+                  f"{part['within_2sigma_after']:16.3f}")
+        print(f"{'':6} dynamic noise gain {res['noise_gain']:.3g} (σ of the load per σ of a "
+              "reading's static estimate)")
+    print("\n2. simulator speed (simulate_response, force, air, 3 modes), one thread")
+    sp = speed(seconds, repeat)
+    real = sp["seconds"]
+    print(f"{sp['seconds']:g} s of signal at {RATE / 1e3:g} kHz: first call {sp['first_s']:.3f} s "
+          f"({real / sp['first_s']:.0f}× real time, modes and static map built); warm "
+          f"{sp['warm_s'] * 1e3:.1f} ms ({real / sp['warm_s']:.0f}× real time; target ≥ 10×)")
+    print(f"anchor scipy.signal.lsim of the same modes: {sp['lsim_s'] * 1e3:.1f} ms "
+          f"(magcilia {sp['lsim_s'] / sp['warm_s']:.1f}× faster, and on the static map too)")
+
+
+if __name__ == "__main__":
+    main()
