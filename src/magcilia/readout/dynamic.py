@@ -250,7 +250,7 @@ class DynamicReadout(Display):
         full = ModalDynamics.from_modes(modes, smap.compliance)
         first = float(full.frequencies[0])
         if not rate > 2.0 * first:
-            raise v.fail("rate", f"{rate:.6g} Hz", f"above twice the hair's first mode "
+            raise v.fail("rate", rate, f"above twice the hair's first mode "
                          f"(2 × {first:.4g} Hz = {2.0 * first:.4g} Hz) for a dynamic read-out: "
                          "read faster, or read statically")
         dynamics = full.below(0.5 * rate)
@@ -334,8 +334,13 @@ class DynamicReadout(Display):
         branch_v, branch_u = self._branch
         raw_flags = np.asarray(static.flags, dtype=FLAG_DTYPE).reshape(-1)
         ok = (np.isfinite(x) & (x >= branch_v[0]) & (x <= branch_v[-1])
-              & ((raw_flags & FLAG_DTYPE(Flag.SATURATED)) == 0))
-        z = np.interp(np.where(ok, x, branch_v[0]), branch_v, branch_u)
+              & ((raw_flags & FLAG_DTYPE(Flag.SATURATED)) == 0)) \
+            | np.isfinite(np.asarray(static.value, dtype=np.float64).reshape(-1))
+        q_static = np.asarray(static.value, dtype=np.float64).reshape(-1)
+        read = np.isfinite(q_static)  # the static estimate where there is one (a constant load
+        # then reads exactly as statically), the map's continuation beyond the span
+        z = np.where(read, smap_load(self.map, np.where(read, q_static, 0.0)),
+                     np.interp(np.where(ok, x, branch_v[0]), branch_v, branch_u))
         state = self._state
         if not ok.all():  # the filter's measurement is held over readings without one
             idx = np.where(ok, np.arange(z.size), -1)
@@ -434,6 +439,12 @@ class DynamicReadout(Display):
                 ("span", f"{q.text(self.span[0])}…{q.text(self.span[1])}"),
                 ("rate", si(self.rate, "Hz")), ("bandwidth", si(self.bandwidth, "Hz")),
                 ("noise gain", number(self.filter.noise_gain)), ("fluid", self.fluid)]
+
+
+def smap_load(smap: StaticMap, values: F64) -> F64:
+    """The effective load (N) of measurand ``values`` (SI) on ``smap``, continued linearly
+    beyond its ends."""
+    return _continued(values, smap.values, smap.effective)
 
 
 def _continued(x: F64, xp: F64, fp: F64) -> F64:
