@@ -79,10 +79,12 @@ from magcilia.mechanics import (
     Fluid,
     Modes,
     SpatialBentShape,
+    TransientResponse,
     bend,
     bend_sweep,
     drag_coefficient,
     modes,
+    simulate_response,
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
@@ -97,6 +99,7 @@ from magcilia.readout import (
     ArrayReadout,
     BiaxialReadout,
     Crosstalk,
+    DynamicReadout,
     Flag,
     ForceFlag,
     ForceVectorResult,
@@ -129,6 +132,7 @@ __all__ = [
     "CiliaArray",
     "Cilium",
     "Crosstalk",
+    "DynamicReadout",
     "DesignMetrics",
     "DesignOptimum",
     "Flag",
@@ -165,6 +169,7 @@ __all__ = [
     "SpatialBentShape",
     "SpatialCentreline",
     "Tare",
+    "TransientResponse",
     "__version__",
     "array_metrics",
     "bend",
@@ -189,6 +194,7 @@ __all__ = [
     "save_array",
     "save_setup",
     "sensitivity_study",
+    "simulate_response",
     "sobol_indices",
     "to_c_header",
 ]

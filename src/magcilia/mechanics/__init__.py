@@ -13,7 +13,10 @@
 * :func:`tip_compliance` and :func:`frustum_compliance`: the small-load tip compliance;
 * :func:`modes` (:class:`Modes`): the bending modes, in vacuum or a fluid (Sader's hydrodynamic
   function, :mod:`.hydrodynamic`), with or without the hair's own weight (:mod:`.modal`, on the
-  beam elements of :mod:`.beam`).
+  beam elements of :mod:`.beam`);
+* :func:`simulate_response` (:class:`TransientResponse`): a force, flow or tilt over time → the
+  hair's motion → the sensor's output, by a reduced modal model around the static map
+  (:mod:`.transient`).
 
 Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z solver and sweeps),
 :mod:`.spatial` (loads in any direction, actuation, the 3-D rod, buckling), :mod:`.compliance`.
@@ -39,6 +42,7 @@ from magcilia.mechanics.modal import Modes, modes
 from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.mechanics.spatial import buckling_load, flip_field
+from magcilia.mechanics.transient import TransientResponse, simulate_response
 
 __all__ = [
     "AIR",
@@ -52,6 +56,7 @@ __all__ = [
     "Load",
     "Modes",
     "SpatialBentShape",
+    "TransientResponse",
     "bend",
     "bend_3d",
     "bend_sweep",
@@ -65,6 +70,7 @@ __all__ = [
     "output_at",
     "poses_at",
     "require_tip_radius",
+    "simulate_response",
     "slender_log",
     "tip_compliance",
     "uniform_field_tip",
