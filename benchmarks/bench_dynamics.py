@@ -29,21 +29,21 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import statistics  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import interleaved  # noqa: E402
+from _timing import interleaved
 
-import magcilia as mc  # noqa: E402
-from magcilia.acquire import Script, SimulatedSource  # noqa: E402
-from magcilia.mechanics.transient import ResponseStream, simulate_response  # noqa: E402
-from magcilia.readout.dynamic import DynamicReadout  # noqa: E402
+import magcilia as mc
+from magcilia.acquire import Script, SimulatedSource
+from magcilia.mechanics.transient import ResponseStream, simulate_response
+from magcilia.readout.dynamic import DynamicReadout
 
 RATE = 10_000.0
 SPAN = (-4e-5, 4e-5)  # N: the steps' overshoot stays inside
@@ -88,7 +88,7 @@ def settling(fluid: mc.Fluid, seconds: float, seed: int) -> dict[str, object]:
         got = r.read(noisy)
         if isinstance(r, DynamicReadout):
             r.reset()
-        ideal = r.read(clean, noise=float(np.nanmedian(_noise(r, noisy[:n_rest]))))
+        ideal = r.read(clean, noise=_noise(r))
         after = slice(n_rest, n)
         k = settled(np.asarray(ideal.value)[after], np.asarray(got.sigma)[after], STEP)
         tail = slice(n_rest + k, n)
@@ -99,10 +99,11 @@ def settling(fluid: mc.Fluid, seconds: float, seed: int) -> dict[str, object]:
     return out
 
 
-def _noise(readout: object, rest: np.ndarray) -> np.ndarray:
+def _noise(readout: mc.Readout | DynamicReadout) -> float:
     """The noise RMS (V) a tared read-out uses: its tare's spread."""
     base = readout.static.baseline if isinstance(readout, DynamicReadout) else readout.baseline
-    return np.array([base.noise])
+    assert base is not None  # tared above
+    return float(base.noise)
 
 
 def speed(seconds: float, repeat: int) -> dict[str, float]:

@@ -194,6 +194,13 @@ FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_
     lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
     [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
 FACTORIES["Modes"] = lambda: mc.modes(TAPERED, "water")  # issue 28: the cilium in time
+FACTORIES.update({  # issue 28: the hair in time
+    "TransientResponse": lambda: mc.simulate_response(
+        mc.presets.load("force-sensor"), np.r_[0.0, np.full(9, 1e-6)], 1e4, fluid=mc.AIR),
+    "DynamicReadout": lambda: mc.DynamicReadout(
+        mc.Readout(mc.presets.load("force-sensor"), quantity="force", span=(-2e-5, 2e-5),
+                   table_size=17), 1e4, fluid=mc.AIR),
+})
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer", "ExperimentFit")
 

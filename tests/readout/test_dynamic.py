@@ -147,5 +147,5 @@ def test_bad_options(static, air, kwargs, message):
 
 
 def test_only_a_single_output_read_out():
-    with pytest.raises(mc.MagciliaError, match="readout must be a magcilia.Readout"):
+    with pytest.raises(mc.MagciliaError, match=r"readout must be a magcilia\.Readout"):
         DynamicReadout(object(), RATE)  # type: ignore[arg-type]

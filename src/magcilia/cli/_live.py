@@ -220,9 +220,9 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
-    readout: Readout | DynamicReadout = Readout(
-        setup, quantity=quantity, span=span, calibration=covariance,
-        flow=flow if quantity == "flow" else None)
+    static = Readout(setup, quantity=quantity, span=span, calibration=covariance,
+                     flow=flow if quantity == "flow" else None)
+    readout: Readout | DynamicReadout = static
     source: Source
     source_rate = SOURCE_RATE if source_rate is None else source_rate
     rate = RATE if rate is None else rate
@@ -234,7 +234,7 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         # known once it sends, so the rate asked for is taken)
         known = not source_spec.startswith("serial")
         factor = max(1, round(source_rate / rate)) if known else 2
-        readout = DynamicReadout(readout, source_rate / factor if known else rate,
+        readout = DynamicReadout(static, source_rate / factor if known else rate,
                                  fluid=hair_fluid, averaged=factor > 1)
     if source_spec == "sim":
         amplitude = 0.8 * max(abs(span[0]), abs(span[1]))

@@ -17,10 +17,10 @@ with the modes' natural frequencies ω_j, damping ratios ζ_j and tip-referred s
 (:func:`magcilia.mechanics.modes`: tapered rod, the fluid's added mass and damping): each mode
 carries its share s_j of the static tip compliance, and the higher modes' share r follows the load
 at once (the mode-acceleration correction; with the load held over each interval, the sample at
-t_k sees the load of the interval before it, as the modes' own exact step does), so the static gain is exactly 1 at any number of
-modes. The hair then sits where the static map puts the effective load u_dyn: the quantity
-``q_eff = u⁻¹(u_dyn)``, the tip ``δ(q_eff)`` and the output ``V(q_eff)``; a slow load reproduces
-the static model exactly.
+t_k sees the load of the interval before it, as the modes' own exact step does), so the static
+gain is exactly 1 at any number of modes. The hair then sits where the static map puts the
+effective load u_dyn: the quantity ``q_eff = u⁻¹(u_dyn)``, the tip ``δ(q_eff)`` and the output
+``V(q_eff)``; a slow load reproduces the static model exactly.
 
 Each mode is discretised exactly at the sample rate (the matrix exponential of its state-space
 model with the load held over each sample, ``hold="zoh"``, or linear between samples,

@@ -170,7 +170,7 @@ def kalman_filter(dynamics: ModalDynamics, rate: float, bandwidth: float,
                         inputs=np.asarray(basis @ k, dtype=np.complex128),
                         outputs=np.asarray(vectors[n, :], dtype=np.complex128),
                         basis=basis.astype(np.complex128), rest=rest, gain=k,
-                        noise_gain=float(math.sqrt(max(post[n, n], 0.0))))
+                        noise_gain=math.sqrt(max(float(post[n, n]), 0.0)))
 
 
 class _State:
@@ -254,8 +254,8 @@ class DynamicReadout(Display):
                          f"(2 × {first:.4g} Hz = {2.0 * first:.4g} Hz) for a dynamic read-out: "
                          "read faster, or read statically")
         dynamics = full.below(0.5 * rate)
-        band = BANDWIDTH_FACTOR * first if bandwidth is None else v.positive("bandwidth", bandwidth, "Hz",
-                                                             "frequency")
+        band = (BANDWIDTH_FACTOR * first if bandwidth is None else
+                v.positive("bandwidth", bandwidth, "Hz", "frequency"))
         for name, value in (("static", readout), ("rate", rate), ("bandwidth", band),
                             ("averaged", bool(averaged)),
                             ("fluid", "vacuum" if fluid is None else fluid.name),
@@ -363,8 +363,9 @@ class DynamicReadout(Display):
         at = self.static.read(_continued(value, smap.values, smap.output) - correction,
                               noise=0.0)
         keep = FLAG_DTYPE(Flag.SATURATED | Flag.MISSING | Flag.TARE_UNDER_LOAD)
-        flags = (np.asarray(at.flags, dtype=FLAG_DTYPE) | (raw_flags & keep)
-                 | np.where(ok, FLAG_DTYPE(0), FLAG_DTYPE(Flag.OUTSIDE_SPAN)))
+        flags = np.asarray(np.asarray(at.flags, dtype=FLAG_DTYPE) | (raw_flags & keep)
+                           | np.where(ok, FLAG_DTYPE(0), FLAG_DTYPE(Flag.OUTSIDE_SPAN)),
+                           dtype=FLAG_DTYPE)
         nan = np.where((flags & FLAG_DTYPE(NO_ESTIMATE)) != 0, np.nan, 1.0)
         parts = (s_noise, np.asarray(at.sigma_calibration), np.asarray(at.sigma_edge),
                  np.asarray(at.sigma_scale))
