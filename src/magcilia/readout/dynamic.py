@@ -56,8 +56,11 @@ from scipy.signal import lfilter
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number, si
+from magcilia.calibration import ParameterCovariance
+from magcilia.calibration.posterior import Posterior
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
+from magcilia.device.setup import Setup
 from magcilia.mechanics.drag import Fluid
 from magcilia.mechanics.transient import (
     MODE_COUNT,
@@ -68,7 +71,7 @@ from magcilia.mechanics.transient import (
     hair_modes,
     map_range,
 )
-from magcilia.readout.inverse import Readout
+from magcilia.readout.inverse import InverseTable, Readout
 from magcilia.readout.protocol import FLAG_DTYPE, Flag
 from magcilia.readout.result import NO_ESTIMATE, ReadoutResult
 from magcilia.readout.tare import Tare
@@ -185,6 +188,9 @@ class _State:
 class DynamicReadout(Display):
     """A single-output read-out that undoes the hair's dynamics (see the module's docstring).
 
+    :meth:`read` continues from where the last call left off (the filter's state: the one
+    mutable part; :meth:`reset` starts over, at rest under the next reading).
+
     Parameters
     ----------
     readout : Readout
@@ -214,9 +220,6 @@ class DynamicReadout(Display):
         The steady-state filter (its ``noise_gain``: the σ it passes per σ of a reading).
     map : StaticMap
         The static map over the read-out's span (its effective load ↔ the quantity).
-
-    :meth:`read` continues from where the last call left off (the filter's state: the one
-    mutable part; :meth:`reset` starts over, at rest under the next reading).
     """
 
     static: Readout
@@ -293,15 +296,45 @@ class DynamicReadout(Display):
         object.__setattr__(self, "_state", _State())
 
     # -- what the static read-out says (for the views) ------------------------------------------
-    quantity = property(lambda self: self.static.quantity, doc="As the static read-out's.")
-    unit = property(lambda self: self.static.unit, doc="As the static read-out's.")
-    span = property(lambda self: self.static.span, doc="As the static read-out's.")
-    setup = property(lambda self: self.static.setup, doc="As the static read-out's.")
-    table = property(lambda self: self.static.table, doc="As the static read-out's.")
-    fold = property(lambda self: self.static.fold, doc="As the static read-out's.")
-    calibration = property(lambda self: self.static.calibration,
-                           doc="As the static read-out's.")
-    scale_note = property(lambda self: self.static.scale_note, doc="As the static read-out's.")
+    @property
+    def quantity(self) -> str:
+        """The static read-out's: ``"angle"``, ``"force"`` or ``"flow"``."""
+        return self.static.quantity
+
+    @property
+    def unit(self) -> str:
+        """The static read-out's SI unit."""
+        return self.static.unit
+
+    @property
+    def span(self) -> tuple[float, float]:
+        """The static read-out's span, SI."""
+        return self.static.span
+
+    @property
+    def setup(self) -> Setup:
+        """The static read-out's setup."""
+        return self.static.setup
+
+    @property
+    def table(self) -> InverseTable:
+        """The static read-out's table."""
+        return self.static.table
+
+    @property
+    def fold(self) -> float | None:
+        """The static read-out's fold (SI), or None."""
+        return self.static.fold
+
+    @property
+    def calibration(self) -> ParameterCovariance | Posterior | None:
+        """The static read-out's calibration uncertainty."""
+        return self.static.calibration
+
+    @property
+    def scale_note(self) -> str:
+        """The static read-out's force-scale note."""
+        return self.static.scale_note
 
     # -- use ------------------------------------------------------------------------------------
     def read(self, volts: ArrayLike, /, *, noise: ArrayLike | None = None) -> ReadoutResult:
