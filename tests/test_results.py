@@ -193,8 +193,10 @@ FACTORIES.update({  # issue 25: what the readers say of a recording
 FACTORIES["BatchFit"] = lambda: importlib.import_module("magcilia.fitting").fit_batch(  # issue 26
     lambda x, which: np.stack([10.0 * (x[:, 1] - x[:, 0] ** 2), 1.0 - x[:, 0]], axis=1),
     [[-1.2, 1.0], [2.0, -1.0]], [-5.0, -5.0], [5.0, 5.0], maxiter=200)
-FACTORIES["Modes"] = lambda: mc.modes(TAPERED, "water")  # issue 28: the cilium in time
-FACTORIES.update({  # issue 28: the hair in time
+FACTORIES.update({  # issue 28: the cilium in time
+    "Modes": lambda: mc.modes(TAPERED, "water"),
+    "FrequencyResponse": lambda: mc.frequency_response(TAPERED, [0.0, 10.0, 100.0],
+                                                       fluid="water"),
     "TransientResponse": lambda: mc.simulate_response(
         mc.presets.load("force-sensor"), np.r_[0.0, np.full(9, 1e-6)], 1e4, fluid=mc.AIR),
     "DynamicReadout": lambda: mc.DynamicReadout(

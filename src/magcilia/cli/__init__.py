@@ -87,6 +87,7 @@ _COMMANDS: tuple[tuple[str, str], ...] = (
     ("array", "array"),
     ("batch", "batch"),
     ("optimise", "optimise"),
+    ("modes", "modes"),
 )
 
 

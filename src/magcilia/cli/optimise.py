@@ -87,7 +87,13 @@ def _defaults() -> str:
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Dask scheduler (tcp://HOST:PORT) to run the refinement on.")
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
-              help="Fluid of the flow objective.")
+              help="Fluid of the flow objective (and of every design's dynamics).")
+@click.option("--min-bandwidth", default=None, type=Physical.of("frequency", "100Hz"),
+              help="Keep designs whose −3 dB bandwidth (the response to the measurand in the "
+                   "fluid) is at least this: Hz, or with a unit (e.g. 0.2kHz).")
+@click.option("--max-settling", default=None, type=Physical.of("time", "20ms"),
+              help="Keep designs whose step settles within 2 % in at most this: s, or with a "
+                   "unit (e.g. 20ms).")
 @bandwidth_option()
 @mechanics_options
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
@@ -104,7 +110,8 @@ def _defaults() -> str:
 def command(setup_arg: str, objective: str, min_force: float | None, speed: float | None,
             min_range: str | None, max_field: float | None, bound_items: tuple[str, ...],
             sensor_text: str, designs: int, refine: int, polish: int, seed: int,
-            workers: int | None, scheduler: str | None, fluid: str, bandwidth: str,
+            workers: int | None, scheduler: str | None, fluid: str,
+            min_bandwidth: float | None, max_settling: float | None, bandwidth: str,
             tip_radius: str | None, modulus: str | None, plot_path: str | None,
             csv_path: str | None, as_json: bool, json_file: str | None, setup_out: str | None,
             quiet: bool, si: bool, style: str) -> None:
@@ -129,6 +136,10 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
                                            "--min-range")
     if max_field is not None:
         constraints["field"] = max_field
+    if min_bandwidth is not None:
+        constraints["bandwidth"] = min_bandwidth
+    if max_settling is not None:
+        constraints["settling"] = max_settling
     sensors = tuple(s.strip() for s in sensor_text.split(",") if s.strip())
     if not sensors:
         raise fail("--sensors", sensor_text, "one or more sensor names, e.g. HMC1021Z,MMC5983MA")
@@ -169,6 +180,7 @@ def _row(d: Candidate, quantity: str, units: OutputUnits) -> dict[str, Any]:
             units.key("range", quantity): units.value(d.range, quantity),
             "range_reached": d.reached, "limited_by": d.limited_by,
             units.key("peak_field", "field"): units.value(d.peak_field, "field"),
+            "bandwidth_Hz": d.bandwidth, "settling_time_s": d.settling_time,
             "rank": d.rank, "eligible": d.eligible, "violated": d.violated}
 
 
@@ -177,6 +189,9 @@ def optimise_doc(result: DesignOptimum, label: str, units: OutputUnits) -> dict[
     q = result.quantity
     limits: dict[str, Any] = {}
     for key, value in result.fixed.items():
+        if key in ("bandwidth", "settling"):  # Hz and s in either unit system
+            limits[f"{key}_{'Hz' if key == 'bandwidth' else 's'}"] = value
+            continue
         what = {"min_force": "force", "speed": "flow", "field": "field"}.get(key, q)
         limits[units.key(key, what)] = units.value(value, what)
     return {

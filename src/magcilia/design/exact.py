@@ -24,6 +24,7 @@ from magcilia.design.ranges import read_range
 from magcilia.design.sensors import SensorChoice
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Fluid
+from magcilia.mechanics.response import response_figures
 
 F64 = NDArray[np.float64]
 
@@ -31,8 +32,9 @@ F64 = NDArray[np.float64]
 @dataclass(frozen=True)
 class ExactTask:
     """What one exact evaluation needs (picklable): the design, its sensor, the measurand, the
-    speed whose slope counts (m/s, flow), the noise band (Hz), the fluid, the sweep's points and
-    the rated range of |B| in force (T)."""
+    speed whose slope counts (m/s, flow), the noise band (Hz), the fluid, the sweep's points,
+    the rated range of |B| in force (T) and whether to measure the dynamics (the response's
+    bandwidth and settling time: :func:`dynamics`)."""
 
     setup: Setup
     choice: SensorChoice
@@ -42,6 +44,7 @@ class ExactTask:
     fluid: Fluid
     points: int
     total: float = math.inf
+    dynamics: bool = True
 
 
 def information(slope: F64, sigma: F64) -> float:
@@ -52,7 +55,8 @@ def information(slope: F64, sigma: F64) -> float:
 def evaluate(task: ExactTask) -> dict[str, Any]:
     """The exact metrics of one design (a top-level function: runs in worker processes), its
     layout by the layout rule at the sensing element: ``sensitivity`` (T per unit), ``minimum``,
-    ``range`` (SI), ``limited_by``, ``peak_field`` (T) and ``reached``."""
+    ``range`` (SI), ``limited_by``, ``peak_field`` (T), ``reached`` and, when the task asks,
+    the dynamics: ``bandwidth`` (−3 dB, Hz) and ``settling_time`` (2 %, s); NaN otherwise."""
     setup, choice = task.setup.resolve_layout(), task.choice
     sigma = choice.sigma(task.bandwidth)
     sweep = task.measurand.sweep(setup, task.fluid, task.points)
@@ -74,8 +78,16 @@ def evaluate(task: ExactTask) -> dict[str, Any]:
     rng, why, last, reached = read_range(q, reading, b, choice.full_scale, task.total, signal,
                                          choice.axes, sweep.end)
     peak = float(np.max(np.linalg.norm(b[:last + 1], axis=1)))
+    band, settle = dynamics(task) if task.dynamics else (math.nan, math.nan)
     return {"sensitivity": sensitivity, "minimum": minimum, "range": rng, "limited_by": why,
-            "peak_field": peak, "reached": reached}
+            "peak_field": peak, "reached": reached, "bandwidth": band, "settling_time": settle}
+
+
+def dynamics(task: ExactTask) -> tuple[float, float]:
+    """The −3 dB bandwidth (Hz) and 2 % settling time (s) of the design's response to its
+    measurand (a tip force about rest, a flow about the task's speed) in the task's fluid
+    (:func:`magcilia.frequency_response`; NaN where the model refuses the design)."""
+    return response_figures(task.setup, task.fluid, task.measurand.name, task.speed)
 
 
 def evaluate_many(tasks: Sequence[ExactTask]) -> list[dict[str, Any]]:

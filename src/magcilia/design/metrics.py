@@ -17,6 +17,9 @@ quantity, evaluates the sensor output and reports
   are the optimiser's, :mod:`magcilia.design.sweeps`), the read-out has not ended: the range is
   a lower bound,
   ``reached`` is False and reports print it as "≥ X (not reached: …)";
+* the dynamics of a tip force in the fluid (:func:`magcilia.frequency_response` about rest):
+  the −3 dB bandwidth and the 2 % settling time of a step, the hair's modes with the fluid's
+  added mass and damping (NaN without a tip radius);
 * the force scale's 1 σ of the minimum and the range: a force scales exactly with the Young's
   modulus at a fixed shape (σ = value · σ_E/E), a flow speed through the drag law (the model's
   derivative at a fixed output, :func:`magcilia.readout.scale.fixed_output_rate`); systematic,
@@ -47,6 +50,7 @@ from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.device.stiffness import percent
 from magcilia.mechanics import SHARP_TIP, WATER, Flow, Fluid, bend, bend_sweep, output_at
+from magcilia.mechanics.response import response_figures
 from magcilia.readout.scale import fixed_output_rate
 
 F64 = NDArray[np.float64]
@@ -141,6 +145,12 @@ class DesignMetrics(Display):
         Hz.
     fluid : Fluid
     setup : Setup
+    response_bandwidth : float
+        −3 dB bandwidth of the output's response to a tip force in ``fluid``, Hz (NaN: no
+        tip radius).
+    settling_time : float
+        Time for a step of tip force to settle within 2 %, s (inf undamped; NaN: no tip
+        radius).
     """
 
     force: Metric
@@ -150,6 +160,8 @@ class DesignMetrics(Display):
     bandwidth: tuple[float, float]
     fluid: Fluid
     setup: Setup
+    response_bandwidth: float = math.nan
+    settling_time: float = math.nan
 
     @property
     def metrics(self) -> tuple[Metric, Metric, Metric]:
@@ -195,6 +207,11 @@ class DesignMetrics(Display):
             rng = (("" if r["reached"] else "≥ ") + f"{r['range']:.4g} {unit}"
                    if math.isfinite(r["range"]) else "-")
             lines.append(f"{r['quantity']:<8} {sens:>22} {mini:>18} {rng:>14}  {r['limited_by']}")
+        if math.isfinite(self.response_bandwidth):
+            settle = (f"{self.settling_time * 1e3:.4g} ms" if math.isfinite(self.settling_time)
+                      else "never (undamped)")
+            lines[0] += (f"; a tip force's −3 dB bandwidth {self.response_bandwidth:.4g} Hz, "
+                         f"settling (2 %) {settle}")
         lines.append(self.scale_note)
         return "\n".join(lines)
 
@@ -205,6 +222,8 @@ class DesignMetrics(Display):
             "fluid": self.fluid.name,
             "metrics": {m.quantity: m.to_dict() for m in self.metrics},
             "modulus": self.setup.modulus.to_dict(), "scale_note": self.scale_note,
+            "response_bandwidth_Hz": self.response_bandwidth,
+            "settling_time_s": self.settling_time,
         }
 
     # -- display --------------------------------------------------------------------------------
@@ -213,7 +232,8 @@ class DesignMetrics(Display):
         return [*((f"min {m.quantity}", MEASURANDS[m.quantity].text(m.minimum))
                   for m in self.metrics),
                 ("noise", si(self.noise, "V")), ("band", f"{lo:g}–{hi:g} Hz"),
-                ("fluid", self.fluid.name)]
+                ("fluid", self.fluid.name),
+                ("response_bandwidth", f"{number(self.response_bandwidth, 4)} Hz")]
 
     def _display_table(self) -> Table | None:
         return rows_table(self.table())
@@ -363,10 +383,11 @@ def design_metrics(setup: Setup, fluid: Fluid = WATER,
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
     points = v.integer("points", points, 11)
     noise = setup.sensor.output_noise_rms(*bandwidth)
+    band, settle = response_figures(setup, fluid)
     return DesignMetrics(
         force=_force_metric(setup, noise, points),
         flow=_flow_metric(setup, fluid, noise, points),
         angle=_angle_metric(setup, noise, points),
         noise=noise, bandwidth=(float(bandwidth[0]), float(bandwidth[1])), fluid=fluid,
-        setup=setup,
+        setup=setup, response_bandwidth=band, settling_time=settle,
     )

@@ -84,7 +84,7 @@ from numpy.typing import NDArray
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
-from magcilia.design.exact import ExactTask, evaluate_many
+from magcilia.design.exact import ExactTask, dynamics, evaluate_many
 from magcilia.design.measurands import BY_OBJECTIVE, Measurand
 from magcilia.design.pareto import pareto_ranks
 from magcilia.design.results import Candidate, DesignOptimum
@@ -221,9 +221,12 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         Flow objective (required there): the flow speed U, m/s, whose sensitivity counts.
     constraints : mapping, optional
         ``{"range": lowest range, "minimum": largest minimum detectable value}`` (SI: N or
-        m/s) and ``"field"``: the rated range of |B| at the element, T, where a design's range
+        m/s), ``"field"``: the rated range of |B| at the element, T, where a design's range
         ends (default each sensor's own: the HMC1021Z's 6 gauss, whose datasheet states its
-        range for the total field; none for a 3-axis part, rated per axis).
+        range for the total field; none for a 3-axis part, rated per axis), and the dynamics
+        of the response to the measurand in ``fluid`` (:func:`magcilia.frequency_response`):
+        ``"bandwidth"``, the lowest −3 dB bandwidth, Hz, and ``"settling"``, the longest 2 %
+        settling time of a step, s (refined designs only: the screen does not know them).
     bounds : mapping of str to (low, high), optional
         Searched variables (:data:`VARIABLES`) and their bounds, SI; the defaults
         (:data:`DEFAULT_BOUNDS`) for the others; pass ``(v, v)`` to fix one.
@@ -279,8 +282,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         raise v.fail("fluid", type(fluid).__name__, "a magcilia Fluid (AIR, WATER, …)")
     fixed_c = measurand.requirements(min_force, speed)
     for key, value in (constraints or {}).items():
-        v.choice("constraints key", key, ("range", "minimum", "field"))
-        unit = "T" if key == "field" else measurand.quantity.unit
+        v.choice("constraints key", key, ("range", "minimum", "field", "bandwidth", "settling"))
+        unit = {"field": "T", "bandwidth": "Hz", "settling": "s"}.get(
+            key, measurand.quantity.unit)
         fixed_c[key] = v.positive(f"constraints[{key!r}]", value, unit, "value")
     choices = sensor_choices(sensors, setup)
     searched, fixed = _bounds(setup, bounds)
@@ -383,6 +387,14 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     ranked = {id(d): int(r) for d, r in zip(feasible, ranks_exact, strict=True)}
     designs = [replace(d, rank=ranked.get(id(d), -1)) for d in designs]
     best = measurand.best([d for d in designs if d.eligible])
+    # the dynamics of the designs shown (the front, the chosen one, the reference) when no
+    # constraint needed them for every design
+    shown_ids = {id(d) for d in designs if d.rank == 0} | {id(best)}
+    by_id = {id(d): _dynamic(d, designs_from, measurand, fixed_c, fluid, by_name)
+             for d in designs if id(d) in shown_ids}
+    designs = [by_id.get(id(d), d) for d in designs]
+    best = by_id[id(best)]
+    reference = _dynamic(reference, setup, measurand, fixed_c, fluid, by_name)
     best_setup = _design_setup(designs_from, best.params).resolve_layout()
     return DesignOptimum(
         objective=objective, measurand=measurand, designs=tuple(designs), best=best,
@@ -448,7 +460,22 @@ def _task(setup: Setup, choice: SensorChoice, measurand: Measurand, fixed: dict[
           bandwidth: tuple[float, float], fluid: Fluid, points: int) -> ExactTask:
     return ExactTask(setup, choice, measurand, fixed.get("speed", 0.0),
                  (float(bandwidth[0]), float(bandwidth[1])), fluid, points,
-                 choice.total_limit(fixed.get("field")))
+                 choice.total_limit(fixed.get("field")),
+                 dynamics="bandwidth" in fixed or "settling" in fixed)
+
+
+def _dynamic(d: Candidate, base: Setup, measurand: Measurand, fixed: dict[str, float],
+             fluid: Fluid, by_name: Mapping[str, SensorChoice]) -> Candidate:
+    """``d`` with its bandwidth and settling time measured (when not yet)."""
+    if not math.isnan(d.bandwidth) or d.sensor not in by_name:
+        return d
+    try:
+        setup = _design_setup(base, d.params).resolve_layout()
+    except MagciliaError:
+        return d
+    task = _task(setup, by_name[d.sensor], measurand, fixed, DEFAULT_BANDWIDTH, fluid, 11)
+    band, settle = dynamics(task)
+    return replace(d, bandwidth=band, settling_time=settle)
 
 
 
@@ -457,7 +484,9 @@ def _design(params: dict[str, float], sensor: str, m: dict[str, Any],
     return Candidate(params=params, sensor=sensor, sensitivity=float(m["sensitivity"]),
                      minimum=float(m["minimum"]), range=float(m["range"]),
                      limited_by=str(m["limited_by"]), peak_field=float(m["peak_field"]),
-                     violated=violated, reached=bool(m["reached"]))
+                     violated=violated, reached=bool(m["reached"]),
+                     bandwidth=float(m.get("bandwidth", math.nan)),
+                     settling_time=float(m.get("settling_time", math.nan)))
 
 
 def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice) -> str:
@@ -475,6 +504,11 @@ def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice)
         return "minimum"
     if "range" in fixed and m["range"] < fixed["range"]:
         return "range"
+    band, settle = m.get("bandwidth", math.nan), m.get("settling_time", math.nan)
+    if "bandwidth" in fixed and not band >= fixed["bandwidth"]:  # NaN (not known) fails
+        return "bandwidth"
+    if "settling" in fixed and not settle <= fixed["settling"]:
+        return "settling"
     return ""
 
 

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,6 +47,12 @@ class Candidate(Display):
     reached : bool
         Whether the read-out's range ends within the sweep (rated range or fold); False: the
         sweep ended first and ``range`` is a lower bound.
+    bandwidth : float
+        −3 dB bandwidth of the output's response to the measurand (a tip force about rest, a
+        flow about ``speed``) in the fluid, Hz (:func:`magcilia.frequency_response`; NaN where
+        not known).
+    settling_time : float
+        Time for a step of it to settle within 2 %, s.
     """
 
     params: dict[str, float]
@@ -59,6 +66,8 @@ class Candidate(Display):
     rank: int = -1
     eligible: bool = False
     reached: bool = True
+    bandwidth: float = math.nan
+    settling_time: float = math.nan
 
     @property
     def feasible(self) -> bool:
@@ -79,6 +88,8 @@ class Candidate(Display):
         row["range_reached"] = self.reached
         row["limited_by"] = self.limited_by
         row["peak_field_T"] = self.peak_field
+        row["bandwidth_Hz"] = self.bandwidth
+        row["settling_time_s"] = self.settling_time
         row["rank"] = self.rank
         row["eligible"] = self.eligible
         row["violated"] = self.violated
@@ -90,7 +101,8 @@ class Candidate(Display):
                 "sensitivity_T_per_unit": self.sensitivity, "minimum": self.minimum,
                 "range": self.range, "range_reached": self.reached,
                 "limited_by": self.limited_by, "peak_field_T": self.peak_field,
-                "violated": self.violated, "rank": self.rank, "eligible": self.eligible}
+                "violated": self.violated, "rank": self.rank, "eligible": self.eligible,
+                "bandwidth_Hz": self.bandwidth, "settling_time_s": self.settling_time}
 
     def report(self) -> str:
         """One line in display units."""

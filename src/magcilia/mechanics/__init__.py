@@ -14,6 +14,9 @@
 * :func:`modes` (:class:`Modes`): the bending modes, in vacuum or a fluid (Sader's hydrodynamic
   function, :mod:`.hydrodynamic`), with or without the hair's own weight (:mod:`.modal`, on the
   beam elements of :mod:`.beam`);
+* :func:`frequency_response` (:class:`FrequencyResponse`): the sensor's transfer from a tip force
+  or a flow to its output about a static operating point, its −3 dB bandwidth and settling time
+  (:mod:`.response`);
 * :func:`simulate_response` (:class:`TransientResponse`): a force, flow or tilt over time → the
   hair's motion → the sensor's output, by a reduced modal model around the static map
   (:mod:`.transient`).
@@ -40,6 +43,7 @@ from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.modal import Modes, modes
 from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
+from magcilia.mechanics.response import FrequencyResponse, frequency_response
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.mechanics.spatial import buckling_load, flip_field
 from magcilia.mechanics.transient import TransientResponse, simulate_response
@@ -53,6 +57,7 @@ __all__ = [
     "BentShape",
     "Flow",
     "Fluid",
+    "FrequencyResponse",
     "Load",
     "Modes",
     "SpatialBentShape",
@@ -65,6 +70,7 @@ __all__ = [
     "drag_coefficient",
     "drag_per_length",
     "flip_field",
+    "frequency_response",
     "frustum_compliance",
     "modes",
     "output_at",

@@ -116,15 +116,37 @@ def mesh(cilium: Cilium, elements: int) -> Mesh:
     element = np.minimum(np.searchsorted(nodes, s, side="right") - 1, elements - 1)
     h = length / elements
     xi = (s - nodes[element]) / h
+    return Mesh(nodes, element.astype(np.int64), s, weight, cilium.radius(s),
+                *(_hermite(xi, h, which) for which in ("values", "slopes", "curvatures")))
+
+
+def _hermite(xi: F64, h: float, which: str) -> F64:
+    """The four Hermite cubics of an element of length ``h`` (m) at local coordinates ``xi``
+    (0 … 1, shape (q,)): values, slopes (1/m) or curvatures (1/m²) along s, shape (q, 4)."""
     x2, x3 = xi * xi, xi * xi * xi
-    values = np.stack([1 - 3 * x2 + 2 * x3, h * (xi - 2 * x2 + x3), 3 * x2 - 2 * x3,
-                       h * (x3 - x2)], axis=1)
-    slopes = np.stack([(6 * x2 - 6 * xi) / h, 1 - 4 * xi + 3 * x2, (6 * xi - 6 * x2) / h,
-                       3 * x2 - 2 * xi], axis=1)
-    curvatures = np.stack([(12 * xi - 6) / h**2, (6 * xi - 4) / h, (6 - 12 * xi) / h**2,
-                           (6 * xi - 2) / h], axis=1)
-    return Mesh(nodes, element.astype(np.int64), s, weight, cilium.radius(s), values, slopes,
-                curvatures)
+    if which == "values":
+        parts = [1 - 3 * x2 + 2 * x3, h * (xi - 2 * x2 + x3), 3 * x2 - 2 * x3, h * (x3 - x2)]
+    elif which == "slopes":
+        parts = [(6 * x2 - 6 * xi) / h, 1 - 4 * xi + 3 * x2, (6 * xi - 6 * x2) / h,
+                 3 * x2 - 2 * xi]
+    else:
+        parts = [(12 * xi - 6) / h**2, (6 * xi - 4) / h, (6 - 12 * xi) / h**2, (6 * xi - 2) / h]
+    return np.stack(parts, axis=1)
+
+
+def interpolate(grid: Mesh, vectors: F64, s: F64, which: str = "values") -> F64:
+    """Fields of free-DOF vectors (shape (k, dofs)) at arc lengths ``s`` (m, shape (m,), within
+    0 … L): their deflection (``"values"``), or slope (``"slopes"``), by the elements' Hermite
+    cubics; shape (k, m)."""
+    nodes = grid.nodes
+    count = nodes.size - 1
+    h = nodes[1] - nodes[0]
+    element = np.clip(np.searchsorted(nodes, s, side="right") - 1, 0, count - 1)
+    xi = (np.asarray(s, dtype=np.float64) - nodes[element]) / h
+    basis = _hermite(xi, h, which)
+    full = np.concatenate([np.zeros((vectors.shape[0], 2)), vectors], axis=1)
+    idx = 2 * element[:, None] + np.arange(4)
+    return np.asarray(np.einsum("kqj,qj->kq", full[:, idx], basis), dtype=np.float64)
 
 
 def weight_above(cilium: Cilium, s: F64) -> F64:

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number, si
 from magcilia.device.setup import Setup
-from magcilia.mechanics.beam import Mesh, mesh, weight_above
+from magcilia.mechanics.beam import Mesh, interpolate, mesh, weight_above
 from magcilia.mechanics.drag import FLUIDS, Fluid
 from magcilia.mechanics.hydrodynamic import added_mass_damping
 
@@ -45,11 +45,13 @@ F64 = NDArray[np.float64]
 
 #: standard acceleration of gravity, m/s² (3rd CGPM 1901; the value of g_n in the SI brochure)
 STANDARD_GRAVITY = 9.80665
-#: default number of beam elements: the first three frequencies of the force-sensor cilium
-#: converged to ~1e-7 (docs/dynamics.md: the error falls as E⁻⁴)
+#: default number of beam elements: the first three frequencies of the force-sensor cilium within
+#: 8e-8, 1.9e-6 and 1.2e-5 of an independent shooting solution (docs/dynamics.md: the error falls
+#: as E⁻⁴)
 ELEMENTS = 24
-#: most beam elements a caller may ask for
-MAX_ELEMENTS = 2000
+#: most beam elements a caller may ask for: beyond ~100 the eigenproblem's round-off (its
+#: condition grows as E⁴) outgrows the discretisation error (1.7e-6 at 200, 6e-4 at 1000)
+MAX_ELEMENTS = 200
 #: most modes a caller may ask for (higher ones leave the slender-beam theory: the wavelength
 #: approaches the radius)
 MAX_COUNT = 20
@@ -196,7 +198,8 @@ class Modes(Display):
         return header, rows
 
 
-def _fluid(fluid: object) -> Fluid | None:
+def as_fluid(fluid: object) -> Fluid | None:
+    """``fluid`` as a Fluid: None (vacuum), a Fluid, or a name in FLUIDS (checked)."""
     if fluid is None or isinstance(fluid, Fluid):
         return fluid
     if isinstance(fluid, str) and fluid in FLUIDS:
@@ -241,7 +244,7 @@ def modes(setup: Setup, fluid: Fluid | str | None = None, gravity: bool = False,
     """
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a Setup")
-    medium = _fluid(fluid)
+    medium = as_fluid(fluid)
     if not isinstance(gravity, bool | np.bool_):
         raise v.fail("gravity", gravity, "True or False")
     count = v.integer("count", count, 1)
@@ -251,6 +254,41 @@ def modes(setup: Setup, fluid: Fluid | str | None = None, gravity: bool = False,
     if n_el > MAX_ELEMENTS:
         raise v.fail("elements", n_el, f"at most {MAX_ELEMENTS} beam elements (MAX_ELEMENTS)")
     eta = v.non_negative("loss_factor", loss_factor, "", "loss factor")
+    return modal_model(setup, medium, bool(gravity), count, n_el, eta).modes
+
+
+@dataclass(frozen=True)
+class ModalModel:
+    """The modes and what a response needs of them (internal to mechanics: the frequency
+    response, :mod:`magcilia.mechanics.response`).
+
+    Attributes
+    ----------
+    modes : Modes
+        The public result.
+    grid : Mesh
+        The beam mesh and its quadrature.
+    vectors : ndarray, shape (count, dofs)
+        The mode shapes as free-DOF vectors (deflection and slope at each node but the base),
+        normalised to 1 at the tip.
+    structural_masses : ndarray, shape (count,)
+        φᵀ M φ of the body alone (no added mass), kg.
+    """
+
+    modes: Modes
+    grid: Mesh
+    vectors: F64
+    structural_masses: F64
+
+    def slopes(self, s: F64) -> F64:
+        """The modes' slopes dφ/ds at arc lengths ``s`` (m, shape (m,)), 1/m, shape
+        (count, m) (Hermite interpolation on the mesh)."""
+        return interpolate(self.grid, self.vectors, s, "slopes")
+
+
+def modal_model(setup: Setup, medium: Fluid | None, gravity: bool, count: int, n_el: int,
+                eta: float) -> ModalModel:
+    """:func:`modes` on checked arguments, with the internals a response needs."""
     n_el = max(n_el, (count + 1) // 2 + 1)  # at least as many free DOFs as modes
     modulus, density = setup.youngs_modulus, setup.material.density
     grid = mesh(setup.cilium, n_el)
@@ -286,8 +324,9 @@ def modes(setup: Setup, fluid: Fluid | str | None = None, gravity: bool = False,
     freq = omega / (2.0 * math.pi)
     damped = np.where(over, 0.0, freq * np.sqrt(np.clip(1.0 - zeta**2, 0.0, None)))
     nodal = np.concatenate([np.zeros((count, 1)), shapes[:, 0::2]], axis=1)
-    return Modes(freq, zeta, over, damped, grid.nodes.copy(), nodal, masses, stiffnesses,
-                 dampings, medium, bool(gravity), modulus, density, eta, n_el)
+    result = Modes(freq, zeta, over, damped, grid.nodes.copy(), nodal, masses, stiffnesses,
+                   dampings, medium, bool(gravity), modulus, density, eta, n_el)
+    return ModalModel(result, grid, shapes, np.einsum("ki,ij,kj->k", shapes, mass, shapes))
 
 
 def _fluid_modes(grid: Mesh, lam: F64, vec: F64, fluid: Fluid,
