@@ -387,9 +387,9 @@ class DynamicReadout(Display):
         value = _continued(u, smap.effective, smap.values)
         # noise: the reading's σ in effective load (through dV/du there), filtered, in the
         # quantity at the estimate (through dq/du there)
-        du_dv = np.abs(np.interp(np.where(ok, x, branch_v[0]), branch_v,
-                                 np.gradient(branch_u, branch_v)))
-        dq_du = np.interp(u, smap.effective, np.gradient(smap.values, smap.effective))
+        du_dv_branch, dq_du_map = self._slopes
+        du_dv = np.abs(np.interp(np.where(ok, x, branch_v[0]), branch_v, du_dv_branch))
+        dq_du = np.interp(u, smap.effective, dq_du_map)
         s_noise = self.filter.noise_gain * noise_v * du_dv * np.abs(dq_du)
         # calibration, tare, edge and scale parts at the estimate: the static read-out of the
         # model's output there, without noise
@@ -402,7 +402,7 @@ class DynamicReadout(Display):
         nan = np.where((flags & FLAG_DTYPE(NO_ESTIMATE)) != 0, np.nan, 1.0)
         parts = (s_noise, np.asarray(at.sigma_calibration), np.asarray(at.sigma_edge),
                  np.asarray(at.sigma_scale))
-        sigma = np.sqrt(sum(np.nan_to_num(p) ** 2 for p in parts))
+        sigma = np.sqrt(np.nansum(np.square(np.stack(parts)), axis=0))
         shape = np.shape(volts)
         return ReadoutResult(
             quantity=static.quantity, unit=static.unit, value=(value * nan).reshape(shape),
@@ -422,6 +422,12 @@ class DynamicReadout(Display):
         if self.static.baseline is not None:
             return float(self.static.baseline.noise)
         return float(self.static.setup.sensor.output_noise_rms(*DEFAULT_BANDWIDTH))
+
+    @cached_property
+    def _slopes(self) -> tuple[F64, F64]:
+        """du/dV on the measurable branch and dq/du on the static map, at their points."""
+        volts, load = self._branch
+        return np.gradient(load, volts), np.gradient(self.map.values, self.map.effective)
 
     @cached_property
     def _branch(self) -> tuple[F64, F64]:
