@@ -191,6 +191,21 @@ class DynamicReadout(Display):
     :meth:`read` continues from where the last call left off (the filter's state: the one
     mutable part; :meth:`reset` starts over, at rest under the next reading).
 
+    Examples
+    --------
+    >>> import magcilia as mc
+    >>> setup = mc.presets.load("force-sensor")
+    >>> static = mc.Readout(setup, quantity="force", span=(-4e-5, 4e-5))
+    >>> dynamic = mc.DynamicReadout(static, 10e3, fluid=mc.AIR)
+    >>> load = np.r_[np.zeros(10), np.full(990, 4e-6)]             # a 4 µN step at 10 kHz
+    >>> volts = mc.simulate_response(setup, load, 10e3, fluid=mc.AIR).output
+    >>> ringing = static.read(volts, noise=2e-5).value[80:]          # from one period on
+    >>> steady = dynamic.read(volts, noise=2e-5).value[80:]
+    >>> float(np.abs(ringing - 4e-6).max()) > 3e-6       # the static read-out rings ±4 µN
+    True
+    >>> float(np.abs(steady - 4e-6).max()) < 0.5e-6      # the dynamic one is on the step
+    True
+
     Parameters
     ----------
     readout : Readout
