@@ -85,3 +85,24 @@ def test_record_with_a_moving_hair(tmp_path: Path, capsys: pytest.CaptureFixture
     assert code == 2 and len(err) == 1 and "tip_radius must be > 0" in err[0]
     assert not sharp.exists()
     assert np.isfinite([p["mean_mV"] for p in doc["points"]]).all()
+
+
+def test_a_dynamic_recording_replays_with_its_filter(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """``live --dynamic --record`` stores the filter (rate, bandwidth, window means, fluid);
+    ``live --source FILE`` replays the same estimates; ``readout FILE`` reads it statically and
+    says so."""
+    rec = tmp_path / "d.tdms"
+    assert main(["live", "--dynamic", "--duration", "1.2", "--record", str(rec),
+                 "--json-lines"]) == 0
+    shown = {d["t"]: d for d in _values(capsys.readouterr().out)}
+    assert main(["live", "--source", str(rec), "--json-lines"]) == 0
+    again = _values(capsys.readouterr().out)
+    matched = [(shown[d["t"]], d) for d in again if d["t"] in shown and d["value"] is not None
+               and shown[d["t"]]["value"] is not None]
+    assert len(matched) > 500
+    for a, b in matched:
+        assert b["value"] == pytest.approx(a["value"], rel=1e-6, abs=1e-3 * a["sigma"])
+        assert b["sigma"] == pytest.approx(a["sigma"], rel=1e-6)
+    assert main(["readout", str(rec), "--csv", str(tmp_path / "r.csv")]) == 0
+    assert "read here statically" in capsys.readouterr().out

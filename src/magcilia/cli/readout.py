@@ -523,7 +523,8 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
                             f"a single output's: replay it with `magcilia live --source {path} "
                             "--json-lines`")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus) if setup_arg else None
-    q = quantity or str(stored(stored_properties(path), Path(path))[1]["quantity"])
+    spec = stored(stored_properties(path), Path(path))[1]
+    q = quantity or str(spec["quantity"])
     span = parse_span(span_text, q) if span_text else None
     if quantity is not None and span is None:
         raise fail("--span", None, f"given with --quantity {quantity} (the recording's span is "
@@ -535,6 +536,9 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
     raw = rec.volts - rec.correction
     notes = [f"note: {path}: a live recording: its {rec.time.size} read-out readings with the "
              "setup, quantity and span it stores" + (" (setup as given)" if setup else "")]
+    if spec.get("dynamic"):  # the view's filter is replayed by `live --source FILE`
+        notes.append(f"note: {path}: the view read it with the dynamic read-out; read here "
+                     "statically (`magcilia live --source FILE` replays the dynamic one)")
     if tare_spec is not None or tare_file is not None:
         if tare_spec is not None and tare_file is not None:
             raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")
