@@ -197,6 +197,11 @@ FACTORIES.update({  # issue 28: the cilium in time
     "Modes": lambda: mc.modes(TAPERED, "water"),
     "FrequencyResponse": lambda: mc.frequency_response(TAPERED, [0.0, 10.0, 100.0],
                                                        fluid="water"),
+    "TransientResponse": lambda: mc.simulate_response(
+        mc.presets.load("force-sensor"), np.r_[0.0, np.full(9, 1e-6)], 1e4, fluid=mc.AIR),
+    "DynamicReadout": lambda: mc.DynamicReadout(
+        mc.Readout(mc.presets.load("force-sensor"), quantity="force", span=(-2e-5, 2e-5),
+                   table_size=17), 1e4, fluid=mc.AIR),
 })
 FACTORIES["RingdownResult"] = lambda: mc.ringdown(  # issue 28: a flicked cilium's ring-down
     0.1 + np.exp(-20.0 * np.arange(2000) / 5e3) * np.cos(2 * np.pi * 150.0 * np.arange(2000) / 5e3)

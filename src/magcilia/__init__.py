@@ -84,11 +84,13 @@ from magcilia.mechanics import (
     FrequencyResponse,
     Modes,
     SpatialBentShape,
+    TransientResponse,
     bend,
     bend_sweep,
     drag_coefficient,
     frequency_response,
     modes,
+    simulate_response,
 )
 from magcilia.model import Centreline, SpatialCentreline, exact_field
 
@@ -103,6 +105,7 @@ from magcilia.readout import (
     ArrayReadout,
     BiaxialReadout,
     Crosstalk,
+    DynamicReadout,
     Flag,
     ForceFlag,
     ForceVectorResult,
@@ -137,6 +140,7 @@ __all__ = [
     "Crosstalk",
     "DesignMetrics",
     "DesignOptimum",
+    "DynamicReadout",
     "Flag",
     "Flow",
     "Fluid",
@@ -173,6 +177,7 @@ __all__ = [
     "SpatialBentShape",
     "SpatialCentreline",
     "Tare",
+    "TransientResponse",
     "__version__",
     "array_metrics",
     "bend",
@@ -199,6 +204,7 @@ __all__ = [
     "save_array",
     "save_setup",
     "sensitivity_study",
+    "simulate_response",
     "sobol_indices",
     "to_c_header",
 ]

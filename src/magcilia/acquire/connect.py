@@ -6,13 +6,14 @@ from magcilia import _validate as v
 from magcilia.acquire.simulated import SimulatedSource
 from magcilia.acquire.source import Source
 from magcilia.device.setup import Setup
+from magcilia.mechanics.drag import AIR
 
 KINDS = ("sim", "serial:PORT", "nidaq:DEV/aiN")
 
 
 def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
                      rng: int | None = None, set_reset: int | None = None,
-                     realtime: bool = False) -> Source:
+                     realtime: bool = False, dynamics: bool = False) -> Source:
     """The source named by ``spec``.
 
     Parameters
@@ -32,10 +33,16 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
         line is configured in Python).
     realtime : bool
         Pace the simulation by the wall clock.
+    dynamics : bool
+        ``sim``: the simulated hair moves through its bending modes, in air
+        (:class:`SimulatedSource`'s ``dynamics``).
     """
     kind, _, target = spec.partition(":")
     if kind == "sim" and not target:
-        return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime)
+        return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime,
+                               dynamics=dynamics, fluid=AIR if dynamics else None)
+    if dynamics:
+        raise v.fail("--sim-dynamics", True, "given with --source sim only")
     if kind == "serial" and target:
         from magcilia.acquire.serial import SerialSource
 

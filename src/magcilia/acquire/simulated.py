@@ -27,6 +27,8 @@ from magcilia.acquire.source import OUTPUT, Block, Channel, Source
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Flow, output_at
+from magcilia.mechanics.drag import Fluid
+from magcilia.mechanics.transient import ResponseStream
 
 F64 = NDArray[np.float64]
 
@@ -170,6 +172,12 @@ class SimulatedSource(Paced, Source):
         Flow profile for a ``"flow"`` script (scaled to the scripted speed); default uniform water.
     rng : int, Generator or None
         Randomness; None (default) draws fresh entropy, an int repeats the samples exactly.
+    dynamics : bool
+        The hair moves through its bending modes (rings, lags) instead of sitting at each
+        value's static equilibrium (the module's docstring); needs ``tip_radius > 0``.
+    fluid : Fluid, optional
+        With ``dynamics``: the fluid around the hair (its added mass and damping); None: the
+        flow's fluid for a flow script, else vacuum.
 
     Examples
     --------
@@ -185,7 +193,8 @@ class SimulatedSource(Paced, Source):
                  readout_noise: float = 2e-4, drift: float = 0.0, bias: float = 0.0,
                  set_reset: int | None = None, realtime: bool = False, speed: float = 1.0,
                  flow: Flow | None = None,
-                 rng: int | np.random.Generator | None = None) -> None:
+                 rng: int | np.random.Generator | None = None, dynamics: bool = False,
+                 fluid: Fluid | None = None) -> None:
         super().__init__()
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
@@ -207,6 +216,11 @@ class SimulatedSource(Paced, Source):
         self._noise = np.zeros(0)
         self._table: tuple[F64, F64] | None = None
         self._started = 0.0
+        self.dynamics = bool(dynamics)
+        if fluid is not None and not isinstance(fluid, Fluid):
+            raise v.fail("fluid", type(fluid).__name__, "a magcilia.Fluid (AIR, WATER) or None")
+        self.fluid = fluid
+        self._stream: ResponseStream | None = None
 
     # -- the script -----------------------------------------------------------------------------
     @property
@@ -225,8 +239,25 @@ class SimulatedSource(Paced, Source):
     # -- Source ---------------------------------------------------------------------------------
     def _open(self) -> None:
         if self._index == 0:  # the model's first evaluation loads compiled code: before the pace
-            self._clean(self.script.values(np.zeros(1)))
+            if self.dynamics:
+                self._hair().prepare(self._script_values())
+            else:
+                self._clean(self.script.values(np.zeros(1)))
         self._start_pace()
+
+    def _hair(self) -> ResponseStream:
+        """The moving hair (its modes computed on first use)."""
+        if self._stream is None:
+            self._stream = ResponseStream(self.setup, self.script.quantity, self.rate,
+                                          fluid=self.fluid, flow=self.flow)
+        return self._stream
+
+    def _script_values(self) -> F64:
+        """The values the script goes through: its steps', or a function's over its first
+        minute (for the static map's range, built before the pace starts)."""
+        if self.script.function is not None:
+            return self.script.values(np.linspace(0.0, 60.0, 6001))
+        return np.array([x for _, x in self.script.steps])
 
     def _close(self) -> None:
         return
@@ -253,11 +284,15 @@ class SimulatedSource(Paced, Source):
         return {**super().metadata(), "simulated": True, "script": self.script.describe(),
                 "readout_noise_V": self.readout_noise, "drift_V_per_s": self.drift,
                 "bias_V": self.bias, "set_reset_samples": self.set_reset, "seed": self._seed,
-                "speed": self.speed}
+                "speed": self.speed, "dynamics": self.dynamics,
+                **({"fluid": self.fluid.name} if self.dynamics and self.fluid else {})}
 
     # -- the signal -----------------------------------------------------------------------------
     def _clean(self, values: F64) -> F64:
-        """Noise-free output (V) at the scripted values."""
+        """Noise-free output (V) at the scripted values (the moving hair's, with
+        ``dynamics``)."""
+        if self.dynamics:
+            return self._hair().push(values)[2]
         quantity = self.script.quantity
         distinct, where = np.unique(values, return_inverse=True)
         if quantity == "angle" or distinct.size <= _EXACT_VALUES:

@@ -35,8 +35,14 @@ from magcilia.device.setup import Setup
 from magcilia.io import presets
 from magcilia.io.array_file import is_array_file, load_array
 from magcilia.live import LiveReadout
-from magcilia.mechanics import FLUIDS, Flow
-from magcilia.readout import ArrayReadout, BiaxialReadout, Readout, field_for_loads
+from magcilia.mechanics import AIR, FLUIDS, Flow
+from magcilia.readout import (
+    ArrayReadout,
+    BiaxialReadout,
+    DynamicReadout,
+    Readout,
+    field_for_loads,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -141,6 +147,16 @@ def live_options(command: Any) -> Any:
                      type=click.Path(file_okay=False),
                      help="Where recordings started from the view go (live-DATE-TIME.tdms)."),
         click.option("--seed", default=0, show_default=True, help="Seed of the simulation."),
+        click.option("--dynamic", is_flag=True,
+                     help="The dynamic read-out (a Kalman filter on the hair's bending modes, "
+                          "magcilia.DynamicReadout): a step reads within about a period instead "
+                          "of ringing, its noise and sigma stated; one output only (the hair in "
+                          "air for a force or an angle, in --fluid for a flow; --rate above "
+                          "twice its first mode). With --source sim the simulated hair moves "
+                          "too."),
+        click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
+                     help="sim: the simulated hair moves through its bending modes (rings in "
+                          "air, lags in water) instead of sitting at each load's equilibrium."),
         mechanics_options,
     ]
     for option in reversed(options):
@@ -151,7 +167,7 @@ def live_options(command: Any) -> Any:
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
              "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
-             "force")
+             "force", "dynamic", "sim_dynamics")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
@@ -160,11 +176,14 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                tracking: float, seed: int, tip_radius: str | None, modulus: str | None,
                sensor_name: str | None = None, sensor_noise: str | None = None,
                record_path: str | None = None, force: bool = False,
-               replay_realtime: bool | None = None, **_: Any) -> LiveReadout:
+               replay_realtime: bool | None = None, dynamic: bool = False,
+               sim_dynamics: bool = False, **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started): one output of a single-axis
     sensor; the force vector of a 3-axis sensor (``--sensor``); every cilium's force vector of an
     array (an array setup file or preset). A ``.tdms`` source is a replay, in real time with
-    ``replay_realtime`` (None: when stdout is a terminal)."""
+    ``replay_realtime`` (None: when stdout is a terminal). ``dynamic``: the single output read
+    by :class:`~magcilia.readout.dynamic.DynamicReadout` (and a simulated hair that moves);
+    ``sim_dynamics``: a simulated hair that moves (:class:`SimulatedSource`'s ``dynamics``)."""
     logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
     if source_spec.lower().endswith(".tdms"):
         return replay_live(source_spec, record_path, replay_realtime)
@@ -182,7 +201,9 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         for name, value, default in (("--quantity", quantity, "force"),
                                      ("--channel", channel, "output"),
                                      ("--calibration", calibration_path, None),
-                                     ("--set-reset", set_reset, None)):
+                                     ("--set-reset", set_reset, None),
+                                     ("--dynamic", dynamic, False),
+                                     ("--sim-dynamics", sim_dynamics, False)):
             if value != default:
                 what = "an array" if array else "a 3-axis sensor (--sensor)"
                 raise fail(name, value, f"left out for {what}: it reads force vectors from "
@@ -199,20 +220,33 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     flow = Flow.uniform(1.0, FLUIDS[fluid])
     span = parse_span(span_text, quantity) if span_text else live_span(setup, quantity, flow)
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
-    readout = Readout(setup, quantity=quantity, span=span, calibration=covariance,
-                      flow=flow if quantity == "flow" else None)
+    static = Readout(setup, quantity=quantity, span=span, calibration=covariance,
+                     flow=flow if quantity == "flow" else None)
+    readout: Readout | DynamicReadout = static
     source: Source
     source_rate = SOURCE_RATE if source_rate is None else source_rate
+    rate = RATE if rate is None else rate
+    hair_fluid = flow.fluid if quantity == "flow" else AIR  # around the hair, for its dynamics
+    if source_spec != "sim" and sim_dynamics:
+        raise fail("--sim-dynamics", True, "given with --source sim only")
+    if dynamic:  # each reading: the mean of the source's samples in its window (the
+        # pipeline's: source rate / a whole number of samples; a serial device's own rate is
+        # known once it sends, so the rate asked for is taken)
+        known = not source_spec.startswith("serial")
+        factor = max(1, round(source_rate / rate)) if known else 2
+        readout = DynamicReadout(static, source_rate / factor if known else rate,
+                                 fluid=hair_fluid, averaged=factor > 1)
     if source_spec == "sim":
         amplitude = 0.8 * max(abs(span[0]), abs(span[1]))
         source = SimulatedSource(setup, demo_script(quantity, amplitude), rate=source_rate,
                                  realtime=True, rng=seed, set_reset=set_reset, bias=3e-4,
                                  readout_noise=2e-5, drift=2e-7,
-                                 flow=flow if quantity == "flow" else None)
+                                 flow=flow if quantity == "flow" else None,
+                                 dynamics=dynamic or sim_dynamics, fluid=hair_fluid)
     else:
         source = source_from_spec(source_spec, setup=setup, rate=source_rate, rng=seed,
                                   set_reset=set_reset, realtime=True)
-    return LiveReadout(source, readout, rate=RATE if rate is None else rate, channel=channel,
+    return LiveReadout(source, readout, rate=rate, channel=channel,
                        tare_at_start=not no_tare, tracking=tracking or None,
                        record=record_path)
 

@@ -45,8 +45,9 @@ from magcilia.live.recorded import (
     recorded_readout,
     stored,
 )
-from magcilia.mechanics import FLUIDS, Flow
+from magcilia.mechanics import FLUIDS, Flow, Fluid
 from magcilia.readout.biaxial import BiaxialReadout
+from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
 from magcilia.readout.protocol import Flag
 from magcilia.report.biaxial import vector_csv
@@ -173,8 +174,14 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
               help="Output CSV (estimates, 1-sigma, flags), written atomically. Required.")
 @bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
                   "(with --tare or --tare-file the baseline's measured spread is used instead).")
-@click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
-              help="Fluid for --quantity flow (uniform flow along +x).")
+@click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default=None,
+              help="Fluid for --quantity flow (uniform flow along +x) [default: water]; with "
+                   "--dynamic, the fluid around the hair [default: air for a force or angle].")
+@click.option("--dynamic", is_flag=True,
+              help="Read with the dynamic read-out (a Kalman filter on the hair's bending "
+                   "modes, magcilia.DynamicReadout): steps read within about a period instead of "
+                   "ringing; the readings in order at the uniform rate of their time_s column "
+                   "(above twice the hair's first mode).")
 @click.option("--table-size", default=257, show_default=True, help="Read-out table points.")
 @click.option("--calibration", "calibration_path", type=click.Path(),
               help="result.json (or the --out folder) of `magcilia calibrate`: its parameter "
@@ -202,7 +209,8 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 def command(setup_arg: str | None, recording: str, quantity: str | None, span_text: str | None,
             biaxial: bool, sensor_name: str | None, sensor_noise: str | None,
             out_path: str | None,
-            bandwidth: str, fluid: str, table_size: int, calibration_path: str | None,
+            bandwidth: str, fluid: str | None, dynamic: bool, table_size: int,
+            calibration_path: str | None,
             edge: str, edge_tolerance: str | None, tare_spec: str | None, tare_file: str | None,
             actuation_field: str | None, actuation_file: str | None,
             actuation_scale: float | None,
@@ -237,6 +245,9 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     ones,
     and --tare or --tare-file replaces the view's corrections.
     """
+    if dynamic and (biaxial or is_live_recording(recording)):
+        raise fail("--dynamic", True, "given for a recording of one output's samples (not "
+                   "--biaxial, not a live recording's windows)")
     if not biaxial and is_live_recording(recording):
         if out_path is None:
             raise click.UsageError("Missing option '--csv'.")
@@ -277,7 +288,7 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     baseline = (tare_readings(tare_spec, volts, times) if tare_spec is not None else
                 read_recording(tare_file, reading, "--tare-file", quiet, suspect)[0]
                 if tare_file is not None else None)
-    flow = Flow.uniform(1.0, FLUIDS[fluid]) if quantity == "flow" else None
+    flow = Flow.uniform(1.0, FLUIDS[fluid or "water"]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
                       table_size=table_size, edge=edge, edge_tolerance=tolerance,
@@ -286,15 +297,21 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
         readout = readout.tare(baseline)
         if readout.baseline is not None and not readout.baseline.at_rest:
             notes.append(f"note: {tare_spec or tare_file}: {readout.baseline.report()}")
+    dyn = (_dynamic(readout, times, FLUIDS[fluid or ("water" if quantity == "flow" else "air")])
+           if dynamic else None)
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
     with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
               disable=not show, file=sys.stderr) as bar:
-        result = readout.read(volts, bandwidth=band)
+        result = readout.read(volts, bandwidth=band) if dyn is None else dyn.read(
+            volts, noise=None if readout.baseline is not None else
+            setup.sensor.output_noise_rms(*band))
         write_readout_csv(out_path, result, volts, times, si=si, progress=bar.update)
     compensation = None if actuation is None else _compensation(setup, actuation,
                                                                  readout.sensor_flags, si)
     if as_json:
         extra = {} if compensation is None else {"actuation": compensation[1]}
+        if dyn is not None:
+            extra["dynamic"] = dyn.to_dict()["dynamic"]
         echo_json({**readout_summary(readout, result, si), **extra, "out": out_path,
                    "notes": notes, "quality": quality})
         return
@@ -302,7 +319,27 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
         click.echo(line)
     if compensation is not None:
         click.echo(compensation[0])
+    if dyn is not None:
+        click.echo(dyn.report().splitlines()[-1])
     click.echo(f"{Path(out_path).name}: {readout_line(readout, result, si)}")
+
+
+def _dynamic(readout: Readout, times: np.ndarray | None, fluid: Fluid) -> DynamicReadout:
+    """``--dynamic``: the dynamic read-out at the recording's rate (its ``time_s`` uniform
+    within 1 %)."""
+    if times is None or times.size < 2:
+        raise fail("--dynamic", True, "given for a recording with a time_s column (the rate of "
+                   "its readings)")
+    steps = np.diff(times)
+    step = float(np.median(steps))
+    if not (step > 0 and np.all(np.abs(steps - step) <= 0.01 * step)):
+        raise fail("--dynamic", True, "given for readings at a uniform rate (time_s steps "
+                   f"within 1 %; they range {steps.min():.6g}…{steps.max():.6g} s)")
+    try:
+        return DynamicReadout(readout, 1.0 / step, fluid=fluid)
+    except MagciliaError as exc:  # the rate: name where it comes from
+        raise MagciliaError(str(exc).replace("rate must", "the recording's rate (time_s) must",
+                                             1)) from None
 
 
 def _compensation(setup: Setup, actuation: Actuation, flags: int,
@@ -486,7 +523,8 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
                             f"a single output's: replay it with `magcilia live --source {path} "
                             "--json-lines`")
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus) if setup_arg else None
-    q = quantity or str(stored(stored_properties(path), Path(path))[1]["quantity"])
+    spec = stored(stored_properties(path), Path(path))[1]
+    q = quantity or str(spec["quantity"])
     span = parse_span(span_text, q) if span_text else None
     if quantity is not None and span is None:
         raise fail("--span", None, f"given with --quantity {quantity} (the recording's span is "
@@ -498,6 +536,9 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
     raw = rec.volts - rec.correction
     notes = [f"note: {path}: a live recording: its {rec.time.size} read-out readings with the "
              "setup, quantity and span it stores" + (" (setup as given)" if setup else "")]
+    if spec.get("dynamic"):  # the view's filter is replayed by `live --source FILE`
+        notes.append(f"note: {path}: the view read it with the dynamic read-out; read here "
+                     "statically (`magcilia live --source FILE` replays the dynamic one)")
     if tare_spec is not None or tare_file is not None:
         if tare_spec is not None and tare_file is not None:
             raise fail("--tare", tare_spec, "either --tare or --tare-file, not both")

@@ -87,6 +87,9 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--set-reset", "set_reset", default=None, type=int,
               help="Alternate set/reset pulses every N samples (sim), stored per sample.")
 @click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
+@click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
+              help="sim: the simulated hair moves through its bending modes in air (rings after "
+                   "each tilt; --settle drops the ringing) instead of sitting at each angle.")
 @click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
               type=click.Path(dir_okay=False),
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
@@ -99,7 +102,8 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @si_option
 def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
-            out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
+            sim_dynamics: bool, out_path: str, force: bool, as_json: bool, quiet: bool,
+            si: bool) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
     angle's mean ± standard error and a saturation flag; the recording ends in the --record
     file, which `magcilia calibrate FILE` fits as it is. With --duration, record continuously
@@ -113,7 +117,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     with signals_interrupt() as stop:
         try:
             _record(source_spec, setup_arg, angles, samples, settle, rate, duration, set_reset,
-                    seed, out_path, force, as_json, quiet, si)
+                    seed, out_path, force, as_json, quiet, si, sim_dynamics)
         except KeyboardInterrupt:  # the writer closed the file, noting where it stopped
             click.echo(f"magcilia: {stop.signal or 'SIGINT'} stopped the recording; "
                        f"{_kept(Path(out_path))}", err=True)
@@ -134,7 +138,8 @@ def _kept(path: Path) -> str:
 
 def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
-            out_path: str, force: bool, as_json: bool, quiet: bool, si: bool) -> None:
+            out_path: str, force: bool, as_json: bool, quiet: bool, si: bool,
+            sim_dynamics: bool = False) -> None:
     units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
         raise fail("--record", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
@@ -145,7 +150,8 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
         raise MagciliaError(_exists_message(Path(out_path), "--record"))
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
-                              set_reset=set_reset, realtime=duration is not None)
+                              set_reset=set_reset, realtime=duration is not None,
+                              dynamics=sim_dynamics)
     metadata = {"setup_name": setup_label(setup_arg), "setup": setup_to_dict(setup)}
     if duration is not None:
         if angles is not None:

@@ -122,6 +122,7 @@ class Dashboard:
             "unit": q.display, "si_unit": sensor.unit,
             "range": [q.to_display(x) for x in limits.range],
             "minimum": q.to_display(limits.minimum), "limited_by": limits.limited_by,
+            "mode": limits.mode or "static",
             "source": {"name": live.source.name, "rate_Hz": live.source.rate},
             "rate_Hz": live.rate, "window_s": self.window, "fps": self.fps,
             "points": MAX_POINTS, "factor": display_factor(self.window, live.rate)}

@@ -31,6 +31,7 @@ from magcilia.io.setup_files import setup_to_dict
 from magcilia.live.status import Limits
 from magcilia.readout.array import ArrayReadout
 from magcilia.readout.biaxial import BiaxialReadout
+from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import Readout
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, SensorReadout
 
@@ -95,6 +96,9 @@ class LiveSensor:
         An array's channels that inform each cilium (its model field changes by at least the
         channel's noise over the cilium's span, the rule of the array's SATURATED and MISSING
         flags); None for one cilium.
+    mode : str
+        A dynamic read-out's few words (:meth:`DynamicReadout.mode
+        <magcilia.readout.dynamic.DynamicReadout.mode>`); "" for a static one.
     """
 
     readout: Any
@@ -113,6 +117,7 @@ class LiveSensor:
     span: float
     setup: dict[str, Any] = field(default_factory=dict)
     informs: Any = None
+    mode: str = ""
 
     @property
     def channels(self) -> int:
@@ -195,7 +200,7 @@ class LiveSensor:
             inside = q[ok] if ok.any() else q[:1]
             rest_slope = abs(float(np.interp(self.rest[0], table.volts, table.slope)))
             return Limits(r.quantity, r.unit, r.span, (float(inside.min()), float(inside.max())),
-                          float(noise[0]) * rest_slope, limited, r.scale_note)
+                          float(noise[0]) * rest_slope, limited, r.scale_note, self.mode)
         at_rest = self.view.read(self.rest[None, :], noise=noise)
         sig = np.asarray(at_rest.sigma)[0]
         minimum = float(np.nanmedian(np.max(sig.reshape(-1, 2), axis=-1)))
@@ -218,11 +223,12 @@ def live_sensor(readout: Any) -> LiveSensor:
     view = protocol_view(readout)
     rest = np.asarray(view.rest, dtype=np.float64).reshape(-1)
     inputs = tuple(view.inputs)
-    if isinstance(readout, Readout):
+    if isinstance(readout, Readout | DynamicReadout):  # one output, read statically or not
         return LiveSensor(readout, view, "scalar", readout.quantity, readout.unit, inputs, "V",
                           rest, np.array([readout.setup.sensor.offset]), (), (), (),
                           np.zeros((1, 2)), float(max(abs(x) for x in readout.span)),
-                          setup_to_dict(readout.setup))
+                          setup_to_dict(readout.setup),
+                          mode=readout.mode() if isinstance(readout, DynamicReadout) else "")
     if isinstance(readout, BiaxialReadout):
         setup = {**setup_to_dict(readout.setup),
                  "channels": {c.name: c.to_dict() for c in readout.channels}}

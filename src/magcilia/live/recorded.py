@@ -46,6 +46,7 @@ from magcilia.mechanics import FLUIDS, Flow
 from magcilia.readout.array_readout import ArrayReadout
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.channel import Channel
+from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import Readout
 
 F64 = NDArray[np.float64]
@@ -85,6 +86,10 @@ def readout_spec(readout: Any) -> dict[str, Any]:
                 "span": readout.span.tolist(), "table_size": readout.table_size,
                 "regularization": readout.regularization,
                 "max_iterations": readout.max_iterations, "tolerance": readout.tolerance}
+    if isinstance(readout, DynamicReadout):  # the static read-out's, and the filter's
+        return {**readout_spec(readout.static), "dynamic": {
+            "rate_Hz": readout.rate, "bandwidth_Hz": readout.bandwidth,
+            "averaged": readout.averaged, "fluid": readout.fluid}}
     calibration = readout.calibration
     fluid = next((name for name, f in FLUIDS.items() if f == readout.flow.fluid), None)
     return {"kind": "scalar", "inputs": inputs, "quantity": readout.quantity,
@@ -174,11 +179,14 @@ def _field_readout(p: Path, setup_doc: dict[str, Any], spec: dict[str, Any]) -> 
 
 
 def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | None = None,
-                     span: tuple[float, float] | None = None) -> Any:
+                     span: tuple[float, float] | None = None, dynamic: bool = False) -> Any:
     """The read-out a live recording stores, each of its setup, quantity and span replaced
     where given (a single output: its setup, quantity, span, table, edge rule, fluid and
     calibration, a :class:`~magcilia.Readout`; force vectors: the
     :class:`~magcilia.BiaxialReadout` or :class:`~magcilia.ArrayReadout` recorded, as stored).
+    With ``dynamic``, a single output recorded by the dynamic read-out is that
+    :class:`~magcilia.DynamicReadout` again (its rate, bandwidth, window means and fluid), the
+    replay's; else its static read-out.
 
     Raises
     ------
@@ -218,6 +226,12 @@ def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | Non
         if readout.fold is not None and readout.table_quantity.size != size:
             # a folded table keeps fewer points than it was built with: the default was used
             readout = build(_DEFAULT_TABLE)
+        filtered = spec.get("dynamic") if dynamic else None
+        if isinstance(filtered, dict):
+            name = str(filtered.get("fluid"))
+            return DynamicReadout(readout, float(filtered["rate_Hz"]),
+                                  fluid=FLUIDS.get(name), averaged=bool(filtered["averaged"]),
+                                  bandwidth=float(filtered["bandwidth_Hz"]))
     except MagciliaError as exc:
         what = "the stored read-out" if setup is None else "the read-out on the setup given"
         raise MagciliaError(f"{p}: {what}: {exc}") from None

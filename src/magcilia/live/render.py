@@ -221,7 +221,8 @@ def summary_line(status: LiveStatus, samples: LiveSamples, limits: Limits,
     t = f"{samples.time[-1]:8.2f} s" if len(samples) else "       — s"
     flags = flag_fractions(_last_seconds(samples, 1.0))
     bad = ", ".join(f"{name} {frac:.0%}" for name, frac in flags.items() if frac > 0)
-    return (f"{t}  {q.label} {value_text(samples, window)}"
+    label = f"{q.label} (dynamic)" if limits.mode else q.label
+    return (f"{t}  {label} {value_text(samples, window)}"
             f"{f'  [{bad}]' if bad else ''}  | {status.report()}")
 
 
@@ -340,7 +341,8 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
     if keys:
         help_line = ARRAY_KEYS if samples.kind == "array" else KEYS
         lines.append(Text(f"keys: {help_line}", style="reverse"))
-    title = f"magcilia live · {q.label}" + (f" · {source}" if source else "")
+    title = (f"magcilia live · {q.label}" + (" · dynamic read-out" if limits.mode else "")
+             + (f" · {source}" if source else ""))
     return rich_panel.Panel(rich_console.Group(*lines),  # type: ignore[attr-defined]
                             title=title, title_align="left")
 

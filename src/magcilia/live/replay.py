@@ -54,7 +54,7 @@ def replay(path: str | Path, *, realtime: bool = False, speed: float = 1.0,
     if not isinstance(doc, dict) or doc.get("version") != REPLAY_VERSION:
         raise MagciliaError(f"{p}: the recording does not store the read-out's state (recorded "
                             "by an earlier magcilia); `magcilia readout FILE` reads its values")
-    readout = recorded_readout(p)
+    readout = recorded_readout(p, dynamic=True)
     factor = int(props.get("factor", 1))
     zero = Zero.from_state(doc["zero"])
     if history is None:

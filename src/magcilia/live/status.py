@@ -164,6 +164,9 @@ class Limits(Display):
     scale_note : str
         Where a force's or flow's scale comes from (:meth:`magcilia.Modulus.note`: its σ is in
         every reading's ± σ); "" for an angle.
+    mode : str
+        The dynamic read-out in use, in a few words (:meth:`magcilia.DynamicReadout.mode`); ""
+        for the static read-out.
     """
 
     quantity: str
@@ -173,20 +176,23 @@ class Limits(Display):
     minimum: float
     limited_by: str
     scale_note: str = ""
+    mode: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI)."""
         return {"quantity": self.quantity, "unit": self.unit, "span": list(self.span),
                 "range": list(self.range), "minimum": self.minimum,
-                "limited_by": self.limited_by, "scale_note": self.scale_note}
+                "limited_by": self.limited_by, "scale_note": self.scale_note,
+                "mode": self.mode or "static"}
 
     def report(self) -> str:
         """One line in display units (and the force scale's note for a force or flow)."""
         q = MEASURANDS[self.quantity]
         lo, hi = (q.to_display(x) for x in self.range)
         note = f"; ± σ includes the {self.scale_note}" if self.scale_note else ""
+        mode = f"; {self.mode}" if self.mode else ""
         return (f"{q.label} range {lo:.4g}…{hi:.4g} {q.display} ({self.limited_by}), minimum "
-                f"detectable {q.to_display(self.minimum):.3g} {q.display}{note}")
+                f"detectable {q.to_display(self.minimum):.3g} {q.display}{note}{mode}")
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:

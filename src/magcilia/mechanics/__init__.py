@@ -16,7 +16,10 @@
   beam elements of :mod:`.beam`);
 * :func:`frequency_response` (:class:`FrequencyResponse`): the sensor's transfer from a tip force
   or a flow to its output about a static operating point, its −3 dB bandwidth and settling time
-  (:mod:`.response`).
+  (:mod:`.response`);
+* :func:`simulate_response` (:class:`TransientResponse`): a force, flow or tilt over time → the
+  hair's motion → the sensor's output, by a reduced modal model around the static map
+  (:mod:`.transient`).
 
 Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z solver and sweeps),
 :mod:`.spatial` (loads in any direction, actuation, the 3-D rod, buckling), :mod:`.compliance`.
@@ -43,6 +46,7 @@ from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
 from magcilia.mechanics.response import FrequencyResponse, frequency_response
 from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
 from magcilia.mechanics.spatial import buckling_load, flip_field
+from magcilia.mechanics.transient import TransientResponse, simulate_response
 
 __all__ = [
     "AIR",
@@ -57,6 +61,7 @@ __all__ = [
     "Load",
     "Modes",
     "SpatialBentShape",
+    "TransientResponse",
     "bend",
     "bend_3d",
     "bend_sweep",
@@ -71,6 +76,7 @@ __all__ = [
     "output_at",
     "poses_at",
     "require_tip_radius",
+    "simulate_response",
     "slender_log",
     "tip_compliance",
     "uniform_field_tip",

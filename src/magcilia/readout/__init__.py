@@ -13,6 +13,9 @@
 * :mod:`.actuated`: sensing while actuating: :class:`ActuatedReadout` (a varying actuation,
   compensated per reading), :func:`measure_coupling` (the direct coupling, cilium clamped);
   ``Readout(..., actuation=)`` for a constant one;
+* :mod:`.dynamic`: :class:`DynamicReadout`, the load from the hair's dynamic state (a Kalman
+  filter on its modal model) around a :class:`Readout`, so that steps read within about a period
+  instead of ringing;
 * :mod:`.protocol`: what every read-out offers (:class:`SensorReadout`: ``inputs``, ``rest``,
   ``read``, ``tare``), the one :class:`Flag` set and the result's shape (:class:`ReadoutValues`);
 * :mod:`.tare`: :class:`Tare`, the one zero-load baseline (one channel or several) of every
@@ -51,6 +54,7 @@ from magcilia.readout.biaxial import (
     ForceFlag,
     ForceVectorResult,
 )
+from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
 from magcilia.readout.protocol import (
     FLAG_DTYPE,
@@ -75,6 +79,7 @@ __all__ = [
     "ChannelTare",
     "Coupling",
     "Crosstalk",
+    "DynamicReadout",
     "Flag",
     "ForceFlag",
     "ForceVectorResult",
