@@ -80,6 +80,7 @@ from magcilia.readout.array_results import (
     ArrayFlag,
     Crosstalk,
 )
+from magcilia.readout.array_stream import ArrayStream
 from magcilia.readout.protocol import Flag
 
 F64 = NDArray[np.float64]
@@ -194,5 +195,6 @@ def array_metrics(setup: Setup, pitches: ArrayLike, *, sensor: Magnetometer, spa
 
 
 __all__ = ["ARRAY_FLAGS", "CROSSTALK_STEP", "JACOBIAN_STEP", "REFRESH_STEP", "ArrayEstimate",
-           "ArrayEstimates", "ArrayFlag", "ArrayMetrics", "ArrayReadout", "Crosstalk", "Flag",
+           "ArrayEstimates", "ArrayFlag", "ArrayMetrics", "ArrayReadout", "ArrayStream",
+           "Crosstalk", "Flag",
            "LoadTable", "array_metrics", "field_for_loads", "loaded_poses"]

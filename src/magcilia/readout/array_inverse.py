@@ -10,8 +10,9 @@ Starts. Every frame of a block starts from the Gauss–Newton step from one poin
 the whole block; one solve per pattern of readings left out): cold (no ``start``) x_s = 0, the
 linear solution about rest; warm, x_s = ``start``, the forces of the frame before (scaled by the
 spans). Every frame then keeps that J as its cached Jacobian (chord steps) until its estimate
-moves more than :data:`REFRESH_STEP` of a span from x_s: frames near the last one (a live array
-at 1 kHz) converge in one or two model evaluations and no Jacobian of their own.
+moves more than :data:`REFRESH_STEP` of a span from x_s, or a chord step fails to lower its cost
+(the Jacobian is then taken at its point): frames near the last one (a live array at 1 kHz)
+converge in a few model evaluations and mostly no Jacobian of their own.
 """
 
 from __future__ import annotations
@@ -74,6 +75,7 @@ def solve(model: TabulatedArray, span: F64, alpha: float, y: F64, w: F64,
     cache = np.zeros((n, m + p, p))  # the whitened Jacobian there, per unit x, with the
     cache[:, m:] = root_alpha * eye  # Tikhonov rows
     gram = np.zeros((n, p, p))  # its JᵀJ + α I
+    asked = np.full((n, p), np.nan)  # the point of each sample's last linearisation
     at = np.zeros(p) if start is None else start  # cold: the linear solution about rest
     f_s, j_s = table_field(model, (at * scale).reshape(1, c_n, 2), jacobian=True)
     assert j_s is not None  # for mypy: asked for
@@ -98,8 +100,11 @@ def solve(model: TabulatedArray, span: F64, alpha: float, y: F64, w: F64,
         return np.concatenate([w[rows] * (f - y[rows]), root_alpha * x], axis=1)
 
     def jacobian(x: F64, rows: NDArray[np.intp]) -> tuple[F64, F64]:
-        # a fresh Jacobian only where the point moved far from the last one (chord steps)
+        # a fresh Jacobian only where the point moved far from the last one (chord steps), or
+        # where a chord step did not lower the cost (the point is the one asked last time)
         stale = ~(np.abs(x - cache_at[rows]).max(axis=1) <= REFRESH_STEP)
+        stale |= np.all(x == asked[rows], axis=1) & np.any(x != cache_at[rows], axis=1)
+        asked[rows] = x
         if stale.any():
             fresh = rows[stale]
             _, jac = table_field(model, (x[stale] * scale).reshape(-1, c_n, 2), jacobian=True)

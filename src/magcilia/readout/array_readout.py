@@ -29,6 +29,7 @@ from magcilia.readout.array_checks import check_reach, check_singular
 from magcilia.readout.array_inverse import BOUND, FIT_XTOL, REFRESH_STEP, solve
 from magcilia.readout.array_model import LoadTable, checked_forces, load_table
 from magcilia.readout.array_results import ArrayEstimate, ArrayEstimates, Crosstalk
+from magcilia.readout.array_stream import ArrayStream
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import array_scale_blocks, array_scale_covariance, scale_notes
 from magcilia.readout.tare import Tare
@@ -43,7 +44,7 @@ JACOBIAN_STEP = 1e-6
 CROSSTALK_STEP = 1e-4
 #: samples per block of :meth:`ArrayReadout.read` (the cached Jacobians stay small; each block
 #: starts warm from the last frame of the one before)
-BLOCK = 64
+BLOCK = 32
 __all__ = ["BLOCK", "BOUND", "CROSSTALK_STEP", "FIT_XTOL", "JACOBIAN_STEP", "REFRESH_STEP",
            "ArrayReadout"]
 
@@ -435,6 +436,11 @@ class ArrayReadout(Display):
         out = self.read(y.reshape(-1), noise=noise)
         assert isinstance(out, ArrayEstimate)
         return out
+
+    def stream(self) -> ArrayStream:
+        """This read-out over a stream of frames: an :class:`ArrayStream`, whose ``read``
+        starts every call warm from the last estimate of the call before (a live array)."""
+        return ArrayStream(self)
 
     def _empty(self) -> dict[str, Any]:
         """:meth:`_solve`'s arrays for no samples."""
