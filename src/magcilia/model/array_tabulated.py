@@ -17,8 +17,8 @@ each cilium's (Fx, Fy), chained analytically:
   μ0/4π (3/r⁵ (a dr + b m + (c + e − 5 a b / r²) r) − dm/r³) with a = m·r, b = r·dr,
   c = m·dr, e = r·dm, dr = −dp.
 
-:func:`table_field` runs the numba kernel (compiled on first use, cached on disk, as
-:mod:`magcilia.model.compiled`; off with ``compiled.ENABLED = False``) or the NumPy reference
+:func:`table_field` runs the numba kernel (:func:`magcilia.model.jit.jit`: compiled on first use,
+cached on disk; off with ``compiled.ENABLED = False``) or the NumPy reference
 :func:`table_field_numpy` that the tests hold it to.
 
 Shape letters: ``b`` force sets, ``C`` cilia, ``S`` sensors, ``D`` dipoles of the array, ``K``
@@ -28,15 +28,13 @@ tables, ``g`` table intervals, ``n`` slices (the most of any cilium).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
 
 from magcilia.constants import MU0_OVER_4PI
-from magcilia.model import compiled
+from magcilia.model.jit import jit
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -123,7 +121,7 @@ def table_field(model: TabulatedArray, forces: F64, jacobian: bool = False
     b = f.shape[0]
     field = np.empty((b, 3 * model.sensors))
     jac = np.empty((b, 3 * model.sensors, 2 * model.cilia)) if jacobian else None
-    kernel = _compile() if compiled.ENABLED else None
+    kernel = jit(table_field_kernel, fastmath=True)
     if kernel is None:
         field[:], j = table_field_numpy(model, f, jacobian)
         if jac is not None and j is not None:
@@ -356,17 +354,3 @@ def table_field_kernel(observers: F64, rotations: F64, bases: F64, starts: I64, 
                     field[s, 3 * i + k] += MU0_OVER_4PI * (
                         b0 * rotations[i, 0, k] + b1 * rotations[i, 1, k]
                         + b2 * rotations[i, 2, k])
-
-
-@cache
-def _compile() -> Callable[..., None] | None:
-    """The compiled :func:`table_field_kernel`, or None where numba cannot be imported."""
-    try:
-        import numba
-    except ImportError:
-        return None
-    options = {"error_model": "numpy", "nogil": True, "fastmath": {"reassoc", "contract"}}
-    try:
-        return numba.njit(table_field_kernel, cache=True, **options)  # type: ignore[no-any-return]
-    except RuntimeError:  # no writable cache folder
-        return numba.njit(table_field_kernel, cache=False, **options)  # type: ignore[no-any-return]
