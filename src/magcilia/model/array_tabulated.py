@@ -127,7 +127,7 @@ def table_field(model: TabulatedArray, forces: F64, jacobian: bool = False
         if jac is not None and j is not None:
             jac[:] = j
         return field, jac
-    work = np.empty((18, int(np.max(np.diff(model.starts)))))
+    work = np.empty((18 if jacobian else 6, int(model.starts[-1])))
     kernel(model.observers, model.rotations, model.bases, model.starts, model.local,
            model.ring_cos, model.ring_sin, model.moment, model.kind, model.slices,
            model.coefficients, model.span, model.step, f, field,
@@ -218,9 +218,9 @@ def table_field_kernel(observers: F64, rotations: F64, bases: F64, starts: I64, 
                        ring_cos: F64, ring_sin: F64, moment: F64, kind: I64, slices: I64,
                        coefficients: F64, span: F64, step: F64, forces: F64, field: F64,
                        jac: F64, with_jac: bool, work: F64) -> None:
-    """:func:`table_field` compiled (numba source): per force set and cilium, the frames of its
-    dipoles from the table and their slopes in (Fx, Fy) into ``work`` (18, most dipoles of a
-    cilium), then every sensor's field (and Jacobian) as sums over those dipoles."""
+    """:func:`table_field` compiled (numba source): per force set, every cilium's dipoles from
+    its table's frames (and their slopes in (Fx, Fy)) into ``work`` ((6 or 18), D), then every
+    sensor's field as one sum over all dipoles, or with the Jacobian cilium by cilium."""
     n_set, n_cil, n_obs = forces.shape[0], kind.size, observers.shape[0]
     cells = coefficients.shape[2]
     for s in range(n_set):
@@ -265,12 +265,12 @@ def table_field_kernel(observers: F64, rotations: F64, bases: F64, starts: I64, 
                 rc = r0c * cp + r0s * sp
                 rs = r0s * cp - r0c * sp
                 lx = x + rc * ct
-                work[0, j] = cp * lx - sp * rs + bx
-                work[1, j] = sp * lx + cp * rs + by
-                work[2, j] = z - rc * st + bz
-                work[3, j] = mo * cp * st
-                work[4, j] = mo * sp * st
-                work[5, j] = mo * ct
+                work[0, j0 + j] = cp * lx - sp * rs + bx
+                work[1, j0 + j] = sp * lx + cp * rs + by
+                work[2, j0 + j] = z - rc * st + bz
+                work[3, j0 + j] = mo * cp * st
+                work[4, j0 + j] = mo * sp * st
+                work[5, j0 + j] = mo * ct
                 if with_jac:
                     lxm = dx - rc * st * dth
                     pmx, pmy, pmz = cp * lxm, sp * lxm, dz - rc * ct * dth
@@ -284,72 +284,82 @@ def table_field_kernel(observers: F64, rotations: F64, bases: F64, starts: I64, 
                     pfz = -rs * gs
                     mfx, mfy = -mo * gs * sp, mo * gs * cp
                     # (Fx, Fy) slopes: dr = −dp, stored negated
-                    work[6, j] = -(cp * pmx - sp * pfx)
-                    work[7, j] = -(cp * pmy - sp * pfy)
-                    work[8, j] = -(cp * pmz - sp * pfz)
-                    work[9, j] = cp * mmx - sp * mfx
-                    work[10, j] = cp * mmy - sp * mfy
-                    work[11, j] = cp * mmz
-                    work[12, j] = -(sp * pmx + cp * pfx)
-                    work[13, j] = -(sp * pmy + cp * pfy)
-                    work[14, j] = -(sp * pmz + cp * pfz)
-                    work[15, j] = sp * mmx + cp * mfx
-                    work[16, j] = sp * mmy + cp * mfy
-                    work[17, j] = sp * mmz
-            m_dip = j1 - j0
-            px, py, pz = work[0, :m_dip], work[1, :m_dip], work[2, :m_dip]
-            mx, my, mz = work[3, :m_dip], work[4, :m_dip], work[5, :m_dip]
+                    work[6, j0 + j] = -(cp * pmx - sp * pfx)
+                    work[7, j0 + j] = -(cp * pmy - sp * pfy)
+                    work[8, j0 + j] = -(cp * pmz - sp * pfz)
+                    work[9, j0 + j] = cp * mmx - sp * mfx
+                    work[10, j0 + j] = cp * mmy - sp * mfy
+                    work[11, j0 + j] = cp * mmz
+                    work[12, j0 + j] = -(sp * pmx + cp * pfx)
+                    work[13, j0 + j] = -(sp * pmy + cp * pfy)
+                    work[14, j0 + j] = -(sp * pmz + cp * pfz)
+                    work[15, j0 + j] = sp * mmx + cp * mfx
+                    work[16, j0 + j] = sp * mmy + cp * mfy
+                    work[17, j0 + j] = sp * mmz
+        if not with_jac:  # every dipole at once per sensor (one long vectorised loop)
+            px, py, pz = work[0], work[1], work[2]
+            mx, my, mz = work[3], work[4], work[5]
             for i in range(n_obs):
                 ox, oy, oz = observers[i, 0], observers[i, 1], observers[i, 2]
                 b0, b1, b2 = 0.0, 0.0, 0.0
-                if not with_jac:
-                    for j in range(m_dip):  # a slice from 0: vectorised
-                        rx, ry, rz = ox - px[j], oy - py[j], oz - pz[j]
-                        ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
-                        ir3 = ir2 * math.sqrt(ir2)
-                        qa = 3.0 * (mx[j] * rx + my[j] * ry + mz[j] * rz) * ir3 * ir2
-                        b0 += qa * rx - mx[j] * ir3
-                        b1 += qa * ry - my[j] * ir3
-                        b2 += qa * rz - mz[j] * ir3
-                else:
-                    g0, g1, g2, h0, h1, h2 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-                    ax, ay, az = work[6, :m_dip], work[7, :m_dip], work[8, :m_dip]
-                    dmx, dmy, dmz = work[9, :m_dip], work[10, :m_dip], work[11, :m_dip]
-                    cx, cy, cz = work[12, :m_dip], work[13, :m_dip], work[14, :m_dip]
-                    emx, emy, emz = work[15, :m_dip], work[16, :m_dip], work[17, :m_dip]
-                    for j in range(m_dip):
-                        rx, ry, rz = ox - px[j], oy - py[j], oz - pz[j]
-                        ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
-                        ir3 = ir2 * math.sqrt(ir2)
-                        ir5 = ir3 * ir2
-                        a = mx[j] * rx + my[j] * ry + mz[j] * rz
-                        qa = 3.0 * a * ir5
-                        b0 += qa * rx - mx[j] * ir3
-                        b1 += qa * ry - my[j] * ir3
-                        b2 += qa * rz - mz[j] * ir3
-                        # along Fx
-                        bb = rx * ax[j] + ry * ay[j] + rz * az[j]
-                        cc = mx[j] * ax[j] + my[j] * ay[j] + mz[j] * az[j]
-                        ee = rx * dmx[j] + ry * dmy[j] + rz * dmz[j]
-                        w = cc + ee - 5.0 * a * bb * ir2
-                        g0 += 3.0 * ir5 * (a * ax[j] + bb * mx[j] + w * rx) - ir3 * dmx[j]
-                        g1 += 3.0 * ir5 * (a * ay[j] + bb * my[j] + w * ry) - ir3 * dmy[j]
-                        g2 += 3.0 * ir5 * (a * az[j] + bb * mz[j] + w * rz) - ir3 * dmz[j]
-                        # along Fy
-                        bb = rx * cx[j] + ry * cy[j] + rz * cz[j]
-                        cc = mx[j] * cx[j] + my[j] * cy[j] + mz[j] * cz[j]
-                        ee = rx * emx[j] + ry * emy[j] + rz * emz[j]
-                        w = cc + ee - 5.0 * a * bb * ir2
-                        h0 += 3.0 * ir5 * (a * cx[j] + bb * mx[j] + w * rx) - ir3 * emx[j]
-                        h1 += 3.0 * ir5 * (a * cy[j] + bb * my[j] + w * ry) - ir3 * emy[j]
-                        h2 += 3.0 * ir5 * (a * cz[j] + bb * mz[j] + w * rz) - ir3 * emz[j]
-                    for k in range(3):
-                        jac[s, 3 * i + k, 2 * c] = MU0_OVER_4PI * (
-                            g0 * rotations[i, 0, k] + g1 * rotations[i, 1, k]
-                            + g2 * rotations[i, 2, k])
-                        jac[s, 3 * i + k, 2 * c + 1] = MU0_OVER_4PI * (
-                            h0 * rotations[i, 0, k] + h1 * rotations[i, 1, k]
-                            + h2 * rotations[i, 2, k])
+                for j in range(px.size):
+                    rx, ry, rz = ox - px[j], oy - py[j], oz - pz[j]
+                    ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
+                    ir3 = ir2 * math.sqrt(ir2)
+                    qa = 3.0 * (mx[j] * rx + my[j] * ry + mz[j] * rz) * ir3 * ir2
+                    b0 += qa * rx - mx[j] * ir3
+                    b1 += qa * ry - my[j] * ir3
+                    b2 += qa * rz - mz[j] * ir3
+                for k in range(3):
+                    field[s, 3 * i + k] = MU0_OVER_4PI * (
+                        b0 * rotations[i, 0, k] + b1 * rotations[i, 1, k]
+                        + b2 * rotations[i, 2, k])
+            continue
+        for c in range(n_cil):  # cilium by cilium: each has its own Jacobian columns
+            j0, j1 = starts[c], starts[c + 1]
+            px, py, pz = work[0, j0:j1], work[1, j0:j1], work[2, j0:j1]
+            mx, my, mz = work[3, j0:j1], work[4, j0:j1], work[5, j0:j1]
+            ax, ay, az = work[6, j0:j1], work[7, j0:j1], work[8, j0:j1]
+            dmx, dmy, dmz = work[9, j0:j1], work[10, j0:j1], work[11, j0:j1]
+            cx, cy, cz = work[12, j0:j1], work[13, j0:j1], work[14, j0:j1]
+            emx, emy, emz = work[15, j0:j1], work[16, j0:j1], work[17, j0:j1]
+            for i in range(n_obs):
+                ox, oy, oz = observers[i, 0], observers[i, 1], observers[i, 2]
+                b0, b1, b2 = 0.0, 0.0, 0.0
+                g0, g1, g2, h0, h1, h2 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+                for j in range(px.size):
+                    rx, ry, rz = ox - px[j], oy - py[j], oz - pz[j]
+                    ir2 = 1.0 / (rx * rx + ry * ry + rz * rz)
+                    ir3 = ir2 * math.sqrt(ir2)
+                    ir5 = ir3 * ir2
+                    a = mx[j] * rx + my[j] * ry + mz[j] * rz
+                    qa = 3.0 * a * ir5
+                    b0 += qa * rx - mx[j] * ir3
+                    b1 += qa * ry - my[j] * ir3
+                    b2 += qa * rz - mz[j] * ir3
+                    # along Fx
+                    bb = rx * ax[j] + ry * ay[j] + rz * az[j]
+                    cc = mx[j] * ax[j] + my[j] * ay[j] + mz[j] * az[j]
+                    ee = rx * dmx[j] + ry * dmy[j] + rz * dmz[j]
+                    w = cc + ee - 5.0 * a * bb * ir2
+                    g0 += 3.0 * ir5 * (a * ax[j] + bb * mx[j] + w * rx) - ir3 * dmx[j]
+                    g1 += 3.0 * ir5 * (a * ay[j] + bb * my[j] + w * ry) - ir3 * dmy[j]
+                    g2 += 3.0 * ir5 * (a * az[j] + bb * mz[j] + w * rz) - ir3 * dmz[j]
+                    # along Fy
+                    bb = rx * cx[j] + ry * cy[j] + rz * cz[j]
+                    cc = mx[j] * cx[j] + my[j] * cy[j] + mz[j] * cz[j]
+                    ee = rx * emx[j] + ry * emy[j] + rz * emz[j]
+                    w = cc + ee - 5.0 * a * bb * ir2
+                    h0 += 3.0 * ir5 * (a * cx[j] + bb * mx[j] + w * rx) - ir3 * emx[j]
+                    h1 += 3.0 * ir5 * (a * cy[j] + bb * my[j] + w * ry) - ir3 * emy[j]
+                    h2 += 3.0 * ir5 * (a * cz[j] + bb * mz[j] + w * rz) - ir3 * emz[j]
+                for k in range(3):
+                    jac[s, 3 * i + k, 2 * c] = MU0_OVER_4PI * (
+                        g0 * rotations[i, 0, k] + g1 * rotations[i, 1, k]
+                        + g2 * rotations[i, 2, k])
+                    jac[s, 3 * i + k, 2 * c + 1] = MU0_OVER_4PI * (
+                        h0 * rotations[i, 0, k] + h1 * rotations[i, 1, k]
+                        + h2 * rotations[i, 2, k])
                 for k in range(3):
                     field[s, 3 * i + k] += MU0_OVER_4PI * (
                         b0 * rotations[i, 0, k] + b1 * rotations[i, 1, k]
