@@ -1,4 +1,4 @@
-"""Arrays of cilia: forward map and inverse, side by side with their anchors (issues 15, 27), one thread.
+"""Arrays of cilia: forward map and inverse beside their anchors (issues 15 and 27), one thread.
 
 (a) Forward, 64 cilia x 64 sensors: an 8 x 8 array of the paper's cilium (n*k = 2*5 = 10 dipoles
     each, tip radius 50 um, E = 1 MPa, 2 mm pitch), one 3-axis sensor under each cilium, bent by
@@ -144,7 +144,7 @@ def inverse_bench(name: str, array: CiliaArray, span: float, frames: int, repeat
         f, _ = table_field(model, (x * spans).reshape(1, c_n, 2))
         return np.concatenate([w * (f[0] - yk), root_alpha * x])
 
-    def jacobian(x: np.ndarray, yk: np.ndarray) -> np.ndarray:
+    def jacobian(x: np.ndarray, _yk: np.ndarray) -> np.ndarray:
         _, jac = table_field(model, (x * spans).reshape(1, c_n, 2), jacobian=True)
         assert jac is not None
         return np.concatenate([w[:, None] * jac[0] * spans, root_alpha * np.eye(2 * c_n)])
