@@ -27,9 +27,9 @@ def _compiled(kernel: Callable[..., Any], fastmath: bool) -> Callable[..., Any] 
     if fastmath:
         options["fastmath"] = {"reassoc", "contract"}
     try:
-        return numba.njit(kernel, cache=True, **options)  # type: ignore[no-any-return]
+        return numba.njit(kernel, cache=True, **options)
     except RuntimeError:  # no writable cache folder (numba's own or NUMBA_CACHE_DIR)
-        return numba.njit(kernel, cache=False, **options)  # type: ignore[no-any-return]
+        return numba.njit(kernel, cache=False, **options)
 
 
 def jit(kernel: Callable[..., Any], fastmath: bool = False) -> Callable[..., Any] | None:

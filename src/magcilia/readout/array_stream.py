@@ -11,19 +11,23 @@ instead of from rest. It holds that one estimate and nothing else; the estimates
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from magcilia._display import Display, Item
 from magcilia.readout.array_results import ArrayEstimate, ArrayEstimates
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
 
-class ArrayStream:
-    """An :class:`~magcilia.ArrayReadout` read frame after frame, each call warm-started.
+@dataclass(frozen=True, eq=False, repr=False)
+class ArrayStream(Display):
+    """An :class:`~magcilia.ArrayReadout` read frame after frame, each call warm-started (its
+    fields fixed; it holds the last frame's forces, the one thing a call changes).
 
     Parameters
     ----------
@@ -38,10 +42,16 @@ class ArrayStream:
         converge: the next starts cold).
     """
 
-    def __init__(self, readout: Any) -> None:
-        self.readout = readout
-        self.last: F64 | None = None
-        self._lock = threading.Lock()
+    readout: Any
+    _held: list[F64 | None] = field(default_factory=lambda: [None], repr=False)
+    _lock: Any = field(default_factory=threading.Lock, repr=False)
+
+    @property
+    def last(self) -> F64 | None:
+        """The last frame's forces, N, (C, 2), or None (a copy)."""
+        with self._lock:
+            held = self._held[0]
+        return None if held is None else held.copy()
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -56,7 +66,7 @@ class ArrayStream:
     @property
     def baseline(self) -> Tare | None:
         """The read-out's tare."""
-        return self.readout.baseline  # type: ignore[no-any-return]
+        return self.readout.baseline
 
     @property
     def sigma(self) -> F64:
@@ -67,8 +77,7 @@ class ArrayStream:
              ) -> ArrayEstimate | ArrayEstimates:
         """:meth:`ArrayReadout.read` of the next frames (n, 3 S) or one (3 S,), T, started
         from the last estimate of the call before."""
-        with self._lock:
-            start = self.last
+        start = self.last
         est = self.readout.read(samples, noise=noise, start=start)
         force = np.asarray(est.force).reshape(-1, *np.shape(est.force)[-2:])
         converged = np.atleast_1d(np.asarray(est.converged))
@@ -76,8 +85,8 @@ class ArrayStream:
         if last is not None and not np.all(np.isfinite(last)):
             last = None
         with self._lock:
-            self.last = None if last is None else last.copy()
-        return est  # type: ignore[no-any-return]
+            self._held[0] = None if last is None else last.copy()
+        return est
 
     def tare(self, baseline: ArrayLike, /) -> ArrayStream:
         """A stream of the tared read-out (:meth:`ArrayReadout.tare`), starting cold."""
@@ -88,5 +97,10 @@ class ArrayStream:
         return dict(self.readout.to_dict())
 
     def report(self) -> str:
-        """The read-out's report."""
-        return str(self.readout.report())
+        """The read-out's report, and where the next call starts."""
+        return (f"{self.readout.report()}; read as a stream: the next call starts "
+                f"{'cold' if self.last is None else 'warm from the last frame'}")
+
+    def _display_items(self) -> list[Item]:
+        return [*self.readout._display_items(),
+                ("next start", "cold" if self.last is None else "warm")]
