@@ -36,6 +36,7 @@ import argparse
 import math
 import platform
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -65,6 +66,13 @@ def grid(rows: int = 8) -> tuple[CiliaArray, np.ndarray]:
     array = CiliaArray.grid(setup, rows, rows, 2e-3, sensor=PART)
     forces = np.random.default_rng(0).uniform(-0.7, 0.7, (len(array), 2)) * SPAN
     return array, forces
+
+
+def cpu_time(fn: Callable[[], object]) -> float:
+    """This process's CPU time (s) of one call of ``fn``."""
+    t0 = time.process_time()
+    fn()
+    return time.process_time() - t0
 
 
 def show(title: str, res: dict[str, tuple[float, float]], base: str, unit: float,
@@ -188,12 +196,17 @@ def inverse_bench(name: str, array: CiliaArray, span: float, frames: int, repeat
     }
     res = {k: (t_min / n, t_med / n) for k, (t_min, t_med) in
            interleaved(fns, repeat).items()}
+    cpu = {k: min(cpu_time(fns[k]) for _ in range(3)) / n for k in
+           ("magcilia, one frame per call, warm (stream)",
+            "magcilia, all frames in one read (warm blocks)")}
     show(f"(b) inverse, {name}: {c_n} force vectors from {y.shape[1]} readings, {n} frames 1 ms "
          f"apart (issue 27: <= 1 ms per frame): ms per frame, min [median], ratio of min times; "
          f"iterations per frame warm {np.mean(warm_iter):.2f}, cold {np.mean(cold_iter):.2f}; "
          f"components within 2 sigma of the truth {within:.0%}; largest difference from the warm "
          f"stream, in sigma: batch {gap['batch']:.1e}, cold {gap['cold']:.1e}, SciPy "
          f"{gap['scipy']:.1e}", res, "magcilia, one frame per call, warm (stream)", 1e-3, "ms")
+    print("    this process's CPU time per frame (min of 3; on a shared machine closer to a quiet "
+          "run's wall time): " + ", ".join(f"{k} {t * 1e3:.3f} ms" for k, t in cpu.items()))
 
 
 def main() -> None:

@@ -125,6 +125,13 @@ def main() -> None:
     print(f"ratio anchor/read: {per * n / min(times['read']):.0f}x; anchor/estimate: "
           f"{per * n / min(times['estimate']):.0f}x; largest difference from the anchor "
           f"{diff * 1e9:.3g} nN")
+    cpu = []
+    for _ in range(3):
+        c0 = time.process_time()
+        r.read(fields)
+        cpu.append(time.process_time() - c0)
+    print(f"  read, this process's CPU time (min of 3; on a shared machine closer to a quiet "
+          f"run's wall time): {min(cpu) / n * 1e6:.2f} µs/reading")
     t0 = time.perf_counter()
     r.read(fields[:1])
     print(f"one reading through .read: {(time.perf_counter() - t0) * 1e3:.2f} ms; compiled "
