@@ -25,3 +25,16 @@ def test_small_and_batched_matmul_paths_agree(dims: int, monkeypatch: pytest.Mon
     got = lm._normal((jac, kept), r)
     np.testing.assert_array_equal(got[0], kept)
     np.testing.assert_allclose(got[1], jtr, rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("width", [1, 2, 5, 16, 17])
+def test_row_reductions_column_by_column_match_numpys(width: int) -> None:
+    rng = np.random.default_rng(width)
+    a = rng.normal(size=(40, width))
+    a[3, 0] = np.nan  # NaN propagates as in ndarray.max
+    a[5, -1] = np.inf
+    np.testing.assert_array_equal(lm._row_max(a), a.max(axis=1))
+    b = rng.uniform(size=(40, width)) < 0.7
+    b[0], b[1] = True, False
+    np.testing.assert_array_equal(lm._row_all(b), b.all(axis=1))
+    np.testing.assert_array_equal(lm._row_any(b), b.any(axis=1))
