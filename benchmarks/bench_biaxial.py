@@ -9,7 +9,9 @@ median of the runs):
 * **build**: ``BiaxialReadout(...)`` (bend sweep, the grid's fields, the interpolant, the
   mid-point check), at the default grid 65 × 128 and at 33 × 64;
 * **estimate** / **read**: ``.estimate`` (vectors only) and ``.read`` (covariance, σ, flags) of
-  1e5 readings: the coarse search and the batched least squares (magcilia.fitting.fit_batch);
+  1e5 readings: the coarse search and the batched least squares (magcilia.fitting.fit_batch;
+  since issue 27 the interpolant and the coarse search compiled), and the same with the compiled
+  kernels off (their NumPy references, as before issue 27; issue 27's target: <= 2 us a reading);
 * **anchor**: ``scipy.optimize.least_squares`` (its default trust-region reflective method,
   2-point Jacobian) per reading on the same interpolant (``BiaxialReadout.model``), started at
   the same coarse-grid node, on a subset, scaled to 1e5 readings. SciPy's least_squares has
@@ -26,15 +28,21 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ[_var] = "1"  # single thread, before NumPy loads BLAS
 
 import argparse
+import platform
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
-from _timing import interleaved
+from _timing import interleaved, numpy_reference
 from scipy.optimize import least_squares
 
 import magcilia as mc
 from magcilia.device.magnetometer import Magnetometer
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_field import cpu_name
 
 SETUP = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=2e6)
 SENSOR = Magnetometer(field_range=1e-3, resolution=1e-9, noise=1.5e-7, rate=100.0)
@@ -85,9 +93,11 @@ def main() -> None:
     r = mc.BiaxialReadout(SETUP, SENSOR, span=SPAN)
     truth, fields = readings(r, n)
     sub = fields[:n_anchor]
+    r.read(fields[:10])  # compile (or load) the kernels before timing
     times = interleaved({
         "estimate": lambda: r.estimate(fields),
         "read": lambda: r.read(fields),
+        "read, NumPy": numpy_reference(lambda: r.read(fields)),
         "anchor": lambda: anchor(r, sub),
     }, repeat=repeat)
 
@@ -96,6 +106,8 @@ def main() -> None:
     theirs = anchor(r, sub)
     diff = float(np.max(np.hypot(*(ours_sub - theirs).T)))
     err = np.hypot(*(res.vector - truth).T)
+    print(f"magcilia biaxial benchmark, one thread; {cpu_name()}, Python "
+          f"{platform.python_version()}; load average {os.getloadavg()[0]:.2f} at the start")
     print(f"biaxial read-out, {n} readings, 3-axis sensor (noise {SENSOR.noise[0] * 1e6:.3g} µT), "
           f"span {SPAN * 1e3:g} mN; {r.report()}")
     counts = {k: c for k, c in res.counts().items() if c and k not in ("readings", "estimated")}
@@ -103,7 +115,7 @@ def main() -> None:
           f"median σ|F| {np.median(res.sigma_magnitude) * 1e9:.3g} nN")
     for name, t in builds.items():
         print(f"  {name:<14} min {min(t):8.3f} s   median {statistics.median(t):8.3f} s")
-    for name in ("estimate", "read"):
+    for name in ("estimate", "read", "read, NumPy"):
         t = times[name]
         print(f"  {name:<14} min {min(t):8.3f} s   median {statistics.median(t):8.3f} s   "
               f"{min(t) / n * 1e6:7.2f} µs/reading")
@@ -113,9 +125,18 @@ def main() -> None:
     print(f"ratio anchor/read: {per * n / min(times['read']):.0f}x; anchor/estimate: "
           f"{per * n / min(times['estimate']):.0f}x; largest difference from the anchor "
           f"{diff * 1e9:.3g} nN")
+    cpu = []
+    for _ in range(3):
+        c0 = time.process_time()
+        r.read(fields)
+        cpu.append(time.process_time() - c0)
+    print(f"  read, this process's CPU time (min of 3; on a shared machine closer to a quiet "
+          f"run's wall time): {min(cpu) / n * 1e6:.2f} µs/reading")
     t0 = time.perf_counter()
     r.read(fields[:1])
-    print(f"one reading through .read: {(time.perf_counter() - t0) * 1e3:.2f} ms")
+    print(f"one reading through .read: {(time.perf_counter() - t0) * 1e3:.2f} ms; compiled "
+          f"read {min(times['read, NumPy']) / min(times['read']):.2f}x its NumPy path; load "
+          f"average {os.getloadavg()[0]:.2f} at the end")
 
 
 if __name__ == "__main__":

@@ -146,6 +146,7 @@ def _array() -> Any:
 
 FACTORIES.update({
     "ArrayReadout": _array,
+    "ArrayStream": lambda: _array().stream(),  # issue 27: frame after frame, warm
     "Crosstalk": lambda: _array().crosstalk(),
     "ArrayEstimate": lambda: _array().read(_array().rest),
     "ArrayEstimates": lambda: _array().read(np.stack([_array().rest] * 2)),

@@ -50,6 +50,41 @@ def sum_squares(r: F64) -> F64:
     return np.where(np.isfinite(c), c, np.inf)
 
 
+#: rows at most this wide are reduced column by column (:func:`_row_max`, …): NumPy's reduction
+#: along a short last axis costs 10–35 ns a row, an elementwise pass over a column ~1 ns
+SMALL_ROW = 16
+
+
+def _row_max(a: F64) -> F64:
+    """The largest entry of each row of ``a`` (s, k) (NaN where a row has one)."""
+    if a.shape[1] > SMALL_ROW or a.shape[1] == 0:
+        return np.asarray(a.max(axis=1) if a.shape[1] else np.full(a.shape[0], -np.inf))
+    out = a[:, 0].copy()
+    for j in range(1, a.shape[1]):
+        np.maximum(out, a[:, j], out=out)
+    return out
+
+
+def _row_all(a: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Whether every entry of each row of ``a`` (s, k) is True."""
+    if a.shape[1] > SMALL_ROW or a.shape[1] == 0:
+        return np.asarray(a.all(axis=1))
+    out = a[:, 0].copy()
+    for j in range(1, a.shape[1]):
+        np.logical_and(out, a[:, j], out=out)
+    return out
+
+
+def _row_any(a: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Whether some entry of each row of ``a`` (s, k) is True."""
+    if a.shape[1] > SMALL_ROW or a.shape[1] == 0:
+        return np.asarray(a.any(axis=1))
+    out = a[:, 0].copy()
+    for j in range(1, a.shape[1]):
+        np.logical_or(out, a[:, j], out=out)
+    return out
+
+
 def _solve(system: F64, rhs: F64) -> F64:
     """Solutions (s, p) of the systems (s, p, p) · δ = rhs (s, p); zero where one is singular."""
     if system.shape[1] == 2:  # closed form: LAPACK's cost per call dominates 2 × 2 systems
@@ -206,9 +241,10 @@ def fit_batch(
         # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
         # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
         diag = jtj.diagonal(axis1=1, axis2=2)
-        diag = np.maximum(diag, 1e-12 * diag.max(axis=1, keepdims=True))
+        diag = np.maximum(diag, 1e-12 * _row_max(diag)[:, None])
         scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
-        ok = np.isfinite(scaled).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+        ok = (_row_all(np.isfinite(scaled.reshape(scaled.shape[0], -1)))
+              & _row_all(np.isfinite(jtr)))
         if ok.all():
             delta = _solve(scaled, -jtr)
         else:
@@ -216,7 +252,7 @@ def fit_batch(
             delta[ok] = _solve(scaled[ok], -jtr[ok])
         # a parameter on a bound whose step points outward is held: solve those again without it
         blocked = ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
-        again = blocked.any(axis=1)
+        again = _row_any(blocked)
         if again.any():
             system, rhs, held = scaled[again], -jtr[again], blocked[again]
             system[held[:, :, None] | held[:, None, :]] = 0.0
@@ -242,7 +278,7 @@ def fit_batch(
             scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
         else:
             scale = span if shared else span[idx]
-        moved = np.abs(trial - xa).max(axis=1) > xtol * scale
+        moved = _row_max(np.abs(trial - xa)) > xtol * scale
         ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
                   | ~ok)
         if ending.any():
@@ -278,13 +314,29 @@ def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: b
     return np.asarray(residuals(x, which), dtype=np.float64), None
 
 
+#: parameters up to which :func:`_normal` forms JᵀJ entry by entry (one product-sum over the
+#: residuals per pair): NumPy's batched matmul costs ~0.3 µs per tiny matrix, ~4× this
+SMALL_GRAM = 4
+
+
 def _normal(jac: Any, r: F64) -> tuple[F64, F64]:
     """JᵀJ (s, p, p) and Jᵀr (s, p) of Jacobians (s, a, p) and residuals (s, a); ``jac`` may be
     a pair (J, JᵀJ) where the caller keeps JᵀJ with a cached Jacobian."""
     gram = None
     if isinstance(jac, tuple):
         jac, gram = jac
-    jt = np.asarray(jac, dtype=np.float64).transpose(0, 2, 1)
+    jac = np.asarray(jac, dtype=np.float64)
+    dims = jac.shape[2]
+    if dims <= SMALL_GRAM:  # small dense problems: entry by entry
+        cols = [jac[:, :, i] for i in range(dims)]
+        jtr = np.stack([np.einsum("sa,sa->s", col, r) for col in cols], axis=1)
+        if gram is None:
+            gram = np.empty((jac.shape[0], dims, dims))
+            for i in range(dims):
+                for j in range(i, dims):
+                    gram[:, i, j] = gram[:, j, i] = np.einsum("sa,sa->s", cols[i], cols[j])
+        return np.asarray(gram, dtype=np.float64), jtr
+    jt = jac.transpose(0, 2, 1)
     jtr = (jt @ r[:, :, None])[:, :, 0]
     return (jt @ jt.transpose(0, 2, 1) if gram is None
             else np.asarray(gram, dtype=np.float64)), jtr

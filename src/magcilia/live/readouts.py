@@ -240,6 +240,7 @@ def live_sensor(readout: Any) -> LiveSensor:
         c_n = len(arr)
         informs = (np.abs(readout.jacobian / readout.sigma[:, None])
                    * np.repeat(readout.span, 2) >= 1.0).reshape(rest.size, c_n, 2).any(axis=2)
+        view = readout.stream()  # each chunk starts warm from the last frame of the one before
         return LiveSensor(readout, view, "array", "force", "N", inputs, "T", rest,
                           np.zeros(rest.size), (c_n, 2), (c_n,), arr.names,
                           np.asarray(arr.bases[:, :2], dtype=np.float64),

@@ -28,13 +28,17 @@ minimise ``Σ ((y − f(F)) / σ)² + α Σ (F / span)²`` over the 2C component
 (T, on the sensors' axes), σ each axis's noise and quantisation (:attr:`CiliaArray.sigma`, or a
 tare's measured spread), f the tabulated model. The one batched least squares
 (:func:`magcilia.fitting.fit_batch`; n samples at once: one kernel call evaluates the model of
-all of them) from the linear solution ``(JᵀWJ + α/span²)⁻¹ JᵀW (y − f(0))``, with the Jacobian
-by forward differences (step 1e-6 of the span, all cilia in one kernel call; a sample's
-Jacobian is taken again only after its estimate moved by more than 1e-2 of the span: chord
-steps near the solution). The Tikhonov weight α (``regularization``, dimensionless,
-default 1e-6) acts as a prior of span/√α (1000 spans) on each component: it steadies the
-solve and biases an estimate by about α / (α + (span · response / σ)²) of itself, ~1e-12 for a
-cilium whose full-span load moves its readings by 1000 σ. Saturated and NaN readings are left
+all of them) from the linear solution ``(JᵀWJ + α/span²)⁻¹ JᵀW (y − f(0))``, or warm from the
+frame before (``start``; the blocks of a long read chain: :mod:`.array_inverse`), with the
+Jacobian analytic (the tables' slopes chained through the turn and the dipole field, one fused
+kernel with the model: :mod:`magcilia.model.array_tabulated`; a sample's Jacobian is taken again
+only after its estimate moved by more than 1e-2 of the span, or a step with the kept one failed:
+chord steps near the solution). :meth:`ArrayReadout.stream` reads frame after frame, each call
+warm from the last (the live views read an array so). The Tikhonov weight α
+(``regularization``, dimensionless, default 1e-6) acts as a prior of span/√α (1000 spans) on
+each component: it steadies the solve and biases an estimate by about
+α / (α + (span · response / σ)²) of itself, ~1e-12 for a cilium whose full-span load moves its
+readings by 1000 σ. Saturated and NaN readings are left
 out of the fit (and flag the cilia they inform). Covariance: ``A⁻¹ JᵀWJ A⁻¹``, A = JᵀWJ +
 α/span², at the solution (the sensors' white noise through the linearised model), plus a tare's
 standard error through the same gain, plus the force scale's: each force scales with its
@@ -80,6 +84,7 @@ from magcilia.readout.array_results import (
     ArrayFlag,
     Crosstalk,
 )
+from magcilia.readout.array_stream import ArrayStream
 from magcilia.readout.protocol import Flag
 
 F64 = NDArray[np.float64]
@@ -194,5 +199,6 @@ def array_metrics(setup: Setup, pitches: ArrayLike, *, sensor: Magnetometer, spa
 
 
 __all__ = ["ARRAY_FLAGS", "CROSSTALK_STEP", "JACOBIAN_STEP", "REFRESH_STEP", "ArrayEstimate",
-           "ArrayEstimates", "ArrayFlag", "ArrayMetrics", "ArrayReadout", "Crosstalk", "Flag",
+           "ArrayEstimates", "ArrayFlag", "ArrayMetrics", "ArrayReadout", "ArrayStream",
+           "Crosstalk", "Flag",
            "LoadTable", "array_metrics", "field_for_loads", "loaded_poses"]

@@ -23,34 +23,30 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, number, si
 from magcilia.device.array import CiliaArray
 from magcilia.device.stiffness import Modulus
-from magcilia.fitting import fit_batch
 from magcilia.model.array import segment_field
+from magcilia.model.array_tabulated import TabulatedArray, table_field
 from magcilia.readout.array_checks import check_reach, check_singular
+from magcilia.readout.array_inverse import BOUND, FIT_XTOL, REFRESH_STEP, solve
 from magcilia.readout.array_model import LoadTable, checked_forces, load_table
 from magcilia.readout.array_results import ArrayEstimate, ArrayEstimates, Crosstalk
+from magcilia.readout.array_stream import ArrayStream
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import array_scale_blocks, array_scale_covariance, scale_notes
 from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
-#: forward-difference step of the inverse's Jacobian, as a fraction of the span
+#: forward-difference step of the inverse's Jacobian, as a fraction of the span, before issue 27
+#: (the inverse's Jacobian is analytic now: :mod:`magcilia.model.array_tabulated`); kept for
+#: the names importable from :mod:`magcilia.readout.array`
 JACOBIAN_STEP = 1e-6
-#: the inverse recomputes a sample's Jacobian where its estimate moved farther than this (a
-#: fraction of the span in some component) from where the last was taken, else keeps the last
-#: one (chord steps: one model evaluation per iteration). Chord steps end where the cached
-#: Jacobian is orthogonal to the residuals, off the minimum with noisy readings: ≤ 0.02 σ on
-#: an 8 × 8 array at 0.7 span (2e-3: ≤ 0.003 σ, ~15 % slower)
-REFRESH_STEP = 1e-2
 #: central-difference step of the crosstalk matrix, as a fraction of the span
 CROSSTALK_STEP = 1e-4
-#: the inverse's box, in spans (the Tikhonov prior's scale: 1/√α = 1000 spans by default)
-BOUND = 1e3
-#: the inverse has converged when a step moves no component by more than this fraction of
-#: the box (1e-7 of a span) …, or lowers χ² by less than ``tolerance``
-FIT_XTOL = 1e-7 / (2 * BOUND)
-#: samples per block of :meth:`ArrayReadout.read` (the cached Jacobians stay small)
-BLOCK = 256
+#: samples per block of :meth:`ArrayReadout.read` (the cached Jacobians stay small; each block
+#: starts warm from the last frame of the one before)
+BLOCK = 32
+__all__ = ["BLOCK", "BOUND", "CROSSTALK_STEP", "FIT_XTOL", "JACOBIAN_STEP", "REFRESH_STEP",
+           "ArrayReadout"]
 
 
 @dataclass(frozen=True, eq=False, init=False, repr=False)
@@ -123,6 +119,7 @@ class ArrayReadout(Display):
     columns: tuple[NDArray[np.int64], ...]
     baseline: Tare | None
     _scale: tuple[tuple[Modulus, ...], str]
+    _model: tuple[TabulatedArray, TabulatedArray]
 
     def __init__(self, array: CiliaArray, span: float | ArrayLike, *, table_size: int = 33,
                  regularization: float = 1e-6, max_iterations: int = 30,
@@ -167,6 +164,7 @@ class ArrayReadout(Display):
             cols.append(np.searchsorted(lay.s_query, setup.cilium.height * (np.arange(n) + 0.5)
                                         / n))
         set_(self, "columns", tuple(cols))
+        set_(self, "_model", self._tabulated())
         zero = np.zeros((len(array), 2))
         rest = self._fields(zero[None])[0].sum(axis=0)
         set_(self, "rest", array.to_sensor(rest).reshape(-1))
@@ -177,6 +175,29 @@ class ArrayReadout(Display):
         check_singular(self)
 
     # -- the forward model ------------------------------------------------------------------------
+    def _tabulated(self) -> tuple[TabulatedArray, TabulatedArray]:
+        """The forward map as plain arrays for the fused kernel: on the sensors' axes and in
+        the board frame."""
+        arr, lay = self.array, self.array.layout
+        n = max(t.slices for t in self.tables)
+        coef = np.zeros((len(self.tables), 4, 2 * self.table_size - 2, 3 * n))
+        for k, t in enumerate(self.tables):
+            coef[k, :, :, :t.coefficients.shape[2]] = t.coefficients
+        local = np.concatenate([np.searchsorted(self.columns[c], lay.slot[j0:j1])
+                                for c, (j0, j1) in enumerate(zip(lay.starts[:-1], lay.starts[1:],
+                                                                 strict=True))])
+        parts = {"observers": np.asarray(arr.sensor_positions, dtype=np.float64),
+                 "bases": lay.bases, "starts": lay.starts, "local": local.astype(np.int64),
+                 "ring_cos": lay.ring_cos, "ring_sin": lay.ring_sin, "moment": lay.moment,
+                 "kind": self.kinds, "slices": np.array([t.slices for t in self.tables],
+                                                        dtype=np.int64)[self.kinds],
+                 "coefficients": coef, "span": np.array([t.span for t in self.tables]),
+                 "step": np.array([t.step for t in self.tables])}
+        parts = {k: np.ascontiguousarray(a) for k, a in parts.items()}
+        rot = np.ascontiguousarray(arr.rotations, dtype=np.float64)
+        board = np.ascontiguousarray(np.broadcast_to(np.eye(3), rot.shape))
+        return TabulatedArray(rotations=rot, **parts), TabulatedArray(rotations=board, **parts)
+
     def _frames(self, force: F64) -> tuple[F64, F64, F64, F64]:
         """x, z, θ (..., C, q) of every cilium at force vectors (..., C, 2), and the azimuths
         (..., C)."""
@@ -215,8 +236,8 @@ class ArrayReadout(Display):
         if f.shape[1] == 3 and np.any(f[:, 2] != 0.0):
             raise v.fail("forces", "a vertical component", "horizontal forces (C, 2) for the "
                          "tables (field_for_loads solves loads with Fz)")
-        f = f[:, :2]
-        return np.asarray(self._fields(f[None])[0].sum(axis=0), dtype=np.float64)
+        field, _ = table_field(self._model[1], f[None, :, :2])
+        return field.reshape(-1, 3)
 
     def _crosstalk_matrix(self) -> F64:
         c_n, h = len(self.array), CROSSTALK_STEP * self.span
@@ -314,8 +335,8 @@ class ArrayReadout(Display):
         return new
 
     # -- inverse ----------------------------------------------------------------------------------
-    def read(self, readings: ArrayLike, /, *,
-             noise: ArrayLike | None = None) -> ArrayEstimate | ArrayEstimates:
+    def read(self, readings: ArrayLike, /, *, noise: ArrayLike | None = None,
+             start: ArrayLike | None = None) -> ArrayEstimate | ArrayEstimates:
         """Every cilium's horizontal force vector from the sensors' readings.
 
         Parameters
@@ -330,6 +351,13 @@ class ArrayReadout(Display):
         noise : float or array-like, shape (3 S,), optional
             RMS noise of one reading per input, T, measured; replaces the tare's spread or the
             sensors' stated noise (:attr:`sigma`) as the weights and for the covariance.
+        start : array-like, shape (C, 2), optional
+            The forces of the frame before, N (a stream's last estimate, ``est.force[-1]``):
+            the first frame starts warm from there (:mod:`magcilia.readout.array_inverse`),
+            else cold, from the linear solution about rest. The frames are taken in order of
+            time: each block of :data:`BLOCK` frames starts warm from the last estimate of the
+            block before. The start changes the work, not the estimates (they agree to the
+            fit's tolerance).
         """
         arr = self.array
         c = self.rest.size
@@ -358,8 +386,20 @@ class ArrayReadout(Display):
         if self.baseline is not None:
             y = y + self.baseline.correction
         y = np.where(missing, 0.0, y)
-        parts = [self._solve(y[i:i + BLOCK], weight[i:i + BLOCK], full=one)
-                 for i in range(0, y.shape[0], BLOCK)]
+        x_s = None
+        if start is not None:
+            f0 = v.finite_array("start", start, unit="N")
+            if f0.shape != (len(arr), 2):
+                raise v.fail("start", f"an array of shape {f0.shape}",
+                             f"forces of shape ({len(arr)}, 2), N: the frame before's")
+            x_s = (f0 / self.span[:, None]).reshape(-1)
+        parts = []
+        for i in range(0, y.shape[0], BLOCK):
+            part = self._solve(y[i:i + BLOCK], weight[i:i + BLOCK], one, x_s)
+            parts.append(part)
+            last = part["force"][-1] / self.span[:, None]
+            x_s = last.reshape(-1) if part["converged"][-1] and np.all(
+                np.abs(last) < BOUND) else None  # else the next block starts cold
         out = ({k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts
                else self._empty())
         flags = out["flags"]
@@ -397,6 +437,11 @@ class ArrayReadout(Display):
         assert isinstance(out, ArrayEstimate)
         return out
 
+    def stream(self) -> ArrayStream:
+        """This read-out over a stream of frames: an :class:`ArrayStream`, whose ``read``
+        starts every call warm from the last estimate of the call before (a live array)."""
+        return ArrayStream(self)
+
     def _empty(self) -> dict[str, Any]:
         """:meth:`_solve`'s arrays for no samples."""
         c_n = len(self.array)
@@ -409,81 +454,17 @@ class ArrayReadout(Display):
                 "iterations": np.zeros(0, dtype=np.int64), "converged": np.zeros(0, dtype=bool),
                 "chi2": np.zeros(0), "used": np.zeros(0, dtype=np.int64)}
 
-    def _jacobians(self, forces: F64, step: F64, each: F64 | None = None) -> F64:
-        """Jacobians (m, 3 S, 2 C), T/N, of the model readings at force vectors (m, C, 2), N,
-        by forward differences of ``step`` (C,) N (every cilium stepped at once: a cilium's
-        field is its own; one kernel call); ``each``: the cilia's fields at ``forces`` on the
-        sensors' axes (m, C, S, 3), T, when known."""
-        m, c_n = forces.shape[0], forces.shape[1]
-        sets = np.concatenate([forces] * (2 if each is not None else 3))
-        k = 0 if each is not None else m
-        sets[k:k + m, :, 0] += step
-        sets[k + m:, :, 1] += step
-        b = self.array.to_sensor(self._fields(sets))  # ((2|3) m, C, S, 3)
-        at = b[:m] if each is None else each
-        dx = (b[k:k + m] - at) / step[:, None, None]
-        dy = (b[k + m:] - at) / step[:, None, None]
-        return np.stack([dx, dy], axis=-1).transpose(0, 2, 3, 1, 4).reshape(m, -1, 2 * c_n)
-
-    def _solve(self, y: F64, w: F64, full: bool) -> dict[str, Any]:
+    def _solve(self, y: F64, w: F64, full: bool, start: F64 | None) -> dict[str, Any]:
         """Fit readings ``y`` (n, 3 S), T (tare applied), with weights ``w`` (n, 3 S) (1/σ, 0
-        for a reading left out): the estimates of :meth:`read` as arrays with a leading n (the
-        covariance (n, 2C, 2C) if ``full``, else its (n, C, 2, 2) blocks)."""
+        for a reading left out), from ``start`` (2 C,) (F / span of the frame before) or cold:
+        the estimates of :meth:`read` as arrays with a leading n (the covariance (n, 2C, 2C)
+        if ``full``, else its (n, C, 2, 2) blocks)."""
         n, c_n = y.shape[0], len(self.array)
         p = 2 * c_n
         scale = np.repeat(self.span, 2)  # x = F / span
         alpha = self.regularization
-        root_alpha = math.sqrt(alpha)
-        eye = np.eye(p)
-        # start: the linear solution about rest, one solve per pattern of readings left out
-        j0 = self.jacobian * scale
-        x0 = np.empty((n, p))
-        if np.all(w == w[0]):  # the common case: every reading used in every sample
-            patterns, which = w[:1], np.zeros(n, dtype=np.intp)
-        else:
-            patterns, which = np.unique(w, axis=0, return_inverse=True)
-        for k, wk in enumerate(patterns):
-            rows = np.flatnonzero(which.reshape(-1) == k)
-            jw = j0 * wk[:, None]
-            rhs = jw.T @ ((y[rows] - self.rest) * wk).T
-            x0[rows] = np.linalg.solve(jw.T @ jw + alpha * eye, rhs).T
-        step = JACOBIAN_STEP * self.span
-        cache_at = np.full((n, p), np.nan)  # where each sample's Jacobian was taken
-        m = y.shape[1]
-        cache = np.zeros((n, m + p, p))  # the whitened Jacobian there, per unit x, with the
-        cache[:, m:] = root_alpha * eye  # Tikhonov rows
-        gram = np.zeros((n, p, p))  # its JᵀJ + α I
-        last_at = np.full((n, p), np.nan)  # each sample's last point evaluated, and its
-        last = np.zeros((n, c_n, self.array.n_sensors, 3))  # cilia's fields there
-
-        def residuals(x: F64, rows: NDArray[np.intp]) -> F64:
-            each = self.array.to_sensor(self._fields(x.reshape(-1, c_n, 2)
-                                                     * self.span[:, None]))
-            last_at[rows], last[rows] = x, each
-            f = each.sum(axis=1).reshape(rows.size, -1)
-            return np.concatenate([w[rows] * (f - y[rows]), root_alpha * x], axis=1)
-
-        def jacobian(x: F64, rows: NDArray[np.intp]) -> tuple[F64, F64]:
-            # a fresh Jacobian only where the point moved far from the last one (chord steps)
-            stale = ~(np.abs(x - cache_at[rows]).max(axis=1) <= REFRESH_STEP)
-            if stale.any():
-                fresh = rows[stale]
-                known = bool(np.all(last_at[fresh] == x[stale]))
-                jw = w[fresh][:, :, None] * scale * self._jacobians(
-                    x[stale].reshape(-1, c_n, 2) * self.span[:, None], step,
-                    last[fresh] if known else None)
-                cache[fresh, :m] = jw
-                gram[fresh] = np.matmul(jw.transpose(0, 2, 1), jw) + alpha * eye
-                cache_at[fresh] = x[stale]
-            if rows.size == n:  # every sample still active: no copies
-                return cache, gram
-            return cache[rows], gram[rows]
-
-        # Gauss–Newton first (damping 1e-12); chord steps converge to where the *cached*
-        # Jacobian is orthogonal to the residuals (REFRESH_STEP says how far that is)
-        fit = fit_batch(residuals, x0, np.full(p, -BOUND), np.full(p, BOUND),
-                        jacobian=jacobian, maxiter=self.max_iterations, ftol=0.0,
-                        xtol=FIT_XTOL, atol=self.tolerance, damping=1e-12)
+        fit, jw = solve(self._model[0], self.span, alpha, y, w, start, self.max_iterations,
+                        self.tolerance)
         x, a, converged = np.asarray(fit.x), np.asarray(fit.jtj), np.asarray(fit.converged)
         a_inv = np.linalg.inv(a)
         # covariance of x: A⁻¹ JᵀWJ A⁻¹ = A⁻¹ − α A⁻², and a tare's shared error G S Gᵀ
@@ -491,7 +472,7 @@ class ArrayReadout(Display):
             self.baseline.standard_error) ** 2
         gain = None
         if np.any(tare_var > 0.0):
-            gain = a_inv @ (cache[:, :m] * w[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
+            gain = a_inv @ (jw * w[:, :, None]).transpose(0, 2, 1)  # (n, p, 3S)
         force = x.reshape(n, c_n, 2) * self.span[:, None]
         moduli = self._scale[0]
         if full:

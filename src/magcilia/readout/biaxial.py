@@ -74,7 +74,7 @@ from magcilia.readout.vector_model import (
 F64 = NDArray[np.float64]
 
 #: readings per block of :meth:`BiaxialReadout.read` (the coarse search's χ² table stays small)
-BLOCK = 4096
+BLOCK = 16384
 #: Δχ² within which a second, distinct minimum makes a reading AMBIGUOUS
 AMBIGUITY_CHI2 = 4.0
 #: a force smaller than this many σ (largest axis of its error ellipse) has no direction

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia.model.azimuth import turn_xy
+from magcilia.model.jit import jit
 
 F64 = NDArray[np.float64]
 
@@ -69,7 +70,20 @@ class CoarseGrid:
 
     def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
-        minimum of χ² at least a tenth of the span from it (−1 where there is none), (b,)."""
+        minimum of χ² at least a tenth of the span from it (−1 where there is none), (b,)
+        (compiled, :func:`search_kernel`, or NumPy)."""
+        kernel = jit(search_kernel)
+        if kernel is not None:
+            best = np.empty(y.shape[0], dtype=np.intp)
+            second = np.empty(y.shape[0], dtype=np.intp)
+            kernel(np.ascontiguousarray(y), np.ascontiguousarray(w),
+                   np.ascontiguousarray(self.reading.T), self.square, self.ring.size, self.far,
+                   best, second)
+            return best, second
+        return self.search_numpy(y, w)
+
+    def search_numpy(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """:meth:`search` in NumPy (the reference)."""
         chi = w @ self.square - 2.0 * (w * y) @ self.reading.T  # χ² − Σ w y² (b, K)
         best = np.argmin(chi, axis=1)
         g = chi[:, 1:].reshape(chi.shape[0], -1, self.ring.size)  # (b, rings, φ)
@@ -120,7 +134,23 @@ def evaluate(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
              ) -> tuple[F64, F64, F64]:
     """The interpolant of :func:`hermite_coefficients` ``coef`` (grid step ``h_f`` in F, N):
     readings (b, c), T, and d/dFx, d/dFy (b, c), T/N, at forces (``fx``, ``fy``, N, (b,)) with
-    magnitude ≤ the grid's end (without ``derivatives``: the readings three times)."""
+    magnitude ≤ the grid's end (without ``derivatives``: the readings three times); compiled
+    (:func:`evaluate_kernel`) or NumPy (:func:`evaluate_numpy`)."""
+    kernel = jit(evaluate_kernel)
+    if kernel is None:
+        return evaluate_numpy(coef, h_f, fx, fy, derivatives)
+    b, c = np.size(fx), coef.shape[2]
+    val = np.empty((b, c))
+    d_x = np.empty((b, c)) if derivatives else val
+    d_y = np.empty((b, c)) if derivatives else val
+    kernel(coef, float(h_f), np.ascontiguousarray(fx, dtype=np.float64).reshape(-1),
+           np.ascontiguousarray(fy, dtype=np.float64).reshape(-1), derivatives, val, d_x, d_y)
+    return val, d_x, d_y
+
+
+def evaluate_numpy(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
+                   ) -> tuple[F64, F64, F64]:
+    """:func:`evaluate` in NumPy (the reference)."""
     n_f, n_phi = coef.shape[0] + 1, coef.shape[1]
     h_phi = 2.0 * math.pi / n_phi
     mag = np.hypot(fx, fy)
@@ -159,3 +189,96 @@ def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
     mag = np.hypot(fx, fy)
     shrink = np.where(mag > edge, edge / np.maximum(mag, 1e-300), 1.0)
     return fx * shrink, fy * shrink, shrink
+
+
+# -- compiled twins (numba source; :func:`magcilia.model.jit.jit`) ---------------------------------
+
+def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, val: F64,
+                    d_x: F64, d_y: F64) -> None:
+    """:func:`evaluate_numpy` per reading (numba source): ``val``, ``d_x``, ``d_y`` (b, c)."""
+    n_f, n_phi, n_c = coef.shape[0] + 1, coef.shape[1], coef.shape[2]
+    h_phi = 2.0 * math.pi / n_phi
+    for b in range(fx.size):
+        mag = math.hypot(fx[b], fy[b])
+        phi = math.atan2(fy[b], fx[b]) % (2.0 * math.pi)
+        u = mag / h_f
+        i = min(int(u), n_f - 2)
+        u -= i
+        w = phi / h_phi
+        j = min(int(w), n_phi - 1)
+        w -= j
+        w2, u2 = w * w, u * u
+        inv = 1.0 / mag if mag > 0.0 else 1.0
+        cs, sn = (fx[b] * inv, fy[b] * inv) if mag > 0.0 else (1.0, 0.0)  # cos φ, sin φ
+        for k in range(n_c):
+            cw0 = coef[i, j, k, 0, 0] + w * (coef[i, j, k, 0, 1] + w * (
+                coef[i, j, k, 0, 2] + w * coef[i, j, k, 0, 3]))
+            cw1 = coef[i, j, k, 1, 0] + w * (coef[i, j, k, 1, 1] + w * (
+                coef[i, j, k, 1, 2] + w * coef[i, j, k, 1, 3]))
+            cw2 = coef[i, j, k, 2, 0] + w * (coef[i, j, k, 2, 1] + w * (
+                coef[i, j, k, 2, 2] + w * coef[i, j, k, 2, 3]))
+            cw3 = coef[i, j, k, 3, 0] + w * (coef[i, j, k, 3, 1] + w * (
+                coef[i, j, k, 3, 2] + w * coef[i, j, k, 3, 3]))
+            val[b, k] = cw0 + u * (cw1 + u * (cw2 + u * cw3))
+            if derivatives:
+                d_f = (cw1 + u * (2.0 * cw2 + 3.0 * u * cw3)) / h_f
+                # dB/dφ per row of the cell: Σ_l a[k, l] l w^(l−1) / h_phi
+                e0 = (coef[i, j, k, 0, 1] + 2.0 * w * coef[i, j, k, 0, 2]
+                      + 3.0 * w2 * coef[i, j, k, 0, 3]) / h_phi
+                e1 = (coef[i, j, k, 1, 1] + 2.0 * w * coef[i, j, k, 1, 2]
+                      + 3.0 * w2 * coef[i, j, k, 1, 3]) / h_phi
+                e2 = (coef[i, j, k, 2, 1] + 2.0 * w * coef[i, j, k, 2, 2]
+                      + 3.0 * w2 * coef[i, j, k, 2, 3]) / h_phi
+                e3 = (coef[i, j, k, 3, 1] + 2.0 * w * coef[i, j, k, 3, 2]
+                      + 3.0 * w2 * coef[i, j, k, 3, 3]) / h_phi
+                if i == 0:  # the u⁰ row vanishes: divide by u exactly
+                    dpf = (e1 + u * e2 + u2 * e3) / h_f
+                else:
+                    dpf = (e0 + u * e1 + u2 * e2 + u2 * u * e3) * inv
+                d_x[b, k] = cs * d_f - sn * dpf
+                d_y[b, k] = sn * d_f + cs * dpf
+
+
+def search_kernel(y: F64, w: F64, reading_t: F64, square: F64, n_phi: int,
+                  far: NDArray[np.bool_], best: NDArray[np.intp],
+                  second: NDArray[np.intp]) -> None:
+    """:meth:`CoarseGrid.search_numpy` per reading (numba source): χ² − Σ w y² at every node,
+    the best node, and the best local minimum (≤ its four neighbours on the polar grid, the
+    rest's neighbours the first ring) far from it."""
+    n_c, n_k = reading_t.shape
+    rings = (n_k - 1) // n_phi
+    chi = np.empty(n_k)
+    for b in range(y.shape[0]):
+        chi[:] = 0.0
+        for c in range(n_c):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
+            a, q = w[b, c], -2.0 * w[b, c] * y[b, c]
+            sq, rd = square[c], reading_t[c]
+            for k in range(n_k):
+                chi[k] += a * sq[k] + q * rd[k]
+        top = 0
+        for k in range(1, n_k):
+            if chi[k] < chi[top]:
+                top = k
+        best[b] = top
+        low = chi[1]
+        for p in range(1, n_phi):
+            low = min(low, chi[1 + p])
+        pick, pick_chi = -1, math.inf
+        if chi[0] <= low and far[top, 0]:
+            pick, pick_chi = 0, chi[0]
+        for r in range(rings):
+            for p in range(n_phi):
+                k = 1 + r * n_phi + p
+                g = chi[k]
+                if not far[top, k] or g >= pick_chi:
+                    continue
+                if g > chi[k - 1 if p > 0 else k + n_phi - 1]:  # the ring is periodic
+                    continue
+                if g > chi[k + 1 if p < n_phi - 1 else k - n_phi + 1]:
+                    continue
+                if g > (chi[0] if r == 0 else chi[k - n_phi]):
+                    continue
+                if r < rings - 1 and g > chi[k + n_phi]:
+                    continue
+                pick, pick_chi = k, g
+        second[b] = pick
