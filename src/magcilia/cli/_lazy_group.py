@@ -71,12 +71,18 @@ class LazyGroup(click.Group):
         if not isinstance(commands, LazyCommands):
             super().format_commands(ctx, formatter)
             return
-        names = self.list_commands(ctx)
-        shown = [(name, commands.peek(name)) for name in names]
+        shown = [(name, commands.peek(name)) for name in self.list_commands(ctx)]
         shown = [(name, command) for name, command in shown if not command.hidden]
         if not shown:
             return
         limit = formatter.width - 6 - max(len(name) for name, _ in shown)
+        rows = []
+        for name, command in shown:
+            text = command.get_short_help_str(limit)
+            if name not in commands.loaded and text == command.help and not text.endswith("."):
+                # the whole first line fits (a wide terminal): the sentence goes on in the
+                # docstring, so ask the command itself
+                text = commands[name].get_short_help_str(limit)
+            rows.append((name, text))
         with formatter.section("Commands"):
-            formatter.write_dl([(name, command.get_short_help_str(limit))
-                                for name, command in shown])
+            formatter.write_dl(rows)
