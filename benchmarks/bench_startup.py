@@ -6,8 +6,10 @@ Each command runs as a new Python process (this interpreter, the tree under test
 taken; printed are min and median of the rounds and the ratios of the medians to ``import
 numpy``'s. The CLI runs as its console script does (``from magcilia.cli import run; run()``).
 ``calibrate`` fits the bundled example recording and writes its whole folder (setup, result,
-report and the two figures) into a new folder each round; numba's disk cache is filled by one
-untimed run first (a first run ever compiles: that cost is ``bench_field``'s "first call").
+report and the two figures) into a new folder each round, once as the command runs (the figures
+drawn by its helper process, :mod:`magcilia.report.figure_process`) and once with them drawn
+in-process (``MAGCILIA_FIGURE_PROCESS=0``); numba's disk cache is filled by one untimed run first
+(a first run ever compiles: that cost is ``bench_field``'s "first call").
 
 Targets: ``import magcilia`` and ``magcilia --help`` <= 2x ``import numpy``; a first
 ``magcilia calibrate`` of the example with its figures <= 1 s.
@@ -20,6 +22,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import resource
 import statistics
 import subprocess
 import sys
@@ -42,18 +45,26 @@ def commands(out: Path) -> dict[str, list[str]]:
         "magcilia --help": [py, "-c", CLI, "--help"],
         "magcilia calibrate": [py, "-c", CLI, "-q", "calibrate", str(EXAMPLE), "--out",
                                str(out / "fit-{round}")],
+        # the figures always in the command's own process, and always in its helper process
+        "  figures in-process": ["env", "MAGCILIA_FIGURE_PROCESS=0", py, "-c", CLI, "-q",
+                                 "calibrate", str(EXAMPLE), "--out", str(out / "in-{round}")],
+        "  figures in helper": ["env", "MAGCILIA_FIGURE_PROCESS=1", py, "-c", CLI, "-q",
+                                "calibrate", str(EXAMPLE), "--out", str(out / "fork-{round}")],
     }
 
 
-def run_once(argv: list[str], env: dict[str, str]) -> float:
-    """Wall time (s) of one process from spawn to exit; its failure ends the benchmark."""
+def run_once(argv: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """Wall time and CPU time (user + system, its helper process included) in s of one
+    process from spawn to exit; its failure ends the benchmark."""
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     done = subprocess.run(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                           text=True, check=False)
     elapsed = time.perf_counter() - t0
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} failed ({done.returncode}): {done.stderr.strip()}")
-    return elapsed
+    return elapsed, cpu1.ru_utime + cpu1.ru_stime - cpu0.ru_utime - cpu0.ru_stime
 
 
 def machine() -> str:
@@ -93,13 +104,18 @@ def main() -> None:
         warm = [a.replace("{round}", "warm-up") for a in argvs["magcilia calibrate"]]
         run_once(warm, env)  # numba's disk cache filled (a compile, if any, is not timed)
         times: dict[str, list[float]] = {name: [] for name in argvs}
+        cpu: dict[str, list[float]] = {name: [] for name in argvs}
         for r in range(rounds):
             for name, argv in argvs.items():
-                times[name].append(run_once([a.replace("{round}", str(r)) for a in argv], env))
+                wall, used = run_once([a.replace("{round}", str(r)) for a in argv], env)
+                times[name].append(wall)
+                cpu[name].append(used)
     base = statistics.median(times["import numpy"])
+    print(f"  {'':20s} {'min':>7s} {'median':>7s}     {'ratio':>5s}               CPU median")
     for name, t in times.items():
         median = statistics.median(t)
-        print(f"  {name:20s} {min(t):7.3f} {median:7.3f} s   {median / base:5.2f}x import numpy")
+        print(f"  {name:20s} {min(t):7.3f} {median:7.3f} s   {median / base:5.2f}x import numpy  "
+              f"{statistics.median(cpu[name]):6.3f} s")
     print(f"  {load()} after")
     ratio_import = statistics.median(times["import magcilia"]) / base
     ratio_help = statistics.median(times["magcilia --help"]) / base

@@ -13,10 +13,12 @@ are written atomically into the command's staging folder, which is published onl
 child is stopped before the staging folder is removed (open the writer inside the folder's
 block).
 
-The child is used only where forking is safe and can overlap: a POSIX system other than macOS,
-at least two CPUs available, one Python thread in the process, and matplotlib not yet imported
-(a notebook or a test process that already has it draws in-process as fast). Set
-``MAGCILIA_FIGURE_PROCESS=0`` to always draw in-process.
+The child is used only where forking is safe and its work overlaps: a POSIX system other than
+macOS, one Python thread in the process, matplotlib not yet imported (a notebook or a test
+process that already has it draws in-process as fast), and a CPU to spare (two or more available
+and the 1-minute load average below their number less one: on a busy machine the child would
+only take time from the fit). ``MAGCILIA_FIGURE_PROCESS=0`` always draws in-process; ``=1`` uses
+the child whenever forking is safe, whatever the load.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ from typing import Any
 
 from magcilia._errors import MagciliaError
 
-#: environment switch: "0" draws in the command's own process
+#: environment switch: "0" draws in the command's own process, "1" in the child where forking is
+#: safe (whatever the load), unset: in the child where a CPU is to spare
 ENVIRONMENT = "MAGCILIA_FIGURE_PROCESS"
 
 
@@ -97,15 +100,24 @@ class FigureWriter:
 
 
 def _can_fork() -> bool:
-    if os.environ.get(ENVIRONMENT, "1") == "0" or "matplotlib" in sys.modules:
+    switch = os.environ.get(ENVIRONMENT, "")
+    if switch == "0" or "matplotlib" in sys.modules:
         return False
     if os.name != "posix" or sys.platform == "darwin":  # (fork is unsafe on macOS)
         return False
+    if threading.active_count() != 1:
+        return False
+    if switch == "1":
+        return True
     try:
         cpus = len(os.sched_getaffinity(0))
     except AttributeError:  # (not on every POSIX system)
         cpus = os.cpu_count() or 1
-    return cpus >= 2 and threading.active_count() == 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:
+        load = 0.0
+    return cpus >= 2 and load < cpus - 1
 
 
 @contextlib.contextmanager
