@@ -65,6 +65,15 @@ def test_magcilia_help_loads_no_heavy_library_and_no_command() -> None:
     assert sorted(m for m in modules if m.removeprefix("magcilia.cli.") in COMMANDS) == []
 
 
+def test_reading_a_small_csv_recording_loads_no_pandas() -> None:
+    """A plain CSV of a few MB is parsed by NumPy (``io.csvfile.SMALL_CSV_BYTES``): pandas and
+    pyarrow load only for large files."""
+    modules = _modules_after("import magcilia as mc\n"
+                             "mc.read_measurements(mc.io.example_path())")
+    assert "magcilia.io.csvfile" in modules
+    assert not {"pandas", "pyarrow", "matplotlib", "numba"} & modules
+
+
 def test_a_room_face_loads_only_what_its_used_name_needs() -> None:
     """Touching one light name of a room imports its module, not the room's heavy ones."""
     modules = _modules_after("from magcilia.device import Cilium")
