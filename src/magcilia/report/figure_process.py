@@ -157,7 +157,12 @@ def _serve(connection: Any, style: str) -> None:
     each task's reply is None or its error as one line. Nothing is printed."""
     import signal
 
+    from magcilia.model import compiled
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle)
+    # the figures' few model curves by the NumPy reference (equal to 1e-12): importing numba here
+    # would come after the fit, on the figures' path
+    compiled.ENABLED = False
     with contextlib.suppress(Exception):
         _warm(style)
     while True:
@@ -182,12 +187,15 @@ def _serve(connection: Any, style: str) -> None:
 
 def _warm(style: str) -> None:
     """Import matplotlib's Agg path and load the fonts and the mathtext parser that figures in
-    ``style`` use (drawn on a throwaway canvas)."""
+    ``style`` use (drawn on a throwaway canvas), and the model's path for their curves."""
+    import numpy as np
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    from magcilia.io import presets
     from magcilia.report import style as st
 
+    presets.setup("paper").field(np.radians([0.0, 10.0]))
     with st.use(style):
         fig = Figure(figsize=(1.0, 1.0), layout="constrained")
         ax = fig.add_subplot()
