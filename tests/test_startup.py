@@ -141,3 +141,27 @@ def test_the_table_is_read_from_the_type_checking_block() -> None:
     assert table["calibrate"] == ("magcilia.calibration.search", "calibrate")
     assert table["JointProblem"] == ("magcilia.calibration.joint", "JointProblem")
     assert _lazy.lazy_table("magcilia")["presets"] == ("magcilia.io", "presets")
+
+
+@pytest.mark.slow
+def test_numba_caches_load_in_a_new_process_without_compiling(tmp_path: Path) -> None:
+    """The compiled kernels (``cache=True``) compile once into the cache folder; a second fresh
+    process loads every one of them from it and compiles nothing (NUMBA_DEBUG_CACHE's lines)."""
+    code = """
+import numpy as np
+import magcilia as mc
+from magcilia.model import compiled
+setup = mc.presets.setup("paper")
+setup.output(np.radians([0.0, 10.0, 20.0]))  # the tilt kernel
+readout = mc.Readout(setup, span=(0.0, 0.5))
+readout.read(np.array([readout.rest, readout.rest]))  # the read-out's compiled pass
+assert compiled.kernels() is not None
+"""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "NUMBA_DEBUG_CACHE": "1",
+           "PYTHONPATH": os.pathsep.join([str(SRC.parent),
+                                         *filter(None, [os.environ.get("PYTHONPATH")])])}
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                           timeout=600, check=True).stdout for _ in range(2)]
+    assert "data saved" in runs[0]  # (the first process compiled and saved)
+    assert "data saved" not in runs[1] and "index saved" not in runs[1], runs[1]
+    assert runs[1].count("data loaded") == runs[0].count("data saved")  # each one, once
