@@ -65,6 +65,18 @@ def test_magcilia_help_loads_no_heavy_library_and_no_command() -> None:
     assert sorted(m for m in modules if m.removeprefix("magcilia.cli.") in COMMANDS) == []
 
 
+def test_every_face_imports_nothing_of_its_room() -> None:
+    """Importing every package face loads none of their modules: a name added to a face goes
+    into its ``if TYPE_CHECKING:`` block (an eager import there would load its module, and what
+    that imports, at ``import magcilia``)."""
+    modules = _modules_after("\n".join(f"import {face}" for face in FACES))
+    assert set(FACES) <= modules
+    loaded = sorted(m for m in modules if m.startswith("magcilia.") and m not in FACES
+                    and m.count(".") >= 2)
+    assert loaded == []
+    assert _heavy(modules) == []
+
+
 def test_reading_a_small_csv_recording_loads_no_pandas() -> None:
     """A plain CSV of a few MB is parsed by NumPy (``io.csvfile.SMALL_CSV_BYTES``): pandas and
     pyarrow load only for large files."""
