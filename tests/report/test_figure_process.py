@@ -126,3 +126,20 @@ def test_in_process_without_the_conditions() -> None:
         writer.submit(ran.append, 1)
         assert ran == [1]
         writer.wait()
+
+
+@needs_fork
+def test_a_task_that_does_not_pickle_runs_in_process(tmp_path: Path) -> None:
+    code = f"""
+import os
+from magcilia.report.figure_process import figure_writer
+with figure_writer() as writer:
+    assert writer.forked
+    writer.submit(lambda path: os.mkdir(path), {str(tmp_path / "here")!r})
+    assert os.path.isdir({str(tmp_path / "here")!r})  # (run at once)
+    writer.submit(os.mkdir, {str(tmp_path / "there")!r})
+    writer.wait()
+"""
+    done = _run(code, **FORK)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["here", "there"]

@@ -24,6 +24,7 @@ the child whenever forking is safe, whatever the load.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import sys
 import threading
@@ -31,6 +32,8 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from magcilia._errors import MagciliaError
+
+_log = logging.getLogger(__name__)
 
 #: environment switch: "0" draws in the command's own process, "1" in the child where forking is
 #: safe (whatever the load), unset: in the child where a CPU is to spare
@@ -55,12 +58,17 @@ class FigureWriter:
         return self._process is not None
 
     def submit(self, task: Callable[..., object], *args: Any) -> None:
-        """Run ``task(*args)`` (in the child, or now)."""
-        if self._connection is None:
-            task(*args)
-            return
-        self._connection.send((task, args))
-        self._pending += 1
+        """Run ``task(*args)`` (in the child, or now: also where the task does not pickle or
+        the child is gone)."""
+        if self._connection is not None:
+            try:
+                self._connection.send((task, args))
+            except Exception as exc:  # noqa: BLE001 (not picklable, or a broken pipe: draw here)
+                _log.debug("figure task run in-process: %s", exc)
+            else:
+                self._pending += 1
+                return
+        task(*args)
 
     def wait(self) -> None:
         """Wait for the submitted tasks; the first failure is raised here, as one line."""
