@@ -12,111 +12,120 @@ The public names are grouped below by topic; each comes from the room (subpackag
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
 from magcilia._errors import LayoutWarning, MagciliaError, MagciliaWarning, MissingDependencyError
+from magcilia._lazy import attach
 from magcilia._version import __version__
 
-# -- sensitivity ---------------------------------------------------------------------------------
-from magcilia.analysis import (
-    OATResult,
-    PlacementTolerance,
-    SensitivityStudy,
-    SobolResult,
-    oat_sweep,
-    placement_map,
-    placement_tolerance,
-    sensitivity_study,
-    sobol_indices,
-)
+if TYPE_CHECKING:
+    # -- sensitivity -----------------------------------------------------------------------------
+    from magcilia.analysis import (
+        OATResult,
+        PlacementTolerance,
+        SensitivityStudy,
+        SobolResult,
+        oat_sweep,
+        placement_map,
+        placement_tolerance,
+        sensitivity_study,
+        sobol_indices,
+    )
 
-# -- ring-down: the modulus and damping ratio of a flicked cilium ---------------------------------
-from magcilia.analysis.ringdown import ringdown
-from magcilia.analysis.ringdown_result import RingdownResult
+    # -- ring-down: the modulus and damping ratio of a flicked cilium -----------------------------
+    from magcilia.analysis.ringdown import ringdown
+    from magcilia.analysis.ringdown_result import RingdownResult
 
-# -- firmware approximations ---------------------------------------------------------------------
-from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
+    # -- firmware approximations -----------------------------------------------------------------
+    from magcilia.approximation import LookupTable, PiecewiseLinear, lookup_table, piecewise_linear
 
-# -- many recordings at once, on one machine or a Dask cluster -------------------------------------
-from magcilia.batch import BatchResult, calibrate_batch
+    # -- many recordings at once, on one machine or a Dask cluster ---------------------------------
+    from magcilia.batch import BatchResult, calibrate_batch
 
-# -- calibration -----------------------------------------------------------------------------------
-from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
+    # -- calibration -------------------------------------------------------------------------------
+    from magcilia.calibration import CalibrationResult, ParameterCovariance, calibrate
 
-# -- design: metrics and optimisation --------------------------------------------------------------
-from magcilia.design import DesignMetrics, DesignOptimum, Metric, design_metrics, optimise_design
+    # -- design: metrics and optimisation ----------------------------------------------------------
+    from magcilia.design import (
+        DesignMetrics,
+        DesignOptimum,
+        Metric,
+        design_metrics,
+        optimise_design,
+    )
 
-# -- the device and its field ------------------------------------------------------------------
-from magcilia.device import (
-    MAGNETOMETERS,
-    Actuation,
-    CiliaArray,
-    Cilium,
-    Magnetometer,
-    Material,
-    Modulus,
-    Sensor,
-    SensorCheck,
-    SensorFlag,
-    Setup,
-)
+    # -- the device and its field --------------------------------------------------------------
+    from magcilia.device import (
+        MAGNETOMETERS,
+        Actuation,
+        CiliaArray,
+        Cilium,
+        Magnetometer,
+        Material,
+        Modulus,
+        Sensor,
+        SensorCheck,
+        SensorFlag,
+        Setup,
+    )
 
-# -- files ---------------------------------------------------------------------------------------
-from magcilia.io import (
-    Measurement,
-    load_array,
-    load_setup,
-    presets,
-    read_measurements,
-    save_array,
-    save_setup,
-    to_c_header,
-)
+    # -- files -----------------------------------------------------------------------------------
+    from magcilia.io import (
+        Measurement,
+        load_array,
+        load_setup,
+        presets,
+        read_measurements,
+        save_array,
+        save_setup,
+        to_c_header,
+    )
 
-# -- bending ---------------------------------------------------------------------------------------
-from magcilia.live import LiveReadout
-from magcilia.mechanics import (
-    AIR,
-    GLYCEROL,
-    WATER,
-    BentShape,
-    Flow,
-    Fluid,
-    FrequencyResponse,
-    Modes,
-    SpatialBentShape,
-    TransientResponse,
-    bend,
-    bend_sweep,
-    drag_coefficient,
-    frequency_response,
-    modes,
-    simulate_response,
-)
-from magcilia.model import Centreline, SpatialCentreline, exact_field
+    # -- bending ---------------------------------------------------------------------------------------
+    from magcilia.live import LiveReadout
+    from magcilia.mechanics import (
+        AIR,
+        GLYCEROL,
+        WATER,
+        BentShape,
+        Flow,
+        Fluid,
+        FrequencyResponse,
+        Modes,
+        SpatialBentShape,
+        TransientResponse,
+        bend,
+        bend_sweep,
+        drag_coefficient,
+        frequency_response,
+        modes,
+        simulate_response,
+    )
+    from magcilia.model import Centreline, SpatialCentreline, exact_field
 
-# -- read-out -------------------------------------------------------------------------------------
-# (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
-from magcilia.readout import (
-    ActuatedReadout,
-    ArrayEstimate,
-    ArrayEstimates,
-    ArrayFlag,
-    ArrayMetrics,
-    ArrayReadout,
-    BiaxialReadout,
-    Crosstalk,
-    DynamicReadout,
-    Flag,
-    ForceFlag,
-    ForceVectorResult,
-    Readout,
-    ReadoutFlag,
-    ReadoutResult,
-    SensorReadout,
-    Tare,
-    array_metrics,
-    field_for_loads,
-)
+    # -- read-out -------------------------------------------------------------------------------------
+    # (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
+    from magcilia.readout import (
+        ActuatedReadout,
+        ArrayEstimate,
+        ArrayEstimates,
+        ArrayFlag,
+        ArrayMetrics,
+        ArrayReadout,
+        BiaxialReadout,
+        Crosstalk,
+        DynamicReadout,
+        Flag,
+        ForceFlag,
+        ForceVectorResult,
+        Readout,
+        ReadoutFlag,
+        ReadoutResult,
+        SensorReadout,
+        Tare,
+        array_metrics,
+        field_for_loads,
+    )
 
 __all__ = [
     "AIR",
@@ -212,3 +221,5 @@ __all__ = [
 # the library logs to "magcilia" (and its modules' child loggers) but never configures logging:
 # the application does (the CLI's -v/-q); without one, nothing is printed
 logging.getLogger("magcilia").addHandler(logging.NullHandler())
+
+__getattr__, __dir__ = attach(__name__)

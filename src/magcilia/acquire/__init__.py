@@ -19,19 +19,24 @@
 
 from __future__ import annotations
 
-from magcilia.acquire.buffer import BackgroundReader, RingBuffer
-from magcilia.acquire.connect import source_from_spec
-from magcilia.acquire.emulator import DeviceEmulator
-from magcilia.acquire.nidaq import NidaqSource
-from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
-from magcilia.acquire.replay import ReplaySource
-from magcilia.acquire.serial import SerialSource
-from magcilia.acquire.simulated import Script, SimulatedSource
-from magcilia.acquire.simulated_loads import LoadScript, SimulatedFieldSource, single_cilium
-from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
-from magcilia.acquire.stream import StreamResult, record_stream
-from magcilia.acquire.sweep import SweepPoint, SweepResult, record_sweep
-from magcilia.acquire.synthetic import Recording, synthetic_recording
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.acquire.buffer import BackgroundReader, RingBuffer
+    from magcilia.acquire.connect import source_from_spec
+    from magcilia.acquire.emulator import DeviceEmulator
+    from magcilia.acquire.nidaq import NidaqSource
+    from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
+    from magcilia.acquire.replay import ReplaySource
+    from magcilia.acquire.serial import SerialSource
+    from magcilia.acquire.simulated import Script, SimulatedSource
+    from magcilia.acquire.simulated_loads import LoadScript, SimulatedFieldSource, single_cilium
+    from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
+    from magcilia.acquire.stream import StreamResult, record_stream
+    from magcilia.acquire.sweep import SweepPoint, SweepResult, record_sweep
+    from magcilia.acquire.synthetic import Recording, synthetic_recording
 
 __all__ = [
     "OUTPUT",
@@ -62,3 +67,5 @@ __all__ = [
     "source_from_spec",
     "synthetic_recording",
 ]
+
+__getattr__, __dir__ = attach(__name__)

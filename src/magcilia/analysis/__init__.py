@@ -8,27 +8,32 @@
 
 from __future__ import annotations
 
-from magcilia.analysis.measures import (
-    DEFAULT_ANGLES,
-    MEASURES,
-    check_angles,
-    offset_cost,
-    rms_change,
-    shape_change,
-)
-from magcilia.analysis.oat import (
-    STUDY_PARAMETERS,
-    SWEEP_PARAMETERS,
-    OATResult,
-    PlacementMap,
-    SensitivityStudy,
-    default_spans,
-    oat_sweep,
-    placement_map,
-    sensitivity_study,
-)
-from magcilia.analysis.sobol import SobolResult, sobol_analysis, sobol_indices
-from magcilia.analysis.tolerance import PlacementTolerance, placement_tolerance
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.analysis.measures import (
+        DEFAULT_ANGLES,
+        MEASURES,
+        check_angles,
+        offset_cost,
+        rms_change,
+        shape_change,
+    )
+    from magcilia.analysis.oat import (
+        STUDY_PARAMETERS,
+        SWEEP_PARAMETERS,
+        OATResult,
+        PlacementMap,
+        SensitivityStudy,
+        default_spans,
+        oat_sweep,
+        placement_map,
+        sensitivity_study,
+    )
+    from magcilia.analysis.sobol import SobolResult, sobol_analysis, sobol_indices
+    from magcilia.analysis.tolerance import PlacementTolerance, placement_tolerance
 
 __all__ = [
     "DEFAULT_ANGLES",
@@ -52,3 +57,5 @@ __all__ = [
     "sobol_analysis",
     "sobol_indices",
 ]
+
+__getattr__, __dir__ = attach(__name__)

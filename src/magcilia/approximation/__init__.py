@@ -9,14 +9,19 @@
 
 from __future__ import annotations
 
-from magcilia.approximation.curve import DEFAULT_RANGE
-from magcilia.approximation.lookup import QUANTITIES, LookupTable, lookup_table
-from magcilia.approximation.piecewise import (
-    PiecewiseLinear,
-    fit_piecewise_linear,
-    hat_basis,
-    piecewise_linear,
-)
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.approximation.curve import DEFAULT_RANGE
+    from magcilia.approximation.lookup import QUANTITIES, LookupTable, lookup_table
+    from magcilia.approximation.piecewise import (
+        PiecewiseLinear,
+        fit_piecewise_linear,
+        hat_basis,
+        piecewise_linear,
+    )
 
 __all__ = [
     "DEFAULT_RANGE",
@@ -28,3 +33,5 @@ __all__ = [
     "lookup_table",
     "piecewise_linear",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -24,50 +24,57 @@
 
 from __future__ import annotations
 
-from magcilia.calibration.covariance import ParameterCovariance
-from magcilia.calibration.diagnostics import WARNING_KINDS, CalibrationWarning
-from magcilia.calibration.experiment_fit import ExperimentFit
-from magcilia.calibration.experiments import (
-    Experiment,
-    Experiments,
-    FieldPath,
-    LoadExperiment,
-    Prior,
-    TiltPath,
-    experiment,
-)
-from magcilia.calibration.joint import JointProblem as JointProblem  # an earlier name, re-exported
-from magcilia.calibration.joint import calibrate_joint
-from magcilia.calibration.layout import PhysicalLayout, converged_layout
-from magcilia.calibration.parameters import FitParameter, ParameterKey
-from magcilia.calibration.plan import (
-    CalibrationPlan,
-    Design,
-    d_optimal,
-    evaluate_design,
-    plan_calibration,
-)
-from magcilia.calibration.posterior import (
-    Posterior,
-    SamplingWarning,
-    least_squares_log_prob,
-    sample_posterior,
-    sample_problem,
-)
-from magcilia.calibration.problem import (
-    BIASES,
-    CONTINUOUS,
-    DEFAULT_BOUNDS,
-    INTEGER,
-    NONFINITE_COST,
-    PARAMETERS,
-    Problem,
-)
-from magcilia.calibration.result import CalibrationResult
-from magcilia.calibration.result import (  # an earlier name, re-exported
-    JointCalibrationResult as JointCalibrationResult,
-)
-from magcilia.calibration.search import calibrate
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.calibration.covariance import ParameterCovariance
+    from magcilia.calibration.diagnostics import WARNING_KINDS, CalibrationWarning
+    from magcilia.calibration.experiment_fit import ExperimentFit
+    from magcilia.calibration.experiments import (
+        Experiment,
+        Experiments,
+        FieldPath,
+        LoadExperiment,
+        Prior,
+        TiltPath,
+        experiment,
+    )
+    from magcilia.calibration.joint import (
+        JointProblem as JointProblem,  # an earlier name, re-exported
+    )
+    from magcilia.calibration.joint import calibrate_joint
+    from magcilia.calibration.layout import PhysicalLayout, converged_layout
+    from magcilia.calibration.parameters import FitParameter, ParameterKey
+    from magcilia.calibration.plan import (
+        CalibrationPlan,
+        Design,
+        d_optimal,
+        evaluate_design,
+        plan_calibration,
+    )
+    from magcilia.calibration.posterior import (
+        Posterior,
+        SamplingWarning,
+        least_squares_log_prob,
+        sample_posterior,
+        sample_problem,
+    )
+    from magcilia.calibration.problem import (
+        BIASES,
+        CONTINUOUS,
+        DEFAULT_BOUNDS,
+        INTEGER,
+        NONFINITE_COST,
+        PARAMETERS,
+        Problem,
+    )
+    from magcilia.calibration.result import CalibrationResult
+    from magcilia.calibration.result import (  # an earlier name, re-exported
+        JointCalibrationResult as JointCalibrationResult,
+    )
+    from magcilia.calibration.search import calibrate
 
 # the earlier names JointCalibrationResult (the one CalibrationResult) and JointProblem (it builds
 # the one Problem) stay importable from here, undocumented: they are not names of their own
@@ -108,3 +115,5 @@ __all__ = [
     "sample_posterior",
     "sample_problem",
 ]
+
+__getattr__, __dir__ = attach(__name__)

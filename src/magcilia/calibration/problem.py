@@ -36,7 +36,6 @@ from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.fitting import NONFINITE_PENALTY
 from magcilia.io.recordings import Measurement
-from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.flow import Flow
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.batch import TiltBatch
@@ -231,6 +230,8 @@ class Problem:
         """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of
         :func:`~magcilia.mechanics.bend.bend_sweep` (sorted loads) and their field; NaN for a set
         whose bend does not converge or whose geometry is invalid."""
+        from magcilia.mechanics.bend import bend_sweep  # (bending: load experiments only)
+
         n = prm["x"].size
         width = sum(3 * b[2].size for b in self.table.loads)
         out = np.full((n, width), np.nan)

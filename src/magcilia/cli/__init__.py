@@ -10,12 +10,69 @@ from collections.abc import Sequence
 import click
 
 from magcilia._errors import MagciliaError, MagciliaWarning, MissingDependencyError
-from magcilia._validate import printable
 from magcilia._version import __version__
-from magcilia.cli._common import QUIET_KEY
+from magcilia.cli._lazy_group import LazyCommands, LazyGroup
+
+# the subcommands: name -> the first line of its docstring (the command is
+# ``magcilia.cli.<name>.command``). ``magcilia --help`` lists them from here without importing
+# a command module; tests/cli/test_lazy_commands.py holds each line equal to its docstring's.
+COMMANDS: dict[str, str] = {
+    "field": "Field at the sensing element (gauss) and sensor output (mV) vs tilt angle (T, V, rad",
+    "calibrate": (
+        "Calibrate the model to the recording DATA (CSV, .mat, .tdms or .h5), or with "
+        "--model"
+    ),
+    "bend": "Large-deflection shape of the cilium under a tip force, a flow and/or a magnetic",
+    "readout": (
+        "Estimate the tilt angle, tip force or flow speed for each reading of RECORDING (CSV, "
+        ".mat"
+    ),
+    "design": (
+        "Design metrics: dV/dF, dV/dU, dV/dθ (mV per mN, m/s, deg), minimum detectable force "
+        "(mN),"
+    ),
+    "demo": "Calibrate the paper's model to the bundled SYNTHETIC recording and write a report.",
+    "sensitivity": (
+        "Sensitivity of the model around SETUP (a setup TOML file or a preset: paper, "
+        "paper-initial)."
+    ),
+    "approximate": (
+        "Fit a continuous piecewise-linear function to SETUP's output vs tilt (the paper's Sec. "
+        "V)."
+    ),
+    "angle": (
+        "Measure the holder's tilt in each PHOTO (JPEG, PNG, TIFF) from the reflective tape on "
+        "it."
+    ),
+    "record": (
+        "Record a calibration sweep: for each tilt angle, samples of the sensor output with "
+        "the"
+    ),
+    "live": (
+        "Watch a sensor live: the force, angle or flow speed ± σ, a sparkline of the last "
+        "10 s,"
+    ),
+    "dashboard": (
+        "Serve a browser dashboard of the live read-out: the value with its σ, flags, "
+        "plots of"
+    ),
+    "plan": (
+        "Plan a tilt-table calibration of SETUP: the BUDGET readings (tilt angles × azimuths) "
+        "that"
+    ),
+    "array": "An array of cilia over three-axis magnetometers (--setup: an array setup file",
+    "batch": "Many recordings at once (on this machine, or a Dask cluster with --scheduler).",
+    "optimise": (
+        "Search the cilium's height, base and tip radius (and, given bounds, magnetization scale "
+        "or"
+    ),
+    "modes": "Bending modes of the cilium clamped at its base: natural frequency (Hz), damping ratio",
+    "ringdown": "Young's modulus and damping ratio from the ring-down of a flicked cilium.",
+}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, commands=LazyCommands(COMMANDS),
+             context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="magcilia")
 @click.option("-v", "--verbose", count=True,
               help="Log what long steps do on stderr: -v progress (INFO), -vv details (DEBUG).")
@@ -35,10 +92,12 @@ def cli(ctx: click.Context, verbose: int, quiet: bool) -> None:
                                                            else logging.DEBUG)
     _configure_logging(ctx, level)
     if quiet:
+        from magcilia.cli._common import QUIET_KEY
+
         ctx.meta[QUIET_KEY] = True
-        # the group's -q turns on every command's own --quiet
-        ctx.default_map = {name: {"quiet": True} for name, command in cli.commands.items()
-                           if any(p.name == "quiet" for p in command.params)}
+        # the group's -q turns on every command's own --quiet (a command without one never looks
+        # the key up: naming every command keeps their modules unimported)
+        ctx.default_map = {name: {"quiet": True} for name in cli.commands}
 
 
 class _EchoHandler(logging.Handler):
@@ -46,6 +105,8 @@ class _EchoHandler(logging.Handler):
     ``magcilia: info: message``."""
 
     def emit(self, record: logging.LogRecord) -> None:
+        from magcilia._validate import printable  # (NumPy: not at start-up)
+
         try:
             click.echo(f"magcilia: {record.levelname.lower()}: {printable(self.format(record))}",
                        err=True)
@@ -67,40 +128,6 @@ def _configure_logging(ctx: click.Context, level: int) -> None:
         logger.setLevel(old_level)
 
     ctx.call_on_close(restore)
-
-
-# one line per subcommand module: (module name under magcilia.cli, command name)
-_COMMANDS: tuple[tuple[str, str], ...] = (
-    ("field", "field"),
-    ("calibrate", "calibrate"),
-    ("bend", "bend"),
-    ("readout", "readout"),
-    ("design", "design"),
-    ("demo", "demo"),
-    ("sensitivity", "sensitivity"),
-    ("approximate", "approximate"),
-    ("angle", "angle"),
-    ("record", "record"),
-    ("live", "live"),
-    ("dashboard", "dashboard"),
-    ("plan", "plan"),
-    ("array", "array"),
-    ("batch", "batch"),
-    ("optimise", "optimise"),
-    ("modes", "modes"),
-    ("ringdown", "ringdown"),
-)
-
-
-def _register() -> None:
-    import importlib
-
-    for module_name, command_name in _COMMANDS:
-        module = importlib.import_module(f"magcilia.cli.{module_name}")
-        cli.add_command(module.command, name=command_name)
-
-
-_register()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -137,6 +164,8 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
                   file: object = None, line: str | None = None) -> None:
     """A library warning (e.g. a posterior stopped at its time limit) as one line on stderr,
     ``magcilia: warning: MESSAGE``, without Python's file and source line."""
+    from magcilia._validate import printable
+
     del category, filename, lineno, file, line
     click.echo(f"magcilia: warning: {printable(' '.join(str(message).split()))}", err=True)
 
@@ -144,6 +173,8 @@ def _show_warning(message: Warning | str, category: type[Warning], filename: str
 def _error(message: str) -> int:
     """Print ``magcilia: error: MESSAGE`` as one line on stderr (non-printable characters from
     files escaped); the exit code of every usage and input error, 2."""
+    from magcilia._validate import printable
+
     click.echo(f"magcilia: error: {printable(message)}", err=True)
     return 2
 

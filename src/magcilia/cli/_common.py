@@ -9,7 +9,7 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
@@ -19,7 +19,6 @@ from tqdm import tqdm
 from magcilia._atomic import json_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.calibration import CalibrationResult, calibrate
 from magcilia.cli._options import (  # noqa: F401 (re-exported: the commands import them here)
     PRESETS,
     RenamedOption,
@@ -37,6 +36,9 @@ from magcilia.io.quality import OUTLIER_SIGMAS, SUSPECT_POLICIES
 from magcilia.io.recordings import Measurement
 from magcilia.mechanics import FLUIDS, Flow
 from magcilia.units import UNITS, dimension_words, parse_range, parse_value, parse_values
+
+if TYPE_CHECKING:
+    from magcilia.calibration import CalibrationResult
 
 #: most angles of an ``--angles START:STOP:STEP`` grid (0.0001 deg steps over 0..90 deg are 900 001
 #: angles; a finer grid says more about float rounding than about the sensor)
@@ -210,6 +212,8 @@ def calibrate_with_progress(data: Measurement, initial: Setup, *, quiet: bool,
                             **options: Any) -> CalibrationResult:
     """:func:`magcilia.calibrate` with a progress bar over the restarts on stderr (not with
     ``--quiet`` or when stderr is not a terminal)."""
+    from magcilia.calibration import calibrate  # (the fit: imported by the commands that fit)
+
     with progress_bar("calibrating (restarts)", "run", quiet=quiet) as advance:
         return calibrate(data, initial=initial, progress=advance, **options)
 

@@ -33,6 +33,7 @@ from magcilia.report.calibration import (
     model_comparison,
     write_calibration_files,
 )
+from magcilia.report.figure_process import figure_writer
 from magcilia.report.recording_notes import notes_lines
 
 
@@ -114,7 +115,9 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
     a reader says of the file (a recording cut short and the planned angles it lacks, damage
     read past), is printed as note lines and kept in report.md and result.json ("data").
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
+    # the figures' helper process readies matplotlib while the recordings are read and fitted
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp, \
+            figure_writer(style) as writer:
         initial = load_setup_arg(setup_arg)
         if model == "paper" and len(data) > 1:
             raise MagciliaError(f"{len(data)} recordings given: --model paper fits one; use "
@@ -155,7 +158,9 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                 measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
                 bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
                 fixed=parse_fixed(fix_items))
-        write_calibration_files(result, tmp, style, comparison=comparison, data=measurements)
+        write_calibration_files(result, tmp, style, comparison=comparison, data=measurements,
+                                writer=writer)
+        writer.wait()  # (the folder is published only with its figures)
     notes = [] if as_json else notes_lines(measurements)
     for line in notes:
         click.echo(line)

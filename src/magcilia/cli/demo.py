@@ -14,6 +14,7 @@ from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
 from magcilia.report.calibration import CALIBRATION_NAMES, write_calibration_files
+from magcilia.report.figure_process import figure_writer
 
 
 @click.command()
@@ -40,7 +41,8 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[
     The --out folder is published in one rename when everything is written (see `magcilia
     calibrate --help`).
     """
-    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp:
+    with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp, \
+            figure_writer(style) as writer:  # (readies matplotlib while the demo fits)
         path = example_path()
         initial = Setup.paper_initial()
         data = read_measurements(path, sensor=initial.sensor)
@@ -49,7 +51,8 @@ def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[
         result = calibrate_with_progress(data, initial, quiet=quiet, rng=seed,
                                          fixed=parse_fixed(fix_items))
         result = result.with_truth(example_truth(path))
-        write_calibration_files(result, tmp, style)
+        write_calibration_files(result, tmp, style, writer=writer)
+        writer.wait()
     click.echo(result.report())
     click.echo(f"report written to {Path(out_dir) / 'report.md'} (figures fit.png, residuals.png; "
                "fitted setup fitted_setup.toml)")

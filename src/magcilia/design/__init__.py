@@ -17,18 +17,23 @@ the public names as before.
 
 from __future__ import annotations
 
-from magcilia.design.measurands import FLOW, FORCE, Measurand
-from magcilia.design.metrics import DesignMetrics, Metric, design_metrics
-from magcilia.design.optimise import (
-    DEFAULT_BOUNDS,
-    OBJECTIVES,
-    VARIABLES,
-    optimise_design,
-)
-from magcilia.design.pareto import pareto_ranks
-from magcilia.design.ranges import RangeEnd, range_end
-from magcilia.design.results import Candidate, DesignOptimum
-from magcilia.design.sensors import SINGLE_AXIS, SensorChoice, sensor_choices
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.design.measurands import FLOW, FORCE, Measurand
+    from magcilia.design.metrics import DesignMetrics, Metric, design_metrics
+    from magcilia.design.optimise import (
+        DEFAULT_BOUNDS,
+        OBJECTIVES,
+        VARIABLES,
+        optimise_design,
+    )
+    from magcilia.design.pareto import pareto_ranks
+    from magcilia.design.ranges import RangeEnd, range_end
+    from magcilia.design.results import Candidate, DesignOptimum
+    from magcilia.design.sensors import SINGLE_AXIS, SensorChoice, sensor_choices
 
 __all__ = [
     "DEFAULT_BOUNDS",
@@ -50,3 +55,5 @@ __all__ = [
     "range_end",
     "sensor_choices",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -14,14 +14,19 @@
 
 from __future__ import annotations
 
-from magcilia.device.actuation import Actuation
-from magcilia.device.array import CiliaArray
-from magcilia.device.cilium import Cilium
-from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
-from magcilia.device.material import Material
-from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck, SensorFlag
-from magcilia.device.setup import PAPER_INITIAL, PAPER_OPTIMIZED, Pose, Setup
-from magcilia.device.stiffness import Modulus
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.device.actuation import Actuation
+    from magcilia.device.array import CiliaArray
+    from magcilia.device.cilium import Cilium
+    from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
+    from magcilia.device.material import Material
+    from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck, SensorFlag
+    from magcilia.device.setup import PAPER_INITIAL, PAPER_OPTIMIZED, Pose, Setup
+    from magcilia.device.stiffness import Modulus
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
@@ -40,3 +45,5 @@ __all__ = [
     "SensorFlag",
     "Setup",
 ]
+
+__getattr__, __dir__ = attach(__name__)

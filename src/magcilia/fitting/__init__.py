@@ -50,10 +50,17 @@ returns the minima found, best first; :func:`polish` takes the same residual fun
 hands each row to SciPy.
 """
 
-from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, fit_batch, sum_squares
-from magcilia.fitting.multistart import halving, latin_hypercube, multistart
-from magcilia.fitting.polish import NONFINITE_PENALTY, polish
-from magcilia.fitting.result import BatchFit
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, fit_batch, sum_squares
+    from magcilia.fitting.multistart import halving, latin_hypercube, multistart
+    from magcilia.fitting.polish import NONFINITE_PENALTY, polish
+    from magcilia.fitting.result import BatchFit
 
 __all__ = [
     "NONFINITE_PENALTY",
@@ -67,3 +74,5 @@ __all__ = [
     "polish",
     "sum_squares",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from magcilia import _validate as v
 from magcilia.fitting.levenberg_marquardt import Jacobian, Residuals, bounds_of, sum_squares
@@ -69,6 +68,8 @@ def polish(
         where the start was kept); ``iterations`` its Jacobian evaluations; ``converged`` its
         ``status > 0``.
     """
+    from scipy.optimize import least_squares  # (SciPy: where first needed)
+
     x = np.array(x0, dtype=np.float64)
     if x.ndim == 1:
         x = x[None, :]

@@ -21,23 +21,28 @@
 
 from __future__ import annotations
 
-from magcilia.io import presets
-from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
-from magcilia.io.columns import Columns
-from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
-from magcilia.io.quality import RecordingQuality
-from magcilia.io.recording_file import RecordingWriter, recording_properties
-from magcilia.io.recordings import (
-    Measurement,
-    check_quality,
-    example_path,
-    measurement_from_samples,
-    read_measurements,
-    read_recording,
-    read_samples,
-)
-from magcilia.io.results import read_json
-from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, setup_to_dict
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.io import presets
+    from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
+    from magcilia.io.columns import Columns
+    from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
+    from magcilia.io.quality import RecordingQuality
+    from magcilia.io.recording_file import RecordingWriter, recording_properties
+    from magcilia.io.recordings import (
+        Measurement,
+        check_quality,
+        example_path,
+        measurement_from_samples,
+        read_measurements,
+        read_recording,
+        read_samples,
+    )
+    from magcilia.io.results import read_json
+    from magcilia.io.setup_files import load_setup, save_setup, setup_from_dict, setup_to_dict
 
 __all__ = [
     "Columns",
@@ -65,3 +70,5 @@ __all__ = [
     "to_c_header",
     "to_json",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -76,6 +76,10 @@ NUMBER = re.compile(r"[ \t]*[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9
 SPREADSHEET_ERROR = re.compile(r'"?#(?:N/A|[A-Z][A-Z0-9/_]*[!?])(?:"|[ \t,;]|$)')
 #: Rows the fast reader parses at a time.
 CSV_BLOCK_ROWS = 1 << 20
+#: Plain files up to this size (bytes) with a ``,``, ``;`` or tab delimiter, a decimal point and
+#: no ``setreset`` column are parsed by NumPy's C reader (``np.loadtxt``) in one block: importing
+#: pandas costs more than reading such a file (0.2 s against 10 ms for the 1.9 MB example).
+SMALL_CSV_BYTES = 16 << 20
 #: Delimiters by the names the readers take (" " stands for runs of white space).
 DELIMITERS = {",": ",", ";": ";", "\t": "\t", "tab": "\t", "whitespace": " ", " ": " "}
 #: Decimal marks the readers take.
@@ -210,8 +214,6 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
         For a header without a required column or with one of ours twice, and for more rows
         than ``max_samples`` (the careful reader's errors for them).
     """
-    import pandas as pd
-
     limit = min(max_line_chars, csv.field_size_limit())
     size = path.stat().st_size
     with path.open("rb") as f:
@@ -220,6 +222,19 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                else locate(header))
         if delim == decimal:  # (numbers quoted: the careful reader's)
             raise NotPlainCSV
+        if size <= SMALL_CSV_BYTES and decimal == "." and delim != " " and "setreset" not in idx:
+            whole = _small_plain_block(f, limit, delim, len(header), idx)
+            rows = len(next(iter(whole.values()), ()))
+            if rows > max_samples:
+                raise too_many_samples(path, "the file", max_samples)
+            for start in range(0, max(rows, 1), CSV_BLOCK_ROWS):  # (blocks, as pandas' below)
+                end = min(start + CSV_BLOCK_ROWS, rows)
+                if progress is not None:
+                    progress(size if end == rows else size * end // rows, size)
+                yield {col: values[start:end] for col, values in whole.items()}
+            return
+        import pandas as pd  # (here: a second of start-up for a command that reads no CSV)
+
         rows = 0
         try:
             for frame in pd.read_csv(
@@ -338,6 +353,29 @@ def _plain_header(f: IO[bytes], limit: int, delimiter: str | None) -> tuple[list
             return split_header(text, delim), delim
         line = f.readline(limit + 1)
     raise NotPlainCSV  # (an empty file too)
+
+
+_BLANK_LINE = re.compile(rb"(?m)^[ \t]+\r?$")
+
+
+def _small_plain_block(f: IO[bytes], limit: int, delim: str, width: int,
+                       idx: Mapping[str, int]) -> dict[str, F64]:
+    """The columns of the rest of a small plain file in one block, parsed by ``np.loadtxt``
+    (its numbers as ``float`` reads them; lines of blanks skipped as pandas skips them; an empty
+    field, a row of another length or text raises :class:`NotPlainCSV`)."""
+    data = _PlainBytes(f, limit).read()
+    if b"\n " in data or b"\n\t" in data or data.startswith((b" ", b"\t")):
+        data = _BLANK_LINE.sub(b"", data)
+    if not data.translate(None, b"\r\n"):  # a header without data rows
+        return {col: np.zeros(0) for col in idx}
+    try:
+        table = np.loadtxt(io.StringIO(data.decode("ascii")), dtype=np.float64, comments=None,
+                           delimiter=delim, ndmin=2)
+    except ValueError:  # not a number, a row too long or too short, ...
+        raise NotPlainCSV from None
+    if table.shape[1] != width:
+        raise NotPlainCSV
+    return {col: np.ascontiguousarray(table[:, i]) for col, i in idx.items()}
 
 
 def _plain_values(column: Any, setreset: bool) -> F64:

@@ -6,11 +6,20 @@ out); the terminal view (:mod:`magcilia.live.terminal`, needs ``rich``) and the 
 (:mod:`magcilia.live.dashboard`, needs ``starlette`` and ``uvicorn``) read it.
 """
 
-from magcilia.live.history import History, LiveSamples
-from magcilia.live.pipeline import EVENTS, Event, Limits, LiveReadout, LiveStatus
-from magcilia.live.readouts import LiveSensor, live_sensor, protocol_view
-from magcilia.live.windows import Averager, Windows
-from magcilia.live.zero import Zero
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.live.history import History, LiveSamples
+    from magcilia.live.pipeline import EVENTS, Event, Limits, LiveReadout, LiveStatus
+    from magcilia.live.readouts import LiveSensor, live_sensor, protocol_view
+    from magcilia.live.windows import Averager, Windows
+    from magcilia.live.zero import Zero
 
 __all__ = ["EVENTS", "Averager", "Event", "History", "Limits", "LiveReadout", "LiveSamples",
            "LiveSensor", "LiveStatus", "Windows", "Zero", "live_sensor", "protocol_view"]
+
+__getattr__, __dir__ = attach(__name__)

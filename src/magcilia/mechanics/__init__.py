@@ -27,26 +27,31 @@ Modules: :mod:`.bend` (the public bending functions), :mod:`.planar` (the x–z 
 
 from __future__ import annotations
 
-from magcilia.mechanics.bend import bend, bend_3d, bend_sweep, output_at, poses_at
-from magcilia.mechanics.compliance import frustum_compliance, tip_compliance
-from magcilia.mechanics.drag import (
-    AIR,
-    FLUIDS,
-    GLYCEROL,
-    WATER,
-    Fluid,
-    drag_coefficient,
-    drag_per_length,
-    slender_log,
-)
-from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
-from magcilia.mechanics.flow import Flow
-from magcilia.mechanics.modal import Modes, modes
-from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
-from magcilia.mechanics.response import FrequencyResponse, frequency_response
-from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
-from magcilia.mechanics.spatial import buckling_load, flip_field
-from magcilia.mechanics.transient import TransientResponse, simulate_response
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.mechanics.bend import bend, bend_3d, bend_sweep, output_at, poses_at
+    from magcilia.mechanics.compliance import frustum_compliance, tip_compliance
+    from magcilia.mechanics.drag import (
+        AIR,
+        FLUIDS,
+        GLYCEROL,
+        WATER,
+        Fluid,
+        drag_coefficient,
+        drag_per_length,
+        slender_log,
+    )
+    from magcilia.mechanics.exact import cantilever_tip, uniform_field_tip
+    from magcilia.mechanics.flow import Flow
+    from magcilia.mechanics.modal import Modes, modes
+    from magcilia.mechanics.planar import SHARP_TIP, require_tip_radius
+    from magcilia.mechanics.response import FrequencyResponse, frequency_response
+    from magcilia.mechanics.shape import BentShape, Load, SpatialBentShape
+    from magcilia.mechanics.spatial import buckling_load, flip_field
+    from magcilia.mechanics.transient import TransientResponse, simulate_response
 
 __all__ = [
     "AIR",
@@ -81,3 +86,5 @@ __all__ = [
     "tip_compliance",
     "uniform_field_tip",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -32,7 +32,6 @@ from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.integrate import quad
 
 from magcilia import _validate as v
 from magcilia.device.cilium import Cilium
@@ -207,6 +206,8 @@ def compliance_integral(cilium: Cilium) -> float:
     order = np.maximum(order, 4).astype(np.int64)
     total = 0.0
     for i in np.flatnonzero(order > 96):  # next to a near-zero radius: adaptive quadrature
+        from scipy.integrate import quad  # (SciPy: where first needed)
+
         total += quad(lambda s: (length - s) ** 2 / float(cilium.second_moment(s)), a[i], b[i],
                       epsabs=0.0, epsrel=1e-12, limit=200)[0]
     for n in np.unique(order[order <= 96]):

@@ -17,13 +17,18 @@ object with a ``spec`` attribute (a :class:`magcilia.Setup`).
 
 from __future__ import annotations
 
-from magcilia.model.batch import TiltBatch, tilt_field_batch, tilt_output_batch
-from magcilia.model.centreline import Centreline, SpatialCentreline
-from magcilia.model.exact import exact_field, single_dipole_field
-from magcilia.model.kernels import dipole_field, dipole_field_batch, pose_field, tilt_fields
-from magcilia.model.layout import pose_dipoles, ring_layout
-from magcilia.model.pose import Pose
-from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
+from typing import TYPE_CHECKING
+
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.model.batch import TiltBatch, tilt_field_batch, tilt_output_batch
+    from magcilia.model.centreline import Centreline, SpatialCentreline
+    from magcilia.model.exact import exact_field, single_dipole_field
+    from magcilia.model.kernels import dipole_field, dipole_field_batch, pose_field, tilt_fields
+    from magcilia.model.layout import pose_dipoles, ring_layout
+    from magcilia.model.pose import Pose
+    from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 __all__ = [
     "Centreline",
@@ -44,3 +49,5 @@ __all__ = [
     "tilt_fields",
     "tilt_output_batch",
 ]
+
+__getattr__, __dir__ = attach(__name__)

@@ -15,7 +15,6 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from magcilia import _validate as v
 from magcilia.constants import MU0
@@ -83,6 +82,8 @@ def exact_field(
         np.stack([2.0 * r_eq, np.full(n, spec.height / n)], axis=-1)[None, :, None, :],
         (a, n, o, 2),
     ).reshape(-1, 2)
+    from scipy.spatial.transform import Rotation  # (SciPy: where first needed)
+
     rot = Rotation.from_rotvec(np.repeat(rotvec.reshape(-1, 3), o, axis=0))
     b = magpy.func.cylinder_field(
         field="B", observers=obs, dimensions=dims, polarizations=(0.0, 0.0, j),

@@ -34,36 +34,39 @@ release, with a ``DeprecationWarning`` (the architecture test allows this one fo
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
-from magcilia.readout.array import (
-    ArrayEstimate,
-    ArrayEstimates,
-    ArrayFlag,
-    ArrayMetrics,
-    ArrayReadout,
-    Crosstalk,
-    array_metrics,
-    field_for_loads,
-    loaded_poses,
-)
-from magcilia.readout.biaxial import (
-    BiaxialReadout,
-    Channel,
-    ForceFlag,
-    ForceVectorResult,
-)
-from magcilia.readout.dynamic import DynamicReadout
-from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
-from magcilia.readout.protocol import (
-    FLAG_DTYPE,
-    Flag,
-    ReadoutValues,
-    SensorReadout,
-    flag_names,
-)
-from magcilia.readout.tare import ChannelTare, Tare
+from magcilia._lazy import attach
+
+if TYPE_CHECKING:
+    from magcilia.readout.actuated import ActuatedReadout, Coupling, measure_coupling
+    from magcilia.readout.array import (
+        ArrayEstimate,
+        ArrayEstimates,
+        ArrayFlag,
+        ArrayMetrics,
+        ArrayReadout,
+        Crosstalk,
+        array_metrics,
+        field_for_loads,
+        loaded_poses,
+    )
+    from magcilia.readout.biaxial import (
+        BiaxialReadout,
+        Channel,
+        ForceFlag,
+        ForceVectorResult,
+    )
+    from magcilia.readout.dynamic import DynamicReadout
+    from magcilia.readout.inverse import QUANTITIES, Readout, ReadoutFlag, ReadoutResult
+    from magcilia.readout.protocol import (
+        FLAG_DTYPE,
+        Flag,
+        ReadoutValues,
+        SensorReadout,
+        flag_names,
+    )
+    from magcilia.readout.tare import ChannelTare, Tare
 
 __all__ = [
     "FLAG_DTYPE",
@@ -100,7 +103,7 @@ __all__ = [
 _MOVED_TO_DESIGN = frozenset({"design_metrics", "DesignMetrics", "Metric"})
 
 
-def __getattr__(name: str) -> Any:
+def _moved(name: str) -> Any:
     """The names that moved to :mod:`magcilia.design`, with a ``DeprecationWarning`` (removed in
     the next release)."""
     if name in _MOVED_TO_DESIGN:
@@ -108,7 +111,11 @@ def __getattr__(name: str) -> Any:
 
         from magcilia import design
 
+        # stacklevel 3: the user's line, past magcilia._lazy's __getattr__
         warnings.warn(f"magcilia.readout.{name} moved to magcilia.design (also magcilia.{name}); "
-                      "this alias goes in the next release", DeprecationWarning, stacklevel=2)
+                      "this alias goes in the next release", DeprecationWarning, stacklevel=3)
         return getattr(design, name)
     raise AttributeError(f"module 'magcilia.readout' has no attribute {name!r}")
+
+
+__getattr__, __dir__ = attach(__name__, fallback=_moved)

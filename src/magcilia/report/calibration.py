@@ -4,7 +4,7 @@ parameter table and the warnings, as PNG figures and a markdown summary."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +23,8 @@ from magcilia.report.units import output_units
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+
+    from magcilia.report.figure_process import FigureWriter
 
 
 def _bias(result: CalibrationResult, angles: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -229,26 +231,43 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
 
 
 def write_report(result: CalibrationResult, directory: str | Path,
-                 style: str = "screen") -> dict[str, Path]:
+                 style: str = "screen", writer: FigureWriter | None = None) -> dict[str, Path]:
     """Write ``fit.png``, ``residuals.png`` and ``report.md`` into ``directory`` (atomically);
     with ``style="paper"`` also ``fit.pdf`` and ``residuals.pdf`` (vector, one column wide; the
-    report links the PNGs)."""
-    from magcilia.report import style as st
-
+    report links the PNGs). ``writer`` (:func:`~magcilia.report.figure_process.figure_writer`)
+    may draw the figures in a helper process: they are then written when its ``wait()``
+    returns."""
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"fit": out / "fit.png", "residuals": out / "residuals.png"}
-    with st.use(style):
-        for name, build in (("fit", fit_figure), ("residuals", residuals_figure)):
-            fig = build(result)
-            save_figure(fig, paths[name], dpi=st.dpi())
-            if style == "paper":
-                paths[f"{name}_pdf"] = out / f"{name}.pdf"
-                save_figure(fig, paths[f"{name}_pdf"])
+    for name, build in (("fit", fit_figure), ("residuals", residuals_figure)):
+        targets = [paths[name]]
+        if style == "paper":
+            paths[f"{name}_pdf"] = out / f"{name}.pdf"
+            targets.append(paths[f"{name}_pdf"])
+        if writer is None:
+            draw_figure(build, result, targets, style)
+        else:
+            writer.submit(draw_figure, build, result, targets, style)
     paths["report"] = out / "report.md"
     write_text(paths["report"], markdown_summary(
         result, {"data and models (Fig. 8)": "fit.png", "residuals": "residuals.png"}))
     return paths
+
+
+def draw_figure(build: Callable[[CalibrationResult], Figure], result: CalibrationResult,
+                paths: Sequence[Path], style: str) -> None:
+    """Build one figure of ``result`` in ``style`` and save it to each of ``paths`` (PNG at the
+    style's resolution; PDF)."""
+    from magcilia.report import style as st
+
+    with st.use(style):
+        fig = build(result)
+        for path in paths:
+            if path.suffix == ".pdf":
+                save_figure(fig, path)
+            else:
+                save_figure(fig, path, dpi=st.dpi())
 
 
 def calibration_json(result: CalibrationResult, si: bool = False,
@@ -310,14 +329,16 @@ def calibration_files(result: CalibrationResult) -> tuple[str, ...]:
 def write_calibration_files(result: CalibrationResult, directory: str | Path,
                             style: str = "screen", *, figures: bool = True,
                             comparison: str | None = None,
-                            data: Sequence[Measurement] | None = None) -> None:
+                            data: Sequence[Measurement] | None = None,
+                            writer: FigureWriter | None = None) -> None:
     """Write :func:`calibration_files` into the existing folder ``directory`` (each file atomic,
     the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own); the
     PDF figures only with ``style="paper"``; with ``figures=False`` the same files less the
     figures (``report.md`` then links none). ``data``: the measurements fitted (what the
     readers said of them goes into ``result.json`` and ``report.md``; default a paper fit's
     tilt path); ``comparison``: the paper's model beside a physical fit
-    (:func:`model_comparison`)."""
+    (:func:`model_comparison`); ``writer``: a paper fit's figures drawn by it (see
+    :func:`write_report`; call its ``wait()`` before publishing the folder)."""
     if result.model != "paper":
         _write_joint_files(result, directory, style, comparison, () if data is None else data,
                            figures)
@@ -329,7 +350,7 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
     doc["data"] = data_doc([result.path] if data is None else data)
     write_json(folder / "result.json", doc)
     if figures:
-        write_report(result, folder, style)
+        write_report(result, folder, style, writer)
     else:
         write_text(folder / "report.md", markdown_summary(result, {}))
 

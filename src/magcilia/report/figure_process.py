@@ -1,0 +1,212 @@
+"""Figures drawn by a helper process that readies matplotlib while the command computes.
+
+A command that ends in figures (``magcilia calibrate``) spends a third of a second importing
+matplotlib and loading its fonts before it draws anything. :func:`figure_writer` forks a child
+at the command's start that does that work while the parent reads and fits, on the other core;
+the figures are then sent to it as tasks (a module-level function and its arguments, pickled)
+and it draws and saves them while the parent writes its other files.
+
+Errors end as before: a task that fails in the child comes back as its one-line message and the
+parent raises it (:class:`~magcilia.MagciliaError`); a child that dies is an error too. The files
+are written atomically into the command's staging folder, which is published only after
+:meth:`FigureWriter.wait` returned: no half-written file, no partial folder. On an error the
+child is stopped before the staging folder is removed (open the writer inside the folder's
+block).
+
+The child is used only where forking is safe and its work overlaps: a POSIX system other than
+macOS, one Python thread in the process, matplotlib not yet imported (a notebook or a test
+process that already has it draws in-process as fast), and a CPU to spare (two or more available
+and the 1-minute load average below their number less one: on a busy machine the child would
+only take time from the fit). ``MAGCILIA_FIGURE_PROCESS=0`` always draws in-process; ``=1`` uses
+the child whenever forking is safe, whatever the load.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from magcilia._errors import MagciliaError
+
+_log = logging.getLogger(__name__)
+
+#: environment switch: "0" draws in the command's own process, "1" in the child where forking is
+#: safe (whatever the load), unset: in the child where a CPU is to spare
+ENVIRONMENT = "MAGCILIA_FIGURE_PROCESS"
+
+
+class FigureWriter:
+    """Runs figure tasks: in a forked child (:func:`figure_writer` decides) or right here.
+
+    ``submit(task, *args)`` runs ``task(*args)`` (``task`` a module-level function, so that it
+    pickles by name); :meth:`wait` returns when every task is done and raises the first failure
+    as a one-line :class:`~magcilia.MagciliaError`."""
+
+    def __init__(self, connection: Any = None, process: Any = None) -> None:
+        self._connection = connection
+        self._process = process
+        self._pending = 0
+
+    @property
+    def forked(self) -> bool:
+        """Whether the tasks run in the helper process."""
+        return self._process is not None
+
+    def submit(self, task: Callable[..., object], *args: Any) -> None:
+        """Run ``task(*args)`` (in the child, or now: also where the task does not pickle or
+        the child is gone)."""
+        if self._connection is not None:
+            try:
+                self._connection.send((task, args))
+            except Exception as exc:  # noqa: BLE001 (not picklable, or a broken pipe: draw here)
+                _log.debug("figure task run in-process: %s", exc)
+            else:
+                self._pending += 1
+                return
+        task(*args)
+
+    def wait(self) -> None:
+        """Wait for the submitted tasks; the first failure is raised here, as one line."""
+        failure = None
+        while self._pending:
+            try:
+                reply = self._connection.recv()
+            except (EOFError, OSError):
+                code = self._process.exitcode if self._process is not None else None
+                self._pending = 0
+                raise MagciliaError(
+                    f"the figure process ended before writing the figures (exit code {code}); "
+                    f"rerun, or set {ENVIRONMENT}=0 to draw them in the command's own process"
+                ) from None
+            self._pending -= 1
+            if reply is not None and failure is None:
+                failure = reply
+        if failure is not None:
+            raise MagciliaError(failure)
+
+    def close(self, abandon: bool = False) -> None:
+        """Stop the child: it leaves when its tasks are done, or at once with ``abandon`` (a
+        task in progress is then cut short: the caller discards the files)."""
+        if self._connection is not None:
+            with contextlib.suppress(OSError, ValueError):
+                self._connection.send(None)
+            self._connection.close()
+            self._connection = None
+        if self._process is not None:
+            if abandon:
+                self._process.terminate()
+            self._process.join(timeout=5.0)
+            if self._process.is_alive():
+                self._process.kill()
+                self._process.join()
+            self._process = None
+
+
+def _can_fork() -> bool:
+    switch = os.environ.get(ENVIRONMENT, "")
+    if switch == "0" or "matplotlib" in sys.modules:
+        return False
+    if os.name != "posix" or sys.platform == "darwin":  # (fork is unsafe on macOS)
+        return False
+    if threading.active_count() != 1:
+        return False
+    if switch == "1":
+        return True
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # (not on every POSIX system)
+        cpus = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except OSError:
+        load = 0.0
+    return cpus >= 2 and load < cpus - 1
+
+
+@contextlib.contextmanager
+def figure_writer(style: str = "screen") -> Iterator[FigureWriter]:
+    """A :class:`FigureWriter` for the block: a child that readies matplotlib (for figures in
+    ``style``, :mod:`magcilia.report.style`) from now on where that can overlap with the block's
+    work (see the module docstring), else in-process. The child is stopped when the block ends,
+    whether it ends well or not."""
+    if not _can_fork():
+        yield FigureWriter()
+        return
+    import multiprocessing
+
+    context = multiprocessing.get_context("fork")
+    parent, child = context.Pipe()
+    process = context.Process(target=_serve, args=(child, style), daemon=True,
+                              name="magcilia-figures")
+    try:
+        process.start()
+    except OSError:  # (no process to spare: draw here)
+        parent.close()
+        child.close()
+        yield FigureWriter()
+        return
+    child.close()
+    writer = FigureWriter(parent, process)
+    try:
+        yield writer
+    except BaseException:
+        writer.close(abandon=True)  # (before the caller's staging folder goes)
+        raise
+    writer.close()
+
+
+def _serve(connection: Any, style: str) -> None:
+    """The child: ready matplotlib, then run tasks until told to stop (or the parent is gone);
+    each task's reply is None or its error as one line. Nothing is printed."""
+    import signal
+
+    from magcilia.model import compiled
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle)
+    # the figures' few model curves by the NumPy reference (equal to 1e-12): importing numba here
+    # would come after the fit, on the figures' path
+    compiled.ENABLED = False
+    with contextlib.suppress(Exception):
+        _warm(style)
+    while True:
+        try:
+            message = connection.recv()
+        except (EOFError, OSError):
+            return
+        if message is None:
+            return
+        task, args = message
+        try:
+            task(*args)
+        except Exception as exc:  # noqa: BLE001 (every failure goes back as one line)
+            reply: str | None = " ".join(str(exc).split()) or type(exc).__name__
+        else:
+            reply = None
+        try:
+            connection.send(reply)
+        except (OSError, ValueError):
+            return
+
+
+def _warm(style: str) -> None:
+    """Import matplotlib's Agg path and load the fonts and the mathtext parser that figures in
+    ``style`` use (drawn on a throwaway canvas), and the model's path for their curves."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from magcilia.io import presets
+    from magcilia.report import style as st
+
+    presets.setup("paper").field(np.radians([0.0, 10.0]))
+    with st.use(style):
+        fig = Figure(figsize=(1.0, 1.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.set_ylabel("$B_x$ (µV)")
+        ax.set_title("θ −1", loc="left")
+        FigureCanvasAgg(fig).draw()

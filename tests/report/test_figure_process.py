@@ -1,0 +1,145 @@
+"""Figures drawn by the helper process (``magcilia.report.figure_process``): the same files as
+in-process, failures as one line with no folder left, and the in-process fallback (which every
+in-process CLI test of ``calibrate`` runs: a test process has threads and matplotlib).
+
+The child is forked only from a fresh single-threaded process without matplotlib, so each check
+runs in a new interpreter (this tree first on the path)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import magcilia
+from magcilia.report import figure_process
+
+SRC = Path(magcilia.__file__).resolve().parents[1]
+EXAMPLE = SRC / "magcilia" / "data" / "example_recording.csv"
+
+needs_fork = pytest.mark.skipif(os.name != "posix" or sys.platform == "darwin",
+                                reason="the helper process is forked on POSIX but macOS")
+#: the helper process whatever the machine's load (unset, it waits for a CPU to spare)
+FORK = {figure_process.ENVIRONMENT: "1"}
+
+
+def _run(code: str, **env: str) -> subprocess.CompletedProcess[str]:
+    environment = {**os.environ, **env, "PYTHONPATH": os.pathsep.join(
+        [str(SRC), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=environment, timeout=300, check=False)
+
+
+_CALIBRATE = """
+import json, sys
+import magcilia.report.figure_process as fp
+forked = []
+submit = fp.FigureWriter.submit
+def spy(self, task, *args):
+    forked.append(self.forked)
+    return submit(self, task, *args)
+fp.FigureWriter.submit = spy
+{patch}
+from magcilia.cli import main
+code = main(["-q", "calibrate", sys.argv[1], "--out", sys.argv[2]])
+print(json.dumps([code, forked]))
+"""
+
+
+def _calibrate(out: Path, patch: str = "", **env: str) -> tuple[int, list[bool], str]:
+    done = _run(_CALIBRATE.format(patch=patch).replace("sys.argv[1]", repr(str(EXAMPLE)))
+                .replace("sys.argv[2]", repr(str(out))), **FORK, **env)
+    assert done.stdout, done.stderr
+    code, forked = json.loads(done.stdout.splitlines()[-1])
+    return code, forked, done.stderr
+
+
+@needs_fork
+def test_calibrate_draws_its_figures_in_the_helper_process(tmp_path: Path) -> None:
+    from PIL import Image
+
+    code, forked, _ = _calibrate(tmp_path / "out")
+    assert code == 0 and forked == [True, True]
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["fit.png", "fitted_setup.toml", "report.md", "residuals.png", "result.json"]
+    # the same pixels as drawn in-process from the same result
+    from magcilia.calibration import CalibrationResult
+    from magcilia.report.calibration import draw_figure, fit_figure
+
+    result = CalibrationResult.load(tmp_path / "out" / "result.json")
+    draw_figure(fit_figure, result, [tmp_path / "here.png"], "screen")
+    ours = np.asarray(Image.open(tmp_path / "out" / "fit.png"))
+    here = np.asarray(Image.open(tmp_path / "here.png"))
+    assert ours.shape == here.shape and ours.shape[0] > 500
+    assert np.mean(np.any(ours != here, axis=-1)) < 0.01  # (result.json rounds nothing; the
+    # title's numbers and the fonts are the same: equal but for antialiasing noise, if any)
+
+
+@needs_fork
+def test_a_failure_in_the_helper_is_one_line_and_leaves_no_folder(tmp_path: Path) -> None:
+    patch = ("import magcilia.report.calibration as rc\n"
+             "def boom(*args, **kwargs):\n    raise OSError(28, 'No space left on device')\n"
+             "rc.save_figure = boom")
+    code, forked, err = _calibrate(tmp_path / "out", patch)
+    assert code == 2 and forked == [True, True]
+    assert err.count("\n") == 1 and err.startswith("magcilia: error: ")
+    assert "No space left on device" in err
+    assert list(tmp_path.iterdir()) == []  # no folder, no staging remnant
+
+
+@needs_fork
+def test_the_writer_runs_tasks_and_reports_the_first_failure(tmp_path: Path) -> None:
+    code = f"""
+import os
+from magcilia._errors import MagciliaError
+from magcilia.report.figure_process import figure_writer
+with figure_writer() as writer:
+    assert writer.forked
+    writer.submit(os.mkdir, {str(tmp_path / "a")!r})
+    writer.submit(os.mkdir, {str(tmp_path / "a")!r})  # exists: fails in the child
+    writer.submit(os.mkdir, {str(tmp_path / "b")!r})
+    try:
+        writer.wait()
+    except MagciliaError as exc:
+        print("error:", exc)
+"""
+    done = _run(code, **FORK)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("error: [Errno 17] File exists")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b"]
+    assert done.stderr == ""  # the child prints nothing
+
+
+def test_in_process_without_the_conditions() -> None:
+    """Here (a test process: threads, or matplotlib already imported) the writer draws in
+    process, and its tasks run at once."""
+    import matplotlib  # noqa: F401 (one of the conditions)
+
+    ran: list[int] = []
+    with figure_process.figure_writer() as writer:
+        assert not writer.forked
+        writer.submit(ran.append, 1)
+        assert ran == [1]
+        writer.wait()
+
+
+@needs_fork
+def test_a_task_that_does_not_pickle_runs_in_process(tmp_path: Path) -> None:
+    code = f"""
+import os
+from magcilia.report.figure_process import figure_writer
+with figure_writer() as writer:
+    assert writer.forked
+    writer.submit(lambda path: os.mkdir(path), {str(tmp_path / "here")!r})
+    assert os.path.isdir({str(tmp_path / "here")!r})  # (run at once)
+    writer.submit(os.mkdir, {str(tmp_path / "there")!r})
+    writer.wait()
+"""
+    done = _run(code, **FORK)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["here", "there"]
