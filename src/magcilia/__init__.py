@@ -81,7 +81,7 @@ if TYPE_CHECKING:
         to_c_header,
     )
 
-    # -- bending ---------------------------------------------------------------------------------------
+    # -- bending -----------------------------------------------------------------------------------
     from magcilia.live import LiveReadout
     from magcilia.mechanics import (
         AIR,
@@ -103,7 +103,7 @@ if TYPE_CHECKING:
     )
     from magcilia.model import Centreline, SpatialCentreline, exact_field
 
-    # -- read-out -------------------------------------------------------------------------------------
+    # -- read-out ----------------------------------------------------------------------------------
     # (and arrays of cilia: CiliaArray above, their crosstalk, inverse and metrics)
     from magcilia.readout import (
         ActuatedReadout,

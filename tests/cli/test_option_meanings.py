@@ -78,7 +78,6 @@ MEANINGS: dict[str, tuple[str, set[tuple[Any, ...]]]] = {
                                                           "glycerol"}))}),
     "--force": ("replace an existing output (overwrite)", {("flag",)}),
     "--force-vector": ("a point force as a vector FX,FY,FZ", {("text",)}),
-    "--gravity": ("include the hair's own weight", {("flag",)}),
     "--grid": ("points of a fitting grid", {("int",)}),
     "--group": ("HDF5/TDMS group of a recording", {("text",)}),
     "--host": ("address to listen on", {("text",)}),

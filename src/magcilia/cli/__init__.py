@@ -66,7 +66,10 @@ COMMANDS: dict[str, str] = {
         "Search the cilium's height, base and tip radius (and, given bounds, magnetization scale "
         "or"
     ),
-    "modes": "Bending modes of the cilium clamped at its base: natural frequency (Hz), damping ratio",
+    "modes": (
+        "Bending modes of the cilium clamped at its base: natural frequency (Hz), damping "
+        "ratio"
+    ),
     "ringdown": "Young's modulus and damping ratio from the ring-down of a flicked cilium.",
 }
 
