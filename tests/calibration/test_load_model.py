@@ -62,3 +62,17 @@ def test_the_fields_of_the_loop(prm: dict[str, np.ndarray]) -> None:
     scale = np.nanmax(np.abs(ref))
     np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-9 * scale)
     assert not np.allclose(got[0, :3], got[0, 12:15])  # the force bends the cilium
+
+def test_later_populations_start_from_the_last(prm: dict[str, np.ndarray]) -> None:
+    """With a problem's dict of earlier solutions, a nearby population (Newton from them) and a
+    far one (swept again) give the loop's fields."""
+    starts: dict = {}
+    keep = [0, 3, 4, 5]
+    first = {k: v[keep] for k, v in prm.items()}
+    load_fields(BASE, BLOCKS, MEASUREMENTS, FLUIDS, first, starts)  # type: ignore[arg-type]
+    assert set(starts) == {0, 1} and starts[0]["theta"].shape[:2] == (4, FORCES.size)
+    for factor in (1.004, 1.5):
+        nxt = {**first, "youngs_modulus": first["youngs_modulus"] * factor}
+        got = load_fields(BASE, BLOCKS, MEASUREMENTS, FLUIDS, nxt, starts)  # type: ignore[arg-type]
+        ref = _loop(nxt)
+        np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-9 * np.abs(ref).max())

@@ -101,13 +101,38 @@ def test_flow_jacobian_is_the_derivative_of_the_residual() -> None:
     sets = np.arange(3)
     theta = 0.6 * np.sin(np.linspace(0.1, 1.4, norm.s.size))[None, :] * np.array([[1.0], [0.5],
                                                                                   [1.3]])
-    _, parts = system.residual(sets, 0.2, theta)
-    jac = system.jacobian(sets, 0.2, theta, parts)
+    speed = np.full(3, 0.2)
+    _, parts = system.residual(sets, speed, theta)
+    jac = system.jacobian(sets, speed, theta, parts)
     h = 1e-6
     for j in (0, norm.s.size // 2, norm.s.size - 1):
         dt = np.zeros_like(theta)
         dt[:, j] = h
-        up = system.residual(sets, 0.2, theta + dt)[0]
-        down = system.residual(sets, 0.2, theta - dt)[0]
+        up = system.residual(sets, speed, theta + dt)[0]
+        down = system.residual(sets, speed, theta - dt)[0]
         column = -(up - down) / (2 * h)  # residual here is P g − θ: the Jacobian of θ − P g
         np.testing.assert_allclose(jac[:, :, j], column, rtol=0.0, atol=1e-6)
+
+
+@pytest.mark.parametrize(("loads", "flow"), [(FORCES, None), (SPEEDS, WATER)],
+                         ids=["forces", "flow"])
+def test_start_from_nearby_sets_gives_the_same_shapes(loads: np.ndarray,
+                                                      flow: mc.Flow | None) -> None:
+    """All loads at once from the solutions of nearby sets (a sampler's next proposals): the
+    same equilibria; a start far off (every angle 1 rad) still ends in them (Newton, or the
+    sweep for what it does not reach)."""
+    sets = _sets(4, 6)
+    first = sweep_batch(BASE, *sets, loads, flow=flow)
+    assert first.theta.shape[:2] == (4, loads.size) and np.isfinite(first.theta).all()
+    moved = tuple(x * (1.0 + 0.01 * np.array([1.0, -1.0, 0.5, 2.0])) for x in sets)
+    ref = _reference(BASE, moved, loads, flow)
+    _check(sweep_batch(BASE, *moved, loads, flow=flow, start=first.theta), ref, moved[0])
+    _check(sweep_batch(BASE, *moved, loads, flow=flow, start=np.ones_like(first.theta)), ref,
+           moved[0])
+    wrong = np.zeros((4, loads.size, 5))  # another grid's angles, without its nodes: unused
+    _check(sweep_batch(BASE, *moved, loads, flow=flow, start=wrong), ref, moved[0])
+    thinner = (moved[0], moved[1] * np.array([1.0, 1.0, 1.0, 1.6]), moved[2])  # another grid
+    regrid = sweep_batch(BASE, *thinner, loads, flow=flow, start=first.theta,
+                         start_nodes=first.nodes)
+    assert regrid.nodes.size != first.nodes.size and regrid.swept == 0
+    _check(regrid, _reference(BASE, thinner, loads, flow), thinner[0])

@@ -50,12 +50,18 @@ F64 = NDArray[np.float64]
 TURN_MARGIN = 1e-2
 #: … and the element at least this fraction beyond the largest radius below the base
 LIFT_MARGIN = 1e-2
+#: an earlier set's solutions start a new set's Newton when every one of its height, base radius
+#: and modulus is within this relative distance (in log) of that set's
+NEAR = 0.3
+#: earlier sets kept per block (the latest first)
+KEPT = 64
 #: the load blocks of a problem's table: (experiment, azimuth rad, sorted loads (a,), column)
 Blocks = Sequence[tuple[int, float, F64, int]]
 
 
 def load_fields(base: Setup, blocks: Blocks, measurements: Sequence[Measurement],
-                fluids: Mapping[int, Fluid], prm: Mapping[str, F64]) -> F64:
+                fluids: Mapping[int, Fluid], prm: Mapping[str, F64],
+                starts: dict[int, dict[str, F64]] | None = None) -> F64:
     """The load blocks' fields, (N, 3 · Σ a), T: for each set and block, the field at the
     sensing element (T, (a, 3) flattened) of the cilium bent by each load (the block's
     experiment: tip forces along the block's azimuth, or flow speeds of uniform flow in the
@@ -74,6 +80,12 @@ def load_fields(base: Setup, blocks: Blocks, measurements: Sequence[Measurement]
         The fluid of each flow experiment.
     prm : mapping of str to ndarray, shape (N,)
         height, base_radius, x, y, z (m) and youngs_modulus (Pa) of each set.
+    starts : dict, optional
+        The solutions of earlier calls, kept per block and updated here (a problem's own dict):
+        once there are some, every load of every set is solved at once, each set started from
+        the nearest earlier set's nodal angles when within :data:`NEAR` (a sampler's next
+        proposals, a Jacobian's columns), else from :func:`magcilia.bend`'s guess; without, and
+        for a set Newton does not converge for, the sweep.
     """
     n = prm["x"].size
     width = sum(3 * b[2].size for b in blocks)
@@ -91,12 +103,13 @@ def load_fields(base: Setup, blocks: Blocks, measurements: Sequence[Measurement]
             pass
     sets = np.array(valid, dtype=np.intp)
     col = 0
-    for e_i, phi, loads, _ in blocks:
+    for block, (e_i, phi, loads, _) in enumerate(blocks):
         e = measurements[e_i]
         flow = None if e.forces is not None else Flow.uniform(
             float(np.max(np.abs(loads))) or 1.0, fluids[e_i])
         good = _usable(setups, loads, flow)
-        field = _block(base, [setups[k] for k in good], loads, flow, phi)
+        field = _block(base, [setups[k] for k in good], loads, flow, phi,
+                       None if starts is None else starts.setdefault(block, {}))
         out[sets[good], col:col + 3 * loads.size] = field
         col += 3 * loads.size
     out[~np.isfinite(out).all(axis=1)] = np.nan  # a set is valid in every block or in none
@@ -121,22 +134,41 @@ def _usable(setups: list[Setup], loads: F64, flow: Flow | None) -> NDArray[np.in
 
 
 def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
-           phi: float) -> F64:
+           phi: float, kept: dict[str, F64] | None) -> F64:
     """The field (T) of ``setups`` (g of them) under one block's loads, (g, 3 a); NaN rows for
-    a set whose bend does not converge or whose field is not finite."""
+    a set whose bend does not converge or whose field is not finite; ``kept``: the block's
+    earlier solutions (``key`` (M, 3), ``theta`` (M, a, n), ``nodes`` (n,)), updated."""
     g, a = len(setups), loads.size
     if not g:
         return np.zeros((0, 3 * a))
     height = np.array([s.cilium.height for s in setups])
-    shapes = sweep_batch(base, height, np.array([s.cilium.base_radius for s in setups]),
-                         np.array([s.youngs_modulus for s in setups]), loads, flow=flow)
+    radius = np.array([s.cilium.base_radius for s in setups])
+    modulus = np.array([s.youngs_modulus for s in setups])
+    key = np.log(np.stack([height, radius, modulus], axis=1))
+    start = None
+    if kept:  # each set from its nearest earlier set, or (none near) from bend's guess
+        far = np.abs(key[:, None, :] - kept["key"][None, :, :]).max(axis=2)  # (g, M)
+        nearest = np.argmin(far, axis=1)
+        start = kept["theta"][nearest]
+        start[far[np.arange(g), nearest] > NEAR] = np.nan
+    shapes = sweep_batch(base, height, radius, modulus, loads, flow=flow, start=start,
+                         start_nodes=kept.get("nodes") if kept else None)
+    if kept is not None:
+        fine = np.isfinite(shapes.theta).all(axis=(1, 2))
+        if fine.any():
+            same = "theta" in kept and kept["theta"].shape[1:] == shapes.theta.shape[1:]
+            kept["key"] = np.concatenate([key[fine], kept["key"]])[:KEPT] if same else key[fine]
+            kept["theta"] = (np.concatenate([shapes.theta[fine], kept["theta"]])[:KEPT] if same
+                             else shapes.theta[fine])
+            kept["nodes"] = shapes.nodes
     specs = [s.spec for s in setups]
     n_loops, k, ring = specs[0].n_loops, specs[0].dipoles_per_loop, specs[0].ring
     # slice mid-points on each set's shapes: one normalised centreline batch (s / L, points / L)
     unit = Centreline(np.linspace(0.0, 1.0, OUTPUT_POINTS),
-                      np.nan_to_num(shapes.angles).reshape(g * a, OUTPUT_POINTS),
-                      np.nan_to_num(shapes.points).reshape(g * a, OUTPUT_POINTS, 3)
-                      / np.repeat(height, a)[:, None, None])
+                      np.where(shapes.ok[:, None, None], shapes.angles, 0.0).reshape(
+                          g * a, OUTPUT_POINTS),
+                      np.where(shapes.ok[:, None, None, None], shapes.points, 0.0).reshape(
+                          g * a, OUTPUT_POINTS, 3) / np.repeat(height, a)[:, None, None])
     mid, angles = unit.frames((np.arange(n_loops) + 0.5) / n_loops)
     points = mid * np.repeat(height, a)[:, None, None]
     radius, share = body.slice_rings(specs[0].knots, np.stack([sp.radii for sp in specs]),

@@ -164,6 +164,8 @@ class Problem:
         self._model_names = self.all_names
         self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
                        if e.data.speeds is not None}
+        #: the load blocks' latest solutions, to start the next population's Newton from
+        self._load_starts: dict[int, dict[str, F64]] = {}
 
     @classmethod
     def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
@@ -232,7 +234,8 @@ class Problem:
         (:func:`~magcilia.calibration.load_model.load_fields`: as
         :func:`~magcilia.mechanics.bend.bend_sweep` and :meth:`Setup.field` give them); NaN for a
         set whose bend does not converge or whose geometry is invalid."""
-        return load_fields(self.base, self.table.loads, self.measurements, self.fluids, prm)
+        return load_fields(self.base, self.table.loads, self.measurements, self.fluids, prm,
+                           self._load_starts)
 
     # -- residuals ----------------------------------------------------------------------------
     def _project(self, z: F64) -> F64:

@@ -52,6 +52,9 @@ F64 = NDArray[np.float64]
 TOLERANCE = 1e-12
 #: Newton steps a system is given before it is handed to the sweep (load continuation)
 MAX_ITERATIONS = 40
+#: a chord step (the inverse Jacobian of an earlier iterate or load reused) must shrink every
+#: residual at least by this factor, else the next step forms the Jacobian again
+CHORD_RATE = 0.1
 #: relative step of the forward differences of the drag's pointwise partial derivatives
 DRAG_STEP = 1e-7
 
@@ -72,6 +75,11 @@ class BatchShapes:
         Whether every load of the set converged.
     swept : int
         Systems Newton did not converge for from the guess, solved by the sweep instead.
+    theta : ndarray, shape (N, a, n)
+        The nodal angles of the batch's grid (n nodes), rad, NaN for a set solved by the sweep
+        or not converged: a start for a nearby batch (:func:`sweep_batch`'s ``start``).
+    nodes : ndarray, shape (n,)
+        That grid's nodes, s / L (dimensionless, on [0, 1]).
     """
 
     s: F64
@@ -79,6 +87,8 @@ class BatchShapes:
     points: F64
     ok: NDArray[np.bool_]
     swept: int
+    theta: F64
+    nodes: F64
 
 
 class _Normalised:
@@ -111,7 +121,8 @@ class _Normalised:
 
 
 def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads: F64, *,
-                flow: Flow | None = None) -> BatchShapes:
+                flow: Flow | None = None, start: F64 | None = None,
+                start_nodes: F64 | None = None) -> BatchShapes:
     """Bent shapes of ``N`` cilia under ``a`` loads: tip forces along +x (``flow`` None) or
     speeds of ``flow``'s profile, in the x–z plane, as :func:`magcilia.bend_sweep` gives them
     (to Newton's tolerance).
@@ -128,6 +139,14 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
         Tip forces, N (along +x), or flow speeds, m/s (scaling ``flow``'s profile).
     flow : Flow, optional
         The flow whose speed is swept (its azimuth is not used: the x–z plane); None: forces.
+    start : ndarray, shape (N, a, n), optional
+        Nodal angles (rad) to start Newton from, every load at once: the :attr:`BatchShapes.theta`
+        of nearby sets (a calibration's next population; a NaN row: :func:`magcilia.bend`'s
+        guess for that load); a set that does not converge from it is swept as without it.
+    start_nodes : ndarray, shape (n,), optional
+        The nodes (s / L) of ``start``'s grid (:attr:`BatchShapes.nodes`), when its node count
+        is not this batch's (a batch's grid follows its thinnest taper): ``start`` is then
+        carried over to this grid by linear interpolation.
 
     Returns
     -------
@@ -148,7 +167,16 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     scale = heights**2 / (moduli * (0.25 * math.pi) * base_radii**4)
     influence = (norm.C * (scale[:, None] / inertia)[:, None, :]) @ norm.R
     system = _Systems(norm, heights, base_radii, moduli, rho, inertia, influence, flow)
-    theta, done = system.sweep(loads)
+    n = norm.s.size
+    if start is not None and start_nodes is not None and start.shape[2] != n:
+        start = start @ _linear_map(np.asarray(start_nodes, dtype=np.float64), norm.s).T
+    if start is not None and start.shape == (n_set, n_load, n):
+        theta, done = system.from_start(loads, start)
+        redo = np.flatnonzero(~done.all(axis=1))
+        if redo.size:
+            theta[redo], done[redo] = system.sweep(loads, redo)
+    else:
+        theta, done = system.sweep(loads)
     ok = np.asarray(done.all(axis=1), dtype=bool)
     s_out = heights[:, None] * np.linspace(0.0, 1.0, OUTPUT_POINTS)
     angles = np.full((n_set, n_load, OUTPUT_POINTS), np.nan)
@@ -157,7 +185,7 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     good = np.flatnonzero(ok)
     if good.size:
         th = theta[good]
-        kappa = np.stack([system.curvature(good, float(q), th[:, j])
+        kappa = np.stack([system.curvature(good, np.full(good.size, q), th[:, j])
                           for j, q in enumerate(loads)], axis=1)  # (g, a, n), 1/m
         length = heights[good, None, None]
         angles[good] = length * (kappa @ norm.cum.T)
@@ -166,6 +194,7 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
         angles[good, :, 0] = 0.0  # clamped base, exactly (as bend)
         points[good, :, 0] = 0.0
     swept = 0
+    theta[~ok] = np.nan  # not on this grid's Newton: no start for a later batch
     for i in np.flatnonzero(~ok):  # what Newton did not reach from the guess: the sweep's way
         swept += int((~done[i]).sum())
         one = _one_sweep(setup, float(heights[i]), float(base_radii[i]), float(moduli[i]),
@@ -173,7 +202,20 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
         if one is not None:
             angles[i], points[i] = one
             ok[i] = True
-    return BatchShapes(s_out, angles, points, ok, swept)
+    return BatchShapes(s_out, angles, points, ok, swept, theta, norm.s)
+
+
+def _linear_map(old: F64, new: F64) -> F64:
+    """Matrix (q, p): values at the points ``new`` (q,) of the piecewise-linear interpolant of
+    values at the increasing points ``old`` (p,) (constant beyond the ends)."""
+    x = np.clip(new, old[0], old[-1])
+    j = np.clip(np.searchsorted(old, x, side="right") - 1, 0, old.size - 2)
+    t = (x - old[j]) / (old[j + 1] - old[j])
+    out = np.zeros((new.size, old.size))
+    rows = np.arange(new.size)
+    out[rows, j] = 1.0 - t
+    out[rows, j + 1] += t
+    return out
 
 
 def _one_sweep(setup: Setup, height: float, base_radius: float, modulus: float, loads: F64,
@@ -205,21 +247,23 @@ class _Systems:
             self.free = free_log(length * norm.s, self.radius, length)  # (N, n)
 
     # -- the load ----------------------------------------------------------------------------
-    def _drag(self, sets: NDArray[np.intp], value: float, cos: F64, z: F64) -> F64:
-        """Drag per length along the normal, N/m, (b, n), of ``sets`` at speed ``value`` and
-        (cos θ, z)."""
+    def _drag(self, sets: NDArray[np.intp], value: F64, cos: F64, z: F64) -> F64:
+        """Drag per length along the normal, N/m, (b, n), of ``sets`` at speeds ``value``
+        (b,) and (cos θ, z)."""
         assert self.flow is not None  # for mypy: flow systems only
         radius, length, free = self.radius[sets], self.heights[sets, None], self.free[sets]
-        speed = value * np.asarray(self.flow.shape(z), dtype=np.float64)
+        speed = value[:, None] * np.asarray(self.flow.shape(z), dtype=np.float64)
         return drag_per_length(speed * cos, 2.0 * radius, self.flow.fluid,
                                lambda: free - wall_log(z, radius, length))
 
-    def moment(self, sets: NDArray[np.intp], value: float, theta: F64
+    def moment(self, sets: NDArray[np.intp], value: F64, theta: F64
                ) -> tuple[F64, tuple[F64, ...] | None]:
-        """g (b, n), N, and what the Jacobian needs of the drag (None for a force)."""
+        """g (b, n), N, of ``sets`` under loads ``value`` (b,), and what the Jacobian needs of
+        the drag (None for a force)."""
         c, s = np.cos(theta), np.sin(theta)
         if self.flow is None:  # a dead force along direction π/2: (F_x, F_z) = F (1, cos π/2)
-            return value * c - (value * math.cos(0.5 * math.pi)) * s, None
+            f = value[:, None]
+            return f * c - (f * math.cos(0.5 * math.pi)) * s, None
         length = self.heights[sets, None]
         z = length * (c @ self.norm.C.T)
         q = self._drag(sets, value, c, z)
@@ -227,21 +271,22 @@ class _Systems:
         rq_s = length * ((q * s) @ self.norm.R.T)
         return c * rq_c + s * rq_s, (c, s, z, q, rq_c, rq_s)
 
-    def residual(self, sets: NDArray[np.intp], value: float, theta: F64
+    def residual(self, sets: NDArray[np.intp], value: F64, theta: F64
                  ) -> tuple[F64, tuple[F64, ...] | None]:
         """P g(θ) − θ (b, n), rad, and the drag's parts."""
         g, parts = self.moment(sets, value, theta)
         return np.einsum("bij,bj->bi", self.influence[sets], g) - theta, parts
 
-    def jacobian(self, sets: NDArray[np.intp], value: float, theta: F64,
+    def jacobian(self, sets: NDArray[np.intp], value: F64, theta: F64,
                  parts: tuple[F64, ...] | None) -> F64:
         """I − P dg/dθ (b, n, n) of ``sets``."""
         P = self.influence[sets]
         n = theta.shape[1]
         diag = (slice(None), np.arange(n), np.arange(n))
         if parts is None:
-            jac = P * (value * np.sin(theta)
-                       + (value * math.cos(0.5 * math.pi)) * np.cos(theta))[:, None, :]
+            f = value[:, None]
+            jac = P * (f * np.sin(theta)
+                       + (f * math.cos(0.5 * math.pi)) * np.cos(theta))[:, None, :]
         else:
             c, s, z, q, rq_c, rq_s = parts
             length = self.heights[sets, None]
@@ -262,29 +307,29 @@ class _Systems:
         jac[diag] += 1.0
         return jac
 
-    def curvature(self, sets: NDArray[np.intp], value: float, theta: F64) -> F64:
+    def curvature(self, sets: NDArray[np.intp], value: F64, theta: F64) -> F64:
         """Curvature M / EI at the nodes, 1/m, (b, n)."""
         g, _ = self.moment(sets, value, theta)
         m = self.heights[sets, None] * (g @ self.norm.R.T)
         return np.asarray(m * self.stiff_inv[sets], dtype=np.float64)
 
     # -- Newton along the sweep --------------------------------------------------------------
-    def guess(self, sets: NDArray[np.intp], value: float) -> F64:
+    def guess(self, sets: NDArray[np.intp], value: F64) -> F64:
         """:func:`magcilia.bend`'s start: the linear-beam angles saturated at π/2, (b, n)."""
         g, _ = self.moment(sets, value, np.zeros((sets.size, self.norm.s.size)))
         lin = np.einsum("bij,bj->bi", self.influence[sets], g)
         limit = 0.5 * math.pi
         return np.asarray(limit * np.tanh(lin * (1.0 / limit)), dtype=np.float64)
 
-    def newton(self, sets: NDArray[np.intp], value: float, theta: F64,
+    def newton(self, sets: NDArray[np.intp], value: F64, theta: F64,
                inverse: F64 | None) -> tuple[F64, NDArray[np.bool_], F64 | None]:
         """Newton at one load for ``sets`` from ``theta`` (b, n): the converged angles, which
         converged (b,), and the last inverse Jacobian (b, n, n), kept for the next load.
 
         A step reuses the inverse Jacobian of an earlier step (or of the previous load: a chord
-        step, one product) while the residual falls at least tenfold a step; else the Jacobian
-        is formed and inverted again (a Newton step). Steps are damped to a radian; a system is
-        given up after three rising residuals or a non-finite one (as
+        step, one product) while every residual falls by :data:`CHORD_RATE` or more a step;
+        else the Jacobian is formed and inverted again (a Newton step). Steps are damped to a
+        radian; a system is given up after three rising residuals or a non-finite one (as
         :func:`~magcilia.mechanics.elastica.newton`)."""
         b = sets.size
         done = np.zeros(b, dtype=bool)
@@ -293,69 +338,93 @@ class _Systems:
         worse = np.zeros(b, dtype=np.int64)
         theta = theta.copy()
         active = np.arange(b)
-        fresh = False  # whether ``inverse`` is this load's, at the current iterate's start
+        fresh = False  # whether ``inverse`` was formed at this load's previous iterate
         for _ in range(MAX_ITERATIONS):
-            minus, parts = self.residual(sets[active], value, theta[active])
+            minus, parts = self.residual(sets[active], value[active], theta[active])
             err = np.abs(minus).max(axis=1)
             conv = err < TOLERANCE
             done[active[conv]] = True
             worse[active] = np.where(err > prev[active], worse[active] + 1, 0)
             bad = ~conv & (~np.isfinite(err) | (worse[active] >= 3))
             failed[active[bad]] = True
-            slow = bool(np.any(err[~conv & ~bad] > 0.1 * prev[active][~conv & ~bad]))
-            prev[active] = err
             keep = ~conv & ~bad
-            if inverse is not None:
-                inverse = inverse[keep]
+            slow = bool(np.any(err[keep] > CHORD_RATE * prev[active][keep]))
+            prev[active] = err
             active = active[keep]
             if not active.size:
                 break
-            if parts is not None:
-                parts = tuple(x[keep] for x in parts)
             if inverse is None or (slow and not fresh):
-                jac = self.jacobian(sets[active], value, theta[active], parts)
-                inverse = _inverses(jac)
+                kept = None if parts is None else tuple(x[keep] for x in parts)
+                fresh_inv = _inverses(self.jacobian(sets[active], value[active], theta[active],
+                                                    kept))
+                if inverse is None:
+                    inverse = np.full((b, *fresh_inv.shape[1:]), np.nan)
+                inverse[active] = fresh_inv
+                step = np.einsum("bij,bj->bi", fresh_inv, minus[keep])
                 fresh = True
             else:
+                step = np.einsum("bij,bj->bi", inverse[active], minus[keep])
                 fresh = False
-            assert inverse is not None  # for mypy: formed above
-            step = np.einsum("bij,bj->bi", inverse, minus[keep])
             size = np.abs(step).max(axis=1)
             lost = ~np.isfinite(size)
             failed[active[lost]] = True
             step *= np.where(size > 1.0, 1.0 / np.where(size > 1.0, size, 1.0), 1.0)[:, None]
             theta[active] += step
-            inverse, active = inverse[~lost], active[~lost]
+            active = active[~lost]
         return theta, done & ~failed, inverse
 
-    def sweep(self, loads: F64) -> tuple[F64, NDArray[np.bool_]]:
-        """Every set under every load, θ (N, a, n), and which converged (N, a): the loads of
-        each sign in order of size, each started from the polynomial through the last (up to
-        three) solutions of its sign (:func:`~magcilia.mechanics.planar._extrapolate`, from the
-        straight rod at zero load; the first from :meth:`guess`), as :func:`bend_sweep` does."""
-        n_set, n = self.heights.size, self.norm.s.size
+    def sweep(self, loads: F64, sets: NDArray[np.intp] | None = None
+              ) -> tuple[F64, NDArray[np.bool_]]:
+        """Every set (of ``sets``, default all) under every load, θ (S, a, n), and which
+        converged (S, a): the loads of each sign in order of size, each started from the
+        polynomial through the last (up to three) solutions of its sign
+        (:func:`~magcilia.mechanics.planar._extrapolate`, from the straight rod at zero load; the
+        first from :meth:`guess`), as :func:`bend_sweep` does."""
+        chosen = np.arange(self.heights.size) if sets is None else sets
+        n_set, n = chosen.size, self.norm.s.size
         theta = np.zeros((n_set, loads.size, n))
         done = np.zeros((n_set, loads.size), dtype=bool)
         done[:, loads == 0.0] = True
         for sign in (1.0, -1.0):
             order = [int(j) for j in np.argsort(sign * loads) if sign * loads[j] > 0.0]
-            sets = np.arange(n_set)
+            rows = np.arange(n_set)
             solved: list[tuple[float, F64]] = [(0.0, np.zeros((n_set, n)))]
             inverse = None
             for j in order:
                 value = float(loads[j])
-                start = (self.guess(sets, value) if len(solved) == 1
+                at = np.full(rows.size, value)
+                start = (self.guess(chosen[rows], at) if len(solved) == 1
                          else _extrapolate(solved, value))
-                th, ok, inverse = self.newton(sets, value, start, inverse)
-                sets, th = sets[ok], th[ok]
-                theta[sets, j] = th
-                done[sets, j] = True
+                th, ok, inverse = self.newton(chosen[rows], at, start, inverse)
+                rows, th = rows[ok], th[ok]
+                theta[rows, j] = th
+                done[rows, j] = True
                 solved = [(val, prev[ok]) for val, prev in solved[-2:]] + [(value, th)]
-                if inverse is not None and inverse.shape[0] != sets.size:
-                    inverse = None  # some set dropped out (it goes to the sweep): form it again
-                if not sets.size:
+                if inverse is not None:
+                    inverse = inverse[ok]  # a set that failed goes to the sweep
+                if not rows.size:
                     break
         return theta, done
+
+    def from_start(self, loads: F64, start: F64) -> tuple[F64, NDArray[np.bool_]]:
+        """Every set under every load at once, Newton from ``start`` (N, a, n), rad (the
+        solutions of nearby sets; NaN rows: from :meth:`guess`): θ (N, a, n) and which
+        converged (N, a)."""
+        n_set, n_load, n = start.shape
+        flat = np.repeat(np.arange(n_set), n_load)
+        values = np.tile(loads, n_set)
+        theta = np.zeros((flat.size, n))
+        done = values == 0.0
+        todo = np.flatnonzero(~done)
+        if todo.size:
+            first = start.reshape(-1, n)[todo]
+            none = np.flatnonzero(~np.isfinite(first).all(axis=1))
+            if none.size:  # no start given: bend's guess
+                first[none] = self.guess(flat[todo[none]], values[todo[none]])
+            th, ok, _ = self.newton(flat[todo], values[todo], first, None)
+            theta[todo] = th
+            done[todo] = ok
+        return theta.reshape(n_set, n_load, n), done.reshape(n_set, n_load)
 
 
 def _inverses(jac: F64) -> F64:
