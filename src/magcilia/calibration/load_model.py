@@ -121,9 +121,11 @@ def _usable(setups: list[Setup], loads: F64, flow: Flow | None) -> NDArray[np.in
     :func:`magcilia.bend_sweep`: a tip radius for a tip force or a flow, the drag law's
     Reynolds range for the fastest flow past the widest section)."""
     keep = []
+    loaded = bool(np.any(loads != 0.0))
     for k, setup in enumerate(setups):
         try:
-            require_tip_radius(setup, "force" if flow is None else "flow")
+            if loaded:
+                require_tip_radius(setup, "force" if flow is None else "flow")
             if flow is not None:
                 check_reynolds(float(np.max(np.abs(loads))), 2.0 * setup.cilium.max_radius,
                                flow.fluid)
