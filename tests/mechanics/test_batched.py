@@ -118,15 +118,22 @@ def test_flow_jacobian_is_the_derivative_of_the_residual() -> None:
                          ids=["forces", "flow"])
 def test_start_from_nearby_sets_gives_the_same_shapes(loads: np.ndarray,
                                                       flow: mc.Flow | None) -> None:
-    """All loads at once from the solutions of nearby sets (a sampler's next proposals): the
-    same equilibria; a start far off (every angle 1 rad) still ends in them (Newton, or the
-    sweep for what it does not reach)."""
+    """All loads at once from the solutions of nearby sets (a sampler's next proposals), with
+    or without their inverse Jacobians: the same equilibria; a start far off (every angle 1 rad)
+    still ends in them (Newton, or the sweep for what it does not reach); a start on another grid
+    is carried over."""
     sets = _sets(4, 6)
     first = sweep_batch(BASE, *sets, loads, flow=flow)
     assert first.theta.shape[:2] == (4, loads.size) and np.isfinite(first.theta).all()
     moved = tuple(x * (1.0 + 0.01 * np.array([1.0, -1.0, 0.5, 2.0])) for x in sets)
     ref = _reference(BASE, moved, loads, flow)
-    _check(sweep_batch(BASE, *moved, loads, flow=flow, start=first.theta), ref, moved[0])
+    second = sweep_batch(BASE, *moved, loads, flow=flow, start=first.theta)
+    _check(second, ref, moved[0])
+    assert first.inverse is None and second.inverse is not None  # the sweep keeps none
+    again = tuple(x * (1.0 - 0.005 * np.array([1.0, 2.0, -1.0, 0.5])) for x in moved)
+    chord = sweep_batch(BASE, *again, loads, flow=flow, start=second.theta,
+                        start_inverse=second.inverse)  # chord steps with the earlier inverses
+    _check(chord, _reference(BASE, again, loads, flow), again[0])
     _check(sweep_batch(BASE, *moved, loads, flow=flow, start=np.ones_like(first.theta)), ref,
            moved[0])
     wrong = np.zeros((4, loads.size, 5))  # another grid's angles, without its nodes: unused

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from magcilia._errors import MagciliaError
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
-from magcilia.mechanics.batched import sweep_batch
+from magcilia.mechanics.batched import BatchShapes, sweep_batch
 from magcilia.mechanics.drag import Fluid, check_reynolds
 from magcilia.mechanics.flow import Flow
 from magcilia.mechanics.planar import OUTPUT_POINTS, require_tip_radius
@@ -139,7 +139,8 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
            phi: float, kept: dict[str, F64] | None) -> F64:
     """The field (T) of ``setups`` (g of them) under one block's loads, (g, 3 a); NaN rows for
     a set whose bend does not converge or whose field is not finite; ``kept``: the block's
-    earlier solutions (``key`` (M, 3), ``theta`` (M, a, n), ``nodes`` (n,)), updated."""
+    earlier solutions (``key`` (M, 3), ``theta`` (M, a, n), ``inverse`` (M, a, n, n),
+    ``nodes`` (n,)), updated."""
     g, a = len(setups), loads.size
     if not g:
         return np.zeros((0, 3 * a))
@@ -147,22 +148,18 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
     radius = np.array([s.cilium.base_radius for s in setups])
     modulus = np.array([s.youngs_modulus for s in setups])
     key = np.log(np.stack([height, radius, modulus], axis=1))
-    start = None
+    start = start_inverse = None
     if kept:  # each set from its nearest earlier set, or (none near) from bend's guess
         far = np.abs(key[:, None, :] - kept["key"][None, :, :]).max(axis=2)  # (g, M)
         nearest = np.argmin(far, axis=1)
         start = kept["theta"][nearest]
         start[far[np.arange(g), nearest] > NEAR] = np.nan
+        start_inverse = kept["inverse"][nearest]
     shapes = sweep_batch(base, height, radius, modulus, loads, flow=flow, start=start,
-                         start_nodes=kept.get("nodes") if kept else None)
+                         start_nodes=kept.get("nodes") if kept else None,
+                         start_inverse=start_inverse)
     if kept is not None:
-        fine = np.isfinite(shapes.theta).all(axis=(1, 2))
-        if fine.any():
-            same = "theta" in kept and kept["theta"].shape[1:] == shapes.theta.shape[1:]
-            kept["key"] = np.concatenate([key[fine], kept["key"]])[:KEPT] if same else key[fine]
-            kept["theta"] = (np.concatenate([shapes.theta[fine], kept["theta"]])[:KEPT] if same
-                             else shapes.theta[fine])
-            kept["nodes"] = shapes.nodes
+        _keep(kept, key, shapes)
     specs = [s.spec for s in setups]
     n_loops, k, ring = specs[0].n_loops, specs[0].dipoles_per_loop, specs[0].ring
     # slice mid-points on each set's shapes: one normalised centreline batch (s / L, points / L)
@@ -200,3 +197,23 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
         except MagciliaError:
             b[j] = np.nan
     return b.reshape(g, 3 * a)
+
+
+def _keep(kept: dict[str, F64], key: F64, shapes: BatchShapes) -> None:
+    """Put a block's converged sets (their ``key``: log height, base radius, modulus (g, 3))
+    first in ``kept``, :data:`KEPT` at most: their nodal angles, grid and inverse Jacobians
+    (NaN where the sweep solved them)."""
+    fine = np.isfinite(shapes.theta).all(axis=(1, 2))
+    if not fine.any():
+        return
+    theta = shapes.theta[fine]
+    n = theta.shape[2]
+    inverse = (shapes.inverse[fine] if shapes.inverse is not None
+               else np.full((*theta.shape, n), np.nan))
+    if "theta" in kept and kept["theta"].shape[1:] == theta.shape[1:]:
+        key = np.concatenate([key[fine], kept["key"]])[:KEPT]
+        theta = np.concatenate([theta, kept["theta"]])[:KEPT]
+        inverse = np.concatenate([inverse, kept["inverse"]])[:KEPT]
+    else:
+        key = key[fine]
+    kept.update(key=key, theta=theta, inverse=inverse, nodes=shapes.nodes)

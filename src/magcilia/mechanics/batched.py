@@ -80,6 +80,10 @@ class BatchShapes:
         or not converged: a start for a nearby batch (:func:`sweep_batch`'s ``start``).
     nodes : ndarray, shape (n,)
         That grid's nodes, s / L (dimensionless, on [0, 1]).
+    inverse : ndarray, shape (N, a, n, n), or None
+        The inverse Jacobians of the last Newton steps (when every load was solved at once from
+        a start; NaN where not formed): :func:`sweep_batch`'s ``start_inverse`` for a nearby
+        batch.
     """
 
     s: F64
@@ -89,6 +93,7 @@ class BatchShapes:
     swept: int
     theta: F64
     nodes: F64
+    inverse: F64 | None = None
 
 
 class _Normalised:
@@ -122,7 +127,8 @@ class _Normalised:
 
 def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads: F64, *,
                 flow: Flow | None = None, start: F64 | None = None,
-                start_nodes: F64 | None = None) -> BatchShapes:
+                start_nodes: F64 | None = None,
+                start_inverse: F64 | None = None) -> BatchShapes:
     """Bent shapes of ``N`` cilia under ``a`` loads: tip forces along +x (``flow`` None) or
     speeds of ``flow``'s profile, in the x–z plane, as :func:`magcilia.bend_sweep` gives them
     (to Newton's tolerance).
@@ -147,6 +153,9 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
         The nodes (s / L) of ``start``'s grid (:attr:`BatchShapes.nodes`), when its node count
         is not this batch's (a batch's grid follows its thinnest taper): ``start`` is then
         carried over to this grid by linear interpolation.
+    start_inverse : ndarray, shape (N, a, n, n), optional
+        The inverse Jacobians at ``start`` (:attr:`BatchShapes.inverse`): Newton's first steps
+        are chord steps with them (no Jacobian formed while the residuals fall tenfold a step).
 
     Returns
     -------
@@ -170,8 +179,12 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     n = norm.s.size
     if start is not None and start_nodes is not None and start.shape[2] != n:
         start = start @ _linear_map(np.asarray(start_nodes, dtype=np.float64), norm.s).T
+        start_inverse = None  # another grid's
+    inverse = None
     if start is not None and start.shape == (n_set, n_load, n):
-        theta, done = system.from_start(loads, start)
+        if start_inverse is not None and start_inverse.shape != (n_set, n_load, n, n):
+            start_inverse = None
+        theta, done, inverse = system.from_start(loads, start, start_inverse)
         redo = np.flatnonzero(~done.all(axis=1))
         if redo.size:
             theta[redo], done[redo] = system.sweep(loads, redo)
@@ -202,7 +215,9 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
         if one is not None:
             angles[i], points[i] = one
             ok[i] = True
-    return BatchShapes(s_out, angles, points, ok, swept, theta, norm.s)
+    if inverse is not None:
+        inverse[~ok] = np.nan
+    return BatchShapes(s_out, angles, points, ok, swept, theta, norm.s, inverse)
 
 
 def _linear_map(old: F64, new: F64) -> F64:
@@ -406,25 +421,35 @@ class _Systems:
                     break
         return theta, done
 
-    def from_start(self, loads: F64, start: F64) -> tuple[F64, NDArray[np.bool_]]:
+    def from_start(self, loads: F64, start: F64, inverse: F64 | None = None
+                   ) -> tuple[F64, NDArray[np.bool_], F64 | None]:
         """Every set under every load at once, Newton from ``start`` (N, a, n), rad (the
-        solutions of nearby sets; NaN rows: from :meth:`guess`): θ (N, a, n) and which
-        converged (N, a)."""
+        solutions of nearby sets; NaN rows: from :meth:`guess`), chord steps first with their
+        inverse Jacobians ``inverse`` (N, a, n, n) when given for every loaded system: θ
+        (N, a, n), which converged (N, a) and the last inverse Jacobians (N, a, n, n)."""
         n_set, n_load, n = start.shape
         flat = np.repeat(np.arange(n_set), n_load)
         values = np.tile(loads, n_set)
         theta = np.zeros((flat.size, n))
         done = values == 0.0
         todo = np.flatnonzero(~done)
+        last: F64 | None = None
         if todo.size:
             first = start.reshape(-1, n)[todo]
             none = np.flatnonzero(~np.isfinite(first).all(axis=1))
             if none.size:  # no start given: bend's guess
                 first[none] = self.guess(flat[todo[none]], values[todo[none]])
-            th, ok, _ = self.newton(flat[todo], values[todo], first, None)
+            given = None if inverse is None else inverse.reshape(-1, n, n)[todo]
+            if given is not None and (none.size or not np.isfinite(given).all()):
+                given = None
+            th, ok, inv = self.newton(flat[todo], values[todo], first, given)
             theta[todo] = th
             done[todo] = ok
-        return theta.reshape(n_set, n_load, n), done.reshape(n_set, n_load)
+            if inv is not None:
+                every = np.full((flat.size, n, n), np.nan)
+                every[todo] = inv
+                last = every.reshape(n_set, n_load, n, n)
+        return theta.reshape(n_set, n_load, n), done.reshape(n_set, n_load), last
 
 
 def _inverses(jac: F64) -> F64:
