@@ -53,8 +53,6 @@ LIFT_MARGIN = 1e-2
 #: an earlier set's solutions start a new set's Newton when every one of its height, base radius
 #: and modulus is within this relative distance (in log) of that set's
 NEAR = 0.3
-#: earlier sets kept per block (the latest first)
-KEPT = 64
 #: the load blocks of a problem's table: (experiment, azimuth rad, sorted loads (a,), column)
 Blocks = Sequence[tuple[int, float, F64, int]]
 
@@ -81,7 +79,7 @@ def load_fields(base: Setup, blocks: Blocks, measurements: Sequence[Measurement]
     prm : mapping of str to ndarray, shape (N,)
         height, base_radius, x, y, z (m) and youngs_modulus (Pa) of each set.
     starts : dict, optional
-        The solutions of earlier calls, kept per block and updated here (a problem's own dict):
+        The solutions of the latest call, kept per block and updated here (a problem's own dict):
         once there are some, every load of every set is solved at once, each set started from
         the nearest earlier set's nodal angles when within :data:`NEAR` (a sampler's next
         proposals, a Jacobian's columns), else from :func:`magcilia.bend`'s guess; without, and
@@ -200,20 +198,19 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
 
 
 def _keep(kept: dict[str, F64], key: F64, shapes: BatchShapes) -> None:
-    """Put a block's converged sets (their ``key``: log height, base radius, modulus (g, 3))
-    first in ``kept``, :data:`KEPT` at most: their nodal angles, grid and inverse Jacobians
-    (NaN where the sweep solved them)."""
+    """Keep a block's converged sets in ``kept`` (the latest population replaces the one
+    before: a sampler's two half-ensembles, a Jacobian's columns lie close to it): their ``key``
+    (log height, base radius, modulus (g, 3)), nodal angles, grid and inverse Jacobians (NaN
+    where the sweep solved them)."""
     fine = np.isfinite(shapes.theta).all(axis=(1, 2))
     if not fine.any():
         return
-    theta = shapes.theta[fine]
-    n = theta.shape[2]
-    inverse = (shapes.inverse[fine] if shapes.inverse is not None
-               else np.full((*theta.shape, n), np.nan))
-    if "theta" in kept and kept["theta"].shape[1:] == theta.shape[1:]:
-        key = np.concatenate([key[fine], kept["key"]])[:KEPT]
-        theta = np.concatenate([theta, kept["theta"]])[:KEPT]
-        inverse = np.concatenate([inverse, kept["inverse"]])[:KEPT]
-    else:
-        key = key[fine]
-    kept.update(key=key, theta=theta, inverse=inverse, nodes=shapes.nodes)
+    every = bool(fine.all())
+    theta = shapes.theta if every else shapes.theta[fine]
+    inverse = shapes.inverse
+    if inverse is None:
+        inverse = np.full((*theta.shape, theta.shape[2]), np.nan)
+    elif not every:
+        inverse = inverse[fine]
+    kept.update(key=key if every else key[fine], theta=theta, inverse=inverse,
+                nodes=shapes.nodes)
