@@ -94,14 +94,16 @@ def pose_dipoles(points: F64, angles: F64, base: F64, radius: F64, share: F64,
     alpha = 2.0 * math.pi * np.arange(k) / k
     ca, sa = np.cos(alpha), np.sin(alpha)
     a = angles.shape[0]
-    pos = np.empty((a, n, k, 3))
+    # each component's plane contiguous ((a, 3, n, k) in memory): the compiled kernel's layout,
+    # (a, 3, d), is then a view of the result, not a copy
+    pos = np.empty((a, 3, n, k)).transpose(0, 2, 3, 1)
     rad = np.reshape(radius, (-1, n))[:, :, None]  # (1 or a, n, 1)
     ring_c = rad * ca  # along e1
     pos[..., 0] = points[:, :, None, 0] + ring_c * ct[:, :, None]
     pos[..., 1] = points[:, :, None, 1] + rad * sa
     pos[..., 2] = points[:, :, None, 2] - ring_c * st[:, :, None]
     pos += np.reshape(base, (-1, 1, 1, 3))
-    mom = np.empty((a, n, k, 3))
+    mom = np.empty((a, 3, n, k)).transpose(0, 2, 3, 1)
     mk = np.reshape(total_moment, (-1, 1, 1)) * np.reshape(share, (-1, n))[:, :, None] / k
     mom[..., 0] = mk * st[:, :, None]
     mom[..., 1] = 0.0
