@@ -143,3 +143,25 @@ def test_start_from_nearby_sets_gives_the_same_shapes(loads: np.ndarray,
                          start_nodes=first.nodes)
     assert regrid.nodes.size != first.nodes.size and regrid.swept == 0
     _check(regrid, _reference(BASE, thinner, loads, flow), thinner[0])
+
+
+def test_uniform_cylinders_against_the_exact_elastica() -> None:
+    """Cylinders (taper 1) of three lengths, radii and moduli under tip forces up to
+    P L² / (E I) = 10: the tips and tip angles of the exact elastica
+    (:func:`magcilia.mechanics.cantilever_tip`, elliptic integrals), whatever set or load."""
+    heights = np.array([2.5e-3, 3.0e-3, 3.5e-3])
+    radii = np.array([1.0e-4, 1.2e-4, 1.5e-4])
+    moduli = np.array([4e5, 1e6, 2.5e6])
+    cylinder = mc.Cilium.from_profile([0.0, 3e-3], [1e-4, 1e-4], youngs_modulus=1e6)
+    base = BASE.replace(cilium=cylinder)  # a profile's shape scales: a cylinder in every set
+    stiffness = moduli * 0.25 * np.pi * radii**4
+    alphas = np.array([0.1, 1.0, 3.0, 10.0])
+    forces = alphas * float(stiffness[0] / heights[0] ** 2)  # α = 0.1 … 10 for the first set
+    shapes = sweep_batch(base, heights, radii, moduli, forces)
+    assert shapes.ok.all()
+    for i in range(3):
+        for j, force in enumerate(forces):
+            x, z, theta0 = mc.mechanics.cantilever_tip(force * heights[i] ** 2 / stiffness[i])
+            tip = shapes.points[i, j, -1] / heights[i]
+            np.testing.assert_allclose(tip[[0, 2]], [x, z], rtol=0.0, atol=1e-9)
+            assert shapes.angles[i, j, -1] == pytest.approx(theta0, abs=1e-9)
