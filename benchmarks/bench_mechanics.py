@@ -12,6 +12,8 @@ Measures, in one run and on one thread (min and median of interleaved repeats):
     right-hand side, straight-rod initial guess, the loosest ``tol`` that reaches 1e-6 at the tip),
     interleaved with it;
   * a force sweep of 513 loads (a read-out table's) through ``bend_sweep``;
+  * 16 cilia (a calibration's population) under 9 tip forces and under 9 water speeds at once
+    (``mechanics.batched.sweep_batch``), against a loop of ``bend_sweep`` over the same sets;
   * PyElastica (Cosserat rod, 50 elements, explicit position-Verlet with analytical linear
     damping) reaching the same static tip by damped dynamics to 1 %: wall time, steps, ratio;
   * read-out throughput on 1e6 readings: ``Readout.estimate`` (value only) and ``Readout.read``
@@ -164,7 +166,49 @@ def bending(s: mc.Setup, quick: bool) -> tuple[float, np.ndarray]:
     print(f"  magcilia.bend_sweep, 513 forces 0..0.2 mN (each predicted from its neighbours): "
           f"min {sweep[0] * 1e3:.1f} ms ({sweep[0] / 512 * 1e6:.0f} µs per load), median "
           f"{sweep[1] * 1e3:.1f} ms")
+    batches(quick)
     return force, ref
+
+
+def batches(quick: bool) -> None:
+    """Many cilia under many loads (a calibration's population): ``sweep_batch`` against a loop
+    of ``bend_sweep`` over the same sets (the same shapes, checked)."""
+    from magcilia.mechanics.batched import sweep_batch
+    from magcilia.mechanics.planar import _sweep_plane
+
+    base = mc.Setup.paper(ring="rms", tip_radius=5e-5, youngs_modulus=0.5e6)
+    rng = np.random.default_rng(0)
+    n = 16
+    sets = (rng.uniform(3.1e-3, 3.4e-3, n), rng.uniform(1.7e-4, 1.9e-4, n),
+            np.exp(rng.uniform(math.log(4e5), math.log(6e5), n)))
+    for label, loads, flow in (("tip forces 0..20 uN", np.linspace(0.0, 2e-5, 9), None),
+                               ("water speeds 0..0.3 m/s", np.linspace(0.0, 0.3, 9),
+                                mc.Flow.uniform(0.3, mc.WATER))):
+        def loop(loads: np.ndarray = loads, flow: mc.Flow | None = flow) -> list:
+            out = []
+            for h, r, e in zip(*sets, strict=True):
+                s = base.replace(height=float(h), base_radius=float(r), youngs_modulus=float(e))
+                out.append(_sweep_plane(s, forces=loads) if flow is None
+                           else _sweep_plane(s, speeds=loads, flow=flow))
+            return out
+
+        first = sweep_batch(base, *sets, loads, flow=flow)
+        err = max(float(np.abs(first.points[i] - ref.points).max() / sets[0][i])
+                  for i, ref in enumerate(loop()))
+        # the next populations, each from the last one's solutions and inverse Jacobians (as a
+        # calibration's problem keeps them)
+        last = sweep_batch(base, *(x * 1.01 for x in sets), loads, flow=flow, start=first.theta)
+        near = tuple(x * 1.02 for x in sets)
+        times = interleaved({
+            "batch": lambda loads=loads, flow=flow: sweep_batch(base, *sets, loads, flow=flow),
+            "warm": lambda loads=loads, flow=flow, near=near, last=last: sweep_batch(
+                base, *near, loads, flow=flow, start=last.theta, start_inverse=last.inverse),
+            "loop": loop}, 3 if quick else 10)
+        (b, _), (w, _), (lp, _) = (stats(times[k]) for k in ("batch", "warm", "loop"))
+        print(f"  mechanics.batched.sweep_batch, {n} cilia x 9 {label}: {b * 1e3:.1f} ms, "
+              f"{w * 1e3:.1f} ms from a nearby population's solutions (1 % apart); a loop of "
+              f"bend_sweep {lp * 1e3:.1f} ms ({lp / b:.1f}x / {lp / w:.1f}x); points within "
+              f"{err:.0e} L of the loop's")
 
 
 #: what :func:`first_calls` runs in each fresh process: the setup of :func:`setup`, then one

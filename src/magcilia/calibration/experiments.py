@@ -240,8 +240,9 @@ class FieldPath(RecordedExperiment):
 @dataclass(frozen=True, eq=False)
 class LoadExperiment(RecordedExperiment):
     """The output (V) or field (T) of the bent cilium under tip forces (N) or flow speeds (m/s),
-    with its constant offset(s); its model is a loop over parameter sets
-    (:func:`~magcilia.mechanics.bend.bend_sweep`)."""
+    with its constant offset(s); its model is the bent shapes of
+    :func:`~magcilia.mechanics.bend.bend_sweep` and their field, for every parameter set of a
+    population at once (:func:`~magcilia.calibration.load_model.load_fields`)."""
 
     def rows(self, table: Table, e_index: int, sensor_scale: float) -> Rows:
         kind = FieldPath.rows if self.data.fields is not None else TiltPath.rows

@@ -36,7 +36,6 @@ from magcilia.device.parameters import FITTED, INTEGER, default_bounds
 from magcilia.device.setup import Setup
 from magcilia.fitting import NONFINITE_PENALTY
 from magcilia.io.recordings import Measurement
-from magcilia.mechanics.flow import Flow
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.batch import TiltBatch
 
@@ -164,6 +163,8 @@ class Problem:
         self._model_names = self.all_names
         self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
                        if e.data.speeds is not None}
+        #: the load blocks' latest solutions, to start the next population's Newton from
+        self._load_starts: dict[int, dict[str, F64]] = {}
 
     @classmethod
     def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
@@ -227,34 +228,15 @@ class Problem:
         return full if self.identity else full[:, self.column] * self.factor
 
     def _load_fields(self, prm: Mapping[str, F64]) -> F64:
-        """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of
-        :func:`~magcilia.mechanics.bend.bend_sweep` (sorted loads) and their field; NaN for a set
-        whose bend does not converge or whose geometry is invalid."""
-        from magcilia.mechanics.bend import bend_sweep  # (bending: load experiments only)
+        """The load blocks' fields, (N, 3 · loads), T: every set's bent shapes under each
+        block's sorted loads and their field, all sets at once
+        (:func:`~magcilia.calibration.load_model.load_fields`: as
+        :func:`~magcilia.mechanics.bend.bend_sweep` and :meth:`Setup.field` give them); NaN for a
+        set whose bend does not converge or whose geometry is invalid."""
+        from magcilia.calibration.load_model import load_fields  # (bending: load data only)
 
-        n = prm["x"].size
-        width = sum(3 * b[2].size for b in self.table.loads)
-        out = np.full((n, width), np.nan)
-        for i in range(n):
-            try:
-                setup = self.base.replace(
-                    height=float(prm["height"][i]), base_radius=float(prm["base_radius"][i]),
-                    x=float(prm["x"][i]), y=float(prm["y"][i]), z=float(prm["z"][i]),
-                    youngs_modulus=float(prm[LOAD_PARAMETER][i]))
-                col = 0
-                for e_i, phi, loads, _ in self.table.loads:
-                    e = self.measurements[e_i]
-                    if e.forces is not None:
-                        shapes = bend_sweep(setup, forces=loads)
-                    else:
-                        top = float(np.max(np.abs(loads))) or 1.0
-                        shapes = bend_sweep(setup, speeds=loads,
-                                            flow=Flow.uniform(top, self.fluids[e_i]))
-                    out[i, col:col + 3 * loads.size] = setup.field(shapes, azimuth=phi).ravel()
-                    col += 3 * loads.size
-            except MagciliaError:
-                out[i] = np.nan
-        return out
+        return load_fields(self.base, self.table.loads, self.measurements, self.fluids, prm,
+                           self._load_starts)
 
     # -- residuals ----------------------------------------------------------------------------
     def _project(self, z: F64) -> F64:

@@ -202,7 +202,7 @@ def slender_log(arc: ArrayLike, height: ArrayLike, radius: ArrayLike, length: fl
     return np.asarray(lam, dtype=np.float64)
 
 
-def free_log(arc: ArrayLike, radius: ArrayLike, length: float) -> F64:
+def free_log(arc: ArrayLike, radius: ArrayLike, length: float | F64) -> F64:
     """The free rod's part of :func:`slender_log`, ``2 ln(2 √(s (L − s)) / a) + 1`` with the
     distances to the ends regularised within a radius (dimensionless, the broadcast shape)."""
     s = np.asarray(arc, dtype=np.float64)
@@ -211,7 +211,8 @@ def free_log(arc: ArrayLike, radius: ArrayLike, length: float) -> F64:
                       dtype=np.float64)
 
 
-def wall_log(height: ArrayLike, radius: ArrayLike, length: float, gap: float = 0.0) -> F64:
+def wall_log(height: ArrayLike, radius: ArrayLike, length: float | F64,
+             gap: float = 0.0) -> F64:
     """The wall's part of :func:`slender_log` (subtracted from :func:`free_log`): the on-axis
     velocity of the Blake images of a uniform line of Stokeslets of length ``length`` from ``gap``
     above the wall, ``ln(w₂/w₁) + (1 − h/w₂)² − (1 − h/w₁)²`` (× F / 8πμ per length),

@@ -61,7 +61,7 @@ def ring_layout(height: F64, base_radius: F64, u: F64, rho: F64, n: int, k: int,
 
 
 def pose_dipoles(points: F64, angles: F64, base: F64, radius: F64, share: F64,
-                 total_moment: float, k: int) -> tuple[F64, F64]:
+                 total_moment: float | F64, k: int) -> tuple[F64, F64]:
     """Lab-frame dipoles of cilia whose slices follow (bent) centrelines.
 
     Each slice's ring lies in the plane normal to the local tangent t = (sin θ, 0, cos θ), with
@@ -73,13 +73,13 @@ def pose_dipoles(points: F64, angles: F64, base: F64, radius: F64, share: F64,
         Slice mid-points of a poses relative to the base centre, m.
     angles : ndarray, shape (a, n)
         Tangent angles there, rad.
-    base : ndarray, shape (3,)
-        Base centre, m.
-    radius : ndarray, shape (n,)
+    base : ndarray, shape (3,) or (a, 3)
+        Base centre, m (one per pose: cilia of several setups at once).
+    radius : ndarray, shape (n,) or (a, n)
         Ring radii, m.
-    share : ndarray, shape (n,)
+    share : ndarray, shape (n,) or (a, n)
         V_s / V_c of each slice.
-    total_moment : float
+    total_moment : float or ndarray, shape (a,)
         m_c, A·m².
     k : int
         Dipoles per ring.
@@ -89,19 +89,22 @@ def pose_dipoles(points: F64, angles: F64, base: F64, radius: F64, share: F64,
     positions, moments : ndarray, shape (a, n*k, 3)
         m and A·m².
     """
-    n = radius.size
+    n = radius.shape[-1]
     st, ct = np.sin(angles), np.cos(angles)
     alpha = 2.0 * math.pi * np.arange(k) / k
     ca, sa = np.cos(alpha), np.sin(alpha)
     a = angles.shape[0]
-    pos = np.empty((a, n, k, 3))
-    ring_c = radius[None, :, None] * ca  # along e1
+    # each component's plane contiguous ((a, 3, n, k) in memory): the compiled kernel's layout,
+    # (a, 3, d), is then a view of the result, not a copy
+    pos = np.empty((a, 3, n, k)).transpose(0, 2, 3, 1)
+    rad = np.reshape(radius, (-1, n))[:, :, None]  # (1 or a, n, 1)
+    ring_c = rad * ca  # along e1
     pos[..., 0] = points[:, :, None, 0] + ring_c * ct[:, :, None]
-    pos[..., 1] = points[:, :, None, 1] + radius[None, :, None] * sa
+    pos[..., 1] = points[:, :, None, 1] + rad * sa
     pos[..., 2] = points[:, :, None, 2] - ring_c * st[:, :, None]
-    pos += base
-    mom = np.empty((a, n, k, 3))
-    mk = total_moment * share[None, :, None] / k
+    pos += np.reshape(base, (-1, 1, 1, 3))
+    mom = np.empty((a, 3, n, k)).transpose(0, 2, 3, 1)
+    mk = np.reshape(total_moment, (-1, 1, 1)) * np.reshape(share, (-1, n))[:, :, None] / k
     mom[..., 0] = mk * st[:, :, None]
     mom[..., 1] = 0.0
     mom[..., 2] = mk * ct[:, :, None]
