@@ -375,8 +375,22 @@ class Readout(Display):
             than raise.
         """
         x = np.asarray(volts, dtype=np.float64)
-        if self.baseline is not None:
-            x = x + self.baseline.correction
+        passes = compiled_read.kernels()
+        if passes is not None:  # one compiled pass, the tare's correction in it
+            flat = x.reshape(-1)
+            value = np.empty(flat.size)
+            correction = 0.0 if self.baseline is None else self.baseline.correction
+            packed = self._packed
+            if not passes[1](flat, correction, packed.cells, packed.consts, value):
+                return value.reshape(x.shape)
+            if correction:
+                x = x + correction
+        else:
+            if self.baseline is not None:
+                x = x + self.baseline.correction
+            flat = x.reshape(-1)
+            ends = self.table.volts[[0, -1]]  # (readings beyond them, NaN too: replaced below)
+            value = self.table.lookup(np.fmin(np.fmax(flat, ends[0]), ends[1]))
         table = self.table
         if x.size and not (x.min() >= table.volts[0] and x.max() <= table.volts[-1]):  # and NaN
             flat = x.reshape(-1)
@@ -388,10 +402,8 @@ class Readout(Display):
                 where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
                 raise v.fail(where, f"{float(x[first]):.6g} V", outside_text(
                     self.quantity, self.span, self.unit, self.table, self.edge_tables, self.edge))
-            value = table.lookup(flat)
             value[out] = beyond
-            return value.reshape(x.shape)
-        return table.lookup(x.reshape(-1)).reshape(x.shape)
+        return value.reshape(x.shape)
 
     def _beyond(self, x: F64) -> tuple[F64, F64, F64, NDArray[np.uint16]]:
         """:func:`~magcilia.readout.edges.read_beyond` of readings ``x`` (V, (b,))."""
@@ -419,7 +431,6 @@ class Readout(Display):
             replaces the sensor model's noise over ``bandwidth``. Default: the spread measured by
             :meth:`tare` if tared, else the sensor model's.
         """
-        sensor = self.setup.sensor
         if noise is not None:
             if np.size(noise) != 1:
                 raise v.fail("noise", v.short(noise), "one noise RMS in V (one channel)")
@@ -427,46 +438,71 @@ class Readout(Display):
         elif self.baseline is not None:
             noise_v = self.baseline.noise
         else:
-            noise_v = sensor.output_noise_rms(*bandwidth)
-        shape = np.shape(volts)
-        x = np.asarray(volts, dtype=np.float64).reshape(-1)
-        if self.baseline is not None:
-            x = x + self.baseline.correction
-        value, sigma, s_noise, s_cal, s_edge, s_scale = (np.empty(x.size) for _ in range(6))
-        flags = np.empty(x.size, dtype=FLAG_DTYPE)
-        parts: tuple[Any, ...] = (value, sigma, s_noise, s_cal, s_edge, s_scale, flags)
-        fused = compiled_read.kernel()
-        if fused is not None:  # one compiled pass; the few readings beyond the table below
-            tare_error = 0.0 if self.baseline is None else float(self.baseline.standard_error)
-            table_args, profile_args = self._fused
-            if fused(x, *table_args, float(noise_v), tare_error, *profile_args, *parts):
+            noise_v = self._model_noise(bandwidth)
+        x = np.asarray(volts, dtype=np.float64)
+        shape = x.shape
+        x = x.reshape(-1)
+        n = x.size
+        base = self.baseline
+        correction = 0.0 if base is None else base.correction
+        flags = np.empty(n, dtype=FLAG_DTYPE)
+        passes = compiled_read.kernels()
+        if passes is not None:  # one compiled pass; the few readings beyond the table below
+            packed = self._packed
+            tare_error = 0.0 if base is None else float(base.standard_error)
+            value, sigma, s_noise = np.empty(n), np.empty(n), np.empty(n)
+            # (the parts the pass writes only where there is no estimate: zeroed, see compiled)
+            s_cal = np.empty(n) if packed.consts[13] or tare_error else np.zeros(n)
+            s_scale = np.empty(n) if packed.consts[11] else np.zeros(n)
+            parts: tuple[Any, ...] = (value, sigma, s_noise, s_cal, np.zeros(n), s_scale, flags)
+            if passes[0](x, correction, float(noise_v), tare_error, *packed, *parts):
                 out = np.flatnonzero(flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN))
                 got: tuple[Any, ...] = tuple(np.empty(out.size, p.dtype) for p in parts)
-                self._read_block(x[out], noise_v, *got)
+                self._read_block(x[out] + correction, noise_v, *got)
                 for whole, got_part in zip(parts, got, strict=True):
                     whole[out] = got_part
         else:
-            for start in range(0, x.size, BLOCK):
+            if base is not None:
+                x = x + correction
+            parts = (*(np.empty(n) for _ in range(6)), flags)
+            for start in range(0, n, BLOCK):
                 part = slice(start, start + BLOCK)
                 self._read_block(x[part], noise_v, *(p[part] for p in parts))
-        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
-        return ReadoutResult(
-            quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
-            sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
-            sigma_calibration=s_cal.reshape(shape), sigma_edge=s_edge.reshape(shape),
-            sigma_scale=s_scale.reshape(shape), flags=flags.reshape(shape),
-            table_error=self.table_error, scale_note=self.scale_note,
-        )
+        if base is not None:
+            flags |= FLAG_DTYPE(tare_flags(base))  # a tare taken under load
+        if len(shape) != 1:
+            parts = tuple(p.reshape(shape) for p in parts)
+        value, sigma, s_noise, s_cal, s_edge, s_scale, flags = parts
+        return ReadoutResult.of(
+            quantity=self.quantity, unit=self.unit, value=value, sigma=sigma,
+            sigma_noise=s_noise, sigma_calibration=s_cal, sigma_edge=s_edge,
+            sigma_scale=s_scale, flags=flags, table_error=self.table.error,
+            scale_note=self._scale_note)
+
+    def _model_noise(self, bandwidth: tuple[float, float]) -> float:
+        """The sensor model's output noise RMS (V) over ``bandwidth``, remembered per band (a
+        live read-out asks for the same band at every call)."""
+        memo: dict[Any, float] = self.__dict__.setdefault("_noise_memo", {})
+        try:
+            return memo[bandwidth]
+        except (KeyError, TypeError):  # (TypeError: a band that cannot be a key, a list)
+            noise_v = self.setup.sensor.output_noise_rms(*bandwidth)
+            if isinstance(bandwidth, tuple) and len(memo) < 16:
+                memo[bandwidth] = noise_v
+            return noise_v
 
     @cached_property
-    def _fused(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-        """The arguments of the compiled pass: the table and sensor's, the profiles'."""
+    def _packed(self) -> compiled_read.Packed:
+        """The arguments of the compiled passes (:func:`~magcilia.readout.compiled.pack`)."""
         mode = (0 if not self.sigma_modulus.any() else
                 1 if scales_exactly(self.quantity, self.actuation is not None) else 2)
-        return (compiled_read.table_arguments(self.table, self.setup.sensor),
-                compiled_read.profile_arguments(self.table.quantity, self.sigma_calibration,
-                                                self.sigma_modulus, mode,
-                                                self.modulus.relative))
+        return compiled_read.pack(self.table, self.setup.sensor, self.table.quantity,
+                                  self.sigma_calibration, self.sigma_modulus, mode,
+                                  self.modulus.relative)
+
+    @cached_property
+    def _scale_note(self) -> str:
+        return self.scale_note
 
     @property
     def scale_note(self) -> str:

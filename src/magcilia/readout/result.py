@@ -74,6 +74,15 @@ class ReadoutResult(Display):
     table_error: float
     scale_note: str = ""
 
+    @classmethod
+    def of(cls, **fields: Any) -> ReadoutResult:
+        """A result of the fields given by name, all of them (as the constructor, without its
+        field-by-field frozen assignments: a live read-out builds one per block of a few
+        readings)."""
+        result = object.__new__(cls)
+        result.__dict__.update(fields)
+        return result
+
     @property
     def ok(self) -> NDArray[np.bool_]:
         """True where no flag is set (a reading within the span)."""
