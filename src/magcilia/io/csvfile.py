@@ -4,18 +4,19 @@ The format is :mod:`magcilia.io.recordings`' (a header with ``angle_deg`` and ``
 row per sample). Two readers give the same columns:
 
 - **The fast reader** (:func:`plain_csv_blocks`) parses the data in blocks of
-  :data:`CSV_BLOCK_BYTES` (cut at line ends) with pandas' C reader and yields each block's
-  columns, so that a caller can reduce as it reads: memory is one block and its columns, whatever
-  the file's size. It reads only *plain* files, on which pandas and the careful reader cannot
-  differ: the lines up to the header are UTF-8 without a lone carriage return and the header has
-  no quote; after it every byte is one of :data:`PLAIN_CSV_BYTES` (digits, signs, separators,
-  white space and the letters of nan, inf(inity), set and reset: no quotes, comments, NUL or
-  non-ASCII text), line ends are LF or CRLF, no line is longer than the careful reader allows,
-  every field of every column (ours and the others) is a number as ``float`` reads it (pandas'
-  parser gives the same doubles, and NaN only for ``float``'s spellings of it, never for an
-  empty field or a missing one) and every ``setreset`` field is one of :data:`SETRESET_TEXT`.
-  Anything else raises :class:`NotPlainCSV`, possibly after some blocks: the caller forgets them
-  and asks the careful reader.
+  :data:`CSV_BLOCK_ROWS` with pandas' C reader or pyarrow's (:mod:`magcilia.io.csvparsers`:
+  pyarrow for a file of up to 64 MB while pandas is not imported, its import being a third of
+  pandas') and yields each block's columns, so that a caller can reduce as it reads: memory is
+  one block and its columns, whatever the file's size. It reads only *plain* files, on which
+  either parser and the careful reader cannot differ: the lines up to the header are UTF-8
+  without a lone carriage return and the header has no quote; after it every byte is one of
+  :data:`PLAIN_CSV_BYTES` (digits, signs, separators, white space and the letters of nan,
+  inf(inity), set and reset: no quotes, comments, NUL or non-ASCII text), line ends are LF or
+  CRLF, no line is longer than the careful reader allows, every field of every column (ours and
+  the others) is a number as ``float`` reads it (pandas' parser gives the same doubles, and NaN
+  only for ``float``'s spellings of it, never for an empty field or a missing one) and every
+  ``setreset`` field is one of :data:`SETRESET_TEXT`. Anything else raises :class:`NotPlainCSV`,
+  possibly after some blocks: the caller forgets them and asks the careful reader.
 - **The careful reader** (:func:`read_csv_carefully`) reads any file line by line with the
   ``csv`` module: comments anywhere, quotes, other text columns; it names the line of anything
   wrong in a one-line error. It is about 20 times slower and holds the whole columns. Its numbers
@@ -56,6 +57,7 @@ from numpy.typing import NDArray
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
+from magcilia.io.csvparsers import arrow_frames, arrow_parses, pandas_frames
 
 F64 = NDArray[np.float64]
 
@@ -74,7 +76,7 @@ NUMBER = re.compile(r"[ \t]*[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9
 #: A spreadsheet's error value at the start of a line (``#N/A``, ``#VALUE!``, ``#DIV/0!``, ...):
 #: a data row with a field that is not a number, not a comment.
 SPREADSHEET_ERROR = re.compile(r'"?#(?:N/A|[A-Z][A-Z0-9/_]*[!?])(?:"|[ \t,;]|$)')
-#: Rows the fast reader parses at a time.
+#: Rows the fast reader parses at a time (pandas' blocks; pyarrow's are cut to it).
 CSV_BLOCK_ROWS = 1 << 20
 #: Delimiters by the names the readers take (" " stands for runs of white space).
 DELIMITERS = {",": ",", ";": ";", "\t": "\t", "tab": "\t", "whitespace": " ", " ": " "}
@@ -210,8 +212,6 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
         For a header without a required column or with one of ours twice, and for more rows
         than ``max_samples`` (the careful reader's errors for them).
     """
-    import pandas as pd
-
     limit = min(max_line_chars, csv.field_size_limit())
     size = path.stat().st_size
     with path.open("rb") as f:
@@ -220,19 +220,14 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                else locate(header))
         if delim == decimal:  # (numbers quoted: the careful reader's)
             raise NotPlainCSV
+        parse = arrow_frames if arrow_parses(delim, size) else pandas_frames
         rows = 0
         try:
-            for frame in pd.read_csv(
-                    _PlainBytes(f, limit), engine="c", header=None,
-                    names=list(range(len(header))), sep=r"\s+" if delim == " " else delim,
-                    decimal=decimal,
-                    dtype={i: "category" if i == idx.get("setreset") else np.float64
-                           for i in range(len(header))},
-                    keep_default_na=False, na_values=list(NAN_TEXT), chunksize=CSV_BLOCK_ROWS):
-                if not isinstance(frame.index, pd.RangeIndex):  # pandas took the first columns
-                    raise NotPlainCSV  # as the index: the first row is longer than the header
-                block = {col: _plain_values(frame[i], col == "setreset") for col, i in idx.items()}
-                rows += len(frame)
+            for frame in parse(_PlainBytes(f, limit), len(header), delim, decimal,
+                               idx.get("setreset"), CSV_BLOCK_ROWS, NAN_TEXT):
+                block = {col: _plain_values(frame[i], col == "setreset")
+                         for col, i in idx.items()}
+                rows += len(frame[0])
                 if rows > max_samples:  # (after the checks of the block's rows, as the careful
                     raise too_many_samples(path, "the file", max_samples)  # reader does)
                 if progress is not None:
@@ -240,7 +235,7 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                 yield block
         except MagciliaError:
             raise
-        except ValueError:  # pandas: not a number, a row too long or too short, ...
+        except ValueError:  # a parser's: not a number, a row too long or too short, ...
             raise NotPlainCSV from None
         if not rows:  # a header without data rows
             yield {col: np.zeros(0) for col in idx}
@@ -341,11 +336,21 @@ def _plain_header(f: IO[bytes], limit: int, delimiter: str | None) -> tuple[list
 
 
 def _plain_values(column: Any, setreset: bool) -> F64:
-    """A column of a parsed block as doubles (pandas Series, float or categorical)."""
-    if not setreset:
+    """A column of a parsed block as doubles (pandas Series, float or categorical, or a pyarrow
+    array of doubles or text)."""
+    if hasattr(column, "null_count"):  # pyarrow
+        if column.null_count:
+            raise NotPlainCSV
+        if not setreset:
+            return np.asarray(column.to_numpy(zero_copy_only=False), dtype=np.float64)
+        column = column.dictionary_encode()
+        values = [_setreset_value(str(c)) for c in column.dictionary.to_pylist()]
+        codes = column.indices.to_numpy(zero_copy_only=False)
+    elif not setreset:
         return np.asarray(column.to_numpy(dtype=np.float64))
-    codes = column.cat.codes.to_numpy()
-    values = [_setreset_value(str(c)) for c in column.cat.categories]
+    else:
+        codes = column.cat.codes.to_numpy()
+        values = [_setreset_value(str(c)) for c in column.cat.categories]
     if None in values or (codes < 0).any():
         raise NotPlainCSV
     return np.array(values, dtype=np.float64)[codes]
