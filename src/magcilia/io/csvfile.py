@@ -57,7 +57,7 @@ from numpy.typing import NDArray
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
-from magcilia.io.csvparsers import arrow_frames, arrow_parses, pandas_frames
+from magcilia.io.csvparsers import arrow_frames, arrow_parses, arrow_values, pandas_frames
 
 F64 = NDArray[np.float64]
 
@@ -342,10 +342,10 @@ def _plain_values(column: Any, setreset: bool) -> F64:
         if column.null_count:
             raise NotPlainCSV
         if not setreset:
-            return np.asarray(column.to_numpy(zero_copy_only=False), dtype=np.float64)
+            return arrow_values(column, np.float64)
         column = column.dictionary_encode()
         values = [_setreset_value(str(c)) for c in column.dictionary.to_pylist()]
-        codes = column.indices.to_numpy(zero_copy_only=False)
+        codes = arrow_values(column.indices, np.dtype(f"int{column.indices.type.bit_width}"))
     elif not setreset:
         return np.asarray(column.to_numpy(dtype=np.float64))
     else:

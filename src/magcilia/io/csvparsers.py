@@ -107,6 +107,14 @@ def arrow_frames(f: io.RawIOBase, width: int, delim: str, decimal: str, setreset
         raise NotPlainRowError(str(exc)) from None
 
 
+def arrow_values(column: Any, dtype: Any) -> Any:
+    """The values of a pyarrow array of numbers without nulls as a NumPy array of ``dtype``
+    (its type), copied from its buffer (pyarrow's ``to_numpy`` imports pandas)."""
+    width = np.dtype(dtype).itemsize
+    return np.frombuffer(column.buffers()[1], dtype=dtype, count=len(column),
+                         offset=column.offset * width).copy()
+
+
 class _WithoutBlankLines(io.RawIOBase):
     """Whole lines of a stream, those of only spaces and tabs emptied (pandas skips them as
     blank, pyarrow would take them for a row of one field)."""
