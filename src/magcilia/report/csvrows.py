@@ -22,7 +22,7 @@ import math
 from collections.abc import Callable
 from fractions import Fraction
 from functools import cache
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,10 +40,18 @@ _LINE = 24 + 24 + 16 + 10 + 5
 #: how far from a tie (relative to the scaled value) ``%g``'s rounding must be to be trusted:
 #: twice the worst error of the scaling (two table powers and two products, ≤ 2 ulp)
 _TIE = 1e-15
+#: where a number's digits are put before they are laid out: this far after its start (its
+#: text is at most 24 characters)
+SCRATCH = 32
 #: log10(2), for a float's decimal exponent from its binary one
 _LOG10_2 = math.log10(2.0)
 #: the digits 0 and the characters of the layout
 _ZERO, _DOT, _MINUS, _PLUS, _E, _COMMA, _NL = (ord(c) for c in "0.-+e,\n")
+
+
+#: :func:`_powers`, set by :func:`_compile` before the kernel is compiled (it reads it as a
+#: constant)
+_PW: F64 = np.empty(0)
 
 
 @cache
@@ -54,40 +62,41 @@ def _powers() -> F64:
                      for k in range(-_POW_SPAN, _POW_SPAN + 1)])
 
 
-def _put_digits(m: int, p: int, d: U8) -> int:
-    """The ``p`` digits of ``m`` (10**(p-1) ≤ m < 10**p) into ``d[0:p]``, two at a time;
-    returns how many are left without the trailing zeros (≥ 1)."""
+def _put_digits(m: int, p: int, d: U8, base: int) -> int:
+    """The ``p`` digits of ``m`` (10**(p-1) ≤ m < 10**p) into ``d[base:base + p]``, two at a
+    time; returns how many are left without the trailing zeros (≥ 1)."""
     j = p
     u = np.uint64(m)
     while j >= 2:
         nxt = u // np.uint64(100)
         pair = int(u - nxt * np.uint64(100))
-        d[j - 1] = _ZERO + pair % 10
-        d[j - 2] = _ZERO + pair // 10
+        d[base + j - 1] = _ZERO + pair % 10
+        d[base + j - 2] = _ZERO + pair // 10
         u = nxt
         j -= 2
     if j == 1:
-        d[0] = _ZERO + int(u)
+        d[base] = _ZERO + int(u)
     q = p
-    while q > 1 and d[q - 1] == _ZERO:
+    while q > 1 and d[base + q - 1] == _ZERO:
         q -= 1
     return q
 
 
-def _layout(d: U8, q: int, e: int, below: int, point_zero: bool, out: U8, at: int) -> int:
-    """The number of digits ``d[0:q]`` (no trailing zeros) times 10**(e - q + 1), positional
-    when -4 ≤ e < ``below`` else scientific, ``.0`` after a whole number with ``point_zero``
-    (``repr``; ``%g`` writes none), into ``out`` from ``at``; returns the end."""
+def _layout(base: int, q: int, e: int, below: int, point_zero: bool, out: U8, at: int) -> int:
+    """The number of digits ``out[base:base + q]`` (no trailing zeros; beyond the text)
+    times 10**(e - q + 1), positional when -4 ≤ e < ``below`` else scientific, ``.0`` after a
+    whole number with ``point_zero`` (``repr``; ``%g`` writes none), into ``out`` from ``at``;
+    returns the end."""
     if -4 <= e < below:
         if e >= 0:
             for j in range(e + 1):
-                out[at] = d[j] if j < q else _ZERO
+                out[at] = out[base + j] if j < q else _ZERO
                 at += 1
             if q > e + 1:
                 out[at] = _DOT
                 at += 1
                 for j in range(e + 1, q):
-                    out[at] = d[j]
+                    out[at] = out[base + j]
                     at += 1
             elif point_zero:
                 out[at] = _DOT
@@ -101,16 +110,16 @@ def _layout(d: U8, q: int, e: int, below: int, point_zero: bool, out: U8, at: in
                 out[at] = _ZERO
                 at += 1
             for j in range(q):
-                out[at] = d[j]
+                out[at] = out[base + j]
                 at += 1
         return at
-    out[at] = d[0]
+    out[at] = out[base]
     at += 1
     if q > 1:
         out[at] = _DOT
         at += 1
         for j in range(1, q):
-            out[at] = d[j]
+            out[at] = out[base + j]
             at += 1
     out[at] = _E
     out[at + 1] = _MINUS if e < 0 else _PLUS
@@ -124,10 +133,12 @@ def _layout(d: U8, q: int, e: int, below: int, point_zero: bool, out: U8, at: in
     return at + 2
 
 
-def _put_number(x: float, p: int, shortest: bool, pw: F64, d: U8, out: U8, at: int) -> int:
+def _put_number(x: float, p: int, shortest: bool, out: U8, at: int) -> int:
     """``repr(x)`` (``shortest``, p = 15) or ``f"{x:.{p}g}"`` (NaN: nothing) into ``out`` from
     ``at``; returns the end, or -1 where the arithmetic cannot prove the text (the caller
-    formats it in Python)."""
+    formats it in Python). The digits go first to ``out[at + SCRATCH:]``, then in place; the
+    powers of ten are the compiled constant ``_PW`` (:func:`_powers`)."""
+    pw = _PW
     if math.isnan(x):
         if shortest:
             out[at] = 110  # "nan"
@@ -188,21 +199,21 @@ def _put_number(x: float, p: int, shortest: bool, pw: F64, d: U8, out: U8, at: i
         r10 = r * 10.0
         if m == top / 10.0 and abs(r10 - math.floor(r10) - 0.5) <= 2.0 * _TIE * r10:
             return -1
-    q = _put_digits(int(m), p, d)
-    return _layout(d, q, e, 16 if shortest else p, shortest, out, at)
+    base = at + SCRATCH
+    q = _put_digits(int(m), p, out, base)
+    return _layout(base, q, e, 16 if shortest else p, shortest, out, at)
 
 
 def rows_pass(times: F64, volts: F64, value: F64, sigma: F64, factor: float,
               codes: NDArray[np.intp], texts: U8, lengths: NDArray[np.intp], start: int,
-              stop: int, out: U8, hard: NDArray[np.intp], hard_at: NDArray[np.intp],
-              pw: F64) -> tuple[int, int]:
+              stop: int, out: U8, hard: NDArray[np.intp],
+              hard_at: NDArray[np.intp]) -> tuple[int, int]:
     """The CSV lines of rows ``start`` … ``stop`` - 1 into ``out`` (numba source): [time,] volts
     (``repr``), value / ``factor`` (``%.10g``) and sigma / ``factor`` (``%.4g``), empty where
     NaN, then the flag text ``texts[codes[row], :lengths[codes[row]]]``
     (``flags,flag_names``). ``times`` is empty without a time column. A row with a number that
     cannot be proven is left out: its index goes to ``hard`` and where it belongs in ``out`` to
     ``hard_at``. Returns the bytes written and the rows left out."""
-    d = np.empty(20, np.uint8)
     at = 0
     n_hard = 0
     with_times = times.size > 0
@@ -210,23 +221,23 @@ def rows_pass(times: F64, volts: F64, value: F64, sigma: F64, factor: float,
         begin = at
         ok = True
         if with_times:
-            at = _put_number(times[r], 15, True, pw, d, out, at)
+            at = _put_number(times[r], 15, True, out, at)
             ok = at >= 0
             if ok:
                 out[at] = _COMMA
                 at += 1
         if ok:
-            at = _put_number(volts[r], 15, True, pw, d, out, at)
+            at = _put_number(volts[r], 15, True, out, at)
             ok = at >= 0
         if ok:
             out[at] = _COMMA
             v = value[r]
-            at = _put_number(v / factor if factor != 1.0 else v, 10, False, pw, d, out, at + 1)
+            at = _put_number(v / factor if factor != 1.0 else v, 10, False, out, at + 1)
             ok = at >= 0
         if ok:
             out[at] = _COMMA
             s = sigma[r]
-            at = _put_number(s / factor if factor != 1.0 else s, 4, False, pw, d, out, at + 1)
+            at = _put_number(s / factor if factor != 1.0 else s, 4, False, out, at + 1)
             ok = at >= 0
         if not ok:
             hard[n_hard] = r
@@ -245,6 +256,12 @@ def rows_pass(times: F64, volts: F64, value: F64, sigma: F64, factor: float,
     return at, n_hard
 
 
+#: numba's option for the kernel's helpers: no reference counting of the arrays they are
+#: handed (they allocate none; the atomic increments and decrements of a call per number took
+#: 5/6 of the time)
+HELPER_OPTIONS: dict[str, Any] = {"_nrt": False}
+
+
 @cache
 def _compile() -> Callable[..., tuple[int, int]] | None:
     try:
@@ -260,8 +277,10 @@ def _compile() -> Callable[..., tuple[int, int]] | None:
         return cast("Callable[..., object]", compiled)
 
     glob = rows_pass.__globals__
-    for helper in (_put_digits, _layout, _put_number):  # (inlined: no call per number)
-        glob[helper.__name__] = numba.njit(helper, inline="always", error_model="numpy")
+    glob["_PW"] = _powers()
+    for helper in (_put_digits, _layout, _put_number):
+        glob[helper.__name__] = numba.njit(helper, error_model="numpy", forceinline=True,
+                                           **HELPER_OPTIONS)
     return cast("Callable[..., tuple[int, int]]", njit(rows_pass))
 
 
@@ -298,16 +317,21 @@ def readout_rows(times: F64 | None, volts: F64, value: F64, sigma: F64, factor: 
     if run is None:
         return None
     codes, texts, lengths = flag_texts(flags, name_of)
-    pw = _powers()
     t = np.zeros(0) if times is None else np.ascontiguousarray(times, dtype=np.float64)
     line = _LINE + texts.shape[1]
+    slack = SCRATCH + 20  # (the last row's digits)
+
+    buffers: list[tuple[U8, NDArray[np.intp], NDArray[np.intp]]] = []  # (reused: warm pages)
 
     def lines(start: int, stop: int) -> bytes:
-        out = np.empty((stop - start) * line, dtype=np.uint8)
-        hard = np.empty(stop - start, dtype=np.intp)
-        hard_at = np.empty(stop - start, dtype=np.intp)
+        rows = stop - start
+        if not buffers or buffers[0][1].size < rows:
+            buffers[:] = [(np.empty(rows * line + slack, dtype=np.uint8),
+                           np.empty(rows, dtype=np.intp),
+                           np.empty(rows, dtype=np.intp))]
+        out, hard, hard_at = buffers[0]
         end, n_hard = run(t, volts, value, sigma, factor, codes, texts, lengths, start, stop,
-                          out, hard, hard_at, pw)
+                          out, hard, hard_at)
         if not n_hard:
             return out[:end].tobytes()
         texts_ = hard_rows(hard[:n_hard]).splitlines(keepends=True)
