@@ -52,6 +52,7 @@ from _timing import interleaved
 import magcilia as mc
 from magcilia.cli import main as cli_main
 from magcilia.io.recordings import read_samples
+from magcilia.readout import compiled as compiled_read
 from magcilia.report import csvtext
 from magcilia.report.readout import write_readout_csv
 
@@ -166,10 +167,12 @@ def speeds(readout: mc.Readout, quick: bool) -> None:
     sat = (sensor.offset - sensor.field_range * abs(sensor.scale),
            sensor.offset + sensor.field_range * abs(sensor.scale))
     rng = np.random.default_rng(1)
+    packed, read_pass = readout._packed, compiled_read.kernels()[0]  # type: ignore[index]
     print("read / estimate, readings per second (min, median; one thread, interleaved; the "
-          "result's arrays allocated by each call)")
+          "result's arrays allocated by each call; pass alone: read's compiled pass into arrays "
+          "allocated once, what the allocation leaves)")
     print(f"  {'readings':>10}  {'read':>9} {'median':>9}  {'plain loop':>10} {'ratio':>6}   "
-          f"{'estimate':>9} {'median':>9}  {'plain loop':>10} {'ratio':>6}")
+          f"{'estimate':>9} {'median':>9}  {'plain loop':>10} {'ratio':>6}   {'pass alone':>10}")
     for n in SIZES:
         x = rng.uniform(t.volts[0], t.volts[-1], n)
         runs: dict[str, Callable[[], object]] = {
@@ -180,6 +183,8 @@ def speeds(readout: mc.Readout, quick: bool) -> None:
             "estimate": lambda x=x: readout.estimate(x),
             "plain estimate": lambda x=x: plain_estimate(x, t.volts[0], t.cells_per_volt,
                                                          t.cell_start, t.cell_step)}
+        outs = (*(np.empty(n) for _ in range(6)), np.empty(n, np.uint16))
+        runs["pass alone"] = lambda x=x, outs=outs: read_pass(x, 0.0, noise, 0.0, *packed, *outs)
         for run in runs.values():
             run()  # compile, warm
         repeat = max(3 if quick else 5, min(200 if quick else 1000, int(3e6 / n)))
@@ -189,7 +194,7 @@ def speeds(readout: mc.Readout, quick: bool) -> None:
         print(f"  {n:>10.0e}  {best['read']:9.3g} {med['read']:9.3g}  {best['plain read']:10.3g} "
               f"{best['read'] / best['plain read']:5.2f}×   {best['estimate']:9.3g} "
               f"{med['estimate']:9.3g}  {best['plain estimate']:10.3g} "
-              f"{best['estimate'] / best['plain estimate']:5.2f}×")
+              f"{best['estimate'] / best['plain estimate']:5.2f}×   {best['pass alone']:10.3g}")
         if n == 1_000_000:
             summary = (best["read"], best["estimate"])
     print(f"  at 1e6: read {summary[0]:.3g}/s (target ≥ {TARGETS['read']:.0e}: "
