@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from functools import cache
-from typing import TYPE_CHECKING, NamedTuple, cast
+from typing import TYPE_CHECKING, Any, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +46,9 @@ _OUTSIDE, _FOLD, _SATURATED = 1, 2, 4
 #: the entries of :attr:`Packed.consts`, in order
 CONSTS = ("v0", "v_end", "cells_per_volt", "amb_lo", "amb_hi", "sat_lo", "sat_hi",
           "knot_steps", "q0", "q_end", "nodes_per_unit", "scale_mode", "relative", "has_cal")
+#: where :attr:`Packed.consts` holds whether the read-out has a calibration σ, and how it reads
+#: the force scale
+HAS_CAL, SCALE_MODE = CONSTS.index("has_cal"), CONSTS.index("scale_mode")
 #: columns of :attr:`Packed.cells`: the cell's line, then its table interval's slope line and
 #: the next interval's (output at the start, dquantity/dV there, its slope)
 CELL_COLUMNS = ("start", "step", "volts", "slope", "rate", "next_volts", "next_slope",
@@ -254,6 +257,41 @@ def estimate_pass(x: F64, correction: float, cells: F64, consts: F64, value: F64
         est = cells[i, 1] * (u - i) + cells[i, 0]
         value[r] = est if inside else xi
     return outside
+
+
+def read_parts(read: Callable[..., int], packed: Packed, x: F64, correction: float,
+               noise: float, tare_error: float, flags: NDArray[np.uint16],
+               beyond: Callable[..., None]) -> tuple[NDArray[Any], ...]:
+    """:meth:`magcilia.Readout.read`'s arrays (b,) of readings ``x`` (V, (b,)) by the compiled
+    ``read`` (:func:`read_pass`) into new arrays and ``flags``: value, sigma, sigma_noise,
+    sigma_calibration, sigma_edge, sigma_scale, flags. The parts the pass writes only where a
+    reading has no estimate come zeroed; the readings beyond the table are read by
+    ``beyond(readings + correction, noise, *arrays)`` (``Readout._read_block``, the NumPy
+    path, into arrays of their length)."""
+    n = x.size
+    has_cal, scale_mode = packed.consts[HAS_CAL], packed.consts[SCALE_MODE]
+    parts: tuple[NDArray[Any], ...] = (np.empty(n), np.empty(n), np.empty(n),
+             np.empty(n) if has_cal or tare_error else np.zeros(n), np.zeros(n),
+             np.empty(n) if scale_mode else np.zeros(n), flags)
+    if read(x, correction, noise, tare_error, *packed, *parts):
+        out = np.flatnonzero(flags & np.uint16(_OUTSIDE))
+        got = tuple(np.empty(out.size, p.dtype) for p in parts)
+        beyond(x[out] + correction, noise, *got)
+        for whole, got_part in zip(parts, got, strict=True):
+            whole[out] = got_part
+    return parts
+
+
+def remembered(memo: dict[Any, float], key: Any, compute: Callable[..., float]) -> float:
+    """``compute(*key)``, remembered in ``memo`` (at most 16 keys; a key that cannot be one, a
+    list, is computed every time)."""
+    try:
+        return memo[key]
+    except (KeyError, TypeError):
+        value = compute(*key)
+        if isinstance(key, tuple) and len(memo) < 16:
+            memo[key] = value
+        return value
 
 
 @cache

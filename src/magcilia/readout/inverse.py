@@ -380,11 +380,9 @@ class Readout(Display):
             flat = x.reshape(-1)
             value = np.empty(flat.size)
             correction = 0.0 if self.baseline is None else self.baseline.correction
-            packed = self._packed
-            if not passes[1](flat, correction, packed.cells, packed.consts, value):
+            if not passes[1](flat, correction, self._packed.cells, self._packed.consts, value):
                 return value.reshape(x.shape)
-            if correction:
-                x = x + correction
+            x = x + correction
         else:
             if self.baseline is not None:
                 x = x + self.baseline.correction
@@ -437,30 +435,19 @@ class Readout(Display):
             noise_v = v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
         elif self.baseline is not None:
             noise_v = self.baseline.noise
-        else:
-            noise_v = self._model_noise(bandwidth)
-        x = np.asarray(volts, dtype=np.float64)
-        shape = x.shape
-        x = x.reshape(-1)
-        n = x.size
-        base = self.baseline
+        else:  # (remembered per band: a live read-out asks for the same one at every call)
+            noise_v = compiled_read.remembered(self.__dict__.setdefault("_noise_memo", {}),
+                                               bandwidth, self.setup.sensor.output_noise_rms)
+        shape = np.shape(volts)
+        x = np.asarray(volts, dtype=np.float64).reshape(-1)
+        n, base = x.size, self.baseline
         correction = 0.0 if base is None else base.correction
         flags = np.empty(n, dtype=FLAG_DTYPE)
         passes = compiled_read.kernels()
         if passes is not None:  # one compiled pass; the few readings beyond the table below
-            packed = self._packed
-            tare_error = 0.0 if base is None else float(base.standard_error)
-            value, sigma, s_noise = np.empty(n), np.empty(n), np.empty(n)
-            # (the parts the pass writes only where there is no estimate: zeroed, see compiled)
-            s_cal = np.empty(n) if packed.consts[13] or tare_error else np.zeros(n)
-            s_scale = np.empty(n) if packed.consts[11] else np.zeros(n)
-            parts: tuple[Any, ...] = (value, sigma, s_noise, s_cal, np.zeros(n), s_scale, flags)
-            if passes[0](x, correction, float(noise_v), tare_error, *packed, *parts):
-                out = np.flatnonzero(flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN))
-                got: tuple[Any, ...] = tuple(np.empty(out.size, p.dtype) for p in parts)
-                self._read_block(x[out] + correction, noise_v, *got)
-                for whole, got_part in zip(parts, got, strict=True):
-                    whole[out] = got_part
+            parts: tuple[Any, ...] = compiled_read.read_parts(
+                passes[0], self._packed, x, correction, float(noise_v),
+                0.0 if base is None else float(base.standard_error), flags, self._read_block)
         else:
             if base is not None:
                 x = x + correction
@@ -472,24 +459,8 @@ class Readout(Display):
             flags |= FLAG_DTYPE(tare_flags(base))  # a tare taken under load
         if len(shape) != 1:
             parts = tuple(p.reshape(shape) for p in parts)
-        value, sigma, s_noise, s_cal, s_edge, s_scale, flags = parts
-        return ReadoutResult.of(
-            quantity=self.quantity, unit=self.unit, value=value, sigma=sigma,
-            sigma_noise=s_noise, sigma_calibration=s_cal, sigma_edge=s_edge,
-            sigma_scale=s_scale, flags=flags, table_error=self.table.error,
-            scale_note=self._scale_note)
-
-    def _model_noise(self, bandwidth: tuple[float, float]) -> float:
-        """The sensor model's output noise RMS (V) over ``bandwidth``, remembered per band (a
-        live read-out asks for the same band at every call)."""
-        memo: dict[Any, float] = self.__dict__.setdefault("_noise_memo", {})
-        try:
-            return memo[bandwidth]
-        except (KeyError, TypeError):  # (TypeError: a band that cannot be a key, a list)
-            noise_v = self.setup.sensor.output_noise_rms(*bandwidth)
-            if isinstance(bandwidth, tuple) and len(memo) < 16:
-                memo[bandwidth] = noise_v
-            return noise_v
+        return ReadoutResult.of(self.quantity, self.unit, parts, self.table.error,
+                                self._scale_note)
 
     @cached_property
     def _packed(self) -> compiled_read.Packed:
@@ -502,6 +473,7 @@ class Readout(Display):
 
     @cached_property
     def _scale_note(self) -> str:
+        """:attr:`scale_note`, formatted once (every :meth:`read` hands it on)."""
         return self.scale_note
 
     @property
