@@ -1,22 +1,26 @@
-"""``magcilia readout`` of 1e6 samples end to end (read, estimate, write) against pandas (issue 13).
+"""The single-output read-out at memory speed (issue 27, item 4): ``Readout.read`` and
+``Readout.estimate`` per second, and ``magcilia readout`` of 1e6 samples from a shell.
 
-Writes a recording of 1e6 samples (``time_s,voltage_V``: 1 kHz, the bundled force sensor
-``examples/force-sensor.toml`` under a force that rests at 0 for 0.1 s, then ramps and steps over
-0..0.2 mN, plus the sensor's noise; 10 significant digits of a volt, as a DAQ exports) to a
-temporary folder, then times, interleaved in this process (min and median of the runs):
+1. **read / estimate** (the bundled force sensor ``examples/force-sensor.toml``, 0..0.2 mN, its
+   257-point table, readings uniform over the span's outputs) at 1e3, 1e5, 1e6 and 1e7 readings,
+   interleaved in this process, one thread (min and median): ``read`` (value, σ with its noise,
+   calibration, edge and force-scale parts, flags: the result's seven arrays, allocated by the
+   call) and ``estimate`` (value), against **a plain numba fused loop** over the same uniform
+   output cells (value, σ = |slope| · noise and the span/saturation flags into three fresh
+   arrays; value alone for ``estimate``): what one would write by hand. Targets: read ≥ 2e8/s,
+   estimate ≥ 4e8/s (at 1e6).
+2. **magcilia readout** of a 1e6-sample recording (``time_s,voltage_V``: 1 kHz, rest, a ramp and
+   steps over 0..0.2 mN, the sensor's noise; 10 significant digits of a volt, as a DAQ exports)
+   from a shell: a fresh interpreter per run, median of the runs, interleaved with **the pyarrow
+   route** in a fresh interpreter (``pyarrow.csv.read_csv`` → ``np.interp`` over the same table
+   for the value and its slope's σ, the flags by comparison → ``pyarrow.csv.write_csv`` of
+   ``time_s, voltage_V, force_mN, sigma_force_mN, flags``, the estimates rounded to 10 and 4
+   digits first). Also: our part, in process and stage by stage (setup + table, reading the CSV,
+   ``read``, writing the CSV), and the start-up (``readout --help`` from a shell). Target:
+   ≤ 1 s from a shell.
 
-* **ours**: ``magcilia.cli.main(["readout", "--setup", SETUP, REC, "--quantity", "force", "--span",
-  "0:0.2", "--csv", OUT, "--quiet"])``: loading the setup and building the read-out table (the
-  model solved at 513 forces plus the edges), reading the CSV, value + 1-σ + flags for every
-  reading, and writing the six-column CSV (``time_s, voltage_V, force_mN, sigma_force_mN, flags,
-  flag_names``) atomically;
-* **anchor** (the ordinary pandas route over the same, already built table):
-  ``pd.read_csv(engine="c")``, ``np.interp`` over ``Readout.table`` (value only), and
-  ``DataFrame.to_csv(float_format="%.10g")`` of ``time_s, voltage_V, force_mN``.
-
-Also printed: where our time goes (one run, by stage), and the command's cost from a shell: a
-fresh interpreter running ``readout --help`` (imports and start-up) and the whole command.
-Target: ours <= 3 s.
+The machine (CPU, cores) and its load (``os.getloadavg``) are printed: the machine may be shared,
+so compare the ratios, measured in one run.
 
 Run: python benchmarks/bench_readout.py [--quick] [--samples N]
 """
@@ -31,27 +35,78 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 import argparse
 import contextlib
 import io
+import platform
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
+import numba
 import numpy as np
-import pandas as pd
 from _timing import interleaved
 
 import magcilia as mc
 from magcilia.cli import main as cli_main
 from magcilia.io.recordings import read_samples
+from magcilia.readout import compiled as compiled_read
 from magcilia.report import csvtext
 from magcilia.report.readout import write_readout_csv
 
-SETUP = Path(__file__).resolve().parents[1] / "examples" / "force-sensor.toml"
+ROOT = Path(__file__).resolve().parents[1]
+SETUP = ROOT / "examples" / "force-sensor.toml"
 SPAN = (0.0, 2e-4)  # N
 RATE = 1000.0  # Hz (one raw sample at 1 kHz: the default noise band)
-TARGET = 3.0  # s
+SIZES = (1_000, 100_000, 1_000_000, 10_000_000)
+TARGETS = {"read": 2e8, "estimate": 4e8, "shell": 1.0}
+COMMAND = ["readout", "--setup", str(SETUP), "{rec}", "--quantity", "force", "--span", "0:0.2",
+           "--csv", "{out}", "--quiet"]
+
+#: the pyarrow route, run in a fresh interpreter: argv = recording, table .npz, output CSV
+ARROW_ROUTE = """
+import sys
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pc
+rec, tab, out = sys.argv[1:4]
+t = np.load(tab)
+data = pc.read_csv(rec, read_options=pc.ReadOptions(use_threads=False))
+v = data.column("voltage_V").to_numpy()
+lo, hi = t["volts"][0], t["volts"][-1]
+inside = (v >= lo) & (v <= hi)
+sat = ~(np.abs((v - t["offset"]) / t["scale"]) <= t["field_range"])
+flags = (~inside).astype(np.uint16) | sat.astype(np.uint16) * 4
+value = np.interp(v, t["volts"], t["values"])
+sigma = np.abs(np.interp(v, t["volts"], t["slope"])) * t["noise"]
+bad = flags != 0
+def digits(x, p):
+    a = np.abs(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.where(a > 0, a, 1.0)))
+    s = 10.0 ** (p - 1 - e)
+    return np.rint(x * s) / s
+table = pa.table({"time_s": data.column("time_s"), "voltage_V": data.column("voltage_V"),
+                  "force_mN": pa.array(digits(value * 1e3, 10), mask=bad),
+                  "sigma_force_mN": pa.array(digits(sigma * 1e3, 4), mask=bad),
+                  "flags": flags})
+pc.write_csv(table, out, write_options=pc.WriteOptions(quoting_style="none"))
+"""
+
+
+def machine() -> str:
+    """CPU model, cores and the load averages."""
+    cpu = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    return (f"{cpu}, {os.cpu_count()} cores; load {load} (1, 5, 15 min); Python "
+            f"{platform.python_version()}, NumPy {np.__version__}, numba {numba.__version__}")
 
 
 def recording(path: Path, samples: int, readout: mc.Readout) -> None:
@@ -67,94 +122,212 @@ def recording(path: Path, samples: int, readout: mc.Readout) -> None:
         [csvtext.shortest(t), csvtext.significant(clean + noise, 10)]))
 
 
-def ours(setup: Path, rec: Path, out: Path) -> None:
-    with contextlib.redirect_stdout(io.StringIO()):
-        code = cli_main(["readout", "--setup", str(setup), str(rec), "--quantity", "force",
-                         "--span", "0:0.2", "--csv", str(out), "--quiet"])
-    assert code == 0
+# -- 1. read and estimate against a plain fused loop --------------------------------------------
+@numba.njit(cache=True, error_model="numpy")
+def plain_read(x: np.ndarray, v0: float, v_end: float, per_volt: float, start: np.ndarray,
+               step: np.ndarray, slope: np.ndarray, noise: float, sat_lo: float,
+               sat_hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The hand-written reference: value, σ = |slope| · noise and flags, one loop."""
+    n = x.size
+    value = np.empty(n)
+    sigma = np.empty(n)
+    flags = np.empty(n, np.uint16)
+    last = start.size - 1
+    for r in range(n):
+        xi = x[r]
+        inside = xi >= v0 and xi <= v_end
+        f = (0 if inside else 1) | (0 if sat_lo <= xi <= sat_hi else 4)
+        u = ((xi if inside else v0) - v0) * per_volt
+        i = min(int(u), last)
+        flags[r] = f
+        value[r] = step[i] * (u - i) + start[i] if f == 0 else np.nan
+        sigma[r] = abs(slope[i]) * noise if f == 0 else np.nan
+    return value, sigma, flags
 
 
-def anchor(readout: mc.Readout, rec: Path, out: Path) -> None:
-    frame = pd.read_csv(rec, engine="c")
-    table = readout.table
-    frame["force_mN"] = np.interp(frame["voltage_V"].to_numpy(), table.volts, table.values) * 1e3
-    frame.to_csv(out, index=False, float_format="%.10g")
+@numba.njit(cache=True, error_model="numpy")
+def plain_estimate(x: np.ndarray, v0: float, per_volt: float, start: np.ndarray,
+                   step: np.ndarray) -> np.ndarray:
+    """The hand-written reference of the value alone."""
+    value = np.empty(x.size)
+    last = start.size - 1
+    for r in range(x.size):
+        u = (x[r] - v0) * per_volt
+        i = max(min(int(u), last), 0)
+        value[r] = step[i] * (u - i) + start[i]
+    return value
 
 
-def stages(setup: Path, rec: Path, out: Path) -> dict[str, float]:
-    """One run of what the command does, stage by stage (s)."""
+def speeds(readout: mc.Readout, quick: bool) -> None:
+    t = readout.table
+    sensor = readout.setup.sensor
+    noise = sensor.output_noise_rms(0.5, 500.0)
+    slope_cells = np.interp(t.volts[0] + np.arange(t.cell_start.size) / t.cells_per_volt,
+                            t.volts, t.slope)
+    sat = (sensor.offset - sensor.field_range * abs(sensor.scale),
+           sensor.offset + sensor.field_range * abs(sensor.scale))
+    rng = np.random.default_rng(1)
+    packed, read_pass = readout._packed, compiled_read.kernels()[0]  # type: ignore[index]
+    print("read / estimate, readings per second (min, median; one thread, interleaved; the "
+          "result's arrays allocated by each call; pass alone: read's compiled pass into arrays "
+          "allocated once, what the allocation leaves)")
+    print(f"  {'readings':>10}  {'read':>9} {'median':>9}  {'plain loop':>10} {'ratio':>6}   "
+          f"{'estimate':>9} {'median':>9}  {'plain loop':>10} {'ratio':>6}   {'pass alone':>10}")
+    for n in SIZES:
+        x = rng.uniform(t.volts[0], t.volts[-1], n)
+        runs: dict[str, Callable[[], object]] = {
+            "read": lambda x=x: readout.read(x),
+            "plain read": lambda x=x: plain_read(x, t.volts[0], t.volts[-1], t.cells_per_volt,
+                                                 t.cell_start, t.cell_step, slope_cells, noise,
+                                                 *sat),
+            "estimate": lambda x=x: readout.estimate(x),
+            "plain estimate": lambda x=x: plain_estimate(x, t.volts[0], t.cells_per_volt,
+                                                         t.cell_start, t.cell_step)}
+        outs = (*(np.empty(n) for _ in range(6)), np.empty(n, np.uint16))
+        runs["pass alone"] = lambda x=x, outs=outs: read_pass(x, 0.0, noise, 0.0, *packed, *outs)
+        for run in runs.values():
+            run()  # compile, warm
+        repeat = max(3 if quick else 5, min(200 if quick else 1000, int(3e6 / n)))
+        times = interleaved(runs, repeat)
+        best = {k: n / min(v) for k, v in times.items()}
+        med = {k: n / statistics.median(v) for k, v in times.items()}
+        print(f"  {n:>10.0e}  {best['read']:9.3g} {med['read']:9.3g}  {best['plain read']:10.3g} "
+              f"{best['read'] / best['plain read']:5.2f}×   {best['estimate']:9.3g} "
+              f"{med['estimate']:9.3g}  {best['plain estimate']:10.3g} "
+              f"{best['estimate'] / best['plain estimate']:5.2f}×   {best['pass alone']:10.3g}")
+        if n == 1_000_000:
+            summary = (best["read"], best["estimate"])
+    print(f"  at 1e6: read {summary[0]:.3g}/s (target ≥ {TARGETS['read']:.0e}: "
+          f"{'met' if summary[0] >= TARGETS['read'] else 'NOT met'}), estimate "
+          f"{summary[1]:.3g}/s (target ≥ {TARGETS['estimate']:.0e}: "
+          f"{'met' if summary[1] >= TARGETS['estimate'] else 'NOT met'})")
+    for n in (1, 10, 100):  # a live read-out's call
+        x = rng.uniform(t.volts[0], t.volts[-1], n)
+        readout.read(x)
+        per = min(_per_call(lambda x=x: readout.read(x)) for _ in range(5))
+        est = min(_per_call(lambda x=x: readout.estimate(x)) for _ in range(5))
+        print(f"  a call of {n:>3} readings: read {per * 1e6:.2f} µs, estimate {est * 1e6:.2f} µs")
+
+
+def _per_call(fn: Callable[[], object], calls: int = 2000) -> float:
+    t0 = time.perf_counter()
+    for _ in range(calls):
+        fn()
+    return (time.perf_counter() - t0) / calls
+
+
+# -- 2. magcilia readout from a shell against the pyarrow route ---------------------------------
+def stages(rec: Path, out: Path) -> dict[str, float]:
+    """One run of what the command does, stage by stage, in this process (s)."""
     t: dict[str, float] = {}
     t0 = time.perf_counter()
-    s = mc.load_setup(setup)
-    r = mc.Readout(s, quantity="force", span=SPAN)
+    r = mc.Readout(mc.load_setup(SETUP), quantity="force", span=SPAN)
     t["setup + table"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     cols = read_samples(rec, required=("voltage_V",))
     t["read CSV"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     result = r.read(cols["voltage_V"])
-    t["estimate (value, 1-σ, flags)"] = time.perf_counter() - t0
+    t["read (value, σ, flags)"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     write_readout_csv(out, result, cols["voltage_V"], cols["time_s"])
     t["write CSV"] = time.perf_counter() - t0
     return t
 
 
-def shell(args: list[str]) -> float:
-    t0 = time.perf_counter()
-    code = "import sys; from magcilia.cli import main; sys.exit(main(sys.argv[1:]))"
-    subprocess.run([sys.executable, "-c", code, *args], check=True, capture_output=True)
-    return time.perf_counter() - t0
+def ours_in_process(rec: Path, out: Path) -> None:
+    args = [a.format(rec=rec, out=out) for a in COMMAND]
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert cli_main(args) == 0
 
 
-def check(readout: mc.Readout, ours_out: Path, anchor_out: Path) -> None:
-    """Our estimates agree with np.interp over the same table where both estimate (to the
-    table's stated error: ours interpolates its uniform-output resampling)."""
-    a = pd.read_csv(anchor_out)
-    o = pd.read_csv(ours_out, keep_default_na=False, na_values=[""])
-    inside = o["flags"].to_numpy() == 0
-    assert inside.mean() > 0.95
-    np.testing.assert_allclose(o["force_mN"].to_numpy()[inside],
-                               a["force_mN"].to_numpy()[inside], rtol=0,
-                               atol=2e3 * readout.table_error)
-    assert o["force_mN"].notna().all()  # the noisy rest below 0 is extrapolated, not blank
+#: CPU seconds (user + system) of each fresh interpreter, by name: what a busy machine's
+#: wall times hide
+CPU: dict[str, list[float]] = {}
+
+
+def shell(args: list[str], name: str = "") -> Callable[[], None]:
+    def run() -> None:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([sys.executable, *args], check=True, capture_output=True, cwd=ROOT)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        CPU.setdefault(name, []).append(after.ru_utime - before.ru_utime
+                                        + after.ru_stime - before.ru_stime)
+    return run
+
+
+def check(ours: Path, arrow: Path, readout: mc.Readout) -> None:
+    """Both routes' estimates agree where both estimate (to the table's stated error: ours
+    interpolates its uniform-output resampling, the route the table's nodes)."""
+    import pyarrow.csv as pc
+
+    o = pc.read_csv(ours)
+    a = pc.read_csv(arrow)
+    flags = o.column("flags").to_numpy()
+    both = (flags == 0) & (a.column("flags").to_numpy() == 0)
+    assert both.mean() > 0.9
+    np.testing.assert_allclose(o.column("force_mN").to_numpy()[both],
+                               a.column("force_mN").to_numpy()[both], rtol=0,
+                               atol=2e3 * readout.table_error + 1e-9)
+
+
+def commands(readout: mc.Readout, samples: int, runs: int) -> None:
+    try:
+        import pyarrow as pa  # noqa: F401
+    except ImportError:
+        print("magcilia readout from a shell: pyarrow is not installed (the anchor); skipped")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        rec, out, arrow = Path(tmp) / "rec.csv", Path(tmp) / "ours.csv", Path(tmp) / "arrow.csv"
+        tab = Path(tmp) / "table.npz"
+        recording(rec, samples, readout)
+        s = readout.setup.sensor
+        np.savez(tab, volts=readout.table.volts, values=readout.table.values,
+                 slope=readout.table.slope, offset=s.offset, scale=s.scale,
+                 field_range=s.field_range, noise=s.output_noise_rms(0.5, 500.0))
+        ours_args = ["-m", "magcilia", *(a.format(rec=rec, out=out) for a in COMMAND)]
+        arrow_args = ["-c", ARROW_ROUTE, str(rec), str(tab), str(arrow)]
+        shell(ours_args)()  # warm the disk caches and numba's cache
+        shell(arrow_args)()
+        check(out, arrow, readout)
+        ours_in_process(rec, out)
+        CPU.clear()
+        times = interleaved({"ours": shell(ours_args, "ours"), "arrow": shell(arrow_args, "arrow"),
+                             "help": shell(["-m", "magcilia", "readout", "--help"], "help"),
+                             "in process": lambda: ours_in_process(rec, out)}, runs)
+        parts = stages(rec, out)
+        sizes = rec.stat().st_size / 1e6, out.stat().st_size / 1e6, arrow.stat().st_size / 1e6
+    med = {k: statistics.median(v) for k, v in times.items()}
+    low = {k: min(v) for k, v in times.items()}
+    print(f"magcilia readout of {samples:.0e} samples (recording {sizes[0]:.1f} MB; our CSV "
+          f"{sizes[1]:.1f} MB, six columns; the route's {sizes[2]:.1f} MB, five), fresh "
+          f"interpreters, interleaved, median (min) of {runs}:")
+    print(f"  from a shell: magcilia readout {med['ours']:.3f} s ({low['ours']:.3f})   target "
+          f"≤ {TARGETS['shell']:g} s: {'met' if med['ours'] <= TARGETS['shell'] else 'NOT met'}")
+    print(f"  the pyarrow route (read_csv, np.interp, write_csv) {med['arrow']:.3f} s "
+          f"({low['arrow']:.3f})   ratio route/ours {med['arrow'] / med['ours']:.2f}")
+    print(f"  start-up: `magcilia readout --help` {med['help']:.3f} s ({low['help']:.3f}); "
+          f"our part (the command in a warm process) {med['in process']:.3f} s "
+          f"({low['in process']:.3f})")
+    cpu = {k: statistics.median(v) for k, v in CPU.items()}
+    print(f"  CPU seconds (user + system, median): magcilia readout {cpu['ours']:.3f}, the "
+          f"pyarrow route {cpu['arrow']:.3f}, `readout --help` {cpu['help']:.3f}")
+    print("  our part by stage (one run): " + ", ".join(f"{k} {v:.3f} s"
+                                                        for k, v in parts.items()))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="3 runs instead of 5")
-    parser.add_argument("--samples", type=int, default=1_000_000)
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer repetitions, 3 shell runs instead of 7")
+    parser.add_argument("--samples", type=int, default=1_000_000,
+                        help="readings in the recording of `magcilia readout`")
     args = parser.parse_args()
-    runs = 3 if args.quick else 5
+    print(machine())
     readout = mc.Readout(mc.load_setup(SETUP), quantity="force", span=SPAN)
-    with tempfile.TemporaryDirectory() as tmp:
-        rec = Path(tmp) / "rec.csv"
-        recording(rec, args.samples, readout)
-        out_ours, out_anchor = Path(tmp) / "ours.csv", Path(tmp) / "anchor.csv"
-        ours(SETUP, rec, out_ours)  # warm: first-use compilation and caches
-        anchor(readout, rec, out_anchor)
-        check(readout, out_ours, out_anchor)
-        times = interleaved({"ours": lambda: ours(SETUP, rec, out_ours),
-                             "anchor": lambda: anchor(readout, rec, out_anchor)}, runs)
-        parts = stages(SETUP, rec, out_ours)
-        help_s = shell(["readout", "--help"])
-        whole_s = shell(["readout", "--setup", str(SETUP), str(rec), "--quantity", "force",
-                         "--span", "0:0.2", "--csv", str(out_ours), "--quiet"])
-        size = (rec.stat().st_size / 1e6, out_ours.stat().st_size / 1e6,
-                out_anchor.stat().st_size / 1e6)
-    o, a = times["ours"], times["anchor"]
-    print(f"readout of {args.samples:.0e} samples end to end (min, median of {runs} interleaved "
-          f"runs; recording {size[0]:.1f} MB, our CSV {size[1]:.1f} MB, the anchor's "
-          f"{size[2]:.1f} MB)")
-    print(f"  magcilia readout (in-process main)  {min(o):7.3f} {statistics.median(o):7.3f} s "
-          f"  target <= {TARGET:g} s: {'met' if statistics.median(o) <= TARGET else 'NOT met'}")
-    print(f"  anchor: pandas read_csv + np.interp + to_csv  {min(a):7.3f} "
-          f"{statistics.median(a):7.3f} s")
-    print(f"  ratio anchor/ours  {min(a) / min(o):7.2f} "
-          f"{statistics.median(a) / statistics.median(o):7.2f}")
-    print("  ours by stage (one run): " + ", ".join(f"{k} {v:.3f} s" for k, v in parts.items()))
-    print(f"  from a shell (fresh interpreter): `readout --help` {help_s:.2f} s (start-up), the "
-          f"whole command {whole_s:.2f} s")
+    speeds(readout, args.quick)
+    commands(readout, args.samples, 3 if args.quick else 7)
+    print(f"load after: {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 
 if __name__ == "__main__":

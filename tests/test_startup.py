@@ -78,8 +78,8 @@ def test_every_face_imports_nothing_of_its_room() -> None:
 
 
 def test_reading_a_small_csv_recording_loads_no_pandas() -> None:
-    """A plain CSV of a few MB is parsed by NumPy (``io.csvfile.SMALL_CSV_BYTES``): pandas and
-    pyarrow load only for large files."""
+    """A plain CSV of up to 64 MB is parsed by NumPy (``io.csvparsers.NUMPY_BYTES``): pandas
+    loads only for larger files and for those NumPy cannot parse (the decimal comma, ...)."""
     modules = _modules_after("import magcilia as mc\n"
                              "mc.read_measurements(mc.io.example_path())")
     assert "magcilia.io.csvfile" in modules

@@ -4,18 +4,21 @@ The format is :mod:`magcilia.io.recordings`' (a header with ``angle_deg`` and ``
 row per sample). Two readers give the same columns:
 
 - **The fast reader** (:func:`plain_csv_blocks`) parses the data in blocks of
-  :data:`CSV_BLOCK_BYTES` (cut at line ends) with pandas' C reader and yields each block's
-  columns, so that a caller can reduce as it reads: memory is one block and its columns, whatever
-  the file's size. It reads only *plain* files, on which pandas and the careful reader cannot
-  differ: the lines up to the header are UTF-8 without a lone carriage return and the header has
-  no quote; after it every byte is one of :data:`PLAIN_CSV_BYTES` (digits, signs, separators,
-  white space and the letters of nan, inf(inity), set and reset: no quotes, comments, NUL or
-  non-ASCII text), line ends are LF or CRLF, no line is longer than the careful reader allows,
-  every field of every column (ours and the others) is a number as ``float`` reads it (pandas'
-  parser gives the same doubles, and NaN only for ``float``'s spellings of it, never for an
-  empty field or a missing one) and every ``setreset`` field is one of :data:`SETRESET_TEXT`.
-  Anything else raises :class:`NotPlainCSV`, possibly after some blocks: the caller forgets them
-  and asks the careful reader.
+  :data:`CSV_BLOCK_ROWS` with NumPy's C reader or pandas' (:mod:`magcilia.io.csvparsers`:
+  NumPy for a file of up to 64 MB with a decimal point, a one-character delimiter and no
+  ``setreset`` column, where importing pandas costs more than NumPy's parse) and yields each
+  block's columns, so that a caller can reduce as it reads: memory is one block and its columns
+  whatever the file's size (NumPy's parse holds the rest of its file, at most 64 MB, at once).
+  It reads only *plain* files, on which
+either parser and the careful reader cannot differ: the lines up to the header are UTF-8
+  without a lone carriage return and the header has no quote; after it every byte is one of
+  :data:`PLAIN_CSV_BYTES` (digits, signs, separators, white space and the letters of nan,
+  inf(inity), set and reset: no quotes, comments, NUL or non-ASCII text), line ends are LF or
+  CRLF, no line is longer than the careful reader allows, every field of every column (ours and
+  the others) is a number as ``float`` reads it (pandas' parser gives the same doubles, and NaN
+  only for ``float``'s spellings of it, never for an empty field or a missing one) and every
+  ``setreset`` field is one of :data:`SETRESET_TEXT`. Anything else raises :class:`NotPlainCSV`,
+  possibly after some blocks: the caller forgets them and asks the careful reader.
 - **The careful reader** (:func:`read_csv_carefully`) reads any file line by line with the
   ``csv`` module: comments anywhere, quotes, other text columns; it names the line of anything
   wrong in a one-line error. It is about 20 times slower and holds the whole columns. Its numbers
@@ -56,6 +59,7 @@ from numpy.typing import NDArray
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail, printable
+from magcilia.io.csvparsers import numpy_frames, numpy_parses, pandas_frames
 
 F64 = NDArray[np.float64]
 
@@ -74,12 +78,8 @@ NUMBER = re.compile(r"[ \t]*[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9
 #: A spreadsheet's error value at the start of a line (``#N/A``, ``#VALUE!``, ``#DIV/0!``, ...):
 #: a data row with a field that is not a number, not a comment.
 SPREADSHEET_ERROR = re.compile(r'"?#(?:N/A|[A-Z][A-Z0-9/_]*[!?])(?:"|[ \t,;]|$)')
-#: Rows the fast reader parses at a time.
+#: Rows the fast reader yields at a time (pandas' blocks; NumPy's parse is cut to it).
 CSV_BLOCK_ROWS = 1 << 20
-#: Plain files up to this size (bytes) with a ``,``, ``;`` or tab delimiter, a decimal point and
-#: no ``setreset`` column are parsed by NumPy's C reader (``np.loadtxt``) in one block: importing
-#: pandas costs more than reading such a file (0.2 s against 10 ms for the 1.9 MB example).
-SMALL_CSV_BYTES = 16 << 20
 #: Delimiters by the names the readers take (" " stands for runs of white space).
 DELIMITERS = {",": ",", ";": ";", "\t": "\t", "tab": "\t", "whitespace": " ", " ": " "}
 #: Decimal marks the readers take.
@@ -222,32 +222,15 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                else locate(header))
         if delim == decimal:  # (numbers quoted: the careful reader's)
             raise NotPlainCSV
-        if size <= SMALL_CSV_BYTES and decimal == "." and delim != " " and "setreset" not in idx:
-            whole = _small_plain_block(f, limit, delim, len(header), idx)
-            rows = len(next(iter(whole.values()), ()))
-            if rows > max_samples:
-                raise too_many_samples(path, "the file", max_samples)
-            for start in range(0, max(rows, 1), CSV_BLOCK_ROWS):  # (blocks, as pandas' below)
-                end = min(start + CSV_BLOCK_ROWS, rows)
-                if progress is not None:
-                    progress(size if end == rows else size * end // rows, size)
-                yield {col: values[start:end] for col, values in whole.items()}
-            return
-        import pandas as pd  # (here: a second of start-up for a command that reads no CSV)
-
+        setreset = idx.get("setreset")
+        parse = numpy_frames if numpy_parses(delim, decimal, size, setreset) else pandas_frames
         rows = 0
         try:
-            for frame in pd.read_csv(
-                    _PlainBytes(f, limit), engine="c", header=None,
-                    names=list(range(len(header))), sep=r"\s+" if delim == " " else delim,
-                    decimal=decimal,
-                    dtype={i: "category" if i == idx.get("setreset") else np.float64
-                           for i in range(len(header))},
-                    keep_default_na=False, na_values=list(NAN_TEXT), chunksize=CSV_BLOCK_ROWS):
-                if not isinstance(frame.index, pd.RangeIndex):  # pandas took the first columns
-                    raise NotPlainCSV  # as the index: the first row is longer than the header
-                block = {col: _plain_values(frame[i], col == "setreset") for col, i in idx.items()}
-                rows += len(frame)
+            for frame in parse(_PlainBytes(f, limit), len(header), delim, decimal, setreset,
+                               CSV_BLOCK_ROWS, NAN_TEXT):
+                block = {col: _plain_values(frame[i], col == "setreset")
+                         for col, i in idx.items()}
+                rows += len(frame[0])
                 if rows > max_samples:  # (after the checks of the block's rows, as the careful
                     raise too_many_samples(path, "the file", max_samples)  # reader does)
                 if progress is not None:
@@ -255,7 +238,7 @@ def plain_csv_blocks(path: Path, columns: tuple[str, ...], required: tuple[str, 
                 yield block
         except MagciliaError:
             raise
-        except ValueError:  # pandas: not a number, a row too long or too short, ...
+        except ValueError:  # a parser's: not a number, a row too long or too short, ...
             raise NotPlainCSV from None
         if not rows:  # a header without data rows
             yield {col: np.zeros(0) for col in idx}
@@ -355,31 +338,11 @@ def _plain_header(f: IO[bytes], limit: int, delimiter: str | None) -> tuple[list
     raise NotPlainCSV  # (an empty file too)
 
 
-_BLANK_LINE = re.compile(rb"(?m)^[ \t]+\r?$")
-
-
-def _small_plain_block(f: IO[bytes], limit: int, delim: str, width: int,
-                       idx: Mapping[str, int]) -> dict[str, F64]:
-    """The columns of the rest of a small plain file in one block, parsed by ``np.loadtxt``
-    (its numbers as ``float`` reads them; lines of blanks skipped as pandas skips them; an empty
-    field, a row of another length or text raises :class:`NotPlainCSV`)."""
-    data = _PlainBytes(f, limit).read()
-    if b"\n " in data or b"\n\t" in data or data.startswith((b" ", b"\t")):
-        data = _BLANK_LINE.sub(b"", data)
-    if not data.translate(None, b"\r\n"):  # a header without data rows
-        return {col: np.zeros(0) for col in idx}
-    try:
-        table = np.loadtxt(io.StringIO(data.decode("ascii")), dtype=np.float64, comments=None,
-                           delimiter=delim, ndmin=2)
-    except ValueError:  # not a number, a row too long or too short, ...
-        raise NotPlainCSV from None
-    if table.shape[1] != width:
-        raise NotPlainCSV
-    return {col: np.ascontiguousarray(table[:, i]) for col, i in idx.items()}
-
-
 def _plain_values(column: Any, setreset: bool) -> F64:
-    """A column of a parsed block as doubles (pandas Series, float or categorical)."""
+    """A column of a parsed block as doubles (NumPy's array, or a pandas Series: float or
+    categorical)."""
+    if isinstance(column, np.ndarray):
+        return column
     if not setreset:
         return np.asarray(column.to_numpy(dtype=np.float64))
     codes = column.cat.codes.to_numpy()

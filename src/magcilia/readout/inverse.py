@@ -375,8 +375,20 @@ class Readout(Display):
             than raise.
         """
         x = np.asarray(volts, dtype=np.float64)
-        if self.baseline is not None:
-            x = x + self.baseline.correction
+        passes = compiled_read.kernels()
+        if passes is not None:  # one compiled pass, the tare's correction in it
+            flat = x.reshape(-1)
+            value = np.empty(flat.size)
+            correction = 0.0 if self.baseline is None else self.baseline.correction
+            if not passes[1](flat, correction, self._packed.cells, self._packed.consts, value):
+                return value.reshape(x.shape)
+            x = x + correction
+        else:
+            if self.baseline is not None:
+                x = x + self.baseline.correction
+            flat = x.reshape(-1)
+            ends = self.table.volts[[0, -1]]  # (readings beyond them, NaN too: replaced below)
+            value = self.table.lookup(np.fmin(np.fmax(flat, ends[0]), ends[1]))
         table = self.table
         if x.size and not (x.min() >= table.volts[0] and x.max() <= table.volts[-1]):  # and NaN
             flat = x.reshape(-1)
@@ -388,10 +400,8 @@ class Readout(Display):
                 where = f"volts[{', '.join(map(str, first))}]" if x.ndim else "volts"
                 raise v.fail(where, f"{float(x[first]):.6g} V", outside_text(
                     self.quantity, self.span, self.unit, self.table, self.edge_tables, self.edge))
-            value = table.lookup(flat)
             value[out] = beyond
-            return value.reshape(x.shape)
-        return table.lookup(x.reshape(-1)).reshape(x.shape)
+        return value.reshape(x.shape)
 
     def _beyond(self, x: F64) -> tuple[F64, F64, F64, NDArray[np.uint16]]:
         """:func:`~magcilia.readout.edges.read_beyond` of readings ``x`` (V, (b,))."""
@@ -419,54 +429,52 @@ class Readout(Display):
             replaces the sensor model's noise over ``bandwidth``. Default: the spread measured by
             :meth:`tare` if tared, else the sensor model's.
         """
-        sensor = self.setup.sensor
         if noise is not None:
             if np.size(noise) != 1:
                 raise v.fail("noise", v.short(noise), "one noise RMS in V (one channel)")
             noise_v = v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
         elif self.baseline is not None:
             noise_v = self.baseline.noise
-        else:
-            noise_v = sensor.output_noise_rms(*bandwidth)
+        else:  # (remembered per band: a live read-out asks for the same one at every call)
+            noise_v = compiled_read.remembered(self.__dict__.setdefault("_noise_memo", {}),
+                                               bandwidth, self.setup.sensor.output_noise_rms)
         shape = np.shape(volts)
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
-        if self.baseline is not None:
-            x = x + self.baseline.correction
-        value, sigma, s_noise, s_cal, s_edge, s_scale = (np.empty(x.size) for _ in range(6))
-        flags = np.empty(x.size, dtype=FLAG_DTYPE)
-        parts: tuple[Any, ...] = (value, sigma, s_noise, s_cal, s_edge, s_scale, flags)
-        fused = compiled_read.kernel()
-        if fused is not None:  # one compiled pass; the few readings beyond the table below
-            tare_error = 0.0 if self.baseline is None else float(self.baseline.standard_error)
-            table_args, profile_args = self._fused
-            if fused(x, *table_args, float(noise_v), tare_error, *profile_args, *parts):
-                out = np.flatnonzero(flags & FLAG_DTYPE(Flag.OUTSIDE_SPAN))
-                got: tuple[Any, ...] = tuple(np.empty(out.size, p.dtype) for p in parts)
-                self._read_block(x[out], noise_v, *got)
-                for whole, got_part in zip(parts, got, strict=True):
-                    whole[out] = got_part
+        n, base = x.size, self.baseline
+        correction = 0.0 if base is None else base.correction
+        flags = np.empty(n, dtype=FLAG_DTYPE)
+        passes = compiled_read.kernels()
+        if passes is not None:  # one compiled pass; the few readings beyond the table below
+            parts: tuple[Any, ...] = compiled_read.read_parts(
+                passes[0], self._packed, x, correction, float(noise_v),
+                0.0 if base is None else float(base.standard_error), flags, self._read_block)
         else:
-            for start in range(0, x.size, BLOCK):
+            if base is not None:
+                x = x + correction
+            parts = (*(np.empty(n) for _ in range(6)), flags)
+            for start in range(0, n, BLOCK):
                 part = slice(start, start + BLOCK)
                 self._read_block(x[part], noise_v, *(p[part] for p in parts))
-        flags |= FLAG_DTYPE(tare_flags(self.baseline))  # a tare taken under load
-        return ReadoutResult(
-            quantity=self.quantity, unit=self.unit, value=value.reshape(shape),
-            sigma=sigma.reshape(shape), sigma_noise=s_noise.reshape(shape),
-            sigma_calibration=s_cal.reshape(shape), sigma_edge=s_edge.reshape(shape),
-            sigma_scale=s_scale.reshape(shape), flags=flags.reshape(shape),
-            table_error=self.table_error, scale_note=self.scale_note,
-        )
+        if base is not None:
+            flags |= FLAG_DTYPE(tare_flags(base))  # a tare taken under load
+        if len(shape) != 1:
+            parts = tuple(p.reshape(shape) for p in parts)
+        return ReadoutResult.of(self.quantity, self.unit, parts, self.table.error,
+                                self._scale_note)
 
     @cached_property
-    def _fused(self) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-        """The arguments of the compiled pass: the table and sensor's, the profiles'."""
+    def _packed(self) -> compiled_read.Packed:
+        """The arguments of the compiled passes (:func:`~magcilia.readout.compiled.pack`)."""
         mode = (0 if not self.sigma_modulus.any() else
                 1 if scales_exactly(self.quantity, self.actuation is not None) else 2)
-        return (compiled_read.table_arguments(self.table, self.setup.sensor),
-                compiled_read.profile_arguments(self.table.quantity, self.sigma_calibration,
-                                                self.sigma_modulus, mode,
-                                                self.modulus.relative))
+        return compiled_read.pack(self.table, self.setup.sensor, self.table.quantity,
+                                  self.sigma_calibration, self.sigma_modulus, mode,
+                                  self.modulus.relative)
+
+    @cached_property
+    def _scale_note(self) -> str:
+        """:attr:`scale_note`, formatted once (every :meth:`read` hands it on)."""
+        return self.scale_note
 
     @property
     def scale_note(self) -> str:

@@ -20,6 +20,9 @@ ReadoutFlag = Flag
 its former name."""
 #: the flags that leave a reading without an estimate (value and sigma NaN)
 NO_ESTIMATE = Flag.OUTSIDE_SPAN | Flag.FOLD | Flag.SATURATED
+#: the array fields of :class:`ReadoutResult`, in order
+_PARTS = ("value", "sigma", "sigma_noise", "sigma_calibration", "sigma_edge", "sigma_scale",
+          "flags")
 #: the flags a single output raises by itself (always counted by :meth:`ReadoutResult.counts`)
 _OWN = (Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED, Flag.CLIPPED,
         Flag.BELOW_SPAN, Flag.ABOVE_SPAN)
@@ -73,6 +76,17 @@ class ReadoutResult(Display):
     flags: NDArray[np.uint16]
     table_error: float
     scale_note: str = ""
+
+    @classmethod
+    def of(cls, quantity: str, unit: str, parts: tuple[NDArray[Any], ...], table_error: float,
+           scale_note: str = "") -> ReadoutResult:
+        """A result of ``parts``, the seven arrays ``value`` … ``flags`` in the order of the
+        fields (as the constructor, without its field-by-field frozen assignments: a live
+        read-out builds one per block of a few readings)."""
+        result = object.__new__(cls)
+        result.__dict__.update(zip(_PARTS, parts, strict=True), quantity=quantity, unit=unit,
+                               table_error=table_error, scale_note=scale_note)
+        return result
 
     @property
     def ok(self) -> NDArray[np.bool_]:

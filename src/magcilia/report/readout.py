@@ -21,7 +21,7 @@ from magcilia.device.parameters import MEASURANDS
 from magcilia.readout import Readout, ReadoutResult
 from magcilia.readout.inverse import summary_line
 from magcilia.readout.protocol import flag_names as _flag_names
-from magcilia.report import csvtext
+from magcilia.report import csvrows, csvtext
 
 #: rows of the CSV formatted at a time (their text stays small)
 ROWS = 65536
@@ -55,7 +55,7 @@ def readout_header(quantity: str, times: bool, si: bool = False) -> str:
 
 def readout_rows(result: ReadoutResult, volts: NDArray[np.float64],
                  times: NDArray[np.float64] | None = None, si: bool = False,
-                 rows: slice = slice(None)) -> bytes:
+                 rows: slice | NDArray[np.intp] = slice(None)) -> bytes:
     """The CSV lines (ASCII, no header) of the readings ``rows`` of a result: [time_s,]
     voltage_V, the estimate (10 significant digits) and its 1-σ (4) in the display unit (SI with
     ``si``), empty without an estimate, the flag bits and their names."""
@@ -89,13 +89,25 @@ def write_readout_csv(path: str | os.PathLike[str], result: ReadoutResult,
                       volts: NDArray[np.float64], times: NDArray[np.float64] | None = None,
                       si: bool = False, progress: Callable[[int], object] | None = None) -> None:
     """Write :func:`readout_csv` to ``path`` atomically, :data:`ROWS` rows at a time;
-    ``progress(rows)`` is called after each part with the rows written by it."""
+    ``progress(rows)`` is called after each part with the rows written by it. The rows come
+    from the compiled pass of :mod:`magcilia.report.csvrows` (the same bytes), from
+    :func:`readout_rows` where numba is missing."""
     n = int(np.size(result.flags))
+
+    def flat(a: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+
+    fast = csvrows.readout_rows(
+        None if times is None else flat(times), flat(volts), flat(result.value),
+        flat(result.sigma), units(result.quantity, si)[1],
+        np.ascontiguousarray(result.flags).reshape(-1), flag_names,
+        lambda rows: readout_rows(result, volts, times, si, rows))
     with atomic_open(path, "wb") as f:
         f.write(readout_header(result.quantity, times is not None, si).encode("ascii"))
         for start in range(0, n, ROWS):
             part = slice(start, min(start + ROWS, n))
-            f.write(readout_rows(result, volts, times, si, part))
+            f.write(readout_rows(result, volts, times, si, part) if fast is None else
+                    fast(part.start, part.stop))
             if progress is not None:
                 progress(part.stop - part.start)
 
