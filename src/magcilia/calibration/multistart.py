@@ -70,11 +70,16 @@ class Box:
 
 def _residuals_of(problem: Problem, x: F64, cont: NDArray[np.bool_]) -> Residuals:
     """The residuals of continuous parameters ``xc`` (m, c) whose other parameters (the
-    integers, the fixed ones) are those of the rows ``which`` of ``x`` (s, p)."""
+    integers, the fixed ones) are those of the rows ``which`` of ``x`` (s, p); with their
+    analytic Jacobian (m, a, c) when the problem has one (:attr:`Problem.analytic`: the fitter's
+    ``jacobian=True``)."""
 
-    def residuals(xc: F64, which: NDArray[np.intp]) -> F64:
+    def residuals(xc: F64, which: NDArray[np.intp]) -> object:
         rows = x[which].copy()
         rows[:, cont] = xc
+        if problem.analytic:
+            r, jac = problem.data_residuals_jacobian(named(rows.T))
+            return r, jac[:, :, cont]
         return problem.linear(problem.model(named(rows.T)))[0]
 
     return residuals
@@ -88,7 +93,7 @@ def local_fits(problem: Problem, box: Box, x: F64, maxiter: int) -> tuple[F64, F
     if not cont.any():
         return out, problem.cost(named(x.T))
     fits = fit_batch(_residuals_of(problem, x, cont), x[:, cont], box.lower[cont],
-                     box.upper[cont], maxiter=maxiter)
+                     box.upper[cont], maxiter=maxiter, jacobian=problem.analytic or None)
     out[:, cont] = fits.x
     return out, fits.cost
 
@@ -158,7 +163,7 @@ def _halving(problem: Problem, box: Box, x: F64, iterations: int) -> tuple[F64, 
         return local_fits(problem, box, x, MAXITER)
     fits, kept = halving(_residuals_of(problem, x, cont), x[:, cont], box.lower[cont],
                          box.upper[cont], round_iterations=iterations, survivors=SURVIVORS,
-                         maxiter=MAXITER)
+                         maxiter=MAXITER, jacobian=problem.analytic or None)
     logger.debug("halving: %d fits kept of %d, best cost %.6g V^2", kept.size, x.shape[0],
                  float(fits.cost.min()))
     out = x[kept]

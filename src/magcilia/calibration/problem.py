@@ -39,7 +39,7 @@ from magcilia.io.recordings import Measurement
 from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.flow import Flow
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
-from magcilia.model.batch import TiltBatch
+from magcilia.model.batch import JACOBIAN_NAMES, TiltBatch
 
 F64 = NDArray[np.float64]
 
@@ -227,6 +227,105 @@ class Problem:
         full = parts[1] if len(parts) == 2 else np.concatenate(parts, axis=1)
         return full if self.identity else full[:, self.column] * self.factor
 
+    @property
+    def analytic(self) -> bool:
+        """Whether :meth:`model_jacobian` is analytic: every experiment a tilt (load experiments
+        bend the cilium; their columns are differenced)."""
+        return not self.table.loads
+
+    def model_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
+        """:meth:`model` (N, d) and its derivatives (N, d, p) with respect to the search vector,
+        in the same compiled pass (:meth:`~magcilia.model.TiltBatch.output_jacobian`: closed form,
+        no differences); zero columns for the integers n and k. Tilt experiments only
+        (:attr:`analytic`)."""
+        if not self.analytic:
+            raise MagciliaError("model_jacobian: load experiments have no analytic Jacobian; "
+                                "use Problem.jacobian")
+        prm = self.params(P)
+        n = prm["x"].size
+        self.evaluations += n
+        cols = [JACOBIAN_NAMES.index(name) if name in JACOBIAN_NAMES else -1
+                for name in self.names]
+        values, derivs = [], []
+        for phi, batch in zip(self.table.azimuths, self.batches, strict=True):
+            if self.table.x_only:
+                u, ju = batch.output_jacobian(prm)
+                values.append(u)
+                derivs.append(ju)
+                continue
+            x, y = placement_in_tilt_frame(prm["x"], prm["y"], phi)
+            b, jb = batch.field_jacobian({**prm, "x": x, "y": y})
+            if phi != 0.0:  # the placement turned by −φ, the field back by +φ
+                c, s = np.cos(phi), np.sin(phi)
+                dx, dy = jb[..., 2].copy(), jb[..., 3].copy()
+                jb[..., 2], jb[..., 3] = c * dx - s * dy, s * dx + c * dy
+                b = field_from_tilt_frame(b, phi)
+                jb = np.moveaxis(field_from_tilt_frame(np.moveaxis(jb, -1, -2), phi), -1, -2)
+            values.append(b.reshape(n, -1))
+            derivs.append(jb.reshape(n, -1, jb.shape[-1]))
+        full = values[0] if len(values) == 1 else np.concatenate(values, axis=1)
+        jfull = derivs[0] if len(derivs) == 1 else np.concatenate(derivs, axis=1)
+        jac = np.zeros((n, full.shape[1], len(self.names)))
+        for i, c in enumerate(cols):
+            if c >= 0:
+                jac[:, :, i] = jfull[:, :, c]
+        if self.identity:
+            return full, jac
+        return full[:, self.column] * self.factor, jac[:, self.column] * self.factor[:, None]
+
+    def residuals_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
+        """:meth:`residuals` (N, m) and their exact Jacobian (N, m, p) with respect to the search
+        vector (variable projection: the bias projected out of the model's derivatives, and with
+        ``fit_scale`` the scale's own derivative). A set whose model is not finite gets the
+        penalty rows and a zero Jacobian. Tilt experiments only (:attr:`analytic`)."""
+        r, jac, bad = self._rows_jacobian(P)
+        r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
+        jac[bad] = 0.0
+        if not self.priors:
+            return r, jac
+        cols = self.params(P)
+        prior = np.stack([(cols[n] - mu) / s for n, (mu, s) in self.priors.items()], axis=1)
+        jp = np.zeros((r.shape[0], len(self.priors), len(self.names)))
+        jp[:, np.arange(len(self.priors)), self.prior_index] = 1.0 / self.prior_sigma
+        return np.concatenate([r, prior], axis=1), np.concatenate([jac, jp], axis=1)
+
+    def data_residuals_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
+        """The data rows of :meth:`residuals_jacobian` as the linear step leaves them (N, d)
+        and (N, d, p): non-finite where the model is (the batched fitter's bad points)."""
+        r, jac, _ = self._rows_jacobian(P)
+        return r, jac
+
+    def _rows_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64, NDArray[np.bool_]]:
+        u, ju = self.model_jacobian(P)
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            pu = self._project(u)
+            pj = self._project_columns(ju)
+            if self.fit_scale:
+                den = np.einsum("nd,nd->n", pu, pu)
+                safe = np.where(den > 0, den, 1.0)
+                a = np.where(den > 0, np.einsum("nd,d->n", pu, self.ry) / safe, 0.0)
+                positive = a > 0.0
+                a = np.maximum(a, 0.0)
+                da = np.where(positive[:, None],
+                              (np.einsum("ndp,d->np", pj, self.ry)
+                               - 2.0 * a[:, None] * np.einsum("ndp,nd->np", pj, pu))
+                              / safe[:, None], 0.0)
+                jac = -(a[:, None, None] * pj + pu[:, :, None] * da[:, None, :])
+            else:
+                a = np.ones(u.shape[0])
+                jac = -pj
+            r = self.ry - a[:, None] * pu
+            bad = ~(np.isfinite(np.einsum("nd,nd->n", r, r))
+                    & np.isfinite(jac).all(axis=(1, 2)))
+        return r, jac, bad
+
+    def _project_columns(self, j: F64) -> F64:
+        """:meth:`_project` of each column of ``j`` (N, d, p) along d."""
+        jw = j * self.w[:, None] if self.weighted else j
+        if not self.q.shape[1]:
+            return jw
+        return jw - np.einsum("dg,ngp->ndp", self.q, np.einsum("dg,ndp->ngp", self.q, jw))
+
     def _load_fields(self, prm: Mapping[str, F64]) -> F64:
         """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of
         :func:`~magcilia.mechanics.bend.bend_sweep` (sorted loads) and their field; NaN for a set
@@ -305,10 +404,13 @@ class Problem:
         return np.where(np.isfinite(c) & ~bad, np.minimum(c, NONFINITE_COST), NONFINITE_COST)
 
     def jacobian(self, p: F64) -> F64:
-        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): the data rows by
+        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): analytic for tilt
+        experiments (:meth:`residuals_jacobian`); with load experiments, the data rows by
         central differences (steps 1e-5 of each bound's width, one vectorised call), the prior
         rows exact (each :class:`~magcilia.calibration.experiments.Prior`'s own)."""
         p = np.asarray(p, dtype=np.float64)
+        if self.analytic:
+            return np.asarray(self.residuals_jacobian(p[None, :])[1][0])
         h = 1e-5 * (self.bounds[:, 1] - self.bounds[:, 0])
         eye = np.eye(p.size) * h
         r, bad, _ = self._rows(np.concatenate([p + eye, p - eye]))

@@ -423,13 +423,15 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
     x = np.array(x, dtype=np.float64)
     x[integrality] = np.rint(x[integrality])
 
-    def resid(xs: F64, _: NDArray[np.intp]) -> F64:
+    def resid(xs: F64, _: NDArray[np.intp]) -> object:
         # a non-finite model (the element on a dipole) is a bad point (the problem's penalty
-        # rows), not a crash
+        # rows), not a crash; with the analytic Jacobian in the same pass
+        if problem.analytic:
+            return problem.residuals_jacobian(named(xs.T))
         return problem.residuals(named(xs.T))
 
     fit = polish(resid, x, np.where(integrality, x, lower), np.where(integrality, x, upper),
-                 max_nfev=400, penalty=NONFINITE_COST)
+                 max_nfev=400, penalty=NONFINITE_COST, jacobian=problem.analytic or None)
     return min(float(fit.cost[0]), NONFINITE_COST), fit.x[0]
 
 
