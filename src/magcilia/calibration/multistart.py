@@ -47,6 +47,11 @@ SURVIVORS = 8
 PROFILED = 4
 #: most iterations of a local fit run to convergence
 MAXITER = 60
+#: each halving keeps the best 1/FACTOR of the fits
+FACTOR = 2
+#: most iterations of the global stage's survivors (their best few are refitted for every
+#: (n, k), which runs on to convergence)
+SEARCH_MAXITER = 60
 
 __all__ = ["MAXITER", "PROFILED", "PROFILE_ROUND", "ROUND", "SURVIVORS", "Box", "latin_hypercube",
            "local_fits", "search"]
@@ -74,12 +79,13 @@ def _residuals_of(problem: Problem, x: F64, cont: NDArray[np.bool_]) -> Residual
     analytic Jacobian (m, a, c) when the problem has one (:attr:`Problem.analytic`: the fitter's
     ``jacobian=True``)."""
 
+    columns = np.nonzero(cont)[0]
+
     def residuals(xc: F64, which: NDArray[np.intp]) -> object:
-        rows = x[which].copy()
-        rows[:, cont] = xc
+        rows = x[which]
+        rows[:, columns] = xc
         if problem.analytic:
-            r, jac = problem.data_residuals_jacobian(named(rows.T))
-            return r, jac[:, :, cont]
+            return problem.data_residuals_jacobian(rows, columns)
         return problem.linear(problem.model(named(rows.T)))[0]
 
     return residuals
@@ -136,7 +142,7 @@ def search(problem: Problem, box: Box, x_init: F64, rng: np.random.Generator,
     x[:, box.free] = latin_hypercube(starts, lo, hi, rng)[:, box.free]
     x[:, box.integrality] = np.rint(x[:, box.integrality])
     x[0] = x_init
-    x, cost = _halving(problem, box, x, ROUND)
+    x, cost = _halving(problem, box, x, ROUND, SEARCH_MAXITER)
     logger.debug("global search: %d starts, best cost %.6g V^2", starts, float(cost.min()))
     best = _distinct(x, cost, box, PROFILED)
     if box.integers.size == 0 or best.shape[0] == 0:
@@ -145,12 +151,13 @@ def search(problem: Problem, box: Box, x_init: F64, rng: np.random.Generator,
     trial = np.repeat(best, combos.shape[0], axis=0)
     trial[:, box.integers] = np.tile(combos, (best.shape[0], 1))
     logger.debug("(n, k) refits: %d solutions x %d combinations", best.shape[0], combos.shape[0])
-    trial, cost = _halving(problem, box, trial, PROFILE_ROUND)
+    trial, cost = _halving(problem, box, trial, PROFILE_ROUND, MAXITER)
     logger.debug("(n, k) refits: best cost %.6g V^2", float(cost.min()))
     return trial[int(np.argmin(cost))]
 
 
-def _halving(problem: Problem, box: Box, x: F64, iterations: int) -> tuple[F64, F64]:
+def _halving(problem: Problem, box: Box, x: F64, iterations: int,
+             maxiter: int) -> tuple[F64, F64]:
     """Successive halving of local fits from the rows of ``x`` (s, p)
     (:func:`magcilia.fitting.halving`): ``iterations`` for all, keep the better half, …, until
     ``SURVIVORS`` remain, which run to convergence. Returns the survivors (m, p) and their
@@ -160,10 +167,10 @@ def _halving(problem: Problem, box: Box, x: F64, iterations: int) -> tuple[F64, 
         cost = problem.cost(named(x.T))
         if x.shape[0] > SURVIVORS:
             x = x[np.argsort(cost, kind="stable")[:SURVIVORS]]
-        return local_fits(problem, box, x, MAXITER)
+        return local_fits(problem, box, x, maxiter)
     fits, kept = halving(_residuals_of(problem, x, cont), x[:, cont], box.lower[cont],
                          box.upper[cont], round_iterations=iterations, survivors=SURVIVORS,
-                         maxiter=MAXITER, jacobian=problem.analytic or None)
+                         maxiter=maxiter, jacobian=problem.analytic or None, factor=FACTOR)
     logger.debug("halving: %d fits kept of %d, best cost %.6g V^2", kept.size, x.shape[0],
                  float(fits.cost.min()))
     out = x[kept]

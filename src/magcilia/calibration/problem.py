@@ -39,7 +39,7 @@ from magcilia.io.recordings import Measurement
 from magcilia.mechanics.bend import bend_sweep
 from magcilia.mechanics.flow import Flow
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
-from magcilia.model.batch import JACOBIAN_NAMES, TiltBatch
+from magcilia.model.batch import JACOBIAN_NAMES, KEYS, TiltBatch
 
 F64 = NDArray[np.float64]
 
@@ -157,6 +157,9 @@ class Problem:
         self.q = (np.linalg.qr(self.basis * self.w[:, None])[0] if self.basis.shape[1]
                   else np.zeros((self.y.size, 0)))
         self.ry = self._project(self.y)
+        #: the projection is the removal of the mean (the paper's constant offset, unweighted)
+        self._centred = bool(not self.weighted and self.q.shape[1] == 1
+                             and np.ptp(self.q) <= 1e-15 * np.abs(self.q).max())
         self.prior_index = np.array([self.names.index(n) for n in self.priors], dtype=np.intp)
         self.prior_mu = np.array([m for m, _ in self.priors.values()])
         self.prior_sigma = np.array([s for _, s in self.priors.values()])
@@ -165,6 +168,14 @@ class Problem:
         self._model_names = self.all_names
         self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
                        if e.data.speeds is not None}
+        # the analytic Jacobian: each search parameter's column of the model's derivatives
+        # (−1: none, n and k), and for one output path toward azimuth 0 the rows' columns of the
+        # packed parameters (rows in, no names: the fitter's once-per-iteration call)
+        self._jcols = np.array([JACOBIAN_NAMES.index(n) if n in JACOBIAN_NAMES else -1
+                                for n in self.names], dtype=np.intp)
+        self._jscale = (self._jcols >= 0).astype(np.float64)
+        self._keys = (np.array([KEYS.index(n) for n in self.names], dtype=np.intp)
+                      if all(n in KEYS for n in self.names) else None)
 
     @classmethod
     def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
@@ -233,19 +244,31 @@ class Problem:
         bend the cilium; their columns are differenced)."""
         return not self.table.loads
 
-    def model_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
-        """:meth:`model` (N, d) and its derivatives (N, d, p) with respect to the search vector,
-        in the same compiled pass (:meth:`~magcilia.model.TiltBatch.output_jacobian`: closed form,
-        no differences); zero columns for the integers n and k. Tilt experiments only
-        (:attr:`analytic`)."""
+    def model_jacobian(self, P: F64 | Mapping[str, F64],
+                       columns: NDArray[np.intp] | None = None) -> tuple[F64, F64]:
+        """:meth:`model` (N, d) and its derivatives (N, d, c) with respect to the search vector
+        (or its ``columns``, c of them), in the same compiled pass
+        (:meth:`~magcilia.model.TiltBatch.output_jacobian`: closed form, no differences); zero
+        columns for the integers n and k. Tilt experiments only (:attr:`analytic`)."""
         if not self.analytic:
             raise MagciliaError("model_jacobian: load experiments have no analytic Jacobian; "
                                 "use Problem.jacobian")
+        cols = self._jcols if columns is None else self._jcols[columns]
+        keep = self._jscale if columns is None else self._jscale[columns]
+        if (self._keys is not None and self.table.x_only and len(self.batches) == 1
+                and not isinstance(P, Mapping)):
+            rows = np.atleast_2d(np.asarray(P, dtype=np.float64))
+            self.evaluations += rows.shape[0]
+            u, ju = self.batches[0].output_jacobian_rows(self._keys, rows)
+            jac = ju[:, :, np.maximum(cols, 0)]
+            if not keep.all():
+                jac *= keep
+            if self.identity:
+                return u, jac
+            return u[:, self.column] * self.factor, jac[:, self.column] * self.factor[:, None]
         prm = self.params(P)
         n = prm["x"].size
         self.evaluations += n
-        cols = [JACOBIAN_NAMES.index(name) if name in JACOBIAN_NAMES else -1
-                for name in self.names]
         values, derivs = [], []
         for phi, batch in zip(self.table.azimuths, self.batches, strict=True):
             if self.table.x_only:
@@ -265,10 +288,7 @@ class Problem:
             derivs.append(jb.reshape(n, -1, jb.shape[-1]))
         full = values[0] if len(values) == 1 else np.concatenate(values, axis=1)
         jfull = derivs[0] if len(derivs) == 1 else np.concatenate(derivs, axis=1)
-        jac = np.zeros((n, full.shape[1], len(self.names)))
-        for i, c in enumerate(cols):
-            if c >= 0:
-                jac[:, :, i] = jfull[:, :, c]
+        jac = jfull[:, :, np.maximum(cols, 0)] * keep
         if self.identity:
             return full, jac
         return full[:, self.column] * self.factor, jac[:, self.column] * self.factor[:, None]
@@ -278,7 +298,10 @@ class Problem:
         vector (variable projection: the bias projected out of the model's derivatives, and with
         ``fit_scale`` the scale's own derivative). A set whose model is not finite gets the
         penalty rows and a zero Jacobian. Tilt experiments only (:attr:`analytic`)."""
-        r, jac, bad = self._rows_jacobian(P)
+        r, jac = self.data_residuals_jacobian(P)
+        with np.errstate(invalid="ignore", over="ignore"):
+            bad = ~(np.isfinite(np.einsum("nd,nd->n", r, r))
+                    & np.isfinite(jac).all(axis=(1, 2)))
         r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
         jac[bad] = 0.0
         if not self.priors:
@@ -289,42 +312,37 @@ class Problem:
         jp[:, np.arange(len(self.priors)), self.prior_index] = 1.0 / self.prior_sigma
         return np.concatenate([r, prior], axis=1), np.concatenate([jac, jp], axis=1)
 
-    def data_residuals_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
-        """The data rows of :meth:`residuals_jacobian` as the linear step leaves them (N, d)
-        and (N, d, p): non-finite where the model is (the batched fitter's bad points)."""
-        r, jac, _ = self._rows_jacobian(P)
-        return r, jac
-
-    def _rows_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64, NDArray[np.bool_]]:
-        u, ju = self.model_jacobian(P)
+    def data_residuals_jacobian(self, P: F64 | Mapping[str, F64],
+                                columns: NDArray[np.intp] | None = None) -> tuple[F64, F64]:
+        """The data rows of :meth:`residuals_jacobian` as the linear step leaves them (N, d),
+        non-finite where the model is (the batched fitter's bad points), and their Jacobian
+        (N, d, c) with respect to the search vector (or its ``columns``)."""
+        u, ju = self.model_jacobian(P, columns)
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
             pu = self._project(u)
             pj = self._project_columns(ju)
-            if self.fit_scale:
-                den = np.einsum("nd,nd->n", pu, pu)
-                safe = np.where(den > 0, den, 1.0)
-                a = np.where(den > 0, np.einsum("nd,d->n", pu, self.ry) / safe, 0.0)
-                positive = a > 0.0
-                a = np.maximum(a, 0.0)
-                da = np.where(positive[:, None],
-                              (np.einsum("ndp,d->np", pj, self.ry)
-                               - 2.0 * a[:, None] * np.einsum("ndp,nd->np", pj, pu))
-                              / safe[:, None], 0.0)
-                jac = -(a[:, None, None] * pj + pu[:, :, None] * da[:, None, :])
-            else:
-                a = np.ones(u.shape[0])
-                jac = -pj
-            r = self.ry - a[:, None] * pu
-            bad = ~(np.isfinite(np.einsum("nd,nd->n", r, r))
-                    & np.isfinite(jac).all(axis=(1, 2)))
-        return r, jac, bad
+            if not self.fit_scale:
+                return self.ry - pu, np.negative(pj, out=pj)
+            den = np.einsum("nd,nd->n", pu, pu)
+            safe = np.where(den > 0, den, 1.0)
+            a = np.where(den > 0, np.einsum("nd,d->n", pu, self.ry) / safe, 0.0)
+            positive = a > 0.0
+            a = np.maximum(a, 0.0)
+            da = np.where(positive[:, None],
+                          (np.einsum("ndp,d->np", pj, self.ry)
+                           - 2.0 * a[:, None] * np.einsum("ndp,nd->np", pj, pu))
+                          / safe[:, None], 0.0)
+            return (self.ry - a[:, None] * pu,
+                    -(a[:, None, None] * pj + pu[:, :, None] * da[:, None, :]))
 
     def _project_columns(self, j: F64) -> F64:
-        """:meth:`_project` of each column of ``j`` (N, d, p) along d."""
+        """:meth:`_project` of each column of ``j`` (N, d, c) along d (a new array)."""
+        if self._centred:  # one constant bias column, unweighted: remove the mean
+            return j - j.mean(axis=1, keepdims=True)
         jw = j * self.w[:, None] if self.weighted else j
         if not self.q.shape[1]:
-            return jw
-        return jw - np.einsum("dg,ngp->ndp", self.q, np.einsum("dg,ndp->ngp", self.q, jw))
+            return jw.copy()
+        return jw - self.q @ (self.q.T @ jw)
 
     def _load_fields(self, prm: Mapping[str, F64]) -> F64:
         """The load blocks' fields, (N, 3 · loads), T: per parameter set, the bent shapes of

@@ -427,7 +427,7 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
         # a non-finite model (the element on a dipole) is a bad point (the problem's penalty
         # rows), not a crash; with the analytic Jacobian in the same pass
         if problem.analytic:
-            return problem.residuals_jacobian(named(xs.T))
+            return problem.residuals_jacobian(xs)
         return problem.residuals(named(xs.T))
 
     fit = polish(resid, x, np.where(integrality, x, lower), np.where(integrality, x, upper),

@@ -34,6 +34,12 @@ F64 = NDArray[np.float64]
 JACOBIAN_NAMES = ("height", "base_radius", "x", "y", "z", "magnetization_scale")
 
 
+#: the parameter names of :func:`pack`, in the order of its columns
+#: (:data:`magcilia.model.compiled.COLUMNS`)
+KEYS = ("height", "base_radius", "tip_radius", "x", "y", "z", "n_loops", "dipoles_per_loop",
+        "magnetization_scale", "offset")
+
+
 def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
     """Parameter sets as the kernels' array, shape (N, len(COLUMNS)), SI.
 
@@ -50,9 +56,25 @@ def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
     sizes = {np.size(val) for val in params.values()}
     out = np.empty((max(sizes) if sizes else 1, len(compiled.COLUMNS)))
     defaults = spec.params()
-    for j, key in enumerate(("height", "base_radius", "tip_radius", "x", "y", "z", "n_loops",
-                             "dipoles_per_loop", "magnetization_scale", "offset")):
+    for j, key in enumerate(KEYS):
         out[:, j] = params.get(key, defaults[key])
+    return _finish(spec, out)
+
+
+def pack_rows(spec: ModelSpec, columns: NDArray[np.intp], rows: F64) -> F64:
+    """:func:`pack` of parameter rows (N, c) whose columns are the :data:`KEYS` at positions
+    ``columns`` (c,), the others the spec's: one step per call, not one per name (optimisers
+    call it once per iteration)."""
+    defaults = spec.params()
+    out = np.repeat(np.array([[defaults[key] for key in KEYS]], dtype=np.float64),
+                    rows.shape[0], axis=0)
+    out[:, columns] = rows
+    return _finish(spec, out)
+
+
+def _finish(spec: ModelSpec, out: F64) -> F64:
+    """The packed columns from the named values: taper, base height above the element, whole
+    n and k, magnetization in A/m."""
     out[:, 2] /= out[:, 1]  # taper = tip / base radius
     out[:, 5] += spec.depth  # base centre height above the element
     np.rint(out[:, 6:8], out=out[:, 6:8])
@@ -156,6 +178,17 @@ class TiltBatch:
         height, base radius, x, y, z (V/m) and the magnetization scale (V)
         (:data:`JACOBIAN_NAMES`), computed in the same pass (a frustum's tip radius held)."""
         packed = pack(self.spec, params)
+        out = np.empty((packed.shape[0], self._angles.size, 1))
+        jac = np.empty((packed.shape[0], self._angles.size, 1, 6))
+        evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
+        jac[..., 5] *= self.spec.full_magnetization
+        return out[..., 0], jac[:, :, 0]
+
+    def output_jacobian_rows(self, columns: NDArray[np.intp], rows: F64) -> tuple[F64, F64]:
+        """:meth:`output_jacobian` of parameter rows (N, c) whose columns are the :data:`KEYS`
+        at positions ``columns`` (:func:`pack_rows`): output (N, a) and derivatives
+        (N, a, 6)."""
+        packed = pack_rows(self.spec, columns, rows)
         out = np.empty((packed.shape[0], self._angles.size, 1))
         jac = np.empty((packed.shape[0], self._angles.size, 1, 6))
         evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
