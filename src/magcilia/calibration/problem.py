@@ -176,6 +176,8 @@ class Problem:
         self._jscale = (self._jcols >= 0).astype(np.float64)
         self._keys = (np.array([KEYS.index(n) for n in self.names], dtype=np.intp)
                       if all(n in KEYS for n in self.names) else None)
+        self._rows_path = (self._keys is not None and self.table.x_only
+                           and len(self.batches) == 1 and self.analytic)
 
     @classmethod
     def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
@@ -255,9 +257,8 @@ class Problem:
                                 "use Problem.jacobian")
         cols = self._jcols if columns is None else self._jcols[columns]
         keep = self._jscale if columns is None else self._jscale[columns]
-        if (self._keys is not None and self.table.x_only and len(self.batches) == 1
-                and not isinstance(P, Mapping)):
-            rows = np.atleast_2d(np.asarray(P, dtype=np.float64))
+        if self._rows_path and isinstance(P, np.ndarray):
+            rows = P if P.ndim == 2 else np.atleast_2d(P)
             self.evaluations += rows.shape[0]
             u, ju = self.batches[0].output_jacobian_rows(self._keys, rows)
             jac = ju[:, :, np.maximum(cols, 0)]
@@ -375,6 +376,8 @@ class Problem:
     # -- residuals ----------------------------------------------------------------------------
     def _project(self, z: F64) -> F64:
         """Weighted values with the weighted bias subspace removed (last axis)."""
+        if getattr(self, "_centred", False):  # one constant bias column, unweighted
+            return z - z.mean(axis=-1, keepdims=True)
         zw = z * self.w if self.weighted else z
         return zw - (zw @ self.q) @ self.q.T
 

@@ -109,6 +109,9 @@ def search_effort(restarts: int, starts: int, angles: int | None = None) -> tupl
     return restarts, starts
 
 
+#: local fits started by one global search of the paper's model (``starts``'s default)
+STARTS_PAPER = 256
+
 #: the calibration models: the paper's (n, k searched) and the physical (n, k converged)
 MODELS = ("paper", "physical")
 
@@ -318,7 +321,8 @@ def calibrate(
     initial = initial if initial is not None else Setup.paper_initial()
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
-    restarts, starts = search_effort(restarts, 256 if starts is None else starts, len(data))
+    restarts, starts = search_effort(restarts, STARTS_PAPER if starts is None else starts,
+                                     len(data))
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(

@@ -61,13 +61,17 @@ def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
     return _finish(spec, out)
 
 
-def pack_rows(spec: ModelSpec, columns: NDArray[np.intp], rows: F64) -> F64:
+def pack_rows(spec: ModelSpec, columns: NDArray[np.intp], rows: F64,
+              template: F64 | None = None) -> F64:
     """:func:`pack` of parameter rows (N, c) whose columns are the :data:`KEYS` at positions
-    ``columns`` (c,), the others the spec's: one step per call, not one per name (optimisers
-    call it once per iteration)."""
-    defaults = spec.params()
-    out = np.repeat(np.array([[defaults[key] for key in KEYS]], dtype=np.float64),
-                    rows.shape[0], axis=0)
+    ``columns`` (c,), the others the spec's (or ``template``'s, (len(KEYS),): the spec's values
+    in that order, kept by a caller that packs often): one step per call, not one per name
+    (optimisers call it once per iteration)."""
+    if template is None:
+        defaults = spec.params()
+        template = np.array([defaults[key] for key in KEYS], dtype=np.float64)
+    out = np.empty((rows.shape[0], template.size))
+    out[:] = template
     out[:, columns] = rows
     return _finish(spec, out)
 
@@ -164,6 +168,8 @@ class TiltBatch:
         self.angles = np.array(angles, dtype=np.float64, ndmin=1)
         self.angles.setflags(write=False)
         self._angles = self.angles.copy()  # writable: one kernel specialisation for every caller
+        defaults = self.spec.params()
+        self._template = np.array([defaults[key] for key in KEYS], dtype=np.float64)
 
     def output(self, params: Mapping[str, ArrayLike]) -> F64:
         """Sensor output, V, shape (N, a): ``scale · B_x + offset`` of each set (``params`` as in
@@ -188,7 +194,7 @@ class TiltBatch:
         """:meth:`output_jacobian` of parameter rows (N, c) whose columns are the :data:`KEYS`
         at positions ``columns`` (:func:`pack_rows`): output (N, a) and derivatives
         (N, a, 6)."""
-        packed = pack_rows(self.spec, columns, rows)
+        packed = pack_rows(self.spec, columns, rows, self._template)
         out = np.empty((packed.shape[0], self._angles.size, 1))
         jac = np.empty((packed.shape[0], self._angles.size, 1, 6))
         evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
