@@ -257,7 +257,7 @@ class Problem:
                                 "use Problem.jacobian")
         cols = self._jcols if columns is None else self._jcols[columns]
         keep = self._jscale if columns is None else self._jscale[columns]
-        if self._rows_path and isinstance(P, np.ndarray):
+        if self._rows_path and self._keys is not None and isinstance(P, np.ndarray):
             rows = P if P.ndim == 2 else np.atleast_2d(P)
             self.evaluations += rows.shape[0]
             u, ju = self.batches[0].output_jacobian_rows(self._keys, rows)

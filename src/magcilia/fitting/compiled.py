@@ -140,10 +140,12 @@ def _compile() -> Kernels | None:
         return None
 
     def build(cache: bool) -> Kernels:
-        options = {"cache": cache, "error_model": "numpy", "nogil": True}
-        solve = numba.njit(_lu_solve, **options)
-        steps = numba.njit(**options)(_with_solver(damped_steps, solve))
-        return Kernels(normal_rows=numba.njit(normal_rows, **options), damped_steps=steps)
+        solve = numba.njit(_lu_solve, cache=cache, error_model="numpy", nogil=True)
+        steps = numba.njit(_with_solver(damped_steps, solve), cache=cache, error_model="numpy",
+                           nogil=True)
+        return Kernels(normal_rows=numba.njit(normal_rows, cache=cache, error_model="numpy",
+                                              nogil=True),
+                       damped_steps=steps)
 
     try:
         return build(cache=True)
