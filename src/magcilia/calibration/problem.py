@@ -339,7 +339,7 @@ class Problem:
     def _project_columns(self, j: F64) -> F64:
         """:meth:`_project` of each column of ``j`` (N, d, c) along d (a new array)."""
         if self._centred:  # one constant bias column, unweighted: remove the mean
-            return j - j.mean(axis=1, keepdims=True)
+            return np.subtract(j, j.mean(axis=1, keepdims=True), out=np.empty(j.shape))
         jw = j * self.w[:, None] if self.weighted else j
         if not self.q.shape[1]:
             return jw.copy()

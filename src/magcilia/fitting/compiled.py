@@ -125,11 +125,58 @@ def damped_steps(jtj: F64, jtr: F64, lam: F64, x: F64, lo: F64, hi: F64, delta: 
         _lu_solve(a, b, delta[i])
 
 
+def accept_steps(idx: NDArray[np.intp], trial: F64, rt: F64, jt: F64, xa: F64, la: F64,
+                 ok: NDArray[np.bool_], scale: F64, x: F64, r: F64, cost: F64, jcache: F64,
+                 lam: F64, tol: F64, ending: NDArray[np.bool_]) -> None:
+    """The bookkeeping after the trial points (numba source): each trial's cost (inf where not
+    finite), accepted where it is lower (``x``, ``r``, ``cost`` and, when ``jcache`` has rows,
+    the cached Jacobian of problem ``idx[i]`` take the trial's), λ divided or multiplied, and
+    which problems end (``ending``): a relative gain below ``tol[0]`` (ftol), a change below
+    ``tol[1]`` (atol), λ beyond ``tol[3]``, a step of at most ``tol[2]`` (xtol) × ``scale``, or a
+    non-finite system. ``tol[4]``, ``tol[5]``, ``tol[6]``: λ's floor, its divisor and its
+    factor."""
+    m, a = rt.shape
+    p = trial.shape[1]
+    keep_jac = jcache.shape[0] > 0
+    for i in range(m):
+        c = 0.0
+        for t in range(a):
+            c += rt[i, t] * rt[i, t]
+        if not np.isfinite(c):
+            c = np.inf
+        better = c < cost[idx[i]]
+        ca = cost[idx[i]]
+        gain = (ca - c) / max(ca, 1e-300) if better else 0.0
+        change = abs(ca - c) if np.isfinite(c) else np.inf
+        s = idx[i]
+        if better:
+            for u in range(p):
+                x[s, u] = trial[i, u]
+            for t in range(a):
+                r[s, t] = rt[i, t]
+            cost[s] = c
+            if keep_jac:
+                for t in range(a):
+                    for u in range(p):
+                        jcache[s, t, u] = jt[i, t, u]
+            la[i] = max(la[i] / tol[5], tol[4])
+        else:
+            la[i] = la[i] * tol[6]
+        lam[s] = la[i]
+        step = 0.0
+        for u in range(p):
+            step = max(step, abs(trial[i, u] - xa[i, u]))
+        moved = step > tol[2] * scale[i]
+        ending[i] = ((better and gain < tol[0]) or change < tol[1] or la[i] > tol[3]
+                     or not moved or not ok[i])
+
+
 class Kernels(NamedTuple):
     """The compiled functions, with the arguments of the functions of the same name."""
 
     normal_rows: Callable[[F64, F64, NDArray[np.intp], F64, F64], None]
     damped_steps: Callable[[F64, F64, F64, F64, F64, F64, F64, NDArray[np.bool_]], None]
+    accept_steps: Callable[..., None]
 
 
 @cache
@@ -145,7 +192,9 @@ def _compile() -> Kernels | None:
                            nogil=True)
         return Kernels(normal_rows=numba.njit(normal_rows, cache=cache, error_model="numpy",
                                               nogil=True),
-                       damped_steps=steps)
+                       damped_steps=steps,
+                       accept_steps=numba.njit(accept_steps, cache=cache, error_model="numpy",
+                                               nogil=True))
 
     try:
         return build(cache=True)

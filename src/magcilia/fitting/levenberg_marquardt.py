@@ -191,6 +191,8 @@ def fit_batch(
     # the compiled step (fitting.compiled) where numba is available; 2 × 2 systems are solved in
     # closed form by the NumPy path
     fast = compiled.kernels() if dims > 2 else None
+    tolerances = np.array([ftol, atol, xtol, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_DOWN, LAMBDA_UP])
+    empty_jac = np.zeros((0, 0, 0))
     idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
     for k in range(maxiter):
         if idx.size == 0:
@@ -218,6 +220,20 @@ def fit_batch(
         if project is not None:
             trial = np.asarray(project(trial, idx), dtype=np.float64)
         rt, jt = _evaluate(residuals, trial, idx, with_jac)
+        if fast is not None:  # the bookkeeping below, compiled
+            scale = _scale(span, width, shared, idx, xa)
+            ending = np.empty(idx.size, dtype=bool)
+            fast.accept_steps(idx, trial, rt, empty_jac if jt is None else jt, xa, la, ok,
+                              scale, x, r, cost,
+                              empty_jac if jcache is None or jt is None else jcache, lam,
+                              tolerances, ending)
+            if ending.any():
+                ended = idx[ending]
+                converged[ended] = ok[ending]
+                iterations[ended] = k + 1
+                jtj_out[ended] = jtj[ending]
+                idx = idx[~ending]
+            continue
         ct = sum_squares(rt)
         better = ct < ca
         gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
@@ -228,11 +244,7 @@ def fit_batch(
             jcache[acc] = jt[better]
         la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
         lam[idx] = la
-        if span is None:
-            w = width if shared else width[idx]
-            scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
-        else:
-            scale = span if shared else span[idx]
+        scale = _scale(span, width, shared, idx, xa)
         moved = np.abs(trial - xa).max(axis=1) > xtol * scale
         ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
                   | ~ok)
@@ -258,6 +270,15 @@ def fit_batch(
             jtj_out[done] = jac @ jac.transpose(0, 2, 1)
             evaluations[done] += dims
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
+
+
+def _scale(span: F64 | None, width: F64, shared: bool, idx: NDArray[np.intp], xa: F64) -> F64:
+    """The xtol test's scale of the problems ``idx`` (m,): the widest bound of each (or its
+    largest ``|x|`` where a bound is infinite)."""
+    if span is None:
+        w = width if shared else width[idx]
+        return np.asarray(np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1))
+    return np.broadcast_to(span, idx.shape) if shared else span[idx]
 
 
 def _damped_steps(jtj: F64, jtr: F64, la: F64, xa: F64, lo: F64, hi: F64
