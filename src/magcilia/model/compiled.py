@@ -10,7 +10,8 @@ relative).
 Compiler options: single-threaded; ``error_model="numpy"`` (a division by zero gives inf or NaN,
 as in NumPy, instead of raising: the calibration relies on non-finite rows); fastmath limited to
 ``reassoc`` and ``contract`` in :func:`dipole_batch`, where the sums over dipoles are reductions
-that LLVM vectorises only when it may reorder them (and fuse multiply-adds): both change results
+that LLVM vectorises only when it may reorder them (and fuse multiply-adds), and to ``contract``
+in :func:`tilt_jacobian_batch` (fused multiply-adds: 15 % faster, measured): both change results
 by rounding only (~1e-16 relative per term), while the flags left out (``nnan``, ``ninf``, ``arcp``,
 ``afn``) could drop the non-finite results or approximate the divide and square root.
 
@@ -499,7 +500,8 @@ def _compile() -> Kernels | None:
         return Kernels(
             tilt_batch=numba.njit(tilt_batch, cache=cache, error_model="numpy", nogil=True),
             tilt_jacobian_batch=numba.njit(tilt_jacobian_batch, cache=cache,
-                                           error_model="numpy", nogil=True),
+                                           error_model="numpy", nogil=True,
+                                           fastmath={"contract"}),
             dipole_batch=numba.njit(dipole_batch, cache=cache, error_model="numpy", nogil=True,
                                     fastmath={"reassoc", "contract"}),
             segment_batch=numba.njit(segment_batch, cache=cache, error_model="numpy",
