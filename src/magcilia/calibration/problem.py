@@ -37,7 +37,7 @@ from magcilia.device.setup import Setup
 from magcilia.fitting import NONFINITE_PENALTY
 from magcilia.io.recordings import Measurement
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
-from magcilia.model.batch import TiltBatch
+from magcilia.model.batch import JACOBIAN_NAMES, KEYS, TiltBatch
 
 F64 = NDArray[np.float64]
 
@@ -155,6 +155,9 @@ class Problem:
         self.q = (np.linalg.qr(self.basis * self.w[:, None])[0] if self.basis.shape[1]
                   else np.zeros((self.y.size, 0)))
         self.ry = self._project(self.y)
+        #: the projection is the removal of the mean (the paper's constant offset, unweighted)
+        self._centred = bool(not self.weighted and self.q.shape[1] == 1
+                             and np.ptp(self.q) <= 1e-15 * np.abs(self.q).max())
         self.prior_index = np.array([self.names.index(n) for n in self.priors], dtype=np.intp)
         self.prior_mu = np.array([m for m, _ in self.priors.values()])
         self.prior_sigma = np.array([s for _, s in self.priors.values()])
@@ -165,6 +168,16 @@ class Problem:
                        if e.data.speeds is not None}
         #: the load blocks' latest solutions, to start the next population's Newton from
         self._load_starts: dict[int, dict[str, F64]] = {}
+        # the analytic Jacobian: each search parameter's column of the model's derivatives
+        # (−1: none, n and k), and for one output path toward azimuth 0 the rows' columns of the
+        # packed parameters (rows in, no names: the fitter's once-per-iteration call)
+        self._jcols = np.array([JACOBIAN_NAMES.index(n) if n in JACOBIAN_NAMES else -1
+                                for n in self.names], dtype=np.intp)
+        self._jscale = (self._jcols >= 0).astype(np.float64)
+        self._keys = (np.array([KEYS.index(n) for n in self.names], dtype=np.intp)
+                      if all(n in KEYS for n in self.names) else None)
+        self._rows_path = (self._keys is not None and self.table.x_only
+                           and len(self.batches) == 1 and self.analytic)
 
     @classmethod
     def paper(cls, data: Measurement, initial: Setup, bias: str = "offset", bias_degree: int = 0,
@@ -227,6 +240,111 @@ class Problem:
         full = parts[1] if len(parts) == 2 else np.concatenate(parts, axis=1)
         return full if self.identity else full[:, self.column] * self.factor
 
+    @property
+    def analytic(self) -> bool:
+        """Whether :meth:`model_jacobian` is analytic: every experiment a tilt (load experiments
+        bend the cilium; their columns are differenced)."""
+        return not self.table.loads
+
+    def model_jacobian(self, P: F64 | Mapping[str, F64],
+                       columns: NDArray[np.intp] | None = None) -> tuple[F64, F64]:
+        """:meth:`model` (N, d) and its derivatives (N, d, c) with respect to the search vector
+        (or its ``columns``, c of them), in the same compiled pass
+        (:meth:`~magcilia.model.TiltBatch.output_jacobian`: closed form, no differences); zero
+        columns for the integers n and k. Tilt experiments only (:attr:`analytic`)."""
+        if not self.analytic:
+            raise MagciliaError("model_jacobian: load experiments have no analytic Jacobian; "
+                                "use Problem.jacobian")
+        cols = self._jcols if columns is None else self._jcols[columns]
+        keep = self._jscale if columns is None else self._jscale[columns]
+        if self._rows_path and self._keys is not None and isinstance(P, np.ndarray):
+            rows = P if P.ndim == 2 else np.atleast_2d(P)
+            self.evaluations += rows.shape[0]
+            u, ju = self.batches[0].output_jacobian_rows(self._keys, rows)
+            jac = ju[:, :, np.maximum(cols, 0)]
+            if not keep.all():
+                jac *= keep
+            if self.identity:
+                return u, jac
+            return u[:, self.column] * self.factor, jac[:, self.column] * self.factor[:, None]
+        prm = self.params(P)
+        n = prm["x"].size
+        self.evaluations += n
+        values, derivs = [], []
+        for phi, batch in zip(self.table.azimuths, self.batches, strict=True):
+            if self.table.x_only:
+                u, ju = batch.output_jacobian(prm)
+                values.append(u)
+                derivs.append(ju)
+                continue
+            x, y = placement_in_tilt_frame(prm["x"], prm["y"], phi)
+            b, jb = batch.field_jacobian({**prm, "x": x, "y": y})
+            if phi != 0.0:  # the placement turned by −φ, the field back by +φ
+                c, s = np.cos(phi), np.sin(phi)
+                dx, dy = jb[..., 2].copy(), jb[..., 3].copy()
+                jb[..., 2], jb[..., 3] = c * dx - s * dy, s * dx + c * dy
+                b = field_from_tilt_frame(b, phi)
+                jb = np.moveaxis(field_from_tilt_frame(np.moveaxis(jb, -1, -2), phi), -1, -2)
+            values.append(b.reshape(n, -1))
+            derivs.append(jb.reshape(n, -1, jb.shape[-1]))
+        full = values[0] if len(values) == 1 else np.concatenate(values, axis=1)
+        jfull = derivs[0] if len(derivs) == 1 else np.concatenate(derivs, axis=1)
+        jac = jfull[:, :, np.maximum(cols, 0)] * keep
+        if self.identity:
+            return full, jac
+        return full[:, self.column] * self.factor, jac[:, self.column] * self.factor[:, None]
+
+    def residuals_jacobian(self, P: F64 | Mapping[str, F64]) -> tuple[F64, F64]:
+        """:meth:`residuals` (N, m) and their exact Jacobian (N, m, p) with respect to the search
+        vector (variable projection: the bias projected out of the model's derivatives, and with
+        ``fit_scale`` the scale's own derivative). A set whose model is not finite gets the
+        penalty rows and a zero Jacobian. Tilt experiments only (:attr:`analytic`)."""
+        r, jac = self.data_residuals_jacobian(P)
+        with np.errstate(invalid="ignore", over="ignore"):
+            bad = ~(np.isfinite(np.einsum("nd,nd->n", r, r))
+                    & np.isfinite(jac).all(axis=(1, 2)))
+        r[bad] = np.sqrt(NONFINITE_COST / max(r.shape[1], 1))
+        jac[bad] = 0.0
+        if not self.priors:
+            return r, jac
+        cols = self.params(P)
+        prior = np.stack([(cols[n] - mu) / s for n, (mu, s) in self.priors.items()], axis=1)
+        jp = np.zeros((r.shape[0], len(self.priors), len(self.names)))
+        jp[:, np.arange(len(self.priors)), self.prior_index] = 1.0 / self.prior_sigma
+        return np.concatenate([r, prior], axis=1), np.concatenate([jac, jp], axis=1)
+
+    def data_residuals_jacobian(self, P: F64 | Mapping[str, F64],
+                                columns: NDArray[np.intp] | None = None) -> tuple[F64, F64]:
+        """The data rows of :meth:`residuals_jacobian` as the linear step leaves them (N, d),
+        non-finite where the model is (the batched fitter's bad points), and their Jacobian
+        (N, d, c) with respect to the search vector (or its ``columns``)."""
+        u, ju = self.model_jacobian(P, columns)
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            pu = self._project(u)
+            pj = self._project_columns(ju)
+            if not self.fit_scale:
+                return self.ry - pu, np.negative(pj, out=pj)
+            den = np.einsum("nd,nd->n", pu, pu)
+            safe = np.where(den > 0, den, 1.0)
+            a = np.where(den > 0, np.einsum("nd,d->n", pu, self.ry) / safe, 0.0)
+            positive = a > 0.0
+            a = np.maximum(a, 0.0)
+            da = np.where(positive[:, None],
+                          (np.einsum("ndp,d->np", pj, self.ry)
+                           - 2.0 * a[:, None] * np.einsum("ndp,nd->np", pj, pu))
+                          / safe[:, None], 0.0)
+            return (self.ry - a[:, None] * pu,
+                    -(a[:, None, None] * pj + pu[:, :, None] * da[:, None, :]))
+
+    def _project_columns(self, j: F64) -> F64:
+        """:meth:`_project` of each column of ``j`` (N, d, c) along d (a new array)."""
+        if self._centred:  # one constant bias column, unweighted: remove the mean
+            return np.subtract(j, j.mean(axis=1, keepdims=True), out=np.empty(j.shape))
+        jw = j * self.w[:, None] if self.weighted else j
+        if not self.q.shape[1]:
+            return jw.copy()
+        return jw - self.q @ (self.q.T @ jw)
+
     def _load_fields(self, prm: Mapping[str, F64]) -> F64:
         """The load blocks' fields, (N, 3 · loads), T: every set's bent shapes under each
         block's sorted loads and their field, all sets at once
@@ -241,6 +359,8 @@ class Problem:
     # -- residuals ----------------------------------------------------------------------------
     def _project(self, z: F64) -> F64:
         """Weighted values with the weighted bias subspace removed (last axis)."""
+        if getattr(self, "_centred", False):  # one constant bias column, unweighted
+            return z - z.mean(axis=-1, keepdims=True)
         zw = z * self.w if self.weighted else z
         return zw - (zw @ self.q) @ self.q.T
 
@@ -288,10 +408,13 @@ class Problem:
         return np.where(np.isfinite(c) & ~bad, np.minimum(c, NONFINITE_COST), NONFINITE_COST)
 
     def jacobian(self, p: F64) -> F64:
-        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): the data rows by
+        """Jacobian of :meth:`residuals` at one set ``p`` (p,), shape (m, p): analytic for tilt
+        experiments (:meth:`residuals_jacobian`); with load experiments, the data rows by
         central differences (steps 1e-5 of each bound's width, one vectorised call), the prior
         rows exact (each :class:`~magcilia.calibration.experiments.Prior`'s own)."""
         p = np.asarray(p, dtype=np.float64)
+        if self.analytic:
+            return np.asarray(self.residuals_jacobian(p[None, :])[1][0])
         h = 1e-5 * (self.bounds[:, 1] - self.bounds[:, 0])
         eye = np.eye(p.size) * h
         r, bad, _ = self._rows(np.concatenate([p + eye, p - eye]))

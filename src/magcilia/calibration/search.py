@@ -109,6 +109,9 @@ def search_effort(restarts: int, starts: int, angles: int | None = None) -> tupl
     return restarts, starts
 
 
+#: local fits started by one global search of the paper's model (``starts``'s default)
+STARTS_PAPER = 256
+
 #: the calibration models: the paper's (n, k searched) and the physical (n, k converged)
 MODELS = ("paper", "physical")
 
@@ -318,7 +321,8 @@ def calibrate(
     initial = initial if initial is not None else Setup.paper_initial()
     v.choice("bias", bias, BIASES)
     degree = v.integer("bias_degree", bias_degree, 0)
-    restarts, starts = search_effort(restarts, 256 if starts is None else starts, len(data))
+    restarts, starts = search_effort(restarts, STARTS_PAPER if starts is None else starts,
+                                     len(data))
     n_lin = (0 if bias == "none" else (1 if bias == "offset" else degree + 1)) + int(fit_scale)
     if len(data) <= n_lin + 1:
         raise MagciliaError(
@@ -423,13 +427,15 @@ def _polish(problem: Problem, x: F64, lower: F64, upper: F64,
     x = np.array(x, dtype=np.float64)
     x[integrality] = np.rint(x[integrality])
 
-    def resid(xs: F64, _: NDArray[np.intp]) -> F64:
+    def resid(xs: F64, _: NDArray[np.intp]) -> object:
         # a non-finite model (the element on a dipole) is a bad point (the problem's penalty
-        # rows), not a crash
+        # rows), not a crash; with the analytic Jacobian in the same pass
+        if problem.analytic:
+            return problem.residuals_jacobian(xs)
         return problem.residuals(named(xs.T))
 
     fit = polish(resid, x, np.where(integrality, x, lower), np.where(integrality, x, upper),
-                 max_nfev=400, penalty=NONFINITE_COST)
+                 max_nfev=400, penalty=NONFINITE_COST, jacobian=problem.analytic or None)
     return min(float(fit.cost[0]), NONFINITE_COST), fit.x[0]
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
+from magcilia.fitting import compiled
 from magcilia.fitting.result import BatchFit
 
 F64 = NDArray[np.float64]
@@ -222,8 +223,11 @@ def fit_batch(
     iterations = np.zeros(size, dtype=np.int64)
     converged = np.zeros(size, dtype=bool)
     jtj_out = np.full((size, dims, dims), np.nan)
-    eye = np.eye(dims)
-    diagonal = eye.astype(bool)[None]
+    # the compiled step (fitting.compiled) where numba is available; 2 × 2 systems are solved in
+    # closed form by the NumPy path
+    fast = compiled.kernels() if dims > 2 else None
+    tolerances = np.array([ftol, atol, xtol, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_DOWN, LAMBDA_UP])
+    empty_jac = np.zeros((0, 0, 0))
     idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
     for k in range(maxiter):
         if idx.size == 0:
@@ -232,37 +236,39 @@ def fit_batch(
         lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
         if jac_fn is not None:
             jtj, jtr = _normal(jac_fn(xa, idx), ra)
+        elif jcache is not None and fast is not None:
+            jtj, jtr = np.empty((idx.size, dims, dims)), np.empty((idx.size, dims))
+            fast.normal_rows(jcache, r, idx, jtj, jtr)
         elif jcache is not None:
             jtj, jtr = _normal(jcache[idx], ra)
         else:
             jac = diff(xa, ra, idx)  # (s, p, a)
             jtj = jac @ jac.transpose(0, 2, 1)
             jtr = (jac @ ra[:, :, None])[:, :, 0]
-        # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
-        # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
-        diag = jtj.diagonal(axis1=1, axis2=2)
-        diag = np.maximum(diag, 1e-12 * _row_max(diag)[:, None])
-        scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
-        ok = (_row_all(np.isfinite(scaled.reshape(scaled.shape[0], -1)))
-              & _row_all(np.isfinite(jtr)))
-        if ok.all():
-            delta = _solve(scaled, -jtr)
+        if fast is not None:  # the same step, compiled (fitting.compiled)
+            delta, ok = np.empty_like(xa), np.empty(idx.size, dtype=bool)
+            fast.damped_steps(jtj, jtr, la, xa, lo.reshape(-1, dims), hi.reshape(-1, dims),
+                              delta, ok)
         else:
-            delta = np.zeros_like(xa)
-            delta[ok] = _solve(scaled[ok], -jtr[ok])
-        # a parameter on a bound whose step points outward is held: solve those again without it
-        blocked = ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
-        again = _row_any(blocked)
-        if again.any():
-            system, rhs, held = scaled[again], -jtr[again], blocked[again]
-            system[held[:, :, None] | held[:, None, :]] = 0.0
-            system[held[:, :, None] & diagonal] = 1.0
-            rhs[held] = 0.0
-            delta[again] = _solve(system, rhs)
+            delta, ok = _damped_steps(jtj, jtr, la, xa, lo, hi)
         trial = np.minimum(np.maximum(xa + delta, lo), hi)
         if project is not None:
             trial = np.asarray(project(trial, idx), dtype=np.float64)
         rt, jt = _evaluate(residuals, trial, idx, with_jac)
+        if fast is not None:  # the bookkeeping below, compiled
+            scale = _scale(span, width, shared, idx, xa)
+            ending = np.empty(idx.size, dtype=bool)
+            fast.accept_steps(idx, trial, rt, empty_jac if jt is None else jt, xa, la, ok,
+                              scale, x, r, cost,
+                              empty_jac if jcache is None or jt is None else jcache, lam,
+                              tolerances, ending)
+            if ending.any():
+                ended = idx[ending]
+                converged[ended] = ok[ending]
+                iterations[ended] = k + 1
+                jtj_out[ended] = jtj[ending]
+                idx = idx[~ending]
+            continue
         ct = sum_squares(rt)
         better = ct < ca
         gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
@@ -273,11 +279,7 @@ def fit_batch(
             jcache[acc] = jt[better]
         la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
         lam[idx] = la
-        if span is None:
-            w = width if shared else width[idx]
-            scale = np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1)
-        else:
-            scale = span if shared else span[idx]
+        scale = _scale(span, width, shared, idx, xa)
         moved = _row_max(np.abs(trial - xa)) > xtol * scale
         ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
                   | ~ok)
@@ -303,6 +305,46 @@ def fit_batch(
             jtj_out[done] = jac @ jac.transpose(0, 2, 1)
             evaluations[done] += dims
     return BatchFit(x, cost, r, jtj_out, iterations, evaluations, converged)
+
+
+def _scale(span: F64 | None, width: F64, shared: bool, idx: NDArray[np.intp], xa: F64) -> F64:
+    """The xtol test's scale of the problems ``idx`` (m,): the widest bound of each (or its
+    largest ``|x|`` where a bound is infinite)."""
+    if span is None:
+        w = width if shared else width[idx]
+        return np.asarray(np.where(np.isfinite(w), w, np.abs(xa)).max(axis=-1))
+    return np.broadcast_to(span, idx.shape) if shared else span[idx]
+
+
+def _damped_steps(jtj: F64, jtr: F64, la: F64, xa: F64, lo: F64, hi: F64
+                  ) -> tuple[F64, NDArray[np.bool_]]:
+    """Marquardt steps (s, p) from JᵀJ (s, p, p), Jᵀr (s, p), λ (s,) at ``xa`` (s, p) within
+    ``lo``, ``hi`` ((p,) or (s, p)), and which systems were finite (s,): the NumPy reference of
+    :func:`magcilia.fitting.compiled.damped_steps`."""
+    dims = xa.shape[1]
+    eye = np.eye(dims)
+    # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
+    # B_x is even in y, so d/dy = 0 at y = 0) keeps the system regular and stays put
+    diag = jtj.diagonal(axis1=1, axis2=2)
+    diag = np.maximum(diag, 1e-12 * _row_max(diag)[:, None])
+    scaled = jtj + la[:, None, None] * (diag[:, :, None] * eye[None])
+    ok = (_row_all(np.isfinite(scaled.reshape(scaled.shape[0], -1)))
+          & _row_all(np.isfinite(jtr)))
+    if ok.all():
+        delta = _solve(scaled, -jtr)
+    else:
+        delta = np.zeros_like(xa)
+        delta[ok] = _solve(scaled[ok], -jtr[ok])
+    # a parameter on a bound whose step points outward is held: solve those again without it
+    blocked = ((xa <= lo) & (delta < 0.0)) | ((xa >= hi) & (delta > 0.0))
+    again = _row_any(blocked)
+    if again.any():
+        system, rhs, held = scaled[again], -jtr[again], blocked[again]
+        system[held[:, :, None] | held[:, None, :]] = 0.0
+        system[held[:, :, None] & eye.astype(bool)[None]] = 1.0
+        rhs[held] = 0.0
+        delta[again] = _solve(system, rhs)
+    return delta, ok
 
 
 def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: bool

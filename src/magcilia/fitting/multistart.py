@@ -48,11 +48,13 @@ def halving(
     round_iterations: int = ROUND,
     survivors: int = SURVIVORS,
     maxiter: int = MAXITER,
+    factor: int = 2,
 ) -> tuple[BatchFit, NDArray[np.intp]]:
     """Successive halving of fits from the rows of ``x0`` (s, p): ``round_iterations`` of
     :func:`~magcilia.fitting.fit_batch` for all, keep the better half (at least
     ``survivors``), repeat until ``survivors`` remain, which then run to convergence (at most
     ``maxiter`` iterations). Every round starts afresh from the points reached (λ reset).
+    ``factor`` > 2 keeps the best 1/``factor`` after each round instead (fewer rounds).
 
     ``residuals(x, which)`` sees ``which`` as rows of ``x0`` throughout; ``lower``, ``upper``
     are (p,) or one row per row of ``x0``.
@@ -69,6 +71,7 @@ def halving(
     lo, hi = bounds_of(lower, upper, size, dims)
     rows = np.arange(size)
     survivors = v.integer("survivors", survivors)
+    factor = v.integer("factor", factor, 2)
 
     def sub(xs: F64, which: NDArray[np.intp]) -> object:
         return residuals(xs, rows[which])
@@ -85,7 +88,7 @@ def halving(
                      float(fits.cost.min()))
         if x.shape[0] <= survivors:
             break
-        keep = np.argsort(fits.cost, kind="stable")[:max(survivors, x.shape[0] // 2)]
+        keep = np.argsort(fits.cost, kind="stable")[:max(survivors, x.shape[0] // factor)]
         x, rows = fits.x[keep], rows[keep]
     bl, bh = (lo, hi) if lo.ndim == 1 else (lo[rows], hi[rows])
     return fit_batch(sub, fits.x, bl, bh, jacobian=jac, maxiter=maxiter), rows

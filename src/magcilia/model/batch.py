@@ -22,11 +22,22 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia.model import body, compiled
+from magcilia.model.batch_jacobian import jacobian_numpy
 from magcilia.model.kernels import tilt_field
 from magcilia.model.layout import ring_layout
 from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
 F64 = NDArray[np.float64]
+
+#: the parameters of :meth:`TiltBatch.output_jacobian` and :meth:`TiltBatch.field_jacobian`,
+#: in the order of their last axis
+JACOBIAN_NAMES = ("height", "base_radius", "x", "y", "z", "magnetization_scale")
+
+
+#: the parameter names of :func:`pack`, in the order of its columns
+#: (:data:`magcilia.model.compiled.COLUMNS`)
+KEYS = ("height", "base_radius", "tip_radius", "x", "y", "z", "n_loops", "dipoles_per_loop",
+        "magnetization_scale", "offset")
 
 
 def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
@@ -45,9 +56,29 @@ def pack(spec: ModelSpec, params: Mapping[str, ArrayLike]) -> F64:
     sizes = {np.size(val) for val in params.values()}
     out = np.empty((max(sizes) if sizes else 1, len(compiled.COLUMNS)))
     defaults = spec.params()
-    for j, key in enumerate(("height", "base_radius", "tip_radius", "x", "y", "z", "n_loops",
-                             "dipoles_per_loop", "magnetization_scale", "offset")):
+    for j, key in enumerate(KEYS):
         out[:, j] = params.get(key, defaults[key])
+    return _finish(spec, out)
+
+
+def pack_rows(spec: ModelSpec, columns: NDArray[np.intp], rows: F64,
+              template: F64 | None = None) -> F64:
+    """:func:`pack` of parameter rows (N, c) whose columns are the :data:`KEYS` at positions
+    ``columns`` (c,), the others the spec's (or ``template``'s, (len(KEYS),): the spec's values
+    in that order, kept by a caller that packs often): one step per call, not one per name
+    (optimisers call it once per iteration)."""
+    if template is None:
+        defaults = spec.params()
+        template = np.array([defaults[key] for key in KEYS], dtype=np.float64)
+    out = np.empty((rows.shape[0], template.size))
+    out[:] = template
+    out[:, columns] = rows
+    return _finish(spec, out)
+
+
+def _finish(spec: ModelSpec, out: F64) -> F64:
+    """The packed columns from the named values: taper, base height above the element, whole
+    n and k, magnetization in A/m."""
     out[:, 2] /= out[:, 1]  # taper = tip / base radius
     out[:, 5] += spec.depth  # base centre height above the element
     np.rint(out[:, 6:8], out=out[:, 6:8])
@@ -69,6 +100,21 @@ def evaluate(spec: ModelSpec, packed: F64, angles: F64, out: F64, measured: bool
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # returned as non-finite
         _evaluate_numpy(spec, packed, angles, out, measured)
     return bool(np.isfinite(out).all())
+
+
+def evaluate_jacobian(spec: ModelSpec, packed: F64, angles: F64, out: F64, jac: F64,
+                      measured: bool) -> bool:
+    """:func:`evaluate`, and the derivatives of ``out`` with respect to the columns
+    :data:`~magcilia.model.compiled.JACOBIAN_COLUMNS` into ``jac`` (N, a, c, 6), in one pass;
+    return whether all values and derivatives are finite. Compiled when numba is available, else
+    the NumPy reference (:func:`magcilia.model.batch_jacobian.jacobian_numpy`)."""
+    jit = compiled.kernels()
+    if jit is not None:
+        return bool(jit.tilt_jacobian_batch(packed, angles, spec.knots, spec.radii, measured,
+                                            spec.ring == "rms", spec.scale, out, jac))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        jacobian_numpy(spec, packed, angles, out, jac, measured)
+    return bool(np.isfinite(out).all() and np.isfinite(jac).all())
 
 
 def _evaluate_numpy(spec: ModelSpec, packed: F64, angles: F64, out: F64, measured: bool) -> None:
@@ -122,6 +168,8 @@ class TiltBatch:
         self.angles = np.array(angles, dtype=np.float64, ndmin=1)
         self.angles.setflags(write=False)
         self._angles = self.angles.copy()  # writable: one kernel specialisation for every caller
+        defaults = self.spec.params()
+        self._template = np.array([defaults[key] for key in KEYS], dtype=np.float64)
 
     def output(self, params: Mapping[str, ArrayLike]) -> F64:
         """Sensor output, V, shape (N, a): ``scale · B_x + offset`` of each set (``params`` as in
@@ -130,6 +178,38 @@ class TiltBatch:
         out = np.empty((packed.shape[0], self._angles.size, 1))
         evaluate(self.spec, packed, self._angles, out, self.spec.measured)
         return out[..., 0]
+
+    def output_jacobian(self, params: Mapping[str, ArrayLike]) -> tuple[F64, F64]:
+        """The output, V, shape (N, a), and its derivatives, shape (N, a, 6), with respect to
+        height, base radius, x, y, z (V/m) and the magnetization scale (V)
+        (:data:`JACOBIAN_NAMES`), computed in the same pass (a frustum's tip radius held)."""
+        packed = pack(self.spec, params)
+        out = np.empty((packed.shape[0], self._angles.size, 1))
+        jac = np.empty((packed.shape[0], self._angles.size, 1, 6))
+        evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
+        jac[..., 5] *= self.spec.full_magnetization
+        return out[..., 0], jac[:, :, 0]
+
+    def output_jacobian_rows(self, columns: NDArray[np.intp], rows: F64) -> tuple[F64, F64]:
+        """:meth:`output_jacobian` of parameter rows (N, c) whose columns are the :data:`KEYS`
+        at positions ``columns`` (:func:`pack_rows`): output (N, a) and derivatives
+        (N, a, 6)."""
+        packed = pack_rows(self.spec, columns, rows, self._template)
+        out = np.empty((packed.shape[0], self._angles.size, 1))
+        jac = np.empty((packed.shape[0], self._angles.size, 1, 6))
+        evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
+        jac[..., 5] *= self.spec.full_magnetization
+        return out[..., 0], jac[:, :, 0]
+
+    def field_jacobian(self, params: Mapping[str, ArrayLike]) -> tuple[F64, F64]:
+        """B at the sensing element, T, shape (N, a, 3), and its derivatives, shape
+        (N, a, 3, 6), with respect to :data:`JACOBIAN_NAMES` (T/m; T per unit scale)."""
+        packed = pack(self.spec, params)
+        out = np.empty((packed.shape[0], self._angles.size, 3))
+        jac = np.empty((packed.shape[0], self._angles.size, 3, 6))
+        evaluate_jacobian(self.spec, packed, self._angles, out, jac, self.spec.measured)
+        jac[..., 5] *= self.spec.full_magnetization
+        return out, jac
 
     def field(self, params: Mapping[str, ArrayLike], x_only: bool = False) -> F64:
         """B at the sensing element, T, shape (N, a, 3); with ``x_only`` the other components

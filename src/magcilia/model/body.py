@@ -113,6 +113,42 @@ def slice_rings(u: F64, rho: F64, n: int, ring: str) -> tuple[F64, F64]:
     return radius, mean2 / mean2.sum(axis=-1, keepdims=True)
 
 
+def frustum_slice_derivatives(taper: ArrayLike, n: int, ring: str) -> tuple[F64, F64]:
+    """Derivatives of a frustum's ring radii and slice means of rho² with respect to its taper
+    (tip / base radius), as :func:`slice_rings` and :func:`slice_means` give them.
+
+    Parameters
+    ----------
+    taper : array-like, shape (N,)
+    n : int
+        Slices.
+    ring : {"mean", "rms"}
+
+    Returns
+    -------
+    d_radius, d_mean2 : ndarray, shape (N, n)
+        ∂(ring radius / base radius)/∂taper and ∂(n ∫ rho² du over the slice)/∂taper.
+    """
+    lam = np.asarray(taper, dtype=np.float64)[..., None]
+    edges = np.linspace(0.0, 1.0, n + 1)
+    da, db = edges[:-1], edges[1:]  # rho = 1 + (taper - 1) u: ∂rho/∂taper = u
+    a, b = 1.0 + (lam - 1.0) * da, 1.0 + (lam - 1.0) * db
+    a2, b2, ab = a * a, b * b, a * b
+    mean2 = (a2 + ab + b2) / 3.0
+    d2 = ((2.0 * a + b) * da + (a + 2.0 * b) * db) / 3.0
+    if ring == "mean":
+        return np.asarray(0.5 * (da + db) + 0.0 * lam), np.asarray(d2)
+    mean4 = (a2 * a2 + a2 * ab + a2 * b2 + ab * b2 + b2 * b2) / 5.0
+    d4 = ((4.0 * a2 * a + 3.0 * a2 * b + 2.0 * a * b2 + b2 * b) * da
+          + (a2 * a + 2.0 * a2 * b + 3.0 * a * b2 + 4.0 * b2 * b) * db) / 5.0
+    safe2 = np.where(mean2 > 0.0, mean2, 1.0)
+    radius = np.sqrt(0.5 * mean4 / safe2)
+    good = (radius > 0.0) & (mean2 > 0.0)
+    d_radius = np.where(good, 0.25 * (d4 * mean2 - mean4 * d2)
+                        / (safe2 * safe2 * np.where(good, radius, 1.0)), 0.0)
+    return np.asarray(d_radius), np.asarray(d2)
+
+
 def radius_at(u: F64, rho: F64, t: ArrayLike) -> F64:
     """Normalised radius at fractions ``t`` = s / height of the length (any shape; clamped to the
     ends beyond [0, 1])."""
