@@ -58,7 +58,13 @@ from magcilia.readout.force_vector import (
     polar_sigmas,
 )
 from magcilia.readout.inverse import EDGE_TOLERANCE
-from magcilia.readout.polar_table import CoarseGrid, evaluate, hermite_coefficients, onto_disc
+from magcilia.readout.polar_table import (
+    CoarseGrid,
+    evaluate,
+    hermite_coefficients,
+    onto_disc_rows,
+    whitened,
+)
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import vector_rate, vector_scale_covariance
 from magcilia.readout.tare import (
@@ -496,12 +502,10 @@ class BiaxialReadout(Display):
         root_w = np.sqrt(w)
 
         def residuals(x: F64, which: NDArray[np.intp]) -> tuple[F64, F64]:
-            val, jx, jy = evaluate(self._coef, h_f, x[:, 0], x[:, 1])
-            rw = root_w[which]
-            return rw * (val - y[which]), np.stack([jx, jy], -1) * rw[..., None]
+            return whitened(self._coef, h_f, x, y, root_w, which)
 
         def disc(x: F64, _which: NDArray[np.intp]) -> F64:
-            return np.stack(onto_disc(x[:, 0], x[:, 1], edge)[:2], -1)
+            return onto_disc_rows(x, edge)
 
         f_max = float(self.forces[-1])
         fit = fit_batch(residuals, np.stack([fx, fy], -1), [-f_max, -f_max], [f_max, f_max],

@@ -144,8 +144,33 @@ def evaluate(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
     d_x = np.empty((b, c)) if derivatives else val
     d_y = np.empty((b, c)) if derivatives else val
     kernel(coef, float(h_f), np.ascontiguousarray(fx, dtype=np.float64).reshape(-1),
-           np.ascontiguousarray(fy, dtype=np.float64).reshape(-1), derivatives, val, d_x, d_y)
+           np.ascontiguousarray(fy, dtype=np.float64).reshape(-1), derivatives, val, d_x, d_y,
+           _NONE, _NONE, _NO_ROWS)
     return val, d_x, d_y
+
+
+_NONE = np.zeros((0, 0))
+_NO_ROWS = np.zeros(0, dtype=np.intp)
+
+
+def whitened(coef: F64, h_f: float, x: F64, y: F64, root_w: F64, which: NDArray[np.intp]
+             ) -> tuple[F64, F64]:
+    """Whitened residuals and their Jacobian for a least-squares fit of readings to the
+    interpolant :func:`evaluate`: at forces ``x`` (m, 2) = (Fx, Fy), N, row i belonging to
+    reading ``which[i]`` of ``y`` (b, c), T, with weights ``root_w`` (b, c), 1/T:
+    ``root_w[which] (model − y[which])`` (m, c) and its derivatives (m, c, 2), 1/N; one
+    compiled pass (:func:`evaluate_kernel`) or NumPy."""
+    kernel = jit(evaluate_kernel)
+    if kernel is None:
+        val, d_x, d_y = evaluate_numpy(coef, h_f, x[:, 0], x[:, 1])
+        rw = root_w[which]
+        return rw * (val - y[which]), np.stack([d_x, d_y], -1) * rw[..., None]
+    m, c = x.shape[0], coef.shape[2]
+    res = np.empty((m, c))
+    jac = np.empty((m, c, 2))
+    kernel(coef, float(h_f), np.ascontiguousarray(x[:, 0]), np.ascontiguousarray(x[:, 1]), True,
+           res, jac[:, :, 0], jac[:, :, 1], y, root_w, which)
+    return res, jac
 
 
 def evaluate_numpy(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
@@ -183,6 +208,17 @@ def evaluate_numpy(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = 
     return val, d_x, d_y
 
 
+def onto_disc_rows(x: F64, edge: float) -> F64:
+    """Points ``x`` (m, 2) = (Fx, Fy) projected radially onto the disc of radius ``edge``
+    (:func:`onto_disc`), (m, 2); compiled (:func:`disc_kernel`) or NumPy."""
+    kernel = jit(disc_kernel)
+    if kernel is None:
+        return np.stack(onto_disc(x[:, 0], x[:, 1], edge)[:2], -1)
+    out = np.empty((x.shape[0], 2))
+    kernel(np.ascontiguousarray(x, dtype=np.float64), float(edge), out)
+    return out
+
+
 def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
     """(Fx, Fy) (b,) projected radially onto the disc of radius ``edge`` (where the table
     lives), and the factor applied (b,), 1 inside."""
@@ -194,9 +230,12 @@ def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
 # -- compiled twins (numba source; :func:`magcilia.model.jit.jit`) ---------------------------------
 
 def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, val: F64,
-                    d_x: F64, d_y: F64) -> None:
-    """:func:`evaluate_numpy` per reading (numba source): ``val``, ``d_x``, ``d_y`` (b, c)."""
+                    d_x: F64, d_y: F64, y: F64, root_w: F64, which: NDArray[np.intp]) -> None:
+    """:func:`evaluate_numpy` per reading (numba source): ``val``, ``d_x``, ``d_y`` (b, c); with
+    ``which`` non-empty (b,), whitened in the same pass (:func:`whitened`): ``root_w[which]``
+    × (``val`` − ``y[which]``) and ``root_w[which]`` × the derivatives."""
     n_f, n_phi, n_c = coef.shape[0] + 1, coef.shape[1], coef.shape[2]
+    whiten = which.size > 0
     h_phi = 2.0 * math.pi / n_phi
     for b in range(fx.size):
         mag = math.hypot(fx[b], fy[b])
@@ -237,6 +276,21 @@ def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, 
                     dpf = (e0 + u * e1 + u2 * e2 + u2 * u * e3) * inv
                 d_x[b, k] = cs * d_f - sn * dpf
                 d_y[b, k] = sn * d_f + cs * dpf
+            if whiten:
+                rw = root_w[which[b], k]
+                val[b, k] = rw * (val[b, k] - y[which[b], k])
+                if derivatives:
+                    d_x[b, k] *= rw
+                    d_y[b, k] *= rw
+
+
+def disc_kernel(x: F64, edge: float, out: F64) -> None:
+    """:func:`onto_disc` per point (numba source): ``out`` (m, 2)."""
+    for i in range(x.shape[0]):
+        mag = math.hypot(x[i, 0], x[i, 1])
+        shrink = edge / max(mag, 1e-300) if mag > edge else 1.0
+        out[i, 0] = x[i, 0] * shrink
+        out[i, 1] = x[i, 1] * shrink
 
 
 def search_kernel(y: F64, w: F64, reading_t: F64, square: F64, n_phi: int,
@@ -244,41 +298,52 @@ def search_kernel(y: F64, w: F64, reading_t: F64, square: F64, n_phi: int,
                   second: NDArray[np.intp]) -> None:
     """:meth:`CoarseGrid.search_numpy` per reading (numba source): χ² − Σ w y² at every node,
     the best node, and the best local minimum (≤ its four neighbours on the polar grid, the
-    rest's neighbours the first ring) far from it."""
+    rest's neighbours the first ring) far from it. The rings are copied into a padded grid
+    (the rest below the first ring, +inf above the last, each ring's ends wrapped) so that the
+    neighbour tests run without branches, ring by ring."""
     n_c, n_k = reading_t.shape
     rings = (n_k - 1) // n_phi
     chi = np.empty(n_k)
+    pad = np.empty((rings + 2, n_phi + 2))
+    cand = np.empty(n_phi)
     for b in range(y.shape[0]):
-        chi[:] = 0.0
+        for k in range(n_k):
+            chi[k] = 0.0
         for c in range(n_c):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
             a, q = w[b, c], -2.0 * w[b, c] * y[b, c]
             sq, rd = square[c], reading_t[c]
             for k in range(n_k):
                 chi[k] += a * sq[k] + q * rd[k]
-        top = 0
+        top, low = 0, chi[0]
         for k in range(1, n_k):
-            if chi[k] < chi[top]:
-                top = k
+            if chi[k] < low:
+                top, low = k, chi[k]
         best[b] = top
-        low = chi[1]
-        for p in range(1, n_phi):
-            low = min(low, chi[1 + p])
-        pick, pick_chi = -1, math.inf
-        if chi[0] <= low and far[top, 0]:
-            pick, pick_chi = 0, chi[0]
+        far_top = far[top]
+        for p in range(n_phi + 2):
+            pad[0, p] = chi[0]
+            pad[rings + 1, p] = math.inf
         for r in range(rings):
+            o = 1 + r * n_phi
             for p in range(n_phi):
-                k = 1 + r * n_phi + p
-                g = chi[k]
-                if not far[top, k] or g >= pick_chi:
-                    continue
-                if g > chi[k - 1 if p > 0 else k + n_phi - 1]:  # the ring is periodic
-                    continue
-                if g > chi[k + 1 if p < n_phi - 1 else k - n_phi + 1]:
-                    continue
-                if g > (chi[0] if r == 0 else chi[k - n_phi]):
-                    continue
-                if r < rings - 1 and g > chi[k + n_phi]:
-                    continue
-                pick, pick_chi = k, g
+                pad[r + 1, p + 1] = chi[o + p]
+            pad[r + 1, 0] = chi[o + n_phi - 1]
+            pad[r + 1, n_phi + 1] = chi[o]
+        ring1 = chi[1]
+        for p in range(1, n_phi):
+            ring1 = min(ring1, chi[1 + p])
+        pick, pick_chi = -1, math.inf
+        if chi[0] <= ring1 and far_top[0]:
+            pick, pick_chi = 0, chi[0]
+        for r in range(1, rings + 1):
+            o = 1 + (r - 1) * n_phi
+            row, inner, outer = pad[r], pad[r - 1], pad[r + 1]
+            for p in range(n_phi):
+                g = row[p + 1]
+                local = ((g <= row[p]) & (g <= row[p + 2]) & (g <= inner[p + 1])
+                         & (g <= outer[p + 1]) & far_top[o + p])
+                cand[p] = g if local else math.inf
+            for p in range(n_phi):
+                if cand[p] < pick_chi:
+                    pick, pick_chi = o + p, cand[p]
         second[b] = pick
