@@ -48,7 +48,8 @@ def _cell_coefficients(f: F64, f_u: F64, f_w: F64, f_uw: F64) -> F64:
 class CoarseGrid:
     """The coarse search's candidates (the grid's nodes, thinned): magnitudes and azimuths (K,),
     readings (K, c), the rest (F = 0) first and once, then ring after ring of equal magnitude;
-    the first ring's node indices, and which nodes lie far from which (K, K)."""
+    the first ring's node indices, which nodes lie far from which (K, K), and the readings and
+    their squares on the padded grid of the compiled search (c, (rings + 2)(nφ + 2))."""
 
     force: F64
     azimuth: F64
@@ -56,6 +57,8 @@ class CoarseGrid:
     square: F64
     ring: NDArray[np.intp]
     far: NDArray[np.bool_]
+    pad_reading: F64
+    pad_square: F64
 
     @classmethod
     def build(cls, forces: F64, azimuths: F64, table: F64, span: float) -> CoarseGrid:
@@ -66,7 +69,15 @@ class CoarseGrid:
         idx = 1 + np.arange(n_r * n_p).reshape(n_r, n_p)
         x, yv = f * np.cos(p), f * np.sin(p)
         far = np.hypot(x[:, None] - x[None, :], yv[:, None] - yv[None, :]) > 0.1 * span
-        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far)
+        # the padded grid of the compiled search: (c, rings + 2, nφ + 2), row 0 the rest,
+        # rows 1… the rings with their ends wrapped, the last row a placeholder (+inf there)
+        pad = np.empty((table.shape[-1], n_r + 2, n_p + 2))
+        pad[:, 0] = table[0, 0][:, None]
+        pad[:, 1:-1, 1:-1] = np.moveaxis(table[1:], -1, 0)
+        pad[:, 1:-1, 0], pad[:, 1:-1, -1] = pad[:, 1:-1, -2], pad[:, 1:-1, 1]
+        pad[:, -1] = 0.0
+        pad = pad.reshape(pad.shape[0], -1)
+        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far, pad.copy(), pad * pad)
 
     def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
@@ -76,9 +87,8 @@ class CoarseGrid:
         if kernel is not None:
             best = np.empty(y.shape[0], dtype=np.intp)
             second = np.empty(y.shape[0], dtype=np.intp)
-            kernel(np.ascontiguousarray(y), np.ascontiguousarray(w),
-                   np.ascontiguousarray(self.reading.T), self.square, self.ring.size, self.far,
-                   best, second)
+            kernel(np.ascontiguousarray(y), np.ascontiguousarray(w), self.pad_reading,
+                   self.pad_square, self.ring.size, self.far, best, second)
             return best, second
         return self.search_numpy(y, w)
 
@@ -293,57 +303,86 @@ def disc_kernel(x: F64, edge: float, out: F64) -> None:
         out[i, 1] = x[i, 1] * shrink
 
 
-def search_kernel(y: F64, w: F64, reading_t: F64, square: F64, n_phi: int,
+def search_kernel(y: F64, w: F64, pad_reading: F64, pad_square: F64, n_phi: int,
                   far: NDArray[np.bool_], best: NDArray[np.intp],
                   second: NDArray[np.intp]) -> None:
     """:meth:`CoarseGrid.search_numpy` per reading (numba source): χ² − Σ w y² at every node,
     the best node, and the best local minimum (≤ its four neighbours on the polar grid, the
-    rest's neighbours the first ring) far from it. The rings are copied into a padded grid
-    (the rest below the first ring, +inf above the last, each ring's ends wrapped) so that the
-    neighbour tests run without branches, ring by ring."""
-    n_c, n_k = reading_t.shape
-    rings = (n_k - 1) // n_phi
-    chi = np.empty(n_k)
-    pad = np.empty((rings + 2, n_phi + 2))
-    cand = np.empty(n_phi)
+    rest's neighbours the first ring) far from it. χ² is formed on the padded grid
+    (:attr:`CoarseGrid.pad_reading`: the rest below the first ring, each ring's ends wrapped;
+    the row above the last set to +inf) so that the neighbour tests run without branches."""
+    n_c, n_pad = pad_reading.shape
+    width = n_phi + 2
+    rings = n_pad // width - 2
+    chi = np.empty(n_pad)
+    grid = chi.reshape((rings + 2, width))  # the same memory, row by row
+    cand = np.empty(1 + rings * n_phi)  # node by node: χ² of a far local minimum, else +inf
+    lanes = np.empty(8)
     for b in range(y.shape[0]):
-        for k in range(n_k):
-            chi[k] = 0.0
-        for c in range(n_c):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
+        a, q = w[b, 0], -2.0 * w[b, 0] * y[b, 0]
+        sq, rd = pad_square[0], pad_reading[0]
+        for k in range(n_pad):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
+            chi[k] = a * sq[k] + q * rd[k]
+        for c in range(1, n_c):
             a, q = w[b, c], -2.0 * w[b, c] * y[b, c]
-            sq, rd = square[c], reading_t[c]
-            for k in range(n_k):
+            sq, rd = pad_square[c], pad_reading[c]
+            for k in range(n_pad):
                 chi[k] += a * sq[k] + q * rd[k]
-        top, low = 0, chi[0]
-        for k in range(1, n_k):
-            if chi[k] < low:
-                top, low = k, chi[k]
+        for p in range(width):
+            grid[rings + 1, p] = math.inf
+        # the best node: the smallest χ² (eight running minima, vectorised), then its first node
+        for q in range(8):
+            lanes[q] = math.inf
+        end = chi.size - chi.size % 8
+        for k in range(0, end, 8):
+            for q in range(8):
+                v = chi[k + q]
+                lanes[q] = min(lanes[q], v)
+        low = chi[end] if end < chi.size else math.inf
+        for k in range(end + 1, chi.size):
+            low = min(low, chi[k])
+        for q in range(8):
+            low = min(low, lanes[q])
+        top = 0
+        if grid[0, 1] != low:  # node 0 is the rest (padded row 0); then ring after ring
+            for r in range(1, rings + 1):
+                row = grid[r]
+                for p in range(n_phi):
+                    if row[p + 1] == low:
+                        top = 1 + (r - 1) * n_phi + p
+                        break
+                if top:
+                    break
         best[b] = top
         far_top = far[top]
-        for p in range(n_phi + 2):
-            pad[0, p] = chi[0]
-            pad[rings + 1, p] = math.inf
-        for r in range(rings):
-            o = 1 + r * n_phi
-            for p in range(n_phi):
-                pad[r + 1, p + 1] = chi[o + p]
-            pad[r + 1, 0] = chi[o + n_phi - 1]
-            pad[r + 1, n_phi + 1] = chi[o]
-        ring1 = chi[1]
+        rest = grid[0, 1]
+        ring1 = grid[1, 1]
         for p in range(1, n_phi):
-            ring1 = min(ring1, chi[1 + p])
-        pick, pick_chi = -1, math.inf
-        if chi[0] <= ring1 and far_top[0]:
-            pick, pick_chi = 0, chi[0]
+            ring1 = min(ring1, grid[1, 1 + p])
+        cand[0] = rest if (rest <= ring1 and far_top[0]) else math.inf
         for r in range(1, rings + 1):
-            o = 1 + (r - 1) * n_phi
-            row, inner, outer = pad[r], pad[r - 1], pad[r + 1]
+            row, inner, outer = grid[r], grid[r - 1], grid[r + 1]
+            k0 = 1 + (r - 1) * n_phi
             for p in range(n_phi):
                 g = row[p + 1]
                 local = ((g <= row[p]) & (g <= row[p + 2]) & (g <= inner[p + 1])
-                         & (g <= outer[p + 1]) & far_top[o + p])
-                cand[p] = g if local else math.inf
-            for p in range(n_phi):
-                if cand[p] < pick_chi:
-                    pick, pick_chi = o + p, cand[p]
+                         & (g <= outer[p + 1]) & far_top[k0 + p])
+                cand[k0 + p] = g if local else math.inf
+        for q in range(8):
+            lanes[q] = math.inf
+        end = cand.size - cand.size % 8
+        for k in range(0, end, 8):
+            for q in range(8):
+                v = cand[k + q]
+                lanes[q] = min(lanes[q], v)
+        pick_chi = cand[end] if end < cand.size else math.inf
+        for k in range(end + 1, cand.size):
+            pick_chi = min(pick_chi, cand[k])
+        for q in range(8):
+            pick_chi = min(pick_chi, lanes[q])
+        pick = -1
+        if pick_chi < math.inf:
+            pick = 0
+            while cand[pick] != pick_chi:
+                pick += 1
         second[b] = pick
