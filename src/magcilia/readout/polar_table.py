@@ -247,9 +247,12 @@ def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, 
     n_f, n_phi, n_c = coef.shape[0] + 1, coef.shape[1], coef.shape[2]
     whiten = which.size > 0
     h_phi = 2.0 * math.pi / n_phi
+    to_f, to_phi = 1.0 / h_f, 1.0 / h_phi  # products, not divisions, in the loop
     for b in range(fx.size):
         mag = math.hypot(fx[b], fy[b])
-        phi = math.atan2(fy[b], fx[b]) % (2.0 * math.pi)
+        phi = math.atan2(fy[b], fx[b])  # (−π, π]: … % 2π without the remainder's cost
+        if phi < 0.0:
+            phi += 2.0 * math.pi
         u = mag / h_f
         i = min(int(u), n_f - 2)
         u -= i
@@ -270,18 +273,18 @@ def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, 
                 coef[i, j, k, 3, 2] + w * coef[i, j, k, 3, 3]))
             val[b, k] = cw0 + u * (cw1 + u * (cw2 + u * cw3))
             if derivatives:
-                d_f = (cw1 + u * (2.0 * cw2 + 3.0 * u * cw3)) / h_f
+                d_f = (cw1 + u * (2.0 * cw2 + 3.0 * u * cw3)) * to_f
                 # dB/dφ per row of the cell: Σ_l a[k, l] l w^(l−1) / h_phi
                 e0 = (coef[i, j, k, 0, 1] + 2.0 * w * coef[i, j, k, 0, 2]
-                      + 3.0 * w2 * coef[i, j, k, 0, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 0, 3]) * to_phi
                 e1 = (coef[i, j, k, 1, 1] + 2.0 * w * coef[i, j, k, 1, 2]
-                      + 3.0 * w2 * coef[i, j, k, 1, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 1, 3]) * to_phi
                 e2 = (coef[i, j, k, 2, 1] + 2.0 * w * coef[i, j, k, 2, 2]
-                      + 3.0 * w2 * coef[i, j, k, 2, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 2, 3]) * to_phi
                 e3 = (coef[i, j, k, 3, 1] + 2.0 * w * coef[i, j, k, 3, 2]
-                      + 3.0 * w2 * coef[i, j, k, 3, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 3, 3]) * to_phi
                 if i == 0:  # the u⁰ row vanishes: divide by u exactly
-                    dpf = (e1 + u * e2 + u2 * e3) / h_f
+                    dpf = (e1 + u * e2 + u2 * e3) * to_f
                 else:
                     dpf = (e0 + u * e1 + u2 * e2 + u2 * u * e3) * inv
                 d_x[b, k] = cs * d_f - sn * dpf
