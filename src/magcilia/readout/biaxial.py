@@ -94,6 +94,9 @@ MAX_ITERATIONS = 40
 FIT_FTOL = 1e-14
 #: … or moves (Fx, Fy) by less than this fraction of the box 2 F_max (~1e-10 of the span)
 FIT_XTOL = 5e-11
+#: … or changes χ² by less than this, up or down (whitened: a point this close to the minimum
+#: lies ~√FIT_ATOL σ from it)
+FIT_ATOL = 1e-12
 #: the normal matrix's condition number above which the two components are not both determined
 CONDITION_LIMIT = 1e10
 
@@ -511,7 +514,8 @@ class BiaxialReadout(Display):
         f_max = float(self.forces[-1])
         fit = fit_batch(residuals, np.stack([fx, fy], -1), [-f_max, -f_max], [f_max, f_max],
                         jacobian=True, maxiter=MAX_ITERATIONS, ftol=FIT_FTOL,
-                        xtol=FIT_XTOL, damping=1e-3, project=disc, compiled=compiled.ENABLED)
+                        xtol=FIT_XTOL, atol=FIT_ATOL, damping=1e-3, project=disc,
+                        compiled=compiled.ENABLED)
         # jacobian=True: JᵀJ of the whitened residuals (JᵀWJ) at the estimate itself
         return (fit.x[:, 0].copy(), fit.x[:, 1].copy(), np.array(fit.cost), np.array(fit.jtj),
                 fit.iterations.astype(np.float64), np.array(fit.converged))
