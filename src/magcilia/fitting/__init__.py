@@ -5,7 +5,9 @@ read-outs use, its multistart, and the one SciPy polish (no physics; units are t
   parameters at once, each with ``a`` residuals, within bounds; one damping rule (Marquardt's
   scaled λ, ÷3 on a step that lowers the cost, ×4 on one that does not); Jacobians analytic
   (``jacobian=callable``, or ``jacobian=True`` when the residual function returns them too) or by
-  forward differences in the same vectorised call.
+  forward differences in the same vectorised call. With ``jacobian=True`` and at most four
+  parameters, ``compiled=True`` runs each iteration's bookkeeping as two compiled passes
+  (:mod:`.small_step`, numba; the same rules, to rounding) where the model itself is cheap.
 * :func:`multistart`, :func:`halving`, :func:`latin_hypercube` (:mod:`.multistart`): starts
   spread over the box, narrowed by successive halving, the survivors run to convergence.
 * :func:`polish` (:mod:`.polish`): ``scipy.optimize.least_squares`` (trf) from a good point.
