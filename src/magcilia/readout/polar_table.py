@@ -313,13 +313,14 @@ def search_kernel(y: F64, w: F64, pad_reading: F64, pad_square: F64, n_phi: int,
     the best node, and the best local minimum (≤ its four neighbours on the polar grid, the
     rest's neighbours the first ring) far from it. χ² is formed on the padded grid
     (:attr:`CoarseGrid.pad_reading`: the rest below the first ring, each ring's ends wrapped;
-    the row above the last set to +inf) so that the neighbour tests run without branches."""
+    the row above the last set to +inf) so that the neighbour tests need no wrap-around; the
+    best node by eight running minima and a first-match scan; "far" tested at local minima only
+    (they are few)."""
     n_c, n_pad = pad_reading.shape
     width = n_phi + 2
     rings = n_pad // width - 2
     chi = np.empty(n_pad)
     grid = chi.reshape((rings + 2, width))  # the same memory, row by row
-    cand = np.empty(1 + rings * n_phi)  # node by node: χ² of a far local minimum, else +inf
     lanes = np.empty(8)
     for b in range(y.shape[0]):
         a, q = w[b, 0], -2.0 * w[b, 0] * y[b, 0]
@@ -362,30 +363,16 @@ def search_kernel(y: F64, w: F64, pad_reading: F64, pad_square: F64, n_phi: int,
         ring1 = grid[1, 1]
         for p in range(1, n_phi):
             ring1 = min(ring1, grid[1, 1 + p])
-        cand[0] = rest if (rest <= ring1 and far_top[0]) else math.inf
+        # the best far local minimum: local minima are few, so test "far" only at them
+        pick, pick_chi = -1, math.inf
+        if rest <= ring1 and far_top[0]:
+            pick, pick_chi = 0, rest
         for r in range(1, rings + 1):
             row, inner, outer = grid[r], grid[r - 1], grid[r + 1]
             k0 = 1 + (r - 1) * n_phi
             for p in range(n_phi):
                 g = row[p + 1]
-                local = ((g <= row[p]) & (g <= row[p + 2]) & (g <= inner[p + 1])
-                         & (g <= outer[p + 1]) & far_top[k0 + p])
-                cand[k0 + p] = g if local else math.inf
-        for q in range(8):
-            lanes[q] = math.inf
-        end = cand.size - cand.size % 8
-        for k in range(0, end, 8):
-            for q in range(8):
-                v = cand[k + q]
-                lanes[q] = min(lanes[q], v)
-        pick_chi = cand[end] if end < cand.size else math.inf
-        for k in range(end + 1, cand.size):
-            pick_chi = min(pick_chi, cand[k])
-        for q in range(8):
-            pick_chi = min(pick_chi, lanes[q])
-        pick = -1
-        if pick_chi < math.inf:
-            pick = 0
-            while cand[pick] != pick_chi:
-                pick += 1
+                if ((g <= row[p]) & (g <= row[p + 2]) & (g <= inner[p + 1])
+                        & (g <= outer[p + 1])) and g < pick_chi and far_top[k0 + p]:
+                    pick, pick_chi = k0 + p, g
         second[b] = pick
