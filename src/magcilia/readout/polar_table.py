@@ -76,8 +76,8 @@ class CoarseGrid:
         pad[:, 1:-1, 1:-1] = np.moveaxis(table[1:], -1, 0)
         pad[:, 1:-1, 0], pad[:, 1:-1, -1] = pad[:, 1:-1, -2], pad[:, 1:-1, 1]
         pad[:, -1] = 0.0
-        pad = pad.reshape(pad.shape[0], -1)
-        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far, pad.copy(), pad * pad)
+        flat = pad.reshape(pad.shape[0], -1)
+        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far, flat.copy(), flat * flat)
 
     def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
