@@ -10,8 +10,10 @@ median of the runs):
   mid-point check), at the default grid 65 × 128 and at 33 × 64;
 * **estimate** / **read**: ``.estimate`` (vectors only) and ``.read`` (covariance, σ, flags) of
   1e5 readings: the coarse search and the batched least squares (magcilia.fitting.fit_batch;
-  since issue 27 the interpolant and the coarse search compiled), and the same with the compiled
-  kernels off (their NumPy references, as before issue 27; issue 27's target: <= 2 us a reading);
+  since issue 27 the interpolant (whitened residuals and Jacobian in one pass) and the coarse
+  search compiled, and fit_batch's iterations as compiled passes, ``compiled=True``), and the
+  same with the compiled kernels off (their NumPy references, as before issue 27; issue 27's
+  target: <= 2 us a reading);
 * **anchor**: ``scipy.optimize.least_squares`` (its default trust-region reflective method,
   2-point Jacobian) per reading on the same interpolant (``BiaxialReadout.model``), started at
   the same coarse-grid node, on a subset, scaled to 1e5 readings. SciPy's least_squares has

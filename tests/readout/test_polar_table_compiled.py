@@ -73,3 +73,23 @@ def test_read_is_the_same_on_both_paths(readout: BiaxialReadout,
     scale = np.nanmax(np.abs(slow.sigma_fx))
     np.testing.assert_allclose(fast.vector[ok], slow.vector[ok], rtol=0, atol=1e-6 * scale)
     np.testing.assert_allclose(fast.sigma[ok], slow.sigma[ok], rtol=1e-6)
+
+
+def test_the_fits_stop_at_the_least_squares_minimum(readout: BiaxialReadout) -> None:
+    """The fit's stopping rules (FIT_FTOL, FIT_XTOL, and FIT_ATOL on χ²) leave each estimate
+    where SciPy's least_squares, run to its tightest tolerances on the same interpolant from
+    the same estimate, finds the minimum: within 1e-4 σ, and χ² within 1e-6."""
+    from scipy.optimize import least_squares
+
+    rng = np.random.default_rng(11)
+    fx, fy = _forces(40, 12, 0.95 * SPAN)
+    y = readout.model(fx, fy) + rng.normal(0.0, MAG.noise[0], (fx.size, 3))
+    res = readout.read(y)
+    sig = readout.sigma
+    for i in np.flatnonzero(res.flags == 0)[:25]:
+        ref = least_squares(lambda p, i=i: (readout.model(p[0], p[1]) - y[i]) / sig,
+                            res.vector[i], x_scale=SPAN * 1e-3, xtol=1e-15, ftol=1e-15,
+                            gtol=1e-15)
+        np.testing.assert_allclose(res.vector[i], ref.x, rtol=0,
+                                   atol=1e-4 * float(np.min(res.sigma[i])))
+        assert abs(res.chi2[i] - 2.0 * ref.cost) <= 1e-6 * max(1.0, res.chi2[i])

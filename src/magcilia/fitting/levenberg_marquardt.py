@@ -24,8 +24,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.fitting import compiled
+from magcilia._jit import compile_kernel
+from magcilia.fitting import small_step
 from magcilia.fitting.result import BatchFit
+from magcilia.fitting.small_step import SMALL_PARAMETERS
 
 F64 = NDArray[np.float64]
 #: ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row i
@@ -137,6 +139,7 @@ def fit_batch(
     damping: float = 1e-3,
     final_jacobian: bool = False,
     project: Projection | None = None,
+    compiled: bool = False,
 ) -> BatchFit:
     """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
 
@@ -185,6 +188,11 @@ def fit_batch(
         disc, say), as the nearest feasible points; applied to the starts and to every trial
         point after the bounds' clip. A step it maps back onto the current point ends the fit
         (converged: the minimum over the set lies on its edge).
+    compiled : bool
+        With ``jacobian=True`` and at most :data:`~.small_step.SMALL_PARAMETERS` parameters,
+        run each iteration's bookkeeping (normal equations, damped solve, bounds, acceptance) as
+        two compiled passes (:mod:`.small_step`, numba) instead of NumPy's many; the same rules,
+        to rounding. Ignored where numba is missing or the problem does not qualify.
 
     Returns
     -------
@@ -229,6 +237,12 @@ def fit_batch(
     tolerances = np.array([ftol, atol, xtol, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_DOWN, LAMBDA_UP])
     empty_jac = np.zeros((0, 0, 0))
     idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
+    kernels = (_small_kernels() if compiled and jcache is not None
+               and 0 < dims <= SMALL_PARAMETERS else None)
+    if kernels is not None and jcache is not None:
+        _iterate_compiled(kernels, residuals, project, x, r, cost, jcache, lam, lower, upper,
+                          width, idx, maxiter, ftol, xtol, atol, iterations, converged)
+        idx = every[:0]
     for k in range(maxiter):
         if idx.size == 0:
             break
@@ -345,6 +359,46 @@ def _damped_steps(jtj: F64, jtr: F64, la: F64, xa: F64, lo: F64, hi: F64
         rhs[held] = 0.0
         delta[again] = _solve(system, rhs)
     return delta, ok
+
+
+def _small_kernels() -> tuple[Any, Any] | None:
+    """The compiled step's two kernels (:mod:`.small_step`), or None without numba."""
+    propose = compile_kernel(small_step.propose_kernel)
+    accept = compile_kernel(small_step.accept_kernel)
+    return None if propose is None or accept is None else (propose, accept)
+
+
+def _iterate_compiled(kernels: tuple[Any, Any], residuals: Residuals,
+                      project: Projection | None, x: F64, r: F64, cost: F64, jcache: F64,
+                      lam: F64, lower: F64, upper: F64, width: F64, idx: NDArray[np.intp],
+                      maxiter: int, ftol: float, xtol: float, atol: float,
+                      iterations: NDArray[np.int64], converged: NDArray[np.bool_]) -> None:
+    """:func:`fit_batch`'s iterations with ``jacobian=True`` for small problems, the
+    bookkeeping compiled (:mod:`.small_step`); updates ``x``, ``r``, ``cost``, ``jcache``,
+    ``lam``, ``iterations`` and ``converged`` in place."""
+    propose, accept = kernels
+    shared = lower.ndim == 1
+    lo, hi, wd = ((lower[None], upper[None], width[None]) if shared else (lower, upper, width))
+    bounds = np.array([LAMBDA_MIN, LAMBDA_MAX, LAMBDA_DOWN, LAMBDA_UP])
+    dims = x.shape[1]
+    for k in range(maxiter):
+        if idx.size == 0:
+            return
+        m = idx.size
+        trial, ok = np.empty((m, dims)), np.empty(m, dtype=bool)
+        propose(idx, x, r, jcache, lam, lo, hi, shared, trial, ok)
+        if project is not None:
+            trial = np.ascontiguousarray(project(trial, idx), dtype=np.float64)
+        rt, jt = _evaluate(residuals, trial, idx, True)
+        ending = np.empty(m, dtype=bool)
+        accept(idx, trial, np.ascontiguousarray(rt), np.ascontiguousarray(jt), ok, x, r, cost,
+               jcache, lam, wd, shared, float(ftol), float(xtol), float(atol), bounds, ending)
+        if ending.any():
+            ended = idx[ending]
+            converged[ended] = ok[ending]
+            iterations[ended] = k + 1
+            idx = idx[~ending]
+    iterations[idx] = maxiter
 
 
 def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: bool

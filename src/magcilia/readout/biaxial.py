@@ -48,6 +48,7 @@ from magcilia.device.sensor import beyond_range
 from magcilia.device.setup import Setup
 from magcilia.fitting import fit_batch
 from magcilia.mechanics import require_tip_radius
+from magcilia.model import compiled
 from magcilia.readout.channel import Channel, ChannelLike, channels
 from magcilia.readout.force_vector import (
     NO_DIRECTION,
@@ -58,7 +59,13 @@ from magcilia.readout.force_vector import (
     polar_sigmas,
 )
 from magcilia.readout.inverse import EDGE_TOLERANCE
-from magcilia.readout.polar_table import CoarseGrid, evaluate, hermite_coefficients, onto_disc
+from magcilia.readout.polar_table import (
+    CoarseGrid,
+    evaluate,
+    hermite_coefficients,
+    onto_disc_rows,
+    whitened,
+)
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, tare_flags
 from magcilia.readout.scale import vector_rate, vector_scale_covariance
 from magcilia.readout.tare import (
@@ -87,6 +94,9 @@ MAX_ITERATIONS = 40
 FIT_FTOL = 1e-14
 #: … or moves (Fx, Fy) by less than this fraction of the box 2 F_max (~1e-10 of the span)
 FIT_XTOL = 5e-11
+#: … or changes χ² by less than this, up or down (whitened: a point this close to the minimum
+#: lies ~√FIT_ATOL σ from it)
+FIT_ATOL = 1e-12
 #: the normal matrix's condition number above which the two components are not both determined
 CONDITION_LIMIT = 1e10
 
@@ -496,17 +506,16 @@ class BiaxialReadout(Display):
         root_w = np.sqrt(w)
 
         def residuals(x: F64, which: NDArray[np.intp]) -> tuple[F64, F64]:
-            val, jx, jy = evaluate(self._coef, h_f, x[:, 0], x[:, 1])
-            rw = root_w[which]
-            return rw * (val - y[which]), np.stack([jx, jy], -1) * rw[..., None]
+            return whitened(self._coef, h_f, x, y, root_w, which)
 
         def disc(x: F64, _which: NDArray[np.intp]) -> F64:
-            return np.stack(onto_disc(x[:, 0], x[:, 1], edge)[:2], -1)
+            return onto_disc_rows(x, edge)
 
         f_max = float(self.forces[-1])
         fit = fit_batch(residuals, np.stack([fx, fy], -1), [-f_max, -f_max], [f_max, f_max],
                         jacobian=True, maxiter=MAX_ITERATIONS, ftol=FIT_FTOL,
-                        xtol=FIT_XTOL, damping=1e-3, project=disc)
+                        xtol=FIT_XTOL, atol=FIT_ATOL, damping=1e-3, project=disc,
+                        compiled=compiled.ENABLED)
         # jacobian=True: JᵀJ of the whitened residuals (JᵀWJ) at the estimate itself
         return (fit.x[:, 0].copy(), fit.x[:, 1].copy(), np.array(fit.cost), np.array(fit.jtj),
                 fit.iterations.astype(np.float64), np.array(fit.converged))

@@ -48,7 +48,8 @@ def _cell_coefficients(f: F64, f_u: F64, f_w: F64, f_uw: F64) -> F64:
 class CoarseGrid:
     """The coarse search's candidates (the grid's nodes, thinned): magnitudes and azimuths (K,),
     readings (K, c), the rest (F = 0) first and once, then ring after ring of equal magnitude;
-    the first ring's node indices, and which nodes lie far from which (K, K)."""
+    the first ring's node indices, which nodes lie far from which (K, K), and the readings and
+    their squares on the padded grid of the compiled search (c, (rings + 2)(nφ + 2))."""
 
     force: F64
     azimuth: F64
@@ -56,6 +57,8 @@ class CoarseGrid:
     square: F64
     ring: NDArray[np.intp]
     far: NDArray[np.bool_]
+    pad_reading: F64
+    pad_square: F64
 
     @classmethod
     def build(cls, forces: F64, azimuths: F64, table: F64, span: float) -> CoarseGrid:
@@ -66,7 +69,15 @@ class CoarseGrid:
         idx = 1 + np.arange(n_r * n_p).reshape(n_r, n_p)
         x, yv = f * np.cos(p), f * np.sin(p)
         far = np.hypot(x[:, None] - x[None, :], yv[:, None] - yv[None, :]) > 0.1 * span
-        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far)
+        # the padded grid of the compiled search: (c, rings + 2, nφ + 2), row 0 the rest,
+        # rows 1… the rings with their ends wrapped, the last row a placeholder (+inf there)
+        pad = np.empty((table.shape[-1], n_r + 2, n_p + 2))
+        pad[:, 0] = table[0, 0][:, None]
+        pad[:, 1:-1, 1:-1] = np.moveaxis(table[1:], -1, 0)
+        pad[:, 1:-1, 0], pad[:, 1:-1, -1] = pad[:, 1:-1, -2], pad[:, 1:-1, 1]
+        pad[:, -1] = 0.0
+        flat = pad.reshape(pad.shape[0], -1)
+        return cls(f, p, y, (y * y).T.copy(), idx[0].copy(), far, flat.copy(), flat * flat)
 
     def search(self, y: F64, w: F64) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
         """For readings ``y`` (b, c) with weights ``w`` (b, c): the best node and the best local
@@ -76,9 +87,8 @@ class CoarseGrid:
         if kernel is not None:
             best = np.empty(y.shape[0], dtype=np.intp)
             second = np.empty(y.shape[0], dtype=np.intp)
-            kernel(np.ascontiguousarray(y), np.ascontiguousarray(w),
-                   np.ascontiguousarray(self.reading.T), self.square, self.ring.size, self.far,
-                   best, second)
+            kernel(np.ascontiguousarray(y), np.ascontiguousarray(w), self.pad_reading,
+                   self.pad_square, self.ring.size, self.far, best, second)
             return best, second
         return self.search_numpy(y, w)
 
@@ -144,8 +154,33 @@ def evaluate(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
     d_x = np.empty((b, c)) if derivatives else val
     d_y = np.empty((b, c)) if derivatives else val
     kernel(coef, float(h_f), np.ascontiguousarray(fx, dtype=np.float64).reshape(-1),
-           np.ascontiguousarray(fy, dtype=np.float64).reshape(-1), derivatives, val, d_x, d_y)
+           np.ascontiguousarray(fy, dtype=np.float64).reshape(-1), derivatives, val, d_x, d_y,
+           _NONE, _NONE, _NO_ROWS)
     return val, d_x, d_y
+
+
+_NONE = np.zeros((0, 0))
+_NO_ROWS = np.zeros(0, dtype=np.intp)
+
+
+def whitened(coef: F64, h_f: float, x: F64, y: F64, root_w: F64, which: NDArray[np.intp]
+             ) -> tuple[F64, F64]:
+    """Whitened residuals and their Jacobian for a least-squares fit of readings to the
+    interpolant :func:`evaluate`: at forces ``x`` (m, 2) = (Fx, Fy), N, row i belonging to
+    reading ``which[i]`` of ``y`` (b, c), T, with weights ``root_w`` (b, c), 1/T:
+    ``root_w[which] (model − y[which])`` (m, c) and its derivatives (m, c, 2), 1/N; one
+    compiled pass (:func:`evaluate_kernel`) or NumPy."""
+    kernel = jit(evaluate_kernel)
+    if kernel is None:
+        val, d_x, d_y = evaluate_numpy(coef, h_f, x[:, 0], x[:, 1])
+        rw = root_w[which]
+        return rw * (val - y[which]), np.stack([d_x, d_y], -1) * rw[..., None]
+    m, c = x.shape[0], coef.shape[2]
+    res = np.empty((m, c))
+    jac = np.empty((m, c, 2))
+    kernel(coef, float(h_f), np.ascontiguousarray(x[:, 0]), np.ascontiguousarray(x[:, 1]), True,
+           res, jac[:, :, 0], jac[:, :, 1], y, root_w, which)
+    return res, jac
 
 
 def evaluate_numpy(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = True
@@ -183,6 +218,17 @@ def evaluate_numpy(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool = 
     return val, d_x, d_y
 
 
+def onto_disc_rows(x: F64, edge: float) -> F64:
+    """Points ``x`` (m, 2) = (Fx, Fy) projected radially onto the disc of radius ``edge``
+    (:func:`onto_disc`), (m, 2); compiled (:func:`disc_kernel`) or NumPy."""
+    kernel = jit(disc_kernel)
+    if kernel is None:
+        return np.stack(onto_disc(x[:, 0], x[:, 1], edge)[:2], -1)
+    out = np.empty((x.shape[0], 2))
+    kernel(np.ascontiguousarray(x, dtype=np.float64), float(edge), out)
+    return out
+
+
 def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
     """(Fx, Fy) (b,) projected radially onto the disc of radius ``edge`` (where the table
     lives), and the factor applied (b,), 1 inside."""
@@ -194,13 +240,19 @@ def onto_disc(fx: F64, fy: F64, edge: float) -> tuple[F64, F64, F64]:
 # -- compiled twins (numba source; :func:`magcilia.model.jit.jit`) ---------------------------------
 
 def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, val: F64,
-                    d_x: F64, d_y: F64) -> None:
-    """:func:`evaluate_numpy` per reading (numba source): ``val``, ``d_x``, ``d_y`` (b, c)."""
+                    d_x: F64, d_y: F64, y: F64, root_w: F64, which: NDArray[np.intp]) -> None:
+    """:func:`evaluate_numpy` per reading (numba source): ``val``, ``d_x``, ``d_y`` (b, c); with
+    ``which`` non-empty (b,), whitened in the same pass (:func:`whitened`): ``root_w[which]``
+    × (``val`` − ``y[which]``) and ``root_w[which]`` × the derivatives."""
     n_f, n_phi, n_c = coef.shape[0] + 1, coef.shape[1], coef.shape[2]
+    whiten = which.size > 0
     h_phi = 2.0 * math.pi / n_phi
+    to_f, to_phi = 1.0 / h_f, 1.0 / h_phi  # products, not divisions, in the loop
     for b in range(fx.size):
         mag = math.hypot(fx[b], fy[b])
-        phi = math.atan2(fy[b], fx[b]) % (2.0 * math.pi)
+        phi = math.atan2(fy[b], fx[b])  # (−π, π]: … % 2π without the remainder's cost
+        if phi < 0.0:
+            phi += 2.0 * math.pi
         u = mag / h_f
         i = min(int(u), n_f - 2)
         u -= i
@@ -221,64 +273,106 @@ def evaluate_kernel(coef: F64, h_f: float, fx: F64, fy: F64, derivatives: bool, 
                 coef[i, j, k, 3, 2] + w * coef[i, j, k, 3, 3]))
             val[b, k] = cw0 + u * (cw1 + u * (cw2 + u * cw3))
             if derivatives:
-                d_f = (cw1 + u * (2.0 * cw2 + 3.0 * u * cw3)) / h_f
+                d_f = (cw1 + u * (2.0 * cw2 + 3.0 * u * cw3)) * to_f
                 # dB/dφ per row of the cell: Σ_l a[k, l] l w^(l−1) / h_phi
                 e0 = (coef[i, j, k, 0, 1] + 2.0 * w * coef[i, j, k, 0, 2]
-                      + 3.0 * w2 * coef[i, j, k, 0, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 0, 3]) * to_phi
                 e1 = (coef[i, j, k, 1, 1] + 2.0 * w * coef[i, j, k, 1, 2]
-                      + 3.0 * w2 * coef[i, j, k, 1, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 1, 3]) * to_phi
                 e2 = (coef[i, j, k, 2, 1] + 2.0 * w * coef[i, j, k, 2, 2]
-                      + 3.0 * w2 * coef[i, j, k, 2, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 2, 3]) * to_phi
                 e3 = (coef[i, j, k, 3, 1] + 2.0 * w * coef[i, j, k, 3, 2]
-                      + 3.0 * w2 * coef[i, j, k, 3, 3]) / h_phi
+                      + 3.0 * w2 * coef[i, j, k, 3, 3]) * to_phi
                 if i == 0:  # the u⁰ row vanishes: divide by u exactly
-                    dpf = (e1 + u * e2 + u2 * e3) / h_f
+                    dpf = (e1 + u * e2 + u2 * e3) * to_f
                 else:
                     dpf = (e0 + u * e1 + u2 * e2 + u2 * u * e3) * inv
                 d_x[b, k] = cs * d_f - sn * dpf
                 d_y[b, k] = sn * d_f + cs * dpf
+            if whiten:
+                rw = root_w[which[b], k]
+                val[b, k] = rw * (val[b, k] - y[which[b], k])
+                if derivatives:
+                    d_x[b, k] *= rw
+                    d_y[b, k] *= rw
 
 
-def search_kernel(y: F64, w: F64, reading_t: F64, square: F64, n_phi: int,
+def disc_kernel(x: F64, edge: float, out: F64) -> None:
+    """:func:`onto_disc` per point (numba source): ``out`` (m, 2)."""
+    for i in range(x.shape[0]):
+        mag = math.hypot(x[i, 0], x[i, 1])
+        shrink = edge / max(mag, 1e-300) if mag > edge else 1.0
+        out[i, 0] = x[i, 0] * shrink
+        out[i, 1] = x[i, 1] * shrink
+
+
+def search_kernel(y: F64, w: F64, pad_reading: F64, pad_square: F64, n_phi: int,
                   far: NDArray[np.bool_], best: NDArray[np.intp],
                   second: NDArray[np.intp]) -> None:
     """:meth:`CoarseGrid.search_numpy` per reading (numba source): χ² − Σ w y² at every node,
     the best node, and the best local minimum (≤ its four neighbours on the polar grid, the
-    rest's neighbours the first ring) far from it."""
-    n_c, n_k = reading_t.shape
-    rings = (n_k - 1) // n_phi
-    chi = np.empty(n_k)
+    rest's neighbours the first ring) far from it. χ² is formed on the padded grid
+    (:attr:`CoarseGrid.pad_reading`: the rest below the first ring, each ring's ends wrapped;
+    the row above the last set to +inf) so that the neighbour tests need no wrap-around; the
+    best node by eight running minima and a first-match scan; "far" tested at local minima only
+    (they are few)."""
+    n_c, n_pad = pad_reading.shape
+    width = n_phi + 2
+    rings = n_pad // width - 2
+    chi = np.empty(n_pad)
+    grid = chi.reshape((rings + 2, width))  # the same memory, row by row
+    lanes = np.empty(8)
     for b in range(y.shape[0]):
-        chi[:] = 0.0
-        for c in range(n_c):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
+        a, q = w[b, 0], -2.0 * w[b, 0] * y[b, 0]
+        sq, rd = pad_square[0], pad_reading[0]
+        for k in range(n_pad):  # χ² − Σ w y² = Σ_c w (Y² − 2 y Y), node by node (vectorised)
+            chi[k] = a * sq[k] + q * rd[k]
+        for c in range(1, n_c):
             a, q = w[b, c], -2.0 * w[b, c] * y[b, c]
-            sq, rd = square[c], reading_t[c]
-            for k in range(n_k):
+            sq, rd = pad_square[c], pad_reading[c]
+            for k in range(n_pad):
                 chi[k] += a * sq[k] + q * rd[k]
+        for p in range(width):
+            grid[rings + 1, p] = math.inf
+        # the best node: the smallest χ² (eight running minima, vectorised), then its first node
+        for q in range(8):
+            lanes[q] = math.inf
+        end = chi.size - chi.size % 8
+        for k in range(0, end, 8):
+            for q in range(8):
+                v = chi[k + q]
+                lanes[q] = min(lanes[q], v)
+        low = chi[end] if end < chi.size else math.inf
+        for k in range(end + 1, chi.size):
+            low = min(low, chi[k])
+        for q in range(8):
+            low = min(low, lanes[q])
         top = 0
-        for k in range(1, n_k):
-            if chi[k] < chi[top]:
-                top = k
+        if grid[0, 1] != low:  # node 0 is the rest (padded row 0); then ring after ring
+            for r in range(1, rings + 1):
+                row = grid[r]
+                for p in range(n_phi):
+                    if row[p + 1] == low:
+                        top = 1 + (r - 1) * n_phi + p
+                        break
+                if top:
+                    break
         best[b] = top
-        low = chi[1]
+        far_top = far[top]
+        rest = grid[0, 1]
+        ring1 = grid[1, 1]
         for p in range(1, n_phi):
-            low = min(low, chi[1 + p])
+            ring1 = min(ring1, grid[1, 1 + p])
+        # the best far local minimum: local minima are few, so test "far" only at them
         pick, pick_chi = -1, math.inf
-        if chi[0] <= low and far[top, 0]:
-            pick, pick_chi = 0, chi[0]
-        for r in range(rings):
+        if rest <= ring1 and far_top[0]:
+            pick, pick_chi = 0, rest
+        for r in range(1, rings + 1):
+            row, inner, outer = grid[r], grid[r - 1], grid[r + 1]
+            k0 = 1 + (r - 1) * n_phi
             for p in range(n_phi):
-                k = 1 + r * n_phi + p
-                g = chi[k]
-                if not far[top, k] or g >= pick_chi:
-                    continue
-                if g > chi[k - 1 if p > 0 else k + n_phi - 1]:  # the ring is periodic
-                    continue
-                if g > chi[k + 1 if p < n_phi - 1 else k - n_phi + 1]:
-                    continue
-                if g > (chi[0] if r == 0 else chi[k - n_phi]):
-                    continue
-                if r < rings - 1 and g > chi[k + n_phi]:
-                    continue
-                pick, pick_chi = k, g
+                g = row[p + 1]
+                if ((g <= row[p]) & (g <= row[p + 2]) & (g <= inner[p + 1])
+                        & (g <= outer[p + 1])) and g < pick_chi and far_top[k0 + p]:
+                    pick, pick_chi = k0 + p, g
         second[b] = pick
