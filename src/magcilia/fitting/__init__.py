@@ -7,9 +7,10 @@ read-outs use, its multistart, and the one SciPy polish (no physics; units are t
   (``jacobian=callable``, or ``jacobian=True`` when the residual function returns them too) or by
   forward differences in the same vectorised call; each iteration's damped step (normal
   equations, scaled system, solves, bound-held parameters) is one compiled call
-  (:mod:`.compiled`, numba; the NumPy step is its reference and runs without numba). With ``jacobian=True`` and at most four
-  parameters, ``compiled=True`` runs each iteration's bookkeeping as two compiled passes
-  (:mod:`.small_step`, numba; the same rules, to rounding) where the model itself is cheap.
+  (:mod:`.compiled`, numba; the NumPy step is its reference and runs without numba). With
+  ``jacobian=True`` and at most four parameters, ``compiled=True`` runs each iteration's
+  bookkeeping as two compiled passes (:mod:`.small_step`, numba; the same rules, to rounding)
+  where the model itself is cheap.
 * :func:`multistart`, :func:`halving`, :func:`latin_hypercube` (:mod:`.multistart`): starts
   spread over the box, narrowed by successive halving, the survivors run to convergence.
 * :func:`polish` (:mod:`.polish`): ``scipy.optimize.least_squares`` (trf) from a good point.
