@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._jit import compile_kernel
+from magcilia.fitting import compiled as compiled_step
 from magcilia.fitting import small_step
 from magcilia.fitting.result import BatchFit
 from magcilia.fitting.small_step import SMALL_PARAMETERS
@@ -233,7 +234,7 @@ def fit_batch(
     jtj_out = np.full((size, dims, dims), np.nan)
     # the compiled step (fitting.compiled) where numba is available; 2 × 2 systems are solved in
     # closed form by the NumPy path
-    fast = compiled.kernels() if dims > 2 else None
+    fast = compiled_step.kernels() if dims > 2 else None
     tolerances = np.array([ftol, atol, xtol, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_DOWN, LAMBDA_UP])
     empty_jac = np.zeros((0, 0, 0))
     idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
