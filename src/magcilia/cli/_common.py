@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 import click
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from magcilia._atomic import json_text
 from magcilia._errors import MagciliaError
@@ -200,6 +199,7 @@ def progress_bar(desc: str, unit: str, *, quiet: bool = False,
     stderr, not with ``quiet`` (the command's ``--quiet`` or ``magcilia -q``) or when stderr is
     not a terminal; ``options`` go to tqdm."""
     show = not quiet_requested(quiet) and sys.stderr.isatty()
+    from tqdm import tqdm
     with tqdm(desc=desc, unit=unit, disable=not show, file=sys.stderr, **options) as bar:
         def advance(done: int, total: int) -> None:
             bar.total = total

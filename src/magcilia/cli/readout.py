@@ -7,7 +7,6 @@ from pathlib import Path
 
 import click
 import numpy as np
-from tqdm import tqdm
 
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
@@ -300,6 +299,7 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     dyn = (_dynamic(readout, times, FLUIDS[fluid or ("water" if quantity == "flow" else "air")])
            if dynamic else None)
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
+    from tqdm import tqdm
     with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
               disable=not show, file=sys.stderr) as bar:
         result = readout.read(volts, bandwidth=band) if dyn is None else dyn.read(
