@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -11,7 +12,6 @@ import numpy as np
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.acquire.replay import stored_properties
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
     RecordingArgs,
@@ -37,21 +37,14 @@ from magcilia.device.setup import Setup
 from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
 from magcilia.io.quality import screen
-from magcilia.live.recorded import (
-    read_recorded,
-    recorded_kind,
-    recorded_readings,
-    recorded_readout,
-    stored,
-)
 from magcilia.mechanics import FLUIDS, Flow, Fluid
-from magcilia.readout.biaxial import BiaxialReadout
-from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
 from magcilia.readout.protocol import Flag
-from magcilia.report.biaxial import vector_csv
 from magcilia.report.readout import readout_line, readout_summary, write_readout_csv
 from magcilia.units import parse_quantity, parse_value, parse_values
+
+if TYPE_CHECKING:
+    from magcilia.readout.dynamic import DynamicReadout
 
 #: readings from which a read-out shows a progress bar (about a second of work)
 PROGRESS_READINGS = 2_000_000
@@ -327,6 +320,8 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
 def _dynamic(readout: Readout, times: np.ndarray | None, fluid: Fluid) -> DynamicReadout:
     """``--dynamic``: the dynamic read-out at the recording's rate (its ``time_s`` uniform
     within 1 %)."""
+    from magcilia.readout.dynamic import DynamicReadout
+
     if times is None or times.size < 2:
         raise fail("--dynamic", True, "given for a recording with a time_s column (the rate of "
                    "its readings)")
@@ -422,6 +417,9 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
     constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
     field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
+    from magcilia.readout.biaxial import BiaxialReadout
+    from magcilia.report.biaxial import vector_csv
+
     if sensor_name is None:
         raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
                    + ", ".join(sorted(MAGNETOMETERS)))
@@ -503,6 +501,8 @@ def is_live_recording(path: str) -> bool:
     """Whether ``path`` is a TDMS recording of a live read-out (it stores its read-out)."""
     if not path.lower().endswith(".tdms") or not Path(path).is_file():
         return False
+    from magcilia.acquire.replay import stored_properties
+
     try:
         return bool(stored_properties(path).get("live"))
     except MagciliaError:
@@ -516,6 +516,15 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
     """``magcilia readout FILE.tdms [--setup SETUP]`` of a live recording: the readings the view
     read, corrected as it corrected them, through the stored read-out (each part replaced where
     given)."""
+    from magcilia.acquire.replay import stored_properties
+    from magcilia.live.recorded import (
+        read_recorded,
+        recorded_kind,
+        recorded_readings,
+        recorded_readout,
+        stored,
+    )
+
     kind = recorded_kind(path)
     if kind != "scalar":  # force vectors: a replay reads them with what the recording stores
         what = "an array's" if kind == "array" else "a 3-axis sensor's"
