@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -292,13 +293,18 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     dyn = (_dynamic(readout, times, FLUIDS[fluid or ("water" if quantity == "flow" else "air")])
            if dynamic else None)
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
-    from tqdm import tqdm
-    with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
-              disable=not show, file=sys.stderr) as bar:
+    with contextlib.ExitStack() as stack:
+        progress = None
+        if show:  # (tqdm imported only to show a bar)
+            from tqdm import tqdm
+
+            progress = stack.enter_context(tqdm(total=volts.size, desc="readout",
+                                                unit="reading", unit_scale=True,
+                                                file=sys.stderr)).update
         result = readout.read(volts, bandwidth=band) if dyn is None else dyn.read(
             volts, noise=None if readout.baseline is not None else
             setup.sensor.output_noise_rms(*band))
-        write_readout_csv(out_path, result, volts, times, si=si, progress=bar.update)
+        write_readout_csv(out_path, result, volts, times, si=si, progress=progress)
     compensation = None if actuation is None else _compensation(setup, actuation,
                                                                  readout.sensor_flags, si)
     if as_json:
