@@ -18,6 +18,11 @@ from hypothesis import settings
 
 matplotlib.use("Agg")
 
+# the converged-layout cache across processes (model/layout_cache.py) off: every test computes
+# its layouts (a monkeypatched model must not meet a remembered answer), and nothing is written
+# into the user's cache folder; tests of the cache turn it on in tmp_path
+os.environ["MAGCILIA_CACHE_DIR"] = ""
+
 settings.register_profile("magcilia", max_examples=40, deadline=None)
 settings.load_profile("magcilia")
 

@@ -65,6 +65,34 @@ def test_magcilia_help_loads_no_heavy_library_and_no_command() -> None:
     assert sorted(m for m in modules if m.removeprefix("magcilia.cli.") in COMMANDS) == []
 
 
+def test_no_command_help_loads_a_heavy_library() -> None:
+    """``magcilia COMMAND --help`` for every command, one after another in one process: the
+    command modules import only what their options need; SciPy, pandas, numba, matplotlib,
+    tqdm, ... load inside the functions that use them (checked after each command, so the first
+    command to load one is named)."""
+    code = """
+import contextlib, io, json, sys
+from magcilia.cli import COMMANDS, main
+HEAVY = %r
+found = {}
+for name in COMMANDS:
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        assert main([name, "--help"]) == 0, name
+    assert "Usage: magcilia " + name in out.getvalue(), name
+    assert "magcilia.cli." + name in sys.modules, name  # (the command module was imported)
+    heavy = sorted(m for m in sys.modules if m.split(".")[0] in HEAVY)
+    if heavy:
+        found[name] = heavy
+        break
+print(json.dumps(found))
+""" % (HEAVY,)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(SRC.parent), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          timeout=120, check=True)
+    assert json.loads(done.stdout.splitlines()[-1]) == {}
+
+
 def test_every_face_imports_nothing_of_its_room() -> None:
     """Importing every package face loads none of their modules: a name added to a face goes
     into its ``if TYPE_CHECKING:`` block (an eager import there would load its module, and what

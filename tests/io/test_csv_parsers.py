@@ -49,6 +49,23 @@ def test_blank_lines_of_spaces_between_rows(tmp_path: Path, parser: str) -> None
     np.testing.assert_array_equal(np.concatenate([b["voltage_V"] for b in blocks]), [2, 4, 6])
 
 
+@pytest.mark.parametrize(("body", "expected"), [
+    (b"1\n \n2\n\t\n3\n", [1, 2, 3]),  # one column: a line of blanks is no empty field
+    (b" \n\t\r\n  ", []),  # only lines of blanks: no rows
+    (b"\n\r\n\n", []),  # only line ends
+])
+def test_lines_of_blanks_in_one_column_files(tmp_path: Path, parser: str, body: bytes,
+                                             expected: list[float]) -> None:
+    """NumPy's reader meets a line of blanks as a bad row; it is taken out and the file read
+    again (the scan for such lines costs only those files)."""
+    path = tmp_path / "r.csv"
+    path.write_bytes(b"voltage_V\n" + body)
+    blocks = list(csvfile.plain_csv_blocks(path, ("voltage_V",), ("voltage_V",), max_samples=10,
+                                           max_line_chars=100))
+    got = np.concatenate([b["voltage_V"] for b in blocks]) if blocks else np.zeros(0)
+    np.testing.assert_array_equal(got, expected)
+
+
 def test_the_default_parser(monkeypatch: pytest.MonkeyPatch, parser: str) -> None:
     monkeypatch.setattr(csvparsers, "PARSER", None)
     assert csvparsers.numpy_parses(",", ".", 1 << 20, None)

@@ -12,7 +12,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError, require
@@ -139,6 +138,7 @@ def _find_tape(small: F64, keep: int = 6) -> list[_Bar]:
     twice (a bright tape stays whole where a textured background falls apart)."""
     measure = photo_module("skimage.measure", "scikit-image", "finding the tape in a photo")
     filters = photo_module("skimage.filters", "scikit-image", "finding the tape in a photo")
+    from scipy import ndimage
     k = max(15, min(small.shape) // 6)
     top = small - ndimage.grey_opening(small, size=(k, k))
     found: list[_Bar] = []
@@ -179,6 +179,7 @@ def _profiles(img: F64, centre: F64, direction: F64, t: F64, s: F64) -> F64:
     normal = np.array([-direction[1], direction[0]])
     x = centre[0] + t[:, None] * direction[0] + s[None, :] * normal[0]
     y = centre[1] + t[:, None] * direction[1] + s[None, :] * normal[1]
+    from scipy import ndimage
     out = ndimage.map_coordinates(img, [y.ravel(), x.ravel()], order=1, mode="constant",
                                   cval=np.nan)
     return np.asarray(out, dtype=np.float64).reshape(x.shape)
@@ -231,6 +232,7 @@ def _refine(img: F64, centre: F64, direction: F64, half_len: float, half_win: fl
     p = np.where(rows[:, None], p, 0.0)
     if kind == "edge":
         # the derivative across the edge, smoothed over 1/16 of the window
+        from scipy import ndimage
         g = ndimage.gaussian_filter1d(np.diff(p, axis=1), 4.0, axis=1)
         g *= 1.0 if np.sum(g[rows]) >= 0 else -1.0
         s = (s[1:] + s[:-1]) / 2

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import minimize
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, count, dataframe, rows_table, si
@@ -330,6 +329,7 @@ def fit_piecewise_linear(
         return knots, _node_values(x, y, knots)[0]
     scale = float(y @ y) / y.size or 1.0
 
+    from scipy.optimize import minimize
     def objective(z: F64) -> float:
         return _node_values(x, y, _knots_from_gaps(z, lo, hi))[1] / scale
 

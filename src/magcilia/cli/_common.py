@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 import click
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from magcilia._atomic import json_text
 from magcilia._errors import MagciliaError
@@ -193,14 +192,22 @@ def mechanics_options(command: Any) -> Any:
                              "50um).")(command)
 
 
+def _no_progress(done: int, total: int) -> None:
+    """The progress callback where no bar is shown."""
+
+
 @contextlib.contextmanager
 def progress_bar(desc: str, unit: str, *, quiet: bool = False,
                  **options: Any) -> Iterator[Callable[[int, int], None]]:
     """A ``progress(done, total)`` callback (the library's form) that drives a tqdm bar on
     stderr, not with ``quiet`` (the command's ``--quiet`` or ``magcilia -q``) or when stderr is
     not a terminal; ``options`` go to tqdm."""
-    show = not quiet_requested(quiet) and sys.stderr.isatty()
-    with tqdm(desc=desc, unit=unit, disable=not show, file=sys.stderr, **options) as bar:
+    if quiet_requested(quiet) or not sys.stderr.isatty():
+        yield _no_progress  # (tqdm not even imported)
+        return
+    from tqdm import tqdm
+
+    with tqdm(desc=desc, unit=unit, file=sys.stderr, **options) as bar:
         def advance(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)

@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
-from tqdm import tqdm
 
 from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
-from magcilia.acquire.replay import stored_properties
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import (
     RecordingArgs,
@@ -38,21 +38,14 @@ from magcilia.device.setup import Setup
 from magcilia.io import recordings
 from magcilia.io.columns import FIELD_KEYS
 from magcilia.io.quality import screen
-from magcilia.live.recorded import (
-    read_recorded,
-    recorded_kind,
-    recorded_readings,
-    recorded_readout,
-    stored,
-)
 from magcilia.mechanics import FLUIDS, Flow, Fluid
-from magcilia.readout.biaxial import BiaxialReadout
-from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import EDGES, Readout, direct_field
 from magcilia.readout.protocol import Flag
-from magcilia.report.biaxial import vector_csv
 from magcilia.report.readout import readout_line, readout_summary, write_readout_csv
 from magcilia.units import parse_quantity, parse_value, parse_values
+
+if TYPE_CHECKING:
+    from magcilia.readout.dynamic import DynamicReadout
 
 #: readings from which a read-out shows a progress bar (about a second of work)
 PROGRESS_READINGS = 2_000_000
@@ -300,12 +293,18 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     dyn = (_dynamic(readout, times, FLUIDS[fluid or ("water" if quantity == "flow" else "air")])
            if dynamic else None)
     show = not quiet and sys.stderr.isatty() and volts.size > PROGRESS_READINGS
-    with tqdm(total=volts.size, desc="readout", unit="reading", unit_scale=True,
-              disable=not show, file=sys.stderr) as bar:
+    with contextlib.ExitStack() as stack:
+        progress = None
+        if show:  # (tqdm imported only to show a bar)
+            from tqdm import tqdm
+
+            progress = stack.enter_context(tqdm(total=volts.size, desc="readout",
+                                                unit="reading", unit_scale=True,
+                                                file=sys.stderr)).update
         result = readout.read(volts, bandwidth=band) if dyn is None else dyn.read(
             volts, noise=None if readout.baseline is not None else
             setup.sensor.output_noise_rms(*band))
-        write_readout_csv(out_path, result, volts, times, si=si, progress=bar.update)
+        write_readout_csv(out_path, result, volts, times, si=si, progress=progress)
     compensation = None if actuation is None else _compensation(setup, actuation,
                                                                  readout.sensor_flags, si)
     if as_json:
@@ -327,6 +326,8 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
 def _dynamic(readout: Readout, times: np.ndarray | None, fluid: Fluid) -> DynamicReadout:
     """``--dynamic``: the dynamic read-out at the recording's rate (its ``time_s`` uniform
     within 1 %)."""
+    from magcilia.readout.dynamic import DynamicReadout
+
     if times is None or times.size < 2:
         raise fail("--dynamic", True, "given for a recording with a time_s column (the rate of "
                    "its readings)")
@@ -422,6 +423,9 @@ def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | No
     """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
     constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
     field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
+    from magcilia.readout.biaxial import BiaxialReadout
+    from magcilia.report.biaxial import vector_csv
+
     if sensor_name is None:
         raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
                    + ", ".join(sorted(MAGNETOMETERS)))
@@ -503,6 +507,8 @@ def is_live_recording(path: str) -> bool:
     """Whether ``path`` is a TDMS recording of a live read-out (it stores its read-out)."""
     if not path.lower().endswith(".tdms") or not Path(path).is_file():
         return False
+    from magcilia.acquire.replay import stored_properties
+
     try:
         return bool(stored_properties(path).get("live"))
     except MagciliaError:
@@ -516,6 +522,15 @@ def _live_recording(setup_arg: str, path: str, quantity: str | None, span_text: 
     """``magcilia readout FILE.tdms [--setup SETUP]`` of a live recording: the readings the view
     read, corrected as it corrected them, through the stored read-out (each part replaced where
     given)."""
+    from magcilia.acquire.replay import stored_properties
+    from magcilia.live.recorded import (
+        read_recorded,
+        recorded_kind,
+        recorded_readings,
+        recorded_readout,
+        stored,
+    )
+
     kind = recorded_kind(path)
     if kind != "scalar":  # force vectors: a replay reads them with what the recording stores
         what = "an array's" if kind == "array" else "a 3-axis sensor's"

@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 import click
-from tqdm import tqdm
 
 from magcilia._atomic import staged_directory
 from magcilia._errors import MissingDependencyError, require
@@ -117,6 +116,7 @@ def command(setup_arg: str, data: str | None, out_dir: str, span_items: tuple[st
         measurement = None if data is None else reading.read(read_measurements, data,
                                                              quiet=quiet, sensor=setup.sensor)
         show = not quiet and sys.stderr.isatty()
+        from tqdm import tqdm
         with tqdm(total=3, desc="sensitivity", unit="step", disable=not show,
                   file=sys.stderr) as bar:
             study = sensitivity_study(setup, measurement, spans=spans, points=points,

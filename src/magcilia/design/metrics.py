@@ -37,7 +37,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, dataframe, number, rows_table, si
@@ -310,6 +309,8 @@ def _flow_metric(setup: Setup, fluid: Fluid, noise: float, points: int) -> Metri
     if above.size == 0:
         minimum = math.inf
     else:
+        from scipy.optimize import brentq
+
         i = int(above[0])
 
         def gap(u: float) -> float:

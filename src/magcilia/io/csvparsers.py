@@ -52,15 +52,18 @@ def numpy_frames(f: io.RawIOBase, width: int, delim: str, decimal: str, setreset
     ``nan_text`` lists). For plain files only (:func:`numpy_parses`)."""
     del decimal, setreset, nan_text  # (a point; none; float's spellings: the reader's own)
     data = f.read()
-    if b"\n " in data or b"\n\t" in data or data[:1] in (b" ", b"\t"):
-        data = _BLANK_LINE.sub(b"", data)
-    if not data.translate(None, b"\r\n"):  # a header without data rows
-        return
     try:
-        table = np.loadtxt(io.StringIO(data.decode("ascii")), dtype=np.float64, comments=None,
-                           delimiter=delim, ndmin=2)
-    except ValueError as exc:  # not a number, a row too long or too short, ...
-        raise NotPlainRowError(str(exc)) from None
+        table = _loadtxt(data, delim)
+    except ValueError as exc:  # not a number, a row too long or too short, a line of blanks, ...
+        kept = _BLANK_LINE.sub(b"", data)  # (looked for only now: a scan of the whole file)
+        if kept == data:
+            raise NotPlainRowError(str(exc)) from None
+        try:
+            table = _loadtxt(kept, delim)
+        except ValueError as again:
+            raise NotPlainRowError(str(again)) from None
+    if table.size == 0:  # a header without data rows
+        return
     if table.shape[1] != width:
         raise NotPlainRowError(f"rows of {table.shape[1]} fields under a header of {width}")
     for start in range(0, table.shape[0], block_rows):
@@ -85,5 +88,16 @@ def pandas_frames(f: io.RawIOBase, width: int, delim: str, decimal: str, setrese
         yield frame
 
 
+def _loadtxt(data: bytes, delim: str) -> F64:
+    """The rows of ``data`` (ASCII bytes) as a (rows, fields) table, by ``np.loadtxt`` (read as
+    bytes: no decoded copy of the file; a non-ASCII byte is a ValueError like a bad field)."""
+    if _CONTENT.search(data) is None:  # only line ends (NumPy warns on an empty input)
+        return np.zeros((0, 0))
+    return np.loadtxt(io.BytesIO(data), dtype=np.float64, comments=None, delimiter=delim,
+                      ndmin=2, encoding="ascii")
+
+
+#: Anything but a line end (a file of data rows has one at once)
+_CONTENT = re.compile(rb"[^\r\n]")
 #: A line of only spaces and tabs (pandas skips it as blank; NumPy would take it for a row)
 _BLANK_LINE = re.compile(rb"(?m)^[ \t]+(?=\r?$)")

@@ -37,8 +37,6 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.blas import idamax
-from scipy.linalg.lapack import dgesv, dgetrs
 
 F64 = NDArray[np.float64]
 
@@ -279,6 +277,7 @@ class Problem:
             h = 1e-7
             res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
             jac = (res[:n] - res[n:]).T / (2.0 * h)
+        from scipy.linalg.lapack import dgesv
         *_, step, info = dgesv(jac, r)
         return err, (-step if info == 0 else None)
 
@@ -364,6 +363,8 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     factors in place; the largest entries come from BLAS's ``idamax`` (a non-finite residual is
     caught at the end by its squared norm); below :data:`CHORD_RESIDUAL` a step after a full one
     reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
+    from scipy.linalg.blas import idamax
+    from scipy.linalg.lapack import dgesv, dgetrs
     point = problem.point_matrix()
     fx, fz = (scale * problem.force).tolist()
     jac = np.empty_like(point)  # each full step's Jacobian, then its LU factors (Fortran order)

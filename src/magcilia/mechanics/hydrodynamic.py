@@ -26,11 +26,13 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
-from scipy.special import kve
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 F64 = NDArray[np.float64]
 C128 = NDArray[np.complex128]
@@ -71,12 +73,14 @@ def circular_gamma(reynolds: ArrayLike) -> C128:
     re = np.maximum(np.asarray(reynolds, dtype=np.float64), RE_MIN)
     root = np.sqrt(1j * re)
     z = -1j * root
+    from scipy.special import kve
     ratio = kve(1, z) / kve(0, z)  # the scaling factors e^z cancel
     return np.asarray(1.0 + 4.0j * ratio / root, dtype=np.complex128)
 
 
 @lru_cache(maxsize=1)
 def _spline() -> tuple[CubicSpline, CubicSpline]:
+    from scipy.interpolate import CubicSpline
     x = np.linspace(math.log10(RE_MIN), math.log10(RE_TABLE_MAX),
                     _PER_DECADE * 24 + 1)
     excess = np.log(circular_gamma(10.0**x) - 1.0)  # smooth in log Re; Γ − 1 ≠ 0

@@ -31,9 +31,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number, si
@@ -319,6 +317,7 @@ def modal_model(setup: Setup, medium: Fluid | None, gravity: bool, count: int, n
         stiff = stiff - grid.assemble(axial, "geometric")
     mass = grid.assemble(density * math.pi * r2, "mass")
     basis = min(grid.dofs, count + _EXTRA_BASIS)
+    import scipy.linalg
     lam, vec = scipy.linalg.eigh(stiff, mass, subset_by_index=[0, basis - 1])
     if lam[0] <= 0.0:
         raise v.fail("gravity", True, "False for this hair: it buckles under its own weight "
@@ -355,6 +354,8 @@ def _fluid_modes(grid: Mesh, lam: F64, vec: F64, fluid: Fluid,
     """Fluid-loaded modes on the vacuum modes ``vec`` (M-orthonormal, eigenvalues ``lam``) as a
     Ritz basis: for each mode, the ω with ``ω² = λ_n(K, M + M_a(ω))`` (secant in log ω), its
     shape (free DOFs, unnormalised) and ``φᵀ C(ω) φ`` (N·s/m for that normalisation)."""
+    import scipy.linalg
+    from scipy.optimize import brentq
     at_q = grid.at_points(vec.T)  # (basis, q)
     weights = grid.weight
 

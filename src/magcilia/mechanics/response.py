@@ -41,7 +41,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import brentq
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, number, si
@@ -466,6 +465,7 @@ def _bandwidth(model: _Model) -> float:
         return float(abs(model.transfer(np.array([2 * math.pi * x]))[0]) / h0
                      - 1.0 / math.sqrt(2.0))
 
+    from scipy.optimize import brentq
     return float(brentq(f, grid[k - 1], grid[k], rtol=1e-10))
 
 

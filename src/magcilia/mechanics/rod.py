@@ -34,7 +34,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg.lapack import dgesv
 
 from magcilia.mechanics.drag import drag_per_length, wall_log
 from magcilia.mechanics.elastica import Grid
@@ -203,6 +202,7 @@ class RodProblem:
         eye = np.eye(n) * _JAC_STEP
         res = self.residual(theta + np.concatenate([eye, -eye]), scale)
         jac = (res[:n] - res[n:]).T / (2.0 * _JAC_STEP)
+        from scipy.linalg.lapack import dgesv
         *_, step, info = dgesv(jac, r)
         return err, (-step if info == 0 else None)
 

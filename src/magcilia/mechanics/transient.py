@@ -57,8 +57,6 @@ from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import expm
-from scipy.signal import lfilter, lfilter_zi
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, dataframe, number, si
@@ -121,6 +119,7 @@ def discretise(a: F64, b: F64, dt: float, hold: str) -> tuple[F64, F64, F64]:
     big[:s, :s] = a * dt
     big[:s, s:s + i] = bb * dt
     big[s:s + i, s + i:] = np.eye(i)  # the load's slope over the step (foh)
+    from scipy.linalg import expm
     e = expm(big)
     phi, g0, g1 = e[:s, :s], e[:s, s:s + i], e[:s, s + i:]
     if hold == "zoh":
@@ -375,6 +374,7 @@ class ResponseStream:
             return np.zeros(0), np.zeros(0), np.zeros(0)
         smap = self._map_for(float(q.min()), float(q.max()))
         u = smap.load(q)
+        from scipy.signal import lfilter, lfilter_zi
         if self._state is None:  # at rest under the first load
             self._state = np.stack([lfilter_zi(b, a) for b, a in zip(self.num, self.den,
                                                                      strict=True)]) * u[0]

@@ -33,13 +33,14 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.model import body
+from magcilia.model import body, layout_cache
 from magcilia.model.azimuth import turn_about_z
 from magcilia.model.centreline import Centreline
 from magcilia.model.exact import exact_field
@@ -281,15 +282,40 @@ def converged_layout(spec: ModelSpec | SupportsSpec, tolerance: float = TOLERANC
     tried = tuple(v.integer("slices", n, 1) for n in slices)
     if not tried:
         raise v.fail("slices", slices, "at least one slice count")
-    probe = _probe(spec, points, tilts, azimuths, reference_slices)
+    # remembered across processes (model/layout_cache.py): the probe's reference needs magpylib
+    s = as_spec(spec)
+    pts = probe_points(s, points, azimuths)
+    angles = np.asarray(tilts, dtype=np.float64).reshape(-1)
+    refs = v.integer("reference_slices", reference_slices, 1)
+    name = layout_cache.key((*_key(s, pts, angles, refs), tol, tried, dipoles_per_loop))
+    known = _known(layout_cache.load(name))
+    if known is not None and (known.converged or not strict):
+        return known
+    probe = _probe(s, points, tilts, azimuths, reference_slices)
     error = math.nan
     for n in tried:
         error = _error(n, dipoles_per_loop, "rms", *probe)
         if error <= tol:
-            return Layout(n, dipoles_per_loop, "rms", error, tol)
+            return _remember(name, Layout(n, dipoles_per_loop, "rms", error, tol))
     if strict:
         raise v.MagciliaError(
             f"no layout up to {tried[-1]} slices reaches the tolerance {tol:g} here (best "
             f"{error:.3g}): an observer is very close to the cilium; raise the tolerance or "
             "give the layout (n_loops, dipoles_per_loop)")
-    return Layout(tried[-1], dipoles_per_loop, "rms", error, tol)
+    return _remember(name, Layout(tried[-1], dipoles_per_loop, "rms", error, tol))
+
+
+def _known(data: dict[str, Any] | None) -> Layout | None:
+    """A stored layout (:mod:`magcilia.model.layout_cache`), or None if absent or malformed."""
+    if data is None:
+        return None
+    try:
+        return Layout(int(data["n_loops"]), int(data["dipoles_per_loop"]), str(data["ring"]),
+                      float(data["error"]), float(data["tolerance"]))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def _remember(name: str, layout: Layout) -> Layout:
+    layout_cache.store(name, asdict(layout))
+    return layout

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
 
 from magcilia import _validate as v
 from magcilia.device.array import CiliaArray
@@ -96,6 +95,7 @@ def load_table(cilium: Cilium, modulus: float, n_loops: int, span: float,
     mirror[:, 2 * n:] *= -1.0
     both = np.concatenate([mirror, frames])
     forces = np.concatenate([-grid[:0:-1], grid])
+    from scipy.interpolate import CubicSpline
     spline = CubicSpline(forces, both, axis=0)
     mids = 0.5 * (grid[:-1] + grid[1:])
     mid_shapes = bend_sweep(setup, forces=mids)

@@ -49,10 +49,7 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import expm
-from scipy.signal import lfilter
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, number, si
@@ -123,6 +120,7 @@ class KalmanFilter:
     def run(self, z: F64, state: C128) -> tuple[F64, C128]:
         """Load estimates (N, (n,)) of measurements ``z`` (N, (n,)) from ``state``; the new
         state."""
+        from scipy.signal import lfilter
         out = np.zeros(z.size)
         new = np.empty_like(state)
         for i in range(self.poles.size):
@@ -139,6 +137,8 @@ def kalman_filter(dynamics: ModalDynamics, rate: float, bandwidth: float,
     ``dynamics`` at ``rate`` (Hz), a load bandwidth ``bandwidth`` (Hz) and measurements that are
     samples (``averaged`` False) or means over each interval (True)."""
     a, b, c, d = dynamics.state_space()
+    import scipy.linalg
+    from scipy.linalg import expm
     n = a.shape[0]
     dt = 1.0 / rate
     if n:
