@@ -202,8 +202,8 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     good = np.flatnonzero(ok)
     if good.size:
         th = theta[good]
-        kappa = np.stack([system.curvature(good, np.full(good.size, q), th[:, j])
-                          for j, q in enumerate(loads)], axis=1)  # (g, a, n), 1/m
+        kappa = system.curvature(np.repeat(good, n_load), np.tile(loads, good.size),
+                                 th.reshape(-1, n)).reshape(good.size, n_load, n)  # 1/m
         length = heights[good, None, None]
         angles[good] = length * (kappa @ norm.cum.T)
         points[good, :, :, 0] = length * (np.sin(th) @ norm.cum.T)
@@ -290,16 +290,18 @@ class _Systems:
         rq_s = length * ((q * s) @ self.norm.R.T)
         return c * rq_c + s * rq_s, (c, s, z, q, rq_c, rq_s)
 
-    def residual(self, sets: NDArray[np.intp], value: F64, theta: F64
+    def residual(self, sets: NDArray[np.intp], value: F64, theta: F64, P: F64 | None = None
                  ) -> tuple[F64, tuple[F64, ...] | None]:
-        """P g(θ) − θ (b, n), rad, and the drag's parts."""
+        """P g(θ) − θ (b, n), rad, and the drag's parts (``P``: the sets' influence matrices
+        (b, n, n), when the caller gathered them once for many rounds)."""
         g, parts = self.moment(sets, value, theta)
-        return np.einsum("bij,bj->bi", self.influence[sets], g) - theta, parts
+        return np.einsum("bij,bj->bi", self.influence[sets] if P is None else P, g) - theta, parts
 
     def jacobian(self, sets: NDArray[np.intp], value: F64, theta: F64,
-                 parts: tuple[F64, ...] | None) -> F64:
-        """I − P dg/dθ (b, n, n) of ``sets``."""
-        P = self.influence[sets]
+                 parts: tuple[F64, ...] | None, P: F64 | None = None) -> F64:
+        """I − P dg/dθ (b, n, n) of ``sets`` (``P``: their influence matrices, if gathered)."""
+        if P is None:
+            P = self.influence[sets]
         n = theta.shape[1]
         diag = (slice(None), np.arange(n), np.arange(n))
         if parts is None:
@@ -358,8 +360,12 @@ class _Systems:
         theta = theta.copy()
         active = np.arange(b)
         fresh = False  # whether ``inverse`` was formed at this load's previous iterate
+        # the active systems' influence matrices and inverse Jacobians, gathered again only
+        # when a system leaves (most rounds keep every one)
+        act_p = self.influence[sets]
+        act_inv = None if inverse is None else inverse
         for _ in range(MAX_ITERATIONS):
-            minus, parts = self.residual(sets[active], value[active], theta[active])
+            minus, parts = self.residual(sets[active], value[active], theta[active], act_p)
             err = np.abs(minus).max(axis=1)
             conv = err < TOLERANCE
             done[active[conv]] = True
@@ -369,27 +375,32 @@ class _Systems:
             keep = ~conv & ~bad
             slow = bool(np.any(err[keep] > rate * prev[active][keep]))
             prev[active] = err
-            active = active[keep]
+            every = bool(keep.all())
+            if not every:
+                active, minus = active[keep], minus[keep]
+                act_p = act_p[keep]
+                act_inv = None if act_inv is None else act_inv[keep]
+                parts = None if parts is None else tuple(x[keep] for x in parts)
             if not active.size:
                 break
-            if inverse is None or (slow and not fresh):
-                kept = None if parts is None else tuple(x[keep] for x in parts)
-                fresh_inv = _inverses(self.jacobian(sets[active], value[active], theta[active],
-                                                    kept))
+            if act_inv is None or (slow and not fresh):
+                act_inv = _inverses(self.jacobian(sets[active], value[active], theta[active],
+                                                  parts, act_p))
                 if inverse is None:
-                    inverse = np.full((b, *fresh_inv.shape[1:]), np.nan)
-                inverse[active] = fresh_inv
-                step = np.einsum("bij,bj->bi", fresh_inv, minus[keep])
+                    inverse = np.full((b, *act_inv.shape[1:]), np.nan)
+                inverse[active] = act_inv
                 fresh = True
             else:
-                step = np.einsum("bij,bj->bi", inverse[active], minus[keep])
                 fresh = False
+            step = np.einsum("bij,bj->bi", act_inv, minus)
             size = np.abs(step).max(axis=1)
             lost = ~np.isfinite(size)
-            failed[active[lost]] = True
             step *= np.where(size > 1.0, 1.0 / np.where(size > 1.0, size, 1.0), 1.0)[:, None]
             theta[active] += step
-            active = active[~lost]
+            if lost.any():
+                failed[active[lost]] = True
+                active = active[~lost]
+                act_p, act_inv = act_p[~lost], act_inv[~lost]
         return theta, done & ~failed, inverse
 
     def sweep(self, loads: F64, sets: NDArray[np.intp] | None = None
