@@ -61,6 +61,10 @@ CHORD_RATE = 0.1
 START_CHORD_RATE = 0.3
 #: relative step of the forward differences of the drag's pointwise partial derivatives
 DRAG_STEP = 1e-7
+#: a frustum batch started from an earlier batch's grid keeps that grid's node count when it is
+#: at most this many nodes above what its thinnest taper asks (more nodes: at least as accurate);
+#: so nearby populations share one grid and its inverse Jacobians (not formed again)
+NODE_SLACK = 4
 
 
 @dataclass(frozen=True)
@@ -105,11 +109,13 @@ class _Normalised:
     ĉum (m, n) (∫₀^ŝ of the interpolant at the uniform output points), all on [0, 1]; and
     :meth:`shape`: r / r₀ and I / I₀ at the nodes of each set."""
 
-    def __init__(self, cilium: Cilium, point_load: bool) -> None:
+    def __init__(self, cilium: Cilium, point_load: bool, nodes: int | None = None) -> None:
         length, r0 = cilium.height, cilium.base_radius
         self.frustum = cilium.profile is None
-        if self.frustum:  # the most nodes any set's taper asks for (``cilium``: the thinnest)
-            n = piece_nodes(cilium, np.array([0.0, length]))[0]
+        if self.frustum:  # the most nodes any set's taper asks for (``cilium``: the thinnest),
+            n = piece_nodes(cilium, np.array([0.0, length]))[0]  # or an earlier grid's ``nodes``
+            if nodes is not None and n <= nodes <= n + NODE_SLACK:
+                n = nodes
             grid = Grid.build(np.array([0.0, 1.0]), (n,))
             self.cum: F64 = 0.5 * _uniform_reference(n, OUTPUT_POINTS)
         else:  # a profile: the shape is shared (normalised), its sections exact or resampled
@@ -174,7 +180,8 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     tapers = (cilium.tip_radius / base_radii if cilium.profile is None else np.ones(n_set))
     thin = int(np.argmin(tapers))
     norm = _Normalised(replace(cilium, height=float(heights[thin]),
-                               base_radius=float(base_radii[thin])), flow is None)
+                               base_radius=float(base_radii[thin])), flow is None,
+                       None if start is None or start_nodes is None else np.size(start_nodes))
     rho, inertia = norm.shape(tapers)
     # P = (L² / (E I₀)) Ĉ diag(I₀ / I) R̂, one per set: (N, n, n)
     scale = heights**2 / (moduli * (0.25 * math.pi) * base_radii**4)
