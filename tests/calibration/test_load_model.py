@@ -23,11 +23,11 @@ FLUIDS = {1: mc.WATER}
 BLOCKS = [(0, 0.0, FORCES, 0), (1, math.pi / 2, SPEEDS, 3 * FORCES.size)]
 
 
-def _loop(prm: dict[str, np.ndarray]) -> np.ndarray:
+def _loop(prm: dict[str, np.ndarray], base: mc.Setup = BASE) -> np.ndarray:
     rows = []
     for i in range(prm["x"].size):
         try:
-            s = BASE.replace(**{k: float(val[i]) for k, val in prm.items()})
+            s = base.replace(**{k: float(val[i]) for k, val in prm.items()})
             rows.append(np.concatenate([
                 s.field(mc.bend_sweep(s, forces=FORCES)).ravel(),
                 s.field(mc.bend_sweep(s, speeds=SPEEDS, flow=mc.Flow.uniform(0.3, mc.WATER)),
@@ -76,3 +76,29 @@ def test_later_populations_start_from_the_last(prm: dict[str, np.ndarray]) -> No
         got = load_fields(BASE, BLOCKS, MEASUREMENTS, FLUIDS, nxt, starts)  # type: ignore[arg-type]
         ref = _loop(nxt)
         np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-9 * np.abs(ref).max())
+
+
+def test_sets_the_setup_refuses_and_a_measured_profile() -> None:
+    """Sets that the vectorised checks cannot show valid go through ``Setup.replace``: the element
+    inside the upright cilium and a non-finite height are NaN rows, a base below the element but
+    beside it is fine; a measured profile (every set checked by ``Setup.replace``, its normalised
+    shape scaled by each set) gives the loop's fields too."""
+    depth = BASE.sensor.depth
+    cols = {"height": np.array([3.2e-3, 3.2e-3, np.nan, 3.0e-3]),
+            "base_radius": np.array([1.8e-4, 1.8e-4, 1.8e-4, 1.6e-4]),
+            "x": np.array([0.0, 0.5e-3, 1.5e-3, 1.2e-3]), "y": np.array([0.0, 0.0, 2e-3, 2e-3]),
+            "z": np.array([-depth - 0.5e-3, -depth - 0.5e-3, 0.4e-3, 0.4e-3]),
+            "youngs_modulus": np.array([5e5, 5e5, 5e5, 8e5])}
+    got = load_fields(BASE, BLOCKS, MEASUREMENTS, FLUIDS, cols)  # type: ignore[arg-type]
+    ref = _loop(cols)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(ref))
+    assert np.isnan(got[[0, 2]]).all() and np.isfinite(got[[1, 3]]).all()
+    np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-9 * np.nanmax(np.abs(ref)))
+
+    profiled = BASE.replace(cilium=mc.Cilium.from_profile(
+        [0.0, 1.0e-3, 3.2e-3], [1.8e-4, 1.5e-4, 0.6e-4], youngs_modulus=0.5e6))
+    prof = {k: v[[1, 3]] for k, v in cols.items()}
+    got = load_fields(profiled, BLOCKS, MEASUREMENTS, FLUIDS, prof)  # type: ignore[arg-type]
+    ref = _loop(prof, profiled)
+    assert np.isfinite(got).all()
+    np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-9 * np.abs(ref).max())

@@ -322,3 +322,17 @@ def test_sample_problem_uses_the_jacobian_and_the_mirror() -> None:
     assert np.mean(post.samples[:, 1] > 0) == pytest.approx(0.5, abs=0.02)
     with pytest.raises(MagciliaError, match="mirror"):
         sample_problem(Symmetric(), [1.0, 2.0, 0.0], mirror=["q"])
+
+
+def test_the_last_block_is_what_the_rule_still_asks() -> None:
+    """After a block, the next one is the steps the stopping rule still asks by the latest τ
+    (2 τ burn-in + max(50 τ, target τ / walkers)), with a 10 % margin, within [20, 200]."""
+    from magcilia.calibration.posterior import BLOCK_STEPS, MIN_BLOCK_STEPS, _next_block
+
+    tau = np.array([12.0, 20.0])
+    assert _next_block(1000, tau, 1000, 32) == 44  # 40 + 1000 − 1000 = 40 left, × 1.1
+    assert _next_block(2500, tau, 4000, 32) == 44  # the ESS rule: 40 + 2500 − 2500
+    assert _next_block(1000, tau, 4000, 32) == BLOCK_STEPS  # 1540 left
+    assert _next_block(200, tau, 1000, 32) == BLOCK_STEPS
+    assert _next_block(1100, tau, 1000, 32) == MIN_BLOCK_STEPS
+    assert _next_block(200, np.array([np.inf, 3.0]), 1000, 32) == BLOCK_STEPS

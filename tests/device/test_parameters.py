@@ -122,3 +122,28 @@ def test_display_units() -> None:
         assert p.from_display(p.to_display(0.123)) == pytest.approx(0.123, rel=1e-15)
     assert MEASURANDS["angle"].to_display(math.pi) == pytest.approx(180.0)
     assert np.isclose(MEASURANDS["force"].display_factor, 1e-3)
+
+
+@pytest.mark.parametrize("name", ["height", "base_radius", "tip_radius", "x", "y", "z",
+                                  "youngs_modulus", "magnetization_scale"])
+def test_accepts_is_check_vectorised(name: str) -> None:
+    """``Parameter.accepts`` says of each value what ``check`` does (returns it or raises)."""
+    par = PARAMETERS[name]
+    edges = [par.minimum, par.maximum, -par.minimum, -par.maximum]
+    values = np.array([0.0, -0.0, 1e-3, -1e-3, 2.5e6, np.inf, -np.inf, np.nan, 1e-300,
+                       *edges, *(np.nextafter(e, s) for e in edges for s in (-np.inf, np.inf)
+                                 if np.isfinite(e))])
+    got = par.accepts(values)
+    assert got.shape == values.shape
+    for value, ok in zip(values, got, strict=True):
+        try:
+            par.check(float(value))
+            passed = True
+        except mc.MagciliaError:
+            passed = False
+        assert ok == passed, (name, value)
+
+
+def test_accepts_refuses_a_choice() -> None:
+    with pytest.raises(ValueError, match="real parameters"):
+        PARAMETERS["ring"].accepts(np.zeros(2))

@@ -165,3 +165,30 @@ def test_uniform_cylinders_against_the_exact_elastica() -> None:
             tip = shapes.points[i, j, -1] / heights[i]
             np.testing.assert_allclose(tip[[0, 2]], [x, z], rtol=0.0, atol=1e-9)
             assert shapes.angles[i, j, -1] == pytest.approx(theta0, abs=1e-9)
+
+
+@pytest.mark.parametrize(("loads", "flow"), [(FORCES, None), (SPEEDS, WATER)])
+def test_a_nearby_population_keeps_the_earlier_grid(loads: np.ndarray,
+                                                    flow: mc.Flow | None) -> None:
+    """A population whose thinnest taper asks up to NODE_SLACK nodes fewer than the grid it
+    starts from keeps that grid (its inverse Jacobians stay usable) and still gives the sweep's
+    shapes; one that asks for more gets its own."""
+    sets = _sets(4, 6)
+    first = sweep_batch(BASE, *sets, loads, flow=flow)
+    n1 = first.nodes.size
+    for factor in (0.98, 0.95, 0.9, 0.85):  # thinner bases: blunter tapers, fewer nodes
+        moved = (sets[0], sets[1] * factor, sets[2])
+        own = sweep_batch(BASE, *moved, loads, flow=flow).nodes.size
+        if n1 - batched.NODE_SLACK <= own < n1:
+            break
+    else:
+        pytest.fail(f"no population asking for fewer nodes than {n1} within the slack")
+    kept = sweep_batch(BASE, *moved, loads, flow=flow, start=first.theta,
+                       start_nodes=first.nodes)
+    assert kept.nodes.size == n1 and kept.swept == 0
+    _check(kept, _reference(BASE, moved, loads, flow), moved[0])
+    thicker = (sets[0], sets[1] * 1.2, sets[2])  # sharper tapers: more nodes than n1
+    more = sweep_batch(BASE, *thicker, loads, flow=flow, start=first.theta,
+                       start_nodes=first.nodes)
+    assert more.nodes.size > n1
+    _check(more, _reference(BASE, thicker, loads, flow), thicker[0])

@@ -23,18 +23,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._errors import MagciliaError
+from magcilia.device.parameters import PARAMETERS
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.mechanics.batched import BatchShapes, sweep_batch
-from magcilia.mechanics.drag import Fluid, check_reynolds
+from magcilia.mechanics.drag import RE_MAX, Fluid
 from magcilia.mechanics.flow import Flow
-from magcilia.mechanics.planar import OUTPUT_POINTS, require_tip_radius
+from magcilia.mechanics.planar import OUTPUT_POINTS
 from magcilia.model import body
 from magcilia.model.azimuth import field_from_tilt_frame, placement_in_tilt_frame
 from magcilia.model.centreline import Centreline
@@ -88,63 +89,114 @@ def load_fields(base: Setup, blocks: Blocks, measurements: Sequence[Measurement]
     n = prm["x"].size
     width = sum(3 * b[2].size for b in blocks)
     out = np.full((n, width), np.nan)
-    setups: list[Setup] = []
-    valid: list[int] = []
-    for i in range(n):
-        try:
-            setups.append(base.replace(
-                height=float(prm["height"][i]), base_radius=float(prm["base_radius"][i]),
-                x=float(prm["x"][i]), y=float(prm["y"][i]), z=float(prm["z"][i]),
-                youngs_modulus=float(prm["youngs_modulus"][i])))
-            valid.append(i)
-        except MagciliaError:
-            pass
-    sets = np.array(valid, dtype=np.intp)
+    sets = _Sets.valid(base, prm)
     col = 0
     for block, (e_i, phi, loads, _) in enumerate(blocks):
         e = measurements[e_i]
         flow = None if e.forces is not None else Flow.uniform(
             float(np.max(np.abs(loads))) or 1.0, fluids[e_i])
-        good = _usable(setups, loads, flow)
-        field = _block(base, [setups[k] for k in good], loads, flow, phi,
+        good = sets.take(_usable(base, sets, loads, flow))
+        field = _block(base, good, loads, flow, phi,
                        None if starts is None else starts.setdefault(block, {}))
-        out[sets[good], col:col + 3 * loads.size] = field
+        out[good.index, col:col + 3 * loads.size] = field
         col += 3 * loads.size
     out[~np.isfinite(out).all(axis=1)] = np.nan  # a set is valid in every block or in none
     return out
 
 
-def _usable(setups: list[Setup], loads: F64, flow: Flow | None) -> NDArray[np.intp]:
-    """Positions (in ``setups``) of the setups a block can bend (the checks of
+@dataclass(frozen=True)
+class _Sets:
+    """The valid parameter sets of a population as plain arrays, each (g,) (SI): their positions
+    ``index`` in the population, height, base radius, x, y, z, modulus, and the normalised
+    shape (``knots`` (q,), ``radii`` (g, q): r / r₀) of each set's cilium."""
+
+    index: NDArray[np.intp]
+    height: F64
+    radius: F64
+    x: F64
+    y: F64
+    z: F64
+    modulus: F64
+    knots: F64
+    radii: F64
+
+    @classmethod
+    def valid(cls, base: Setup, prm: Mapping[str, F64]) -> _Sets:
+        """The sets of ``prm`` that make a valid setup (``base`` with them replaced, as
+        :meth:`Setup.replace` checks it). A frustum's set is shown valid by the checks of
+        :meth:`Setup.replace` vectorised (each value in its registry domain
+        (:meth:`~magcilia.device.parameters.Parameter.accepts`), the tip radius at most the base
+        radius, the sensing element below the base or farther from the axis than the largest
+        radius: outside the upright cilium); a set these do not show valid, and every set of a
+        measured profile, is checked by :meth:`Setup.replace` itself."""
+        names = ("height", "base_radius", "x", "y", "z", "youngs_modulus")
+        values = [np.asarray(prm[k], dtype=np.float64).reshape(-1) for k in names]
+        height, radius, x, y, z, modulus = values
+        cilium, spec = base.cilium, base.spec
+        shown = np.ones(height.size, dtype=bool)
+        for key, val in zip(names, values, strict=True):
+            shown &= PARAMETERS[key].accepts(val)
+        if cilium.profile is None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                taper = cilium.tip_radius / radius
+            shown &= cilium.tip_radius <= radius
+            shown &= (spec.depth + z > 0.0) | (np.hypot(x, y) > radius * np.maximum(taper, 1.0))
+        else:
+            shown[:] = False
+        for i in np.flatnonzero(~shown):
+            try:
+                base.replace(height=float(height[i]), base_radius=float(radius[i]),
+                             x=float(x[i]), y=float(y[i]), z=float(z[i]),
+                             youngs_modulus=float(modulus[i]))
+                shown[i] = True
+            except MagciliaError:
+                pass
+        keep = np.flatnonzero(shown)
+        if cilium.profile is None:
+            knots, radii = body.frustum_shape(cilium.tip_radius / radius[keep])
+        else:
+            knots, rho = cilium.shape
+            radii = np.broadcast_to(rho, (keep.size, rho.size))
+        return cls(keep, height[keep], radius[keep], x[keep], y[keep], z[keep], modulus[keep],
+                   knots, radii)
+
+    def take(self, rows: NDArray[np.intp]) -> _Sets:
+        """The sets at positions ``rows`` (of these)."""
+        return _Sets(self.index[rows], self.height[rows], self.radius[rows], self.x[rows],
+                     self.y[rows], self.z[rows], self.modulus[rows], self.knots,
+                     self.radii[rows])
+
+    @property
+    def max_radius(self) -> F64:
+        """Each set's largest radius, m, (g,)."""
+        return np.asarray(self.radius * self.radii.max(axis=1), dtype=np.float64)
+
+
+def _usable(base: Setup, sets: _Sets, loads: F64, flow: Flow | None) -> NDArray[np.intp]:
+    """Positions (in ``sets``) of the sets a block can bend (the checks of
     :func:`magcilia.bend_sweep`: a tip radius for a tip force or a flow, the drag law's
     Reynolds range for the fastest flow past the widest section)."""
-    keep = []
-    loaded = bool(np.any(loads != 0.0))
-    for k, setup in enumerate(setups):
-        try:
-            if loaded:
-                require_tip_radius(setup, "force" if flow is None else "flow")
-            if flow is not None:
-                check_reynolds(float(np.max(np.abs(loads))), 2.0 * setup.cilium.max_radius,
-                               flow.fluid)
-            keep.append(k)
-        except MagciliaError:
-            pass
-    return np.array(keep, dtype=np.intp)
+    keep = np.ones(sets.index.size, dtype=bool)
+    if bool(np.any(loads != 0.0)):
+        tips = (np.full(keep.size, base.cilium.tip_radius) if base.cilium.profile is None
+                else sets.radius * sets.radii[:, -1])
+        keep &= tips != 0.0  # require_tip_radius's condition
+    if flow is not None:
+        fastest = float(np.max(np.abs(loads)))
+        keep &= ~(flow.fluid.reynolds(fastest, 2.0 * sets.max_radius) > RE_MAX)  # check_reynolds
+    return np.flatnonzero(keep)
 
 
-def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
+def _block(base: Setup, sets: _Sets, loads: F64, flow: Flow | None,
            phi: float, kept: dict[str, F64] | None) -> F64:
-    """The field (T) of ``setups`` (g of them) under one block's loads, (g, 3 a); NaN rows for
+    """The field (T) of ``sets`` (g of them) under one block's loads, (g, 3 a); NaN rows for
     a set whose bend does not converge or whose field is not finite; ``kept``: the block's
     earlier solutions (``key`` (M, 3), ``theta`` (M, a, n), ``inverse`` (M, a, n, n),
     ``nodes`` (n,)), updated."""
-    g, a = len(setups), loads.size
+    g, a = sets.index.size, loads.size
     if not g:
         return np.zeros((0, 3 * a))
-    height = np.array([s.cilium.height for s in setups])
-    radius = np.array([s.cilium.base_radius for s in setups])
-    modulus = np.array([s.youngs_modulus for s in setups])
+    height, radius, modulus = sets.height, sets.radius, sets.modulus
     key = np.log(np.stack([height, radius, modulus], axis=1))
     start = start_inverse = None
     if kept:  # each set from its nearest earlier set, or (none near) from bend's guess
@@ -158,8 +210,8 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
                          start_inverse=start_inverse)
     if kept is not None:
         _keep(kept, key, shapes)
-    specs = [s.spec for s in setups]
-    n_loops, k, ring = specs[0].n_loops, specs[0].dipoles_per_loop, specs[0].ring
+    spec = base.spec
+    n_loops, k, ring = spec.n_loops, spec.dipoles_per_loop, spec.ring
     # slice mid-points on each set's shapes: one normalised centreline batch (s / L, points / L)
     unit = Centreline(np.linspace(0.0, 1.0, OUTPUT_POINTS),
                       np.where(shapes.ok[:, None, None], shapes.angles, 0.0).reshape(
@@ -168,27 +220,28 @@ def _block(base: Setup, setups: list[Setup], loads: F64, flow: Flow | None,
                           g * a, OUTPUT_POINTS, 3) / np.repeat(height, a)[:, None, None])
     mid, angles = unit.frames((np.arange(n_loops) + 0.5) / n_loops)
     points = mid * np.repeat(height, a)[:, None, None]
-    radius, share = body.slice_rings(specs[0].knots, np.stack([sp.radii for sp in specs]),
-                                     n_loops, ring)
-    x, y = (np.asarray(c, dtype=np.float64) for c in placement_in_tilt_frame(
-        np.array([sp.position[0] for sp in specs]), np.array([sp.position[1] for sp in specs]),
-        phi))
-    lift = np.array([sp.depth + sp.position[2] for sp in specs])
+    rings, share = body.slice_rings(sets.knots, sets.radii, n_loops, ring)
+    x, y = (np.asarray(c, dtype=np.float64) for c in placement_in_tilt_frame(sets.x, sets.y,
+                                                                               phi))
+    lift = spec.depth + sets.z
     centre = np.stack([x, y, lift], axis=1)
-    r0 = np.array([sp.base_radius for sp in specs])
+    # the moment m_c = M V_c of each set (ModelSpec.moment, with body.volume's V_c)
+    moment = spec.magnetization * (math.pi * height * radius**2
+                                   * body.mean_square_radius(sets.knots, sets.radii))
     pos, mom = pose_dipoles(points, angles, np.repeat(centre, a, axis=0),
-                            np.repeat(radius * r0[:, None], a, axis=0),
-                            np.repeat(share, a, axis=0),
-                            np.repeat(np.array([sp.moment for sp in specs]), a), k)
+                            np.repeat(rings * radius[:, None], a, axis=0),
+                            np.repeat(share, a, axis=0), np.repeat(moment, a), k)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # checked below
         b = pose_field(np.zeros((1, 3)), pos, mom)[:, 0, :].reshape(g, a, 3)
     if phi != 0.0:
         b = field_from_tilt_frame(b, phi)
     b[~shapes.ok] = np.nan
     turned = np.abs(shapes.angles).max(axis=(1, 2)) > 0.5 * math.pi - TURN_MARGIN
-    near = lift <= (1.0 + LIFT_MARGIN) * np.array([sp.max_radius for sp in specs])
+    near = lift <= (1.0 + LIFT_MARGIN) * sets.max_radius
     for j in np.flatnonzero(shapes.ok & (turned | near)):  # the element may be inside: check
-        sp = replace(specs[j], position=(float(x[j]), float(y[j]), specs[j].position[2]))
+        sp = replace(spec, height=float(height[j]), base_radius=float(radius[j]),
+                     tip_radius=float(radius[j] * sets.radii[j, -1]), radii=sets.radii[j],
+                     position=(float(x[j]), float(y[j]), float(sets.z[j])))
         try:
             check_outside(sp, np.zeros((1, 3)), Centreline(shapes.s[j], shapes.angles[j],
                                                            shapes.points[j]))

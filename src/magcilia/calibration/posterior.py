@@ -22,7 +22,9 @@ How it samples
   inverse of the local Hessian of ``−log_prob``, found by finite differences in one batch), so
   little burn-in is spent finding the typical set; the first ``2 τ`` steps are discarded and the
   rest thinned by ``τ / 2``.
-* **Stopping.** After every block of steps the integrated autocorrelation time τ of each parameter
+* **Stopping.** After every block of steps (:data:`BLOCK_STEPS`; near the end only the steps the
+  latest estimate says are left, so the chain does not overshoot the rule by most of a block) the
+  integrated autocorrelation time τ of each parameter
   is estimated with emcee's estimator (:func:`emcee.autocorr.integrated_time`); the ESS of a
   parameter is ``steps × walkers / τ``. A mode is done when its smallest ESS reaches its share of
   ``n_effective`` (at least :data:`MIN_MODE_ESS`) and the chain is at least :data:`TAU_FACTOR` τ
@@ -82,8 +84,13 @@ MIN_MODE_ESS = 100
 MIN_WEIGHT = 1e-3
 #: a mode within this Mahalanobis distance of a better one is the same mode
 MERGE_SIGMAS = 3.0
-#: steps between two estimates of the autocorrelation time
+#: most steps between two estimates of the autocorrelation time; once an estimate says fewer
+#: are left (the chain's length and ESS rules, with :data:`BLOCK_MARGIN`), that many are run
 BLOCK_STEPS = 200
+#: the next block is the steps the latest τ says are left, times this (τ tends to grow with the
+#: chain), and at least :data:`MIN_BLOCK_STEPS`
+BLOCK_MARGIN = 1.1
+MIN_BLOCK_STEPS = 20
 #: default wall-clock limit of :func:`sample_posterior`, s
 MAX_SECONDS = 60.0
 
@@ -295,8 +302,9 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
         tau = np.full(p, np.inf)
         ess = np.zeros(p)
         burn = 0
+        block = BLOCK_STEPS
         while True:
-            state = sampler.run_mcmc(state, BLOCK_STEPS, progress=False)
+            state = sampler.run_mcmc(state, block, progress=False)
             n = sampler.iteration
             tau = np.asarray(emcee.autocorr.integrated_time(
                 sampler.get_chain()[n // 4:] if n >= 8 * BLOCK_STEPS else sampler.get_chain(),
@@ -309,6 +317,7 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
                          f"{float(np.max(tau)):.0f}, ESS {float(np.min(ess)):.0f}/{target}")
             if done or time.perf_counter() >= mode_deadline:
                 break
+            block = _next_block(n, tau, target, n_walk)
         if not done:
             short = (f"ESS {float(np.min(ess)):.0f} of {target}"
                      if float(np.min(ess)) < target else
@@ -400,6 +409,18 @@ def sample_problem(problem: Any, start: ArrayLike, *, modes: Sequence[ArrayLike]
     return sample_posterior(least_squares_log_prob(problem.residuals, b), x0, names=names,
                             bounds=b, modes=points[1:], n_effective=n_effective, rng=rng,
                             max_seconds=max_seconds, covariances=covs, progress=progress)
+
+
+def _next_block(n: int, tau: F64, target: int, n_walk: int) -> int:
+    """Steps to run next after ``n``: what the stopping rule still asks by the latest τ (p,)
+    (a chain of ``TAU_FACTOR τ`` after a burn-in of ``2 τ``, and ``target`` effective samples
+    from ``n_walk`` walkers), times :data:`BLOCK_MARGIN`, within [:data:`MIN_BLOCK_STEPS`,
+    :data:`BLOCK_STEPS`] (the rule itself is checked again after the block)."""
+    if not np.all(np.isfinite(tau)):
+        return BLOCK_STEPS
+    slow = float(np.max(tau))
+    need = 2.0 * slow + max(TAU_FACTOR * slow, target * slow / n_walk) - n
+    return int(min(BLOCK_STEPS, max(MIN_BLOCK_STEPS, math.ceil(BLOCK_MARGIN * need))))
 
 
 def _clipped(cov: ArrayLike, b: F64) -> F64:

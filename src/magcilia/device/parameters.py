@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import scaled
@@ -192,6 +192,24 @@ class Parameter(Quantity):
             raise MagciliaError(f"{key} must be {self._singular} {self.limits}; "
                                 f"got {v.short(out, 40)}")
         return out
+
+    def accepts(self, values: ArrayLike) -> NDArray[np.bool_]:
+        """Whether each of ``values`` (floats, SI, any shape) passes :meth:`check`: the
+        vectorised form for a population of parameter sets (a real-valued parameter only)."""
+        if self.domain in ("choice", "integer"):
+            raise ValueError(f"accepts() is for real parameters; {self.name} is {self.domain}")
+        x = np.asarray(values, dtype=np.float64)
+        size = np.abs(x)
+        ok = np.isfinite(x) & (size <= self.maximum)
+        if self.domain == "positive":
+            ok &= x > 0.0
+        elif self.domain == "non_negative":
+            ok &= x >= 0.0
+        elif self.domain == "nonzero":
+            ok &= x != 0.0
+        if self.domain in ("positive", "nonzero"):
+            ok &= size >= self.minimum
+        return ok
 
     def _in_domain(self, key: str, value: object) -> Any:
         if self.domain == "positive":

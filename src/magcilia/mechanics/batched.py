@@ -61,6 +61,10 @@ CHORD_RATE = 0.1
 START_CHORD_RATE = 0.3
 #: relative step of the forward differences of the drag's pointwise partial derivatives
 DRAG_STEP = 1e-7
+#: a frustum batch started from an earlier batch's grid keeps that grid's node count when it is
+#: at most this many nodes above what its thinnest taper asks (more nodes: at least as accurate);
+#: so nearby populations share one grid and its inverse Jacobians (not formed again)
+NODE_SLACK = 4
 
 
 @dataclass(frozen=True)
@@ -105,11 +109,13 @@ class _Normalised:
     ĉum (m, n) (∫₀^ŝ of the interpolant at the uniform output points), all on [0, 1]; and
     :meth:`shape`: r / r₀ and I / I₀ at the nodes of each set."""
 
-    def __init__(self, cilium: Cilium, point_load: bool) -> None:
+    def __init__(self, cilium: Cilium, point_load: bool, nodes: int | None = None) -> None:
         length, r0 = cilium.height, cilium.base_radius
         self.frustum = cilium.profile is None
-        if self.frustum:  # the most nodes any set's taper asks for (``cilium``: the thinnest)
-            n = piece_nodes(cilium, np.array([0.0, length]))[0]
+        if self.frustum:  # the most nodes any set's taper asks for (``cilium``: the thinnest),
+            n = piece_nodes(cilium, np.array([0.0, length]))[0]  # or an earlier grid's ``nodes``
+            if nodes is not None and n <= nodes <= n + NODE_SLACK:
+                n = nodes
             grid = Grid.build(np.array([0.0, 1.0]), (n,))
             self.cum: F64 = 0.5 * _uniform_reference(n, OUTPUT_POINTS)
         else:  # a profile: the shape is shared (normalised), its sections exact or resampled
@@ -174,7 +180,8 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     tapers = (cilium.tip_radius / base_radii if cilium.profile is None else np.ones(n_set))
     thin = int(np.argmin(tapers))
     norm = _Normalised(replace(cilium, height=float(heights[thin]),
-                               base_radius=float(base_radii[thin])), flow is None)
+                               base_radius=float(base_radii[thin])), flow is None,
+                       None if start is None or start_nodes is None else np.size(start_nodes))
     rho, inertia = norm.shape(tapers)
     # P = (L² / (E I₀)) Ĉ diag(I₀ / I) R̂, one per set: (N, n, n)
     scale = heights**2 / (moduli * (0.25 * math.pi) * base_radii**4)
@@ -202,8 +209,8 @@ def sweep_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, loads:
     good = np.flatnonzero(ok)
     if good.size:
         th = theta[good]
-        kappa = np.stack([system.curvature(good, np.full(good.size, q), th[:, j])
-                          for j, q in enumerate(loads)], axis=1)  # (g, a, n), 1/m
+        kappa = system.curvature(np.repeat(good, n_load), np.tile(loads, good.size),
+                                 th.reshape(-1, n)).reshape(good.size, n_load, n)  # 1/m
         length = heights[good, None, None]
         angles[good] = length * (kappa @ norm.cum.T)
         points[good, :, :, 0] = length * (np.sin(th) @ norm.cum.T)
@@ -290,16 +297,18 @@ class _Systems:
         rq_s = length * ((q * s) @ self.norm.R.T)
         return c * rq_c + s * rq_s, (c, s, z, q, rq_c, rq_s)
 
-    def residual(self, sets: NDArray[np.intp], value: F64, theta: F64
+    def residual(self, sets: NDArray[np.intp], value: F64, theta: F64, P: F64 | None = None
                  ) -> tuple[F64, tuple[F64, ...] | None]:
-        """P g(θ) − θ (b, n), rad, and the drag's parts."""
+        """P g(θ) − θ (b, n), rad, and the drag's parts (``P``: the sets' influence matrices
+        (b, n, n), when the caller gathered them once for many rounds)."""
         g, parts = self.moment(sets, value, theta)
-        return np.einsum("bij,bj->bi", self.influence[sets], g) - theta, parts
+        return np.einsum("bij,bj->bi", self.influence[sets] if P is None else P, g) - theta, parts
 
     def jacobian(self, sets: NDArray[np.intp], value: F64, theta: F64,
-                 parts: tuple[F64, ...] | None) -> F64:
-        """I − P dg/dθ (b, n, n) of ``sets``."""
-        P = self.influence[sets]
+                 parts: tuple[F64, ...] | None, P: F64 | None = None) -> F64:
+        """I − P dg/dθ (b, n, n) of ``sets`` (``P``: their influence matrices, if gathered)."""
+        if P is None:
+            P = self.influence[sets]
         n = theta.shape[1]
         diag = (slice(None), np.arange(n), np.arange(n))
         if parts is None:
@@ -358,8 +367,12 @@ class _Systems:
         theta = theta.copy()
         active = np.arange(b)
         fresh = False  # whether ``inverse`` was formed at this load's previous iterate
+        # the active systems' influence matrices and inverse Jacobians, gathered again only
+        # when a system leaves (most rounds keep every one)
+        act_p = self.influence[sets]
+        act_inv = None if inverse is None else inverse
         for _ in range(MAX_ITERATIONS):
-            minus, parts = self.residual(sets[active], value[active], theta[active])
+            minus, parts = self.residual(sets[active], value[active], theta[active], act_p)
             err = np.abs(minus).max(axis=1)
             conv = err < TOLERANCE
             done[active[conv]] = True
@@ -369,27 +382,32 @@ class _Systems:
             keep = ~conv & ~bad
             slow = bool(np.any(err[keep] > rate * prev[active][keep]))
             prev[active] = err
-            active = active[keep]
+            every = bool(keep.all())
+            if not every:
+                active, minus = active[keep], minus[keep]
+                act_p = act_p[keep]
+                act_inv = None if act_inv is None else act_inv[keep]
+                parts = None if parts is None else tuple(x[keep] for x in parts)
             if not active.size:
                 break
-            if inverse is None or (slow and not fresh):
-                kept = None if parts is None else tuple(x[keep] for x in parts)
-                fresh_inv = _inverses(self.jacobian(sets[active], value[active], theta[active],
-                                                    kept))
+            if act_inv is None or (slow and not fresh):
+                act_inv = _inverses(self.jacobian(sets[active], value[active], theta[active],
+                                                  parts, act_p))
                 if inverse is None:
-                    inverse = np.full((b, *fresh_inv.shape[1:]), np.nan)
-                inverse[active] = fresh_inv
-                step = np.einsum("bij,bj->bi", fresh_inv, minus[keep])
+                    inverse = np.full((b, *act_inv.shape[1:]), np.nan)
+                inverse[active] = act_inv
                 fresh = True
             else:
-                step = np.einsum("bij,bj->bi", inverse[active], minus[keep])
                 fresh = False
+            step = np.einsum("bij,bj->bi", act_inv, minus)
             size = np.abs(step).max(axis=1)
             lost = ~np.isfinite(size)
-            failed[active[lost]] = True
             step *= np.where(size > 1.0, 1.0 / np.where(size > 1.0, size, 1.0), 1.0)[:, None]
             theta[active] += step
-            active = active[~lost]
+            if lost.any():
+                failed[active[lost]] = True
+                active = active[~lost]
+                act_p, act_inv = act_p[~lost], act_inv[~lost]
         return theta, done & ~failed, inverse
 
     def sweep(self, loads: F64, sets: NDArray[np.intp] | None = None
