@@ -336,3 +336,19 @@ def test_the_last_block_is_what_the_rule_still_asks() -> None:
     assert _next_block(200, tau, 1000, 32) == BLOCK_STEPS
     assert _next_block(1100, tau, 1000, 32) == MIN_BLOCK_STEPS
     assert _next_block(200, np.array([np.inf, 3.0]), 1000, 32) == BLOCK_STEPS
+
+
+def test_chains_cut_short_are_not_converged_whatever_their_ess() -> None:
+    """At the time limit after one block the ESS can exceed a small target while the chain is
+    still shorter than TAU_FACTOR τ: the sampler warns that τ is not yet trustworthy, and the
+    result must not say converged (it did before: ESS alone decided)."""
+    prob = _linear_problem(3, 20, seed=2)
+    bounds = np.array([[-50.0, 50.0]] * 3)
+    lp = least_squares_log_prob(prob["residuals"], bounds)  # type: ignore[arg-type]
+    with pytest.warns(SamplingWarning, match="not yet trustworthy"):
+        post = sample_posterior(lp, prob["mu"], names=["a", "b", "c"], bounds=bounds,
+                                n_effective=50, rng=0, max_seconds=1e-3)
+    assert post.ess.min() >= post.target
+    assert not post.long_enough and not post.converged
+    assert "τ NOT yet trustworthy" in post.report()
+    assert post.to_dict()["converged"] is False

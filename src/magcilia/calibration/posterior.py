@@ -287,6 +287,7 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
     ess_modes: list[tuple[float, F64]] = []
     taus, accept = [], []
     steps_all = 0
+    all_done = True
     sampled = [k for k in range(len(kept)) if weights[k] >= MIN_WEIGHT]
     for rank, k in enumerate(sampled):
         mode, _, cov = kept[k]
@@ -318,6 +319,7 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
             if done or time.perf_counter() >= mode_deadline:
                 break
             block = _next_block(n, tau, target, n_walk)
+        all_done &= done
         if not done:
             short = (f"ESS {float(np.min(ess)):.0f} of {target}"
                      if float(np.min(ess)) < target else
@@ -354,7 +356,7 @@ def sample_posterior(log_prob: LogProb, start: ArrayLike, *, names: Sequence[str
         autocorr_time=np.max(taus, axis=0), acceptance=float(np.mean(accept)),
         modes=np.array([m for m, _, _ in kept]), weights=weights,
         mode_log_prob=np.array([lp for _, lp, _ in kept]), walkers=n_walk, steps=steps_all,
-        seconds=time.perf_counter() - t0, target=n_effective)
+        seconds=time.perf_counter() - t0, target=n_effective, long_enough=all_done)
 
 
 def sample_problem(problem: Any, start: ArrayLike, *, modes: Sequence[ArrayLike] | None = None,

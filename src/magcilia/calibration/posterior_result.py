@@ -58,6 +58,10 @@ class Posterior(Display):
         Wall-clock time of the sampling.
     target : int
         The ``n_effective`` asked for; ``converged`` says whether it was reached.
+    long_enough : bool
+        Whether every mode's chain reached the stopping rule's whole length (at least
+        :data:`~magcilia.calibration.posterior.TAU_FACTOR` τ after the burn-in, where τ itself can
+        be trusted); False where the time limit cut a chain short, whatever its ESS.
     """
 
     names: tuple[str, ...]
@@ -76,11 +80,13 @@ class Posterior(Display):
     steps: int
     seconds: float
     target: int
+    long_enough: bool = True
 
     @property
     def converged(self) -> bool:
-        """Whether the smallest ESS reached the target."""
-        return bool(np.min(self.ess) >= self.target)
+        """Whether the smallest ESS reached the target on chains long enough to trust τ
+        (:attr:`long_enough`)."""
+        return bool(np.min(self.ess) >= self.target) and self.long_enough
 
     def interval(self, level: float = 0.68) -> F64:
         """Equal-tailed credible interval at ``level`` (0 < level < 1), SI, shape (p, 2)."""
@@ -121,7 +127,8 @@ class Posterior(Display):
                       for m, w, lp in zip(self.modes, self.weights, self.mode_log_prob,
                                           strict=True)],
             "samples": int(self.samples.shape[0]), "walkers": self.walkers, "steps": self.steps,
-            "seconds": self.seconds, "target": self.target, "converged": self.converged,
+            "seconds": self.seconds, "target": self.target, "long_enough": self.long_enough,
+            "converged": self.converged,
         }
 
     def report(self) -> str:
@@ -130,7 +137,9 @@ class Posterior(Display):
         lines = [f"Posterior: {self.samples.shape[0]} samples, {self.walkers} walkers × "
                  f"{self.steps} steps in {self.seconds:.1f} s, acceptance {self.acceptance:.2f}, "
                  f"ESS ≥ {number(float(np.min(self.ess)), 4)}"
-                 + ("" if self.converged else f" (target {self.target} NOT reached)")]
+                 + ("" if self.converged else
+                    f" (target {self.target} NOT reached)" if np.min(self.ess) < self.target
+                    else " (chains cut short by the time limit: τ NOT yet trustworthy)")]
         head = f"  {'parameter':<18}{'mean ± sd':>24}{'68 % interval':>26}{'95 % interval':>26}"
         lines += [head + f"{'ESS':>8}"]
         for i, name in enumerate(self.names):
