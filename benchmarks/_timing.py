@@ -18,14 +18,16 @@ def interleaved(runs: dict[str, Callable[[], object]], repeat: int) -> dict[str,
 
 
 def numpy_reference(fn: Callable[[], object]) -> Callable[[], object]:
-    """``fn`` run with magcilia's compiled kernels switched off (its NumPy reference paths)."""
+    """``fn`` run with magcilia's compiled kernels switched off (its NumPy reference paths: the
+    model's and read-outs' kernels, and the fitter's step)."""
+    from magcilia.fitting import compiled as fitting_compiled
     from magcilia.model import compiled
 
     def run() -> object:
-        compiled.ENABLED = False
+        compiled.ENABLED = fitting_compiled.ENABLED = False
         try:
             return fn()
         finally:
-            compiled.ENABLED = True
+            compiled.ENABLED = fitting_compiled.ENABLED = True
 
     return run

@@ -11,7 +11,8 @@ median of the runs):
 * **estimate** / **read**: ``.estimate`` (vectors only) and ``.read`` (covariance, σ, flags) of
   1e5 readings: the coarse search and the batched least squares (magcilia.fitting.fit_batch;
   since issue 27 the interpolant (whitened residuals and Jacobian in one pass) and the coarse
-  search compiled, and fit_batch's iterations as compiled passes, ``compiled=True``), and the
+  search compiled, and fit_batch's iterations as its one compiled step, fitting/compiled.py),
+  and the
   same with the compiled kernels off (their NumPy references, as before issue 27; issue 27's
   target: <= 2 us a reading);
 * **anchor**: ``scipy.optimize.least_squares`` (its default trust-region reflective method,

@@ -4,8 +4,8 @@
 ``error_model="numpy"``, ``nogil``; optionally fastmath limited to ``reassoc`` and ``contract``,
 as :mod:`magcilia.model.compiled` explains), caching the machine code on disk (``cache=True``;
 without a writable cache folder, in memory), or gives None where numba cannot be imported. The
-switch that turns compiled kernels off lives above it (:func:`magcilia.model.jit.jit`, or a
-caller's own option such as :func:`magcilia.fitting.fit_batch`'s ``compiled``).
+switch that turns compiled kernels off lives above it (:func:`magcilia.model.jit.jit`, or
+the fitter's :data:`magcilia.fitting.compiled.ENABLED`).
 """
 
 from __future__ import annotations

@@ -5,12 +5,13 @@ read-outs use, its multistart, and the one SciPy polish (no physics; units are t
   parameters at once, each with ``a`` residuals, within bounds; one damping rule (Marquardt's
   scaled λ, ÷3 on a step that lowers the cost, ×4 on one that does not); Jacobians analytic
   (``jacobian=callable``, or ``jacobian=True`` when the residual function returns them too) or by
-  forward differences in the same vectorised call; each iteration's damped step (normal
-  equations, scaled system, solves, bound-held parameters) is one compiled call
-  (:mod:`.compiled`, numba; the NumPy step is its reference and runs without numba). With
-  ``jacobian=True`` and at most four parameters, ``compiled=True`` runs each iteration's
-  bookkeeping as two compiled passes (:mod:`.small_step`, numba; the same rules, to rounding)
-  where the model itself is cheap.
+  forward differences in the same vectorised call; each iteration, for every problem size and
+  Jacobian source, is one compiled step (:mod:`.compiled`, numba: the normal equations, the
+  scaled system, its solve — the closed form for two parameters —, the bound-held parameters,
+  then the acceptance, λ and the stopping tests), with the NumPy step in
+  :mod:`.levenberg_marquardt` as its reference, run without numba or with
+  ``compiled.ENABLED = False`` (the fitter's one switch; ``fit_batch``'s ``compiled=`` is
+  accepted and not needed).
 * :func:`multistart`, :func:`halving`, :func:`latin_hypercube` (:mod:`.multistart`): starts
   spread over the box, narrowed by successive halving, the survivors run to convergence.
 * :func:`polish` (:mod:`.polish`): ``scipy.optimize.least_squares`` (trf) from a good point.

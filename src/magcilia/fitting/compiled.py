@@ -1,220 +1,225 @@
-"""The damped step of :func:`~magcilia.fitting.fit_batch`, compiled (numba), with the NumPy code in
-:mod:`.levenberg_marquardt` as its reference.
+"""The one compiled Levenberg–Marquardt iteration of :func:`~magcilia.fitting.fit_batch`
+(numba), with the NumPy code in :mod:`.levenberg_marquardt` as its reference.
 
-One call per iteration does what would otherwise be some twenty small NumPy operations and one or
-two batched LAPACK solves over all the problems still running: the normal equations from the
-cached Jacobians, Marquardt's scaled damping (the diagonal floored at 1e-12 of its largest entry),
-the solve (LU with partial pivoting, as LAPACK's ``gesv``; a singular or non-finite system gives
-a zero step, as the NumPy path), and the second solve without the parameters held at a bound
-whose step points outward. At calibration sizes (5 parameters, tens of problems) the NumPy path
-spent more time in these calls' overhead than the model took.
+An iteration over many small problems is two compiled passes over the problems still running,
+whatever the problems' size and wherever their Jacobians come from:
 
-:func:`kernels` compiles on first use (numba imported then, never at ``import magcilia``; machine
-code cached on disk) and returns None where numba cannot be imported or :data:`ENABLED` is False:
-the NumPy path then runs.
+* :func:`propose_kernel`: the normal equations (from the cached Jacobians of ``jacobian=True``,
+  or JᵀJ and Jᵀr formed by the caller from a callable or forward-difference Jacobian),
+  Marquardt's scaled damping (the diagonal floored at 1e-12 of its largest entry), the solve
+  (the closed form for p = 2, as the NumPy path; otherwise LU with partial pivoting, as LAPACK's
+  ``gesv``; a singular or non-finite system gives a zero step), the second solve without the
+  parameters held on a bound whose step points outward, and the trial point clipped into the box;
+* :func:`accept_kernel`: the trial's cost (inf where not finite), a lower one accepted (point,
+  residuals and, when cached, Jacobian), λ divided or multiplied, and which problems end.
+
+In NumPy the same rules take some twenty to eighty small passes over the batch and batched LAPACK
+calls, each costing more than the model where the model is a compiled table look-up (the biaxial
+read-out) or the problems are few (the calibration's tens of five-parameter fits).
+
+:func:`kernels` compiles both on first use (:func:`magcilia._jit.compile_kernel`: numba imported
+then, never at ``import magcilia``; machine code cached on disk) and returns None where numba
+cannot be imported or :data:`ENABLED` is False — the one switch the fitter reads; the NumPy
+reference then runs, with the same rules (tests hold the two to each other).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from functools import cache
-from typing import NamedTuple
+import math
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._jit import compile_kernel
+
 F64 = NDArray[np.float64]
 
-#: use the compiled step when numba can be imported (tests set False to run the NumPy reference)
+#: use the compiled step when numba can be imported (False: the NumPy reference, e.g. in tests)
 ENABLED = True
 
 
-def normal_rows(jac: F64, r: F64, idx: NDArray[np.intp], jtj: F64, jtr: F64) -> None:
-    """JᵀJ (m, p, p) and Jᵀr (m, p) of the problems ``idx`` (m,) from Jacobians ``jac``
-    (s, a, p) and residuals ``r`` (s, a) of all problems (numba source)."""
-    p, a = jac.shape[2], jac.shape[1]
+def propose_kernel(idx: NDArray[np.intp], x: F64, lam: F64, lower: F64, upper: F64, jac: F64,
+                   r: F64, jtj: F64, jtr: F64, trial: F64, ok: NDArray[np.bool_]) -> None:
+    """The damped Gauss–Newton trial point of each running problem ``idx`` (m,) (numba source):
+    from its point ``x`` (s, p) and λ ``lam`` (s,) within ``lower``, ``upper`` ((1, p) shared or
+    (s, p)); the normal equations from the cached Jacobians ``jac`` (s, a, p) and residuals ``r``
+    (s, a) of all problems when ``jac`` has rows, else from ``jtj`` (m, p, p) and ``jtr`` (m, p).
+    Writes ``trial`` (m, p) and whether the damped system was finite, ``ok`` (m,)."""
+    p = x.shape[1]
+    n_a = r.shape[1]
+    cached = jac.shape[0] > 0
+    shared = lower.shape[0] == 1
+    gram = np.empty((p, p))
+    system = np.empty((p, p))
+    rhs = np.empty(p)
+    delta = np.empty(p)
+    work = np.empty((p, p + 1))
+    held = np.empty(p, dtype=np.bool_)
     for i in range(idx.size):
         s = idx[i]
-        for u in range(p):
-            acc = 0.0
-            for t in range(a):
-                acc += jac[s, t, u] * r[s, t]
-            jtr[i, u] = acc
-            for w in range(u + 1):
+        b = 0 if shared else s
+        if cached:
+            for j in range(p):
                 acc = 0.0
-                for t in range(a):
-                    acc += jac[s, t, u] * jac[s, t, w]
-                jtj[i, u, w] = acc
-                jtj[i, w, u] = acc
-
-
-def _lu_solve(a: F64, b: F64, out: F64) -> bool:
-    """Solve a · out = b (p × p, in place on ``a`` and ``b``) by LU with partial pivoting; False
-    (and ``out`` zero) where a pivot is zero (numba source)."""
-    p = b.size
-    for c in range(p):
-        piv, best = c, abs(a[c, c])
-        for row in range(c + 1, p):
-            if abs(a[row, c]) > best:
-                piv, best = row, abs(a[row, c])
-        if best == 0.0:
-            out[:] = 0.0
-            return False
-        if piv != c:
-            for col in range(p):
-                a[c, col], a[piv, col] = a[piv, col], a[c, col]
-            b[c], b[piv] = b[piv], b[c]
-        for row in range(c + 1, p):
-            f = a[row, c] / a[c, c]
-            if f != 0.0:
-                for col in range(c + 1, p):
-                    a[row, col] -= f * a[c, col]
-                b[row] -= f * b[c]
-    for c in range(p - 1, -1, -1):
-        acc = b[c]
-        for col in range(c + 1, p):
-            acc -= a[c, col] * out[col]
-        out[c] = acc / a[c, c]
-    return True
-
-
-def damped_steps(jtj: F64, jtr: F64, lam: F64, x: F64, lo: F64, hi: F64, delta: F64,
-                 ok: NDArray[np.bool_]) -> None:
-    """Marquardt steps ``delta`` (m, p) of m problems at ``x`` (m, p) from JᵀJ (m, p, p), Jᵀr
-    (m, p) and λ (m,), bounds ``lo``, ``hi`` of shape (1, p) (shared) or (m, p); ``ok`` (m,)
-    says which systems were finite (numba source)."""
-    m, p = jtr.shape
-    shared = lo.shape[0] == 1
-    a = np.empty((p, p))
-    b = np.empty(p)
-    held = np.empty(p, dtype=np.bool_)
-    d = np.empty(p)
-    for i in range(m):
-        top = 0.0
-        for u in range(p):
-            top = max(top, jtj[i, u, u])
-        finite = True
-        for u in range(p):
-            d[u] = max(jtj[i, u, u], 1e-12 * top)
-            finite &= np.isfinite(jtr[i, u])
-        for u in range(p):
-            for w in range(p):
-                a[u, w] = jtj[i, u, w]
-                finite &= np.isfinite(a[u, w])
-            a[u, u] += lam[i] * d[u]
-            finite &= np.isfinite(a[u, u])
-            b[u] = -jtr[i, u]
-        ok[i] = finite
-        if not finite:
-            delta[i, :] = 0.0
-            continue
-        _lu_solve(a, b, delta[i])
-        j = 0 if shared else i
-        again = False
-        for u in range(p):
-            held[u] = ((x[i, u] <= lo[j, u] and delta[i, u] < 0.0)
-                       or (x[i, u] >= hi[j, u] and delta[i, u] > 0.0))
-            again |= held[u]
-        if not again:
-            continue
-        for u in range(p):  # the system again, the held parameters' rows and columns removed
-            for w in range(p):
-                a[u, w] = 0.0 if (held[u] or held[w]) else jtj[i, u, w]
-            a[u, u] = 1.0 if held[u] else jtj[i, u, u] + lam[i] * d[u]
-            b[u] = 0.0 if held[u] else -jtr[i, u]
-        _lu_solve(a, b, delta[i])
-
-
-def accept_steps(idx: NDArray[np.intp], trial: F64, rt: F64, jt: F64, xa: F64, la: F64,
-                 ok: NDArray[np.bool_], scale: F64, x: F64, r: F64, cost: F64, jcache: F64,
-                 lam: F64, tol: F64, ending: NDArray[np.bool_]) -> None:
-    """The bookkeeping after the trial points (numba source): each trial's cost (inf where not
-    finite), accepted where it is lower (``x``, ``r``, ``cost`` and, when ``jcache`` has rows,
-    the cached Jacobian of problem ``idx[i]`` take the trial's), λ divided or multiplied, and
-    which problems end (``ending``): a relative gain below ``tol[0]`` (ftol), a change below
-    ``tol[1]`` (atol), λ beyond ``tol[3]``, a step of at most ``tol[2]`` (xtol) × ``scale``, or a
-    non-finite system. ``tol[4]``, ``tol[5]``, ``tol[6]``: λ's floor, its divisor and its
-    factor."""
-    m, a = rt.shape
-    p = trial.shape[1]
-    keep_jac = jcache.shape[0] > 0
-    for i in range(m):
-        c = 0.0
-        for t in range(a):
-            c += rt[i, t] * rt[i, t]
-        if not np.isfinite(c):
-            c = np.inf
-        better = c < cost[idx[i]]
-        ca = cost[idx[i]]
-        gain = (ca - c) / max(ca, 1e-300) if better else 0.0
-        change = abs(ca - c) if np.isfinite(c) else np.inf
-        s = idx[i]
-        if better:
-            for u in range(p):
-                x[s, u] = trial[i, u]
-            for t in range(a):
-                r[s, t] = rt[i, t]
-            cost[s] = c
-            if keep_jac:
-                for t in range(a):
-                    for u in range(p):
-                        jcache[s, t, u] = jt[i, t, u]
-            la[i] = max(la[i] / tol[5], tol[4])
+                for a in range(n_a):
+                    acc += jac[s, a, j] * r[s, a]
+                rhs[j] = -acc
+                for k in range(j, p):
+                    acc = 0.0
+                    for a in range(n_a):
+                        acc += jac[s, a, j] * jac[s, a, k]
+                    gram[j, k] = acc
+                    gram[k, j] = acc
         else:
-            la[i] = la[i] * tol[6]
-        lam[s] = la[i]
-        step = 0.0
-        for u in range(p):
-            step = max(step, abs(trial[i, u] - xa[i, u]))
-        moved = step > tol[2] * scale[i]
-        ending[i] = ((better and gain < tol[0]) or change < tol[1] or la[i] > tol[3]
-                     or not moved or not ok[i])
+            for j in range(p):
+                rhs[j] = -jtr[i, j]
+                for k in range(p):
+                    gram[j, k] = jtj[i, j, k]
+        top = gram[0, 0]
+        for j in range(1, p):  # NaN-propagating, as np.maximum
+            d = gram[j, j]
+            top = d if (d > top or math.isnan(d)) else top
+        floor = 1e-12 * top
+        fine = True
+        for j in range(p):
+            d = gram[j, j]
+            d = d if (d >= floor or math.isnan(d)) else floor
+            if math.isnan(floor):
+                d = floor
+            for k in range(p):
+                system[j, k] = gram[j, k]
+            system[j, j] += lam[s] * d
+            for k in range(p):
+                fine = fine and math.isfinite(system[j, k])
+            fine = fine and math.isfinite(rhs[j])
+        ok[i] = fine
+        for j in range(p):
+            delta[j] = 0.0
+        for attempt in range(2 if fine else 0):
+            # δ = system⁻¹ rhs, zero where singular (levenberg_marquardt._solve's rules)
+            if p == 2:  # its closed form
+                a00, a01, a10, a11 = system[0, 0], system[0, 1], system[1, 0], system[1, 1]
+                det = a00 * a11 - a01 * a10
+                if det != 0.0 and math.isfinite(det):
+                    inv = 1.0 / det
+                    delta[0] = (a11 * rhs[0] - a01 * rhs[1]) * inv
+                    delta[1] = (a00 * rhs[1] - a10 * rhs[0]) * inv
+                else:
+                    delta[0] = delta[1] = 0.0
+            else:  # LU with partial pivoting (as gesv); an exact zero pivot: no step
+                for j in range(p):
+                    for k in range(p):
+                        work[j, k] = system[j, k]
+                    work[j, p] = rhs[j]
+                singular = False
+                for col in range(p):
+                    piv = col
+                    for j in range(col + 1, p):
+                        if abs(work[j, col]) > abs(work[piv, col]):
+                            piv = j
+                    if work[piv, col] == 0.0:
+                        singular = True
+                        break
+                    if piv != col:
+                        for k in range(p + 1):
+                            work[col, k], work[piv, k] = work[piv, k], work[col, k]
+                    for j in range(col + 1, p):
+                        f = work[j, col] / work[col, col]
+                        for k in range(col, p + 1):
+                            work[j, k] -= f * work[col, k]
+                for j in range(p - 1, -1, -1):
+                    if singular:
+                        delta[j] = 0.0
+                        continue
+                    acc = work[j, p]
+                    for k in range(j + 1, p):
+                        acc -= work[j, k] * delta[k]
+                    delta[j] = acc / work[j, j]
+            if attempt == 1:
+                break
+            again = False
+            for j in range(p):
+                held[j] = ((x[s, j] <= lower[b, j] and delta[j] < 0.0)
+                           or (x[s, j] >= upper[b, j] and delta[j] > 0.0))
+                again = again or held[j]
+            if not again:
+                break
+            # a parameter on a bound stepping outward is held: solve again without it
+            for j in range(p):
+                for k in range(p):
+                    if held[j] or held[k]:
+                        system[j, k] = 1.0 if j == k else 0.0
+                if held[j]:
+                    rhs[j] = 0.0
+        for j in range(p):
+            trial[i, j] = min(max(x[s, j] + delta[j], lower[b, j]), upper[b, j])
+
+
+def accept_kernel(idx: NDArray[np.intp], trial: F64, rt: F64, jt: F64, ok: NDArray[np.bool_],
+                  x: F64, r: F64, cost: F64, jac: F64, lam: F64, width: F64, ftol: float,
+                  xtol: float, atol: float, lam_bounds: F64, ending: NDArray[np.bool_]) -> None:
+    """Each running problem ``idx`` (m,) at its ``trial`` point (m, p) with residuals ``rt``
+    (m, a) (numba source): a lower cost replaces its ``x``, ``r`` and ``cost`` rows and, when
+    ``jac`` (s, a, p) has rows, its cached Jacobian by the trial's ``jt`` (m, a, p); ``lam``
+    divided or multiplied (``lam_bounds`` = [smallest, largest, down, up]); ``ending`` (m,): the
+    step gained less than ``ftol``, changed the cost by less than ``atol``, λ passed its largest,
+    no parameter moved by more than ``xtol`` of the problem's widest bound (``width`` (1, p) or
+    (s, p); of |x| where infinite), or the damped system was not finite."""
+    p, n_a = trial.shape[1], rt.shape[1]
+    keep_jac = jac.shape[0] > 0
+    shared = width.shape[0] == 1
+    lam_min, lam_max, down, up = lam_bounds[0], lam_bounds[1], lam_bounds[2], lam_bounds[3]
+    for i in range(idx.size):
+        s = idx[i]
+        b = 0 if shared else s
+        ct = 0.0
+        for a in range(n_a):
+            ct += rt[i, a] * rt[i, a]
+        if not math.isfinite(ct):
+            ct = math.inf
+        ca = cost[s]
+        better = ct < ca
+        gain = (ca - ct) / max(ca, 1e-300) if better else 0.0
+        change = abs(ca - ct) if math.isfinite(ct) else math.inf
+        scale = -math.inf
+        step = -math.inf
+        for j in range(p):
+            w = width[b, j]
+            v = w if math.isfinite(w) else abs(x[s, j])
+            scale = v if (v > scale or math.isnan(v)) else scale
+            d = abs(trial[i, j] - x[s, j])
+            step = d if (d > step or math.isnan(d)) else step
+        moved = step > xtol * scale
+        if better:
+            cost[s] = ct
+            for j in range(p):
+                x[s, j] = trial[i, j]
+            for a in range(n_a):
+                r[s, a] = rt[i, a]
+            if keep_jac:
+                for a in range(n_a):
+                    for j in range(p):
+                        jac[s, a, j] = jt[i, a, j]
+            la = max(lam[s] / down, lam_min)
+        else:
+            la = lam[s] * up
+        lam[s] = la
+        ending[i] = ((better and gain < ftol) or change < atol or la > lam_max or not moved
+                     or not ok[i])
 
 
 class Kernels(NamedTuple):
-    """The compiled functions, with the arguments of the functions of the same name."""
+    """The compiled kernels, with the arguments of the functions of the same name."""
 
-    normal_rows: Callable[[F64, F64, NDArray[np.intp], F64, F64], None]
-    damped_steps: Callable[[F64, F64, F64, F64, F64, F64, F64, NDArray[np.bool_]], None]
-    accept_steps: Callable[..., None]
-
-
-@cache
-def _compile() -> Kernels | None:
-    try:
-        import numba
-    except ImportError:  # e.g. a Python that numba does not support yet
-        return None
-
-    def build(cache: bool) -> Kernels:
-        solve = numba.njit(_lu_solve, cache=cache, error_model="numpy", nogil=True)
-        steps = numba.njit(_with_solver(damped_steps, solve), cache=cache, error_model="numpy",
-                           nogil=True)
-        return Kernels(normal_rows=numba.njit(normal_rows, cache=cache, error_model="numpy",
-                                              nogil=True),
-                       damped_steps=steps,
-                       accept_steps=numba.njit(accept_steps, cache=cache, error_model="numpy",
-                                               nogil=True))
-
-    try:
-        return build(cache=True)
-    except RuntimeError:  # no writable cache folder (numba's own or NUMBA_CACHE_DIR)
-        return build(cache=False)
-
-
-def _with_solver(fn: Callable[..., None], solve: Callable[..., bool]) -> Callable[..., None]:
-    """``fn`` whose global ``_lu_solve`` is the compiled ``solve`` (numba resolves a function's
-    globals when it compiles it)."""
-    import types
-
-    glob = dict(fn.__globals__)
-    glob["_lu_solve"] = solve
-    out = types.FunctionType(fn.__code__, glob, fn.__name__, fn.__defaults__, fn.__closure__)
-    out.__module__, out.__qualname__ = fn.__module__, fn.__qualname__
-    return out
+    propose: Any
+    accept: Any
 
 
 def kernels() -> Kernels | None:
-    """The compiled functions, or None where numba cannot be imported or :data:`ENABLED` is
-    False."""
-    return _compile() if ENABLED else None
+    """The compiled kernels (compiled once per process), or None where numba cannot be imported
+    or :data:`ENABLED` is False."""
+    if not ENABLED:
+        return None
+    propose, accept = compile_kernel(propose_kernel), compile_kernel(accept_kernel)
+    return None if propose is None or accept is None else Kernels(propose, accept)

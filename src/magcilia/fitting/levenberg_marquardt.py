@@ -4,8 +4,9 @@ The calibration polishes one candidate for every combination of the integer para
 a hundred small problems of five parameters each; the force-vector read-out fits two parameters
 per reading, thousands of readings at once. Solving them one by one spends the time in Python;
 here every iteration evaluates all the problems' residuals (and their Jacobians: analytic, or
-forward differences in the same vectorised call) at once and solves all the damped normal
-equations with one batched ``numpy.linalg.solve``.
+forward differences in the same vectorised call) at once, and takes all the damped steps and
+their acceptance in one compiled step (:mod:`.compiled`, numba) or, without numba, in its NumPy
+reference here (batched ``numpy.linalg.solve``, the 2 × 2 systems in closed form).
 
 The one damping rule: Marquardt's, λ times the diagonal of JᵀJ (floored at 1e-12 of its largest
 entry, so that a parameter without effect keeps the system regular and stays put), λ divided by
@@ -24,11 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._jit import compile_kernel
 from magcilia.fitting import compiled as compiled_step
-from magcilia.fitting import small_step
 from magcilia.fitting.result import BatchFit
-from magcilia.fitting.small_step import SMALL_PARAMETERS
 
 F64 = NDArray[np.float64]
 #: ``residuals(x, which)``: residual vectors (m, a) of parameter vectors ``x`` (m, p), row i
@@ -140,7 +138,7 @@ def fit_batch(
     damping: float = 1e-3,
     final_jacobian: bool = False,
     project: Projection | None = None,
-    compiled: bool = False,
+    compiled: bool | None = None,  # noqa: ARG001 (accepted, not needed: see below)
 ) -> BatchFit:
     """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
 
@@ -189,11 +187,11 @@ def fit_batch(
         disc, say), as the nearest feasible points; applied to the starts and to every trial
         point after the bounds' clip. A step it maps back onto the current point ends the fit
         (converged: the minimum over the set lies on its edge).
-    compiled : bool
-        With ``jacobian=True`` and at most :data:`~.small_step.SMALL_PARAMETERS` parameters,
-        run each iteration's bookkeeping (normal equations, damped solve, bounds, acceptance) as
-        two compiled passes (:mod:`.small_step`, numba) instead of NumPy's many; the same rules,
-        to rounding. Ignored where numba is missing or the problem does not qualify.
+    compiled : bool, optional
+        Accepted for compatibility and not needed: each iteration is one compiled step
+        (:mod:`.compiled`, numba) for every problem size and Jacobian source wherever numba can
+        be imported and :data:`magcilia.fitting.compiled.ENABLED` (the fitter's one switch) is
+        True, and the NumPy reference (the same rules, to rounding) otherwise.
 
     Returns
     -------
@@ -232,82 +230,65 @@ def fit_batch(
     iterations = np.zeros(size, dtype=np.int64)
     converged = np.zeros(size, dtype=bool)
     jtj_out = np.full((size, dims, dims), np.nan)
-    # the compiled step (fitting.compiled) where numba is available; 2 × 2 systems are solved in
-    # closed form by the NumPy path
-    fast = compiled_step.kernels() if dims > 2 else None
-    tolerances = np.array([ftol, atol, xtol, LAMBDA_MAX, LAMBDA_MIN, LAMBDA_DOWN, LAMBDA_UP])
-    empty_jac = np.zeros((0, 0, 0))
+    # the one compiled iteration (fitting.compiled) where numba is available and switched on;
+    # otherwise its NumPy reference below, the same rules
+    fast = compiled_step.kernels()
     idx = np.nonzero(np.isfinite(cost))[0] if dims else every[:0]  # the problems still running
-    kernels = (_small_kernels() if compiled and jcache is not None
-               and 0 < dims <= SMALL_PARAMETERS else None)
-    if kernels is not None and jcache is not None:
-        _iterate_compiled(kernels, residuals, project, x, r, cost, jcache, lam, lower, upper,
-                          width, idx, maxiter, ftol, xtol, atol, iterations, converged)
-        idx = every[:0]
+    if fast is not None:
+        none3, none2 = np.zeros((0, 0, 0)), np.zeros((0, 0))
+        lo_k, hi_k, wd_k = ((lower[None], upper[None], width[None]) if shared
+                            else (lower, upper, width))
+        lam_bounds = np.array([LAMBDA_MIN, LAMBDA_MAX, LAMBDA_DOWN, LAMBDA_UP])
+    jtj: F64 | None = None
+    ending = np.zeros(0, dtype=bool)
     for k in range(maxiter):
         if idx.size == 0:
             break
-        xa, ra, ca, la = x[idx], r[idx], cost[idx], lam[idx]
-        lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
-        if jac_fn is not None:
-            jtj, jtr = _normal(jac_fn(xa, idx), ra)
-        elif jcache is not None and fast is not None:
-            jtj, jtr = np.empty((idx.size, dims, dims)), np.empty((idx.size, dims))
-            fast.normal_rows(jcache, r, idx, jtj, jtr)
-        elif jcache is not None:
-            jtj, jtr = _normal(jcache[idx], ra)
+        m = idx.size
+        if fast is None or jcache is None:  # the normal equations here (cached ones: compiled)
+            xa, ra = x[idx], r[idx]
+            if jac_fn is not None:
+                jtj, jtr = _normal(jac_fn(xa, idx), ra)
+            elif jcache is not None:
+                jtj, jtr = _normal(jcache[idx], ra)
+            else:
+                jac = diff(xa, ra, idx)  # (s, p, a)
+                jtj = jac @ jac.transpose(0, 2, 1)
+                jtr = (jac @ ra[:, :, None])[:, :, 0]
+        if fast is not None:
+            trial, ok = np.empty((m, dims)), np.empty(m, dtype=bool)
+            fast.propose(idx, x, lam, lo_k, hi_k, none3 if jcache is None else jcache, r,
+                         none3 if jtj is None else np.ascontiguousarray(jtj),
+                         none2 if jtj is None else np.ascontiguousarray(jtr), trial, ok)
         else:
-            jac = diff(xa, ra, idx)  # (s, p, a)
-            jtj = jac @ jac.transpose(0, 2, 1)
-            jtr = (jac @ ra[:, :, None])[:, :, 0]
-        if fast is not None:  # the same step, compiled (fitting.compiled)
-            delta, ok = np.empty_like(xa), np.empty(idx.size, dtype=bool)
-            fast.damped_steps(jtj, jtr, la, xa, lo.reshape(-1, dims), hi.reshape(-1, dims),
-                              delta, ok)
-        else:
-            delta, ok = _damped_steps(jtj, jtr, la, xa, lo, hi)
-        trial = np.minimum(np.maximum(xa + delta, lo), hi)
+            assert jtj is not None  # formed above
+            lo, hi = (lower, upper) if shared else (lower[idx], upper[idx])
+            delta, ok = _damped_steps(jtj, jtr, lam[idx], xa, lo, hi)
+            trial = np.minimum(np.maximum(xa + delta, lo), hi)
         if project is not None:
-            trial = np.asarray(project(trial, idx), dtype=np.float64)
+            trial = np.ascontiguousarray(project(trial, idx), dtype=np.float64)
         rt, jt = _evaluate(residuals, trial, idx, with_jac)
-        if fast is not None:  # the bookkeeping below, compiled
-            scale = _scale(span, width, shared, idx, xa)
-            ending = np.empty(idx.size, dtype=bool)
-            fast.accept_steps(idx, trial, rt, empty_jac if jt is None else jt, xa, la, ok,
-                              scale, x, r, cost,
-                              empty_jac if jcache is None or jt is None else jcache, lam,
-                              tolerances, ending)
-            if ending.any():
-                ended = idx[ending]
-                converged[ended] = ok[ending]
-                iterations[ended] = k + 1
-                jtj_out[ended] = jtj[ending]
-                idx = idx[~ending]
-            continue
-        ct = sum_squares(rt)
-        better = ct < ca
-        gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
-        change = np.abs(np.where(np.isfinite(ct), ca - ct, np.inf))
-        acc = idx[better]
-        x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
-        if jcache is not None and jt is not None:
-            jcache[acc] = jt[better]
-        la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
-        lam[idx] = la
-        scale = _scale(span, width, shared, idx, xa)
-        moved = _row_max(np.abs(trial - xa)) > xtol * scale
-        ending = ((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
-                  | ~ok)
+        if fast is not None:
+            ending = np.empty(m, dtype=bool)
+            fast.accept(idx, trial, np.ascontiguousarray(rt),
+                        none3 if jt is None else np.ascontiguousarray(jt), ok, x, r, cost,
+                        none3 if jcache is None else jcache, lam, wd_k, float(ftol),
+                        float(xtol), float(atol), lam_bounds, ending)
+        else:
+            ending = _accept(idx, trial, rt, jt, ok, x, r, cost, jcache, lam, span, width,
+                             shared, ftol, xtol, atol)
         if ending.any():
             ended = idx[ending]
             converged[ended] = ok[ending]
             iterations[ended] = k + 1
-            jtj_out[ended] = jtj[ending]
+            if jtj is not None:
+                jtj_out[ended] = jtj[ending]
             idx = idx[~ending]
     else:  # the iteration limit: the problems still running took maxiter iterations
         if maxiter > 0 and idx.size:
             iterations[idx] = maxiter
-            jtj_out[idx] = jtj[~ending]
+            if jtj is not None:
+                jtj_out[idx] = jtj[~ending]
     evaluations = 1 + iterations * (1 if jacobian is not None else 1 + dims)
     done = np.nonzero(np.isfinite(cost) & (dims > 0))[0]
     if jcache is not None:
@@ -331,11 +312,36 @@ def _scale(span: F64 | None, width: F64, shared: bool, idx: NDArray[np.intp], xa
     return np.broadcast_to(span, idx.shape) if shared else span[idx]
 
 
+def _accept(idx: NDArray[np.intp], trial: F64, rt: F64, jt: F64 | None, ok: NDArray[np.bool_],
+            x: F64, r: F64, cost: F64, jcache: F64 | None, lam: F64, span: F64 | None,
+            width: F64, shared: bool, ftol: float, xtol: float, atol: float
+            ) -> NDArray[np.bool_]:
+    """The trial points' bookkeeping (the NumPy reference of
+    :func:`magcilia.fitting.compiled.accept_kernel`): a lower cost replaces the problem's
+    ``x``, ``r``, ``cost`` (and cached Jacobian) rows, λ divided or multiplied; which problems
+    ``idx`` (m,) end (m,)."""
+    xa, ca, la = x[idx], cost[idx], lam[idx]
+    ct = sum_squares(rt)
+    better = ct < ca
+    gain = np.where(better, (ca - ct) / np.maximum(ca, 1e-300), 0.0)
+    change = np.abs(np.where(np.isfinite(ct), ca - ct, np.inf))
+    acc = idx[better]
+    x[acc], r[acc], cost[acc] = trial[better], rt[better], ct[better]
+    if jcache is not None and jt is not None:
+        jcache[acc] = jt[better]
+    la = np.where(better, np.maximum(la / LAMBDA_DOWN, LAMBDA_MIN), la * LAMBDA_UP)
+    lam[idx] = la
+    scale = _scale(span, width, shared, idx, xa)
+    moved = _row_max(np.abs(trial - xa)) > xtol * scale
+    return np.asarray((better & (gain < ftol)) | (change < atol) | (la > LAMBDA_MAX) | ~moved
+                      | ~ok)
+
+
 def _damped_steps(jtj: F64, jtr: F64, la: F64, xa: F64, lo: F64, hi: F64
                   ) -> tuple[F64, NDArray[np.bool_]]:
     """Marquardt steps (s, p) from JᵀJ (s, p, p), Jᵀr (s, p), λ (s,) at ``xa`` (s, p) within
     ``lo``, ``hi`` ((p,) or (s, p)), and which systems were finite (s,): the NumPy reference of
-    :func:`magcilia.fitting.compiled.damped_steps`."""
+    :func:`magcilia.fitting.compiled.propose_kernel`."""
     dims = xa.shape[1]
     eye = np.eye(dims)
     # Marquardt's scaling, floored so that a parameter without effect here (a zero column:
@@ -360,46 +366,6 @@ def _damped_steps(jtj: F64, jtr: F64, la: F64, xa: F64, lo: F64, hi: F64
         rhs[held] = 0.0
         delta[again] = _solve(system, rhs)
     return delta, ok
-
-
-def _small_kernels() -> tuple[Any, Any] | None:
-    """The compiled step's two kernels (:mod:`.small_step`), or None without numba."""
-    propose = compile_kernel(small_step.propose_kernel)
-    accept = compile_kernel(small_step.accept_kernel)
-    return None if propose is None or accept is None else (propose, accept)
-
-
-def _iterate_compiled(kernels: tuple[Any, Any], residuals: Residuals,
-                      project: Projection | None, x: F64, r: F64, cost: F64, jcache: F64,
-                      lam: F64, lower: F64, upper: F64, width: F64, idx: NDArray[np.intp],
-                      maxiter: int, ftol: float, xtol: float, atol: float,
-                      iterations: NDArray[np.int64], converged: NDArray[np.bool_]) -> None:
-    """:func:`fit_batch`'s iterations with ``jacobian=True`` for small problems, the
-    bookkeeping compiled (:mod:`.small_step`); updates ``x``, ``r``, ``cost``, ``jcache``,
-    ``lam``, ``iterations`` and ``converged`` in place."""
-    propose, accept = kernels
-    shared = lower.ndim == 1
-    lo, hi, wd = ((lower[None], upper[None], width[None]) if shared else (lower, upper, width))
-    bounds = np.array([LAMBDA_MIN, LAMBDA_MAX, LAMBDA_DOWN, LAMBDA_UP])
-    dims = x.shape[1]
-    for k in range(maxiter):
-        if idx.size == 0:
-            return
-        m = idx.size
-        trial, ok = np.empty((m, dims)), np.empty(m, dtype=bool)
-        propose(idx, x, r, jcache, lam, lo, hi, shared, trial, ok)
-        if project is not None:
-            trial = np.ascontiguousarray(project(trial, idx), dtype=np.float64)
-        rt, jt = _evaluate(residuals, trial, idx, True)
-        ending = np.empty(m, dtype=bool)
-        accept(idx, trial, np.ascontiguousarray(rt), np.ascontiguousarray(jt), ok, x, r, cost,
-               jcache, lam, wd, shared, float(ftol), float(xtol), float(atol), bounds, ending)
-        if ending.any():
-            ended = idx[ending]
-            converged[ended] = ok[ending]
-            iterations[ended] = k + 1
-            idx = idx[~ending]
-    iterations[idx] = maxiter
 
 
 def _evaluate(residuals: Residuals, x: F64, which: NDArray[np.intp], with_jac: bool

@@ -48,7 +48,6 @@ from magcilia.device.sensor import beyond_range
 from magcilia.device.setup import Setup
 from magcilia.fitting import fit_batch
 from magcilia.mechanics import require_tip_radius
-from magcilia.model import compiled
 from magcilia.readout.channel import Channel, ChannelLike, channels
 from magcilia.readout.force_vector import (
     NO_DIRECTION,
@@ -514,8 +513,7 @@ class BiaxialReadout(Display):
         f_max = float(self.forces[-1])
         fit = fit_batch(residuals, np.stack([fx, fy], -1), [-f_max, -f_max], [f_max, f_max],
                         jacobian=True, maxiter=MAX_ITERATIONS, ftol=FIT_FTOL,
-                        xtol=FIT_XTOL, atol=FIT_ATOL, damping=1e-3, project=disc,
-                        compiled=compiled.ENABLED)
+                        xtol=FIT_XTOL, atol=FIT_ATOL, damping=1e-3, project=disc)
         # jacobian=True: JᵀJ of the whitened residuals (JᵀWJ) at the estimate itself
         return (fit.x[:, 0].copy(), fit.x[:, 1].copy(), np.array(fit.cost), np.array(fit.jtj),
                 fit.iterations.astype(np.float64), np.array(fit.converged))
