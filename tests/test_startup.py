@@ -73,7 +73,7 @@ def test_no_command_help_loads_a_heavy_library() -> None:
     code = """
 import contextlib, io, json, sys
 from magcilia.cli import COMMANDS, main
-HEAVY = %r
+HEAVY = HEAVY_MODULES
 found = {}
 for name in COMMANDS:
     with contextlib.redirect_stdout(io.StringIO()) as out:
@@ -85,7 +85,7 @@ for name in COMMANDS:
         found[name] = heavy
         break
 print(json.dumps(found))
-""" % (HEAVY,)
+""".replace("HEAVY_MODULES", repr(HEAVY))
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(SRC.parent), *filter(None, [os.environ.get("PYTHONPATH")])])}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
