@@ -207,7 +207,7 @@ class Problem:
     #: (2, N) μ(s) (B_x, B_z) at the nodes, N: a uniform field's couple per length μ t × B, whose
     #: y-component μ (B_x cos θ − B_z sin θ) adds to g (no force: it is not in N)
     couple: F64 | None = None
-    #: (N, N) ``P diag(loaded)`` (Fortran order), rad per N: the influence of the point force
+    #: (N, N) ``P diag(loaded)``, rad per N: the influence of the point force
     #: alone, precomputed per grid (:func:`point_influence`); None: formed when first needed
     point: F64 | None = None
 
@@ -277,18 +277,26 @@ class Problem:
             h = 1e-7
             res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
             jac = (res[:n] - res[n:]).T / (2.0 * h)
-        from scipy.linalg.lapack import dgesv
-        *_, step, info = dgesv(jac, r)
-        return err, (-step if info == 0 else None)
+        step = _solve(jac, r)
+        return err, (None if step is None else -step)
 
 
 def point_influence(influence: F64, loaded: F64) -> F64:
-    """``P diag(loaded)`` (N, N), rad per N, in Fortran order (``dgesv`` factors a Jacobian
-    built from it in place, without a transposed copy), read-only: the influence of a point
-    force on the nodes it loads."""
-    out = np.asfortranarray(influence * loaded)
+    """``P diag(loaded)`` (N, N), rad per N, read-only: the influence of a point force on the
+    nodes it loads."""
+    out = influence * loaded
     out.setflags(write=False)
     return out
+
+
+def _solve(matrix: F64, rhs: F64) -> F64 | None:
+    """``matrix⁻¹ rhs`` (N,) by :func:`numpy.linalg.solve` (LAPACK's ``gesv`` in NumPy's own
+    OpenBLAS: no SciPy import on a bend's path, whose ``scipy.linalg`` costs ~0.1 s on a first
+    call), or None if ``matrix`` (N, N) is singular."""
+    try:
+        return np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return None
 
 
 @lru_cache(maxsize=8)
@@ -359,22 +367,20 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     damped to a radian, given up after three rising residuals, a singular Jacobian or a
     non-finite residual) in as few array operations as it takes (a bend's time is mostly these
     steps). The residual is negated in place into the right-hand side; the Jacobian
-    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built in Fortran order, which ``dgesv``
-    factors in place; the largest entries come from BLAS's ``idamax`` (a non-finite residual is
-    caught at the end by its squared norm); below :data:`CHORD_RESIDUAL` a step after a full one
-    reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
-    from scipy.linalg.blas import idamax
-    from scipy.linalg.lapack import dgesv, dgetrs
+    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built into one buffer and solved by
+    :func:`numpy.linalg.solve` (NumPy's LAPACK: no SciPy import on a first bend); below
+    :data:`CHORD_RESIDUAL` a step after a full one reuses its Jacobian (no new one formed). The
+    largest |entry| is the larger of max and −min (no |·| temporary; a NaN propagates into it)."""
     point = problem.point_matrix()
     fx, fz = (scale * problem.force).tolist()
-    jac = np.empty_like(point)  # each full step's Jacobian, then its LU factors (Fortran order)
+    jac = np.empty_like(point)  # each full step's Jacobian
     diagonal = jac.reshape(-1, order="A")[:: guess.size + 1]  # a view of its diagonal
     theta = guess
     prev = math.inf
     worse = 0
-    factors: tuple[F64, NDArray[np.int32]] | None = None  # of the last step, if a full one
+    reuse = False  # whether ``jac`` holds the last step's Jacobian (a full step's)
     if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
-        point = point * fx  # Fortran order kept
+        point = point * fx
     for it in range(1, max_iter + 1):
         cos = np.cos(theta)
         if fz == 0.0:
@@ -384,28 +390,27 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
             sin = np.sin(theta)
             minus = point @ (fx * cos - fz * sin)
         minus -= theta  # −(θ − P g)
-        err = abs(float(minus[idamax(minus)]))
+        err = max(float(minus.max()), -float(minus.min()))
         if err < tol:
-            if not math.isfinite(float(minus @ minus)):  # a NaN that idamax passed over
-                return None
             return Solution(theta, err, it - 1)
         worse = worse + 1 if err > prev else 0
-        if not err < math.inf or worse >= 3:  # not finite, or diverging
+        if not err < math.inf or worse >= 3:  # not finite (NaN included), or diverging
             return None
         prev = err
-        if factors is not None and err < CHORD_RESIDUAL:
-            step, info = dgetrs(*factors, minus, overwrite_b=1)
-            factors = None
+        if reuse and err < CHORD_RESIDUAL:
+            reuse = False
         else:
             # I + P diag(loaded) diag(F_x sin θ + F_z cos θ), into the buffer
             np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
             diagonal += 1.0
-            lu, piv, step, info = dgesv(jac, minus, overwrite_a=1, overwrite_b=1)
-            factors = (lu, piv)
-        if info != 0:  # singular
+            reuse = True
+        step = _solve(jac, minus)
+        if step is None:  # singular
             return None
-        size = abs(float(step[idamax(step)]))
-        if size > 1.0:  # damp steps of more than a radian
+        size = max(float(step.max()), -float(step.min()))
+        if not size <= 1.0:  # damp steps of more than a radian
+            if not size < math.inf:
+                return None
             step *= 1.0 / size
         theta = theta + step
         if size < 1e-14:
