@@ -33,7 +33,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -277,7 +277,7 @@ class Problem:
             h = 1e-7
             res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
             jac = (res[:n] - res[n:]).T / (2.0 * h)
-        step = _solve(jac, r)
+        step = dense_solve(jac, r)
         return err, (None if step is None else -step)
 
 
@@ -289,14 +289,36 @@ def point_influence(influence: F64, loaded: F64) -> F64:
     return out
 
 
-def _solve(matrix: F64, rhs: F64) -> F64 | None:
-    """``matrix⁻¹ rhs`` (N,) by :func:`numpy.linalg.solve` (LAPACK's ``gesv`` in NumPy's own
-    OpenBLAS: no SciPy import on a bend's path, whose ``scipy.linalg`` costs ~0.1 s on a first
-    call), or None if ``matrix`` (N, N) is singular."""
+def dense_solve(matrix: F64, rhs: F64) -> F64 | None:
+    """``matrix⁻¹ rhs`` (N,) by LAPACK's ``gesv`` in NumPy's own OpenBLAS (no SciPy import on a
+    bend's path: ``scipy.linalg`` costs ~0.1 s on a first call), or None if ``matrix`` (N, N)
+    is singular or the solution not finite."""
+    with np.errstate(invalid="ignore"):  # a singular matrix: NaN (numpy.linalg.solve raises)
+        out = np.asarray(_gesv(matrix, rhs), dtype=np.float64)
+    return out if math.isfinite(float(out @ out)) else None
+
+
+def _numpy_gesv() -> Callable[[F64, F64], F64]:
+    """NumPy's ``gesv`` gufunc for one right-hand side (what :func:`numpy.linalg.solve` calls,
+    without its ~2 µs of checks and error-state set-up a call: a bend's Newton makes four): a
+    singular matrix gives NaN and raises NumPy's "invalid" flag. Should NumPy move its private
+    module, :func:`numpy.linalg.solve` itself (identical results; a singular matrix then
+    gives NaN here too)."""
+    try:
+        from numpy.linalg import _umath_linalg
+    except ImportError:  # pragma: no cover - a NumPy that moved it
+        return _fallback_gesv
+    return cast(Callable[[F64, F64], F64], _umath_linalg.solve1)
+
+
+def _fallback_gesv(matrix: F64, rhs: F64) -> F64:  # pragma: no cover - see _numpy_gesv
     try:
         return np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
     except np.linalg.LinAlgError:
-        return None
+        return np.full(rhs.shape, np.nan)
+
+
+_gesv = _numpy_gesv()
 
 
 @lru_cache(maxsize=8)
@@ -354,7 +376,7 @@ def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
     return None
 
 
-#: largest residual (rad) at which :func:`_newton_point` reuses the last step's LU factors (a
+#: largest residual (rad) at which :func:`_newton_point` reuses the last full step's Jacobian (a
 #: chord step, whose error is about the last step's size times this residual: below Newton's
 #: tolerance here; the step after it is a full one again). 1e-6 cost a fifth step on some pushing
 #: loads that Newton converges in four; 1e-8 none (tests/mechanics/test_newton_point.py)
@@ -368,19 +390,28 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     non-finite residual) in as few array operations as it takes (a bend's time is mostly these
     steps). The residual is negated in place into the right-hand side; the Jacobian
     ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built into one buffer and solved by
-    :func:`numpy.linalg.solve` (NumPy's LAPACK: no SciPy import on a first bend); below
+    NumPy's ``gesv`` (:func:`dense_solve`'s, its error state set once for the whole loop; a
+    singular Jacobian gives a NaN step); below
     :data:`CHORD_RESIDUAL` a step after a full one reuses its Jacobian (no new one formed). The
-    largest |entry| is the larger of max and −min (no |·| temporary; a NaN propagates into it)."""
+    largest |entry| is taken through one scratch vector (a NaN propagates into it)."""
     point = problem.point_matrix()
     fx, fz = (scale * problem.force).tolist()
+    if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
+        point = point * fx
+    with np.errstate(invalid="ignore"):  # a singular Jacobian: a NaN step, returned as None
+        return _point_loop(problem, scale, point, fx, fz, guess, tol, max_iter)
+
+
+def _point_loop(problem: Problem, scale: float, point: F64, fx: float, fz: float, guess: F64,
+                tol: float, max_iter: int) -> Solution | None:
+    """:func:`_newton_point`'s iteration (``point``: P diag(loaded), times F_x when F_z = 0)."""
     jac = np.empty_like(point)  # each full step's Jacobian
     diagonal = jac.reshape(-1, order="A")[:: guess.size + 1]  # a view of its diagonal
+    scratch = np.empty_like(guess)  # |residual|, |step|
     theta = guess
     prev = math.inf
     worse = 0
     reuse = False  # whether ``jac`` holds the last step's Jacobian (a full step's)
-    if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
-        point = point * fx
     for it in range(1, max_iter + 1):
         cos = np.cos(theta)
         if fz == 0.0:
@@ -390,7 +421,7 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
             sin = np.sin(theta)
             minus = point @ (fx * cos - fz * sin)
         minus -= theta  # −(θ − P g)
-        err = max(float(minus.max()), -float(minus.min()))
+        err = float(np.abs(minus, out=scratch).max())
         if err < tol:
             return Solution(theta, err, it - 1)
         worse = worse + 1 if err > prev else 0
@@ -404,12 +435,10 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
             np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
             diagonal += 1.0
             reuse = True
-        step = _solve(jac, minus)
-        if step is None:  # singular
-            return None
-        size = max(float(step.max()), -float(step.min()))
+        step = _gesv(jac, minus)
+        size = float(np.abs(step, out=scratch).max())
         if not size <= 1.0:  # damp steps of more than a radian
-            if not size < math.inf:
+            if not size < math.inf:  # singular (NaN) or not finite
                 return None
             step *= 1.0 / size
         theta = theta + step
