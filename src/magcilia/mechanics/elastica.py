@@ -19,8 +19,9 @@ batched central differences for the shape-dependent drag), started from a guess 
 :func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
 predictor and step halving when Newton fails. A point force alone (the common bend) runs the
 same Newton iteration fused into a few array operations a step (:func:`_newton_point`; a bend
-of the issue's tapered cilium then takes ~65 µs: four steps, three of them factorizing the
-34 × 34 Jacobian).
+of the issue's tapered cilium then takes ~80 µs: four steps, three of them factorizing the
+34 × 34 Jacobian). The dense solves are NumPy's LAPACK (:func:`dense_solve`), not SciPy's:
+importing ``scipy.linalg`` would cost a first bend in a fresh process ~0.1 s.
 
 The Chebyshev references (integration matrices on [-1, 1] for n nodes, and at the uniform
 output points) are built in closed form from ``T_m(cos φ) = cos(m φ)`` and the nodes' discrete

@@ -87,8 +87,7 @@ class Statics:
 @lru_cache(maxsize=64)
 def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
             nodes: int | None) -> Statics:
-    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them; the
-    influence matrix, see :func:`magcilia.mechanics.elastica.point_influence`); at
+    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them); at
     most :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
     (:func:`magcilia.mechanics.sections.sections`)."""
     sec = sections(cilium, at, point_load, nodes)
