@@ -5,9 +5,10 @@ Measures, in one run and on one thread (min and median of interleaved repeats):
     under a dead tip force with P L^2 / (E I0) = 1, at 1e-6 relative tip accuracy or better
     (checked against a run with far more collocation nodes), warm (its grid cached), target
     <= 0.1 ms (issue 27);
-  * the same bend as the first call in a fresh process (after ``import magcilia`` and the setup:
-    its grid, Chebyshev references and every first use of NumPy/LAPACK in it), over several
-    processes, target <= 0.3 ms (issue 27);
+  * the same bend as the first call in a fresh process (after ``import magcilia``, ``mc.bend``
+    and the setup, each timed and printed apart: the bend's figure holds its grid, Chebyshev
+    references and every first use of NumPy/LAPACK in it), over several processes, with whether
+    it imported ``scipy.linalg``, target <= 0.3 ms (issue 27);
   * SciPy ``solve_bvp`` on the same elastica boundary-value problem (dimensionless, vectorised
     right-hand side, straight-rod initial guess, the loosest ``tol`` that reaches 1e-6 at the tip),
     interleaved with it;
