@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import subprocess
+import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -147,3 +150,38 @@ def test_a_solved_shape_is_the_checked_constructor_s() -> None:
         else:
             assert mine == theirs
     assert repr(shape) == repr(checked) and shape.to_dict() == checked.to_dict()
+
+
+def test_dense_solve_matches_numpy_and_refuses_a_singular_matrix() -> None:
+    """The Newton steps' solver (NumPy's gesv gufunc) gives numpy.linalg.solve's answer, and
+    None, without a warning, for a singular matrix or a non-finite right-hand side (as the
+    fallback for a NumPy without the gufunc does)."""
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal((34, 34)) + 34.0 * np.eye(34)
+    b = rng.standard_normal(34)
+    got = elastica.dense_solve(a, b)
+    assert got is not None
+    np.testing.assert_allclose(got, np.linalg.solve(a, b), rtol=1e-13, atol=0.0)
+    np.testing.assert_allclose(elastica._fallback_gesv(a, b), got, rtol=1e-13, atol=0.0)
+    singular = a.copy()
+    singular[:, 5] = 0.0  # exactly singular: a zero pivot
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert elastica.dense_solve(np.zeros((3, 3)), np.ones(3)) is None
+        assert elastica.dense_solve(singular, b) is None
+        assert elastica.dense_solve(a, np.full(34, np.nan)) is None
+        assert np.isnan(elastica._fallback_gesv(np.zeros((3, 3)), np.ones(3))).all()
+
+
+def test_a_first_bend_imports_no_scipy_linalg() -> None:
+    """A planar bend in a fresh process solves its Newton steps with NumPy's LAPACK: importing
+    scipy.linalg (~0.1 s) would be most of a first bend's time (issue 27 item 6)."""
+    code = ("import sys, magcilia as mc\n"
+            "s = mc.Setup.paper(height=3e-3, base_radius=2e-4, tip_radius=5e-5, "
+            "youngs_modulus=2e6)\n"
+            "tip = mc.bend(s, force=1e-4).tip\n"
+            "print('scipy.linalg' in sys.modules, float(tip[0]))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120).stdout.split()
+    assert out[0] == "False"
+    assert float(out[1]) > 0.0

@@ -19,8 +19,9 @@ batched central differences for the shape-dependent drag), started from a guess 
 :func:`magcilia.bend` saturates the linear-beam solution), and load continuation with a secant
 predictor and step halving when Newton fails. A point force alone (the common bend) runs the
 same Newton iteration fused into a few array operations a step (:func:`_newton_point`; a bend
-of the issue's tapered cilium then takes ~65 µs: four steps, three of them factorizing the
-34 × 34 Jacobian).
+of the issue's tapered cilium then takes ~80 µs: four steps, three of them factorizing the
+34 × 34 Jacobian). The dense solves are NumPy's LAPACK (:func:`dense_solve`), not SciPy's:
+importing ``scipy.linalg`` would cost a first bend in a fresh process ~0.1 s.
 
 The Chebyshev references (integration matrices on [-1, 1] for n nodes, and at the uniform
 output points) are built in closed form from ``T_m(cos φ) = cos(m φ)`` and the nodes' discrete
@@ -33,7 +34,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -207,7 +208,7 @@ class Problem:
     #: (2, N) μ(s) (B_x, B_z) at the nodes, N: a uniform field's couple per length μ t × B, whose
     #: y-component μ (B_x cos θ − B_z sin θ) adds to g (no force: it is not in N)
     couple: F64 | None = None
-    #: (N, N) ``P diag(loaded)`` (Fortran order), rad per N: the influence of the point force
+    #: (N, N) ``P diag(loaded)``, rad per N: the influence of the point force
     #: alone, precomputed per grid (:func:`point_influence`); None: formed when first needed
     point: F64 | None = None
 
@@ -277,18 +278,48 @@ class Problem:
             h = 1e-7
             res = self.residual(theta + h * np.concatenate([_identity(n), -_identity(n)]), scale)
             jac = (res[:n] - res[n:]).T / (2.0 * h)
-        from scipy.linalg.lapack import dgesv
-        *_, step, info = dgesv(jac, r)
-        return err, (-step if info == 0 else None)
+        step = dense_solve(jac, r)
+        return err, (None if step is None else -step)
 
 
 def point_influence(influence: F64, loaded: F64) -> F64:
-    """``P diag(loaded)`` (N, N), rad per N, in Fortran order (``dgesv`` factors a Jacobian
-    built from it in place, without a transposed copy), read-only: the influence of a point
-    force on the nodes it loads."""
-    out = np.asfortranarray(influence * loaded)
+    """``P diag(loaded)`` (N, N), rad per N, read-only: the influence of a point force on the
+    nodes it loads."""
+    out = influence * loaded
     out.setflags(write=False)
     return out
+
+
+def dense_solve(matrix: F64, rhs: F64) -> F64 | None:
+    """``matrix⁻¹ rhs`` (N,) by LAPACK's ``gesv`` in NumPy's own OpenBLAS (no SciPy import on a
+    bend's path: ``scipy.linalg`` costs ~0.1 s on a first call), or None if ``matrix`` (N, N)
+    is singular or the solution not finite."""
+    with np.errstate(invalid="ignore"):  # a singular matrix: NaN (numpy.linalg.solve raises)
+        out = np.asarray(_gesv(matrix, rhs), dtype=np.float64)
+    return out if math.isfinite(float(out @ out)) else None
+
+
+def _numpy_gesv() -> Callable[[F64, F64], F64]:
+    """NumPy's ``gesv`` gufunc for one right-hand side (what :func:`numpy.linalg.solve` calls,
+    without its ~2 µs of checks and error-state set-up a call: a bend's Newton makes four): a
+    singular matrix gives NaN and raises NumPy's "invalid" flag. Should NumPy move its private
+    module, :func:`numpy.linalg.solve` itself (identical results; a singular matrix then
+    gives NaN here too)."""
+    try:
+        from numpy.linalg import _umath_linalg
+    except ImportError:  # pragma: no cover - a NumPy that moved it
+        return _fallback_gesv
+    return cast(Callable[[F64, F64], F64], _umath_linalg.solve1)
+
+
+def _fallback_gesv(matrix: F64, rhs: F64) -> F64:  # pragma: no cover - see _numpy_gesv
+    try:
+        return np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return np.full(rhs.shape, np.nan)
+
+
+_gesv = _numpy_gesv()
 
 
 @lru_cache(maxsize=8)
@@ -346,7 +377,7 @@ def newton(problem: Steppable, scale: float, guess: F64, tol: float = 1e-12,
     return None
 
 
-#: largest residual (rad) at which :func:`_newton_point` reuses the last step's LU factors (a
+#: largest residual (rad) at which :func:`_newton_point` reuses the last full step's Jacobian (a
 #: chord step, whose error is about the last step's size times this residual: below Newton's
 #: tolerance here; the step after it is a full one again). 1e-6 cost a fifth step on some pushing
 #: loads that Newton converges in four; 1e-8 none (tests/mechanics/test_newton_point.py)
@@ -359,22 +390,29 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     damped to a radian, given up after three rising residuals, a singular Jacobian or a
     non-finite residual) in as few array operations as it takes (a bend's time is mostly these
     steps). The residual is negated in place into the right-hand side; the Jacobian
-    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built in Fortran order, which ``dgesv``
-    factors in place; the largest entries come from BLAS's ``idamax`` (a non-finite residual is
-    caught at the end by its squared norm); below :data:`CHORD_RESIDUAL` a step after a full one
-    reuses its factors (``dgetrs``: one solve instead of a Jacobian and a factorization)."""
-    from scipy.linalg.blas import idamax
-    from scipy.linalg.lapack import dgesv, dgetrs
+    ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built into one buffer and solved by
+    NumPy's ``gesv`` (:func:`dense_solve`'s, its error state set once for the whole loop; a
+    singular Jacobian gives a NaN step); below
+    :data:`CHORD_RESIDUAL` a step after a full one reuses its Jacobian (no new one formed). The
+    largest |entry| is taken through one scratch vector (a NaN propagates into it)."""
     point = problem.point_matrix()
     fx, fz = (scale * problem.force).tolist()
-    jac = np.empty_like(point)  # each full step's Jacobian, then its LU factors (Fortran order)
+    if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
+        point = point * fx
+    with np.errstate(invalid="ignore"):  # a singular Jacobian: a NaN step, returned as None
+        return _point_loop(problem, scale, point, fx, fz, guess, tol, max_iter)
+
+
+def _point_loop(problem: Problem, scale: float, point: F64, fx: float, fz: float, guess: F64,
+                tol: float, max_iter: int) -> Solution | None:
+    """:func:`_newton_point`'s iteration (``point``: P diag(loaded), times F_x when F_z = 0)."""
+    jac = np.empty_like(point)  # each full step's Jacobian
     diagonal = jac.reshape(-1, order="A")[:: guess.size + 1]  # a view of its diagonal
+    scratch = np.empty_like(guess)  # |residual|, |step|
     theta = guess
     prev = math.inf
     worse = 0
-    factors: tuple[F64, NDArray[np.int32]] | None = None  # of the last step, if a full one
-    if fz == 0.0:  # a horizontal force (the common case): F_x in the matrix, once
-        point = point * fx  # Fortran order kept
+    reuse = False  # whether ``jac`` holds the last step's Jacobian (a full step's)
     for it in range(1, max_iter + 1):
         cos = np.cos(theta)
         if fz == 0.0:
@@ -384,28 +422,25 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
             sin = np.sin(theta)
             minus = point @ (fx * cos - fz * sin)
         minus -= theta  # −(θ − P g)
-        err = abs(float(minus[idamax(minus)]))
+        err = float(np.abs(minus, out=scratch).max())
         if err < tol:
-            if not math.isfinite(float(minus @ minus)):  # a NaN that idamax passed over
-                return None
             return Solution(theta, err, it - 1)
         worse = worse + 1 if err > prev else 0
-        if not err < math.inf or worse >= 3:  # not finite, or diverging
+        if not err < math.inf or worse >= 3:  # not finite (NaN included), or diverging
             return None
         prev = err
-        if factors is not None and err < CHORD_RESIDUAL:
-            step, info = dgetrs(*factors, minus, overwrite_b=1)
-            factors = None
+        if reuse and err < CHORD_RESIDUAL:
+            reuse = False
         else:
             # I + P diag(loaded) diag(F_x sin θ + F_z cos θ), into the buffer
             np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
             diagonal += 1.0
-            lu, piv, step, info = dgesv(jac, minus, overwrite_a=1, overwrite_b=1)
-            factors = (lu, piv)
-        if info != 0:  # singular
-            return None
-        size = abs(float(step[idamax(step)]))
-        if size > 1.0:  # damp steps of more than a radian
+            reuse = True
+        step = _gesv(jac, minus)
+        size = float(np.abs(step, out=scratch).max())
+        if not size <= 1.0:  # damp steps of more than a radian
+            if not size < math.inf:  # singular (NaN) or not finite
+                return None
             step *= 1.0 / size
         theta = theta + step
         if size < 1e-14:

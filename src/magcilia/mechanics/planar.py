@@ -49,7 +49,7 @@ class _PointMaps:
     Shape letters: ``N`` nodes, ``m`` output points (:data:`OUTPUT_POINTS`).
     """
 
-    point: F64  # (N, N) P diag(loaded), Fortran order: rad per N (Problem.point)
+    point: F64  # (N, N) P diag(loaded), rad per N (Problem.point)
     linear: F64  # (N,) P loaded: the linear-beam angles per unit F_x, rad/N
     s_out: F64  # (m,) the output arc lengths, m
     positions: F64  # (m, N) ∫₀ˢ of the nodal interpolant, m: points = positions (sin θ, 0, cos θ)
@@ -73,7 +73,7 @@ class Statics:
     def maps(self) -> _PointMaps:
         """The :class:`_PointMaps` of the point load (``loaded``)."""
         grid, loaded = self.grid, self.loaded
-        # a tip load loads every node: P itself (stored in Fortran order), not a copy of it
+        # a tip load loads every node: P itself, not a copy of it
         point = self.influence if bool(np.all(loaded == 1.0)) else point_influence(
             self.influence, loaded)
         s_out, positions = grid.uniform_output(OUTPUT_POINTS)
@@ -87,8 +87,7 @@ class Statics:
 @lru_cache(maxsize=64)
 def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
             nodes: int | None) -> Statics:
-    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them; the
-    influence matrix in Fortran order, see :func:`magcilia.mechanics.elastica.point_influence`); at
+    """The :class:`Statics` of a load case (cached: sweeps and repeated bends share them); at
     most :data:`~magcilia.mechanics.sections.MAX_NODES` nodes, whatever the profile's points
     (:func:`magcilia.mechanics.sections.sections`)."""
     sec = sections(cilium, at, point_load, nodes)
@@ -96,7 +95,7 @@ def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
     ei = modulus * sec.second_moment
     diameter = 2.0 * sec.radius
     loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
-    influence = np.asfortranarray(grid.C @ (grid.R / ei[:, None]))  # as Problem.point wants
+    influence = grid.C @ (grid.R / ei[:, None])
     for arr in (ei, diameter, loaded, influence):
         arr.setflags(write=False)
     return Statics(grid, ei, diameter, loaded, influence)

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia.mechanics.drag import drag_per_length, wall_log
-from magcilia.mechanics.elastica import Grid
+from magcilia.mechanics.elastica import Grid, dense_solve
 from magcilia.mechanics.flow import Flow
 
 F64 = NDArray[np.float64]
@@ -202,9 +202,8 @@ class RodProblem:
         eye = np.eye(n) * _JAC_STEP
         res = self.residual(theta + np.concatenate([eye, -eye]), scale)
         jac = (res[:n] - res[n:]).T / (2.0 * _JAC_STEP)
-        from scipy.linalg.lapack import dgesv
-        *_, step, info = dgesv(jac, r)
-        return err, (-step if info == 0 else None)
+        step = dense_solve(jac, r)
+        return err, (None if step is None else -step)
 
 
 def linear_guess(rod: Rod, loads: RodLoads) -> F64:
