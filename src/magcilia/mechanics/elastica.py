@@ -34,7 +34,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Protocol, cast
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -291,35 +291,14 @@ def point_influence(influence: F64, loaded: F64) -> F64:
 
 
 def dense_solve(matrix: F64, rhs: F64) -> F64 | None:
-    """``matrix⁻¹ rhs`` (N,) by LAPACK's ``gesv`` in NumPy's own OpenBLAS (no SciPy import on a
-    bend's path: ``scipy.linalg`` costs ~0.1 s on a first call), or None if ``matrix`` (N, N)
-    is singular or the solution not finite."""
-    with np.errstate(invalid="ignore"):  # a singular matrix: NaN (numpy.linalg.solve raises)
-        out = np.asarray(_gesv(matrix, rhs), dtype=np.float64)
+    """``matrix⁻¹ rhs`` (N,) by LAPACK's ``gesv`` through :func:`numpy.linalg.solve` (NumPy's own
+    OpenBLAS: no SciPy import on a bend's path, ``scipy.linalg`` costing ~0.1 s on a first call),
+    or None if ``matrix`` (N, N) is singular or the solution not finite."""
+    try:
+        out = np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:  # singular
+        return None
     return out if math.isfinite(float(out @ out)) else None
-
-
-def _numpy_gesv() -> Callable[[F64, F64], F64]:
-    """NumPy's ``gesv`` gufunc for one right-hand side (what :func:`numpy.linalg.solve` calls,
-    without its ~2 µs of checks and error-state set-up a call: a bend's Newton makes four): a
-    singular matrix gives NaN and raises NumPy's "invalid" flag. Should NumPy move its private
-    module, :func:`numpy.linalg.solve` itself (identical results; a singular matrix then
-    gives NaN here too)."""
-    try:
-        from numpy.linalg import _umath_linalg
-    except ImportError:  # pragma: no cover - a NumPy that moved it
-        return _fallback_gesv
-    return cast(Callable[[F64, F64], F64], _umath_linalg.solve1)
-
-
-def _fallback_gesv(matrix: F64, rhs: F64) -> F64:  # pragma: no cover - see _numpy_gesv
-    try:
-        return np.asarray(np.linalg.solve(matrix, rhs), dtype=np.float64)
-    except np.linalg.LinAlgError:
-        return np.full(rhs.shape, np.nan)
-
-
-_gesv = _numpy_gesv()
 
 
 @lru_cache(maxsize=8)
@@ -436,11 +415,12 @@ def _point_loop(problem: Problem, scale: float, point: F64, fx: float, fz: float
             np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
             diagonal += 1.0
             reuse = True
-        step = _gesv(jac, minus)
+        solved = dense_solve(jac, minus)
+        if solved is None:  # singular or not finite
+            return None
+        step = solved
         size = float(np.abs(step, out=scratch).max())
         if not size <= 1.0:  # damp steps of more than a radian
-            if not size < math.inf:  # singular (NaN) or not finite
-                return None
             step *= 1.0 / size
         theta = theta + step
         if size < 1e-14:
