@@ -46,9 +46,8 @@ def test_options_reach_numba() -> None:
     plain = _compiled(kernel)
     fast = _compiled(kernel, fastmath=True)
     contract = _compiled(kernel, fastmath={"contract"}, boundscheck=False, nogil=False)
-    assert plain is compile_kernel(kernel)  # once per process
-    assert contract is compile_kernel(kernel, frozenset({"contract"}), boundscheck=False,
-                                      nogil=False)
+    assert _compiled(kernel) is plain  # once per process
+    assert _compiled(kernel, frozenset({"contract"}), boundscheck=False, nogil=False) is contract
     assert len({id(plain), id(fast), id(contract)}) == 3
     assert {"error_model": "numpy", "nogil": True}.items() <= plain.targetoptions.items()
     assert "fastmath" not in plain.targetoptions
