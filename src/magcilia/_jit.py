@@ -11,7 +11,9 @@ imported. Its options, for the few kernels that need them:
   are refused: the read-out's flags are NaN and inf.
 * ``calls``: compiled helpers (:func:`compile_kernel`'s results) that the kernel calls by their
   names; each is put into the kernel's module under its Python function's name before the
-  kernel compiles.
+  kernel compiles. Keep a helper in its kernel's module: numba keys a kernel's disk cache on
+  its own file only, so an edited helper from another module would leave the kernel's cached
+  machine code stale (checked: the old helper's result came back after the edit).
 * ``cache=False``: in memory only (a helper inlined into a cached kernel needs no file of its own).
 * any other numba option as a keyword (``boundscheck=False``, ``forceinline=True``,
   ``_nrt=False``, or ``nogil=False`` to override the default).
