@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._jit import compile_kernel
 from magcilia.constants import MU0_OVER_4PI
 
 F64 = NDArray[np.float64]
@@ -491,27 +492,13 @@ class Kernels(NamedTuple):
 
 @cache
 def _compile() -> Kernels | None:
-    try:
-        import numba
-    except ImportError:  # e.g. a Python that numba does not support yet
-        return None
-
-    def build(cache: bool) -> Kernels:
-        return Kernels(
-            tilt_batch=numba.njit(tilt_batch, cache=cache, error_model="numpy", nogil=True),
-            tilt_jacobian_batch=numba.njit(tilt_jacobian_batch, cache=cache,
-                                           error_model="numpy", nogil=True,
-                                           fastmath={"contract"}),
-            dipole_batch=numba.njit(dipole_batch, cache=cache, error_model="numpy", nogil=True,
-                                    fastmath={"reassoc", "contract"}),
-            segment_batch=numba.njit(segment_batch, cache=cache, error_model="numpy",
-                                     nogil=True, fastmath={"reassoc", "contract"}),
-        )
-
-    try:
-        return build(cache=True)
-    except RuntimeError:  # no writable cache folder (numba's own or NUMBA_CACHE_DIR)
-        return build(cache=False)
+    tilt = compile_kernel(tilt_batch)
+    tilt_jacobian = compile_kernel(tilt_jacobian_batch, fastmath=frozenset({"contract"}))
+    dipole = compile_kernel(dipole_batch, fastmath=True)
+    segment = compile_kernel(segment_batch, fastmath=True)
+    if tilt is None or tilt_jacobian is None or dipole is None or segment is None:
+        return None  # numba cannot be imported
+    return Kernels(tilt, tilt_jacobian, dipole, segment)
 
 
 def kernels() -> Kernels | None:

@@ -1,17 +1,16 @@
 """The single-output read-out in one compiled pass: value, 1-σ parts and flags of each reading.
 
 :meth:`magcilia.Readout.read` runs :func:`read_pass` and :meth:`magcilia.Readout.estimate` runs
-:func:`estimate_pass` (compiled by numba on first use, cached on disk, as
-:mod:`magcilia.model.compiled`'s kernels) over all readings at once, without temporaries: the
-tare's correction is added, the flags set, the uniform output cell found by arithmetic, the
-table interval of the slope by a guess (:attr:`InverseTable.cell_knot`) and forward steps, and
-the profiles' node by a guess and one correction either way. They do, reading by reading,
-exactly the arithmetic of the NumPy path (``Readout._read_block``, ``InverseTable.lookup``),
-which stays the reference (tests hold the two to 1e-12 relative: the kernel sums squares where
-NumPy calls ``hypot``, a difference of an ulp or two) and runs where numba is missing or
-``magcilia.model.compiled.ENABLED`` is False. Readings beyond the table's output range (or NaN)
-are only flagged here: the caller reads them by the NumPy path (:meth:`Readout._beyond`); they
-are few.
+:func:`estimate_pass` (compiled by numba on first use, cached on disk, as every kernel:
+:func:`magcilia._jit.compile_kernel`, here without bounds checks) over all readings at once, without
+temporaries: the tare's correction is added, the flags set, the uniform output cell found by
+arithmetic, the table interval of the slope by a guess (:attr:`InverseTable.cell_knot`) and forward
+steps, and the profiles' node by a guess and one correction either way. They do, reading by reading,
+exactly the arithmetic of the NumPy path (``Readout._read_block``, ``InverseTable.lookup``), which
+stays the reference (tests hold the two to 1e-12 relative: the kernel sums squares where NumPy calls
+``hypot``, a difference of an ulp or two) and runs where numba is missing or
+``magcilia.model.compiled.ENABLED`` is False. Readings beyond the table's output range (or NaN) are
+only flagged here: the caller reads them by the NumPy path (:meth:`Readout._beyond`); they are few.
 
 The arrays a pass reads are packed once per read-out (:func:`pack`: a handful of arguments, so
 that a live read-out's call of a few readings spends little in numba's dispatcher), and the
@@ -32,6 +31,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._jit import compile_kernel
 from magcilia.model import compiled as _model
 
 if TYPE_CHECKING:
@@ -296,22 +296,12 @@ def remembered(memo: dict[Any, float], key: Any, compute: Callable[..., float]) 
 
 @cache
 def _compile() -> tuple[Callable[..., int], Callable[..., int]] | None:
-    try:
-        import numba
-    except ImportError:
+    at = compile_kernel(_at, boundscheck=False)  # the compiled helper read_pass calls
+    read = compile_kernel(read_pass, calls=(at,), boundscheck=False)
+    estimate = compile_kernel(estimate_pass, boundscheck=False)
+    if read is None or estimate is None:  # numba cannot be imported
         return None
-
-    def njit(fn: Callable[..., object]) -> Callable[..., int]:
-        try:
-            compiled = numba.njit(fn, cache=True, error_model="numpy", nogil=True,
-                                  boundscheck=False)
-        except RuntimeError:  # no writable cache folder
-            compiled = numba.njit(fn, cache=False, error_model="numpy", nogil=True,
-                                  boundscheck=False)
-        return cast("Callable[..., int]", compiled)
-
-    read_pass.__globals__["_at"] = njit(_at)  # the kernel calls the compiled helper
-    return njit(read_pass), njit(estimate_pass)
+    return cast("Callable[..., int]", read), cast("Callable[..., int]", estimate)
 
 
 def kernels() -> tuple[Callable[..., int], Callable[..., int]] | None:

@@ -2,16 +2,17 @@
 
 :func:`readout_rows` writes the lines of ``magcilia readout``'s table ([time_s,] voltage_V, the
 estimate to 10 significant digits and its 1-σ to 4, empty without an estimate, the flag bits and
-names) row by row into one byte buffer (numba, compiled on first use and cached on disk, as the
-other kernels), with the arithmetic of :mod:`~magcilia.report.csvtext`: the shortest text that
-reads back as the same float (``repr``) from 15 significant digits checked by an exactly
-rounded product or quotient (Clinger's fast path), ``%.Ng`` from the scaled and rounded value
-away from a tie. A number it cannot prove that way (``repr`` needing 16 or 17 digits or lying
-beyond ~1e±22 of its digits, ``%g`` within a rounding of a tie: rare in measured data) leaves
-its row to :mod:`~magcilia.report.csvtext` (``repr`` and ``format``), spliced in at its place;
-so the bytes are csvtext's, which are Python's (``tests/report/test_csv_rows.py``). Where numba
-is missing (or :data:`magcilia.model.compiled.ENABLED` is False) :func:`readout_rows` returns
-None and the caller writes with csvtext.
+names) row by row into one byte buffer (numba, compiled on first use and cached on disk by
+:func:`magcilia._jit.compile_kernel`, as every kernel; its helpers inlined), with the arithmetic of
+:mod:`~magcilia.report.csvtext`: the shortest text that reads back as the same float (``repr``) from
+15 significant digits checked by an exactly rounded product or quotient (Clinger's fast path),
+``%.Ng`` from the scaled and rounded value away from a tie. A number it cannot prove that way
+(``repr`` needing 16 or 17 digits or lying beyond ~1e±22 of its digits, ``%g`` within a rounding of
+a tie: rare in measured data) leaves its row to :mod:`~magcilia.report.csvtext` (``repr`` and
+``format``), spliced in at its place; so the bytes are csvtext's, which are Python's
+(``tests/report/test_csv_rows.py``). Where numba is missing (or
+:data:`magcilia.model.compiled.ENABLED` is False) :func:`readout_rows` returns None and the caller
+writes with csvtext.
 
 Shape letters: ``n`` rows, ``k`` distinct flag values.
 """
@@ -27,6 +28,7 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._jit import compile_kernel
 from magcilia.model import compiled as _model
 
 F64 = NDArray[np.float64]
@@ -256,32 +258,19 @@ def rows_pass(times: F64, volts: F64, value: F64, sigma: F64, factor: float,
     return at, n_hard
 
 
-#: numba's option for the kernel's helpers: no reference counting of the arrays they are
-#: handed (they allocate none; the atomic increments and decrements of a call per number took
-#: 5/6 of the time)
-HELPER_OPTIONS: dict[str, Any] = {"_nrt": False}
+#: numba's options for the kernel's helpers: inlined into it (so compiled in memory only, no
+#: cache file of their own), and no reference counting of the arrays they are handed (they
+#: allocate none; the atomic increments and decrements of a call per number took 5/6 of the time)
+HELPER_OPTIONS: dict[str, Any] = {"_nrt": False, "forceinline": True, "nogil": False,
+                                  "cache": False}
 
 
 @cache
 def _compile() -> Callable[..., tuple[int, int]] | None:
-    try:
-        import numba
-    except ImportError:
-        return None
-
-    def njit(fn: Callable[..., object]) -> Callable[..., object]:
-        try:
-            compiled = numba.njit(fn, cache=True, error_model="numpy", nogil=True)
-        except RuntimeError:  # no writable cache folder
-            compiled = numba.njit(fn, cache=False, error_model="numpy", nogil=True)
-        return cast("Callable[..., object]", compiled)
-
-    glob = rows_pass.__globals__
-    glob["_PW"] = _powers()
-    for helper in (_put_digits, _layout, _put_number):
-        glob[helper.__name__] = numba.njit(helper, error_model="numpy", forceinline=True,
-                                           **HELPER_OPTIONS)
-    return cast("Callable[..., tuple[int, int]]", njit(rows_pass))
+    rows_pass.__globals__["_PW"] = _powers()  # a constant of the kernel
+    helpers = tuple(compile_kernel(helper, **HELPER_OPTIONS)
+                    for helper in (_put_digits, _layout, _put_number))
+    return cast("Callable[..., tuple[int, int]] | None", compile_kernel(rows_pass, calls=helpers))
 
 
 def kernel() -> Callable[..., tuple[int, int]] | None:
