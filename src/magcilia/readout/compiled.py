@@ -17,7 +17,10 @@ The arrays a pass reads are packed once per read-out (:func:`pack`: a handful of
 that a live read-out's call of a few readings spends little in numba's dispatcher), and the
 σ parts that a read-out never sets (no calibration or tare: ``sigma_calibration``; an angle:
 ``sigma_scale``; ``sigma_edge`` inside the span) come zeroed from the allocator and are written
-only where a reading has no estimate (NaN), which saves a third of the memory traffic.
+only where a reading has no estimate (NaN), which saves a third of the memory traffic. The
+force scale that is exactly ``|value| · σ_E/E`` (a tip force) is not written at all: the
+result forms it from the value when asked (:meth:`magcilia.ReadoutResult.of`), the same numbers.
+The arrays the pass does write share one fresh allocation (:func:`read_parts`).
 
 Shape letters: ``b`` readings, ``t`` table nodes, ``c`` uniform output cells.
 """
@@ -169,7 +172,9 @@ def read_pass(x: F64, correction: float, noise: float, tare_error: float, cells:
     ``noise``: the output noise RMS of a reading (V); ``tare_error``: the tare's standard error
     (V, 0 without one). ``s_edge`` is expected zeroed and, without a calibration or a tare,
     ``s_cal``, without a force scale ``s_scale``: they are then written only where a reading
-    has no estimate. ``cells`` … ``consts``: :func:`pack`.
+    has no estimate. Where the force scale is exactly ``|value| · relative`` (``scale_mode``
+    1) ``s_scale`` is never written (it may have no elements): the caller forms it from
+    ``value`` (:meth:`magcilia.ReadoutResult.of`). ``cells`` … ``consts``: :func:`pack`.
     """
     v0, v_end, per_volt = consts[0], consts[1], consts[2]
     amb_lo, amb_hi, sat_lo, sat_hi = consts[3], consts[4], consts[5], consts[6]
@@ -199,16 +204,15 @@ def read_pass(x: F64, correction: float, noise: float, tare_error: float, cells:
             s_noise[r] = nan
             s_cal[r] = nan
             s_edge[r] = nan
-            s_scale[r] = nan
+            if scale_mode != 1:
+                s_scale[r] = nan
             continue
         u = (xi - v0) * per_volt
         i = min(int(u), last_cell)
         est = cells[i, 1] * (u - i) + cells[i, 0]
         if knot_steps <= 1:  # the interval's slope line or the next one's, in the cell's line
-            if xi >= cells[i, 5]:
-                dq = abs((xi - cells[i, 5]) * cells[i, 7] + cells[i, 6])
-            else:
-                dq = abs((xi - cells[i, 2]) * cells[i, 4] + cells[i, 3])
+            k = 5 if xi >= cells[i, 5] else 2  # (a select, not a branch: readings at random)
+            dq = abs((xi - cells[i, k]) * cells[i, k + 2] + cells[i, k + 1])
         else:
             j = cell_knot[i]
             for _ in range(knot_steps):
@@ -232,7 +236,8 @@ def read_pass(x: F64, correction: float, noise: float, tare_error: float, cells:
             else:
                 ss = _at(min(max(est, q_lo), q_hi), nodes, 3, n_nodes, per_unit) * dq
             sg = math.sqrt(sg * sg + ss * ss)
-            s_scale[r] = ss
+            if scale_mode == 2:  # (exactly |value| · relative otherwise: the caller's to form)
+                s_scale[r] = ss
         value[r] = est
         sigma[r] = sg
         s_noise[r] = sn
@@ -260,26 +265,40 @@ def estimate_pass(x: F64, correction: float, cells: F64, consts: F64, value: F64
 
 
 def read_parts(read: Callable[..., int], packed: Packed, x: F64, correction: float,
-               noise: float, tare_error: float, flags: NDArray[np.uint16],
-               beyond: Callable[..., None]) -> tuple[NDArray[Any], ...]:
+               noise: float, tare_error: float, beyond: Callable[..., None]
+               ) -> tuple[NDArray[Any] | None, ...]:
     """:meth:`magcilia.Readout.read`'s arrays (b,) of readings ``x`` (V, (b,)) by the compiled
-    ``read`` (:func:`read_pass`) into new arrays and ``flags``: value, sigma, sigma_noise,
-    sigma_calibration, sigma_edge, sigma_scale, flags. The parts the pass writes only where a
-    reading has no estimate come zeroed; the readings beyond the table are read by
-    ``beyond(readings + correction, noise, *arrays)`` (``Readout._read_block``, the NumPy
-    path, into arrays of their length)."""
+    ``read`` (:func:`read_pass`): value, sigma, sigma_noise, sigma_calibration, sigma_edge,
+    sigma_scale, flags, with None for sigma_scale where it is exactly ``|value| · relative``
+    (for :meth:`magcilia.ReadoutResult.of` to form when asked). The arrays the pass writes
+    share one allocation (a fresh one each, one pass of page faults rather than one an array:
+    it halves the time of a call of 1e6 readings), the parts written only where a reading has
+    no estimate come zeroed (``np.zeros``: untouched pages cost nothing); the readings beyond
+    the table are read by ``beyond(readings + correction, noise, *arrays)``
+    (``Readout._read_block``, the NumPy path, into arrays of their length)."""
     n = x.size
-    has_cal, scale_mode = packed.consts[HAS_CAL], packed.consts[SCALE_MODE]
-    parts: tuple[NDArray[Any], ...] = (np.empty(n), np.empty(n), np.empty(n),
-             np.empty(n) if has_cal or tare_error else np.zeros(n), np.zeros(n),
-             np.empty(n) if scale_mode else np.zeros(n), flags)
+    scale_mode = int(packed.consts[SCALE_MODE])
+    written = (True, True, True, bool(packed.consts[HAS_CAL] or tare_error), False,
+               scale_mode == 2)
+    size = 8 * n * written.count(True)
+    block = np.empty(size + 2 * n, np.uint8)
+    floats = block[:size].view(np.float64)
+    parts: list[NDArray[Any]] = []
+    k = 0
+    for w in written:
+        parts.append(floats[k * n:(k + 1) * n] if w else np.zeros(n))
+        k += w
+    if scale_mode == 1:
+        parts[5] = np.empty(0)  # (never written: formed from the value)
+    parts.append(block[size:].view(np.uint16))
     if read(x, correction, noise, tare_error, *packed, *parts):
-        out = np.flatnonzero(flags & np.uint16(_OUTSIDE))
+        out = np.flatnonzero(parts[-1] & np.uint16(_OUTSIDE))
         got = tuple(np.empty(out.size, p.dtype) for p in parts)
         beyond(x[out] + correction, noise, *got)
         for whole, got_part in zip(parts, got, strict=True):
-            whole[out] = got_part
-    return parts
+            if whole.size:
+                whole[out] = got_part
+    return (*parts[:5], None if scale_mode == 1 else parts[5], parts[6])
 
 
 def remembered(memo: dict[Any, float], key: Any, compute: Callable[..., float]) -> float:
