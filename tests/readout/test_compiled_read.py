@@ -71,12 +71,17 @@ def test_read_pass_equals_the_numpy_path(monkeypatch: pytest.MonkeyPatch, name: 
     pytest.importorskip("numba")
     r = _readout(name)
     volts = _readings(r, np.random.default_rng(7))
-    fast = r.read(volts)
     slow = _numpy(monkeypatch, lambda: r.read(volts))
-    np.testing.assert_array_equal(fast.flags, slow.flags)
-    for part in PARTS:
-        np.testing.assert_allclose(getattr(fast, part), getattr(slow, part), rtol=1e-12,
-                                   atol=0.0, err_msg=part)
+    with monkeypatch.context() as m:  # the arrays as one block, as a large read's
+        m.setattr(compiled_read, "ONE_BLOCK", 1)
+        block = r.read(volts)
+    assert block.value.base is not None and block.value.base is block.flags.base
+    fast = r.read(volts)  # an array each, as a live read-out's few readings
+    for got in (fast, block):
+        np.testing.assert_array_equal(got.flags, slow.flags)
+        for part in PARTS:
+            np.testing.assert_allclose(getattr(got, part), getattr(slow, part), rtol=1e-12,
+                                       atol=0.0, err_msg=part)
     # what the case is there to cover happened
     flags = fast.flags
     assert (flags & mc.ReadoutFlag.OUTSIDE_SPAN).any() and (flags == 0).any()

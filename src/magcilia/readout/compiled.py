@@ -46,6 +46,11 @@ F64 = NDArray[np.float64]
 #: the flag bits the kernel sets (those of :class:`magcilia.readout.protocol.Flag`)
 _OUTSIDE, _FOLD, _SATURATED = 1, 2, 4
 
+#: the readings from which :func:`read_parts` allocates the arrays the pass writes as one block
+#: (a live read-out's few readings take an array each: a view costs more than a small array)
+ONE_BLOCK = 1 << 14
+#: the force scale's array that :func:`read_pass` never writes (``scale_mode`` 1)
+_NOTHING = np.empty(0)
 #: the entries of :attr:`Packed.consts`, in order
 CONSTS = ("v0", "v_end", "cells_per_volt", "amb_lo", "amb_hi", "sat_lo", "sat_hi",
           "knot_steps", "q0", "q_end", "nodes_per_unit", "scale_mode", "relative", "has_cal")
@@ -278,19 +283,21 @@ def read_parts(read: Callable[..., int], packed: Packed, x: F64, correction: flo
     (``Readout._read_block``, the NumPy path, into arrays of their length)."""
     n = x.size
     scale_mode = int(packed.consts[SCALE_MODE])
-    written = (True, True, True, bool(packed.consts[HAS_CAL] or tare_error), False,
-               scale_mode == 2)
-    size = 8 * n * written.count(True)
-    block = np.empty(size + 2 * n, np.uint8)
-    floats = block[:size].view(np.float64)
-    parts: list[NDArray[Any]] = []
-    k = 0
-    for w in written:
-        parts.append(floats[k * n:(k + 1) * n] if w else np.zeros(n))
-        k += w
-    if scale_mode == 1:
-        parts[5] = np.empty(0)  # (never written: formed from the value)
-    parts.append(block[size:].view(np.uint16))
+    write_cal = bool(packed.consts[HAS_CAL] or tare_error)
+    parts: list[NDArray[Any]]
+    if n >= ONE_BLOCK:
+        written = 3 + write_cal + (scale_mode == 2)
+        block = np.empty(n * (8 * written + 2), np.uint8)
+        floats = iter(block[: 8 * n * written].view(np.float64).reshape(written, n))
+        parts = [next(floats), next(floats), next(floats),
+                 next(floats) if write_cal else np.zeros(n), np.zeros(n),
+                 next(floats) if scale_mode == 2 else _NOTHING if scale_mode else np.zeros(n),
+                 block[8 * n * written:].view(np.uint16)]
+    else:  # (a live read-out's few readings: views cost more than small arrays)
+        parts = [np.empty(n), np.empty(n), np.empty(n),
+                 np.empty(n) if write_cal else np.zeros(n), np.zeros(n),
+                 np.empty(n) if scale_mode == 2 else _NOTHING if scale_mode else np.zeros(n),
+                 np.empty(n, np.uint16)]  # (_NOTHING: never written, formed from the value)
     if read(x, correction, noise, tare_error, *packed, *parts):
         out = np.flatnonzero(parts[-1] & np.uint16(_OUTSIDE))
         got = tuple(np.empty(out.size, p.dtype) for p in parts)

@@ -87,12 +87,12 @@ class ReadoutResult(Display):
         from ``value`` on first use and kept (the same numbers, one array less to write when
         the caller does not ask for this part)."""
         result = object.__new__(cls)
-        fields: dict[str, Any] = dict(zip(_PARTS, parts, strict=True))
-        if fields["sigma_scale"] is None:
+        fields = result.__dict__
+        fields.update(zip(_PARTS, parts, strict=True), quantity=quantity, unit=unit,
+                      table_error=table_error, scale_note=scale_note)
+        if parts[5] is None:
             del fields["sigma_scale"]
             fields["_scale_relative"] = relative
-        result.__dict__.update(fields, quantity=quantity, unit=unit, table_error=table_error,
-                               scale_note=scale_note)
         return result
 
     if not TYPE_CHECKING:  # (for the type checker, sigma_scale is the field it is)
