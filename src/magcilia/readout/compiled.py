@@ -216,8 +216,9 @@ def read_pass(x: F64, correction: float, noise: float, tare_error: float, cells:
         i = min(int(u), last_cell)
         est = cells[i, 1] * (u - i) + cells[i, 0]
         if knot_steps <= 1:  # the interval's slope line or the next one's, in the cell's line
-            k = 5 if xi >= cells[i, 5] else 2  # (a select, not a branch: readings at random)
-            dq = abs((xi - cells[i, k]) * cells[i, k + 2] + cells[i, k + 1])
+            lo = (xi - cells[i, 2]) * cells[i, 4] + cells[i, 3]  # (both, then a select: no
+            hi = (xi - cells[i, 5]) * cells[i, 7] + cells[i, 6]  # branch for random readings
+            dq = abs(hi if xi >= cells[i, 5] else lo)  # to mispredict, no load to wait on)
         else:
             j = cell_knot[i]
             for _ in range(knot_steps):
