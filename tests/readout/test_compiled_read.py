@@ -34,7 +34,9 @@ CASES = {
     "force": ("force", (0.0, 2e-4), 40, False, False, None),  # |F| · σ_E/E
     "force-cal-tare": ("force", (0.0, 2e-4), 40, True, True, None),
     "flow": ("flow", (0.0, 0.5), 40, False, True, None),  # the modulus's σ through the slope
+    "flow-untared": ("flow", (0.0, 0.5), 40, False, False, None),  # σ_cal zeroed, σ_scale not
     "angle-saturating": ("angle", (0.0, 0.5), 40, False, False, 3.3e-4),
+    "force-saturating": ("force", (0.0, 2e-4), 40, False, False, 3.3e-4),  # σ_scale formed
 }
 
 
@@ -69,12 +71,17 @@ def test_read_pass_equals_the_numpy_path(monkeypatch: pytest.MonkeyPatch, name: 
     pytest.importorskip("numba")
     r = _readout(name)
     volts = _readings(r, np.random.default_rng(7))
-    fast = r.read(volts)
     slow = _numpy(monkeypatch, lambda: r.read(volts))
-    np.testing.assert_array_equal(fast.flags, slow.flags)
-    for part in PARTS:
-        np.testing.assert_allclose(getattr(fast, part), getattr(slow, part), rtol=1e-12,
-                                   atol=0.0, err_msg=part)
+    with monkeypatch.context() as m:  # the arrays as one block, as a large read's
+        m.setattr(compiled_read, "ONE_BLOCK", 1)
+        block = r.read(volts)
+    assert block.value.base is not None and block.value.base is block.flags.base
+    fast = r.read(volts)  # an array each, as a live read-out's few readings
+    for got in (fast, block):
+        np.testing.assert_array_equal(got.flags, slow.flags)
+        for part in PARTS:
+            np.testing.assert_allclose(getattr(got, part), getattr(slow, part), rtol=1e-12,
+                                       atol=0.0, err_msg=part)
     # what the case is there to cover happened
     flags = fast.flags
     assert (flags & mc.ReadoutFlag.OUTSIDE_SPAN).any() and (flags == 0).any()
@@ -141,3 +148,35 @@ def test_linear_outputs_are_exactly_the_sensor_test(seed: int) -> None:
     assert compiled_read.linear_outputs(0.0, 75.0, math.inf) == (-math.inf, math.inf)
     lo, hi = compiled_read.linear_outputs(math.nan, 75.0, 1e-3)
     assert not lo <= hi  # nothing passes
+
+
+@pytest.mark.parametrize("name", ["force", "force-saturating", "force-cal-tare"])
+def test_force_scale_formed_from_the_value(name: str) -> None:
+    """A tip force's σ_scale, left by the pass for the result to form (|value| · σ_E/E): the
+    numbers of the definition, NaN where no estimate, kept once formed, in the sum of σ, in
+    to_dict, through dataclasses.replace and pickling; a result of the constructor keeps its
+    own array."""
+    import dataclasses
+    import pickle
+
+    r = _readout(name)
+    res = r.read(_readings(r, np.random.default_rng(5)).reshape(-1, 1))
+    rel = r.modulus.relative
+    assert rel > 0.0 and "sigma_scale" not in res.__dict__  # not formed yet
+    scale = res.sigma_scale
+    assert scale.shape == res.value.shape and res.sigma_scale is scale  # formed once, kept
+    np.testing.assert_array_equal(scale, np.abs(res.value) * rel)
+    assert np.isnan(scale[~res.estimated]).all()
+    parts = np.hypot(np.hypot(res.sigma_noise, res.sigma_calibration),
+                     np.hypot(res.sigma_edge, scale))
+    np.testing.assert_allclose(res.sigma, parts, rtol=1e-12)
+    again = pickle.loads(pickle.dumps(r.read(res.value[:0, 0])))  # formed after a round trip
+    assert again.sigma_scale.shape == (0,)
+    copy = pickle.loads(pickle.dumps(r.read(_readings(r, np.random.default_rng(5)))))
+    np.testing.assert_array_equal(copy.sigma_scale, scale[:, 0])
+    assert dataclasses.replace(res, quantity="force").sigma_scale is scale
+    np.testing.assert_array_equal(np.array(res.to_dict()["sigma_scale"], float), scale)
+    own = dataclasses.replace(res, sigma_scale=np.zeros_like(scale))
+    assert (own.sigma_scale == 0.0).all()
+    with pytest.raises(AttributeError, match="sigma_scales"):
+        _ = res.sigma_scales  # type: ignore[attr-defined]

@@ -442,25 +442,25 @@ class Readout(Display):
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
         n, base = x.size, self.baseline
         correction = 0.0 if base is None else base.correction
-        flags = np.empty(n, dtype=FLAG_DTYPE)
         passes = compiled_read.kernels()
         if passes is not None:  # one compiled pass; the few readings beyond the table below
             parts: tuple[Any, ...] = compiled_read.read_parts(
                 passes[0], self._packed, x, correction, float(noise_v),
-                0.0 if base is None else float(base.standard_error), flags, self._read_block)
+                0.0 if base is None else float(base.standard_error), self._read_block)
         else:
             if base is not None:
                 x = x + correction
-            parts = (*(np.empty(n) for _ in range(6)), flags)
+            parts = (*(np.empty(n) for _ in range(6)), np.empty(n, dtype=FLAG_DTYPE))
             for start in range(0, n, BLOCK):
                 part = slice(start, start + BLOCK)
                 self._read_block(x[part], noise_v, *(p[part] for p in parts))
         if base is not None:
-            flags |= FLAG_DTYPE(tare_flags(base))  # a tare taken under load
+            np.bitwise_or(parts[-1], FLAG_DTYPE(tare_flags(base)),
+                          out=parts[-1])  # a tare taken under load
         if len(shape) != 1:
-            parts = tuple(p.reshape(shape) for p in parts)
+            parts = tuple(None if p is None else p.reshape(shape) for p in parts)
         return ReadoutResult.of(self.quantity, self.unit, parts, self.table.error,
-                                self._scale_note)
+                                self._scale_note, self.modulus.relative)
 
     @cached_property
     def _packed(self) -> compiled_read.Packed:

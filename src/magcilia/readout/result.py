@@ -4,7 +4,7 @@ and :class:`~magcilia.readout.protocol.Flag` bits) and its one-line summary."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -78,15 +78,32 @@ class ReadoutResult(Display):
     scale_note: str = ""
 
     @classmethod
-    def of(cls, quantity: str, unit: str, parts: tuple[NDArray[Any], ...], table_error: float,
-           scale_note: str = "") -> ReadoutResult:
+    def of(cls, quantity: str, unit: str, parts: tuple[NDArray[Any] | None, ...],
+           table_error: float, scale_note: str = "", relative: float = 0.0) -> ReadoutResult:
         """A result of ``parts``, the seven arrays ``value`` … ``flags`` in the order of the
         fields (as the constructor, without its field-by-field frozen assignments: a live
-        read-out builds one per block of a few readings)."""
+        read-out builds one per block of a few readings). ``sigma_scale`` may be None where it
+        is exactly ``|value| · relative`` (a tip force: ``relative`` = σ_E/E): it is then formed
+        from ``value`` on first use and kept (the same numbers, one array less to write when
+        the caller does not ask for this part)."""
         result = object.__new__(cls)
-        result.__dict__.update(zip(_PARTS, parts, strict=True), quantity=quantity, unit=unit,
-                               table_error=table_error, scale_note=scale_note)
+        fields = result.__dict__
+        fields.update(zip(_PARTS, parts, strict=True), quantity=quantity, unit=unit,
+                      table_error=table_error, scale_note=scale_note)
+        if parts[5] is None:
+            del fields["sigma_scale"]
+            fields["_scale_relative"] = relative
         return result
+
+    if not TYPE_CHECKING:  # (for the type checker, sigma_scale is the field it is)
+        def __getattr__(self, name: str) -> Any:
+            """``sigma_scale`` left to form by :meth:`of`: ``|value| · relative``, kept."""
+            relative = self.__dict__.get("_scale_relative")
+            if name == "sigma_scale" and relative is not None:
+                scale = np.abs(self.value) * relative
+                self.__dict__["sigma_scale"] = scale
+                return scale
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     @property
     def ok(self) -> NDArray[np.bool_]:
