@@ -34,7 +34,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Protocol
+from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -295,7 +295,7 @@ def dense_solve(matrix: F64, rhs: F64) -> F64 | None:
     OpenBLAS: no SciPy import on a bend's path, ``scipy.linalg`` costing ~0.1 s on a first call),
     or None if ``matrix`` (N, N) is singular or the solution not finite."""
     try:
-        out: F64 = np.linalg.solve(matrix, rhs)
+        out = cast(F64, np.linalg.solve(matrix, rhs))
     except np.linalg.LinAlgError:  # singular
         return None
     return out if math.isfinite(float(out @ out)) else None
