@@ -24,7 +24,7 @@ EXAMPLE = SRC / "magcilia" / "data" / "example_recording.csv"
 
 needs_fork = pytest.mark.skipif(os.name != "posix" or sys.platform == "darwin",
                                 reason="the helper process is forked on POSIX but macOS")
-#: the helper process whatever the machine's load (unset, it waits for a CPU to spare)
+#: the helper process wherever forking is safe (unset, it also asks for two CPUs)
 FORK = {figure_process.ENVIRONMENT: "1"}
 
 
