@@ -143,3 +143,29 @@ with figure_writer() as writer:
     done = _run(code, **FORK)
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["here", "there"]
+
+
+@needs_fork
+def test_a_killed_command_leaves_no_helper_behind() -> None:
+    """SIGKILL of the command (no clean-up runs in it) ends its helper too: the helper sees the
+    pipe end and exits, so nothing keeps the command's stdout and stderr open. (It had kept a
+    copy of the parent's end of the pipe, waited for tasks forever, and a caller reading the
+    killed command's stderr waited with it.)"""
+    code = (
+        "import os, signal\n"
+        "from magcilia.report.figure_process import figure_writer\n"
+        "with figure_writer() as writer:\n"
+        "    assert writer.forked\n"
+        "    print(writer._process.pid, flush=True)\n"
+        "    os.kill(os.getpid(), signal.SIGKILL)\n")
+    environment = {**os.environ, **FORK, "PYTHONPATH": os.pathsep.join(
+        [str(SRC), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=environment)
+    out, err = proc.communicate(timeout=60)  # EOF only once the helper, too, has let go
+    assert proc.returncode == -9, err
+    helper = int(out.split()[0])
+    with pytest.raises(ProcessLookupError):  # gone (init reaps the orphan)
+        for _ in range(200):
+            os.kill(helper, 0)
+            __import__("time").sleep(0.05)

@@ -138,7 +138,7 @@ def figure_writer(style: str = "screen") -> Iterator[FigureWriter]:
 
     context = multiprocessing.get_context("fork")
     parent, child = context.Pipe()
-    process = context.Process(target=_serve, args=(child, style), daemon=True,
+    process = context.Process(target=_serve, args=(child, style, parent), daemon=True,
                               name="magcilia-figures")
     try:
         process.start()
@@ -157,10 +157,15 @@ def figure_writer(style: str = "screen") -> Iterator[FigureWriter]:
     writer.close()
 
 
-def _serve(connection: Any, style: str) -> None:
+def _serve(connection: Any, style: str, parents_end: Any) -> None:
     """The child: ready matplotlib, then run tasks until told to stop (or the parent is gone);
-    each task's reply is None or its error as one line. Nothing is printed."""
+    each task's reply is None or its error as one line. Nothing is printed. The parent's end of
+    the pipe, which the fork copied, is closed first: otherwise the child itself would keep the
+    pipe open and never see it end when the parent is killed (an orphan holding the parent's
+    stderr open)."""
     import signal
+
+    parents_end.close()
 
     from magcilia.model import compiled
 
