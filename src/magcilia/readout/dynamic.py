@@ -56,7 +56,6 @@ from magcilia._display import Display, Item, number, si
 from magcilia.calibration import ParameterCovariance
 from magcilia.calibration.posterior import Posterior
 from magcilia.device.parameters import MEASURANDS
-from magcilia.device.sensor import DEFAULT_BANDWIDTH
 from magcilia.device.setup import Setup
 from magcilia.mechanics.drag import Fluid
 from magcilia.mechanics.transient import (
@@ -378,7 +377,7 @@ class DynamicReadout(Display):
             return static
         correction = 0.0 if self.static.baseline is None else self.static.baseline.correction
         x = x + correction
-        noise_v = self._noise(noise)
+        noise_v = self.static.reading_noise(noise)
         branch_v, branch_u = self._branch
         raw_flags = np.asarray(static.flags, dtype=FLAG_DTYPE).reshape(-1)
         ok = (np.isfinite(x) & (x >= branch_v[0]) & (x <= branch_v[-1])
@@ -426,17 +425,6 @@ class DynamicReadout(Display):
             sigma_edge=(parts[2] * nan).reshape(shape),
             sigma_scale=(parts[3] * nan).reshape(shape), flags=flags.reshape(shape),
             table_error=static.table_error, scale_note=static.scale_note)
-
-    def _noise(self, noise: ArrayLike | None) -> float:
-        """The output noise RMS of a reading, V: ``noise``, else the tare's, else the sensor
-        model's (the static read-out's rule)."""
-        if noise is not None:
-            if np.size(noise) != 1:
-                raise v.fail("noise", v.short(noise), "one noise RMS in V (one channel)")
-            return v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
-        if self.static.baseline is not None:
-            return float(self.static.baseline.noise)
-        return float(self.static.setup.sensor.output_noise_rms(*DEFAULT_BANDWIDTH))
 
     @cached_property
     def _slopes(self) -> tuple[F64, F64]:

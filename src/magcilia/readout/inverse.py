@@ -5,10 +5,9 @@ tilt for ``"angle"``; large-deflection bending of :func:`magcilia.bend` for ``"f
 ``"flow"``), keeps the monotone branch that contains the span's start (recording where the output
 folds back), and inverts it by linear interpolation, resampled on a uniform output grid so that a
 reading's cell is found by arithmetic instead of a search (the fast path,
-:meth:`Readout.estimate`). :meth:`Readout.read` adds 1-σ uncertainties (sensor noise over a
-bandwidth through the local slope, the calibration covariance when a
-:class:`~magcilia.CalibrationResult` is given, and for a force or flow the Young's modulus's
-uncertainty, the force scale: :mod:`magcilia.readout.scale`) and flags.
+:meth:`Readout.estimate`). :meth:`Readout.read` adds 1-σ uncertainties (sensor noise through
+the local slope, the calibration covariance of a :class:`~magcilia.CalibrationResult`, and for a
+force or flow the Young's modulus's uncertainty: :mod:`magcilia.readout.scale`) and flags.
 
 The table's stated error bound (:attr:`Readout.table_error`) is measured, not assumed: the table
 uses every other point of a grid twice as dense, and the bound is the largest difference between
@@ -425,19 +424,10 @@ class Readout(Display):
             Noise bandwidth (f_low, f_high), Hz, of each reading (see
             :meth:`magcilia.Sensor.noise_rms`).
         noise : float or array-like of one value, optional
-            Output noise RMS of each reading, V, measured (e.g. the spread of unloaded readings);
-            replaces the sensor model's noise over ``bandwidth``. Default: the spread measured by
-            :meth:`tare` if tared, else the sensor model's.
+            Output noise RMS of each reading, V, measured (the spread of unloaded readings);
+            default :meth:`reading_noise`'s (the tare's spread, else the sensor model's).
         """
-        if noise is not None:
-            if np.size(noise) != 1:
-                raise v.fail("noise", v.short(noise), "one noise RMS in V (one channel)")
-            noise_v = v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
-        elif self.baseline is not None:
-            noise_v = self.baseline.noise
-        else:  # (remembered per band: a live read-out asks for the same one at every call)
-            noise_v = compiled_read.remembered(self.__dict__.setdefault("_noise_memo", {}),
-                                               bandwidth, self.setup.sensor.output_noise_rms)
+        noise_v = self.reading_noise(noise, bandwidth)
         shape = np.shape(volts)
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
         n, base = x.size, self.baseline
@@ -480,6 +470,19 @@ class Readout(Display):
     def scale_note(self) -> str:
         """Where the force scale comes from (:meth:`magcilia.Modulus.note`); "" for an angle."""
         return "" if self.quantity == "angle" else self.modulus.note()
+
+    def reading_noise(self, noise: ArrayLike | None = None,
+                      bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH) -> float:
+        """One reading's output noise RMS, V, as :meth:`read` takes it: ``noise``, else the
+        tare's spread, else the sensor model's over ``bandwidth`` (remembered per band)."""
+        if noise is not None:
+            if np.size(noise) != 1:
+                raise v.fail("noise", v.short(noise), "one noise RMS in V (one channel)")
+            return v.non_negative("noise", np.ravel(noise)[0], "V", "noise")
+        if self.baseline is not None:
+            return float(self.baseline.noise)
+        return float(compiled_read.remembered(self.__dict__.setdefault("_noise_memo", {}),
+                                              bandwidth, self.setup.sensor.output_noise_rms))
 
     def _read_block(self, x: F64, noise_v: float, value: F64, sigma: F64, s_noise: F64,
                     s_cal: F64, s_edge: F64, s_scale: F64, flags: NDArray[np.uint16]) -> None:
