@@ -10,8 +10,7 @@ read-outs use, its multistart, and the one SciPy polish (no physics; units are t
   scaled system, its solve — the closed form for two parameters —, the bound-held parameters,
   then the acceptance, λ and the stopping tests), with the NumPy step in
   :mod:`.levenberg_marquardt` as its reference, run without numba or with
-  ``compiled.ENABLED = False`` (the fitter's one switch; ``fit_batch``'s ``compiled=`` is
-  accepted and not needed).
+  ``compiled.ENABLED = False`` (the fitter's one switch).
 * :func:`multistart`, :func:`halving`, :func:`latin_hypercube` (:mod:`.multistart`): starts
   spread over the box, narrowed by successive halving, the survivors run to convergence.
 * :func:`polish` (:mod:`.polish`): ``scipy.optimize.least_squares`` (trf) from a good point.

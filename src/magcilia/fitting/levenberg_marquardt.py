@@ -138,7 +138,6 @@ def fit_batch(
     damping: float = 1e-3,
     final_jacobian: bool = False,
     project: Projection | None = None,
-    compiled: bool | None = None,  # noqa: ARG001 (accepted, not needed: see below)
 ) -> BatchFit:
     """Minimise ``|residuals(x)|²`` from each row of ``x0`` within [``lower``, ``upper``].
 
@@ -187,11 +186,6 @@ def fit_batch(
         disc, say), as the nearest feasible points; applied to the starts and to every trial
         point after the bounds' clip. A step it maps back onto the current point ends the fit
         (converged: the minimum over the set lies on its edge).
-    compiled : bool, optional
-        Accepted for compatibility and not needed: each iteration is one compiled step
-        (:mod:`.compiled`, numba) for every problem size and Jacobian source wherever numba can
-        be imported and :data:`magcilia.fitting.compiled.ENABLED` (the fitter's one switch) is
-        True, and the NumPy reference (the same rules, to rounding) otherwise.
 
     Returns
     -------
