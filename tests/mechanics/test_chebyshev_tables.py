@@ -51,14 +51,15 @@ def test_counts_not_shipped_are_computed() -> None:
     assert nodes.shape == weights.shape == (33,) and at_nodes.shape == (33, 33)
 
 
-@pytest.mark.parametrize("damage", ["missing", "short"])
-def test_a_missing_or_short_file_falls_back_to_the_closed_forms(
+@pytest.mark.parametrize("damage", ["missing", "short", "long"])
+def test_a_missing_or_damaged_file_falls_back_to_the_closed_forms(
         damage: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         fresh_caches: None) -> None:
     n = min(tables.SHIPPED)
-    if damage == "short":
-        good = Path(tables.path(n, tables.SHIPPED[n]))
-        (tmp_path / good.name).write_bytes(good.read_bytes()[:-8])
+    good = Path(tables.path(n, tables.SHIPPED[n]))
+    if damage != "missing":
+        data = good.read_bytes()
+        (tmp_path / good.name).write_bytes(data[:-8] if damage == "short" else data + data[:8])
     monkeypatch.setattr(tables, "FOLDER", str(tmp_path))
     assert tables.read(n) is None
     np.testing.assert_array_equal(elastica._reference(n)[1], elastica._closed_reference(n)[1])
