@@ -145,8 +145,8 @@ class Cilium(Display):
         t = np.asarray(s, dtype=np.float64) / self.height
         if self.profile is None:  # a frustum: linear, clamped to the ends as radius_at is
             t = np.minimum(np.maximum(t, 0.0), 1.0)
-            return np.asarray(self.base_radius + (self.tip_radius - self.base_radius) * t,
-                              dtype=np.float64)
+            out: NDArray[np.float64] = self.base_radius + (self.tip_radius - self.base_radius) * t
+            return out
         return self.base_radius * body.radius_at(*self.shape, t)
 
     def second_moment(self, s: ArrayLike) -> NDArray[np.float64]:
