@@ -116,7 +116,7 @@ class _Case:
         static = _static(setup.cilium, setup.youngs_modulus, at, point_load, nodes)
         self.grid, self.ei, self.diameter = static.grid, static.ei, static.diameter
         self.loaded, self.influence = static.loaded, static.influence
-        self.unit = np.array([math.sin(direction), math.cos(direction)])
+        self.unit = np.array(direction_unit(direction))
         # the rod turns toward a dead force (or along the flow), never past it: |θ| ≤ limit
         self.limit = abs(math.remainder(direction, 2.0 * math.pi)) if point_load \
             else 0.5 * math.pi
@@ -179,6 +179,14 @@ class _Case:
         th[0] = 0.0  # clamped base, exactly (the quadrature gives ~1e-17)
         pts[0] = 0.0
         return s_out, th, pts
+
+
+def direction_unit(direction: float) -> tuple[float, float]:
+    """(sin, cos) of a force's ``direction`` (rad from +z toward +x), a component below 1e-15
+    made exactly 0: in floating point cos(π/2) is 6e-17, which gave the default horizontal force
+    a vertical part of 6e-17 F (and made it miss the fused Newton loop's horizontal case)."""
+    sin, cos = math.sin(direction), math.cos(direction)
+    return (0.0 if abs(sin) < 1e-15 else sin), (0.0 if abs(cos) < 1e-15 else cos)
 
 
 def _point_shape(maps: _PointMaps, theta: F64, force: F64) -> tuple[F64, F64, F64]:
