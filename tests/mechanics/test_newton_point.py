@@ -183,3 +183,17 @@ def test_a_first_bend_imports_no_scipy_linalg() -> None:
                          check=True, timeout=120).stdout.split()
     assert out[0] == "False"
     assert float(out[1]) > 0.0
+
+
+def test_a_force_along_an_axis_has_no_component_across_it() -> None:
+    # cos(π/2) is 6e-17 in floating point: the default horizontal force must not carry it (the
+    # fused loop's horizontal case), nor a vertical force sin(π)'s 1e-16
+    assert planar.direction_unit(0.5 * math.pi) == (1.0, 0.0)
+    assert planar.direction_unit(math.pi) == (0.0, -1.0)
+    assert planar.direction_unit(-0.5 * math.pi) == (-1.0, 0.0)
+    assert planar.direction_unit(0.3) == (math.sin(0.3), math.cos(0.3))
+    case = _Case(_setup(0.25), L, 0.5 * math.pi, True, None, None)
+    assert case.problem(1e-4, 0.0).force.tolist() == [1e-4, 0.0]
+    tilted = mc.bend(_setup(0.25), force=1e-4, direction=0.5 * math.pi + 1e-9)
+    level = mc.bend(_setup(0.25), force=1e-4)
+    np.testing.assert_allclose(level.points, tilted.points, rtol=0, atol=1e-8 * L)
