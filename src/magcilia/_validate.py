@@ -59,7 +59,8 @@ def fail(name: str, value: object, allowed: str) -> MagciliaError:
 def real(name: str, value: object, unit: str = "") -> float:
     """A finite real number (``unit`` is only used in the message)."""
     what = f"a finite number in {unit}" if unit else "a finite number"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if type(value) is not float and (isinstance(value, bool)
+                                     or not isinstance(value, numbers.Real)):
         raise fail(name, value, what)
     out = float(value)
     if not math.isfinite(out):
@@ -70,7 +71,8 @@ def real(name: str, value: object, unit: str = "") -> float:
 def positive(name: str, value: object, unit: str = "m", what: str = "length") -> float:
     """A finite number > 0."""
     allowed = f"a positive {what} in {unit}" if unit else f"a positive {what}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if type(value) is not float and (isinstance(value, bool)
+                                     or not isinstance(value, numbers.Real)):
         raise fail(name, value, allowed)
     out = float(value)
     if not (math.isfinite(out) and out > 0.0):
@@ -81,7 +83,8 @@ def positive(name: str, value: object, unit: str = "m", what: str = "length") ->
 def non_negative(name: str, value: object, unit: str = "m", what: str = "length") -> float:
     """A finite number >= 0."""
     allowed = f"a non-negative {what} in {unit}" if unit else f"a non-negative {what}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if type(value) is not float and (isinstance(value, bool)
+                                     or not isinstance(value, numbers.Real)):
         raise fail(name, value, allowed)
     out = float(value)
     if not (math.isfinite(out) and out >= 0.0):

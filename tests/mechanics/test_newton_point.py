@@ -16,7 +16,7 @@ import pytest
 from numpy.polynomial import chebyshev as cheb
 
 import magcilia as mc
-from magcilia.mechanics import elastica, planar, sections
+from magcilia.mechanics import chebyshev_tables, elastica, planar, sections
 from magcilia.mechanics.planar import _Case
 from magcilia.mechanics.shape import BentShape
 
@@ -96,8 +96,8 @@ def test_a_non_finite_problem_is_refused() -> None:
 
 
 def _clear_caches() -> None:
-    for cached in (planar._static, sections.sections, elastica._grid, elastica._reference,
-                   elastica._uniform_reference):
+    for cached in (chebyshev_tables.read, planar._static, sections.sections, elastica._grid,
+                   elastica._reference, elastica._coefficients, elastica._uniform_reference):
         cached.cache_clear()
 
 
@@ -118,13 +118,13 @@ def test_a_first_call_gives_what_later_calls_give() -> None:
     np.testing.assert_allclose(swept.points[0], first.points[0], rtol=0, atol=1e-12 * L)
 
 
-@pytest.mark.parametrize("n", [4, 5, 24, 34, 96])
+@pytest.mark.parametrize("n", [4, 5, 24, 32, 34, 96])
 def test_closed_form_references_match_numpy_polynomial(n: int) -> None:
     # the construction they replace: Chebyshev–Vandermonde inverse and chebint
     t = np.cos(np.pi * (2.0 * np.arange(n) + 1.0) / (2.0 * n))[::-1]
     vinv = np.linalg.inv(cheb.chebvander(t, n - 1))
     kv = cheb.chebint(np.eye(n), lbnd=-1.0, axis=0) @ vinv
-    nodes, at_nodes, weights, _ = elastica._reference(n)
+    nodes, at_nodes, weights = elastica._reference(n)
     np.testing.assert_allclose(nodes, t, rtol=0, atol=1e-15)
     np.testing.assert_allclose(elastica._coefficients(n), vinv, rtol=0, atol=1e-14)
     np.testing.assert_allclose(at_nodes, cheb.chebvander(t, n) @ kv, rtol=0, atol=1e-14)
@@ -183,3 +183,17 @@ def test_a_first_bend_imports_no_scipy_linalg() -> None:
                          check=True, timeout=120).stdout.split()
     assert out[0] == "False"
     assert float(out[1]) > 0.0
+
+
+def test_a_force_along_an_axis_has_no_component_across_it() -> None:
+    # cos(π/2) is 6e-17 in floating point: the default horizontal force must not carry it (the
+    # fused loop's horizontal case), nor a vertical force sin(π)'s 1e-16
+    assert planar.direction_unit(0.5 * math.pi) == (1.0, 0.0)
+    assert planar.direction_unit(math.pi) == (0.0, -1.0)
+    assert planar.direction_unit(-0.5 * math.pi) == (-1.0, 0.0)
+    assert planar.direction_unit(0.3) == (math.sin(0.3), math.cos(0.3))
+    case = _Case(_setup(0.25), L, 0.5 * math.pi, True, None, None)
+    assert case.problem(1e-4, 0.0).force.tolist() == [1e-4, 0.0]
+    tilted = mc.bend(_setup(0.25), force=1e-4, direction=0.5 * math.pi + 1e-9)
+    level = mc.bend(_setup(0.25), force=1e-4)
+    np.testing.assert_allclose(level.points, tilted.points, rtol=0, atol=1e-8 * L)

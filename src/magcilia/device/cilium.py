@@ -143,6 +143,10 @@ class Cilium(Display):
     def radius(self, s: ArrayLike) -> NDArray[np.float64]:
         """Radius at arc length ``s`` (m, any shape) -> same shape, m."""
         t = np.asarray(s, dtype=np.float64) / self.height
+        if self.profile is None:  # a frustum: linear, clamped to the ends as radius_at is
+            t = np.minimum(np.maximum(t, 0.0), 1.0)
+            out: NDArray[np.float64] = self.base_radius + (self.tip_radius - self.base_radius) * t
+            return out
         return self.base_radius * body.radius_at(*self.shape, t)
 
     def second_moment(self, s: ArrayLike) -> NDArray[np.float64]:

@@ -25,7 +25,9 @@ importing ``scipy.linalg`` would cost a first bend in a fresh process ~0.1 s.
 
 The Chebyshev references (integration matrices on [-1, 1] for n nodes, and at the uniform
 output points) are built in closed form from ``T_m(cos φ) = cos(m φ)`` and the nodes' discrete
-orthogonality, once per node count: a new cilium's grid only scales them.
+orthogonality, once per node count: a new cilium's grid only scales them. The node counts most
+first bends need are shipped instead (:mod:`magcilia.mechanics.chebyshev_tables`, the closed
+forms' own output, read in one file read).
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ from typing import Protocol, cast
 
 import numpy as np
 from numpy.typing import NDArray
+
+from magcilia.mechanics import chebyshev_tables
 
 F64 = NDArray[np.float64]
 
@@ -70,34 +74,53 @@ def _at_nodes(n: int, degrees: int) -> F64:
 
 
 @lru_cache(maxsize=64)
-def _reference(n: int) -> tuple[F64, F64, F64, F64]:
+def _reference(n: int) -> tuple[F64, F64, F64]:
     """On [-1, 1]: the n Chebyshev (first-kind) nodes t (ascending), the matrix (n, n) of
     ∫_{-1}^{t} at them and the weights (n,) of ∫_{-1}^{1}, each of the interpolant of nodal
-    values, and the map V⁻¹ (n, n) from nodal values to Chebyshev coefficients, in closed form
-    (the nodes' discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``); cached: a grid of any
-    length scales them."""
+    values; read from the shipped tables (:mod:`.chebyshev_tables`) for their node counts, else
+    in closed form (:func:`_closed_reference`); cached: a grid of any length scales them."""
+    shipped = chebyshev_tables.read(n)
+    if shipped is not None:
+        return shipped[:3]
+    return _closed_reference(n)
+
+
+def _closed_reference(n: int) -> tuple[F64, F64, F64]:
+    """:func:`_reference` in closed form: ∫ of the Chebyshev series through the map from nodal
+    values to coefficients (:func:`_coefficients`)."""
     values = _at_nodes(n, n + 1)
-    vinv = values[:, :n].T * (2.0 / n)
-    vinv[0] *= 0.5
     rows = np.empty((n + 1, n + 1))
     rows[:n], rows[n] = values, 1.0  # and T_m(1) = 1, for the weights
-    integrals = _integrals(rows, n) @ vinv
+    integrals = _integrals(rows, n) @ _coefficients(n)
     t = values[:, 1].copy()  # T_1(t) = t
-    for arr in (t, integrals, vinv):
+    for arr in (t, integrals):
         arr.setflags(write=False)
-    return t, integrals[:n], integrals[n], vinv
+    return t, integrals[:n], integrals[n]
 
 
+@lru_cache(maxsize=64)
 def _coefficients(n: int) -> F64:
-    """The map V⁻¹ (n, n) from values at the n nodes to Chebyshev coefficients
-    (:func:`_reference`)."""
-    return _reference(n)[3]
+    """The map V⁻¹ (n, n) from values at the n nodes to Chebyshev coefficients, in closed form
+    (the nodes' discrete orthogonality: ``V⁻¹ = diag(1/n, 2/n, …) Vᵀ``), read-only."""
+    vinv = _at_nodes(n, n).T * (2.0 / n)
+    vinv[0] *= 0.5
+    vinv.setflags(write=False)
+    return vinv
 
 
 @lru_cache(maxsize=64)
 def _uniform_reference(n: int, m: int) -> F64:
     """Matrix (m, n): ∫_{-1}^{x} of the interpolant of n nodal values at m uniform x from −1
-    to 1 (cached: the output grid of every one-piece grid)."""
+    to 1 (cached: the output grid of every one-piece grid); read from the shipped tables
+    (:mod:`.chebyshev_tables`) for their node counts and m, else in closed form."""
+    shipped = chebyshev_tables.read(n)
+    if shipped is not None and shipped[3].shape[0] == m:
+        return shipped[3]
+    return _closed_uniform_reference(n, m)
+
+
+def _closed_uniform_reference(n: int, m: int) -> F64:
+    """:func:`_uniform_reference` in closed form."""
     x = np.linspace(-1.0, 1.0, m)
     half = m // 2  # x ≥ 0 from here on; the rows before mirror them: T_k(−x) = (−1)^k T_k(x)
     values = np.empty((m, n + 1))
@@ -137,7 +160,7 @@ class Grid:
     def uniform_output(self, m: int) -> tuple[F64, F64]:
         """Uniform arc lengths (m,) from 0 to L and their :meth:`cumulative_at` matrix (cached)."""
         if m not in self._memo:
-            s_out = np.linspace(0.0, float(self.bounds[-1]), m)
+            s_out = _uniform(float(self.bounds[-1]), m)
             if len(self.sizes) == 1:  # one piece: the reference's, scaled
                 cum = 0.5 * float(self.bounds[1] - self.bounds[0]) * _uniform_reference(
                     self.sizes[0], m)
@@ -150,6 +173,17 @@ class Grid:
 
     @classmethod
     def _assemble(cls, bounds: F64, sizes: tuple[int, ...]) -> Grid:
+        if len(sizes) == 1:  # one piece: the reference scaled (a few operations)
+            t, at_nodes, weights = _reference(sizes[0])
+            h = 0.5 * float(bounds[1] - bounds[0])
+            s = (t + 1.0) * h + float(bounds[0])
+            C = h * at_nodes
+            w = h * weights
+            R = w - C  # ∫_s^L = ∫_0^L − ∫_0^s, row by row
+            piece = np.zeros(sizes[0], dtype=np.int64)
+            for arr in (s, C, R, w, piece):
+                arr.setflags(write=False)
+            return cls(bounds, sizes, s, C, R, w, piece)
         total = sum(sizes)
         C = np.zeros((total, total))
         s = np.empty(total)
@@ -157,7 +191,7 @@ class Grid:
         w = np.empty(total)
         start = 0
         for k, n in enumerate(sizes):
-            t, at_nodes, weights, _ = _reference(n)
+            t, at_nodes, weights = _reference(n)
             h = 0.5 * (bounds[k + 1] - bounds[k])
             sl = slice(start, start + n)
             s[sl] = bounds[k] + h * (t + 1.0)
@@ -187,6 +221,16 @@ class Grid:
                 out[rows, cols] = h * _cumulative(n, (s_query[rows] - b0) / h - 1.0)
             start += n
         return out
+
+
+def _uniform(length: float, m: int) -> F64:
+    """``m`` uniform arc lengths from 0 to ``length`` (m), shape (m,): ``numpy.linspace(0,
+    length, m)`` to the last bit (the same arithmetic), without its checks and conversions (a
+    first bend in a fresh process pays those ~15 µs)."""
+    out = np.arange(m, dtype=np.float64)
+    out *= length / (m - 1)
+    out[-1] = length
+    return out
 
 
 @lru_cache(maxsize=128)
@@ -370,8 +414,8 @@ def _newton_point(problem: Problem, scale: float, guess: F64, tol: float,
     non-finite residual) in as few array operations as it takes (a bend's time is mostly these
     steps). The residual is negated in place into the right-hand side; the Jacobian
     ``I + P diag(loaded (F_x sin θ + F_z cos θ))`` is built into one buffer and solved by
-    NumPy's ``gesv`` (:func:`dense_solve`'s, its error state set once for the whole loop; a
-    singular Jacobian gives a NaN step); below
+    NumPy's ``gesv`` (:func:`dense_solve`'s, called directly: a singular Jacobian, or a step
+    that is not finite, ends the loop; the error state is set once for the whole loop); below
     :data:`CHORD_RESIDUAL` a step after a full one reuses its Jacobian (no new one formed). The
     largest |entry| is taken through one scratch vector (a NaN propagates into it)."""
     point = problem.point_matrix()
@@ -415,11 +459,13 @@ def _point_loop(problem: Problem, scale: float, point: F64, fx: float, fz: float
             np.multiply(point, np.sin(theta) if sin is None else fx * sin + fz * cos, out=jac)
             diagonal += 1.0
             reuse = True
-        solved = dense_solve(jac, minus)
-        if solved is None:  # singular or not finite
+        try:  # dense_solve's gesv; a step that is not finite is caught below
+            step = cast(F64, np.linalg.solve(jac, minus))
+        except np.linalg.LinAlgError:  # singular
             return None
-        step = solved
         size = float(np.abs(step, out=scratch).max())
+        if not size < math.inf:  # not finite (NaN included)
+            return None
         if not size <= 1.0:  # damp steps of more than a radian
             step *= 1.0 / size
         theta = theta + step

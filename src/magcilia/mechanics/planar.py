@@ -53,7 +53,9 @@ class _PointMaps:
     linear: F64  # (N,) P loaded: the linear-beam angles per unit F_x, rad/N
     s_out: F64  # (m,) the output arc lengths, m
     positions: F64  # (m, N) ∫₀ˢ of the nodal interpolant, m: points = positions (sin θ, 0, cos θ)
-    angles: F64  # (m, N) ∫₀ˢ diag(1/EI) R diag(loaded), rad per N: output angles = angles g
+    #: (N, N) diag(1/EI) R diag(loaded), 1/(N m): the curvature at the nodes per moment density
+    #: g, so that the output angles are positions (curvature g) (two products, no (m, N, N) one)
+    curvature: F64
 
 
 @dataclass(frozen=True)
@@ -73,15 +75,15 @@ class Statics:
     def maps(self) -> _PointMaps:
         """The :class:`_PointMaps` of the point load (``loaded``)."""
         grid, loaded = self.grid, self.loaded
-        # a tip load loads every node: P itself, not a copy of it
-        point = self.influence if bool(np.all(loaded == 1.0)) else point_influence(
-            self.influence, loaded)
+        # a tip load loads every node (``loaded`` falls from 1 to 0 along s: its last entry
+        # says): P itself, not a copy of it
+        point = self.influence if loaded[-1] == 1.0 else point_influence(self.influence, loaded)
         s_out, positions = grid.uniform_output(OUTPUT_POINTS)
         linear = point @ np.ones(loaded.size)
-        angles = positions @ (grid.R * loaded / self.ei[:, None])
-        for arr in (linear, angles):
+        curvature = grid.R * loaded / self.ei[:, None]
+        for arr in (linear, curvature):
             arr.setflags(write=False)
-        return _PointMaps(point, linear, s_out, positions, angles)
+        return _PointMaps(point, linear, s_out, positions, curvature)
 
 
 @lru_cache(maxsize=64)
@@ -94,7 +96,12 @@ def _static(cilium: Cilium, modulus: float, at: float, point_load: bool,
     grid = sec.grid
     ei = modulus * sec.second_moment
     diameter = 2.0 * sec.radius
-    loaded = (grid.s < at).astype(np.float64) if point_load else np.zeros(grid.s.size)
+    if not point_load:
+        loaded = np.zeros(grid.s.size)
+    elif at > grid.s[-1]:  # every node below the load (a tip load: the nodes are interior)
+        loaded = np.ones(grid.s.size)
+    else:
+        loaded = (grid.s < at).astype(np.float64)
     influence = grid.C @ (grid.R / ei[:, None])
     for arr in (ei, diameter, loaded, influence):
         arr.setflags(write=False)
@@ -109,7 +116,7 @@ class _Case:
         static = _static(setup.cilium, setup.youngs_modulus, at, point_load, nodes)
         self.grid, self.ei, self.diameter = static.grid, static.ei, static.diameter
         self.loaded, self.influence = static.loaded, static.influence
-        self.unit = np.array([math.sin(direction), math.cos(direction)])
+        self.unit = np.array(direction_unit(direction))
         # the rod turns toward a dead force (or along the flow), never past it: |θ| ≤ limit
         self.limit = abs(math.remainder(direction, 2.0 * math.pi)) if point_load \
             else 0.5 * math.pi
@@ -174,6 +181,14 @@ class _Case:
         return s_out, th, pts
 
 
+def direction_unit(direction: float) -> tuple[float, float]:
+    """(sin, cos) of a force's ``direction`` (rad from +z toward +x), a component below 1e-15
+    made exactly 0: in floating point cos(π/2) is 6e-17, which gave the default horizontal force
+    a vertical part of 6e-17 F (and made it miss the fused Newton loop's horizontal case)."""
+    sin, cos = math.sin(direction), math.cos(direction)
+    return (0.0 if abs(sin) < 1e-15 else sin), (0.0 if abs(cos) < 1e-15 else cos)
+
+
 def _point_shape(maps: _PointMaps, theta: F64, force: F64) -> tuple[F64, F64, F64]:
     """:meth:`_Case.shape_data` of a point force alone (``force``: (F_x, F_z), N; ``theta``:
     the nodal angles, rad (N,)): arc lengths (m,), angles (m,) and points (m, 3), each output
@@ -181,7 +196,7 @@ def _point_shape(maps: _PointMaps, theta: F64, force: F64) -> tuple[F64, F64, F6
     fx, fz = force.tolist()
     sin, cos = np.sin(theta), np.cos(theta)
     g = cos * fx if fz == 0.0 else fx * cos - fz * sin  # the moment density per loaded node
-    th = maps.angles @ g
+    th = maps.positions @ (maps.curvature @ g)
     tangents = np.zeros((theta.size, 3))
     tangents[:, 0], tangents[:, 2] = sin, cos
     pts = maps.positions @ tangents
