@@ -6,7 +6,7 @@ source samples the model's output and adds what a real bench adds: the sensor's 
 record share its low frequencies, successive records are independent), white read-out noise of
 the amplifier and ADC, a slow linear drift and a DC bias. With
 ``set_reset`` it alternates the AMR strap's set and reset pulses like a device would: the bridge's
-sign flips, its offset does not. With ``temperature`` it emits a second channel, the temperature
+sign flips, its offset does not. With ``temperature`` it emits a second channel, ``temperature_K``
 (K), and its output follows the temperature model (:class:`~magcilia.TemperatureModel`:
 sensitivity, offset, magnetization, and the modulus through the load). Deterministic with
 ``rng``. It is the source the tests, the demo and every command without a device use.
@@ -28,15 +28,12 @@ from magcilia import _validate as v
 from magcilia.acquire.source import OUTPUT, Block, Channel, Source
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.setup import Setup
-from magcilia.device.temperature import TemperatureModel, TemperatureProfile
+from magcilia.device.temperature import TEMPERATURE_CHANNEL, TemperatureModel, TemperatureProfile
 from magcilia.mechanics import Flow, output_at
 from magcilia.mechanics.drag import Fluid
 from magcilia.mechanics.transient import ResponseStream
 
 F64 = NDArray[np.float64]
-
-#: the simulated source's temperature channel, K (with ``temperature``)
-TEMPERATURE = "temperature"
 
 #: distinct values above which force and flow outputs come from an interpolated table
 _EXACT_VALUES = 8
@@ -242,7 +239,7 @@ class SimulatedSource(Paced, Source):
                          "a TemperatureProfile, a temperature in K, or None")
         self.thermal = TemperatureModel() if thermal is None else thermal
         if self.temperature is not None:
-            self.channels = (*self.channels, Channel(TEMPERATURE, "K"))
+            self.channels = (*self.channels, Channel(TEMPERATURE_CHANNEL, "K"))
 
     # -- the script -----------------------------------------------------------------------------
     @property

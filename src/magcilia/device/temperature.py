@@ -72,6 +72,8 @@ F64 = NDArray[np.float64]
 ZERO_CELSIUS = 273.15
 #: the default reference temperature, K (20 °C)
 REFERENCE_TEMPERATURE = 293.15
+#: the name of a temperature channel (K): a source's, a recording's column, a read-out's input
+TEMPERATURE_CHANNEL = "temperature_K"
 #: how a bridge is driven: its sensitivity tempco differs (see the module docstring)
 DRIVES = ("voltage", "current")
 
@@ -247,13 +249,18 @@ class TemperatureModel(Display):
     # -- results protocol -----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; coefficient names with their unit)."""
-        out: dict[str, Any] = {"reference_K": self.reference, "drive": self.drive,
-                               "temperature_sigma_K": self.temperature_sigma}
-        for name, (unit, *_rest) in COEFFICIENTS.items():
-            tag = unit.replace("1/K", "per_K").replace("T/K", "T_per_K")
-            out[f"{name}_{tag}"] = getattr(self, name)
-            out[f"{name}_sigma_{tag}"] = getattr(self, f"{name}_sigma")
-        return out
+        return {key: getattr(self, name) for key, name in _dict_keys().items()}
+
+    @classmethod
+    def from_dict(cls, doc: dict[str, Any]) -> TemperatureModel:
+        """The model of :meth:`to_dict`'s content (SI)."""
+        if not isinstance(doc, dict):
+            raise v.fail("temperature model", type(doc).__name__, "a dict from to_dict()")
+        known = _dict_keys()
+        unknown = sorted(set(doc) - set(known))
+        if unknown:
+            raise v.fail("temperature model key", unknown[0], "one of " + ", ".join(known))
+        return cls(**{known[key]: value for key, value in doc.items()})
 
     def report(self) -> str:
         """One line per coefficient (ppm/K, nT/K)."""
@@ -276,6 +283,17 @@ class TemperatureModel(Display):
                 ("scale", f"{a_s * 1e6:+.4g} ppm/K"),
                 ("modulus", f"{self.modulus_tempco * 1e6:+.4g} ppm/K"),
                 ("magnetization", f"{self.magnetization_tempco * 1e6:+.4g} ppm/K")]
+
+
+def _dict_keys() -> dict[str, str]:
+    """:meth:`TemperatureModel.to_dict`'s keys (names with their SI unit) -> field names."""
+    out = {"reference_K": "reference", "drive": "drive",
+           "temperature_sigma_K": "temperature_sigma"}
+    for name, (unit, *_rest) in COEFFICIENTS.items():
+        tag = {"1/K": "per_K", "T/K": "T_per_K"}[unit]
+        out[f"{name}_{tag}"] = name
+        out[f"{name}_sigma_{tag}"] = f"{name}_sigma"
+    return out
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 the reference temperature would have given them, with the coefficients' σ in the force's σ.
 
 :class:`ThermalReadout` follows the read-out protocol (:mod:`magcilia.readout.protocol`) with two
-inputs per sample, ``("output", "temperature")`` (V, K). For each sample it
+inputs per sample, ``("output", "temperature_K")`` (V, K). For each sample it
 
 1. brings the output to the reference temperature (:meth:`magcilia.TemperatureModel.to_reference`:
    the offset's drift removed and the scale's change undone, sensitivity and magnetization,
@@ -39,7 +39,7 @@ from magcilia._display import Display, Item
 from magcilia._errors import MagciliaError
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.sensor import DEFAULT_BANDWIDTH
-from magcilia.device.temperature import TemperatureModel
+from magcilia.device.temperature import TEMPERATURE_CHANNEL, TemperatureModel
 from magcilia.readout.inverse import Readout
 from magcilia.readout.protocol import FLAG_DTYPE, OUTPUT, Flag
 from magcilia.readout.result import NO_ESTIMATE, ReadoutResult
@@ -47,8 +47,8 @@ from magcilia.readout.tare import Tare
 
 F64 = NDArray[np.float64]
 
-#: the second input of a temperature-compensated read-out, K
-TEMPERATURE = "temperature"
+#: the second input of a temperature-compensated read-out, K (a source's temperature channel)
+TEMPERATURE = TEMPERATURE_CHANNEL
 
 
 def temperature_range(temperature: ArrayLike, name: str = "temperature") -> tuple[float, float]:
@@ -106,7 +106,7 @@ class ThermalReadout(Display):
     # -- the protocol -----------------------------------------------------------------------------
     @property
     def inputs(self) -> tuple[str, ...]:
-        """What one sample holds: ``("output", "temperature")`` (V, K)."""
+        """What one sample holds: ``("output", "temperature_K")`` (V, K)."""
         return (OUTPUT, TEMPERATURE)
 
     @property
@@ -192,7 +192,8 @@ class ThermalReadout(Display):
             arr[blank] = np.nan
         return ThermalResult(quantity=r.quantity, unit=r.unit, value=value, sigma=sigma,
                              sigma_temperature=s_temp, flags=flags, temperature=t,
-                             reference=inner, calibrated_range=self.calibrated_range)
+                             reference=inner, load_factor=np.asarray(factor, dtype=np.float64),
+                             calibrated_range=self.calibrated_range)
 
     def outside_note(self, temperature: ArrayLike) -> str:
         """One line when ``temperature`` (K) leaves the calibrated range ("" when it does not)."""
@@ -255,6 +256,9 @@ class ThermalResult(Display):
         The temperature of each reading, K.
     reference : ReadoutResult
         The reading of the compensated outputs at the reference (before the modulus's change).
+    load_factor : ndarray
+        E(T)/E_ref of each reading (1 for a tilt angle): ``value = reference.value ·
+        load_factor``.
     calibrated_range : (float, float)
         The temperatures seen at calibration and tare, K.
     """
@@ -267,7 +271,20 @@ class ThermalResult(Display):
     flags: NDArray[np.uint16]
     temperature: F64
     reference: ReadoutResult
+    load_factor: F64
     calibrated_range: tuple[float, float]
+
+    def as_readout_result(self) -> ReadoutResult:
+        """The estimates as a :class:`~magcilia.readout.result.ReadoutResult` (for the writers of
+        :meth:`Readout.read`'s results): the reference reading's σ parts scaled with the modulus,
+        the temperature part joining ``sigma_calibration`` (an error shared by the readings,
+        as the calibration's), so that ``sigma`` stays their quadrature sum."""
+        ref, factor = self.reference, np.abs(self.load_factor)
+        with np.errstate(invalid="ignore"):
+            parts = (self.value, self.sigma, ref.sigma_noise * factor,
+                     np.hypot(ref.sigma_calibration * factor, self.sigma_temperature),
+                     ref.sigma_edge * factor, ref.sigma_scale * factor, self.flags)
+        return ReadoutResult.of(self.quantity, self.unit, parts, ref.table_error, ref.scale_note)
 
     @property
     def outside(self) -> int:

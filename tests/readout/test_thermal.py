@@ -83,7 +83,7 @@ def test_simulated_source_emits_temperature(force_setup: mc.Setup) -> None:
     with SimulatedSource(force_setup, Script.constant(2e-5, "force"), rate=100.0, rng=3,
                          temperature=prof, readout_noise=0.0) as src:
         block = src.read(100)
-    assert [c.name for c in block.channels] == ["output", "temperature"]
+    assert [c.name for c in block.channels] == ["output", "temperature_K"]
     np.testing.assert_allclose(block.data[1], prof.values(block.time))
     # zero coefficients: the same output as without a temperature
     with SimulatedSource(force_setup, Script.constant(2e-5, "force"), rate=100.0, rng=3,
