@@ -150,3 +150,49 @@ def test_nan_temperature_and_bad_samples(force_readout: mc.Readout) -> None:
     with pytest.raises(mc.MagciliaError, match="shape"):
         thermal.read(np.zeros(5))
     assert "temperature" in res.report()
+
+
+def test_a_stiffer_hair_bends_under_a_force_as_a_smaller_force_bends_it(
+        force_setup: mc.Setup) -> None:
+    """The modulus's rule, checked on the elastica: F at E·e(T) gives the output F/e(T) gives
+    at E (the simulated source's and the compensation's rule, against a direct solve)."""
+    from magcilia.mechanics import output_at
+
+    e = TemperatureModel().load_factor(313.15)
+    forces = np.array([1e-5, 3e-5])
+    stiffer = force_setup.replace(youngs_modulus=force_setup.youngs_modulus * e,
+                                  youngs_modulus_sigma=0.0)
+    np.testing.assert_allclose(output_at(stiffer, "force", forces),
+                               output_at(force_setup, "force", forces / e), rtol=1e-9)
+
+
+def test_noise_free_ramp_reads_the_truth(force_setup: mc.Setup,
+                                         force_readout: mc.Readout) -> None:
+    """Without noise the compensated estimates equal the applied force within the table's
+    error (the forward model of the source, the inverse of the read-out)."""
+    quiet = force_setup.replace(noise_density=0.0)
+    readout = mc.Readout(quiet, quantity="force", span=SPAN, table_size=65)
+    prof = TemperatureProfile.ramp(283.15, 323.15, 1.0)
+    m = TemperatureModel(drive="current")
+    for force in (0.0, 2.5e-5):
+        with SimulatedSource(quiet, Script.constant(force, "force"), rate=50.0,
+                             readout_noise=0.0, temperature=prof, thermal=m) as src:
+            data = src.read(50).data
+        res = mc.ThermalReadout(readout, m).read(data.T)
+        np.testing.assert_allclose(res.value, force, atol=10 * readout.table_error + 1e-12)
+
+
+def test_angle_read_out_is_compensated_without_the_modulus() -> None:
+    setup = mc.Setup.paper().replace(noise_density=0.0)
+    readout = mc.Readout(setup, quantity="angle", span=(0.0, 0.5), table_size=65)
+    prof = TemperatureProfile.ramp(293.15, 313.15, 1.0)
+    with SimulatedSource(setup, 0.3, rate=50.0, readout_noise=0.0, temperature=prof) as src:
+        data = src.read(50).data
+    res = mc.ThermalReadout(readout).read(data.T)
+    np.testing.assert_allclose(res.value, 0.3, atol=10 * readout.table_error)
+    np.testing.assert_array_equal(res.load_factor, 1.0)
+    plain = readout.read(data[0])
+    assert np.nanmax(np.abs(plain.value - 0.3)) > 100 * readout.table_error
+    back = res.as_readout_result()
+    np.testing.assert_allclose(back.sigma ** 2, back.sigma_noise ** 2 + back.sigma_calibration ** 2
+                               + back.sigma_edge ** 2 + back.sigma_scale ** 2, rtol=1e-12)

@@ -114,6 +114,9 @@ class TemperatureModel(Display):
         sensitivity's.
     temperature_sigma : float
         1 σ of a temperature reading, K (the thermometer's accuracy; 0: exact).
+    calibrated_range : (float, float) or None
+        The temperatures, K, the setup's parameters were calibrated over (None: the reference
+        alone); a read-out flags readings outside it (:mod:`magcilia.readout.thermal`).
     """
 
     reference: float = REFERENCE_TEMPERATURE
@@ -129,11 +132,18 @@ class TemperatureModel(Display):
     magnetization_tempco_sigma: float = COEFFICIENTS["magnetization_tempco"][2]
     drive: str = "voltage"
     temperature_sigma: float = 0.0
+    calibrated_range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reference",
                            v.positive("reference", self.reference, "K", "temperature"))
         object.__setattr__(self, "drive", v.choice("drive", self.drive, DRIVES))
+        if self.calibrated_range is not None:
+            lo, hi = (v.positive("calibrated_range", t, "K", "temperature")
+                      for t in _pair(self.calibrated_range))
+            if hi < lo:
+                raise v.fail("calibrated_range", (lo, hi), "(low, high) in K with high ≥ low")
+            object.__setattr__(self, "calibrated_range", (lo, hi))
         for f in fields(self):
             if f.name.endswith("_tempco"):
                 unit = COEFFICIENTS[f.name][0]
@@ -249,7 +259,10 @@ class TemperatureModel(Display):
     # -- results protocol -----------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; coefficient names with their unit)."""
-        return {key: getattr(self, name) for key, name in _dict_keys().items()}
+        out = {key: getattr(self, name) for key, name in _dict_keys().items()}
+        if self.calibrated_range is not None:
+            out["calibrated_range_K"] = list(self.calibrated_range)
+        return out
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any]) -> TemperatureModel:
@@ -260,7 +273,10 @@ class TemperatureModel(Display):
         unknown = sorted(set(doc) - set(known))
         if unknown:
             raise v.fail("temperature model key", unknown[0], "one of " + ", ".join(known))
-        return cls(**{known[key]: value for key, value in doc.items()})
+        args = {known[key]: value for key, value in doc.items()}
+        if args.get("calibrated_range") is not None:
+            args["calibrated_range"] = tuple(args["calibrated_range"])
+        return cls(**args)
 
     def report(self) -> str:
         """One line per coefficient (ppm/K, nT/K)."""
@@ -275,6 +291,9 @@ class TemperatureModel(Display):
             lines.append(f"  {what}: {text}")
         if self.temperature_sigma:
             lines.append(f"  thermometer: ± {self.temperature_sigma:.3g} K")
+        if self.calibrated_range is not None:
+            lo, hi = self.calibrated_range
+            lines.append(f"  calibrated over {lo:.2f}…{hi:.2f} K")
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
@@ -285,10 +304,17 @@ class TemperatureModel(Display):
                 ("magnetization", f"{self.magnetization_tempco * 1e6:+.4g} ppm/K")]
 
 
+def _pair(value: object) -> tuple[Any, Any]:
+    """A (low, high) pair, or the error naming it."""
+    if not isinstance(value, (tuple, list)) or len(value) != 2:
+        raise v.fail("calibrated_range", value, "a pair (low, high) in K")
+    return value[0], value[1]
+
+
 def _dict_keys() -> dict[str, str]:
     """:meth:`TemperatureModel.to_dict`'s keys (names with their SI unit) -> field names."""
     out = {"reference_K": "reference", "drive": "drive",
-           "temperature_sigma_K": "temperature_sigma"}
+           "temperature_sigma_K": "temperature_sigma", "calibrated_range_K": "calibrated_range"}
     for name, (unit, *_rest) in COEFFICIENTS.items():
         tag = {"1/K": "per_K", "T/K": "T_per_K"}[unit]
         out[f"{name}_{tag}"] = name

@@ -13,6 +13,7 @@ taken as exact, σ 0)::
     modulus_tempco = "3411 ppm/K +- 3411 ppm/K"
     magnetization_tempco = "-47 ppm/K +- 100 ppm/K"
     temperature_sigma = "0.1 K"               # the thermometer's 1 σ
+    calibrated_range = "20 degC:25 degC"      # the temperatures the calibration saw
 
 Relative coefficients take 1/K, ppm/K, %/K (or per °C: the same step); the offset's a field per
 kelvin.
@@ -49,7 +50,7 @@ def temperature_from_dict(table: object, source: str = "setup") -> TemperatureMo
     if not isinstance(table, dict):
         raise v.fail(f"{source}: [temperature]", type(table).__name__,
                      'a table of key = "VALUE UNIT" lines')
-    keys = ("reference", "drive", "temperature_sigma", *COEFFICIENTS)
+    keys = ("reference", "drive", "temperature_sigma", "calibrated_range", *COEFFICIENTS)
     args: dict[str, Any] = {}
     for key, value in table.items():
         where = f"{source}: temperature.{v.printable(str(key))[:40]}"
@@ -62,6 +63,12 @@ def temperature_from_dict(table: object, source: str = "setup") -> TemperatureMo
             args[key] = v.choice(where, value, DRIVES)
         elif key == "temperature_sigma":
             args[key] = parse_quantity(value, "temperature", where)
+        elif key == "calibrated_range":
+            low, colon, high = value.partition(":") if isinstance(value, str) else ("", "", "")
+            if not colon:
+                raise v.fail(where, value, 'LOW:HIGH with units, e.g. "20 degC:25 degC"')
+            args[key] = (parse_temperature(low.strip(), where),
+                         parse_temperature(high.strip(), where))
         else:
             dimension = _DIMENSIONS[COEFFICIENTS[key][0]]
             text = value.replace("±", "+-") if isinstance(value, str) else value

@@ -76,7 +76,9 @@ class ThermalReadout(Display):
         The coefficients (default: :class:`~magcilia.TemperatureModel`'s, the HMC1021Z and the
         paper's cilium).
     calibrated_range : (float, float), optional
-        Temperatures seen at calibration, K (default: the reference alone; a tare widens it).
+        Temperatures seen at calibration, K (default: the model's
+        :attr:`~magcilia.TemperatureModel.calibrated_range`, else the reference alone; a tare
+        widens it).
 
     Attributes
     ----------
@@ -97,8 +99,9 @@ class ThermalReadout(Display):
         model = TemperatureModel() if model is None else model
         if not isinstance(model, TemperatureModel):
             raise v.fail("model", type(model).__name__, "a magcilia.TemperatureModel")
-        span = ((model.reference, model.reference) if calibrated_range is None
-                else temperature_range(calibrated_range, "calibrated_range"))
+        if calibrated_range is None:
+            calibrated_range = model.calibrated_range or (model.reference, model.reference)
+        span = temperature_range(calibrated_range, "calibrated_range")
         for name, value in (("readout", readout), ("model", model), ("calibrated_range", span),
                             ("offset", float(readout.setup.sensor.offset))):
             object.__setattr__(self, name, value)
