@@ -196,3 +196,10 @@ def test_angle_read_out_is_compensated_without_the_modulus() -> None:
     back = res.as_readout_result()
     np.testing.assert_allclose(back.sigma ** 2, back.sigma_noise ** 2 + back.sigma_calibration ** 2
                                + back.sigma_edge ** 2 + back.sigma_scale ** 2, rtol=1e-12)
+
+
+def test_an_actuated_read_out_is_refused() -> None:
+    actuated = mc.Readout(mc.Setup.paper(), span=(0.0, 0.5), table_size=17,
+                          actuation=mc.Actuation.uniform([0.0, 0.0, 1e-4]))
+    with pytest.raises(mc.MagciliaError, match="actuation"):
+        mc.ThermalReadout(actuated)

@@ -293,12 +293,12 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
                       table_size=table_size, edge=edge, edge_tolerance=tolerance,
                       actuation=actuation)
-    warm = None if temps is None or dynamic else thermal.compensated(
+    warm = None if temps is None or dynamic or actuation is not None else thermal.compensated(
         readout, setup_arg, volts, temps, baseline, None if baseline is None else
         thermal.tare_temperatures(baseline.size, temps, tared and tared[4], tared is not None),
         band)
-    notes += ["note: --dynamic reads without the temperature compensation"] if (
-        temps is not None and dynamic) else [] if warm is None else warm[2]
+    notes += ["note: --dynamic and an actuation read without the temperature compensation"] if (
+        temps is not None and warm is None) else [] if warm is None else warm[2]
     readout = readout if warm is None else warm[1].readout
     if baseline is not None and warm is None:
         readout = readout.tare(baseline)

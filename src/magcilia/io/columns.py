@@ -243,7 +243,7 @@ class Columns:
         """
         allowed = ("ROLE=NAME[unit],... with ROLE one of " + ", ".join(ROLES)
                    + ", e.g. angle=Tilt[deg],voltage=Vout[mV]")
-        items: dict[str, str] = {}
+        items: dict[str, Any] = {}
         for item in text.split(","):
             role, eq, name = item.partition("=")
             role = role.strip()
@@ -268,7 +268,8 @@ class Columns:
             unknown = [k for k in value if k not in ROLES]
             if unknown:
                 raise fail("columns", unknown[0], "a role: " + ", ".join(ROLES))
-            return cls(**dict(value))
+            given: dict[str, Any] = dict(value)
+            return cls(**given)
         raise fail("columns", type(value).__name__,
                    "a Columns, a mapping {role: 'NAME[unit]'} or 'angle=Tilt[deg],...'")
 

@@ -96,6 +96,10 @@ class ThermalReadout(Display):
                  calibrated_range: tuple[float, float] | None = None) -> None:
         if not isinstance(readout, Readout):
             raise v.fail("readout", type(readout).__name__, "a magcilia.Readout")
+        if readout.actuation is not None:
+            raise v.fail("readout", "a read-out under an actuation", "one without: the "
+                         "magnetization's change with temperature also changes the actuation's "
+                         "bending, which the compensation does not model")
         model = TemperatureModel() if model is None else model
         if not isinstance(model, TemperatureModel):
             raise v.fail("model", type(model).__name__, "a magcilia.TemperatureModel")
