@@ -6,20 +6,29 @@ the load over the bending stiffness E·I. Four things in it move with the temper
 to :attr:`TemperatureModel.reference`, ΔT = T − T_ref; every coefficient linear in ΔT, with its
 1 σ):
 
-* **AMR sensitivity** S. Honeywell HMC1001/1002/1021/1022 datasheet (rev. E, "HMC1021/1022
-  specifications" table): sensitivity tempco −2700 / −3000 / −3300 ppm/°C (min/typ/max) at a
-  fixed bridge voltage (V_bridge = 5 V), −600 ppm/°C at a fixed bridge current (I_bridge = 5 mA).
-  Default −3000 ppm/K with σ 300 ppm/K (the min–max half-width). The same figure family appears
-  for the HMC1053 (same AMR process): −2700 ppm/°C typical at a voltage drive.
-* **Bridge resistance** R_b. Same table: bridge resistance tempco 2100 / 2500 / 2900 ppm/°C.
+* **AMR sensitivity** S. Honeywell HMC1001/1002/1021/1022 datasheet: the HMC1001/1002 table
+  states a sensitivity tempco of −0.32 / −0.30 / −0.28 %/°C (min/typ/max; T_A = −40…125 °C) at
+  V_bridge = 8 V and −0.06 %/°C at I_bridge = 5 mA (read in a stored copy of the datasheet); the
+  HMC1021/1022 table's row, −2700 / −3000 / −3300 ppm/°C at V_bridge = 5 V and −600 ppm/°C at
+  5 mA, is as this module's authors know it (the stored copies end before that row: unverified
+  here, consistent with the HMC1001/1002 row and with the HMC1053's −2700 ppm/°C typical, the
+  same AMR process). Default −3000 ppm/K with σ 300 ppm/K (the min–max half-width). The output's
+  change with temperature pivots at zero applied field (M. J. Caruso, "Applications of
+  magnetoresistive sensors in navigation systems", Honeywell, SAE 1997, Fig. 5): the scale
+  changes about the zero-field level, which is how :meth:`TemperatureModel.output` applies it.
+* **Bridge resistance** R_b. HMC1021/1022 table (unverified here, as above): bridge resistance
+  tempco 2100 / 2500 / 2900 ppm/°C.
   It leaves a voltage-driven bridge's output alone; a current-driven bridge's voltage follows
   R_b, so its sensitivity tempco is the sum (−3000 + 2500 ≈ −500 ppm/K, beside the datasheet's
   −600 ppm/°C at a current drive): ``drive="current"`` applies it. :meth:`TemperatureModel.
   temperature_from_resistance` reads the temperature off the bridge's own resistance.
-* **Bridge offset.** Same table: bridge offset tempco ±500 ppm/°C without set/reset, ±10 ppm/°C
-  with it, of a bridge offset of −10…+11.25 mV at 5 V (≤ 2.25 mV/V). Its sign is unknown per part,
-  so the default drift is 0 with σ = 500 ppm/K × 2.25 mV/V over the 1 mV/V/gauss sensitivity,
-  field-referred: 1.125e-7 T/K (1.1 mG/K; with set/reset pulsing, 2.25e-9 T/K).
+* **Bridge offset.** HMC1021/1022 table: bridge offset −10 / ±2.5 / +11.25 mV at V_bridge = 5 V
+  (read in a stored copy); its tempco ±500 ppm/°C without set/reset, ±10 ppm/°C with it
+  (unverified here, as above). Caruso (1997) adds that parts' offset drifts are uncorrelated
+  ("may in fact drift in opposite directions") and that set/reset switching cancels them, down
+  to below 0.01 %/°C overall. The sign being unknown per part, the default drift is 0 with
+  σ = 500 ppm/K × 2.25 mV/V over the 1 mV/V/gauss sensitivity, field-referred: 1.125e-7 T/K
+  (1.1 mG/K; with set/reset pulsing, 2.25e-9 T/K).
 * **The elastomer's modulus** E. Well above its glass transition a rubber's modulus is entropic,
   E = 3·n·k_B·T (L. R. G. Treloar, The Physics of Rubber Elasticity, 3rd ed., Oxford 1975,
   ch. 2–4: the retractive force at fixed extension is proportional to the absolute temperature),
@@ -48,7 +57,7 @@ simulated source: :class:`TemperatureProfile`.
 Examples
 --------
 >>> m = TemperatureModel()
->>> round(m.sensitivity_factor(313.15), 4)  # 20 K above the reference at −3000 ppm/K
+>>> round(float(m.sensitivity_factor(313.15)), 4)  # 20 K above the reference, −3000 ppm/K
 0.94
 >>> TemperatureModel.zero().to_reference([1.0, 2.0], 330.0, offset=0.0)[0].tolist()
 [1.0, 2.0]
