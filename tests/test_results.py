@@ -207,8 +207,16 @@ FACTORIES.update({  # issue 28: the cilium in time
 FACTORIES["RingdownResult"] = lambda: mc.ringdown(  # issue 28: a flicked cilium's ring-down
     0.1 + np.exp(-20.0 * np.arange(2000) / 5e3) * np.cos(2 * np.pi * 150.0 * np.arange(2000) / 5e3)
     + np.random.default_rng(0).normal(0.0, 1e-3, 2000), 5e3)
+FACTORIES.update({  # issue 29: temperature
+    "TemperatureModel": lambda: mc.TemperatureModel(drive="current", temperature_sigma=0.1),
+    "ThermalReadout": lambda: mc.ThermalReadout(
+        mc.Readout(SETUP, span=(0.0, 0.5), table_size=17), calibrated_range=(290.0, 300.0)),
+    "ThermalResult": lambda: mc.ThermalReadout(
+        mc.Readout(SETUP, span=(0.0, 0.5), table_size=17)).read(
+        np.column_stack([SETUP.output([0.1, 0.2]), [293.15, 310.0]])),
+})
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
-               "Magnetometer", "ExperimentFit")
+               "Magnetometer", "ExperimentFit", "TemperatureModel")
 
 
 @pytest.fixture(scope="module", params=sorted(FACTORIES))

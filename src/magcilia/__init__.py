@@ -67,6 +67,8 @@ if TYPE_CHECKING:
         SensorCheck,
         SensorFlag,
         Setup,
+        TemperatureModel,
+        TemperatureProfile,
     )
 
     # -- files -----------------------------------------------------------------------------------
@@ -123,6 +125,8 @@ if TYPE_CHECKING:
         ReadoutResult,
         SensorReadout,
         Tare,
+        ThermalReadout,
+        ThermalResult,
         array_metrics,
         field_for_loads,
     )
@@ -186,6 +190,10 @@ __all__ = [
     "SpatialBentShape",
     "SpatialCentreline",
     "Tare",
+    "TemperatureModel",
+    "TemperatureProfile",
+    "ThermalReadout",
+    "ThermalResult",
     "TransientResponse",
     "__version__",
     "array_metrics",

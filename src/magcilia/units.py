@@ -48,7 +48,21 @@ UNITS: dict[str, dict[str, float]] = {
     "noise_density": {"T/sqrt(Hz)": 1.0, "nT/sqrt(Hz)": 1e-9, "pT/sqrt(Hz)": 1e-12,
                       "ugauss/sqrt(Hz)": 1e-6 * GAUSS, "µgauss/sqrt(Hz)": 1e-6 * GAUSS},
     "viscosity": {"Pa*s": 1.0, "Pa s": 1.0, "mPa*s": 1e-3, "mPa s": 1e-3},
+    # absolute temperatures in K; °C is an offset scale (not a factor): its own dimension, which
+    # the recordings' readers turn into kelvin (magcilia.io.columns.to_kelvin)
+    "temperature": {"K": 1.0, "mK": 1e-3},
+    "celsius": {"degC": 1.0, "°C": 1.0},
+    # temperature coefficients (magcilia.TemperatureModel): relative per kelvin, and a field's
+    # drift per kelvin (a kelvin and a degree Celsius are the same step)
+    "tempco": {"1/K": 1.0, "ppm/K": 1e-6, "ppm/degC": 1e-6, "ppm/°C": 1e-6, "%/K": 1e-2,
+               "%/degC": 1e-2, "%/°C": 1e-2},
+    "field_drift": {"T/K": 1.0, "uT/K": 1e-6, "µT/K": 1e-6, "nT/K": 1e-9, "mG/K": 1e-3 * GAUSS,
+                    "gauss/K": GAUSS, "G/K": GAUSS, "mG/degC": 1e-3 * GAUSS,
+                    "nT/degC": 1e-9},
 }
+
+#: 0 °C in kelvin (°C is an offset scale: :func:`parse_temperature`)
+ZERO_CELSIUS = 273.15
 
 #: longest text of a quantity (a number and a unit; longer text is refused before parsing)
 MAX_QUANTITY_CHARS = 200
@@ -84,6 +98,34 @@ def parse_quantity(text: object, dimension: str, key: str = "value") -> float:
     value = float(match.group(1)) * units[match.group(2)]
     if not math.isfinite(value):
         raise fail(key, text, allowed)
+    return value
+
+
+def parse_temperature(text: object, key: str = "temperature", bare: str | None = None) -> float:
+    """An absolute temperature, K, from ``"293.15 K"``, ``"20 degC"`` or ``"20 °C"`` (a bare number
+    is in ``bare``, "K" or "degC"; None: an error, say the unit).
+
+    >>> parse_temperature("20 degC"), parse_temperature("300K"), parse_temperature("5", bare="K")
+    (293.15, 300.0, 5.0)
+    """
+    allowed = "an absolute temperature with a unit (K, mK, degC, °C), e.g. '293.15 K' or '20 degC'"
+    if isinstance(text, (int, float)) and not isinstance(text, bool) and bare is not None:
+        text = f"{text} {bare}"
+    if not isinstance(text, str):
+        raise fail(key, text, allowed)
+    match = _NUMBER.match(text) if len(text) <= MAX_QUANTITY_CHARS else None
+    unit = None if match is None else (match.group(2) or bare)
+    if match is None or unit is None:
+        raise fail(key, text, allowed)
+    number = float(match.group(1))
+    if unit in UNITS["celsius"]:
+        value = number + ZERO_CELSIUS
+    elif unit in UNITS["temperature"]:
+        value = number * UNITS["temperature"][unit]
+    else:
+        raise fail(key, text, allowed)
+    if not (math.isfinite(value) and value > 0.0):
+        raise fail(key, text, "a temperature above absolute zero (0 K, −273.15 °C)")
     return value
 
 

@@ -159,6 +159,7 @@ MEANINGS: dict[str, tuple[str, set[tuple[Any, ...]]]] = {
     "--sweep": ("a parameter sweep span NAME=LOW:HIGH (repeatable)", {("text", "multiple")}),
     "--table-size": ("entries of a lookup table", {("int",)}),
     "--tare": ("tare on the first readings", {("text",)}),
+    "--temperature": ("the simulated temperature: constant or a ramp", {("text",)}),
     "--tare-file": ("tare on a separate recording", {("file",)}),
     "--timeout": ("seconds to reach a scheduler", {("float",)}),
     "--tip-force": ("a point force on the cilium (at the tip unless --at)",

@@ -83,7 +83,8 @@ def test_parse_and_coerce() -> None:
      ("angle=x[deg],voltage=x[V]", (r"columns voltage must be a column other than the angle's "
                                    r"\(x\)")),
      ({"tilt": "Tilt"}, (r"columns must be a role: angle, voltage, time, setreset, azimuth, "
-                         r"field_x, field_y, field_z, force, flow; got 'tilt'")),
+                         r"field_x, field_y, field_z, force, flow, temperature, "
+                         r"temperature_celsius; got 'tilt'")),
      (3, r"columns must be a Columns, a mapping")])
 def test_bad_mappings(value: Any, match: str) -> None:
     with pytest.raises(mc.MagciliaError, match=match) as info:

@@ -6,6 +6,7 @@ from magcilia import _validate as v
 from magcilia.acquire.simulated import SimulatedSource
 from magcilia.acquire.source import Source
 from magcilia.device.setup import Setup
+from magcilia.device.temperature import TemperatureModel, TemperatureProfile
 from magcilia.mechanics.drag import AIR
 
 KINDS = ("sim", "serial:PORT", "nidaq:DEV/aiN")
@@ -13,7 +14,9 @@ KINDS = ("sim", "serial:PORT", "nidaq:DEV/aiN")
 
 def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
                      rng: int | None = None, set_reset: int | None = None,
-                     realtime: bool = False, dynamics: bool = False) -> Source:
+                     realtime: bool = False, dynamics: bool = False,
+                     temperature: TemperatureProfile | None = None,
+                     thermal: TemperatureModel | None = None) -> Source:
     """The source named by ``spec``.
 
     Parameters
@@ -36,13 +39,20 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
     dynamics : bool
         ``sim``: the simulated hair moves through its bending modes, in air
         (:class:`SimulatedSource`'s ``dynamics``).
+    temperature, thermal : TemperatureProfile, TemperatureModel, optional
+        ``sim``: the temperature over time and the coefficients the output follows
+        (:class:`SimulatedSource`'s).
     """
     kind, _, target = spec.partition(":")
     if kind == "sim" and not target:
         return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime,
-                               dynamics=dynamics, fluid=AIR if dynamics else None)
+                               dynamics=dynamics, fluid=AIR if dynamics else None,
+                               temperature=temperature, thermal=thermal)
     if dynamics:
         raise v.fail("--sim-dynamics", True, "given with --source sim only")
+    if temperature is not None:
+        raise v.fail("--temperature", temperature.describe(), "given with --source sim only (a "
+                     "device's temperature comes from its own channel)")
     if kind == "serial" and target:
         from magcilia.acquire.serial import SerialSource
 

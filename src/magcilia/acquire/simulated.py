@@ -6,8 +6,10 @@ source samples the model's output and adds what a real bench adds: the sensor's 
 record share its low frequencies, successive records are independent), white read-out noise of
 the amplifier and ADC, a slow linear drift and a DC bias. With
 ``set_reset`` it alternates the AMR strap's set and reset pulses like a device would: the bridge's
-sign flips, its offset does not. Deterministic with ``rng``. It is the source the tests, the demo
-and every command without a device use.
+sign flips, its offset does not. With ``temperature`` it emits a second channel, ``temperature_K``
+(K), and its output follows the temperature model (:class:`~magcilia.TemperatureModel`:
+sensitivity, offset, magnetization, and the modulus through the load). Deterministic with
+``rng``. It is the source the tests, the demo and every command without a device use.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from magcilia import _validate as v
 from magcilia.acquire.source import OUTPUT, Block, Channel, Source
 from magcilia.device.parameters import MEASURANDS
 from magcilia.device.setup import Setup
+from magcilia.device.temperature import TEMPERATURE_CHANNEL, TemperatureModel, TemperatureProfile
 from magcilia.mechanics import Flow, output_at
 from magcilia.mechanics.drag import Fluid
 from magcilia.mechanics.transient import ResponseStream
@@ -178,6 +181,12 @@ class SimulatedSource(Paced, Source):
     fluid : Fluid, optional
         With ``dynamics``: the fluid around the hair (its added mass and damping); None: the
         flow's fluid for a flow script, else vacuum.
+    temperature : TemperatureProfile or float, optional
+        The temperature over time (a number: constant, K); None (default): no temperature
+        channel and no temperature effect. The setup's parameters are those at the model's
+        reference temperature.
+    thermal : TemperatureModel, optional
+        The coefficients the output follows (default :class:`~magcilia.TemperatureModel`'s).
 
     Examples
     --------
@@ -194,7 +203,9 @@ class SimulatedSource(Paced, Source):
                  set_reset: int | None = None, realtime: bool = False, speed: float = 1.0,
                  flow: Flow | None = None,
                  rng: int | np.random.Generator | None = None, dynamics: bool = False,
-                 fluid: Fluid | None = None) -> None:
+                 fluid: Fluid | None = None,
+                 temperature: TemperatureProfile | float | None = None,
+                 thermal: TemperatureModel | None = None) -> None:
         super().__init__()
         if not isinstance(setup, Setup):
             raise v.fail("setup", type(setup).__name__, "a magcilia.Setup")
@@ -221,6 +232,14 @@ class SimulatedSource(Paced, Source):
             raise v.fail("fluid", type(fluid).__name__, "a magcilia.Fluid (AIR, WATER) or None")
         self.fluid = fluid
         self._stream: ResponseStream | None = None
+        self.temperature = (TemperatureProfile.constant(temperature)
+                            if isinstance(temperature, (int, float)) else temperature)
+        if self.temperature is not None and not isinstance(self.temperature, TemperatureProfile):
+            raise v.fail("temperature", type(temperature).__name__,
+                         "a TemperatureProfile, a temperature in K, or None")
+        self.thermal = TemperatureModel() if thermal is None else thermal
+        if self.temperature is not None:
+            self.channels = (*self.channels, Channel(TEMPERATURE_CHANNEL, "K"))
 
     # -- the script -----------------------------------------------------------------------------
     @property
@@ -265,18 +284,25 @@ class SimulatedSource(Paced, Source):
     def _read(self, n: int) -> Block:
         index = self._index + np.arange(n)
         t = index / self.rate
-        clean = self._clean(self.script.values(t))
+        temps = None if self.temperature is None else self.temperature.values(t)
+        values = self.script.values(t)
+        if temps is not None and self.script.quantity != "angle":  # the load over E(T)/E_ref
+            values = values / self.thermal.load_factor(temps)
+        clean = self._clean(values)
         offset = self.setup.sensor.offset
         polarity = None
         volts = clean
         if self.set_reset is not None:
             polarity = np.where((index // self.set_reset) % 2 == 0, 1, -1).astype(np.int8)
             volts = polarity * (clean - offset) + offset
+        if temps is not None:
+            volts = self.thermal.output(volts, temps, offset, self.setup.sensor.scale)
         volts = (volts + self._sensor_noise(n) + self.bias + self.drift * t
                  + self.readout_noise * self._gen.standard_normal(n))
         self._index += n
         self._pace()
-        return Block(time=t, data=volts[None, :], channels=self.channels, first=int(index[0]),
+        data = volts[None, :] if temps is None else np.stack([volts, temps])
+        return Block(time=t, data=data, channels=self.channels, first=int(index[0]),
                      setreset=polarity)
 
     def metadata(self) -> dict[str, Any]:
@@ -285,7 +311,10 @@ class SimulatedSource(Paced, Source):
                 "readout_noise_V": self.readout_noise, "drift_V_per_s": self.drift,
                 "bias_V": self.bias, "set_reset_samples": self.set_reset, "seed": self._seed,
                 "speed": self.speed, "dynamics": self.dynamics,
-                **({"fluid": self.fluid.name} if self.dynamics and self.fluid else {})}
+                **({"fluid": self.fluid.name} if self.dynamics and self.fluid else {}),
+                **({} if self.temperature is None else {
+                    "temperature": self.temperature.describe(),
+                    "temperature_model": self.thermal.to_dict()})}
 
     # -- the signal -----------------------------------------------------------------------------
     def _clean(self, values: F64) -> F64:

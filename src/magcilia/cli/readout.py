@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -14,6 +15,7 @@ from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
+from magcilia.cli import _thermal as thermal
 from magcilia.cli._common import (
     RecordingArgs,
     RenamedOption,
@@ -86,14 +88,18 @@ def read_checked(path: str, reading: RecordingArgs, required: tuple[str, ...], *
 
 def read_recording(path: str, reading: RecordingArgs | None = None, option: str = "RECORDING",
                    quiet: bool = False, suspect: str = "keep"
-                   ) -> tuple[np.ndarray, np.ndarray | None, list[str], dict[str, object]]:
-    """Voltages (V), optional times (s), the notes to print and the quality checks' result of a
-    recording (CSV/.mat/.tdms/.h5 with ``voltage_V``, or the columns that ``reading`` maps)."""
-    cols, notes, quality = read_checked(path, reading or RecordingArgs(), ("voltage_V",),
-                                        quiet=quiet, suspect=suspect)
+                   ) -> tuple[np.ndarray, np.ndarray | None, list[str], dict[str, object],
+                              np.ndarray | None]:
+    """Voltages (V), optional times (s), the notes to print, the quality checks' result and the
+    optional temperatures (K) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``, or the
+    columns that ``reading`` maps)."""
+    reading = reading or RecordingArgs()  # (with the temperature, compensated when there)
+    reading = dataclasses.replace(reading, columns=reading.columns.with_temperature())
+    cols, notes, quality = read_checked(path, reading, ("voltage_V",), quiet=quiet,
+                                        suspect=suspect)
     if cols["voltage_V"].size == 0:
         raise fail(option, path, "a recording with at least one reading")
-    return cols["voltage_V"], cols.get("time_s"), notes, quality
+    return cols["voltage_V"], cols.get("time_s"), notes, quality, cols.get(thermal.COLUMN)
 
 
 def parse_edge_tolerance(text: str | None, quantity: str,
@@ -276,17 +282,25 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     tolerance = parse_edge_tolerance(edge_tolerance, quantity, span)
     band = parse_bandwidth(bandwidth)
     quiet = quiet_requested(quiet)
-    volts, times, notes, quality = read_recording(recording, reading, quiet=quiet,
-                                                  suspect=suspect)
+    volts, times, notes, quality, temps = read_recording(recording, reading, quiet=quiet,
+                                                         suspect=suspect)
+    tared = (read_recording(tare_file, reading, "--tare-file", quiet, suspect)
+             if tare_file is not None else None)
     baseline = (tare_readings(tare_spec, volts, times) if tare_spec is not None else
-                read_recording(tare_file, reading, "--tare-file", quiet, suspect)[0]
-                if tare_file is not None else None)
+                tared[0] if tared is not None else None)
     flow = Flow.uniform(1.0, FLUIDS[fluid or "water"]) if quantity == "flow" else None
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     readout = Readout(setup, quantity=quantity, span=span, calibration=covariance, flow=flow,
                       table_size=table_size, edge=edge, edge_tolerance=tolerance,
                       actuation=actuation)
-    if baseline is not None:
+    warm = None if temps is None or dynamic or actuation is not None else thermal.compensated(
+        readout, setup_arg, volts, temps, baseline, None if baseline is None else
+        thermal.tare_temperatures(baseline.size, temps, tared and tared[4], tared is not None),
+        band)
+    notes += ["note: --dynamic and an actuation read without the temperature compensation"] if (
+        temps is not None and warm is None) else [] if warm is None else warm[2]
+    readout = readout if warm is None else warm[1].readout
+    if baseline is not None and warm is None:
         readout = readout.tare(baseline)
         if readout.baseline is not None and not readout.baseline.at_rest:
             notes.append(f"note: {tare_spec or tare_file}: {readout.baseline.report()}")
@@ -301,7 +315,8 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
             progress = stack.enter_context(tqdm(total=volts.size, desc="readout",
                                                 unit="reading", unit_scale=True,
                                                 file=sys.stderr)).update
-        result = readout.read(volts, bandwidth=band) if dyn is None else dyn.read(
+        result = warm[0] if warm is not None else readout.read(
+            volts, bandwidth=band) if dyn is None else dyn.read(
             volts, noise=None if readout.baseline is not None else
             setup.sensor.output_noise_rms(*band))
         write_readout_csv(out_path, result, volts, times, si=si, progress=progress)
@@ -311,6 +326,8 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
         extra = {} if compensation is None else {"actuation": compensation[1]}
         if dyn is not None:
             extra["dynamic"] = dyn.to_dict()["dynamic"]
+        if warm is not None:
+            extra["temperature"] = warm[3]
         echo_json({**readout_summary(readout, result, si), **extra, "out": out_path,
                    "notes": notes, "quality": quality})
         return

@@ -24,6 +24,7 @@ from magcilia.cli._common import (
     si_option,
 )
 from magcilia.cli._signals import signals_interrupt
+from magcilia.cli._thermal import TEMPERATURE_HELP, setup_temperature, temperature_profile
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.report.units import output_units
@@ -90,6 +91,7 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
               help="sim: the simulated hair moves through its bending modes in air (rings after "
                    "each tilt; --settle drops the ringing) instead of sitting at each angle.")
+@click.option("--temperature", default=None, help=TEMPERATURE_HELP)
 @click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
               type=click.Path(dir_okay=False),
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
@@ -102,8 +104,8 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @si_option
 def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
-            sim_dynamics: bool, out_path: str, force: bool, as_json: bool, quiet: bool,
-            si: bool) -> None:
+            sim_dynamics: bool, temperature: str | None, out_path: str, force: bool,
+            as_json: bool, quiet: bool, si: bool) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
     angle's mean ± standard error and a saturation flag; the recording ends in the --record
     file, which `magcilia calibrate FILE` fits as it is. With --duration, record continuously
@@ -117,7 +119,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     with signals_interrupt() as stop:
         try:
             _record(source_spec, setup_arg, angles, samples, settle, rate, duration, set_reset,
-                    seed, out_path, force, as_json, quiet, si, sim_dynamics)
+                    seed, out_path, force, as_json, quiet, si, sim_dynamics, temperature)
         except KeyboardInterrupt:  # the writer closed the file, noting where it stopped
             click.echo(f"magcilia: {stop.signal or 'SIGINT'} stopped the recording; "
                        f"{_kept(Path(out_path))}", err=True)
@@ -139,7 +141,7 @@ def _kept(path: Path) -> str:
 def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool,
-            sim_dynamics: bool = False) -> None:
+            sim_dynamics: bool = False, temperature: str | None = None) -> None:
     units = output_units(si)
     if not out_path.lower().endswith(".tdms"):
         raise fail("--record", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
@@ -151,7 +153,9 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
                               set_reset=set_reset, realtime=duration is not None,
-                              dynamics=sim_dynamics)
+                              dynamics=sim_dynamics,
+                              temperature=temperature_profile(temperature, duration),
+                              thermal=None if temperature is None else setup_temperature(setup_arg))
     metadata = {"setup_name": setup_label(setup_arg), "setup": setup_to_dict(setup)}
     if duration is not None:
         if angles is not None:

@@ -10,6 +10,8 @@
 * :mod:`.setup`: :class:`Setup`, all of them placed over the sensing element;
 * :mod:`.array`: :class:`CiliaArray`, many cilia (each a Setup) over many 3-axis sensors.
 * :mod:`.actuation`: :class:`Actuation`, an external field (uniform or magpylib) acting on it.
+* :mod:`.temperature`: :class:`TemperatureModel`, the sensor's and the cilium's temperature
+  coefficients (cited), and :class:`TemperatureProfile`, a temperature over time.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ if TYPE_CHECKING:
     from magcilia.device.sensor import DEFAULT_BANDWIDTH, Sensor, SensorCheck, SensorFlag
     from magcilia.device.setup import PAPER_INITIAL, PAPER_OPTIMIZED, Pose, Setup
     from magcilia.device.stiffness import Modulus
+    from magcilia.device.temperature import TemperatureModel, TemperatureProfile
 
 __all__ = [
     "DEFAULT_BANDWIDTH",
@@ -44,6 +47,8 @@ __all__ = [
     "SensorCheck",
     "SensorFlag",
     "Setup",
+    "TemperatureModel",
+    "TemperatureProfile",
 ]
 
 __getattr__, __dir__ = attach(__name__)

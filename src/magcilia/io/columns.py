@@ -16,7 +16,18 @@ field_y   field_y_T    field         ``field_y_T``, B_y in tesla
 field_z   field_z_T    field         ``field_z_T``, B_z in tesla
 force     force_N      force         ``force_N``, known tip force in newtons
 flow      flow_m_per_s speed         ``flow_m_per_s``, known flow speed in m/s
+temperature  temperature_K  temperature  ``temperature_K``, the temperature in kelvin
+temperature_celsius  temperature_degC  celsius  ``temperature_K`` too, from °C (+273.15)
 ========  ===========  ============  ===========================================
+
+A recording may carry its temperature (the temperature compensation,
+:class:`magcilia.ThermalReadout`) as ``temperature_K`` (K, or mK mapped) or ``temperature_degC``
+(°C; the readers return it as ``temperature_K``), not both. It is read only where it is used
+(``read_samples(..., temperature=True)``, ``magcilia readout``; :meth:`Columns.with_temperature`):
+then any other column whose name starts with ``temp`` or ``temperature`` (``temperature``,
+``temp_F``, ``Temp [C]``) is a temperature in units magcilia does not take, a one-line error
+naming it and the accepted names (map it with ``--columns temperature=NAME[K]`` when it is in
+kelvin). MATLAB files name no units: only the two accepted variable names are read.
 
 A *load recording* has a ``force`` or a ``flow`` column in place of the angle (one of them, not
 both, and no angle column): the cilium stands upright and bends under the load, toward the
@@ -55,9 +66,10 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -79,7 +91,15 @@ ROLES: dict[str, tuple[str, str | None, str | None]] = {
     "field_z": ("field_z_T", "field", "T"),
     "force": ("force_N", "force", "N"),
     "flow": ("flow_m_per_s", "speed", "m/s"),
+    "temperature": ("temperature_K", "temperature", "K"),
+    "temperature_celsius": ("temperature_degC", "celsius", "degC"),
 }
+#: the accepted names of a recording's temperature column (kelvin, °C)
+TEMPERATURE_NAMES = ("temperature_K", "temperature_degC")
+#: 0 °C in K
+_ZERO_CELSIUS = 273.15
+#: a name that says temperature (checked for a unit magcilia takes)
+_TEMPERATURE_LIKE = re.compile(r"(?i)^(?:temp|temperature)(?:$|[_\s\[(.-])")
 #: the keys of a load recording's condition column (in place of ``angle_deg``)
 LOAD_KEYS = ("force_N", "flow_m_per_s")
 #: the keys of a 3-axis field's components (all three, or none)
@@ -162,6 +182,10 @@ class Columns:
     field_z: str = "field_z_T"
     force: str = "force_N"
     flow: str = "flow_m_per_s"
+    temperature: str = "temperature_K"
+    temperature_celsius: str = "temperature_degC"
+    #: whether the temperature roles are read (:meth:`with_temperature`), not a role
+    read_temperature: bool = False
 
     def __post_init__(self) -> None:
         seen: dict[str, str] = {}
@@ -190,7 +214,7 @@ class Columns:
         return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
                 "setreset": "SR", "azimuth": "Phi[deg]", "field_x": "Bx[uT]",
                 "field_y": "By[uT]", "field_z": "Bz[uT]", "force": "F[mN]",
-                "flow": "U[mm/s]"}[role]
+                "flow": "U[mm/s]", "temperature": "T[K]", "temperature_celsius": "T[degC]"}[role]
 
     def spec(self, role: str) -> tuple[str, str | None]:
         """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
@@ -219,7 +243,7 @@ class Columns:
         """
         allowed = ("ROLE=NAME[unit],... with ROLE one of " + ", ".join(ROLES)
                    + ", e.g. angle=Tilt[deg],voltage=Vout[mV]")
-        items: dict[str, str] = {}
+        items: dict[str, Any] = {}
         for item in text.split(","):
             role, eq, name = item.partition("=")
             role = role.strip()
@@ -244,18 +268,28 @@ class Columns:
             unknown = [k for k in value if k not in ROLES]
             if unknown:
                 raise fail("columns", unknown[0], "a role: " + ", ".join(ROLES))
-            return cls(**dict(value))
+            given: dict[str, Any] = dict(value)
+            return cls(**given)
         raise fail("columns", type(value).__name__,
                    "a Columns, a mapping {role: 'NAME[unit]'} or 'angle=Tilt[deg],...'")
 
     @property
     def is_default(self) -> bool:
         """Whether every role has magcilia's own name."""
-        return self == Columns()
+        return all(getattr(self, role) == getattr(_DEFAULT, role) for role in ROLES)
+
+    def with_temperature(self) -> Columns:
+        """This mapping, reading the temperature too (see the module docstring)."""
+        return dataclasses.replace(self, read_temperature=True)
+
+    def _roles(self) -> tuple[str, ...]:
+        """The roles read: all, or all but the temperature's."""
+        return tuple(ROLES) if self.read_temperature else tuple(
+            r for r in ROLES if r not in _TEMPERATURE_ROLES)
 
     def names(self) -> dict[str, str]:
         """Key of the columns read (``angle_deg``, …) -> the name mapped to it."""
-        return {ROLES[role][0]: self.spec(role)[0] for role in ROLES}
+        return {ROLES[role][0]: self.spec(role)[0] for role in self._roles()}
 
     def locate(self, names: Sequence[str], *, where: str,
                required: tuple[str, ...] = ("angle_deg", OBSERVABLE),
@@ -305,7 +339,8 @@ class Columns:
             return at
 
         loads = [role for role in ("force", "flow") if where_is(self.spec(role)[0])]
-        for role, (key, dimension, target) in ROLES.items():
+        for role in self._roles():
+            key, dimension, target = ROLES[role]
             name, unit = self.spec(role)
             at = where_is(name)
             if not at:
@@ -329,6 +364,8 @@ class Columns:
             table = UNITS[dimension]
             out[key] = (i, table[unit_found] / table[target])
         self._check_observable(out, required, where, kind, names_text(stripped))
+        if self.read_temperature:
+            self._check_temperature(out, stripped, where, kind)
         names_of = self.names()
         if len(loads) == 2:
             raise MagciliaError(
@@ -370,6 +407,23 @@ class Columns:
         if OBSERVABLE in required and not fields and "voltage_V" not in found:
             raise MagciliaError(self._missing("voltage", names["voltage_V"], where, kind, listed,
                                               required))
+
+    def _check_temperature(self, found: Mapping[str, tuple[int, float]], stripped: list[str],
+                           where: str, kind: str) -> None:
+        """One temperature per recording, in kelvin or °C; any other column named like a
+        temperature is one in units magcilia does not take."""
+        names = self.names()
+        if all(k in found for k in TEMPERATURE_NAMES):
+            raise MagciliaError(
+                f"{where}: both a kelvin ({_short(names['temperature_K'])}) and a °C "
+                f"({_short(names['temperature_degC'])}) temperature {kind}; keep one")
+        taken = {i for i, _ in found.values()}
+        for i, name in enumerate(stripped):
+            if i not in taken and _TEMPERATURE_LIKE.match(name):
+                raise MagciliaError(
+                    f"{where}: {kind} {_short(name)!r} looks like a temperature in units magcilia "
+                    f"does not take; name it temperature_K (kelvin) or temperature_degC (°C), or "
+                    f"map a kelvin {kind} with --columns temperature=NAME[K]")
 
     def _missing(self, role: str, name: str, where: str, kind: str, listed: str,
                  required: tuple[str, ...]) -> str:
@@ -425,11 +479,25 @@ class Columns:
         raise MagciliaError(f"{what} has no unit; {fix} ({_a(dimension)} {dimension} unit: "
                             f"{_units_text(dimension)})")
 
+_DEFAULT = Columns()
+#: the roles of a temperature (read only with Columns.read_temperature)
+_TEMPERATURE_ROLES = ("temperature", "temperature_celsius")
+
+
+def to_kelvin(columns: dict[str, NDArray[np.float64]]) -> dict[str, NDArray[np.float64]]:
+    """A recording's columns with a °C temperature (``temperature_degC``) as ``temperature_K``
+    (+273.15 K): the readers' last step (the same dict, changed in place)."""
+    celsius = columns.pop("temperature_degC", None)
+    if celsius is not None:
+        columns["temperature_K"] = celsius + _ZERO_CELSIUS
+    return columns
+
+
 def columns_help() -> str:
     """One line for the CLI's ``--columns`` help."""
-    roles = ", ".join(f.name for f in fields(Columns))
+    roles = ", ".join(ROLES)
     return (f"Map roles ({roles}) to the file's names with units, e.g. "
             "angle=Tilt[deg],voltage=Vout[mV] or azimuth=Phi[deg],field_x=Bx[uT],... Default: "
             "angle_deg, voltage_V, time_s, setreset, azimuth_deg, field_x_T, field_y_T, "
             "field_z_T, force_N, flow_m_per_s (a load recording: force or flow in place of the "
-            "angle).")
+            "angle), temperature_K or temperature_degC.")

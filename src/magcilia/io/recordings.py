@@ -144,6 +144,7 @@ from magcilia.io.columns import (
     OBSERVABLE,
     Columns,
     scaled,
+    to_kelvin,
 )
 from magcilia.io.csvfile import (
     NotPlainCSV,
@@ -351,6 +352,7 @@ def read_recording(
     path: str | Path, required: tuple[str, ...] = ("angle_deg", OBSERVABLE), *,
     columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
     decimal: str = ".", group: str | None = None, progress: Progress | None = None,
+    temperature: bool = False,
 ) -> RawRecording:
     """A recording's raw sample columns (as :func:`read_samples`), with the reader's notes on the
     file (damage it read past, a recording cut short: one line each, see
@@ -361,7 +363,10 @@ def read_recording(
     is the error ``the recording was cut before its first chunk``.
     """
     p = _recording_path(path)
-    return _read_recording(p, required, _how(p, columns, delimiter, decimal, group, progress))
+    how = _how(p, columns, delimiter, decimal, group, progress)
+    if temperature:
+        how = dataclasses.replace(how, columns=how.columns.with_temperature())
+    return _read_recording(p, required, how)
 
 
 def _read_recording(p: Path, required: tuple[str, ...], how: _How) -> RawRecording:
@@ -371,7 +376,7 @@ def _read_recording(p: Path, required: tuple[str, ...], how: _How) -> RawRecordi
         raise v.fail("required", unknown[0], "keys among " + ", ".join((*COLUMNS, OBSERVABLE)))
     with _reader_boundary(p):
         raw = _read(p, required, how)
-    cols = raw.columns
+    cols = to_kelvin(raw.columns)
     lengths = {k: a.size for k, a in cols.items()}
     if len(set(lengths.values())) > 1:
         raise MagciliaError(
@@ -389,6 +394,7 @@ def read_samples(
     path: str | Path, required: tuple[str, ...] = ("angle_deg", OBSERVABLE), *,
     columns: Columns | Mapping[str, str] | str | None = None, delimiter: str | None = None,
     decimal: str = ".", group: str | None = None, progress: Progress | None = None,
+    temperature: bool = False,
 ) -> dict[str, F64]:
     """Raw sample columns of a recording (CSV, MATLAB .mat, TDMS or HDF5), without any reduction.
 
@@ -418,6 +424,10 @@ def read_samples(
     progress : callable, optional
         Called as ``progress(bytes_read, file_size)`` while the file is read (CSV: after each
         block; other formats: at the start and the end).
+    temperature : bool
+        Also read the temperature, ``temperature_K`` (K) from a ``temperature_K`` or
+        ``temperature_degC`` column (:mod:`magcilia.io.columns`); another column named like a
+        temperature is then an error. False (default): temperature columns are left unread.
 
     Returns
     -------
@@ -441,7 +451,7 @@ def read_samples(
         For a TDMS, HDF5 or MATLAB v7.3 file without the optional package that reads it.
     """
     raw = read_recording(path, required, columns=columns, delimiter=delimiter, decimal=decimal,
-                         group=group, progress=progress)
+                         group=group, progress=progress, temperature=temperature)
     for note in raw.notes:
         logger.warning("%s: %s", path, note)
     return raw.columns

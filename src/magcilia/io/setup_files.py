@@ -53,7 +53,9 @@ between (``profile_s = ["0 mm", "1 mm", "3.2 mm"]``, ``profile_r = ["0.18 mm", "
 "0.03 mm"]``).
 
 The tables of arrays (``[[cilia]]``, ``[[sensors]]``, ``[array]``; read by
-:func:`magcilia.io.array_file.load_array`) and ``[actuation]`` are left to their readers:
+:func:`magcilia.io.array_file.load_array`), ``[actuation]`` and ``[temperature]`` (the
+temperature coefficients: :func:`magcilia.io.temperature_table.load_temperature`) are left to
+their readers:
 :func:`load_setup` reads the single setup of such a file.
 
 Every quantity needs its unit; a missing table takes the paper's defaults (``[model]``: a
@@ -247,7 +249,7 @@ def load_setup(path: str | os.PathLike[str]) -> Setup:
 
 #: tables of a setup file that other readers take (arrays: :mod:`magcilia.io.array_file`;
 #: actuation) and :func:`setup_from_dict` leaves alone
-OTHER_TABLES = ("cilia", "sensors", "array", "actuation")
+OTHER_TABLES = ("cilia", "sensors", "array", "actuation", "temperature")
 
 #: the setup file's optional table of priors, and the names it may hold
 PRIORS_TABLE = "priors"

@@ -67,6 +67,7 @@ if TYPE_CHECKING:
         flag_names,
     )
     from magcilia.readout.tare import ChannelTare, Tare
+    from magcilia.readout.thermal import ThermalReadout, ThermalResult
 
 __all__ = [
     "FLAG_DTYPE",
@@ -92,6 +93,8 @@ __all__ = [
     "ReadoutValues",
     "SensorReadout",
     "Tare",
+    "ThermalReadout",
+    "ThermalResult",
     "array_metrics",
     "field_for_loads",
     "flag_names",

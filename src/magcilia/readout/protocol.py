@@ -87,6 +87,9 @@ class Flag(enum.IntFlag):
     TARE_UNDER_LOAD = 4096
     #: the zero drifts faster than zero tracking follows; σ includes the drift not tracked
     ZERO_DRIFT = 8192
+    #: the temperature lies outside the range seen at calibration and tare (the temperature
+    #: compensation, :mod:`magcilia.readout.thermal`, extrapolates its coefficients there)
+    TEMPERATURE_OUTSIDE = 16384
     #: the array read-out's former name of ABOVE_SPAN
     BEYOND_SPAN = 64
 
