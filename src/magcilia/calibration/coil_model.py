@@ -42,6 +42,44 @@ F64 = NDArray[np.float64]
 COIL_PARAMETERS = ("youngs_modulus", "magnetization_scale", "sensitivity")
 
 
+#: default bounds of the magnetization scale (the composite's magnetization over the full
+#: φ·M_Co: the paper's ~800 nm multi-domain particles sit well below saturation, NOTES §2) …
+MAGNETIZATION_BOUNDS = (0.01, 3.0)
+#: … and of the bridge sensitivity relative to the initial setup's (the HMC1021's datasheet
+#: spread is 0.8–1.25 of typical: NOTES §5)
+SENSITIVITY_BOUNDS = (0.5, 2.0)
+
+
+def coil_bounds(initial: Setup) -> dict[str, tuple[float, float]]:
+    """Default bounds (SI) of the parameters coil experiments add: the magnetization scale
+    (:data:`MAGNETIZATION_BOUNDS`, widened to hold the initial value) and the sensitivity, V/V/T
+    (:data:`SENSITIVITY_BOUNDS` times the initial's)."""
+    m = initial.material.magnetization_scale
+    s = initial.sensor.sensitivity
+    return {"magnetization_scale": (min(MAGNETIZATION_BOUNDS[0], 0.5 * m),
+                                    max(MAGNETIZATION_BOUNDS[1], 2.0 * m)),
+            "sensitivity": (SENSITIVITY_BOUNDS[0] * s, SENSITIVITY_BOUNDS[1] * s)}
+
+
+#: the default coil sequence: 14 directions (±x, ±y, ±z and the 8 cube diagonals) at these
+#: fractions of the sensor's linear range, and the zero field: 43 conditions. At ¾ of the range
+#: (4.5 G on the HMC1021Z) the applied field plus the cilium's (~1 G at the paper's placement)
+#: and the Earth's (~0.5 G) stays within the ±6 G the datasheet gives for the total field, and far
+#: below the 20 G that may flip the AMR element and the ~80 G that flips the paper's cilium
+SEQUENCE_FRACTIONS = (0.25, 0.5, 0.75)
+
+
+def default_sequence(field_range: float) -> F64:
+    """The default coil sequence (:data:`SEQUENCE_FRACTIONS`), applied fields (43, 3), T, for a
+    sensor whose linear range is ``field_range`` (T; :attr:`magcilia.Sensor.field_range`)."""
+    axes = np.concatenate([np.eye(3), -np.eye(3)])
+    corners = np.array([[x, y, z] for x in (1, -1) for y in (1, -1) for z in (1, -1)],
+                       dtype=np.float64) / np.sqrt(3.0)
+    directions = np.concatenate([axes, corners])
+    fields = [np.zeros((1, 3))] + [f * field_range * directions for f in SEQUENCE_FRACTIONS]
+    return np.asarray(np.concatenate(fields), dtype=np.float64)
+
+
 def cilium_fields(base: Setup, fields: F64, prm: Mapping[str, F64]) -> F64:
     """The bent cilium's own field at the sensing element, (N, a, 3), T, board frame, for each
     set of ``prm`` under each applied field (``fields`` (a, 3), T); NaN rows for a set whose

@@ -389,8 +389,9 @@ def undetermined_warning(jac: F64, null: F64, undetermined: NDArray[np.bool_],
         return CalibrationWarning("undetermined", f"{head} ({other_remedy})", involved)
     text = (f"{head}. {'One of them is' if count > 1 else 'It is'} the scale symmetry: every "
             "length scaled together (height, base radius and the placement x, y, z + sensor "
-            "depth) leaves the field unchanged, so no tilt recording, at any azimuth or with any "
-            f"field component, fixes the size; what fixes it is {scale_remedy}")
+            "depth) leaves the field unchanged, so no tilt or coil recording (a uniform field "
+            "bends the cilium alike at any size), at any azimuth or with any field component, "
+            f"fixes the size; what fixes it is {scale_remedy}")
     if count > 1:
         text += f"; for the other combination(s), {other_remedy}"
     return CalibrationWarning("undetermined", text, involved)
@@ -416,7 +417,7 @@ def scale_remedy(load_kinds: frozenset[str], modulus_free: bool) -> str:
         load = ("load data: a force or flow recording (with the Young's modulus known, or both "
                 "kinds together)")
     return ("a size measured by hand as a prior (--prior height=VALUE:SIGMA, or base_radius; "
-            f"API priors={{'height': (value, sigma)}}), or {load}")
+            f"API priors={{'height': (value, sigma)}}), or {load} (a load of known size)")
 
 
 def undetermined_remedy(y_sign_known: bool) -> str:

@@ -73,7 +73,8 @@ def _uncertainty(problem: Problem, x: F64, scale: float, chi2: float
     warns: list[CalibrationWarning] = []
     cov, null, undetermined = equilibrated_pinv(jac)
     units = np.array([problem.base.material.magnetization_scale
-                      if n == "magnetization_scale" else 1.0 for n in names])
+                      if n == "magnetization_scale" and problem.fit_scale else 1.0
+                      for n in names])
     cov = cov * np.outer(units, units)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
@@ -132,9 +133,11 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
     offsets = problem.offsets(u[0], scale)
     values = {n: float(x[i]) if n in problem.names else float(initial.params()[n])
               for i, n in enumerate(problem.names)}
-    held_values = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus}
+    held_values = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus,
+                   "sensitivity": initial.sensor.sensitivity}
     values.update({n: float(held_values[n]) for n in problem.all_names if n not in values})
-    fitted_scale = initial.material.magnetization_scale * scale
+    fitted_scale = (values["magnetization_scale"] if "magnetization_scale" in problem.all_names
+                    else initial.material.magnetization_scale * scale)
     names, cov, se, found, inflated = _uncertainty(problem, x, scale, chi2_data)
     labels = offset_labels(problem)
     for k, name in enumerate(labels):
@@ -148,7 +151,7 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
     dof = problem.y.size - len(names)
     output_offsets = [offsets[g] for g, key in enumerate(problem.bias_keys) if key.axis is None]
     fitted_setup = initial.replace(
-        **{n: values[n] for n in problem.all_names},
+        **{n: values[n] for n in problem.all_names if n != "magnetization_scale"},
         **_fitted_modulus(problem, initial, values, stderr), n_loops=layout.n_loops,
         dipoles_per_loop=layout.dipoles_per_loop, ring=layout.ring,
         magnetization_scale=fitted_scale,
@@ -170,7 +173,8 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
             rms=float(np.sqrt(np.mean((problem.y[rows] - model_full[rows]) ** 2))),
             chi2=float(weighted @ weighted), values=int(problem.y[rows].size),
             load_kind=e.load_kind,
-            loads=None if e.loads is None else np.asarray(e.loads)))
+            loads=None if e.loads is None else np.asarray(e.loads),
+            actuation=None if e.actuation is None else np.asarray(e.actuation)))
     notes: list[CalibrationWarning] = list(at_bound(
         {n: values[n] for n in problem.names}, {n: box[n] for n in problem.names},
         frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)))

@@ -115,6 +115,31 @@ ANGLE_DECIMALS = 9
 LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
 
 
+def actuation_ids(components: Sequence[NDArray[np.float64]],
+                  known: dict[tuple[float, float, float], int]) -> NDArray[np.float64]:
+    """A coil recording's condition of each sample: the index (as a float) of its applied field
+    (B_x, B_y, B_z) (three arrays (s,), T) among the distinct fields seen so far, rounded to
+    :data:`ANGLE_DECIMALS` decimals of µT; ``known`` (field → index) is updated, so that blocks
+    of one recording share their indices. NaN where a component is not finite.
+
+    >>> known = {}
+    >>> actuation_ids([np.array([1e-4, 0.0, 1e-4]), np.zeros(3), np.zeros(3)], known).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    b = np.stack([np.asarray(c, dtype=np.float64).ravel() for c in components], axis=1)
+    out = np.full(b.shape[0], np.nan)
+    with np.errstate(invalid="ignore", over="ignore"):
+        finite = np.isfinite(b).all(axis=1) & (np.abs(b) <= 1e3).all(axis=1)
+        rounded = np.round(b[finite] * 1e6, ANGLE_DECIMALS)
+    if not rounded.size:
+        return out
+    unique, inverse = np.unique(rounded, axis=0, return_inverse=True)
+    index = np.array([known.setdefault((float(u[0]), float(u[1]), float(u[2])), len(known))
+                      for u in unique], dtype=np.float64)
+    out[finite] = index[np.ravel(inverse)]
+    return out
+
+
 def scaled(values: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
     """A column read (any shape) times its unit's ``factor`` to deg, V, s, T, N or m/s: the
     same array when the factor is 1; a value that overflows is infinite and a signalling NaN a

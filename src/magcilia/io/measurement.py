@@ -206,6 +206,8 @@ class Measurement(Display):
         got 3-axis field data; leave the data out
         """
         got = []
+        if self.actuation is not None:
+            got.append("applied coil fields (a coil experiment)")
         if self.load_kind is not None:
             got.append(f"{self.load_kind} loads (a load experiment)")
         if self.fields is not None:
@@ -313,8 +315,12 @@ class Measurement(Display):
                    if n.sum()]
         lost = self.metadata.get("dropped") or {}
         if lost.get("no_angle"):
-            dropped.append(f"{lost['no_angle']} without a finite angle"
+            dropped.append(f"{lost['no_angle']} without a finite "
+                           + ("applied field" if self.is_coil else "angle")
                            + (" or azimuth" if "azimuths_deg" in lost else ""))
+        if lost.get("conditions"):
+            dropped.append(f"{lost['samples']} at {lost['conditions']} applied field(s) left "
+                           "with no usable sample")
         if lost.get("angles_deg"):
             where = [f"{a:g}" for a in lost["angles_deg"]]
             if "azimuths_deg" in lost:

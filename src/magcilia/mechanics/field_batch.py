@@ -7,7 +7,9 @@ same elastica as :func:`magcilia.bend` with ``actuation=Actuation.uniform(B)``
 (:mod:`magcilia.mechanics.elastica`: the cilium magnetized along its tangent, the field's couple
 per length ``μ(s) t × B`` with ``μ(s) = M π r(s)²``), the same Chebyshev collocation on the
 normalised grid of :func:`~magcilia.mechanics.batched.sweep_batch`, Newton to the same 1e-12 rad
-residual, every system's step in one stacked LAPACK solve.
+residual. Most calibration fields bend the cilium by a few degrees: every system is first
+iterated to the fixed point ``θ ← P g(θ)`` (a contraction there, one batched product a step), and
+only the systems that do not contract go to Newton, its steps in one stacked LAPACK solve.
 
 A uniform field's couple bends the cilium in the vertical plane of ``e_z`` and the field's
 horizontal part (azimuth ``ψ = atan2(B_y, B_x)``): in that plane the field is
@@ -29,6 +31,7 @@ All SI: lengths in m, fields in T, moments per length in A·m, moduli in Pa, ang
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass, replace
 
@@ -36,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia.device.setup import Setup
-from magcilia.mechanics.batched import _inverses, _Normalised
+from magcilia.mechanics.batched import _Normalised
 from magcilia.mechanics.planar import OUTPUT_POINTS
 
 F64 = NDArray[np.float64]
@@ -45,6 +48,8 @@ F64 = NDArray[np.float64]
 TOLERANCE = 1e-12
 #: Newton steps a system is given from one start
 MAX_ITERATIONS = 40
+#: fixed-point steps at most (:meth:`_Couples.picard`), and the contraction each must reach
+PICARD_ITERATIONS, PICARD_RATE = 80, 0.7
 #: load-continuation steps of a system Newton does not converge for from the guess
 CONTINUATION_STEPS = 8
 
@@ -136,18 +141,22 @@ def field_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, magnet
     sets = np.repeat(np.arange(n_set), n_field)
     fh, fz = np.tile(bh, n_set), np.tile(bz, n_set)
     system = _Couples(influence, mu)
-    theta, done = system.newton(sets, fh, fz, system.guess(sets, fh, fz))
+    theta, done = system.picard(bh, bz)
+    theta, done = theta.reshape(-1, n), done.ravel()
+    rest = np.flatnonzero(~done)  # what the fixed point did not reach: Newton from the guess
+    if rest.size:
+        theta[rest], done[rest] = system.newton(sets[rest], fh[rest], fz[rest],
+                                                system.guess(sets[rest], fh[rest], fz[rest]))
     continued = int((~done).sum())
-    for j in np.flatnonzero(~done):  # continuation from the straight rod in eighths
-        one = np.array([sets[j]])
-        th = np.zeros((1, n))
-        ok = np.ones(1, dtype=bool)
-        for lam in np.arange(1, CONTINUATION_STEPS + 1) / CONTINUATION_STEPS:
-            th, ok = system.newton(one, fh[j:j + 1] * lam, fz[j:j + 1] * lam, th)
-            if not ok[0]:
-                break
-        if ok[0]:
-            theta[j], done[j] = th[0], True
+    redo = np.flatnonzero(~done)  # continuation from the straight rod in eighths, together
+    th = np.zeros((redo.size, n))
+    for lam in np.arange(1, CONTINUATION_STEPS + 1) / CONTINUATION_STEPS:
+        if not redo.size:
+            break
+        th, ok = system.newton(sets[redo], fh[redo] * lam, fz[redo] * lam, th)
+        redo, th = redo[ok], th[ok]
+    if redo.size:
+        theta[redo], done[redo] = th, True
     done2 = done.reshape(n_set, n_field)
     ok_set = np.asarray(done2.all(axis=1), dtype=bool)
     good = np.flatnonzero(ok_set)
@@ -194,6 +203,30 @@ class _Couples:
         return np.asarray(np.where(limit > 0.0, safe * np.tanh(lin / safe), 0.0),
                           dtype=np.float64)
 
+    def picard(self, bh: F64, bz: F64) -> tuple[F64, NDArray[np.bool_]]:
+        """Every set under every field (b_h, b_z) (a,) by the fixed-point iteration
+        θ ← P g(θ) from the straight rod (a contraction where the bend is moderate, its rate
+        ~ the bend's angle: one batched product a step and no Jacobian): θ (N, a, n) and which
+        systems reached Newton's residual tolerance (N, a); those that do not contract by
+        :data:`PICARD_RATE` a step are left to Newton."""
+        n_set, n = self.mu.shape
+        theta = np.zeros((n_set, bh.size, n))
+        prev = np.full((n_set, bh.size), np.inf)
+        done = np.zeros((n_set, bh.size), dtype=bool)
+        for _ in range(PICARD_ITERATIONS):
+            g = self.mu[:, None, :] * (bh[None, :, None] * np.cos(theta)
+                                       - bz[None, :, None] * np.sin(theta))
+            new = np.matmul(g, np.swapaxes(self.influence, 1, 2))  # (P g) of every system
+            with np.errstate(invalid="ignore"):
+                err = np.abs(new - theta).max(axis=2)
+            done = err < TOLERANCE  # (the residual P g(θ) − θ of the current θ)
+            stalled = ~(err <= PICARD_RATE * prev)
+            if done.all() or np.all(done | stalled):
+                break
+            theta = np.where((done | stalled)[:, :, None], theta, new)
+            prev = np.where(done | stalled, prev, err)
+        return theta, done
+
     def newton(self, sets: NDArray[np.intp], bh: F64, bz: F64, theta: F64
                ) -> tuple[F64, NDArray[np.bool_]]:
         """Newton for the systems ``sets`` (b,) under fields (b_h, b_z) (b,) from ``theta``
@@ -229,7 +262,7 @@ class _Couples:
             d = mu * (bh[active, None] * np.sin(th) + bz[active, None] * np.cos(th))
             jac = P * d[:, None, :]
             jac[diag] += 1.0
-            step = np.einsum("bij,bj->bi", _inverses(jac), minus)
+            step = _solve(jac, minus)
             size = np.abs(step).max(axis=1)
             lost = ~np.isfinite(size)
             step *= np.where(size > 1.0, 1.0 / np.where(size > 1.0, size, 1.0), 1.0)[:, None]
@@ -237,3 +270,16 @@ class _Couples:
             failed[active[lost]] = True
             active = active[~lost]
         return theta, done & ~failed
+
+
+def _solve(jac: F64, rhs: F64) -> F64:
+    """Solutions of a stack of systems ``jac`` (b, n, n) ``x = rhs`` (b, n); NaN for a singular
+    one."""
+    try:
+        return np.asarray(np.linalg.solve(jac, rhs[:, :, None])[:, :, 0], dtype=np.float64)
+    except np.linalg.LinAlgError:  # a singular system: each on its own
+        out = np.full_like(rhs, np.nan)
+        for j in range(jac.shape[0]):
+            with contextlib.suppress(np.linalg.LinAlgError):
+                out[j] = np.linalg.solve(jac[j], rhs[j])
+        return out

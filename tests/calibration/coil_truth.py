@@ -1,0 +1,79 @@
+"""Exact-body synthetic coil recordings and a batched local fit over many noise draws (for the
+coil calibration's coverage tests): the truth bent by mc.bend(..., actuation=) and its field from
+the exact cylinder stack (magpylib), plus the applied field, offsets and Gaussian noise."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+import magcilia as mc
+from magcilia.calibration.joint import YOUNGS_BOUNDS, joint_problem
+from magcilia.calibration.joint_result import joint_result
+from magcilia.calibration.layout import converged_layout
+from magcilia.calibration.problem import DEFAULT_BOUNDS
+from magcilia.calibration.coil_model import coil_bounds
+from magcilia.fitting import fit_batch
+from magcilia.io.recordings import Measurement
+from magcilia.model.exact import exact_field
+
+F64 = NDArray[np.float64]
+#: the force-sensor cilium (NOTES §8) at the paper's placement, modulus of the composite
+TRUTH = dict(height=3.26e-3, base_radius=1.8e-4, tip_radius=5e-5, youngs_modulus=5e5,
+             magnetization_scale=0.8)
+OFFSETS = np.array([2e-5, -3e-5, 4e-5])  # the Earth's field and the part's own, T
+NAMES = ("height", "base_radius", "x", "y", "z", "youngs_modulus", "magnetization_scale")
+
+
+def truth(**kw: float) -> mc.Setup:
+    return mc.Setup.paper(**{**TRUTH, **kw})
+
+
+def exact_cilium(setup: mc.Setup, applied: F64, slices: int = 400) -> F64:
+    """The cilium's own field at the element (a, 3), T, under each applied field: mc.bend with
+    the uniform actuation, then the exact cylinder stack of the bent shape."""
+    return np.array([exact_field(setup, mc.bend(setup, 0.0, actuation=mc.Actuation.uniform(b)),
+                                 slices)[0] for b in applied])
+
+
+def recording(applied: F64, cilium: F64, se: float, rng: np.random.Generator,
+              source: str = "coil") -> Measurement:
+    """A 3-axis coil recording: per-condition means with Gaussian noise of s.e. ``se`` (T)."""
+    a = applied.shape[0]
+    fields = cilium + applied + OFFSETS + se * rng.standard_normal((a, 3))
+    return Measurement(np.zeros(a), np.full(a, np.nan), np.full(a, np.nan), np.full(a, 2000),
+                       np.zeros(a, np.int64), np.zeros(a, np.int64), source=source,
+                       fields=fields, field_sem=np.full((a, 3), se), actuation=applied)
+
+
+def local_fits(setup: mc.Setup, recs: list[Measurement], prior: tuple[float, float]
+               ) -> tuple[F64, F64]:
+    """Each recording's fit (values (S, p) and the tool's standard errors (S, p)), the local
+    minimum from the truth: all recordings in one batched Levenberg–Marquardt (they share the
+    model, only the data differ), the standard errors from the result the calibration gives
+    (:func:`~magcilia.calibration.joint_result.joint_result` at each minimum)."""
+    lay = converged_layout(setup)
+    box = {**DEFAULT_BOUNDS, "youngs_modulus": YOUNGS_BOUNDS, **coil_bounds(setup)}
+    box = {n: box[n] for n in NAMES}
+    priors = {"height": prior}
+    problems = [joint_problem([m], setup, lay, box, NAMES, priors) for m in recs]
+    first = problems[0]
+    ry = np.stack([p.ry for p in problems])
+    x0 = np.array([{**setup.params(), "youngs_modulus": setup.youngs_modulus}[n] for n in NAMES])
+
+    def residuals(x: F64, which: NDArray[np.intp]) -> F64:
+        r, _ = first.linear(first.model(x))
+        r = r - first.ry + ry[which]
+        prior_rows = (x[:, :1] - prior[0]) / prior[1]
+        out = np.concatenate([r, prior_rows], axis=1)
+        out[~np.isfinite(out).all(axis=1)] = np.nan
+        return out
+
+    lo, hi = first.bounds[:, 0], first.bounds[:, 1]
+    fits = fit_batch(residuals, np.repeat(x0[None], len(recs), axis=0), lo, hi, maxiter=60)
+    results = [joint_result(p, lay, setup, box, x, False, time.perf_counter())
+               for p, x in zip(problems, fits.x, strict=True)]
+    se = np.array([[r.uncertainty.stderr[n] for n in NAMES] for r in results])
+    return fits.x, se
