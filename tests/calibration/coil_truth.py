@@ -10,19 +10,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 import magcilia as mc
-from magcilia.calibration.joint import YOUNGS_BOUNDS, joint_problem
+from magcilia.calibration.coil_model import coil_bounds
+from magcilia.calibration.joint import YOUNGS_BOUNDS, joint_problem, polish
 from magcilia.calibration.joint_result import joint_result
 from magcilia.calibration.layout import converged_layout
 from magcilia.calibration.problem import DEFAULT_BOUNDS
-from magcilia.calibration.coil_model import coil_bounds
 from magcilia.fitting import fit_batch
 from magcilia.io.recordings import Measurement
 from magcilia.model.exact import exact_field
 
 F64 = NDArray[np.float64]
-#: the force-sensor cilium (NOTES §8) at the paper's placement, modulus of the composite
-TRUTH = dict(height=3.26e-3, base_radius=1.8e-4, tip_radius=5e-5, youngs_modulus=5e5,
-             magnetization_scale=0.8)
+#: the force-sensor cilium (examples/force-sensor.toml: the paper's Table I cilium and placement,
+#: a 0.05 mm tip, the composite's modulus 0.669 MPa from docs/stiffness.md), magnetized at 0.8 of
+#: φ·M_Co (multi-domain particles below saturation, NOTES §2)
+TRUTH = {"height": 3.2613e-3, "base_radius": 1.801e-4, "tip_radius": 5e-5,
+         "youngs_modulus": 6.69e5, "magnetization_scale": 0.8}
 OFFSETS = np.array([2e-5, -3e-5, 4e-5])  # the Earth's field and the part's own, T
 NAMES = ("height", "base_radius", "x", "y", "z", "youngs_modulus", "magnetization_scale")
 
@@ -48,17 +50,20 @@ def recording(applied: F64, cilium: F64, se: float, rng: np.random.Generator,
                        fields=fields, field_sem=np.full((a, 3), se), actuation=applied)
 
 
-def local_fits(setup: mc.Setup, recs: list[Measurement], prior: tuple[float, float]
+def local_fits(setup: mc.Setup, recs: list[Measurement], heights: F64, sigma: float
                ) -> tuple[F64, F64]:
-    """Each recording's fit (values (S, p) and the tool's standard errors (S, p)), the local
-    minimum from the truth: all recordings in one batched Levenberg–Marquardt (they share the
-    model, only the data differ), the standard errors from the result the calibration gives
-    (:func:`~magcilia.calibration.joint_result.joint_result` at each minimum)."""
+    """Each recording's fit with its height prior (``heights`` (S,) ± ``sigma``, m: a measured
+    height, itself drawn around the truth), values (S, p) and the tool's standard errors (S, p),
+    the local minimum from the truth: all recordings in one batched Levenberg–Marquardt (they
+    share the model, only the data differ), each polished as the calibration polishes its best
+    fit (:func:`~magcilia.calibration.joint.polish`), the standard errors from the result the
+    calibration gives (:func:`~magcilia.calibration.joint_result.joint_result` at each
+    minimum)."""
     lay = converged_layout(setup)
     box = {**DEFAULT_BOUNDS, "youngs_modulus": YOUNGS_BOUNDS, **coil_bounds(setup)}
     box = {n: box[n] for n in NAMES}
-    priors = {"height": prior}
-    problems = [joint_problem([m], setup, lay, box, NAMES, priors) for m in recs]
+    problems = [joint_problem([m], setup, lay, box, NAMES, {"height": (float(h), sigma)})
+                for m, h in zip(recs, heights, strict=True)]
     first = problems[0]
     ry = np.stack([p.ry for p in problems])
     x0 = np.array([{**setup.params(), "youngs_modulus": setup.youngs_modulus}[n] for n in NAMES])
@@ -66,14 +71,15 @@ def local_fits(setup: mc.Setup, recs: list[Measurement], prior: tuple[float, flo
     def residuals(x: F64, which: NDArray[np.intp]) -> F64:
         r, _ = first.linear(first.model(x))
         r = r - first.ry + ry[which]
-        prior_rows = (x[:, :1] - prior[0]) / prior[1]
+        prior_rows = (x[:, :1] - heights[which, None]) / sigma
         out = np.concatenate([r, prior_rows], axis=1)
         out[~np.isfinite(out).all(axis=1)] = np.nan
         return out
 
     lo, hi = first.bounds[:, 0], first.bounds[:, 1]
     fits = fit_batch(residuals, np.repeat(x0[None], len(recs), axis=0), lo, hi, maxiter=60)
+    best = np.array([polish(p, x) for p, x in zip(problems, fits.x, strict=True)])
     results = [joint_result(p, lay, setup, box, x, False, time.perf_counter())
-               for p, x in zip(problems, fits.x, strict=True)]
+               for p, x in zip(problems, best, strict=True)]
     se = np.array([[r.uncertainty.stderr[n] for n in NAMES] for r in results])
-    return fits.x, se
+    return best, se

@@ -94,24 +94,28 @@ def cilium_fields(base: Setup, fields: F64, prm: Mapping[str, F64]) -> F64:
         Applied uniform fields, T.
     prm : mapping of str to ndarray, shape (N,)
         height, base_radius, x, y, z (m), youngs_modulus (Pa) and magnetization_scale of each
-        set (the latter two default to ``base``'s).
+        set (the latter two default to ``base``'s), optionally tip_radius (m; a frustum's, default
+        ``base``'s; a sharp tip, 0, gets NaN: a field's couple bends a sharp cone infinitely).
     """
     n = np.asarray(prm["x"]).size
     cols = {k: np.broadcast_to(np.asarray(prm.get(k, default), dtype=np.float64), (n,))
             for k, default in (("height", base.cilium.height),
                                ("base_radius", base.cilium.base_radius), ("x", 0.0),
                                ("y", 0.0), ("z", 0.0), ("youngs_modulus", base.youngs_modulus),
-                               ("magnetization_scale", base.material.magnetization_scale))}
+                               ("magnetization_scale", base.material.magnetization_scale),
+                               ("tip_radius", base.cilium.tip_radius))}
     b = np.asarray(fields, dtype=np.float64).reshape(-1, 3)
     out = np.full((n, b.shape[0], 3), np.nan)
     sets = _Sets.valid(base, cols)
-    if base.cilium.profile is None and base.cilium.tip_radius == 0.0:
-        return out  # a sharp cone: a field's couple bends it infinitely (bend refuses it)
+    tip = cols["tip_radius"]
+    if base.cilium.profile is None:  # a sharp cone: a field's couple bends it infinitely
+        sets = sets.take(np.flatnonzero(tip[sets.index] > 0.0))
     if not sets.index.size:
         return out
     relative = cols["magnetization_scale"][sets.index] / base.material.magnetization_scale
     magnetization = base.spec.magnetization * relative
-    shapes = field_batch(base, sets.height, sets.radius, sets.modulus, magnetization, b)
+    shapes = field_batch(base, sets.height, sets.radius, sets.modulus, magnetization, b,
+                         tip[sets.index] if base.cilium.profile is None else None)
     out[sets.index] = bent_fields(base, sets, shapes.s, shapes.angles, shapes.points, shapes.ok,
                                   shapes.planes, relative)
     return out

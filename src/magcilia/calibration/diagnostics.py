@@ -95,6 +95,9 @@ LOOSE_FRACTION = 0.25
 CORRELATION_LIMIT = 0.99
 #: the lengths that scale together in the scale symmetry (NOTES §8), with the sensor depth
 LENGTHS = ("height", "base_radius", "x", "y", "z")
+#: the lengths the scale symmetry scales: the fitted ones and the held tip radius (a coil fit's
+#: null-space test holds it free: an assumed tip radius must not fix the size)
+SCALED = (*LENGTHS, "tip_radius")
 #: a null space holds the scale direction when the part of that (unit) direction outside it is
 #: below this (finite-difference noise tilts the null vectors slightly)
 SCALE_TOLERANCE = 0.05
@@ -350,7 +353,7 @@ def scale_direction(names: Sequence[str], values: Mapping[str, float], depth: fl
     """The change of each parameter of ``names`` when every length grows by a factor 1 + ε,
     per ε (SI): the length itself (the base's height above the element, z + ``depth``, for z),
     0 for the others (offsets, scales, a modulus). Shape (p,)."""
-    return np.array([(values[n] + depth if n == "z" else values[n]) if n in LENGTHS else 0.0
+    return np.array([(values[n] + depth if n == "z" else values[n]) if n in SCALED else 0.0
                      for n in names], dtype=np.float64)
 
 
@@ -414,10 +417,10 @@ def scale_remedy(load_kinds: frozenset[str], modulus_free: bool) -> str:
         load = ("the Young's modulus held at a measured value or given a prior"
                 + (f", or a {other} recording beside the {min(load_kinds)} one" if other else ""))
     else:
-        load = ("load data: a force or flow recording (with the Young's modulus known, or both "
-                "kinds together)")
+        load = ("a load of known size: a force or flow recording (with the Young's modulus "
+                "known, or both kinds together)")
     return ("a size measured by hand as a prior (--prior height=VALUE:SIGMA, or base_radius; "
-            f"API priors={{'height': (value, sigma)}}), or {load} (a load of known size)")
+            f"API priors={{'height': (value, sigma)}}), or {load}")
 
 
 def undetermined_remedy(y_sign_known: bool) -> str:

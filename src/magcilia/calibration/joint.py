@@ -45,6 +45,7 @@ from magcilia.calibration.ambiguity import (
     best_of,
     mirror_starts,
 )
+from magcilia.calibration.coil_model import coil_bounds
 from magcilia.calibration.diagnostics import LENGTHS, placement_remedy
 from magcilia.calibration.experiments import (
     SEM_FLOOR,
@@ -69,7 +70,6 @@ from magcilia.calibration.layout import (
     layout_error,
 )
 from magcilia.calibration.posterior import sample_problem
-from magcilia.calibration.coil_model import coil_bounds
 from magcilia.calibration.problem import (
     COIL_PARAMETERS,
     DEFAULT_BOUNDS,

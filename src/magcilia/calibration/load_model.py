@@ -133,13 +133,16 @@ class _Sets:
         values = [np.asarray(prm[k], dtype=np.float64).reshape(-1) for k in names]
         height, radius, x, y, z, modulus = values
         cilium, spec = base.cilium, base.spec
+        # a frustum's tip radius: the base's, or each set's (``prm["tip_radius"]``, m)
+        tip = np.broadcast_to(np.asarray(prm.get("tip_radius", cilium.tip_radius),
+                                         dtype=np.float64), height.shape)
         shown = np.ones(height.size, dtype=bool)
         for key, val in zip(names, values, strict=True):
             shown &= PARAMETERS[key].accepts(val)
         if cilium.profile is None:
             with np.errstate(divide="ignore", invalid="ignore"):
-                taper = cilium.tip_radius / radius
-            shown &= cilium.tip_radius <= radius
+                taper = tip / radius
+            shown &= (tip <= radius) & (tip >= 0.0)
             shown &= (spec.depth + z > 0.0) | (np.hypot(x, y) > radius * np.maximum(taper, 1.0))
         else:
             shown[:] = False
@@ -147,13 +150,15 @@ class _Sets:
             try:
                 base.replace(height=float(height[i]), base_radius=float(radius[i]),
                              x=float(x[i]), y=float(y[i]), z=float(z[i]),
-                             youngs_modulus=float(modulus[i]))
+                             youngs_modulus=float(modulus[i]),
+                             **({} if cilium.profile is not None
+                                else {"tip_radius": float(tip[i])}))
                 shown[i] = True
             except MagciliaError:
                 pass
         keep = np.flatnonzero(shown)
         if cilium.profile is None:
-            knots, radii = body.frustum_shape(cilium.tip_radius / radius[keep])
+            knots, radii = body.frustum_shape(tip[keep] / radius[keep])
         else:
             knots, rho = cilium.shape
             radii = np.broadcast_to(rho, (keep.size, rho.size))

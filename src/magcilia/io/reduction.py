@@ -215,7 +215,7 @@ class _Reduction:
             comps = np.stack(applied)
             with np.errstate(invalid="ignore"):
                 far_applied = np.asarray(np.isfinite(comps) & (np.abs(comps) > MAX_FIELD_T))
-            self._note("far", far_applied.any(axis=0), lambda i: (
+            self._note("far", np.asarray(far_applied.any(axis=0)), lambda i: (
                 f"{source}: sample {offset + i + 1} has an applied field "
                 f"({', '.join(f'{c:.6g}' for c in comps[:, i])}) T beyond ±MAX_FIELD_T = "
                 f"{MAX_FIELD_T:g} T; actuation_x_T, actuation_y_T, actuation_z_T must be in "
@@ -470,11 +470,11 @@ class _Reduction:
         if self.coil is not None:
             applied = self._applied()[has]
             if self.flagged:
-                metadata["notes"] = [
+                metadata["notes"] = [(
                     f"{self.flagged} coil sample(s) dropped: the total field at the element "
                     f"beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
                     f"gauss) or its flip field ({self.sensor.flip_field / GAUSS:g} gauss); lower "
-                    "the coil's field or pass the sensor that was used"]
+                    "the coil's field or pass the sensor that was used")]
         return Measurement(
             angles=(np.radians(self.conds.imag[has]) if loads is None and applied is None
                     else np.zeros(int(has.sum()))), volts=volts[has], sem=sem[has],

@@ -94,7 +94,7 @@ def in_plane(fields: F64) -> tuple[F64, F64, F64]:
 
 
 def field_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, magnetizations: F64,
-                fields: F64) -> FieldShapes:
+                fields: F64, tip_radii: F64 | None = None) -> FieldShapes:
     """Bent shapes of ``N`` cilia magnetized along their tangent under ``a`` uniform fields, as
     :func:`magcilia.bend` gives them with ``actuation=Actuation.uniform(B)`` (to Newton's
     tolerance).
@@ -112,6 +112,8 @@ def field_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, magnet
         magnetization scale).
     fields : ndarray, shape (a, 3)
         The applied uniform fields, T, board frame.
+    tip_radii : ndarray, shape (N,), optional
+        Each frustum's tip radius, m (default the setup's).
 
     Returns
     -------
@@ -124,10 +126,14 @@ def field_batch(setup: Setup, heights: F64, base_radii: F64, moduli: F64, magnet
     planes, bh, bz = in_plane(fields)
     n_set, n_field = heights.size, planes.size
     cilium = setup.cilium
-    tapers = cilium.tip_radius / base_radii if cilium.profile is None else np.ones(n_set)
+    tips = cilium.tip_radius if tip_radii is None else np.asarray(tip_radii, dtype=np.float64)
+    tapers = tips / base_radii if cilium.profile is None else np.ones(n_set)
     thin = int(np.argmin(tapers)) if n_set else 0
     norm = _Normalised(replace(cilium, height=float(heights[thin]),
-                               base_radius=float(base_radii[thin])), False) if n_set else None
+                               base_radius=float(base_radii[thin]),
+                               tip_radius=float(tapers[thin] * base_radii[thin])
+                               if cilium.profile is None else cilium.tip_radius),
+                       False) if n_set else None
     s_out = heights[:, None] * np.linspace(0.0, 1.0, OUTPUT_POINTS)
     angles = np.full((n_set, n_field, OUTPUT_POINTS), np.nan)
     points = np.full((n_set, n_field, OUTPUT_POINTS, 3), np.nan)
