@@ -8,14 +8,14 @@ import time
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import least_squares
 
 import magcilia as mc
 from magcilia.calibration.coil_model import coil_bounds
-from magcilia.calibration.joint import YOUNGS_BOUNDS, joint_problem, polish
+from magcilia.calibration.joint import YOUNGS_BOUNDS, joint_problem
 from magcilia.calibration.joint_result import joint_result
 from magcilia.calibration.layout import converged_layout
 from magcilia.calibration.problem import DEFAULT_BOUNDS
-from magcilia.fitting import fit_batch
 from magcilia.io.recordings import Measurement
 from magcilia.model.exact import exact_field
 
@@ -54,10 +54,10 @@ def local_fits(setup: mc.Setup, recs: list[Measurement], heights: F64, sigma: fl
                ) -> tuple[F64, F64]:
     """Each recording's fit with its height prior (``heights`` (S,) ± ``sigma``, m: a measured
     height, itself drawn around the truth), values (S, p) and the tool's standard errors (S, p),
-    the local minimum from the truth: all recordings in one batched Levenberg–Marquardt (they
-    share the model, only the data differ), each polished as the calibration polishes its best
-    fit (:func:`~magcilia.calibration.joint.polish`), the standard errors from the result the
-    calibration gives (:func:`~magcilia.calibration.joint_result.joint_result` at each
+    the local minimum from the truth: all recordings at once (they
+    share the model, only the data differ): a trust-region least-squares fit from the truth
+    (SciPy's, the Jacobian's columns by central differences in one model call), the standard
+    errors from the result the calibration gives (:func:`~magcilia.calibration.joint_result.joint_result` at each
     minimum)."""
     lay = converged_layout(setup)
     box = {**DEFAULT_BOUNDS, "youngs_modulus": YOUNGS_BOUNDS, **coil_bounds(setup)}
@@ -71,15 +71,27 @@ def local_fits(setup: mc.Setup, recs: list[Measurement], heights: F64, sigma: fl
     def residuals(x: F64, which: NDArray[np.intp]) -> F64:
         r, _ = first.linear(first.model(x))
         r = r - first.ry + ry[which]
-        prior_rows = (x[:, :1] - heights[which, None]) / sigma
-        out = np.concatenate([r, prior_rows], axis=1)
-        out[~np.isfinite(out).all(axis=1)] = np.nan
-        return out
+        return np.concatenate([r, (x[:, :1] - heights[which, None]) / sigma], axis=1)
 
-    lo, hi = first.bounds[:, 0], first.bounds[:, 1]
-    fits = fit_batch(residuals, np.repeat(x0[None], len(recs), axis=0), lo, hi, maxiter=60)
-    best = np.array([polish(p, x) for p, x in zip(problems, fits.x, strict=True)])
+    p = x0.size
+    h = 1e-6
+    best = []
+    for i in range(len(recs)):  # a trust-region fit in coordinates relative to the truth
+        one = np.array([i])
+
+        def fun(z: F64, i: np.ndarray = one) -> F64:
+            return residuals((x0 * (1.0 + z))[None], i)[0]
+
+        def jac(z: F64, i: np.ndarray = one) -> F64:
+            probe = x0 * (1.0 + np.concatenate([z + np.eye(p) * h, z - np.eye(p) * h]))
+            r = residuals(probe, np.repeat(i, 2 * p))  # every column in one model call
+            return np.asarray(((r[:p] - r[p:]) / (2.0 * h)).T)
+
+        fit = least_squares(fun, np.zeros(p), jac=jac, method="trf", x_scale="jac",
+                            bounds=(first.bounds[:, 0] / x0 - 1.0, first.bounds[:, 1] / x0 - 1.0),
+                            xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=400)
+        best.append(x0 * (1.0 + fit.x))
     results = [joint_result(p, lay, setup, box, x, False, time.perf_counter())
                for p, x in zip(problems, best, strict=True)]
     se = np.array([[r.uncertainty.stderr[n] for n in NAMES] for r in results])
-    return best, se
+    return np.array(best), se

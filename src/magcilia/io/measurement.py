@@ -206,17 +206,17 @@ class Measurement(Display):
         got 3-axis field data; leave the data out
         """
         got = []
-        if self.actuation is not None:
-            got.append("applied coil fields (a coil experiment)")
         if self.load_kind is not None:
             got.append(f"{self.load_kind} loads (a load experiment)")
         if self.fields is not None:
             got.append("3-axis field data")
         if np.any(self.azimuths != 0.0):
             got.append("azimuths " + ", ".join(f"{a:g}" for a in self._azimuths_deg()) + " deg")
-        if got:
+        coil = "applied coil fields (a coil experiment)" if self.actuation is not None else ""
+        if got or coil:
+            what = " at ".join(got) + (f" under {coil}" if got and coil else coil)
             raise MagciliaError(f"{printable(str(self.source))}: {user} needs a single-axis "
-                                f"output at azimuth 0; got {' at '.join(got)}; {fix}")
+                                f"output at azimuth 0; got {what}; {fix}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (SI: angles in rad, volts in V)."""

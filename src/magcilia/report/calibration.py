@@ -418,9 +418,10 @@ def joint_fit_figure(result: CalibrationResult) -> Figure:
 
 
 def _coil_panel(ax: Axes, e: ExperimentFit, scale: float) -> None:
-    """A coil experiment's panel: the cilium's own part of each reading (the measured and the
-    fitted value less the offsets and the applied field as the sensor sees it, ``scale`` V/T
-    times B_x for an output) per condition, conditions ordered by the applied field."""
+    """A coil experiment's panel: the change of the cilium's own part of each reading as it
+    bends (the measured and the fitted value less the offsets, the applied field as the sensor
+    sees it (``scale`` V/T times B_x for an output) and the fitted value at the weakest applied
+    field, the cilium at rest) per condition, conditions ordered by the applied field."""
     assert e.actuation is not None
     order = np.lexsort(e.actuation.T[::-1])
     x = np.arange(order.size)
@@ -428,14 +429,15 @@ def _coil_panel(ax: Axes, e: ExperimentFit, scale: float) -> None:
         seen = (scale * e.actuation[:, 0])[:, None]
         measured = (e.measured[:, None] - e.offsets[0] - seen) * 1e3
         fitted = (e.fitted[:, None] - e.offsets[0] - seen) * 1e3
-        names, ylabel = ["output"], "output − S·B_x,coil − offset (mV)"
+        names, ylabel = ["output"], "cilium's output change (mV)"
     else:
         measured = (e.measured - e.offsets - e.actuation) * 1e6
         fitted = (e.fitted - e.offsets - e.actuation) * 1e6
-        names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "B − B_coil − offset (µT)"
+        names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "cilium's field change (µT)"
+    rest = fitted[int(np.argmin(np.linalg.norm(e.actuation, axis=1)))]  # the weakest field's
     for c, name in enumerate(names):
-        ax.plot(x, measured[order, c], "o", ms=3, color=f"C{c}", label=name)
-        ax.plot(x, fitted[order, c], "-", lw=0.8, color=f"C{c}")
+        ax.plot(x, measured[order, c] - rest[c], "o", ms=3, color=f"C{c}", label=name)
+        ax.plot(x, fitted[order, c] - rest[c], "-", lw=0.8, color=f"C{c}")
     top = float(np.max(np.linalg.norm(e.actuation, axis=1))) * 1e4
     ax.set_title(f"{Path(e.source).name}: coil, {x.size} applied fields up to {top:.3g} G "
                  "(points measured, lines fitted)", fontsize="small")
