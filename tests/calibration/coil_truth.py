@@ -54,11 +54,11 @@ def local_fits(setup: mc.Setup, recs: list[Measurement], heights: F64, sigma: fl
                ) -> tuple[F64, F64]:
     """Each recording's fit with its height prior (``heights`` (S,) ± ``sigma``, m: a measured
     height, itself drawn around the truth), values (S, p) and the tool's standard errors (S, p),
-    the local minimum from the truth: all recordings at once (they
-    share the model, only the data differ): a trust-region least-squares fit from the truth
-    (SciPy's, the Jacobian's columns by central differences in one model call), the standard
-    errors from the result the calibration gives (:func:`~magcilia.calibration.joint_result.joint_result` at each
-    minimum)."""
+    the local minimum from the truth by a trust-region least-squares fit (SciPy's, in coordinates
+    relative to the truth, the Jacobian's columns by central differences in one model call; the
+    recordings share one problem's model, only their data differ), the standard errors from the
+    result the calibration gives
+    (:func:`~magcilia.calibration.joint_result.joint_result` at each minimum)."""
     lay = converged_layout(setup)
     box = {**DEFAULT_BOUNDS, "youngs_modulus": YOUNGS_BOUNDS, **coil_bounds(setup)}
     box = {n: box[n] for n in NAMES}

@@ -21,7 +21,7 @@ from magcilia.calibration.layout import as_layout
 from magcilia.calibration.problem import DEFAULT_BOUNDS
 
 sys.path.insert(0, str(Path(__file__).parent))
-import coil_truth as ct  # noqa: E402
+import coil_truth as ct
 
 #: the coverage study: a 3-axis part with a ±2 mT linear range (the default sequence reaches
 #: 15 G), 0.5 nT standard error per condition (2000 samples of a ~20 nT RMS part), the paper's

@@ -1,36 +1,36 @@
 """Which column of a recording holds what, and in which unit: the column and unit mapping.
 
-A recording has up to eight *roles*, each read from one column (CSV), variable (MATLAB), channel
-(TDMS) or dataset (HDF5):
+A recording has up to thirteen *roles*, each read from one column (CSV), variable (MATLAB),
+channel (TDMS) or dataset (HDF5):
 
-========  ===========  ============  ===========================================
-role      default      dimension     becomes (:func:`magcilia.io.read_samples` key)
-========  ===========  ============  ===========================================
-angle     angle_deg    angle         ``angle_deg``, tilt in degrees
-voltage   voltage_V    voltage       ``voltage_V``, sensor output in volts
-time      time_s       time          ``time_s``, seconds
-setreset  setreset     (none)        ``setreset``, +1 set / −1 reset
-azimuth   azimuth_deg  angle         ``azimuth_deg``, tilt direction in degrees
-field_x   field_x_T    field         ``field_x_T``, 3-axis field B_x in tesla
-field_y   field_y_T    field         ``field_y_T``, B_y in tesla
-field_z   field_z_T    field         ``field_z_T``, B_z in tesla
-force     force_N      force         ``force_N``, known tip force in newtons
-flow      flow_m_per_s speed         ``flow_m_per_s``, known flow speed in m/s
-actuation_x actuation_x_T field      ``actuation_x_T``, applied (coil) field B_x in tesla
-actuation_y actuation_y_T field      ``actuation_y_T``, applied field B_y in tesla
-actuation_z actuation_z_T field      ``actuation_z_T``, applied field B_z in tesla
-========  ===========  ============  ===========================================
+===========  =============  =========  ====================================================
+role         default        dimension  becomes (:func:`magcilia.io.read_samples` key)
+===========  =============  =========  ====================================================
+angle        angle_deg      angle      ``angle_deg``, tilt in degrees
+voltage      voltage_V      voltage    ``voltage_V``, sensor output in volts
+time         time_s         time       ``time_s``, seconds
+setreset     setreset       (none)     ``setreset``, +1 set / −1 reset
+azimuth      azimuth_deg    angle      ``azimuth_deg``, tilt direction in degrees
+field_x      field_x_T      field      ``field_x_T``, 3-axis field B_x in tesla
+field_y      field_y_T      field      ``field_y_T``, B_y in tesla
+field_z      field_z_T      field      ``field_z_T``, B_z in tesla
+force        force_N        force      ``force_N``, known tip force in newtons
+flow         flow_m_per_s   speed      ``flow_m_per_s``, known flow speed in m/s
+actuation_x  actuation_x_T  field      ``actuation_x_T``, applied (coil) field B_x in tesla
+actuation_y  actuation_y_T  field      ``actuation_y_T``, applied field B_y in tesla
+actuation_z  actuation_z_T  field      ``actuation_z_T``, applied field B_z in tesla
+===========  =============  =========  ====================================================
+
+A *load recording* has a ``force`` or a ``flow`` column in place of the angle (one of them, not
+both, and no angle column): the cilium stands upright and bends under the load, toward the
+azimuth (:attr:`magcilia.io.recordings.Measurement.forces`, ``speeds``); force units N, mN, uN,
+nN; speed units m/s, mm/s, cm/s (``flow_mm_per_s`` spells mm/s in a name).
 
 A *coil recording* has the three ``actuation`` columns in place of the angle (all three, no
 angle, force or flow column): the applied uniform field at the cilium, board frame (a Helmholtz
 coil's current times its constant); the cilium stands upright and bends under the field's couple,
 and the sensor sees the applied field besides the cilium's
 (:attr:`magcilia.io.recordings.Measurement.actuation`).
-
-A *load recording* has a ``force`` or a ``flow`` column in place of the angle (one of them, not
-both, and no angle column): the cilium stands upright and bends under the load, toward the
-azimuth (:attr:`magcilia.io.recordings.Measurement.forces`, ``speeds``); force units N, mN, uN,
-nN; speed units m/s, mm/s, cm/s (``flow_mm_per_s`` spells mm/s in a name).
 
 The observable is either the single-axis output (voltage) or the 3-axis field (all three of
 field_x, field_y, field_z): a file with both, with only some of the field columns, or with set/reset
@@ -118,13 +118,14 @@ LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm
 def actuation_ids(components: Sequence[NDArray[np.float64]],
                   known: dict[tuple[float, float, float], int]) -> NDArray[np.float64]:
     """A coil recording's condition of each sample: the index (as a float) of its applied field
-    (B_x, B_y, B_z) (three arrays (s,), T) among the distinct fields seen so far, rounded to
+    (B_x, B_y, B_z) (three arrays (s,), T) among the distinct fields seen so far (a block's new
+    ones numbered in sorted order), rounded to
     :data:`ANGLE_DECIMALS` decimals of µT; ``known`` (field → index) is updated, so that blocks
     of one recording share their indices. NaN where a component is not finite.
 
     >>> known = {}
     >>> actuation_ids([np.array([1e-4, 0.0, 1e-4]), np.zeros(3), np.zeros(3)], known).tolist()
-    [0.0, 1.0, 0.0]
+    [1.0, 0.0, 1.0]
     """
     b = np.stack([np.asarray(c, dtype=np.float64).ravel() for c in components], axis=1)
     out = np.full(b.shape[0], np.nan)
