@@ -83,8 +83,8 @@ def test_parse_and_coerce() -> None:
      ("angle=x[deg],voltage=x[V]", (r"columns voltage must be a column other than the angle's "
                                    r"\(x\)")),
      ({"tilt": "Tilt"}, (r"columns must be a role: angle, voltage, time, setreset, azimuth, "
-                         r"field_x, field_y, field_z, force, flow, temperature, "
-                         r"temperature_celsius; got 'tilt'")),
+                         r"field_x, field_y, field_z, force, flow, actuation_x, actuation_y, "
+                         r"actuation_z, temperature, temperature_celsius; got 'tilt'")),
      (3, r"columns must be a Columns, a mapping")])
 def test_bad_mappings(value: Any, match: str) -> None:
     with pytest.raises(mc.MagciliaError, match=match) as info:
@@ -244,6 +244,7 @@ def test_a_wrong_decimal_mark_or_delimiter_is_never_misread(tmp_path: Path, text
      ({"required": ("angle",)}, ".csv", (r"required must be keys among angle_deg, voltage_V, "
                                         r"time_s, setreset, azimuth_deg, field_x_T, "
                                         r"field_y_T, field_z_T, force_N, flow_m_per_s, "
+                                        r"actuation_x_T, actuation_y_T, actuation_z_T, "
                                         r"observable; got 'angle'"))])
 def test_bad_reading_options(tmp_path: Path, kw: dict[str, Any], suffix: str,
                              match: str) -> None:

@@ -95,6 +95,9 @@ LOOSE_FRACTION = 0.25
 CORRELATION_LIMIT = 0.99
 #: the lengths that scale together in the scale symmetry (NOTES §8), with the sensor depth
 LENGTHS = ("height", "base_radius", "x", "y", "z")
+#: the lengths the scale symmetry scales: the fitted ones and the held tip radius (a coil fit's
+#: null-space test holds it free: an assumed tip radius must not fix the size)
+SCALED = (*LENGTHS, "tip_radius")
 #: a null space holds the scale direction when the part of that (unit) direction outside it is
 #: below this (finite-difference noise tilts the null vectors slightly)
 SCALE_TOLERANCE = 0.05
@@ -350,7 +353,7 @@ def scale_direction(names: Sequence[str], values: Mapping[str, float], depth: fl
     """The change of each parameter of ``names`` when every length grows by a factor 1 + ε,
     per ε (SI): the length itself (the base's height above the element, z + ``depth``, for z),
     0 for the others (offsets, scales, a modulus). Shape (p,)."""
-    return np.array([(values[n] + depth if n == "z" else values[n]) if n in LENGTHS else 0.0
+    return np.array([(values[n] + depth if n == "z" else values[n]) if n in SCALED else 0.0
                      for n in names], dtype=np.float64)
 
 
@@ -389,8 +392,9 @@ def undetermined_warning(jac: F64, null: F64, undetermined: NDArray[np.bool_],
         return CalibrationWarning("undetermined", f"{head} ({other_remedy})", involved)
     text = (f"{head}. {'One of them is' if count > 1 else 'It is'} the scale symmetry: every "
             "length scaled together (height, base radius and the placement x, y, z + sensor "
-            "depth) leaves the field unchanged, so no tilt recording, at any azimuth or with any "
-            f"field component, fixes the size; what fixes it is {scale_remedy}")
+            "depth) leaves the field unchanged, so no tilt or coil recording (a uniform field "
+            "bends the cilium alike at any size), at any azimuth or with any field component, "
+            f"fixes the size; what fixes it is {scale_remedy}")
     if count > 1:
         text += f"; for the other combination(s), {other_remedy}"
     return CalibrationWarning("undetermined", text, involved)
@@ -413,8 +417,8 @@ def scale_remedy(load_kinds: frozenset[str], modulus_free: bool) -> str:
         load = ("the Young's modulus held at a measured value or given a prior"
                 + (f", or a {other} recording beside the {min(load_kinds)} one" if other else ""))
     else:
-        load = ("load data: a force or flow recording (with the Young's modulus known, or both "
-                "kinds together)")
+        load = ("a load of known size: a force or flow recording (with the Young's modulus "
+                "known, or both kinds together)")
     return ("a size measured by hand as a prior (--prior height=VALUE:SIGMA, or base_radius; "
             f"API priors={{'height': (value, sigma)}}), or {load}")
 

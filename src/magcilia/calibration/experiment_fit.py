@@ -42,6 +42,8 @@ class ExperimentFit(Display):
         A load experiment's kind (None for a tilt experiment).
     loads : ndarray, shape (a,), or None
         Its loads: tip forces, N, or flow speeds, m/s (the angles are then 0).
+    actuation : ndarray, shape (a, 3), or None
+        A coil experiment's applied uniform fields, T (the angles are then 0).
     """
 
     source: str
@@ -57,6 +59,7 @@ class ExperimentFit(Display):
     values: int
     load_kind: str | None = None
     loads: F64 | None = None
+    actuation: F64 | None = None
 
     def unit(self) -> str:
         """The SI unit of the data ("V" or "T")."""
@@ -76,6 +79,9 @@ class ExperimentFit(Display):
             unit = "mN" if self.load_kind == "force" else "mm/s"
             what = (f"{self.loads.size} {'forces' if self.load_kind == 'force' else 'speeds'} "
                     f"{self.loads.min() * 1e3:.4g}..{self.loads.max() * 1e3:.4g} {unit}")
+        if self.actuation is not None:
+            b = np.linalg.norm(self.actuation, axis=1) * 1e4
+            what = f"{b.size} applied fields {b.min():.3g}..{b.max():.3g} G"
         return (f"{self.source}: {self.observable}, {what} at azimuth {az} "
                 f"deg; RMS {rms}, chi2 {self.chi2:.4g} for {self.values} values; {off}")
 
@@ -98,7 +104,8 @@ class ExperimentFit(Display):
                 f"rms_{u}": self.rms, "chi2": self.chi2, "values": self.values,
                 **({} if self.loads is None else {
                     "force_N" if self.load_kind == "force" else "speed_m_per_s":
-                        self.loads.tolist()})}
+                        self.loads.tolist()}),
+                **({} if self.actuation is None else {"actuation_T": self.actuation.tolist()})}
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> ExperimentFit:
@@ -116,4 +123,6 @@ class ExperimentFit(Display):
                    residuals=arr(f"residual_{u}"), offsets=arr(f"offsets_{u}"),
                    rms=float(doc[f"rms_{u}"]), chi2=float(doc["chi2"]),
                    values=int(doc["values"]), load_kind=kind,
-                   loads=None if loads is None else np.asarray(loads, dtype=np.float64))
+                   loads=None if loads is None else np.asarray(loads, dtype=np.float64),
+                   actuation=(None if doc.get("actuation_T") is None
+                              else np.asarray(doc["actuation_T"], dtype=np.float64)))

@@ -45,6 +45,7 @@ from magcilia.calibration.ambiguity import (
     best_of,
     mirror_starts,
 )
+from magcilia.calibration.coil_model import coil_bounds
 from magcilia.calibration.diagnostics import LENGTHS, placement_remedy
 from magcilia.calibration.experiments import (
     SEM_FLOOR,
@@ -69,7 +70,13 @@ from magcilia.calibration.layout import (
     layout_error,
 )
 from magcilia.calibration.posterior import sample_problem
-from magcilia.calibration.problem import DEFAULT_BOUNDS, GEOMETRY, LOAD_PARAMETER, Problem
+from magcilia.calibration.problem import (
+    COIL_PARAMETERS,
+    DEFAULT_BOUNDS,
+    GEOMETRY,
+    LOAD_PARAMETER,
+    Problem,
+)
 from magcilia.calibration.result import CalibrationResult
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_ranges
@@ -164,6 +171,8 @@ def _check_experiment(i: int, data: object) -> Measurement:
                else [("voltage_V", data.volts)])
     if data.loads is not None:
         arrays.append(("force_N" if data.forces is not None else "speed_m_per_s", data.loads))
+    if data.actuation is not None:
+        arrays.append(("actuation_T", data.actuation))
     if data.speeds is not None:
         fluid_of(data)
     for what, values in arrays:
@@ -340,10 +349,17 @@ def calibrate_joint(
                    if isinstance(e, RecordedExperiment)]
     priors = {**given, **(priors or {})}
     has_loads = any(e.loads is not None for e in experiments)
-    allowed = JOINT_PARAMETERS + ((LOAD_PARAMETER,) if has_loads else ())
+    coils = [e for e in experiments if e.actuation is not None]
+    allowed = JOINT_PARAMETERS + ((LOAD_PARAMETER,) if has_loads or coils else ())
+    if coils:  # the magnetization bends the cilium: a search parameter, not a closed form
+        allowed += COIL_PARAMETERS[:1 + any(e.fields is None for e in coils)]
+        fit_scale = False
     if any(e.forces is not None for e in experiments) and initial.cilium.tip_radius == 0.0:
         raise v.fail("initial tip_radius", 0.0, "positive for force experiments (a tip force on "
                      "a sharp cone bends it infinitely); give the measured tip radius")
+    if coils and initial.cilium.profile is None and initial.cilium.tip_radius == 0.0:
+        raise v.fail("initial tip_radius", 0.0, "positive for coil experiments (a field's "
+                     "couple on a sharp cone bends it infinitely); give the measured tip radius")
     starts = v.integer("starts", starts, 1)
     held = dict(fixed or {})
     for name, value in held.items():
@@ -358,7 +374,8 @@ def calibrate_joint(
             name == LOAD_PARAMETER) else ""
         raise v.fail("bounds key", name, "one of " + ", ".join(allowed) + hint)
     merged = v.intervals("bounds", bounds, {**DEFAULT_BOUNDS, **(
-        {LOAD_PARAMETER: YOUNGS_BOUNDS} if has_loads else {})})
+        {LOAD_PARAMETER: YOUNGS_BOUNDS} if has_loads or coils else {}),
+        **(coil_bounds(initial) if coils else {})})
     box: dict[str, tuple[float, float]] = {
         n: (float(merged[n][0]), float(merged[n][1])) for n in allowed}
     check_ranges(box)
@@ -366,7 +383,8 @@ def calibrate_joint(
         box[n] = (val, val)
     if held:
         initial = initial.replace(**held)
-    init = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus}
+    init = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus,
+            "sensitivity": initial.sensor.sensitivity}
     for name in allowed:
         lo, hi = box[name]
         tol = 1e-9 * max(abs(lo), abs(hi), 1e-9)
@@ -386,7 +404,7 @@ def calibrate_joint(
     gen = np.random.default_rng(rng)
     x_init = np.clip([init[n] for n in names], problem.bounds[:, 0], problem.bounds[:, 1])
     minima, minima_cost = np.zeros((0, len(names))), np.zeros(0)
-    if names and has_loads:
+    if names and has_loads and not coils:
         x, minima, minima_cost = _search_loads(problem, terms, initial, lay, box, checked,
                                                fit_scale, x_init, gen, starts)
     elif names:

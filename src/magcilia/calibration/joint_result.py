@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from magcilia._errors import MagciliaError
 from magcilia.calibration.covariance import ParameterCovariance
 from magcilia.calibration.diagnostics import (
+    LOOSE_FRACTION,
     CalibrationWarning,
     at_bound,
     correlated,
@@ -72,24 +73,40 @@ def _uncertainty(problem: Problem, x: F64, scale: float, chi2: float
     jac = np.concatenate([data_jac / math.sqrt(factor), prior_rows], axis=0)
     warns: list[CalibrationWarning] = []
     cov, null, undetermined = equilibrated_pinv(jac)
+    values = dict(zip(problem.names, x.tolist(), strict=True))
+    null_jac, null_names, null_open = jac, names, undetermined
+    if problem.table.coils and problem.base.cilium.profile is None and x.size:
+        # the null-space test with the held tip radius free: the taper of an assumed tip must
+        # not break the scale symmetry (a coil's uniform field bends the cilium alike at any
+        # size: NOTES §8), so its direction is judged on the real body's symmetry
+        null_jac, tip = _with_tip_column(problem, x, scale, jac, factor)
+        _, null, null_open = equilibrated_pinv(null_jac)
+        undetermined = null_open[:-1]
+        null_names = [*names, "tip_radius"]
+        values["tip_radius"] = tip
     units = np.array([problem.base.material.magnetization_scale
-                      if n == "magnetization_scale" else 1.0 for n in names])
+                      if n == "magnetization_scale" and problem.fit_scale else 1.0
+                      for n in names])
     cov = cov * np.outer(units, units)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se[undetermined] = np.inf
-    values = dict(zip(problem.names, x.tolist(), strict=True))
     if not null.size and problem.priors:  # determined, but perhaps by the priors alone
-        _, data_null, data_open = equilibrated_pinv(data_jac)
+        data_rows = null_jac[:problem.y.size]
+        _, data_null, data_open = equilibrated_pinv(data_rows)
         if data_null.size:
-            warns.append(prior_only_warning(data_jac, data_null, data_open, names, values,
+            warns.append(prior_only_warning(data_rows, data_null, data_open, null_names, values,
                                             problem.base.sensor.depth, tuple(problem.priors)))
     if null.size:
         warns.append(undetermined_warning(
-            jac, null, undetermined, names, values, problem.base.sensor.depth,
+            null_jac, null, null_open, null_names, values, problem.base.sensor.depth,
             "these experiments", scale_remedy(
                 frozenset(str(problem.measurements[e].load_kind) for e, *_ in problem.load_blocks),
                 LOAD_PARAMETER in problem.names and LOAD_PARAMETER not in problem.priors),
             undetermined_remedy(y_sign_determined(problem.measurements))))
+    if problem.table.coils and not null.size and x.size:
+        loose = loose_combinations(cov[:x.size, :x.size], problem.bounds, problem.names)
+        if loose is not None:
+            warns.append(loose)
     if dof <= 0:
         warns.append(CalibrationWarning(
             "no_degrees_of_freedom", f"{problem.y.size} data values for {p} parameters: no "
@@ -98,6 +115,50 @@ def _uncertainty(problem: Problem, x: F64, scale: float, chi2: float
         corr = cov / np.outer(se, se)
     warns += correlated(names, corr)
     return tuple(names), cov, se, tuple(warns), factor > 1.0
+
+
+def loose_combinations(cov: F64, bounds: F64, names: tuple[str, ...]
+                       ) -> CalibrationWarning | None:
+    """The ``"undetermined"`` warning for combinations of the search parameters that the data
+    leave open in practice though not numerically: the covariance ``cov`` (p, p), SI, in units of
+    each parameter's bound width (``bounds`` (p, 2)) has eigen-directions whose standard error
+    exceeds :data:`~magcilia.calibration.diagnostics.LOOSE_FRACTION` of the box (the Fisher
+    information along them is too small for the bounds not to decide; e.g. coil fields along one
+    axis only); None when there are none."""
+    width = bounds[:, 1] - bounds[:, 0]
+    scaled = cov / np.outer(width, width)
+    if not np.isfinite(scaled).all():
+        return None
+    value, vector = np.linalg.eigh(0.5 * (scaled + scaled.T))
+    open_ = value > LOOSE_FRACTION**2
+    if not open_.any():
+        return None
+    involved = tuple(n for n, w in zip(names, np.abs(vector[:, open_]).max(axis=1), strict=True)
+                     if w > 0.3)
+    worst = float(np.sqrt(value.max()))
+    return CalibrationWarning("undetermined", (
+        f"the data leave {int(open_.sum())} combination(s) of {', '.join(involved)} "
+        f"practically undetermined: along it the standard error is {worst:.2g} of the search "
+        "bounds (the bounds, not the data, confine it); apply fields along more directions and "
+        "at more magnitudes, or give a prior or another experiment (a load, a tilt) for them"),
+        involved)
+
+
+def _with_tip_column(problem: Problem, x: F64, scale: float, jac: F64, factor: float
+                     ) -> tuple[F64, float]:
+    """``jac`` (data rows then prior rows) with a last column for the held tip radius (its
+    central difference, the data rows weighted as ``jac``'s, zero prior rows), and the tip radius,
+    m."""
+    tip = problem.base.cilium.tip_radius
+    h = 1e-4 * tip
+    cols = problem.params(x[None, :])
+    u = problem.model({**{k: np.repeat(v, 2) for k, v in cols.items()},
+                       "tip_radius": np.array([tip + h, tip - h])})
+    column = np.zeros(jac.shape[0])
+    column[:problem.y.size] = (scale * (u[0] - u[1]) / (2.0 * h) * problem.w
+                               / math.sqrt(factor))
+    column = np.where(np.isfinite(column), column, 0.0)
+    return np.concatenate([jac, column[:, None]], axis=1), float(tip)
 
 
 def _fitted_modulus(problem: Problem, initial: Setup, values: Mapping[str, float],
@@ -132,9 +193,11 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
     offsets = problem.offsets(u[0], scale)
     values = {n: float(x[i]) if n in problem.names else float(initial.params()[n])
               for i, n in enumerate(problem.names)}
-    held_values = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus}
+    held_values = {**initial.params(), LOAD_PARAMETER: initial.youngs_modulus,
+                   "sensitivity": initial.sensor.sensitivity}
     values.update({n: float(held_values[n]) for n in problem.all_names if n not in values})
-    fitted_scale = initial.material.magnetization_scale * scale
+    fitted_scale = (values["magnetization_scale"] if "magnetization_scale" in problem.all_names
+                    else initial.material.magnetization_scale * scale)
     names, cov, se, found, inflated = _uncertainty(problem, x, scale, chi2_data)
     labels = offset_labels(problem)
     for k, name in enumerate(labels):
@@ -148,7 +211,7 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
     dof = problem.y.size - len(names)
     output_offsets = [offsets[g] for g, key in enumerate(problem.bias_keys) if key.axis is None]
     fitted_setup = initial.replace(
-        **{n: values[n] for n in problem.all_names},
+        **{n: values[n] for n in problem.all_names if n != "magnetization_scale"},
         **_fitted_modulus(problem, initial, values, stderr), n_loops=layout.n_loops,
         dipoles_per_loop=layout.dipoles_per_loop, ring=layout.ring,
         magnetization_scale=fitted_scale,
@@ -170,7 +233,8 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
             rms=float(np.sqrt(np.mean((problem.y[rows] - model_full[rows]) ** 2))),
             chi2=float(weighted @ weighted), values=int(problem.y[rows].size),
             load_kind=e.load_kind,
-            loads=None if e.loads is None else np.asarray(e.loads)))
+            loads=None if e.loads is None else np.asarray(e.loads),
+            actuation=None if e.actuation is None else np.asarray(e.actuation)))
     notes: list[CalibrationWarning] = list(at_bound(
         {n: values[n] for n in problem.names}, {n: box[n] for n in problem.names},
         frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)))

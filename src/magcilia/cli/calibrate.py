@@ -7,7 +7,7 @@ import click
 from magcilia._atomic import staged_directory
 from magcilia._errors import MagciliaError
 from magcilia.calibration import PARAMETERS, CalibrationResult, calibrate
-from magcilia.calibration.problem import GEOMETRY, LOAD_PARAMETER
+from magcilia.calibration.problem import COIL_PARAMETERS, GEOMETRY, LOAD_PARAMETER
 from magcilia.cli._common import (
     RecordingArgs,
     calibrate_with_progress,
@@ -24,7 +24,7 @@ from magcilia.cli._common import (
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.device.parameters import describe_bounds
-from magcilia.io.recordings import FLUID_NAMES, read_measurements
+from magcilia.io.recordings import FLUID_NAMES, Measurement, read_measurements
 from magcilia.io.setup_files import load_priors
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
@@ -47,6 +47,18 @@ def _ringdown_priors(paths: tuple[str, ...]) -> dict[str, tuple[float, float]]:
     for path in paths:
         out |= ringdown_prior(path)
     return out
+
+
+def refuse_undetermined_coil(result: CalibrationResult, measurements: list[Measurement]) -> None:
+    """With coil recordings, a fit that leaves a combination of parameters undetermined (the
+    Fisher information's null space: no size information, fields along one axis only) is an
+    error on the command line (exit 2, nothing written): the API returns it with the
+    ``undetermined`` warning and infinite standard errors instead."""
+    if not any(m.is_coil for m in measurements):
+        return
+    for w in result.diagnostics:
+        if w.kind == "undetermined":
+            raise MagciliaError(f"coil calibration: {w.message}; nothing written")
 
 
 @click.command()
@@ -129,7 +141,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
         bounds = parse_named_ranges("--bound", bound_items, PARAMETERS)
         priors = {**(load_priors(setup_arg) if setup_arg.lower().endswith(".toml") else {}),
                   **_ringdown_priors(prior_files),
-                  **parse_priors(prior_items, (*GEOMETRY, LOAD_PARAMETER))}
+                  **parse_priors(prior_items, (*GEOMETRY, LOAD_PARAMETER, *COIL_PARAMETERS))}
         if model == "both" and (measurements[0].observable != "output"
                                 or not measurements[0].single_azimuth):
             raise MagciliaError(f"{data[0]}: --model both fits the paper's model to the first "
@@ -158,6 +170,7 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                 measurements[0], initial, quiet=quiet, bounds=bounds, rng=seed, bias=bias,
                 bias_degree=bias_degree, fit_scale=fit_scale, restarts=restarts, starts=starts,
                 fixed=parse_fixed(fix_items))
+        refuse_undetermined_coil(result, measurements)
         write_calibration_files(result, tmp, style, comparison=comparison, data=measurements,
                                 writer=writer)
         writer.wait()  # (the folder is published only with its figures)

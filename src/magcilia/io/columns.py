@@ -1,24 +1,27 @@
 """Which column of a recording holds what, and in which unit: the column and unit mapping.
 
-A recording has up to eight *roles*, each read from one column (CSV), variable (MATLAB), channel
-(TDMS) or dataset (HDF5):
+A recording has up to fifteen *roles*, each read from one column (CSV), variable (MATLAB),
+channel (TDMS) or dataset (HDF5):
 
-========  ===========  ============  ===========================================
-role      default      dimension     becomes (:func:`magcilia.io.read_samples` key)
-========  ===========  ============  ===========================================
-angle     angle_deg    angle         ``angle_deg``, tilt in degrees
-voltage   voltage_V    voltage       ``voltage_V``, sensor output in volts
-time      time_s       time          ``time_s``, seconds
-setreset  setreset     (none)        ``setreset``, +1 set / −1 reset
-azimuth   azimuth_deg  angle         ``azimuth_deg``, tilt direction in degrees
-field_x   field_x_T    field         ``field_x_T``, 3-axis field B_x in tesla
-field_y   field_y_T    field         ``field_y_T``, B_y in tesla
-field_z   field_z_T    field         ``field_z_T``, B_z in tesla
-force     force_N      force         ``force_N``, known tip force in newtons
-flow      flow_m_per_s speed         ``flow_m_per_s``, known flow speed in m/s
-temperature  temperature_K  temperature  ``temperature_K``, the temperature in kelvin
-temperature_celsius  temperature_degC  celsius  ``temperature_K`` too, from °C (+273.15)
-========  ===========  ============  ===========================================
+===================  ================  ===========  ===============================================
+role                 default           dimension    becomes (:func:`magcilia.io.read_samples` key)
+===================  ================  ===========  ===============================================
+angle                angle_deg         angle        ``angle_deg``, tilt in degrees
+voltage              voltage_V         voltage      ``voltage_V``, sensor output in volts
+time                 time_s            time         ``time_s``, seconds
+setreset             setreset          (none)       ``setreset``, +1 set / −1 reset
+azimuth              azimuth_deg       angle        ``azimuth_deg``, tilt direction in degrees
+field_x              field_x_T         field        ``field_x_T``, 3-axis field B_x in tesla
+field_y              field_y_T         field        ``field_y_T``, B_y in tesla
+field_z              field_z_T         field        ``field_z_T``, B_z in tesla
+force                force_N           force        ``force_N``, known tip force in newtons
+flow                 flow_m_per_s      speed        ``flow_m_per_s``, known flow speed in m/s
+actuation_x          actuation_x_T     field        ``actuation_x_T``, applied (coil) field B_x in tesla
+actuation_y          actuation_y_T     field        ``actuation_y_T``, applied field B_y in tesla
+actuation_z          actuation_z_T     field        ``actuation_z_T``, applied field B_z in tesla
+temperature          temperature_K     temperature  ``temperature_K``, the temperature in kelvin
+temperature_celsius  temperature_degC  celsius      ``temperature_K`` too, from °C (+273.15)
+===================  ================  ===========  ===============================================
 
 A recording may carry its temperature (the temperature compensation,
 :class:`magcilia.ThermalReadout`) as ``temperature_K`` (K, or mK mapped) or ``temperature_degC``
@@ -33,6 +36,12 @@ A *load recording* has a ``force`` or a ``flow`` column in place of the angle (o
 both, and no angle column): the cilium stands upright and bends under the load, toward the
 azimuth (:attr:`magcilia.io.recordings.Measurement.forces`, ``speeds``); force units N, mN, uN,
 nN; speed units m/s, mm/s, cm/s (``flow_mm_per_s`` spells mm/s in a name).
+
+A *coil recording* has the three ``actuation`` columns in place of the angle (all three, no
+angle, force or flow column): the applied uniform field at the cilium, board frame (a Helmholtz
+coil's current times its constant); the cilium stands upright and bends under the field's couple,
+and the sensor sees the applied field besides the cilium's
+(:attr:`magcilia.io.recordings.Measurement.actuation`).
 
 The observable is either the single-axis output (voltage) or the 3-axis field (all three of
 field_x, field_y, field_z): a file with both, with only some of the field columns, or with set/reset
@@ -91,6 +100,9 @@ ROLES: dict[str, tuple[str, str | None, str | None]] = {
     "field_z": ("field_z_T", "field", "T"),
     "force": ("force_N", "force", "N"),
     "flow": ("flow_m_per_s", "speed", "m/s"),
+    "actuation_x": ("actuation_x_T", "field", "T"),
+    "actuation_y": ("actuation_y_T", "field", "T"),
+    "actuation_z": ("actuation_z_T", "field", "T"),
     "temperature": ("temperature_K", "temperature", "K"),
     "temperature_celsius": ("temperature_degC", "celsius", "degC"),
 }
@@ -104,6 +116,8 @@ _TEMPERATURE_LIKE = re.compile(r"(?i)^(?:temp|temperature)(?:$|[_\s\[(.-])")
 LOAD_KEYS = ("force_N", "flow_m_per_s")
 #: the keys of a 3-axis field's components (all three, or none)
 FIELD_KEYS = ("field_x_T", "field_y_T", "field_z_T")
+#: the keys of a coil recording's applied field (all three, or none), in place of the angle
+ACTUATION_KEYS = ("actuation_x_T", "actuation_y_T", "actuation_z_T")
 #: a ``required`` key of :meth:`Columns.locate` standing for the observable: ``voltage_V``, or
 #: the three field components :data:`FIELD_KEYS`
 OBSERVABLE = "observable"
@@ -119,6 +133,32 @@ ANGLE_DECIMALS = 9
 #: a load recording's loads are grouped in these units (key, factor from SI, unit): the rounding
 #: to :data:`ANGLE_DECIMALS` decimals then separates loads 1e-15 N or 1e-12 m/s apart
 LOAD_UNITS = {"force": ("force_N", 1e6, "uN"), "flow": ("flow_m_per_s", 1e3, "mm/s")}
+
+
+def actuation_ids(components: Sequence[NDArray[np.float64]],
+                  known: dict[tuple[float, float, float], int]) -> NDArray[np.float64]:
+    """A coil recording's condition of each sample: the index (as a float) of its applied field
+    (B_x, B_y, B_z) (three arrays (s,), T) among the distinct fields seen so far (a block's new
+    ones numbered in sorted order), rounded to
+    :data:`ANGLE_DECIMALS` decimals of µT; ``known`` (field → index) is updated, so that blocks
+    of one recording share their indices. NaN where a component is not finite.
+
+    >>> known = {}
+    >>> actuation_ids([np.array([1e-4, 0.0, 1e-4]), np.zeros(3), np.zeros(3)], known).tolist()
+    [1.0, 0.0, 1.0]
+    """
+    b = np.stack([np.asarray(c, dtype=np.float64).ravel() for c in components], axis=1)
+    out = np.full(b.shape[0], np.nan)
+    with np.errstate(invalid="ignore", over="ignore"):
+        finite = np.isfinite(b).all(axis=1) & (np.abs(b) <= 1e3).all(axis=1)
+        rounded = np.round(b[finite] * 1e6, ANGLE_DECIMALS)
+    if not rounded.size:
+        return out
+    unique, inverse = np.unique(rounded, axis=0, return_inverse=True)
+    index = np.array([known.setdefault((float(u[0]), float(u[1]), float(u[2])), len(known))
+                      for u in unique], dtype=np.float64)
+    out[finite] = index[np.ravel(inverse)]
+    return out
 
 
 def scaled(values: NDArray[np.float64], factor: float) -> NDArray[np.float64]:
@@ -182,6 +222,9 @@ class Columns:
     field_z: str = "field_z_T"
     force: str = "force_N"
     flow: str = "flow_m_per_s"
+    actuation_x: str = "actuation_x_T"
+    actuation_y: str = "actuation_y_T"
+    actuation_z: str = "actuation_z_T"
     temperature: str = "temperature_K"
     temperature_celsius: str = "temperature_degC"
     #: whether the temperature roles are read (:meth:`with_temperature`), not a role
@@ -214,7 +257,9 @@ class Columns:
         return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
                 "setreset": "SR", "azimuth": "Phi[deg]", "field_x": "Bx[uT]",
                 "field_y": "By[uT]", "field_z": "Bz[uT]", "force": "F[mN]",
-                "flow": "U[mm/s]", "temperature": "T[K]", "temperature_celsius": "T[degC]"}[role]
+                "flow": "U[mm/s]", "actuation_x": "Bcx[mT]", "actuation_y": "Bcy[mT]",
+                "actuation_z": "Bcz[mT]", "temperature": "T[K]",
+                "temperature_celsius": "T[degC]"}[role]
 
     def spec(self, role: str) -> tuple[str, str | None]:
         """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
@@ -339,12 +384,14 @@ class Columns:
             return at
 
         loads = [role for role in ("force", "flow") if where_is(self.spec(role)[0])]
+        coil = [role for role in ("actuation_x", "actuation_y", "actuation_z")
+                if where_is(self.spec(role)[0])]
         for role in self._roles():
             key, dimension, target = ROLES[role]
             name, unit = self.spec(role)
             at = where_is(name)
             if not at:
-                if key in required and not (key == "angle_deg" and loads):
+                if key in required and not (key == "angle_deg" and (loads or coil)):
                     raise MagciliaError(self._missing(role, name, where, kind,
                                                       names_text(stripped), required))
                 continue
@@ -372,12 +419,35 @@ class Columns:
                 f"{where}: both a force {kind} ({_short(names_of['force_N'])}) and a flow "
                 f"{kind} ({_short(names_of['flow_m_per_s'])}); a load recording holds one kind "
                 "of load: split the file into a force and a flow recording")
+        self._check_coil(out, loads, where, kind, names_text(stripped))
         if loads and "angle_deg" in out:
             raise MagciliaError(
                 f"{where}: an angle {kind} ({_short(names_of['angle_deg'])}) beside the "
                 f"{loads[0]} {kind}; a load recording bends the upright cilium (no tilt): drop "
                 f"the angle {kind}, or record tilts and loads separately")
         return out
+
+    def _check_coil(self, found: Mapping[str, Any], loads: Sequence[str], where: str, kind: str,
+                    listed: str) -> None:
+        """A coil recording: all three applied-field components, no angle and no load."""
+        names = self.names()
+        coil = [k for k in ACTUATION_KEYS if k in found]
+        if not coil:
+            return
+        if len(coil) < len(ACTUATION_KEYS):
+            missing = [k for k in ACTUATION_KEYS if k not in found]
+            raise MagciliaError(
+                f"{where}: missing applied-field {kind}(s) "
+                f"{', '.join(_short(names[k]) for k in missing)} "
+                f"({'header' if kind == 'column' else 'found'}: {listed}); a coil recording needs "
+                f"all three {', '.join(_short(names[k]) for k in ACTUATION_KEYS)} (map yours with "
+                "--columns actuation_x=NAME[unit],actuation_y=...,actuation_z=...)")
+        if "angle_deg" in found or loads:
+            other = "an angle" if "angle_deg" in found else f"a {loads[0]}"
+            raise MagciliaError(
+                f"{where}: {other} {kind} beside the applied-field {kind}s; a coil recording "
+                f"bends the upright cilium by the applied field alone: drop the {kind}, or record "
+                "tilts, loads and coil fields separately")
 
     def _check_observable(self, found: Mapping[str, Any], required: tuple[str, ...], where: str,
                           kind: str, listed: str) -> None:
@@ -499,5 +569,6 @@ def columns_help() -> str:
     return (f"Map roles ({roles}) to the file's names with units, e.g. "
             "angle=Tilt[deg],voltage=Vout[mV] or azimuth=Phi[deg],field_x=Bx[uT],... Default: "
             "angle_deg, voltage_V, time_s, setreset, azimuth_deg, field_x_T, field_y_T, "
-            "field_z_T, force_N, flow_m_per_s (a load recording: force or flow in place of the "
-            "angle), temperature_K or temperature_degC.")
+            "field_z_T, force_N, flow_m_per_s, actuation_x_T, actuation_y_T, actuation_z_T (a "
+            "load recording: force or flow in place of the angle; a coil recording: the three "
+            "applied-field columns in place of the angle), temperature_K or temperature_degC.")

@@ -513,7 +513,8 @@ def _run_mat_child(path: Path, kind: str, columns: tuple[str, ...]
 
 
 def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...],
-             alternatives: tuple[str, ...] = ()) -> dict[str, F64]:
+             alternatives: tuple[str, ...] = (), instead: tuple[str, ...] = ()
+             ) -> dict[str, F64]:
     """The variables ``columns`` of a MATLAB file (see the module docstring), as float64 vectors.
 
     Parameters
@@ -527,6 +528,9 @@ def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...],
     alternatives : tuple of str
         Variables that together stand in for the last required one (the three field components
         for the voltage): it may be missing where any of them is there.
+    instead : tuple of str
+        Variables that stand in for the first required one (a load or a coil's applied field
+        in place of the angle): it may be missing where any of them is there.
 
     Raises
     ------
@@ -550,6 +554,8 @@ def read_mat(path: Path, columns: tuple[str, ...], required: tuple[str, ...],
         raise MagciliaError(f"{path}: variable {printable(str(name))} "
                             f"{printable(str(problem))}{fix}")
     missing = [k for k in required if k not in arrays]
+    if instead and required and any(k in arrays for k in instead):
+        missing = [k for k in missing if k != required[0]]
     if alternatives and missing[-1:] == list(required[-1:]) and any(
             k in arrays for k in alternatives):
         missing = missing[:-1]  # (which of them are missing: the column mapping says)

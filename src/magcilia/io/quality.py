@@ -47,7 +47,14 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._display import Display, Item, count
 from magcilia._errors import MagciliaError
-from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
+from magcilia.io.columns import (
+    ACTUATION_KEYS,
+    ANGLE_DECIMALS,
+    FIELD_KEYS,
+    LOAD_UNITS,
+    actuation_ids,
+    scaled,
+)
 from magcilia.io.moments import runs
 from magcilia.io.sample_checks import (
     duplicated_blocks,
@@ -76,7 +83,7 @@ TINY = 1e-100
 SUSPECT_POLICIES = ("keep", "omit", "raise")
 #: the quantity a condition is a value of -> (unit in reports, factor from SI)
 CONDITIONS = {"angle": ("deg", float(np.degrees(1.0))), "force": ("uN", 1e6),
-              "flow": ("mm/s", 1e3), "time": ("", 1.0)}
+              "flow": ("mm/s", 1e3), "time": ("", 1.0), "coil": ("(coil field no.)", 1.0)}
 
 
 def _table(values: ArrayLike) -> F64:
@@ -540,6 +547,8 @@ def check_quality(columns: Mapping[str, F64], suspect: str = "keep") -> Recordin
     for name, (key, unit_factor, _) in LOAD_UNITS.items():
         if key in columns:
             kind, condition, factor = name, columns[key], unit_factor
+    if ACTUATION_KEYS[0] in columns:  # a coil recording: grouped by the applied field
+        kind, condition = "coil", actuation_ids([columns[k] for k in ACTUATION_KEYS], {})
     azimuth = columns.get("azimuth_deg")
     fields = [columns[k] for k in FIELD_KEYS if k in columns]
     polarity = columns.get("setreset")

@@ -139,6 +139,7 @@ from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia._validate import printable
 from magcilia.device.sensor import Sensor
 from magcilia.io.columns import (
+    ACTUATION_KEYS,
     FIELD_KEYS,
     LOAD_KEYS,
     OBSERVABLE,
@@ -188,7 +189,7 @@ logger = logging.getLogger(__name__)
 #: The columns a recording may hold (other columns, variables or channels are ignored), by
 #: their default names (:class:`~magcilia.io.columns.Columns` maps others onto them).
 COLUMNS = ("angle_deg", "voltage_V", "time_s", "setreset", "azimuth_deg", *FIELD_KEYS,
-           *LOAD_KEYS)
+           *LOAD_KEYS, *ACTUATION_KEYS)
 #: fluids a flow recording may name (:data:`magcilia.mechanics.drag.FLUIDS`)
 FLUID_NAMES = ("air", "water", "glycerol")
 #: A reader's progress: ``progress(bytes_read, file_size)``.
@@ -294,7 +295,9 @@ def _read_mat(path: Path, required: tuple[str, ...], how: _How) -> RawRecording:
     if OBSERVABLE in required:  # the voltage (last), or the field components in its place
         need = (*(n for n in need if n != names["voltage_V"]), names["voltage_V"])
     variables = read_mat(path, tuple(dict.fromkeys(names.values())), need,
-                         tuple(names[k] for k in FIELD_KEYS) if OBSERVABLE in required else ())
+                         tuple(names[k] for k in FIELD_KEYS) if OBSERVABLE in required else (),
+                         tuple(names[k] for k in (*LOAD_KEYS, *ACTUATION_KEYS))
+                         if required and required[0] == "angle_deg" else ())
     found = list(variables)
     located = how.columns.locate(found, where=str(path), required=required, kind="variable")
     return RawRecording({key: scaled(variables[found[i]], factor)

@@ -36,9 +36,16 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.constants import GAUSS
-from magcilia.device.sensor import Sensor
+from magcilia.device.sensor import Sensor, SensorFlag
 from magcilia.device.sensor import beyond_range as saturated
-from magcilia.io.columns import ANGLE_DECIMALS, FIELD_KEYS, LOAD_UNITS, scaled
+from magcilia.io.columns import (
+    ACTUATION_KEYS,
+    ANGLE_DECIMALS,
+    FIELD_KEYS,
+    LOAD_UNITS,
+    actuation_ids,
+    scaled,
+)
 from magcilia.io.measurement import Measurement
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
 from magcilia.io.quality import SUSPECT_POLICIES, screen
@@ -58,6 +65,11 @@ MAX_LOAD = 1e6
 #: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
 #: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
 MAX_FIELD_T = 100.0
+#: the sensor flags (:meth:`magcilia.device.sensor.Sensor.check`) that drop a coil recording's
+#: sample: its total field (applied + cilium + background) beyond the linear range, on the
+#: sensitive axis or in magnitude (the datasheet's range is for the total field), or beyond the
+#: field that may flip the AMR element
+COIL_DROP = SensorFlag.BEYOND_RANGE | SensorFlag.TOTAL_BEYOND_RANGE | SensorFlag.FLIPPED_RISK
 
 
 def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
@@ -146,6 +158,9 @@ class _Reduction:
         self.width = 0  # statistics per condition (1, 2 or 3, see above); 0 before samples
         self.field = self.azimuth = False  # 3-axis field samples; an azimuth column
         self.load: str | None = None  # "force" or "flow" for a load recording
+        #: a coil recording: its distinct applied fields (µT, rounded) -> condition index
+        self.coil: dict[tuple[float, float, float], int] | None = None
+        self.flagged = 0  # coil samples dropped by the sensor's checks (COIL_DROP)
         self.fluid = "water"
         self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (c, w)
 
@@ -157,12 +172,18 @@ class _Reduction:
         for kind, (key, factor, _) in LOAD_UNITS.items():
             if key in cols:  # a load recording: grouped by the load (in uN or mm/s)
                 self.load, condition = kind, scaled(cols[key], factor)
-        assert condition is not None  # (the readers require an angle or a load column)
+        applied = None
+        if ACTUATION_KEYS[0] in cols:  # a coil recording: grouped by the applied field
+            self.coil = {} if self.coil is None else self.coil
+            applied = tuple(np.asarray(cols[k], dtype=np.float64) for k in ACTUATION_KEYS)
+            condition = actuation_ids(applied, self.coil)
+        assert condition is not None  # (the readers require an angle, a load or a coil field)
         self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
-                 azimuth=cols.get("azimuth_deg"), fields=fields)
+                 azimuth=cols.get("azimuth_deg"), fields=fields, applied=applied)
 
     def add(self, ang: F64, volt: F64 | None, sr: F64 | None = None, *,
-            azimuth: F64 | None = None, fields: tuple[F64, F64, F64] | None = None) -> None:
+            azimuth: F64 | None = None, fields: tuple[F64, F64, F64] | None = None,
+            applied: tuple[F64, ...] | None = None) -> None:
         """Add samples (shapes (s,): angle in deg, output in V or None, +1/−1 set/reset or None,
         azimuth in deg or None (0), the field components in T or None), in pieces of
         :data:`REDUCE_SAMPLES`. Every block of a recording has the same kinds of columns."""
@@ -177,18 +198,29 @@ class _Reduction:
                       None if sr is None else sr[part],
                       None if azimuth is None else azimuth[part],
                       None if fields is None else (fields[0][part], fields[1][part],
-                                                   fields[2][part]))
+                                                   fields[2][part]),
+                      None if applied is None else tuple(c[part] for c in applied))
 
     def _note(self, kind: str, where: NDArray[np.bool_], message: Callable[[int], str]) -> None:
         if kind not in self.problems and where.any():
             self.problems[kind] = message(int(np.argmax(where)))
 
     def _add(self, ang: F64, volt: F64 | None, sr: F64 | None, az: F64 | None,
-             fields: tuple[F64, F64, F64] | None) -> None:
+             fields: tuple[F64, F64, F64] | None, applied: tuple[F64, ...] | None = None
+             ) -> None:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
-        if self.load is None:
+        if applied is not None:
+            comps = np.stack(applied)
+            with np.errstate(invalid="ignore"):
+                far_applied = np.asarray(np.isfinite(comps) & (np.abs(comps) > MAX_FIELD_T))
+            self._note("far", np.asarray(far_applied.any(axis=0)), lambda i: (
+                f"{source}: sample {offset + i + 1} has an applied field "
+                f"({', '.join(f'{c:.6g}' for c in comps[:, i])}) T beyond ±MAX_FIELD_T = "
+                f"{MAX_FIELD_T:g} T; actuation_x_T, actuation_y_T, actuation_z_T must be in "
+                "tesla (check the columns and their units)"))
+        elif self.load is None:
             self._note("far", finite & (np.abs(ang) > MAX_ANGLE_DEG), lambda i: (
                 f"{source}: sample {offset + i + 1} has angle_deg={ang[i]:.6g}, beyond "
                 f"±{MAX_ANGLE_DEG:g} deg; angle_deg must be the tilt in degrees (check the "
@@ -239,7 +271,9 @@ class _Reduction:
                    or (volt is not None and not math.isfinite(volt[i]))
                    else f"has setreset={sr[i]:g}, neither +1 (set) nor -1 (reset)")
                 + "; clean the file or pass nan_policy='omit' (CLI: --nan-policy omit)"))
-        if volt is not None and fields is None:  # (3-axis data are not range-checked here)
+        if applied is not None:  # a coil sample's total field, checked by the sensor's rules
+            sat = ~bad & self._coil_flagged(np.stack(applied), volt, sr, fields, bad)
+        elif volt is not None and fields is None:  # (3-axis data are not range-checked here)
             out = volt
             sat = ~bad & beyond_range(out, self.sensor)
             if self.saturation == "raise":
@@ -268,7 +302,9 @@ class _Reduction:
         a, k = conds.size, self.width
         counts = np.stack([np.bincount(group[bad[on]], minlength=a),
                            np.bincount(group[sat[on]], minlength=a)], axis=1)
-        use = ~bad & ~sat if self.saturation == "omit" else ~bad
+        use = ~bad & ~sat if self.saturation == "omit" or applied is not None else ~bad
+        if applied is not None:
+            self.flagged += int(sat[on].sum())
         if not use.all():
             keep = use & finite
             group = group[use[on]]
@@ -289,6 +325,25 @@ class _Reduction:
                                             a * k)
             stats, peak = flat.reshape(a, k), flat_peak.reshape(a, k).max(axis=1)
         self._merge(conds, counts, stats, peak)
+
+    def _coil_flagged(self, applied: F64, volt: F64 | None, sr: F64 | None,
+                      fields: tuple[F64, F64, F64] | None, bad: NDArray[np.bool_]
+                      ) -> NDArray[np.bool_]:
+        """Which coil samples (``applied`` (3, s), T) the sensor's checks drop
+        (:data:`COIL_DROP`): the total field at the element is the 3-axis reading itself, or for
+        a single-axis output the applied field with B_x replaced by the reading's
+        ((V − offset)/scale, times the set/reset polarity)."""
+        if fields is not None:
+            total = np.stack(fields)
+        else:
+            assert volt is not None
+            total = applied.copy()
+            with np.errstate(over="ignore", invalid="ignore"):
+                total[0] = (volt - self.sensor.offset) / self.sensor.scale * (
+                    1.0 if sr is None else np.where(sr < 0.0, -1.0, 1.0))
+        total = np.where(bad | ~np.isfinite(total).all(axis=0), 0.0, total)
+        flags = self.sensor.check(total.T)
+        return np.asarray(flags & np.uint8(COIL_DROP) != 0)
 
     def _merge(self, conds: NDArray[np.complex128], counts: NDArray[np.int64], block: Moments,
                peak: F64) -> None:
@@ -316,8 +371,20 @@ class _Reduction:
     def _condition(self, i: int) -> str:
         """Condition ``i`` in words: ``"40 deg"``, ``"40 deg at azimuth 90 deg"``."""
         c = self.conds[i]
+        if self.coil is not None:
+            b = self._applied()[i]
+            return "applied field (" + ", ".join(f"{x / GAUSS:.4g}" for x in b) + ") G"
         unit = "deg" if self.load is None else LOAD_UNITS[self.load][2]
         return f"{c.imag:g} {unit}" + (f" at azimuth {c.real:g} deg" if self.azimuth else "")
+
+    def _applied(self) -> F64:
+        """A coil recording's applied field of each condition, T, (c, 3)."""
+        assert self.coil is not None
+        table = np.zeros((len(self.coil), 3))
+        for key, i in self.coil.items():
+            table[i] = key
+        return np.asarray(table[np.round(self.conds.imag).astype(np.intp)] * 1e-6,
+                          dtype=np.float64)
 
     def _readings(self) -> tuple[F64, F64, NDArray[np.int64], F64 | None, F64 | None]:
         """Per condition: output and its standard error (V; NaN for field data), samples used,
@@ -383,7 +450,11 @@ class _Reduction:
             )
         nonfinite, saturated = self.counts.T
         metadata: dict[str, Any] = {}
-        if self.no_angle or not has.all():  # dropped samples that no condition's counts can hold
+        if self.coil is not None and (self.no_angle or not has.all()):
+            lost = nonfinite + saturated  # (a coil recording always drops flagged samples)
+            metadata["dropped"] = {"no_angle": self.no_angle, "conditions": int((~has).sum()),
+                                   "samples": int(lost[~has].sum())}
+        elif self.no_angle or not has.all():  # dropped samples no condition's counts can hold
             lost = nonfinite + (saturated if self.saturation == "omit" else 0)
             metadata["dropped"] = {"no_angle": self.no_angle,
                                    "angles_deg": self.conds.imag[~has].tolist(),
@@ -395,8 +466,17 @@ class _Reduction:
         loads = None if self.load is None else self.conds.imag[has] / LOAD_UNITS[self.load][1]
         if self.load == "flow":
             metadata["fluid"] = self.fluid
+        applied = None
+        if self.coil is not None:
+            applied = self._applied()[has]
+            if self.flagged:
+                metadata["notes"] = [(
+                    f"{self.flagged} coil sample(s) dropped: the total field at the element "
+                    f"beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
+                    f"gauss) or its flip field ({self.sensor.flip_field / GAUSS:g} gauss); lower "
+                    "the coil's field or pass the sensor that was used")]
         return Measurement(
-            angles=(np.radians(self.conds.imag[has]) if loads is None
+            angles=(np.radians(self.conds.imag[has]) if loads is None and applied is None
                     else np.zeros(int(has.sum()))), volts=volts[has], sem=sem[has],
             counts=count[has], saturated=saturated[has], nonfinite=nonfinite[has],
             set_reset=self.width == 2, source=source, metadata=metadata,
@@ -405,6 +485,7 @@ class _Reduction:
             field_sem=None if field_sem is None else field_sem[has],
             forces=loads if self.load == "force" else None,
             speeds=loads if self.load == "flow" else None,
+            actuation=applied,
         )
 
 
@@ -530,8 +611,8 @@ def _measure(start: Callable[[], _Reduction], raw: RawRecording, policy: str,
         reduction.add_columns(kept)
         m = reduction.measurement()
     state = raw.state
-    notes = list(raw.notes)
-    if m.load_kind is None and m.single_azimuth:  # (a plan is a sweep of tilt angles)
+    notes = list(raw.notes) + list(m.metadata.get("notes") or [])
+    if m.load_kind is None and m.single_azimuth and not m.is_coil:  # (a sweep of tilt angles)
         notes += state.notes(m.angles_deg, m.counts, where=source)
     metadata = dict(m.metadata)
     if notes:

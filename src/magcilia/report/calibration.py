@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+    from magcilia.calibration.experiment_fit import ExperimentFit
     from magcilia.report.figure_process import FigureWriter
 
 
@@ -379,6 +380,9 @@ def joint_fit_figure(result: CalibrationResult) -> Figure:
 
     fig, axes = new_figure(nrows=len(result.experiments), size=(6.4, 2.6))
     for ax, e in zip(axes[:, 0], result.experiments, strict=True):
+        if e.actuation is not None:
+            _coil_panel(ax, e, result.setup.sensor.scale)
+            continue
         if e.loads is None:
             x, xlabel = np.degrees(e.angles), "tilt angle (deg)"
         elif e.load_kind == "force":
@@ -411,6 +415,36 @@ def joint_fit_figure(result: CalibrationResult) -> Figure:
         ax.margins(y=0.2)
         ax.legend(fontsize="x-small", loc="best", ncols=len(names))
     return fig
+
+
+def _coil_panel(ax: Axes, e: ExperimentFit, scale: float) -> None:
+    """A coil experiment's panel: the change of the cilium's own part of each reading as it
+    bends (the measured and the fitted value less the offsets, the applied field as the sensor
+    sees it (``scale`` V/T times B_x for an output) and the fitted value at the weakest applied
+    field, the cilium at rest) per condition, conditions ordered by the applied field."""
+    assert e.actuation is not None
+    order = np.lexsort(e.actuation.T[::-1])
+    x = np.arange(order.size)
+    if e.observable == "output":
+        seen = (scale * e.actuation[:, 0])[:, None]
+        measured = (e.measured[:, None] - e.offsets[0] - seen) * 1e3
+        fitted = (e.fitted[:, None] - e.offsets[0] - seen) * 1e3
+        names, ylabel = ["output"], "cilium's output change (mV)"
+    else:
+        measured = (e.measured - e.offsets - e.actuation) * 1e6
+        fitted = (e.fitted - e.offsets - e.actuation) * 1e6
+        names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "cilium's field change (µT)"
+    rest = fitted[int(np.argmin(np.linalg.norm(e.actuation, axis=1)))]  # the weakest field's
+    for c, name in enumerate(names):
+        ax.plot(x, measured[order, c] - rest[c], "o", ms=3, color=f"C{c}", label=name)
+        ax.plot(x, fitted[order, c] - rest[c], "-", lw=0.8, color=f"C{c}")
+    top = float(np.max(np.linalg.norm(e.actuation, axis=1))) * 1e4
+    ax.set_title(f"{Path(e.source).name}: coil, {x.size} applied fields up to {top:.3g} G "
+                 "(points measured, lines fitted)", fontsize="small")
+    ax.set_xlabel("coil condition (ordered by applied B_x, B_y, B_z)")
+    ax.set_ylabel(ylabel)
+    ax.margins(y=0.2)
+    ax.legend(fontsize="x-small", loc="best", ncols=len(names))
 
 
 def model_comparison(paper: CalibrationResult, physical: CalibrationResult) -> str:
