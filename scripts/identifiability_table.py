@@ -1,7 +1,7 @@
 """The identifiability table of docs/coil-calibration.md, computed by the tool.
 
 The page holds between its markers what ``python -m magcilia plan --identifiability --markdown``
-prints (:func:`magcilia.calibration.identifiability_table.identifiability_table`);
+prints (:func:`magcilia.analysis.identifiability_table.identifiability_table`);
 tests/docs/test_coil_calibration_page.py checks that it still does (slow).
 
 Run: python scripts/identifiability_table.py            (print the block)
@@ -14,7 +14,7 @@ import argparse
 from pathlib import Path
 
 from magcilia._atomic import write_text
-from magcilia.calibration.identifiability_table import identifiability_table
+from magcilia.analysis.identifiability_table import identifiability_table
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "coil-calibration.md"
 START = ("<!-- identifiability-table: start (python -m magcilia plan --identifiability "

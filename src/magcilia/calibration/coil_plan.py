@@ -24,11 +24,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item, Table
+from magcilia._errors import MagciliaError
 from magcilia.calibration.coil_rows import (
-    COIL_PARAMETERS,
     MEASURES,
-    coil_fields,
     coil_jacobian,
+    coil_totals,
+    nominal,
+    parameters_for,
     sphere_directions,
 )
 from magcilia.calibration.doptimal import Design, d_optimal, evaluate_design
@@ -45,8 +47,14 @@ from magcilia.device.setup import Setup
 
 F64 = NDArray[np.float64]
 
-#: what a coil plan fits by default (the modulus needs a ring-down or a load: add it with a prior)
-COIL_FIT = ("height", "base_radius", "x", "y", "z", "magnetization_scale", "gain")
+#: what a coil plan fits by default (the modulus needs a ring-down or a load: add it with a
+#: prior); the sensitivity only for the AMR output (:func:`coil_fit`)
+COIL_FIT = ("height", "base_radius", "x", "y", "z", "magnetization_scale", "sensitivity")
+
+
+def coil_fit(measure: str) -> tuple[str, ...]:
+    """:data:`COIL_FIT` for a measure (a 3-axis part has no fitted scale)."""
+    return tuple(n for n in COIL_FIT if n in parameters_for(measure))
 #: the candidate magnitudes, fractions of the largest field the sensor allows
 MAGNITUDES = (0.25, 0.5, 0.75, 1.0)
 #: the 3-axis part of ``--measure field`` (±8 gauss, 0.4 mG RMS at 100 Hz)
@@ -120,7 +128,7 @@ def coil_candidates(setup: Setup, measure: str = "output", *,
             else v.finite_array("directions", directions, unit=""))
     dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     fields = np.concatenate([np.zeros((1, 3)), *(dirs * m for m in mags)])
-    totals = coil_fields(setup, fields)
+    totals = coil_totals(setup, fields)
     keep = usable(setup, totals, measure, part)
     if keep.sum() < 2:
         raise v.fail("magnitudes", (mags / 1e-4).round(3).tolist(),
@@ -155,11 +163,11 @@ class CoilPlan(Display):
     naive: Design
     naive_fields: F64
 
-    def conditions(self) -> list[tuple[tuple[float, float, float], int]]:
+    def conditions(self) -> list[tuple[tuple[float, ...], int]]:
         """The planned readings as (applied field (3,) T, repeats), by magnitude."""
         out = [(tuple(float(c) for c in self.fields[i]), int(self.design.counts[i]))
                for i in np.flatnonzero(self.design.counts)]
-        return sorted(out, key=lambda t: (float(np.linalg.norm(t[0])), t[0]))  # type: ignore[return-value]
+        return sorted(out, key=lambda t: (float(np.linalg.norm(t[0])), t[0]))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready, SI."""
@@ -184,12 +192,13 @@ class CoilPlan(Display):
                   f"{f'{d.rank}/{len(d.interest)}':>16}")]
         for i, n in enumerate(d.names):
             if n in d.interest:
-                lines.append(f"  {f'σ {n}':<28}{_shown(n, float(r.stderr[i]), si):>16}"
-                             f"{_shown(n, float(d.stderr[i]), si):>16}")
+                size = abs(nominal(self.setup, n))
+                lines.append(f"  {f'σ {n}':<28}{_shown(n, float(r.stderr[i]), si, size):>16}"
+                             f"{_shown(n, float(d.stderr[i]), si, size):>16}")
         lines.append(f"  planned fields ({unit}: Bx, By, Bz ×repeats):")
-        for b, n in self.conditions():
+        for b, k in self.conditions():
             lines.append("    (" + ", ".join(f"{round(c / f, 9) + 0.0:+.3g}" for c in b) + ")"
-                         + (f" ×{n}" if n > 1 else ""))
+                         + (f" ×{k}" if k > 1 else ""))
         lines.append(f"  naive: {d.budget} fields along x from {self.naive_fields[0, 0] / f:.3g} "
                      f"to {self.naive_fields[-1, 0] / f:.3g} {unit}")
         return "\n".join(lines)
@@ -202,19 +211,19 @@ class CoilPlan(Display):
         d, r = self.design, self.naive
         return (["", "naive", "plan"],
                 [["rank", str(r.rank), str(d.rank)],
-                 *[[f"σ {n}", _shown(n, float(r.stderr[i]), False),
-                    _shown(n, float(d.stderr[i]), False)]
+                 *[[f"σ {n}", _shown(n, float(r.stderr[i]), False, abs(nominal(self.setup, n))),
+                    _shown(n, float(d.stderr[i]), False, abs(nominal(self.setup, n)))]
                    for i, n in enumerate(d.names) if n in d.interest]])
 
 
-def _shown(name: str, value: float, si: bool) -> str:
+def _shown(name: str, value: float, si: bool, size: float) -> str:
     if not math.isfinite(value):
         return "undetermined"
-    return f"{value:.3g}" if si else sigma_text(name, value, 3)
+    return f"{value:.3g}" if si else sigma_text(name, value, 3, size)
 
 
 def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
-              parameters: Sequence[str] = COIL_FIT, prior_sd: dict[str, float] | None = None,
+              parameters: Sequence[str] | None = None, prior_sd: dict[str, float] | None = None,
               noise: float | None = None, magnitudes: Sequence[float] | None = None,
               part: str = DEFAULT_PART,
               progress: Callable[[int, int], None] | None = None) -> CoilPlan:
@@ -229,9 +238,9 @@ def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
         Readings N (each of ``"field"`` gives three components).
     measure : {"output", "field"}
         The AMR output or a 3-axis part (``part``).
-    parameters : sequence of str
-        Fitted parameters, among :data:`~magcilia.calibration.coil_rows.COIL_PARAMETERS`
-        (default :data:`COIL_FIT`); the rest are held at the setup's values.
+    parameters : sequence of str, optional
+        Fitted parameters, among :func:`~magcilia.calibration.coil_rows.parameters_for` the
+        measure (default :func:`coil_fit`); the rest are held at the setup's values.
     prior_sd : dict of str to float, optional
         Prior σ (SI) of some of them (a size measurement, a ring-down's modulus).
     noise : float, optional
@@ -254,10 +263,10 @@ def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
         sequence of these fields determines: the combination, named, and what would determine it.
     """
     measure = v.choice("measure", measure, MEASURES)
-    names = tuple(parameters)
+    names = coil_fit(measure) if parameters is None else tuple(parameters)
     for n in names:
-        if n not in COIL_PARAMETERS:
-            raise v.fail("parameters", n, "names among " + ", ".join(COIL_PARAMETERS))
+        if n not in parameters_for(measure):
+            raise v.fail("parameters", n, "names among " + ", ".join(parameters_for(measure)))
     prior_sd = dict(prior_sd or {})
     budget = v.integer("budget", budget, 1)
     informative = len(names) - sum(1 for n in names if n in prior_sd)
@@ -273,9 +282,8 @@ def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
     priors = prior_information(names, prior_sd)
     every = identify(experiment_information(J, noise), names, setup, prior_sd)
     if every.undetermined:
-        raise v.fail("--stimulus coil", f"{len(fields)} candidate fields",
-                     f"data that determine {every.undetermined[0]}: no sequence of these fields "
-                     f"does; add {every.remedies[0]}")
+        raise MagciliaError(f"--stimulus coil: no sequence of the {len(fields)} candidate fields "
+                            f"determines {every.undetermined[0]}; add {every.remedies[0]}")
     full = np.concatenate([J, np.broadcast_to(np.eye(r), (J.shape[0], r, r))], axis=2) / noise
     labels = tuple(f"offset[B{'xyz'[k]}]" if r == 3 else "offset" for k in range(r))
     prec = np.concatenate([np.diag(priors), np.zeros(r)])
@@ -309,10 +317,18 @@ def _x_span(fields: F64) -> float:
 
 
 def _values(setup: Setup, names: Sequence[str]) -> list[float]:
-    from magcilia.calibration.coil_rows import nominal
-
     return [nominal(setup, n) for n in names]
 
 
-__all__ = ["COIL_FIT", "DEFAULT_PART", "MAGNITUDES", "CoilPlan", "coil_candidates",
-           "default_noise", "field_limit", "plan_coil", "usable"]
+__all__ = [
+    "COIL_FIT",
+    "DEFAULT_PART",
+    "MAGNITUDES",
+    "CoilPlan",
+    "coil_candidates",
+    "coil_fit",
+    "default_noise",
+    "field_limit",
+    "plan_coil",
+    "usable",
+]

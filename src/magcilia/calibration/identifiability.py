@@ -45,8 +45,8 @@ REMEDIES = {
               "or a load of known size",
     "youngs_modulus": "a ring-down (its modulus as a prior: magcilia ringdown --json, "
                       "--prior youngs_modulus=VALUE:SIGMA) or a known load",
-    "gain": "a coil experiment (the applied field seen directly fixes the sensor's scale) or a "
-            "known gain",
+    "sensitivity": "a coil experiment (the applied field seen directly fixes the sensor's "
+                   "sensitivity) or a known sensitivity",
     "magnetization_scale": "a coil experiment with a size and a modulus (the bending under a "
                            "known field) or a known magnetization",
 }
@@ -85,8 +85,8 @@ def experiment_information(rows: ArrayLike, noise: float, counts: ArrayLike | No
     Parameters
     ----------
     rows : array-like, shape (c, r, q)
-        Each candidate reading's sensitivities (SI), :func:`~magcilia.calibration.coil_rows.
-        coil_jacobian` or :func:`~magcilia.calibration.coil_rows.tilt_rows`.
+        Each candidate reading's sensitivities (SI),
+        :func:`~magcilia.calibration.coil_rows.calibration_rows`.
     noise : float
         σ of one reading (V or T per component).
     counts : array-like of int, shape (c,), optional
@@ -187,11 +187,12 @@ def remedy(names: Sequence[str], direction: ArrayLike) -> str:
     keys = []
     if any(n in LENGTHS and d[i] >= 0.5 for i, n in enumerate(names)):
         keys.append("length")
-    keys += [n for n in ("youngs_modulus", "gain", "magnetization_scale") if n in involved]
+    keys += [n for n in ("youngs_modulus", "sensitivity", "magnetization_scale")
+             if n in involved]
     if "length" in keys or "youngs_modulus" in keys:
         keys = [k for k in keys if k != "magnetization_scale"]
-    if "gain" in keys and "magnetization_scale" in involved:
-        keys = ["gain"]
+    if "sensitivity" in keys and "magnetization_scale" in involved:
+        keys = ["sensitivity"]
     return "; or ".join(REMEDIES[k] for k in keys)
 
 
@@ -244,25 +245,28 @@ class Identifiability(Display):
     def report(self) -> str:
         """Rank, σ of each parameter (display units) and the undetermined combinations."""
         lines = [f"Identifiability: rank {self.rank}/{len(self.names)}"]
-        lines += [f"  σ {n} = {sigma_text(n, float(s))}"
-                  for n, s in zip(self.names, self.stderr, strict=True)]
+        lines += [f"  σ {n} = {sigma_text(n, float(s), size=float(u))}"
+                  for n, s, u in zip(self.names, self.stderr, self.units, strict=True)]
         lines += [f"  undetermined: {c}: add {r}"
                   for c, r in zip(self.undetermined, self.remedies, strict=True)]
         return "\n".join(lines)
 
     def _display_items(self) -> list[Item]:
         return [("rank", f"{self.rank}/{len(self.names)}"),
-                *((f"σ {n}", sigma_text(n, float(s)))
-                  for n, s in zip(self.names, self.stderr, strict=True)),
+                *((f"σ {n}", sigma_text(n, float(s), size=float(u)))
+                  for n, s, u in zip(self.names, self.stderr, self.units, strict=True)),
                 *(("undetermined", c) for c in self.undetermined)]
 
 
-def sigma_text(name: str, value: float, digits: int = 2) -> str:
-    """A σ in display units (mm, MPa, a factor as %), "—" where undetermined."""
+def sigma_text(name: str, value: float, digits: int = 2, size: float | None = None) -> str:
+    """A σ in display units (mm, MPa, a factor as %; the sensitivity as % of ``size``, its
+    value), "—" where undetermined."""
     if not math.isfinite(value):
         return "—"
     p = PARAMETERS.get(name)
-    if p is None or p.what == "factor" or name == "gain":
+    if name == "sensitivity" and size:
+        return f"{100 * value / size:.{digits}g} %"
+    if p is None or p.what == "factor":
         return f"{100 * value:.{digits}g} %"
     return p.text(value, digits)
 
@@ -270,7 +274,7 @@ def sigma_text(name: str, value: float, digits: int = 2) -> str:
 def identify(information: ArrayLike, names: Sequence[str], setup: Setup,
              priors: Mapping[str, float] | None = None) -> Identifiability:
     """Read a Fisher information (SI, offsets already profiled out) over ``names``
-    (:data:`~magcilia.calibration.coil_rows.COIL_PARAMETERS`) at the setup's values, with
+    (:data:`~magcilia.calibration.coil_rows.CALIBRATION_PARAMETERS`) at the setup's values, with
     Gaussian priors (name → σ, SI) added: rank, standard errors and the undetermined
     combinations, named.
 

@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 import click
+import numpy as np
 
 from magcilia._validate import fail
 from magcilia.calibration.plan import PLAN_PARAMETERS, SENSORS, CalibrationPlan, plan_calibration
@@ -37,17 +38,22 @@ def _note(text: str) -> None:
     click.echo(text, err=True)
 
 
+def _design(d: Any, units: OutputUnits) -> dict[str, Any]:
+    """A design's figures as JSON in ``units``: rank, condition, log det, σ by parameter."""
+    return {"rank": d.rank, "parameters": len(d.interest),
+            "condition": d.condition if math.isfinite(d.condition) else None,
+            "log_det": d.log_det if math.isfinite(d.log_det) else None,
+            "stderr": {units.key(n, n): (units.value(float(s), n) if math.isfinite(s)
+                                         else None)
+                       for n, s in zip(d.names, d.stderr, strict=True) if n in d.interest}}
+
+
 def _document(plan: CalibrationPlan, units: OutputUnits) -> dict[str, Any]:
     """The plan as JSON in ``units`` (unit suffixes on every dimensional key)."""
     noise_what = "output" if plan.sensor == "output" else "field"
 
     def design(d: Any) -> dict[str, Any]:
-        return {"rank": d.rank, "parameters": len(d.interest),
-                "condition": d.condition if math.isfinite(d.condition) else None,
-                "log_det": d.log_det if math.isfinite(d.log_det) else None,
-                "stderr": {units.key(n, n): (units.value(float(s), n) if math.isfinite(s)
-                                             else None)
-                           for n, s in zip(d.names, d.stderr, strict=True) if n in d.interest}}
+        return _design(d, units)
 
     return {
         "units": units.system, "setup_units": "SI", "sensor": plan.sensor,
@@ -67,23 +73,26 @@ def _coil(setup: Any, budget: int, sensor: str, noise_text: str | None,
           prior_items: tuple[str, ...], fit: str | None, as_json: bool, quiet: bool,
           si: bool) -> None:
     """``plan --stimulus coil``: the D-optimal applied fields next to a naive x sweep."""
-    from magcilia.calibration.coil_plan import COIL_FIT, plan_coil
-    from magcilia.calibration.coil_rows import COIL_PARAMETERS
+    from magcilia.calibration.coil_plan import coil_fit, plan_coil
+    from magcilia.calibration.coil_rows import parameters_for
 
-    names = COIL_FIT if fit is None else tuple(t.strip() for t in fit.split(",") if t.strip())
-    for n in names:
-        if n not in COIL_PARAMETERS:
-            raise fail("--fit", fit, "comma-separated names among " + ", ".join(COIL_PARAMETERS))
-    priors = parse_priors(prior_items, COIL_PARAMETERS)
+    allowed = parameters_for(sensor)
+    names = (coil_fit(sensor) if fit is None
+             else tuple(t.strip() for t in fit.split(",") if t.strip()))
+    if not names or any(n not in allowed for n in names):
+        raise fail("--fit", fit, f"comma-separated names among {', '.join(allowed)} "
+                                 f"(--measure {sensor})")
+    priors = parse_priors(prior_items, allowed)
     for n in priors:
         if n not in names:
             raise fail("--prior", n, "a prior on a fitted parameter (--fit "
                                      + ",".join(names) + ")")
-    values = {n: mu for n, (mu, _) in priors.items() if n not in ("youngs_modulus", "gain")}
+    values = {n: mu for n, (mu, _) in priors.items() if n != "youngs_modulus"}
     if values:
         setup = setup.replace(**values)
     if "youngs_modulus" in priors:
-        setup = setup.replace(youngs_modulus=priors["youngs_modulus"][0])
+        setup = setup.replace(youngs_modulus=priors["youngs_modulus"][0],
+                              youngs_modulus_sigma=0.0)
     noise = None
     if noise_text is not None:
         noise = (parse_value(noise_text, "voltage", "mV", "--noise", "0.01mV")
@@ -105,14 +114,19 @@ def _coil(setup: Any, budget: int, sensor: str, noise_text: str | None,
                          progress=advance)
     if as_json:
         units = output_units(si)
-        doc = plan.to_dict()
-        doc["units"] = units.system
-        doc["conditions"] = [{units.key("field", "field"): units.value(list(b), "field"),
-                              "repeats": n} for b, n in plan.conditions()]
-        doc[units.key("naive_fields", "field")] = units.value(plan.naive_fields.tolist(),
-                                                              "field")
-        del doc["naive_fields"]
-        echo_json(doc)
+        what = "output" if sensor == "output" else "field"
+
+        def field(b: Any) -> Any:
+            return units.value(np.round(np.asarray(b, dtype=float), 15).tolist(), "field")
+
+        echo_json({
+            "units": units.system, "setup_units": "SI", "stimulus": "coil", "measure": sensor,
+            "budget": plan.design.budget, units.key("noise", what): units.value(plan.noise, what),
+            "conditions": [{units.key("field", "field"): field(b), "repeats": n}
+                           for b, n in plan.conditions()],
+            "plan": _design(plan.design, units),
+            "naive": {**_design(plan.naive, units),
+                      units.key("fields", "field"): field(plan.naive_fields)}})
     else:
         click.echo(plan.report(si))
 
@@ -146,8 +160,8 @@ def _coil(setup: Any, budget: int, sensor: str, noise_text: str | None,
                    "the sensor's range and below the AMR's flip field; needs a tip radius).")
 @click.option("--fit", default=None, metavar="NAMES",
               help="--stimulus coil: the fitted parameters, comma-separated (default height, "
-                   "base_radius, x, y, z, magnetization_scale, gain; add youngs_modulus with a "
-                   "ring-down's --prior).")
+                   "base_radius, x, y, z, magnetization_scale and, for --measure output, "
+                   "sensitivity; add youngs_modulus with a ring-down's --prior).")
 @click.option("--identifiability", is_flag=True,
               help="Print the identifiability table of the coil calibration (coil, coil + "
                    "size, coil + size + ring-down, the paper's rig, rig + coil; paper and "
@@ -173,7 +187,7 @@ def command(setup_arg: str | None, budget: int | None, sensor: str, azimuths: st
     sweep along x of the same budget. --identifiability prints the table of what each
     calibration determines (docs/coil-calibration.md)."""
     if identifiability:
-        from magcilia.calibration.identifiability_table import identifiability_table
+        from magcilia.analysis.identifiability_table import identifiability_table
 
         table = identifiability_table(progress=None if quiet else _note)
         if as_json:

@@ -10,7 +10,8 @@ priors). Each reading is the mean of 2 s of samples as the paper's (2000 at 1 kH
 at the part's 100 Hz for the MMC5983MA), white noise taken as averaging down. Cilia: the paper's
 (examples/paper.toml, its dipole model, with a 0.02 mm tip radius: a field's couple on its sharp
 cone is singular) and the force-sensor's (examples/force-sensor.toml). Parameters:
-:data:`~magcilia.calibration.coil_rows.COIL_PARAMETERS`, all free in every row.
+:data:`~magcilia.calibration.coil_rows.CALIBRATION_PARAMETERS`, all free in every row (the
+sensitivity only for the AMR: the 3-axis part is taken as calibrated, "n/a").
 
 ``python -m magcilia plan --identifiability --markdown`` prints what docs/coil-calibration.md
 holds (scripts/identifiability_table.py --write puts it there; a test checks it is current).
@@ -28,7 +29,11 @@ from numpy.typing import NDArray
 
 from magcilia._display import Display, Item
 from magcilia.calibration.coil_plan import default_noise, plan_coil
-from magcilia.calibration.coil_rows import COIL_PARAMETERS, coil_jacobian, tilt_rows
+from magcilia.calibration.coil_rows import (
+    CALIBRATION_PARAMETERS,
+    calibration_rows,
+    parameters_for,
+)
 from magcilia.calibration.identifiability import (
     Identifiability,
     experiment_information,
@@ -110,21 +115,21 @@ class IdentifiabilityTable(Display):
     def markdown(self) -> str:
         """One Markdown table per cilium and sensor, then the undetermined combinations."""
         out: list[str] = []
-        head = ("| calibration | rank | " + " | ".join(f"σ {n}" for n in COIL_PARAMETERS)
-                + " |")
+        cols = CALIBRATION_PARAMETERS
+        head = ("| calibration | rank | " + " | ".join(f"σ {n}" for n in cols) + " |")
         for c in CILIA:
             for s in SENSORS:
                 out += ["", f"**{c} cilium, {s}**", "", head,
-                        "|" + "---|" * (len(COIL_PARAMETERS) + 2)]
+                        "|" + "---|" * (len(cols) + 2)]
                 notes = []
                 for cc, ss, k, r in self.rows:
                     if (cc, ss) != (c, s):
                         continue
                     label = f"**{k}** (reference)" if k == "paper's tilt rig" else k
+                    shown = {n: sigma_text(n, float(x), size=float(u))
+                             for n, x, u in zip(r.names, r.stderr, r.units, strict=True)}
                     out.append(f"| {label} | {r.rank}/{len(r.names)} | "
-                               + " | ".join(sigma_text(n, float(x))
-                                            for n, x in zip(r.names, r.stderr, strict=True))
-                               + " |")
+                               + " | ".join(shown.get(n, "n/a") for n in cols) + " |")
                     notes += [f"- {k}: undetermined: {u}; determined by {f}"
                               for u, f in zip(r.undetermined, r.remedies, strict=True)]
                 out += ["", *notes]
@@ -144,7 +149,6 @@ def identifiability_table(progress: Callable[[str], None] | None = None
     :data:`CALIBRATIONS` for every cilium of :data:`CILIA` on every sensor of :data:`SENSORS`."""
     rows: list[tuple[str, str, str, Identifiability]] = []
     sig_e: dict[str, float] = {}
-    names = COIL_PARAMETERS
     for c in CILIA:
         setup = cilium(c)
         sig_e[c] = ringdown_sigma(setup)
@@ -153,15 +157,18 @@ def identifiability_table(progress: Callable[[str], None] | None = None
         for s, measure in SENSORS.items():
             if progress is not None:
                 progress(f"identifiability: {c} cilium, {s}")
+            names = parameters_for(measure)
             rate = 1000.0 if measure == "output" else 100.0
             noise = default_noise(setup, measure) / math.sqrt(AVERAGE * rate)
             plan = plan_coil(setup, BUDGET, measure=measure, parameters=names, prior_sd=full,
                              noise=noise)
             fields = plan.fields[plan.design.chosen]
-            coil = experiment_information(coil_jacobian(setup, fields, measure=measure),
-                                          noise)
-            rig = experiment_information(tilt_rows(setup, RIG_ANGLES, np.zeros(BUDGET),
-                                                   measure=measure), noise)
+            coil_rows, rig_rows = calibration_rows(setup, fields=fields, angles=RIG_ANGLES,
+                                                   measure=measure)
+            assert coil_rows is not None
+            assert rig_rows is not None
+            coil = experiment_information(coil_rows, noise)
+            rig = experiment_information(rig_rows, noise)
             cases = {"coil only": (coil, {}), "coil + size": (coil, size),
                      "coil + size + ring-down": (coil, full),
                      "paper's tilt rig": (rig, {}), "rig + coil": (rig + coil, {})}
