@@ -118,7 +118,9 @@ def test_tilt_rows_have_no_modulus_and_scale_with_the_sensitivity(setup):
 def test_fisher_sigma_matches_the_scatter_of_real_fits(setup):
     """Seeded synthetic coil data (3-axis, placement and magnetization fitted, the size known)
     fitted by least squares through the Problem: the scatter of the fits agrees with the Fisher
-    σ (loose: six seeds)."""
+    σ (six seeds: the sample σ is within ±0.32 of σ at 1 σ; the noise is low enough for the
+    linearisation to hold; at 20 nT the four parameters correlate at 0.999, the fits are
+    non-linear and scatter ~1.7 σ)."""
     from scipy.optimize import least_squares
 
     from magcilia.calibration.experiments import CoilExperiment
@@ -126,7 +128,7 @@ def test_fisher_sigma_matches_the_scatter_of_real_fits(setup):
     from magcilia.io.recordings import Measurement
 
     names = ("x", "y", "z", "magnetization_scale")
-    noise = 2e-8
+    noise = 5e-10
     J = coil_jacobian(setup, FIELDS, measure="field", parameters=names)
     sigma = identify(experiment_information(J, noise), names, setup).stderr
     truth = np.array([setup.params()[n] for n in names])
@@ -146,7 +148,7 @@ def test_fisher_sigma_matches_the_scatter_of_real_fits(setup):
         fits.append(res.x * truth)
     scatter = np.std(np.array(fits), axis=0, ddof=1)
     ratio = scatter / sigma
-    assert np.all((ratio > 0.3) & (ratio < 2.5)), dict(zip(names, ratio, strict=True))
+    assert np.all((ratio > 0.45) & (ratio < 1.8)), dict(zip(names, ratio, strict=True))
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:

@@ -34,6 +34,18 @@ def _azimuths(text: str) -> list[float]:
 
 
 
+def _noise(text: str | None, sensor: str) -> float | None:
+    """``--noise``: V for the output (mV by default), T per component (gauss by default)."""
+    if text is None:
+        return None
+    noise = (parse_value(text, "voltage", "mV", "--noise", "0.01mV") if sensor == "output"
+             else parse_value(text, "field", "gauss", "--noise", "10nT"))
+    if not noise > 0:
+        raise fail("--noise", text, "a positive noise σ, e.g. "
+                                    + ("0.01mV" if sensor == "output" else "10nT"))
+    return noise
+
+
 def _note(text: str) -> None:
     click.echo(text, err=True)
 
@@ -93,13 +105,7 @@ def _coil(setup: Any, budget: int, sensor: str, noise_text: str | None,
     if "youngs_modulus" in priors:
         setup = setup.replace(youngs_modulus=priors["youngs_modulus"][0],
                               youngs_modulus_sigma=0.0)
-    noise = None
-    if noise_text is not None:
-        noise = (parse_value(noise_text, "voltage", "mV", "--noise", "0.01mV")
-                 if sensor == "output" else
-                 parse_value(noise_text, "field", "gauss", "--noise", "10nT"))
-        if not noise > 0:
-            raise fail("--noise", noise_text, "a positive noise σ")
+    noise = _noise(noise_text, sensor)
     informative = len(names) - len(priors)
     if budget < informative:
         raise fail("--budget", budget, f"at least {informative} readings to determine "
@@ -148,7 +154,8 @@ def _coil(setup: Any, budget: int, sensor: str, noise_text: str | None,
 @click.option("--noise", "noise_text", default=None,
               help="σ of one reading: mV for --measure output (default: the sensor's noise model, "
                    "one raw sample at 1 kHz), gauss per component for --measure field (default "
-                   "10nT); units allowed (0.01mV, 10nT).")
+                   "10nT; with --stimulus coil the MMC5983MA's 0.4 mG); units allowed (0.01mV, "
+                   "10nT).")
 @click.option("--prior", "prior_items", multiple=True, metavar="NAME=VALUE:SIGMA",
               help="A manual measurement of a parameter as a Gaussian prior, display units "
                    "(height=3.26:0.1 in mm) or with units; VALUE also replaces the setup's. "
@@ -214,14 +221,7 @@ def command(setup_arg: str | None, budget: int | None, sensor: str, azimuths: st
         setup = setup.replace(**values)
     grid = angle_grid(angles)
     phis = _azimuths(azimuths)
-    noise = None
-    if noise_text is not None:
-        noise = (parse_value(noise_text, "voltage", "mV", "--noise", "0.01mV")
-                 if sensor == "output" else
-                 parse_value(noise_text, "field", "gauss", "--noise", "10nT"))
-        if not noise > 0:
-            raise fail("--noise", noise_text, "a positive noise σ, e.g. "
-                                              + ("0.01mV" if sensor == "output" else "10nT"))
+    noise = _noise(noise_text, sensor)
     if budget < len(PLAN_PARAMETERS) - len(sds):
         raise fail("--budget", budget, f"at least {len(PLAN_PARAMETERS) - len(sds)} readings "
                                        f"to determine {', '.join(PLAN_PARAMETERS)}")
