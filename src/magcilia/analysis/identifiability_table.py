@@ -113,7 +113,9 @@ class IdentifiabilityTable(Display):
                          for c, s, k, r in self.rows]}
 
     def markdown(self) -> str:
-        """One Markdown table per cilium and sensor, then the undetermined combinations."""
+        """One Markdown table per cilium and sensor, then the undetermined combinations; a σ
+        larger than the value itself reads "> 100 %" (weakly determined: its digits would
+        only echo the near-singular information)."""
         out: list[str] = []
         cols = CALIBRATION_PARAMETERS
         head = ("| calibration | rank | " + " | ".join(f"σ {n}" for n in cols) + " |")
@@ -126,7 +128,8 @@ class IdentifiabilityTable(Display):
                     if (cc, ss) != (c, s):
                         continue
                     label = f"**{k}** (reference)" if k == "paper's tilt rig" else k
-                    shown = {n: sigma_text(n, float(x), size=float(u))
+                    shown = {n: ("> 100 %" if math.isfinite(x) and x > u
+                                 else sigma_text(n, float(x), size=float(u)))
                              for n, x, u in zip(r.names, r.stderr, r.units, strict=True)}
                     out.append(f"| {label} | {r.rank}/{len(r.names)} | "
                                + " | ".join(shown.get(n, "n/a") for n in cols) + " |")

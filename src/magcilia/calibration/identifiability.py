@@ -34,8 +34,10 @@ from magcilia.device.setup import Setup
 F64 = NDArray[np.float64]
 
 #: an eigenvalue of the correlation-scaled information (unit diagonal) below this is a null
-#: direction of the model (a symmetry): the finite differences leave ~1e-12 there, while the
-#: weakest real combination seen here (magnetization against modulus from the bending) is ~1e-8
+#: direction of the model (a symmetry): over the identifiability table's twelve information
+#: matrices (coil, rig, both; two cilia; two sensors) the exact symmetries leave |λ| ≤ 2e-11 (the
+#: bend's own tolerance through the differences), the weakest real direction is 4e-10 (a single
+#: tilt path's), the next 1e-8 (magnetization against modulus from the bending)
 STRUCTURAL_TOLERANCE = 1e-10
 #: a component of a direction below this fraction of its largest is left out of its name
 NAME_COMPONENT = 0.15
