@@ -33,7 +33,7 @@ from magcilia.calibration.coil_rows import (
     parameters_for,
     sphere_directions,
 )
-from magcilia.calibration.doptimal import Design, d_optimal, evaluate_design
+from magcilia.calibration.doptimal import RESTARTS, Design, d_optimal, evaluate_design
 from magcilia.calibration.identifiability import (
     experiment_information,
     identify,
@@ -277,7 +277,7 @@ def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
     noise = v.positive("noise", noise, "V" if measure == "output" else "T", "noise σ")
     r = 1 if measure == "output" else 3
     fields, _ = coil_candidates(setup, measure, magnitudes=magnitudes, part=part)
-    check_plan_size(budget, fields.shape[0], len(names) + r, 10)
+    check_plan_size(budget, fields.shape[0], len(names) + r, RESTARTS)  # no work yet
     J = coil_jacobian(setup, fields, measure=measure, parameters=names)
     priors = prior_information(names, prior_sd)
     every = identify(experiment_information(J, noise), names, setup, prior_sd)
