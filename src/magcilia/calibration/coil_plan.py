@@ -277,7 +277,7 @@ def plan_coil(setup: Setup, budget: int, *, measure: str = "output",
     noise = v.positive("noise", noise, "V" if measure == "output" else "T", "noise σ")
     r = 1 if measure == "output" else 3
     fields, _ = coil_candidates(setup, measure, magnitudes=magnitudes, part=part)
-    check_plan_size(budget, fields.shape[0], len(names) + r, RESTARTS)  # no work yet
+    check_plan_size(budget, fields.shape[0], len(names) + r, RESTARTS)  # before the rows
     J = coil_jacobian(setup, fields, measure=measure, parameters=names)
     priors = prior_information(names, prior_sd)
     every = identify(experiment_information(J, noise), names, setup, prior_sd)
