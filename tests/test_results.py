@@ -80,6 +80,18 @@ def _biaxial() -> Any:
     return mc.BiaxialReadout(TAPERED, sensor, span=1e-4, table_size=(9, 16))
 
 
+def _identifiability() -> Any:
+    from magcilia.calibration.coil_rows import coil_jacobian
+    from magcilia.calibration.identifiability import experiment_information
+
+    fields = 4e-4 * np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [-1, 0, 0], [0.6, 0.6, 0.5],
+                              [0, 0, -1]])
+    rows = coil_jacobian(TAPERED, fields, measure="field")
+    return mc.calibration.identify(experiment_information(rows, 1e-8),
+                                   ("height", "base_radius", "x", "y", "z",
+                                    "magnetization_scale", "youngs_modulus"), TAPERED)
+
+
 FACTORIES: dict[str, Callable[[], Any]] = {
     "Measurement": _measurement,
     "CalibrationResult": _calibration,
@@ -128,6 +140,14 @@ FACTORIES: dict[str, Callable[[], Any]] = {
                                                4, names=["offset", "x"]),
     "CalibrationPlan": lambda: mc.calibration.plan_calibration(SETUP, 6, angles=ANGLES,
                                                                prior_sd={"height": 1e-4}),
+    "CoilPlan": lambda: mc.calibration.plan_coil(TAPERED, 8, measure="field",
+                                                 prior_sd={"height": 1.5e-4},
+                                                 magnitudes=[4e-4]),
+    "Identifiability": _identifiability,
+    "IdentifiabilityTable": lambda: importlib.import_module(
+        "magcilia.analysis.identifiability_table").IdentifiabilityTable(
+        rows=(("force-sensor", "MMC5983MA", "coil only", _identifiability()),),
+        modulus_sigma={"force-sensor": 1e5}),
     "Magnetometer": lambda: mc.Magnetometer.preset("LIS3MDL", position=(1e-3, 0.0, 0.0)),
     "Modulus": lambda: SETUP.modulus,
     "SensorCheck": lambda: mc.Setup.paper_initial().check_sensor(ANGLES),

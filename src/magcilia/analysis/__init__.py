@@ -3,7 +3,9 @@
 * :mod:`.measures`: RMS change, offset-free change and calibration cost of output curves;
 * :mod:`.oat`: one parameter at a time (figs. 9–12), the x–y placement map, the whole study;
 * :mod:`.sobol`: global Sobol indices (SALib) over the calibration bounds;
-* :mod:`.tolerance`: how precisely the placement must be known for a target angle accuracy.
+* :mod:`.tolerance`: how precisely the placement must be known for a target angle accuracy;
+* :mod:`.identifiability_table`: what each rig-free calibration (coil, size, ring-down) and the
+  paper's rig determine, from the Fisher information (docs/coil-calibration.md).
 """
 
 from __future__ import annotations
@@ -13,6 +15,10 @@ from typing import TYPE_CHECKING
 from magcilia._lazy import attach
 
 if TYPE_CHECKING:
+    from magcilia.analysis.identifiability_table import (
+        IdentifiabilityTable,
+        identifiability_table,
+    )
     from magcilia.analysis.measures import (
         DEFAULT_ANGLES,
         MEASURES,
@@ -40,6 +46,7 @@ __all__ = [
     "MEASURES",
     "STUDY_PARAMETERS",
     "SWEEP_PARAMETERS",
+    "IdentifiabilityTable",
     "OATResult",
     "PlacementMap",
     "PlacementTolerance",
@@ -47,6 +54,7 @@ __all__ = [
     "SobolResult",
     "check_angles",
     "default_spans",
+    "identifiability_table",
     "oat_sweep",
     "offset_cost",
     "placement_map",

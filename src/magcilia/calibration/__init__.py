@@ -20,7 +20,11 @@
 * the Jacobian-based uncertainty with its warnings (:mod:`.uncertainty`);
 * :func:`sample_posterior` and :class:`Posterior` (:mod:`.posterior`): the posterior sampled
   (emcee, extra ``posterior``), modes weighted by their Laplace evidence;
-* :func:`d_optimal`, :func:`plan_calibration` (:mod:`.plan`): which conditions to measure.
+* :func:`d_optimal`, :func:`plan_calibration` (:mod:`.plan`): which conditions to measure;
+  :func:`plan_coil` (:mod:`.coil_plan`): which applied coil fields;
+* :func:`identify`, :class:`Identifiability` (:mod:`.identifiability`): what a calibration
+  determines, from its Fisher information (the table of rig-free calibrations:
+  :func:`magcilia.analysis.identifiability_table.identifiability_table`).
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from typing import TYPE_CHECKING
 from magcilia._lazy import attach
 
 if TYPE_CHECKING:
+    from magcilia.calibration.coil_plan import CoilPlan, plan_coil
     from magcilia.calibration.covariance import ParameterCovariance
     from magcilia.calibration.diagnostics import WARNING_KINDS, CalibrationWarning
     from magcilia.calibration.experiment_fit import ExperimentFit
@@ -43,6 +48,7 @@ if TYPE_CHECKING:
         TiltPath,
         experiment,
     )
+    from magcilia.calibration.identifiability import Identifiability, identify
     from magcilia.calibration.joint import (
         JointProblem as JointProblem,  # an earlier name, re-exported
     )
@@ -92,12 +98,14 @@ __all__ = [
     "CalibrationResult",
     "CalibrationWarning",
     "CoilExperiment",
+    "CoilPlan",
     "Design",
     "Experiment",
     "ExperimentFit",
     "Experiments",
     "FieldPath",
     "FitParameter",
+    "Identifiability",
     "LoadExperiment",
     "ParameterCovariance",
     "ParameterKey",
@@ -113,8 +121,10 @@ __all__ = [
     "d_optimal",
     "evaluate_design",
     "experiment",
+    "identify",
     "least_squares_log_prob",
     "plan_calibration",
+    "plan_coil",
     "sample_posterior",
     "sample_problem",
 ]
