@@ -265,7 +265,7 @@ class SimulatedSource(Paced, Source):
     def _read(self, n: int) -> Block:
         index = self._index + np.arange(n)
         t = index / self.rate
-        clean = self._clean(self.script.values(t))
+        clean = self._clean_at(t)
         offset = self.setup.sensor.offset
         polarity = None
         volts = clean
@@ -276,8 +276,8 @@ class SimulatedSource(Paced, Source):
                  + self.readout_noise * self._gen.standard_normal(n))
         self._index += n
         self._pace()
-        return Block(time=t, data=volts[None, :], channels=self.channels, first=int(index[0]),
-                     setreset=polarity)
+        return Block(time=t, data=self._rows(t, volts), channels=self.channels,
+                     first=int(index[0]), setreset=polarity)
 
     def metadata(self) -> dict[str, Any]:
         """The source's settings, marked simulated."""
@@ -288,6 +288,16 @@ class SimulatedSource(Paced, Source):
                 **({"fluid": self.fluid.name} if self.dynamics and self.fluid else {})}
 
     # -- the signal -----------------------------------------------------------------------------
+    def _clean_at(self, t: F64) -> F64:
+        """Noise-free output (V) at sample times ``t`` (s); a subclass that drives more than the
+        script (a coil: :class:`~magcilia.acquire.simulated_coil.SimulatedCoilSource`) overrides
+        it."""
+        return self._clean(self.script.values(t))
+
+    def _rows(self, t: F64, volts: F64) -> F64:
+        """The block's rows, shape (channels, n): the output (and a subclass's channels)."""
+        return volts[None, :]
+
     def _clean(self, values: F64) -> F64:
         """Noise-free output (V) at the scripted values (the moving hair's, with
         ``dynamics``)."""
