@@ -294,7 +294,7 @@ class SimulatedSource(Paced, Source):
         it."""
         return self._clean(self.script.values(t))
 
-    def _rows(self, t: F64, volts: F64) -> F64:
+    def _rows(self, t: F64, volts: F64) -> F64:  # noqa: ARG002 (a subclass's channels use t)
         """The block's rows, shape (channels, n): the output (and a subclass's channels)."""
         return volts[None, :]
 

@@ -1,5 +1,5 @@
-"""``magcilia record --coil``: the coil calibration sweep (:func:`magcilia.acquire.coil.record_coil`)
-on the simulated coil or through NI analog outputs."""
+"""``magcilia record --coil``: the coil calibration sweep
+(:func:`magcilia.acquire.coil.record_coil`) on the simulated coil or through NI analog outputs."""
 
 from __future__ import annotations
 

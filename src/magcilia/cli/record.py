@@ -21,8 +21,8 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
-from magcilia.cli._signals import signals_interrupt
 from magcilia.cli._record_coil import CoilOptions, check_record_path, record_coil_command
+from magcilia.cli._signals import signals_interrupt
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.report.units import output_units
