@@ -18,8 +18,8 @@ proportional to M)::
     V = offset + S·s·( m · b_x(F / k, m·B / k) + B_x )
 
 where S is the sensor's scale (V/T) and b_x(F, B) the nominal hair's field at the element bent by
-F and B. The drift scales are taken per read (a block, ≤ 0.5 s) and rounded to 1e-4, so a block's
-distinct loads are solved once each (cached); the sensor's cross-axis term is left out, as in
+F and B. The drift scales are rounded to 1e-4 per sample, so the distinct (load, field, scales)
+are few and each is solved once (cached); the sensor's cross-axis term is left out, as in
 :meth:`magcilia.Setup.output`.
 """
 
@@ -43,7 +43,7 @@ F64 = NDArray[np.float64]
 ACTUATION_COLUMNS = ("actuation_x_T", "actuation_y_T", "actuation_z_T")
 #: the axes a pulse may take, in the board frame
 AXES = {"x": 0, "y": 1, "z": 2}
-#: drift scales are rounded to this step per read
+#: drift scales are rounded to this step
 _SCALE_STEP = 1e-4
 #: most cached solutions before the cache is emptied
 _CACHE = 512
@@ -134,16 +134,15 @@ class Drifts:
         for name in ("sensitivity", "magnetization", "stiffness"):
             v.real(name, getattr(self, name), "1/s")
 
-    def scales(self, t: float) -> tuple[float, float, float]:
-        """(s, m, k) at time ``t`` (s), rounded to 1e-4 (the source's step)."""
-        out = []
-        for rate in (self.sensitivity, self.magnetization, self.stiffness):
-            scale = round((1.0 + rate * t) / _SCALE_STEP) * _SCALE_STEP
-            if scale <= 0.0:
-                raise v.fail("drift", rate, f"a drift that keeps every scale positive (at "
-                             f"{t:g} s it reaches {scale:g})")
-            out.append(scale)
-        return out[0], out[1], out[2]
+    def scales(self, t: ArrayLike) -> F64:
+        """(s, m, k) at times ``t`` (n,), s, rounded to 1e-4 (the source's step), shape (n, 3)."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        rates = np.array([self.sensitivity, self.magnetization, self.stiffness])
+        out = np.round((1.0 + t[:, None] * rates) / _SCALE_STEP) * _SCALE_STEP
+        if np.any(out <= 0.0):
+            raise v.fail("drifts", rates.tolist(), f"drifts that keep every scale positive "
+                         f"(they reach {out.min():g} by {t.max():g} s)")
+        return np.asarray(out, dtype=np.float64)
 
 
 class SimulatedCoilSource(SimulatedSource):
@@ -225,13 +224,13 @@ class SimulatedCoilSource(SimulatedSource):
         self._start_pace()
 
     def _clean_at(self, t: F64) -> F64:
-        s, m, k = self.drifts.scales(float(t[0]))
-        rows = np.column_stack([self.script.values(t), self.applied(t)])
+        rows = np.column_stack([self.script.values(t), self.applied(t), self.drifts.scales(t)])
         distinct, where = np.unique(rows, axis=0, return_inverse=True)
         sensor = self.setup.sensor
-        cilium = np.array([self._cilium_bx(row[0] / k, [float(b) * m / k for b in row[1:]])
-                           for row in distinct])
-        volts = sensor.offset + sensor.scale * s * (m * cilium + distinct[:, 1])
+        f, b, (s, m, k) = distinct[:, 0], distinct[:, 1:4], distinct[:, 4:].T
+        cilium = np.array([self._cilium_bx(f[i] / k[i], [float(x) * m[i] / k[i] for x in b[i]])
+                           for i in range(len(distinct))])
+        volts = sensor.offset + sensor.scale * s * (m * cilium + b[:, 0])
         return np.asarray(volts[np.ravel(where)], dtype=np.float64)
 
     def _cilium_bx(self, force: float, field: list[float]) -> float:
