@@ -38,9 +38,10 @@ read from it times k (the elastica depends on F/EI only).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -54,6 +55,8 @@ F64 = NDArray[np.float64]
 
 #: the read-out parameters a re-calibration estimates, in order
 NAMES = ("offset", "sensitivity", "magnetization", "stiffness")
+#: a parameter seen for the first time stays held while its σ exceeds this (V; scales: relative)
+_LOOSE = {"offset": 1e-3, "sensitivity": 0.1, "magnetization": 0.1, "stiffness": 0.1}
 #: held, in this order, while the windows leave a combination undetermined
 _HOLD_ORDER = ("stiffness", "magnetization", "offset", "sensitivity")
 #: the default random walk of :meth:`Recalibrator.update`'s tracking, per √s: generous for slow
@@ -139,28 +142,60 @@ class StrapWindow:
             raise v.fail("setreset", p.shape, f"one polarity per sample ({x.size})")
         a, sa = _mean_sem(x[p > 0], "set samples")
         b, sb = _mean_sem(x[p < 0], "reset samples")
-        runs = np.flatnonzero(np.diff(p) != 0) + 1
-        pieces = np.split(np.arange(x.size), runs)
-        levels = [float(x[i].mean()) for i in pieces if i.size]
-        pairs = [0.5 * (levels[j] + levels[j + 1]) for j in range(0, len(levels) - 1, 2)]
-        if len(pairs) >= 4:
-            spread = float(np.std(pairs, ddof=1) / math.sqrt(len(pairs)))
-            scale = max(1.0, spread / (0.5 * math.hypot(sa, sb)))
-            sa, sb = sa * scale, sb * scale
-        return cls(a, sa, b, sb, float(time))
+        sem = _batch_sem([0.5 * (u + w) for u, w in _periods(x, p)], 0.5 * math.hypot(sa, sb))
+        scale = sem / (0.5 * math.hypot(sa, sb))
+        return cls(a, sa * scale, b, sb * scale, float(time))
 
 
 @dataclass(frozen=True)
 class RestWindow:
     """The output's level (mean ± s.e., V) at a moment the cilium is known to be unloaded, at
-    ``time`` (s): o + S·s·m·B₀ₓ, proportional to the magnetization."""
+    ``time`` (s): o + S·s·m·B₀ₓ, proportional to the magnetization (S·s·m·B₀ₓ with
+    ``offset_free``, the set/reset demodulated level). Build it from samples with :meth:`of`."""
 
     level: float
     sem: float
     time: float = 0.0
+    offset_free: bool = False
+
+    @classmethod
+    def of(cls, volts: ArrayLike, setreset: ArrayLike | None = None,
+           time: float = 0.0) -> RestWindow:
+        """From unloaded samples (n,), V, and their polarity (n,) or None: with it, the
+        offset-free level (half the set − reset difference, its s.e. from the periods' levels)."""
+        x = v.finite_array("samples", volts, ndim=1, unit="V")
+        if setreset is None:
+            return cls(*_mean_sem(x, "rest samples"), float(time))
+        p = np.asarray(setreset).ravel()
+        if p.shape != x.shape:
+            raise v.fail("setreset", p.shape, f"one polarity per sample ({x.size})")
+        a, sa = _mean_sem(x[p > 0], "set samples")
+        b, sb = _mean_sem(x[p < 0], "reset samples")
+        sem = _batch_sem([0.5 * (u - w) for u, w in _periods(x, p)], 0.5 * math.hypot(sa, sb))
+        return cls(0.5 * (a - b), sem, float(time), offset_free=True)
 
 
 Window = PulseWindow | StrapWindow | RestWindow
+
+
+def _periods(x: F64, p: NDArray[Any]) -> list[tuple[float, float]]:
+    """(set level, reset level) of each set/reset period of the samples, in order."""
+    pieces = [i for i in np.split(np.arange(x.size), np.flatnonzero(np.diff(p) != 0) + 1)
+              if i.size]
+    runs = [(int(np.sign(p[i[0]])), float(x[i].mean())) for i in pieces]
+    out = []
+    for (pa, a), (pb, b) in itertools.pairwise(runs):
+        if pa > 0 > pb:
+            out.append((a, b))
+    return out
+
+
+def _batch_sem(levels: list[float], samples_sem: float) -> float:
+    """The s.e. of a level from four or more periods' levels (batch means: the noise's low
+    frequencies, which the samples' spread misses, are counted), never below the samples'."""
+    if len(levels) < 4:
+        return samples_sem
+    return max(samples_sem, float(np.std(levels, ddof=1) / math.sqrt(len(levels))))
 
 
 @dataclass(frozen=True, repr=False)
@@ -223,6 +258,32 @@ class Recalibration(Display):
             return np.asarray(offset + (x - offset) / self.gain, dtype=np.float64)
         return np.asarray(self.reference["offset"] + (x - self.values["offset"]) / self.gain,
                           dtype=np.float64)
+
+    @property
+    def gain_sigma(self) -> float:
+        """Relative σ of the gain s·m (the two σ in quadrature: conservative where the pulses
+        correlate them)."""
+        return math.hypot(self.sigma["sensitivity"] / self.values["sensitivity"],
+                          self.sigma["magnetization"] / self.values["magnetization"])
+
+    def read(self, readout: Any, volts: ArrayLike, offset: float | None = None,
+             noise: float | None = None) -> tuple[F64, F64]:
+        """A force (or any) read-out of the corrected outputs: values and their σ, the noise's
+        (``readout.read``'s ``sigma_noise``) with the gain's and stiffness's σ added (readings
+        at the gain ±σ). ``volts`` and ``offset`` as :meth:`correct`; shapes as ``volts``."""
+        x = np.asarray(volts, dtype=np.float64)
+        result = readout.read(self.correct(x, offset), noise=noise)
+        k, sk = self.values["stiffness"], self.sigma["stiffness"]
+        value = k * np.asarray(result.value, dtype=np.float64)
+        spread = []
+        for sign in (1.0, -1.0):
+            shifted = replace(self, values={**self.values, "sensitivity": self.values[
+                "sensitivity"] * (1.0 + sign * self.gain_sigma)})
+            spread.append(k * np.asarray(readout.read(shifted.correct(x, offset),
+                                                      noise=noise).value, dtype=np.float64))
+        sigma = np.sqrt(np.asarray(result.sigma_noise, dtype=np.float64) ** 2 * k * k
+                        + (0.5 * (spread[0] - spread[1])) ** 2 + (value * sk / k) ** 2)
+        return value, sigma
 
     def changes_text(self) -> str:
         """What changed, e.g. ``S −1.8 %, M −4.9 %, offset +0.31 mV`` (determined ones)."""
@@ -349,8 +410,9 @@ class Recalibrator:
                 jac.append([1.0, 0.0, 0.0, 0.0])
             else:
                 b0 = self.rest_field
-                pred.append(o + S * s * m * b0)
-                jac.append([1.0, S * m * b0, S * s * b0, 0.0])
+                free = 0.0 if w.offset_free else 1.0
+                pred.append(free * o + S * s * m * b0)
+                jac.append([free, S * m * b0, S * s * b0, 0.0])
         return np.array(pred), np.array(jac).reshape(-1, 4)
 
     @staticmethod
@@ -415,20 +477,16 @@ class Recalibrator:
             if name not in held:
                 held[name] = _COMBINED.get(name, "undetermined by these windows")
                 free = [i for i, n in enumerate(NAMES) if n not in held]
-        cov = np.zeros((len(free), len(free)))
         start = theta.copy()
-        for _ in range(20):
-            if not free:
+        while True:  # a parameter seen for the first time but barely determined stays held
+            theta, cov = self._solve(windows, y, sig, start, prior, free)
+            loose = [(math.sqrt(max(cov[j, j], 0.0)) / _LOOSE[NAMES[i]], i)
+                     for j, i in enumerate(free) if i not in prior]
+            worst = max(loose, default=(0.0, -1))
+            if worst[0] <= 1.0:
                 break
-            pred, jac = self.predict(windows, theta)
-            a = self._design(jac, sig, prior, free)
-            r = np.concatenate([(y - pred) / sig, [(start[i] - theta[i]) / prior[i]
-                                                   for i in free if i in prior]])
-            step, *_ = np.linalg.lstsq(a, r, rcond=None)
-            theta[free] += step
-            cov = np.linalg.pinv(a.T @ a)
-            if np.all(np.abs(step) <= 1e-10 * np.maximum(1e-3, np.abs(theta[free]))):
-                break
+            held[NAMES[worst[1]]] = "too weakly determined by these windows yet"
+            free = [i for i in free if i != worst[1]]
         pred, _ = self.predict(windows, theta)
         dof = len(windows) - len([i for i in free if i not in prior])
         chi2 = float(np.sum(((y - pred) / sig) ** 2) / dof) if dof > 0 else math.nan
@@ -461,6 +519,29 @@ class Recalibrator:
                     return math.nan
                 var += (jac[0, i] * prior[i]) ** 2
         return float((y[0] - pred[0]) / math.sqrt(var))
+
+    def _solve(self, windows: Sequence[Window], y: F64, sig: F64, start: F64,
+               prior: dict[int, float], free: list[int]) -> tuple[F64, F64]:
+        """Gauss–Newton on the free parameters from ``start``: (θ, covariance of the free)."""
+        theta = start.copy()
+        cov: F64 = np.zeros((len(free), len(free)))
+        for _ in range(30):
+            if not free:
+                break
+            pred, jac = self.predict(windows, theta)
+            a = self._design(jac, sig, prior, free)
+            r = np.concatenate([(y - pred) / sig, [(start[i] - theta[i]) / prior[i]
+                                                   for i in free if i in prior]])
+            step, *_ = np.linalg.lstsq(a, r, rcond=None)
+            # a scale moves by at most a third of itself per step (they stay positive)
+            limit = min([1.0] + [abs(theta[i]) / (3.0 * abs(d)) for i, d in zip(
+                free, step, strict=True) if NAMES[i] != "offset" and d != 0.0])
+            theta[free] += limit * step
+            cov = np.asarray(np.linalg.pinv(a.T @ a), dtype=np.float64)
+            if limit == 1.0 and np.all(np.abs(step) <= 1e-10 * np.maximum(
+                    1e-3, np.abs(theta[free]))):
+                break
+        return theta, cov
 
     @staticmethod
     def _design(jac: F64, sig: F64, prior: dict[int, float], free: list[int]) -> F64:

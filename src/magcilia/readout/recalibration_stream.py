@@ -27,6 +27,7 @@ from magcilia.readout.recalibration import (
     PulseWindow,
     Recalibration,
     Recalibrator,
+    RestWindow,
     StrapWindow,
     Window,
 )
@@ -197,6 +198,17 @@ class PulseTracker:
             new.append(strap)
         self.windows.extend(new)
         self.state = self.recalibrator.update(new, self.state, walk=self.walk)
+        self.updates += 1
+
+
+    def rest(self, time: ArrayLike, volts: ArrayLike, setreset: ArrayLike | None = None) -> None:
+        """Samples the cilium is known to be unloaded at (times (n,), s; outputs (n,), V; the
+        polarity or None), outside any pulse: a :class:`RestWindow` (the magnetization's level)
+        that updates the state."""
+        t = np.asarray(time, dtype=np.float64).ravel()
+        window = RestWindow.of(volts, setreset, float(t.mean()))
+        self.windows.append(window)
+        self.state = self.recalibrator.update([window], self.state, walk=self.walk)
         self.updates += 1
 
 
