@@ -1,7 +1,8 @@
 """Calibration: fit the model's parameters to a field-vs-tilt recording (the paper's Sec. III.B).
 
 * experiments as residual objects that add (:mod:`.experiments`: :class:`TiltPath`,
-  :class:`FieldPath`, :class:`LoadExperiment`, :class:`Prior`; ``a + b``), and the one
+  :class:`FieldPath`, :class:`LoadExperiment`, :class:`CoilExperiment`, :class:`Prior`;
+  ``a + b``), and the one
   least-squares :class:`Problem` over their sum (:mod:`.problem`: the search vector, bounds, the
   one non-finite penalty, batched residuals with the linear parameters solved in closed form);
 * :func:`calibrate` (:mod:`.search`): the paper's model (one tilt path, n and k searched): global
@@ -33,6 +34,7 @@ if TYPE_CHECKING:
     from magcilia.calibration.diagnostics import WARNING_KINDS, CalibrationWarning
     from magcilia.calibration.experiment_fit import ExperimentFit
     from magcilia.calibration.experiments import (
+        CoilExperiment,
         Experiment,
         Experiments,
         FieldPath,
@@ -89,6 +91,7 @@ __all__ = [
     "CalibrationPlan",
     "CalibrationResult",
     "CalibrationWarning",
+    "CoilExperiment",
     "Design",
     "Experiment",
     "ExperimentFit",

@@ -13,6 +13,9 @@ sum of their costs (χ²) when nothing links them but the shared parameters.
   paper's eq. 6), not a second pipeline;
 * :class:`FieldPath`: a 3-axis magnetometer's field (T) along rigid tilts;
 * :class:`LoadExperiment`: the output or field under tip forces or flow speeds (the bent cilium);
+* :class:`CoilExperiment`: the output or field under applied uniform fields (a Helmholtz coil):
+  the cilium bent by the field's couple plus the applied field itself
+  (:mod:`~magcilia.calibration.coil_model`);
 * :class:`Prior`: a Gaussian prior from a manual measurement.
 
 :func:`experiment` picks the type of a :class:`~magcilia.io.recordings.Measurement`.
@@ -118,6 +121,9 @@ class Table:
         self.width = 0
         #: load blocks (experiment, azimuth, sorted distinct loads, first column)
         self.loads: list[tuple[int, float, F64, int]] = []
+        #: coil blocks (experiment, first column, width): one column per condition (output) or
+        #: three (field), in the experiment's order
+        self.coils: list[tuple[int, int, int]] = []
 
     def add_tilts(self, azimuths: F64, angles: F64) -> None:
         """Lay out the tilt conditions (every (azimuth, angle) of the tilt experiments)."""
@@ -150,6 +156,15 @@ class Table:
         return cond
 
 
+    def coil_columns(self, e_index: int, conditions: int, stride: int) -> NDArray[np.intp]:
+        """Add the block of a coil experiment (``conditions`` values of ``stride`` columns each:
+        1 output, 3 field components); first column of each condition."""
+        first = self.width
+        self.coils.append((e_index, first, stride * conditions))
+        self.width += stride * conditions
+        return np.asarray(first + stride * np.arange(conditions), dtype=np.intp)
+
+
 @dataclass(frozen=True, eq=False)
 class RecordedExperiment(Experiment):
     """An experiment on a recording."""
@@ -169,8 +184,8 @@ class RecordedExperiment(Experiment):
 
     @property
     def tilts(self) -> tuple[F64, F64] | None:
-        """Its tilt conditions (azimuths, angles), rad; None for a load experiment."""
-        if self.data.loads is not None:
+        """Its tilt conditions (azimuths, angles), rad; None for a load or coil experiment."""
+        if self.data.loads is not None or self.data.actuation is not None:
             return None
         return np.asarray(self.data.azimuths, dtype=np.float64), np.asarray(self.data.angles)
 
@@ -222,9 +237,10 @@ class FieldPath(RecordedExperiment):
     """A 3-axis magnetometer's field (T) along rigid tilts (or under loads), one constant offset
     per axis (the Earth's field and the magnetometer's own offsets)."""
 
-    def rows(self, table: Table, e_index: int, sensor_scale: float) -> Rows:  # noqa: ARG002
+    def rows(self, table: Table, e_index: int, sensor_scale: float,  # noqa: ARG002
+             columns: NDArray[np.intp] | None = None) -> Rows:
         e = self.data
-        cond = self._columns(table, e_index)
+        cond = self._columns(table, e_index) if columns is None else columns
         a = cond.size
         fields = np.asarray(e.fields, dtype=np.float64)
         fsem = floored_sigma(np.asarray(e.field_sem, dtype=np.float64).ravel(), "field")
@@ -247,6 +263,32 @@ class LoadExperiment(RecordedExperiment):
     def rows(self, table: Table, e_index: int, sensor_scale: float) -> Rows:
         kind = FieldPath.rows if self.data.fields is not None else TiltPath.rows
         return kind(self, table, e_index, sensor_scale)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True, eq=False)
+class CoilExperiment(RecordedExperiment):
+    """The output (V) or field (T) of the upright cilium under known applied uniform fields (a
+    Helmholtz coil's, :attr:`~magcilia.io.recordings.Measurement.actuation`), with its constant
+    offset(s) (the Earth's and the lab's field, the bridge offset); its model is the cilium bent
+    by each field's couple, its field at the sensing element, plus the applied field as the sensor
+    sees it (times the sensitivity for a single-axis output), for every parameter set of a
+    population at once (:func:`~magcilia.calibration.coil_model.coil_block`).
+
+    Its model values are the problem's own columns (the sensitivity is a fitted parameter, not a
+    fixed factor): one per condition for an output, three for a field."""
+
+    def rows(self, table: Table, e_index: int, sensor_scale: float) -> Rows:
+        e = self.data
+        field = e.fields is not None
+        cond = table.coil_columns(e_index, len(e), 3 if field else 1)
+        if field:
+            return FieldPath.rows(self, table, e_index, sensor_scale,  # type: ignore[arg-type]
+                                  columns=cond)
+        y = np.asarray(e.volts, dtype=np.float64)
+        sigma = (floored_sigma(np.asarray(e.sem, dtype=np.float64), "output") if self.weighted
+                 else np.ones(y.size))
+        return Rows(cond, np.ones(y.size), y, sigma, np.ones((y.size, 1)),
+                    (ParameterKey("offset", e_index),))
 
 
 @dataclass(frozen=True, eq=False)
@@ -303,8 +345,11 @@ def y_sign_determined(experiments: Sequence[Measurement]) -> bool:
 
 
 def experiment_type(data: Measurement) -> type[RecordedExperiment]:
-    """The experiment type of a recording: :class:`LoadExperiment` with loads, else
-    :class:`FieldPath` for 3-axis field data, else :class:`TiltPath`."""
+    """The experiment type of a recording: :class:`CoilExperiment` with applied fields,
+    :class:`LoadExperiment` with loads, else :class:`FieldPath` for 3-axis field data, else
+    :class:`TiltPath`."""
+    if data.actuation is not None:
+        return CoilExperiment
     if data.loads is not None:
         return LoadExperiment
     return FieldPath if data.fields is not None else TiltPath

@@ -210,44 +210,62 @@ def _block(base: Setup, sets: _Sets, loads: F64, flow: Flow | None,
                          start_inverse=start_inverse)
     if kept is not None:
         _keep(kept, key, shapes)
+    return bent_fields(base, sets, shapes.s, shapes.angles, shapes.points, shapes.ok,
+                       np.asarray(phi, dtype=np.float64)).reshape(g, 3 * a)
+
+
+def bent_fields(base: Setup, sets: _Sets, s: F64, angles: F64, points: F64,
+                ok: NDArray[np.bool_], phi: F64, scale: F64 | None = None) -> F64:
+    """The field (T) at the sensing element of ``sets`` (g of them) bent into the planar shapes
+    ``angles`` (g, a, m), rad, ``points`` (g, a, m, 3), m (arc lengths ``s`` (g, m)), each shape
+    in the vertical plane at azimuth ``phi`` (scalar or (a,), rad): (g, a, 3), board frame; NaN
+    for a set not ``ok`` (g,), whose field is not finite or whose element lies inside a bent
+    cilium. ``scale`` (g,): each set's magnetization scale relative to ``base``'s (default 1)."""
+    g, a = sets.index.size, angles.shape[1]
+    height, radius = sets.height, sets.radius
     spec = base.spec
     n_loops, k, ring = spec.n_loops, spec.dipoles_per_loop, spec.ring
     # slice mid-points on each set's shapes: one normalised centreline batch (s / L, points / L)
     unit = Centreline(np.linspace(0.0, 1.0, OUTPUT_POINTS),
-                      np.where(shapes.ok[:, None, None], shapes.angles, 0.0).reshape(
-                          g * a, OUTPUT_POINTS),
-                      np.where(shapes.ok[:, None, None, None], shapes.points, 0.0).reshape(
+                      np.where(ok[:, None, None], angles, 0.0).reshape(g * a, OUTPUT_POINTS),
+                      np.where(ok[:, None, None, None], points, 0.0).reshape(
                           g * a, OUTPUT_POINTS, 3) / np.repeat(height, a)[:, None, None])
-    mid, angles = unit.frames((np.arange(n_loops) + 0.5) / n_loops)
-    points = mid * np.repeat(height, a)[:, None, None]
+    mid, pose_angles = unit.frames((np.arange(n_loops) + 0.5) / n_loops)
+    pts = mid * np.repeat(height, a)[:, None, None]
     rings, share = body.slice_rings(sets.knots, sets.radii, n_loops, ring)
-    x, y = (np.asarray(c, dtype=np.float64) for c in placement_in_tilt_frame(sets.x, sets.y,
-                                                                               phi))
+    turn = np.broadcast_to(phi, (g, a))
+    x, y = (np.asarray(c, dtype=np.float64) for c in placement_in_tilt_frame(
+        sets.x[:, None], sets.y[:, None], turn))
     lift = spec.depth + sets.z
-    centre = np.stack([x, y, lift], axis=1)
+    centre = np.stack([x, y, np.broadcast_to(lift[:, None], (g, a))], axis=2).reshape(g * a, 3)
     # the moment m_c = M V_c of each set (ModelSpec.moment, with body.volume's V_c)
     moment = spec.magnetization * (math.pi * height * radius**2
                                    * body.mean_square_radius(sets.knots, sets.radii))
-    pos, mom = pose_dipoles(points, angles, np.repeat(centre, a, axis=0),
+    if scale is not None:
+        moment = moment * scale
+    pos, mom = pose_dipoles(pts, pose_angles, centre,
                             np.repeat(rings * radius[:, None], a, axis=0),
                             np.repeat(share, a, axis=0), np.repeat(moment, a), k)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # checked below
         b = pose_field(np.zeros((1, 3)), pos, mom)[:, 0, :].reshape(g, a, 3)
-    if phi != 0.0:
-        b = field_from_tilt_frame(b, phi)
-    b[~shapes.ok] = np.nan
-    turned = np.abs(shapes.angles).max(axis=(1, 2)) > 0.5 * math.pi - TURN_MARGIN
+    if np.any(turn != 0.0):
+        b = field_from_tilt_frame(b, turn)
+    b[~ok] = np.nan
+    turned = np.abs(np.where(ok[:, None, None], angles, 0.0)).max(axis=(1, 2)) > (
+        0.5 * math.pi - TURN_MARGIN)
     near = lift <= (1.0 + LIFT_MARGIN) * sets.max_radius
-    for j in np.flatnonzero(shapes.ok & (turned | near)):  # the element may be inside: check
-        sp = replace(spec, height=float(height[j]), base_radius=float(radius[j]),
-                     tip_radius=float(radius[j] * sets.radii[j, -1]), radii=sets.radii[j],
-                     position=(float(x[j]), float(y[j]), float(sets.z[j])))
-        try:
-            check_outside(sp, np.zeros((1, 3)), Centreline(shapes.s[j], shapes.angles[j],
-                                                           shapes.points[j]))
-        except MagciliaError:
-            b[j] = np.nan
-    return b.reshape(g, 3 * a)
+    for j in np.flatnonzero(ok & (turned | near)):  # the element may be inside: check
+        for c in range(a):
+            sp = replace(spec, height=float(height[j]), base_radius=float(radius[j]),
+                         tip_radius=float(radius[j] * sets.radii[j, -1]), radii=sets.radii[j],
+                         position=(float(x[j, c]), float(y[j, c]), float(sets.z[j])))
+            try:
+                check_outside(sp, np.zeros((1, 3)), Centreline(s[j], angles[j, c:c + 1],
+                                                               points[j, c:c + 1]))
+            except MagciliaError:
+                b[j] = np.nan
+                break
+    return b
 
 
 def _keep(kept: dict[str, F64], key: F64, shapes: BatchShapes) -> None:

@@ -54,6 +54,9 @@ BIASES = ("offset", "polynomial", "none")
 GEOMETRY = ("height", "base_radius", "x", "y", "z")
 #: the parameter load experiments add (after the geometry)
 LOAD_PARAMETER = "youngs_modulus"
+#: the parameters coil experiments add after the modulus (the magnetization scale: the
+#: cilium's field and its bending; the bridge sensitivity, V/V/T, with a single-axis output)
+COIL_PARAMETERS = ("magnetization_scale", "sensitivity")
 #: the cost given to a candidate whose model is not finite (its element on a dipole, an
 #: overflow, a bend that does not converge): worse than any real fit but finite, so that a
 #: search's population statistics stay finite and such candidates are simply never chosen; real
@@ -162,10 +165,17 @@ class Problem:
         self.prior_mu = np.array([m for m, _ in self.priors.values()])
         self.prior_sigma = np.array([s for _, s in self.priors.values()])
         self.size = self.y.size + len(self.priors)
-        self._defaults = {**self.base.params(), LOAD_PARAMETER: self.base.youngs_modulus}
+        self._defaults = {**self.base.params(), LOAD_PARAMETER: self.base.youngs_modulus,
+                          "sensitivity": self.base.sensor.sensitivity}
         self._model_names = self.all_names
         self.fluids = {i: fluid_of(e.data) for i, e in enumerate(recorded)
                        if e.data.speeds is not None}
+        # rows whose value is a model field times the base's sensor scale (outputs of tilt and
+        # load experiments): a fitted sensitivity rescales them
+        outputs = [np.full(r.y.size, e.data.fields is None and e.data.actuation is None
+                           and not self.table.x_only)
+                   for e, r in zip(recorded, rows, strict=True)]
+        self._output_rows = np.concatenate(outputs)
         #: the load blocks' latest solutions, to start the next population's Newton from
         self._load_starts: dict[int, dict[str, F64]] = {}
         # the analytic Jacobian: each search parameter's column of the model's derivatives
@@ -194,8 +204,15 @@ class Problem:
     @property
     def all_names(self) -> tuple[str, ...]:
         """Every continuous parameter of the physical model (fitted or held): the geometry, then
-        the Young's modulus when there are load experiments."""
-        return GEOMETRY + ((LOAD_PARAMETER,) if self.table.loads else ())
+        the Young's modulus when there are load or coil experiments, then with coil experiments
+        the magnetization scale and (a single-axis output among them) the sensitivity."""
+        coil: tuple[str, ...] = ()
+        if self.table.coils:
+            coil = COIL_PARAMETERS if any(
+                self.measurements[e].fields is None for e, _, _ in self.table.coils
+            ) else COIL_PARAMETERS[:1]
+        return GEOMETRY + ((LOAD_PARAMETER,) if self.table.loads or self.table.coils
+                           else ()) + coil
 
     @property
     def load_blocks(self) -> list[tuple[int, float, F64, int]]:
@@ -235,16 +252,37 @@ class Problem:
             if phi != 0.0:
                 b = field_from_tilt_frame(b, phi)
             parts.append(b.reshape(n, -1))
-        if self.table.loads:
-            parts.append(self._load_fields(prm))
-        full = parts[1] if len(parts) == 2 else np.concatenate(parts, axis=1)
-        return full if self.identity else full[:, self.column] * self.factor
+        if self.table.loads or self.table.coils:  # each block at its own columns
+            full = np.empty((n, self.table.width))
+            tilt = sum(p.shape[1] for p in parts)
+            full[:, :tilt] = np.concatenate(parts, axis=1)
+            if self.table.loads:
+                loads = self._load_fields(prm)
+                if "magnetization_scale" in prm:  # (the bend does not depend on it: the field)
+                    loads = loads * (prm["magnetization_scale"][:, None]
+                                     / self.base.material.magnetization_scale)
+                at = 0
+                for _, _, values, first in self.table.loads:
+                    full[:, first:first + 3 * values.size] = loads[:, at:at + 3 * values.size]
+                    at += 3 * values.size
+            for (_, first, width), block in zip(self.table.coils, self._coil_values(prm),
+                                                strict=True):
+                full[:, first:first + width] = block
+        else:
+            full = parts[1] if len(parts) == 2 else np.concatenate(parts, axis=1)
+        out = full if self.identity else full[:, self.column] * self.factor
+        if "sensitivity" in prm and self._output_rows.any():
+            out = np.where(self._output_rows, out * (prm["sensitivity"][:, None]
+                                                     / self.base.sensor.sensitivity), out)
+        return out
 
     @property
     def analytic(self) -> bool:
-        """Whether :meth:`model_jacobian` is analytic: every experiment a tilt (load experiments
-        bend the cilium; their columns are differenced)."""
-        return not self.table.loads
+        """Whether :meth:`model_jacobian` is analytic: every experiment a tilt (load and coil
+        experiments bend the cilium; their columns are differenced) and no fitted parameter
+        beyond the tilt model's."""
+        return not self.table.loads and not self.table.coils and all(
+            n in GEOMETRY or n in ("n_loops", "dipoles_per_loop") for n in self.names)
 
     def model_jacobian(self, P: F64 | Mapping[str, F64],
                        columns: NDArray[np.intp] | None = None) -> tuple[F64, F64]:
@@ -355,6 +393,14 @@ class Problem:
 
         return load_fields(self.base, self.table.loads, self.measurements, self.fluids, prm,
                            self._load_starts)
+
+    def _coil_values(self, prm: Mapping[str, F64]) -> list[F64]:
+        """The coil blocks' model values, each (N, width): each coil experiment's outputs (V) or
+        fields (T) with the applied field included
+        (:func:`~magcilia.calibration.coil_model.coil_block`); NaN for a set whose model fails."""
+        from magcilia.calibration.coil_model import coil_block  # (bending: coil data only)
+
+        return [coil_block(self.base, self.measurements[e], prm) for e, _, _ in self.table.coils]
 
     # -- residuals ----------------------------------------------------------------------------
     def _project(self, z: F64) -> F64:

@@ -16,7 +16,16 @@ field_y   field_y_T    field         ``field_y_T``, B_y in tesla
 field_z   field_z_T    field         ``field_z_T``, B_z in tesla
 force     force_N      force         ``force_N``, known tip force in newtons
 flow      flow_m_per_s speed         ``flow_m_per_s``, known flow speed in m/s
+actuation_x actuation_x_T field      ``actuation_x_T``, applied (coil) field B_x in tesla
+actuation_y actuation_y_T field      ``actuation_y_T``, applied field B_y in tesla
+actuation_z actuation_z_T field      ``actuation_z_T``, applied field B_z in tesla
 ========  ===========  ============  ===========================================
+
+A *coil recording* has the three ``actuation`` columns in place of the angle (all three, no
+angle, force or flow column): the applied uniform field at the cilium, board frame (a Helmholtz
+coil's current times its constant); the cilium stands upright and bends under the field's couple,
+and the sensor sees the applied field besides the cilium's
+(:attr:`magcilia.io.recordings.Measurement.actuation`).
 
 A *load recording* has a ``force`` or a ``flow`` column in place of the angle (one of them, not
 both, and no angle column): the cilium stands upright and bends under the load, toward the
@@ -79,11 +88,16 @@ ROLES: dict[str, tuple[str, str | None, str | None]] = {
     "field_z": ("field_z_T", "field", "T"),
     "force": ("force_N", "force", "N"),
     "flow": ("flow_m_per_s", "speed", "m/s"),
+    "actuation_x": ("actuation_x_T", "field", "T"),
+    "actuation_y": ("actuation_y_T", "field", "T"),
+    "actuation_z": ("actuation_z_T", "field", "T"),
 }
 #: the keys of a load recording's condition column (in place of ``angle_deg``)
 LOAD_KEYS = ("force_N", "flow_m_per_s")
 #: the keys of a 3-axis field's components (all three, or none)
 FIELD_KEYS = ("field_x_T", "field_y_T", "field_z_T")
+#: the keys of a coil recording's applied field (all three, or none), in place of the angle
+ACTUATION_KEYS = ("actuation_x_T", "actuation_y_T", "actuation_z_T")
 #: a ``required`` key of :meth:`Columns.locate` standing for the observable: ``voltage_V``, or
 #: the three field components :data:`FIELD_KEYS`
 OBSERVABLE = "observable"
@@ -162,6 +176,9 @@ class Columns:
     field_z: str = "field_z_T"
     force: str = "force_N"
     flow: str = "flow_m_per_s"
+    actuation_x: str = "actuation_x_T"
+    actuation_y: str = "actuation_y_T"
+    actuation_z: str = "actuation_z_T"
 
     def __post_init__(self) -> None:
         seen: dict[str, str] = {}
@@ -190,7 +207,8 @@ class Columns:
         return {"angle": "Tilt[deg]", "voltage": "Vout[mV]", "time": "t[s]",
                 "setreset": "SR", "azimuth": "Phi[deg]", "field_x": "Bx[uT]",
                 "field_y": "By[uT]", "field_z": "Bz[uT]", "force": "F[mN]",
-                "flow": "U[mm/s]"}[role]
+                "flow": "U[mm/s]", "actuation_x": "Bcx[mT]", "actuation_y": "Bcy[mT]",
+                "actuation_z": "Bcz[mT]"}[role]
 
     def spec(self, role: str) -> tuple[str, str | None]:
         """The name and the unit (None if not given) mapped to ``role``. A trailing ``(unit)``
@@ -305,11 +323,13 @@ class Columns:
             return at
 
         loads = [role for role in ("force", "flow") if where_is(self.spec(role)[0])]
+        coil = [role for role in ("actuation_x", "actuation_y", "actuation_z")
+                if where_is(self.spec(role)[0])]
         for role, (key, dimension, target) in ROLES.items():
             name, unit = self.spec(role)
             at = where_is(name)
             if not at:
-                if key in required and not (key == "angle_deg" and loads):
+                if key in required and not (key == "angle_deg" and (loads or coil)):
                     raise MagciliaError(self._missing(role, name, where, kind,
                                                       names_text(stripped), required))
                 continue
@@ -335,12 +355,35 @@ class Columns:
                 f"{where}: both a force {kind} ({_short(names_of['force_N'])}) and a flow "
                 f"{kind} ({_short(names_of['flow_m_per_s'])}); a load recording holds one kind "
                 "of load: split the file into a force and a flow recording")
+        self._check_coil(out, loads, where, kind, names_text(stripped))
         if loads and "angle_deg" in out:
             raise MagciliaError(
                 f"{where}: an angle {kind} ({_short(names_of['angle_deg'])}) beside the "
                 f"{loads[0]} {kind}; a load recording bends the upright cilium (no tilt): drop "
                 f"the angle {kind}, or record tilts and loads separately")
         return out
+
+    def _check_coil(self, found: Mapping[str, Any], loads: Sequence[str], where: str, kind: str,
+                    listed: str) -> None:
+        """A coil recording: all three applied-field components, no angle and no load."""
+        names = self.names()
+        coil = [k for k in ACTUATION_KEYS if k in found]
+        if not coil:
+            return
+        if len(coil) < len(ACTUATION_KEYS):
+            missing = [k for k in ACTUATION_KEYS if k not in found]
+            raise MagciliaError(
+                f"{where}: missing applied-field {kind}(s) "
+                f"{', '.join(_short(names[k]) for k in missing)} "
+                f"({'header' if kind == 'column' else 'found'}: {listed}); a coil recording needs "
+                f"all three {', '.join(_short(names[k]) for k in ACTUATION_KEYS)} (map yours with "
+                "--columns actuation_x=NAME[unit],actuation_y=...,actuation_z=...)")
+        if "angle_deg" in found or loads:
+            other = "an angle" if "angle_deg" in found else f"a {loads[0]}"
+            raise MagciliaError(
+                f"{where}: {other} {kind} beside the applied-field {kind}s; a coil recording "
+                f"bends the upright cilium by the applied field alone: drop the {kind}, or record "
+                "tilts, loads and coil fields separately")
 
     def _check_observable(self, found: Mapping[str, Any], required: tuple[str, ...], where: str,
                           kind: str, listed: str) -> None:
@@ -431,5 +474,6 @@ def columns_help() -> str:
     return (f"Map roles ({roles}) to the file's names with units, e.g. "
             "angle=Tilt[deg],voltage=Vout[mV] or azimuth=Phi[deg],field_x=Bx[uT],... Default: "
             "angle_deg, voltage_V, time_s, setreset, azimuth_deg, field_x_T, field_y_T, "
-            "field_z_T, force_N, flow_m_per_s (a load recording: force or flow in place of the "
-            "angle).")
+            "field_z_T, force_N, flow_m_per_s, actuation_x_T, actuation_y_T, actuation_z_T (a "
+            "load recording: force or flow in place of the angle; a coil recording: the three "
+            "applied-field columns in place of the angle).")

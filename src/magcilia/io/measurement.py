@@ -19,7 +19,8 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, Table, count, dataframe, number, si
 from magcilia._errors import MagciliaError
 from magcilia._validate import printable
-from magcilia.io.columns import FIELD_KEYS
+from magcilia.constants import GAUSS
+from magcilia.io.columns import ACTUATION_KEYS, FIELD_KEYS
 from magcilia.io.quality import RecordingQuality
 
 F64 = NDArray[np.float64]
@@ -79,6 +80,12 @@ class Measurement(Display):
         A load experiment under known uniform flow speeds, m/s, the flow toward ``azimuths``, in
         the fluid named by ``metadata["fluid"]`` (``"water"`` when absent; see
         :data:`magcilia.mechanics.FLUIDS`). At most one of ``forces`` and ``speeds``.
+    actuation : ndarray, shape (a, 3), or None
+        A coil experiment: the applied uniform field (B_x, B_y, B_z) at the cilium of each
+        condition, T, board frame (a Helmholtz coil's current times its constant; file columns
+        ``actuation_x_T``, ``actuation_y_T``, ``actuation_z_T``); ``angles`` and ``azimuths`` are
+        then 0 (the upright cilium bends under the field's couple) and the observable holds the
+        applied field too. None for tilt and load experiments.
     """
 
     angles: F64
@@ -95,6 +102,7 @@ class Measurement(Display):
     field_sem: F64 | None = None
     forces: F64 | None = None
     speeds: F64 | None = None
+    actuation: F64 | None = None
 
     def __post_init__(self) -> None:
         if self.forces is not None and self.speeds is not None:
@@ -105,8 +113,11 @@ class Measurement(Display):
         if (self.fields is None) != (self.field_sem is None):
             raise v.fail("field_sem", "given without fields" if self.fields is None
                          else "missing", "both fields and field_sem, or neither")
+        if self.actuation is not None and self.loads is not None:
+            raise v.fail("Measurement actuation", f"given with {self.load_kind} loads",
+                         "one stimulus per recording (record coil fields and loads separately)")
         for name in ("angles", "volts", "sem", "counts", "saturated", "nonfinite", "azimuths",
-                     "fields", "field_sem", "forces", "speeds"):
+                     "fields", "field_sem", "forces", "speeds", "actuation"):
             value = getattr(self, name)
             if value is None:
                 continue
@@ -115,9 +126,9 @@ class Measurement(Display):
             object.__setattr__(self, name, arr)
         a = self.angles.shape
         for name in ("volts", "sem", "counts", "saturated", "nonfinite", "azimuths", "fields",
-                     "field_sem", "forces", "speeds"):
+                     "field_sem", "forces", "speeds", "actuation"):
             value = getattr(self, name)
-            want = (*a, 3) if name in ("fields", "field_sem") else a
+            want = (*a, 3) if name in ("fields", "field_sem", "actuation") else a
             if value is not None and value.shape != want:
                 raise v.fail(f"Measurement {name}", f"shape {value.shape}",
                              f"shape {want}: one " + ("row (B_x, B_y, B_z)" if len(want) == 2
@@ -131,6 +142,13 @@ class Measurement(Display):
             if np.any(self.angles != 0.0):
                 raise v.fail("Measurement angles", "non-zero with loads",
                              "zeros: a load experiment bends the upright cilium")
+        if self.actuation is not None:
+            if not np.isfinite(self.actuation).all():
+                raise v.fail("Measurement actuation", "not finite everywhere",
+                             "finite applied fields in T")
+            if np.any(self.angles != 0.0) or np.any(self.azimuths != 0.0):
+                raise v.fail("Measurement angles", "non-zero with applied fields",
+                             "zeros: a coil experiment bends the upright cilium")
 
     @property
     def load_kind(self) -> str | None:
@@ -141,6 +159,11 @@ class Measurement(Display):
     def loads(self) -> F64 | None:
         """The loads of a load experiment (forces N or speeds m/s, shape (a,)), else None."""
         return self.forces if self.forces is not None else self.speeds
+
+    @property
+    def is_coil(self) -> bool:
+        """Whether this is a coil experiment (applied uniform fields, :attr:`actuation`)."""
+        return self.actuation is not None
 
     @property
     def fluid(self) -> str:
@@ -205,6 +228,7 @@ class Measurement(Display):
                 "field_T": self.fields.tolist(), "field_sem_T": self.field_sem.tolist()}),
             **({} if self.forces is None else {"force_N": self.forces.tolist()}),
             **({} if self.speeds is None else {"speed_m_per_s": self.speeds.tolist()}),
+            **({} if self.actuation is None else {"actuation_T": self.actuation.tolist()}),
         }
 
     @classmethod
@@ -229,6 +253,8 @@ class Measurement(Display):
                         else np.asarray(data["force_N"], dtype=np.float64)),
                 speeds=(None if data.get("speed_m_per_s") is None
                         else np.asarray(data["speed_m_per_s"], dtype=np.float64)),
+                actuation=(None if data.get("actuation_T") is None
+                           else np.asarray(data["actuation_T"], dtype=np.float64)),
             )
 
     @property
@@ -245,6 +271,10 @@ class Measurement(Display):
         (0, 90 deg) × angles -40..40 deg``."""
         deg = self.angles_deg
         span = f"{deg.min():.4g}..{deg.max():.4g} deg"
+        if self.actuation is not None:
+            b = np.linalg.norm(self.actuation, axis=1) / GAUSS
+            return (f"{len(self)} applied fields (coil): |B| {b.min():.4g}..{b.max():.4g} "
+                    "gauss")
         loads = self.loads
         if loads is not None:
             scale, unit = (1e3, "mN") if self.forces is not None else (1e3, "mm/s")
@@ -359,6 +389,8 @@ class Measurement(Display):
             values = {"output_V": self.volts, "sem_V": self.sem}
         loads = {} if self.forces is None else {"force_N": self.forces}
         loads.update({} if self.speeds is None else {"speed_m_per_s": self.speeds})
+        if self.actuation is not None:
+            loads.update({k: self.actuation[:, j] for j, k in enumerate(ACTUATION_KEYS)})
         return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
                           "count": self.counts, "saturated": self.saturated,
                           "nonfinite": self.nonfinite})
