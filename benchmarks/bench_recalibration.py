@@ -53,7 +53,7 @@ def run(seed: int) -> dict[str, float]:
     setup = mc.presets.load("force-sensor")
     source = SimulatedCoilSource(
         setup, Script.from_steps(LOADS, "force"), rng=seed, readout_noise=2e-5, set_reset=10,
-        pulses=CoilPulses(every=1.0, duration=0.1, amplitude=5e-4),
+        pulses=CoilPulses(every=1.0, duration=0.1, amplitude=5e-4, start=0.5),
         drifts=Drifts(TRUTH["sensitivity"] / SECONDS, TRUTH["magnetization"] / SECONDS),
         drift=TRUTH["offset"] / SECONDS)
     readout = mc.Readout(setup, "force", span=(-2e-5, 2e-5))

@@ -7,16 +7,19 @@ calibrated scale (V/T), the drift scales s (sensitivity), m (magnetization), k (
 and the offset o (V), the model is, per pulse (a uniform field's couple on the hair is
 proportional to M·ΔB over EI, the hair's field to M)::
 
-    ΔV = S·s·( ΔB_x + (m²/k)·g·ΔB )
+    ΔV = S·s·( ΔB_x + (m²/k)·r(ΔB; F) )
 
-where g (dimensionless, shape (3,)) is the calibrated hair's field at the element per unit pulse
-field, from the model at rest (:func:`magcilia.bend` with :meth:`Actuation.uniform`, exact for the
-calibrated hair; the load's change of g is second order). What each kind of window determines:
+where r (T) is the calibrated hair's field change at the element along the sensing axis under the
+pulse, from the model (:func:`magcilia.bend` with :meth:`Actuation.uniform` and
+:meth:`~magcilia.Setup.field`, exact, tabulated over the span of loads F and taken at the pose the
+level before the pulse shows; its drift scaling m²/k is the linear one, exact to second order in
+the pulse's bend). ``g`` is r per unit field at rest for 1 G pulses. What each kind of window
+determines:
 
 * a pulse **along the sensing axis** (x) sees the direct field S·s·ΔB_x — the sensitivity — plus
   the hair's bending, which is small beside it (−0.1 % for the paper's hair);
 * a pulse **across it in the element's plane** (y) has no direct part: it sees the hair's bending
-  alone, S·s·m²/k·g_y (the sensor sits off the hair's plane of symmetry, so g_y ≠ 0) — with s
+  alone, S·s·m²/k·r_y (the sensor sits off the hair's plane of symmetry, so r_y ≠ 0) — with s
   from x pulses, the ratio m²/k;
 * a pulse **along the hair** (z) exerts no couple on a straight hair (t × B = 0) and a single-axis
   sensor does not see it: it determines nothing at rest (it does on a bent hair or a 3-axis part);
@@ -57,8 +60,10 @@ F64 = NDArray[np.float64]
 NAMES = ("offset", "sensitivity", "magnetization", "stiffness")
 #: a parameter seen for the first time stays held while its σ exceeds this (V; scales: relative)
 _LOOSE = {"offset": 1e-3, "sensitivity": 0.1, "magnetization": 0.1, "stiffness": 0.1}
-#: held, in this order, while the windows leave a combination undetermined
-_HOLD_ORDER = ("stiffness", "magnetization", "offset", "sensitivity")
+#: each parameter's unit in the test for an undetermined combination (V; scales: 1)
+_UNIT = {"offset": 1e-3, "sensitivity": 1.0, "magnetization": 1.0, "stiffness": 1.0}
+#: of parameters equally undetermined, the later is held first
+_HOLD_FIRST = ("offset", "sensitivity", "magnetization", "stiffness")
 #: the default random walk of :meth:`Recalibrator.update`'s tracking, per √s: generous for slow
 #: (thermal) drifts — 10 µV and 0.1 % in a second (the HMC1021's sensitivity moves ~0.3 %/K)
 WALK = {"offset": 1e-5, "sensitivity": 1e-3, "magnetization": 1e-3, "stiffness": 1e-3}
@@ -341,7 +346,7 @@ class Recalibrator:
     ----------
     g : ndarray, shape (3,)
         The hair's field at the element along the sensing axis per unit pulse field along x, y,
-        z, dimensionless (from the model at rest).
+        z at rest, dimensionless (1 gauss pulses; :meth:`response` is exact for any pulse).
     rest_field : float
         The unloaded hair's field at the element along the sensing axis, T.
     scale, offset : float
@@ -362,25 +367,37 @@ class Recalibrator:
         lo, hi = (v.real("span", x, "N") for x in span)
         if not lo <= 0.0 <= hi or lo == hi:
             raise v.fail("span", span, "loads (low, high), N, around 0")
-        loads = np.union1d(np.linspace(lo, hi, v.integer("points", points, 3)), [0.0])
-        table = np.array([_response(setup, float(f)) for f in loads])  # (p, 4): b_x, g
-        i0 = int(np.searchsorted(loads, 0.0))
-        self.rest_field = float(table[i0, 0])
-        self.g = table[i0, 1:].copy()
-        monotonic = np.all(np.diff(table[:, 0]) > 0) or np.all(np.diff(table[:, 0]) < 0)
-        #: the hair's field (T) and g (3,) against the load over EI's scale, N (None: not
-        #: monotonic over the span, g is taken at rest)
-        self.table = (loads, table) if monotonic else None
+        self._setup = setup
+        self._loads = np.union1d(np.linspace(lo, hi, v.integer("points", points, 3)), [0.0])
+        levels = np.array([_hair_bx(setup, float(f)) for f in self._loads])
+        i0 = int(np.searchsorted(self._loads, 0.0))
+        self.rest_field = float(levels[i0])
+        monotonic = bool(np.all(np.diff(levels) > 0) or np.all(np.diff(levels) < 0))
+        #: the hair's field at the element (T) at each load of the table; a pulse's response is
+        #: interpolated at the pose whose field the level before it shows (at rest when the
+        #: field is not monotonic over the span)
+        self._levels = levels if monotonic else None
+        self._responses: dict[tuple[float, float, float], F64] = {}
+        self.g = np.array([self.response(b, self.rest_field) for b in np.eye(3) * _PROBE]
+                          ) / _PROBE
 
-    def g_at(self, field: float) -> F64:
-        """g (3,) where the calibrated hair's field at the element is ``field``, T (the load's
-        pose; at rest outside the table)."""
-        if self.table is None:
-            return self.g
-        _, table = self.table
-        order = np.argsort(table[:, 0])
-        bx = table[order, 0]
-        return np.array([np.interp(field, bx, table[order, 1 + a]) for a in range(3)])
+    def response(self, field: ArrayLike, level: float) -> float:
+        """The calibrated hair's field change at the element along the sensing axis, T, when a
+        pulse ``field`` (3,), T, bends it from the pose where its field there is ``level``, T:
+        the model's exact response (not linear in the pulse: 3 % less per gauss at 5 G than at
+        1 G across the force-sensor hair), tabulated over the span per pulse field."""
+        b = v.vector3("field", field, "T")
+        key = (float(b[0]), float(b[1]), float(b[2]))
+        if key not in self._responses:
+            self._responses[key] = np.array([_hair_bx(self._setup, float(f), b)
+                                             for f in self._loads]) - (
+                self._levels if self._levels is not None else np.full(
+                    self._loads.size, _hair_bx(self._setup, 0.0)))
+        table = self._responses[key]
+        if self._levels is None:
+            return float(table[int(np.searchsorted(self._loads, 0.0))])
+        order = np.argsort(self._levels)
+        return float(np.interp(level, self._levels[order], table[order]))
 
     def start(self, offset: float | None = None) -> Recalibration:
         """The state at the calibration: scales 1, the offset ``offset`` (V; default the
@@ -400,7 +417,7 @@ class Recalibrator:
             if isinstance(w, PulseWindow):
                 b = np.asarray(w.field)
                 level = w.before if w.offset_free else w.before - o
-                gb = float(self.g_at(level / (S * s * m)) @ b)
+                gb = self.response(b, level / (S * s * m))
                 q = m * m / k
                 pred.append(S * s * (b[0] + q * gb))
                 jac.append([0.0, S * (b[0] + q * gb), S * s * 2.0 * m / k * gb,
@@ -471,12 +488,17 @@ class Recalibrator:
             if name not in held and i not in prior and not np.any(jac[:, i] != 0.0):
                 held[name] = _UNSEEN[name]
         free = [i for i, n in enumerate(NAMES) if n not in held]
-        for name in _HOLD_ORDER:  # an undetermined combination: hold until the rest is
-            if not free or _rank(self._design(jac, sig, prior, free)) == len(free):
+        while free:  # an undetermined combination: hold its largest part until none is left
+            a = self._design(jac, sig, prior, free) * np.array([_UNIT[NAMES[i]] for i in free])
+            _, sv, vt = np.linalg.svd(a, full_matrices=True)
+            rank = int(np.sum(sv > 1e-9 * sv[0])) if sv.size and sv[0] > 0 else 0
+            if rank == len(free):
                 break
-            if name not in held:
-                held[name] = _COMBINED.get(name, "undetermined by these windows")
-                free = [i for i, n in enumerate(NAMES) if n not in held]
+            weight = np.linalg.norm(vt[rank:], axis=0)  # each parameter's share of the null space
+            weight += 1e-6 * np.array([_HOLD_FIRST.index(NAMES[i]) for i in free])  # ties
+            name = NAMES[free[int(np.argmax(weight))]]
+            held[name] = _COMBINED[name]
+            free = [i for i in free if NAMES[i] != name]
         start = theta.copy()
         while True:  # a parameter seen for the first time but barely determined stays held
             theta, cov = self._solve(windows, y, sig, start, prior, free)
@@ -563,9 +585,11 @@ _UNSEEN = {"offset": "no strap or rest window: coil pulses never see the offset"
 #: why a parameter is held when the windows see it only in a combination
 _COMBINED = {"stiffness": "pulses see only magnetization²/stiffness: a rest window (unloaded) "
                           "separates them",
-             "magnetization": "pulses see only magnetization²/stiffness",
-             "offset": "a rest level is offset or magnetization: a strap window separates them",
-             "sensitivity": "undetermined by these windows"}
+             "sensitivity": "pulses across the sensing axis see sensitivity × magnetization² / "
+                            "stiffness only: a pulse along it fixes the sensitivity",
+             "magnetization": "seen only in a combination these windows cannot split (a pulse "
+                              "across the sensing axis and a rest window each fix one)",
+             "offset": "a rest level is offset or magnetization: a strap window separates them"}
 
 
 def _prior(prev: Recalibration, walk: dict[str, float] | None, now: float) -> dict[int, float]:
@@ -583,26 +607,13 @@ def _prior(prev: Recalibration, walk: dict[str, float] | None, now: float) -> di
     return out
 
 
-def _response(setup: Setup, force: float) -> list[float]:
-    """The hair's field at the element along the sensing axis (T) under a tip force (N, +x),
-    and g (3,): its change per unit pulse field along x, y, z there (finite difference of
-    1 gauss)."""
+def _hair_bx(setup: Setup, force: float, field: F64 | None = None) -> float:
+    """The hair's field at the element along the sensing axis, T, under a tip force (N, +x) and a
+    uniform field (3,), T (None: none)."""
     from magcilia.device.actuation import Actuation
     from magcilia.mechanics import bend
 
-    level = float(np.ravel(setup.field(bend(setup, force)))[0])
-    out = [level]
-    for axis in range(3):
-        b = np.zeros(3)
-        b[axis] = _PROBE
-        shape = bend(setup, force, actuation=Actuation.uniform(b))
-        out.append((float(np.ravel(setup.field(shape))[0]) - level) / _PROBE)
-    return out
+    act = None if field is None or not np.any(field) else Actuation.uniform(field)
+    return float(np.ravel(setup.field(bend(setup, force, actuation=act)))[0])
 
 
-def _rank(a: F64) -> int:
-    """Numerical rank (relative 1e-9 of the largest singular value)."""
-    if a.size == 0:
-        return 0
-    s = np.linalg.svd(a, compute_uv=False)
-    return int(np.sum(s > 1e-9 * s[0])) if s[0] > 0 else 0

@@ -95,7 +95,7 @@ class PulseTracker:
 
     def __init__(self, recalibrator: Recalibrator, *, before: float = 0.05,
                  settle: float = 0.01, after: float = 0.02, memory: int = 12,
-                 walk: dict[str, float] | None = None, gate: float = 5.0) -> None:
+                 walk: dict[str, float] | None = None, gate: float = 3.0) -> None:
         if not isinstance(recalibrator, Recalibrator):
             raise v.fail("recalibrator", type(recalibrator).__name__, "a Recalibrator")
         self.recalibrator = recalibrator
