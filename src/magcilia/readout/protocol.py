@@ -87,6 +87,8 @@ class Flag(enum.IntFlag):
     TARE_UNDER_LOAD = 4096
     #: the zero drifts faster than zero tracking follows; σ includes the drift not tracked
     ZERO_DRIFT = 8192
+    #: a coil pulse of the in-use re-calibration: the reading is no force (no value)
+    COIL_PULSE = 16384
     #: the array read-out's former name of ABOVE_SPAN
     BEYOND_SPAN = 64
 

@@ -291,17 +291,20 @@ class Recalibration(Display):
         return value, sigma
 
     def changes_text(self) -> str:
-        """What changed, e.g. ``S −1.8 %, M −4.9 %, offset +0.31 mV`` (determined ones)."""
+        """What changed, with σ, e.g. ``S −1.8±0.1 %, M −4.9±0.4 %, offset +0.31±0.01 mV``
+        (the determined parameters)."""
         parts = []
         for name, short in (("sensitivity", "S"), ("magnetization", "M"), ("stiffness", "E")):
             if name in self.determined:
-                parts.append(f"{short} {self.change(name) * 100:+.1f} %".replace("-", "−"))
+                sigma = self.sigma[name] / self.reference[name] * 100
+                parts.append(f"{short} {self.change(name) * 100:+.1f}±{sigma:.1f} %")
         if "offset" in self.determined:
-            parts.append(f"offset {self.change('offset') * 1e3:+.2f} mV".replace("-", "−"))
-        return ", ".join(parts) or "nothing determined"
+            parts.append(f"offset {self.change('offset') * 1e3:+.2f}±"
+                         f"{self.sigma['offset'] * 1e3:.2f} mV")
+        return ", ".join(parts).replace("-", "−") or "nothing determined"
 
     def status_text(self, now: float) -> str:
-        """The live status's words: ``recal 12 s ago: S −1.8 %, offset +0.30 mV``."""
+        """The live status's words: ``recal 12 s ago: S −1.8±0.1 %, offset +0.30±0.01 mV``."""
         return f"recal {max(0.0, now - self.time):.0f} s ago: {self.changes_text()}"
 
     def to_dict(self) -> dict[str, Any]:
