@@ -15,7 +15,7 @@ both read-outs with σ every 5 s, the share of readings within 2σ of the truth 
 error in σ, and the tracked drifts against the truth at the end. No timing: the figures are
 accuracies.
 
-Run: python benchmarks/bench_recalibration.py [--seed N]
+Run: python benchmarks/bench_recalibration.py [--seed N] [--quick]
 """
 
 from __future__ import annotations
@@ -49,19 +49,19 @@ WINDOW = 100  # samples per reading
 WALK = {"offset": 2e-5, "sensitivity": 2e-3, "magnetization": 2e-3, "stiffness": 2e-3}
 
 
-def run(seed: int) -> dict[str, float]:
+def run(seed: int, seconds: float = SECONDS) -> dict[str, float]:
     setup = mc.presets.load("force-sensor")
     source = SimulatedCoilSource(
         setup, Script.from_steps(LOADS, "force"), rng=seed, readout_noise=2e-5, set_reset=10,
         pulses=CoilPulses(every=1.0, duration=0.1, amplitude=5e-4, start=0.5),
         drifts=Drifts(TRUTH["sensitivity"] / SECONDS, TRUTH["magnetization"] / SECONDS),
-        drift=TRUTH["offset"] / SECONDS)
+        drift=TRUTH["offset"] / SECONDS)  # the same rates in a --quick run
     readout = mc.Readout(setup, "force", span=(-2e-5, 2e-5))
     tracker = PulseTracker(Recalibrator(setup, span=(-5e-6, 5e-6), hold=()), walk=WALK)
     o0 = setup.sensor.offset
     rows = []
     with source:
-        for _ in range(int(SECONDS / 0.5)):
+        for _ in range(int(seconds / 0.5)):
             block = source.read(500)
             applied = np.column_stack([block[c] for c in ACTUATION_COLUMNS])
             out, mask = tracker.push(block.time, block["output"], applied, block.setreset)
@@ -90,7 +90,7 @@ def run(seed: int) -> dict[str, float]:
     plain_z = (np.asarray(plain.value) - truth) / np.asarray(plain.sigma_noise)
     fixed_z = (fixed_value - truth) / fixed_sigma
     print(f"{'t s':>6} {'true µN':>8} {'without µN':>20} {'with re-calibration µN':>24}")
-    for when in np.arange(5.0, SECONDS + 1e-9, 5.0):
+    for when in np.arange(5.0, seconds + 1e-9, 5.0):
         j = int(np.argmin(np.abs(t - (when - 1.25))))  # loaded
         print(f"{t[j]:6.2f} {truth[j] * 1e6:+8.3f} {plain.value[j] * 1e6:+10.3f} ± "
               f"{plain.sigma_noise[j] * 1e6:.3f}    {fixed_value[j] * 1e6:+10.3f} ± "
@@ -118,9 +118,11 @@ def run(seed: int) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--quick", action="store_true",
+                        help="20 s instead of 60 s (the same drift rates: a third of the drifts)")
     args = parser.parse_args()
     t0 = time.perf_counter()
-    run(args.seed)
+    run(args.seed, 20.0 if args.quick else SECONDS)
     print(f"({time.perf_counter() - t0:.1f} s of wall time; the figures are accuracies)")
 
 
