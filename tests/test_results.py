@@ -64,7 +64,8 @@ def _coil_sweep() -> Any:
 
 
 def _recalibration() -> tuple[Any, Any]:
-    from magcilia.readout.recalibration import PulseWindow, Recalibrator
+    from magcilia.readout.recalibration import Recalibrator
+    from magcilia.readout.recalibration_windows import PulseWindow
 
     window = PulseWindow.of([5e-4, 0.0, 0.0], [0.0, 1e-6, -1e-6], [0.0375, 0.0375, 0.03751])
     rc = Recalibrator(TAPERED, points=3)

@@ -19,14 +19,9 @@ from magcilia.acquire.simulated_coil import (
     Drifts,
     SimulatedCoilSource,
 )
-from magcilia.readout.recalibration import (
-    NAMES,
-    PulseWindow,
-    Recalibrator,
-    RestWindow,
-    StrapWindow,
-)
+from magcilia.readout.recalibration import NAMES, Recalibrator
 from magcilia.readout.recalibration_stream import PulseTracker
+from magcilia.readout.recalibration_windows import PulseWindow, RestWindow, StrapWindow
 
 SETUP = mc.presets.load("force-sensor")
 SPAN = (-5e-6, 5e-6)

@@ -27,7 +27,8 @@
 * :mod:`.recalibration`: in-use re-calibration: :class:`Recalibrator` re-estimates offset,
   sensitivity, magnetization and stiffness from coil pulses (:class:`PulseWindow`), the strap
   (:class:`StrapWindow`) and unloaded moments (:class:`RestWindow`) into a
-  :class:`Recalibration`; :mod:`.recalibration_stream` finds the pulses in a stream
+  :class:`Recalibration` (the windows in :mod:`.recalibration_windows`);
+  :mod:`.recalibration_stream` finds the pulses in a stream
   (:class:`PulseTracker`, :func:`pulse_windows`);
 * :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
 
@@ -71,14 +72,9 @@ if TYPE_CHECKING:
         SensorReadout,
         flag_names,
     )
-    from magcilia.readout.recalibration import (
-        PulseWindow,
-        Recalibration,
-        Recalibrator,
-        RestWindow,
-        StrapWindow,
-    )
+    from magcilia.readout.recalibration import Recalibration, Recalibrator
     from magcilia.readout.recalibration_stream import PulseTracker, pulse_windows
+    from magcilia.readout.recalibration_windows import PulseWindow, RestWindow, StrapWindow
     from magcilia.readout.tare import ChannelTare, Tare
 
 __all__ = [

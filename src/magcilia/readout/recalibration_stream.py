@@ -22,15 +22,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia.readout.recalibration import (
-    WALK,
-    PulseWindow,
-    Recalibration,
-    Recalibrator,
-    RestWindow,
-    StrapWindow,
-    Window,
-)
+from magcilia.readout.recalibration import WALK, Recalibration, Recalibrator
+from magcilia.readout.recalibration_windows import PulseWindow, RestWindow, StrapWindow, Window
 
 F64 = NDArray[np.float64]
 
