@@ -36,11 +36,13 @@ from magcilia import _validate as v
 from magcilia.acquire.simulated import Script, SimulatedSource
 from magcilia.acquire.source import OUTPUT, Channel
 from magcilia.device.setup import Setup
+from magcilia.io.columns import ACTUATION_KEYS
 
 F64 = NDArray[np.float64]
 
-#: the recording channels of the applied uniform field at the cilium, T, board frame
-ACTUATION_COLUMNS = ("actuation_x_T", "actuation_y_T", "actuation_z_T")
+#: the recording channels of the applied uniform field at the cilium, T, board frame (the
+#: readers' column keys, :data:`magcilia.io.columns.ACTUATION_KEYS`)
+ACTUATION_COLUMNS = ACTUATION_KEYS
 #: the axes a pulse may take, in the board frame
 AXES = {"x": 0, "y": 1, "z": 2}
 #: drift scales are rounded to this step
