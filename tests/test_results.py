@@ -54,6 +54,24 @@ def _sweep() -> Any:
     return record_sweep(SimulatedSource(SETUP, rng=0), path, angles=[0.0, 0.3], samples=50)
 
 
+def _coil_sweep() -> Any:
+    from magcilia.acquire.coil import CoilSequence, record_coil
+    from magcilia.acquire.simulated_coil import SimulatedCoilSource
+
+    path = Path(tempfile.mkdtemp()) / "coil.tdms"
+    return record_coil(SimulatedCoilSource(TAPERED, rng=0), path,
+                       CoilSequence.of([[0.0, 0.0, 0.0], [2e-4, 0.0, 0.0]]), samples=50)
+
+
+def _recalibration() -> tuple[Any, Any]:
+    from magcilia.readout.recalibration import Recalibrator
+    from magcilia.readout.recalibration_windows import PulseWindow
+
+    window = PulseWindow.of([5e-4, 0.0, 0.0], [0.0, 1e-6, -1e-6], [0.0375, 0.0375, 0.03751])
+    rc = Recalibrator(TAPERED, points=3)
+    return rc.update([window, window]), window
+
+
 def _stream() -> Any:
     from magcilia.acquire import SimulatedSource, record_stream
 
@@ -127,6 +145,10 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "Metric": lambda: mc.design_metrics(TAPERED, points=11).angle,
     "SweepResult": _sweep,
     "SweepPoint": lambda: _sweep().points[0],
+    "CoilResult": _coil_sweep,  # issue 29: record --coil
+    "CoilPoint": lambda: _coil_sweep().points[0],
+    "PulseWindow": lambda: _recalibration()[1],  # issue 29: in-use re-calibration
+    "Recalibration": lambda: _recalibration()[0],
     "StreamResult": _stream,
     "LiveSamples": lambda: _live().history.last(1.0, 100.0),
     "LiveStatus": lambda: _live().status,

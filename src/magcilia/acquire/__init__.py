@@ -12,6 +12,9 @@
 * :mod:`.photo`: tilt angles from photos of the holder (:func:`measure_tilt`), with
   :mod:`.stripes` finding the tape and the case edge;
 * :mod:`.sweep`: the guided calibration sweep into a crash-safe recording (:func:`record_sweep`);
+* :mod:`.coil`: the coil calibration sweep (:func:`record_coil`, :class:`CoilSequence`) on
+  :mod:`.simulated_coil` (:class:`SimulatedCoilSource`: the applied field, pulses, drifts) or an
+  NI analog output per axis (:mod:`.coil_output`, :class:`NidaqCoilOutput`);
 * :mod:`.stream`: continuous recording through the ring buffer (:func:`record_stream`);
 * :mod:`.connect`: sources by name (``sim``, ``serial:PORT``, ``nidaq:DEV/ai0``);
 * :mod:`.synthetic`: whole synthetic recordings of the paper's experiment in one call.
@@ -25,6 +28,8 @@ from magcilia._lazy import attach
 
 if TYPE_CHECKING:
     from magcilia.acquire.buffer import BackgroundReader, RingBuffer
+    from magcilia.acquire.coil import CoilPoint, CoilResult, CoilSequence, record_coil
+    from magcilia.acquire.coil_output import NidaqCoilOutput
     from magcilia.acquire.connect import source_from_spec
     from magcilia.acquire.emulator import DeviceEmulator
     from magcilia.acquire.nidaq import NidaqSource
@@ -32,6 +37,7 @@ if TYPE_CHECKING:
     from magcilia.acquire.replay import ReplaySource
     from magcilia.acquire.serial import SerialSource
     from magcilia.acquire.simulated import Script, SimulatedSource
+    from magcilia.acquire.simulated_coil import CoilPulses, Drifts, SimulatedCoilSource
     from magcilia.acquire.simulated_loads import LoadScript, SimulatedFieldSource, single_cilium
     from magcilia.acquire.source import OUTPUT, Block, Channel, Counters, Source
     from magcilia.acquire.stream import StreamResult, record_stream
@@ -43,15 +49,22 @@ __all__ = [
     "BackgroundReader",
     "Block",
     "Channel",
+    "CoilPoint",
+    "CoilPulses",
+    "CoilResult",
+    "CoilSequence",
     "Counters",
     "DeviceEmulator",
+    "Drifts",
     "LoadScript",
+    "NidaqCoilOutput",
     "NidaqSource",
     "Recording",
     "ReplaySource",
     "RingBuffer",
     "Script",
     "SerialSource",
+    "SimulatedCoilSource",
     "SimulatedFieldSource",
     "SimulatedSource",
     "Source",
@@ -61,6 +74,7 @@ __all__ = [
     "TiltMeasurement",
     "measure_tilt",
     "read_photo",
+    "record_coil",
     "record_stream",
     "record_sweep",
     "single_cilium",

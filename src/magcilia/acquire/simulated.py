@@ -285,10 +285,7 @@ class SimulatedSource(Paced, Source):
         index = self._index + np.arange(n)
         t = index / self.rate
         temps = None if self.temperature is None else self.temperature.values(t)
-        values = self.script.values(t)
-        if temps is not None and self.script.quantity != "angle":  # the load over E(T)/E_ref
-            values = values / self.thermal.load_factor(temps)
-        clean = self._clean(values)
+        clean = self._clean_at(t)
         offset = self.setup.sensor.offset
         polarity = None
         volts = clean
@@ -301,7 +298,8 @@ class SimulatedSource(Paced, Source):
                  + self.readout_noise * self._gen.standard_normal(n))
         self._index += n
         self._pace()
-        data = volts[None, :] if temps is None else np.stack([volts, temps])
+        rows = self._rows(t, volts)
+        data = rows if temps is None else np.vstack([rows, temps[None, :]])
         return Block(time=t, data=data, channels=self.channels, first=int(index[0]),
                      setreset=polarity)
 
@@ -317,6 +315,19 @@ class SimulatedSource(Paced, Source):
                     "temperature_model": self.thermal.to_dict()})}
 
     # -- the signal -----------------------------------------------------------------------------
+    def _clean_at(self, t: F64) -> F64:
+        """Noise-free output (V) at sample times ``t`` (s); a subclass that drives more than the
+        script (a coil: :class:`~magcilia.acquire.simulated_coil.SimulatedCoilSource`) overrides
+        it."""
+        values = self.script.values(t)
+        if self.temperature is not None and self.script.quantity != "angle":
+            values = values / self.thermal.load_factor(self.temperature.values(t))  # F/(E(T)/E_ref)
+        return self._clean(values)
+
+    def _rows(self, t: F64, volts: F64) -> F64:  # noqa: ARG002 (a subclass's channels use t)
+        """The block's rows, shape (channels, n): the output (and a subclass's channels)."""
+        return volts[None, :]
+
     def _clean(self, values: F64) -> F64:
         """Noise-free output (V) at the scripted values (the moving hair's, with
         ``dynamics``)."""

@@ -154,6 +154,14 @@ def live_options(command: Any) -> Any:
                           "air for a force or an angle, in --fluid for a flow; --rate above "
                           "twice its first mode). With --source sim the simulated hair moves "
                           "too."),
+        click.option("--recalibrate", default=None, type=Physical.of("time", "5s"),
+                     help="In-use re-calibration every this many s (sim, a force): the "
+                          "simulated coil fires a 5 G, 50 ms pulse, along x and y in turn, the "
+                          "strap alternates (--set-reset 10 unless given) and the simulated "
+                          "sensor drifts (sensitivity and magnetization −0.6 %/min); the pulses "
+                          "re-estimate offset, sensitivity and magnetization, their readings "
+                          "are flagged COIL PULSE (no value), and the status says when it last "
+                          "re-calibrated and what changed."),
         click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
                      help="sim: the simulated hair moves through its bending modes (rings in "
                           "air, lags in water) instead of sitting at each load's equilibrium."),
@@ -167,7 +175,7 @@ def live_options(command: Any) -> Any:
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
              "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
-             "force", "dynamic", "sim_dynamics")
+             "force", "dynamic", "sim_dynamics", "recalibrate")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
@@ -177,7 +185,8 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                sensor_name: str | None = None, sensor_noise: str | None = None,
                record_path: str | None = None, force: bool = False,
                replay_realtime: bool | None = None, dynamic: bool = False,
-               sim_dynamics: bool = False, **_: Any) -> LiveReadout:
+               sim_dynamics: bool = False, recalibrate: float | None = None,
+               **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started): one output of a single-axis
     sensor; the force vector of a 3-axis sensor (``--sensor``); every cilium's force vector of an
     array (an array setup file or preset). A ``.tdms`` source is a replay, in real time with
@@ -236,6 +245,12 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
         factor = max(1, round(source_rate / rate)) if known else 2
         readout = DynamicReadout(static, source_rate / factor if known else rate,
                                  fluid=hair_fluid, averaged=factor > 1)
+    if recalibrate is not None:
+        source, recal = _recalibrating(setup, quantity, span, source_spec, source_rate, seed,
+                                       set_reset, recalibrate, dynamic or sim_dynamics)
+        return LiveReadout(source, readout, rate=rate, channel=channel, record=record_path,
+                           tare_at_start=not no_tare, tracking=tracking or None,
+                           recalibration=recal)
     if source_spec == "sim":
         amplitude = 0.8 * max(abs(span[0]), abs(span[1]))
         source = SimulatedSource(setup, demo_script(quantity, amplitude), rate=source_rate,
@@ -249,6 +264,33 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     return LiveReadout(source, readout, rate=rate, channel=channel,
                        tare_at_start=not no_tare, tracking=tracking or None,
                        record=record_path)
+
+
+def _recalibrating(setup: Setup, quantity: str, span: tuple[float, float], spec: str,
+                   source_rate: float, seed: int, set_reset: int | None, every: float,
+                   moving: bool) -> tuple[Source, Any]:
+    """``--recalibrate EVERY``: the simulated coil's source (pulses, strap, drifts) and the
+    read-out's re-calibration (:mod:`magcilia.live.recalibrating`)."""
+    from magcilia.acquire.simulated_coil import CoilPulses, Drifts, SimulatedCoilSource
+    from magcilia.live.recalibrating import LiveRecalibration
+    from magcilia.readout.recalibration import Recalibrator
+    from magcilia.readout.recalibration_stream import PulseTracker
+
+    for name, value, allowed in (("--source", spec, "sim"), ("--quantity", quantity, "force"),
+                                 ("--dynamic/--sim-dynamics", moving, False)):
+        if value != allowed:
+            raise fail(name, value, f"{allowed} with --recalibrate (the simulated coil pulses a "
+                       "static hair under a tip force)")
+    if not every > 0.1:
+        raise fail("--recalibrate", every, "a period above 0.1 s (a pulse and its brackets)")
+    amplitude = 0.8 * max(abs(span[0]), abs(span[1]))
+    source = SimulatedCoilSource(
+        setup, demo_script("force", amplitude), rate=source_rate, realtime=True, rng=seed,
+        set_reset=10 if set_reset is None else set_reset, readout_noise=2e-5,
+        pulses=CoilPulses(every=every, duration=min(0.05, every / 4), start=every + 0.5),
+        drifts=Drifts(sensitivity=-1e-4, magnetization=-1e-4))
+    tracker = PulseTracker(Recalibrator(setup, span=span), before=min(0.05, every / 4))
+    return source, LiveRecalibration(tracker)
 
 
 def replay_live(path: str, record_path: str | None, realtime: bool | None) -> LiveReadout:

@@ -3,12 +3,10 @@ TDMS file that ``magcilia calibrate`` reads as it is."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import click
 
-from magcilia._atomic import _exists_message
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.acquire import record_stream, record_sweep, source_from_spec
@@ -23,6 +21,7 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
+from magcilia.cli._record_coil import CoilOptions, check_record_path, record_coil_command
 from magcilia.cli._signals import signals_interrupt
 from magcilia.cli._thermal import TEMPERATURE_HELP, setup_temperature, temperature_profile
 from magcilia.io.recording_file import recording_properties
@@ -75,7 +74,24 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
               help="Tilt angles START:STOP:STEP in degrees or with a unit (0:80:2.5deg), "
                    "recorded without questions; without it, each angle is asked for (degrees or "
                    "a photo).")
-@click.option("--samples", default=2000, show_default=True, help="Samples per angle.")
+@click.option("--coil", "coil_text", default=None, metavar="SEQUENCE",
+              help="Record a coil calibration instead of tilts: the applied uniform fields "
+                   "'BX,BY,BZ;BX,BY,BZ;...' in gauss (or with a unit: 0.5mT,0,0), or a CSV file "
+                   "of steps (columns bx_G, by_G, bz_G, optional dwell_s); each step's field is "
+                   "recorded in actuation_x_T/_y_T/_z_T. sim: the simulated coil (a cilium with "
+                   "a tip radius, e.g. --setup force-sensor); nidaq: needs --coil-output.")
+@click.option("--coil-output", "coil_output", default=None, metavar="nidaq:DEV/aoN[,aoN,aoN]",
+              help="The NI analog outputs driving the coil's x[, y, z] current amplifiers.")
+@click.option("--coil-constant", "coil_constant", default=None, metavar="G/V[,G/V,G/V]",
+              help="Field at the cilium per output volt of each --coil-output axis, gauss per "
+                   "volt (amplifier A/V times coil G/A; signed).")
+@click.option("--coil-sense", "coil_sense", default=None, metavar="nidaq:DEV/aiN[,aiN,aiN]",
+              help="Analog inputs reading each axis's current-sense voltage: the recorded field "
+                   "is then the measured one.")
+@click.option("--coil-sense-constant", "coil_sense_constant", default=None,
+              metavar="G/V[,G/V,G/V]", help="Field per --coil-sense volt of each axis, G/V.")
+@click.option("--samples", default=2000, show_default=True,
+              help="Samples per angle (per coil step without a dwell of its own).")
 @click.option("--settle", default="0", show_default=True, type=Physical.of("time", "0.5s"),
               help="Time dropped after each tilt before recording (the hair's ringing): s, or "
                    "with a unit (500ms).")
@@ -102,7 +118,9 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
               help="Print the result as JSON (the console's units: deg, mV; SI with --si).")
 @click.option("--quiet", is_flag=True, help="Print only the closing line.")
 @si_option
-def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
+def command(source_spec: str, setup_arg: str, angles: str | None, coil_text: str | None,
+            coil_output: str | None, coil_constant: str | None, coil_sense: str | None,
+            coil_sense_constant: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
             sim_dynamics: bool, temperature: str | None, out_path: str, force: bool,
             as_json: bool, quiet: bool, si: bool) -> None:
@@ -114,10 +132,20 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     replaced only once the new recording holds its first flushed chunk. Ctrl-C, SIGTERM or
     SIGHUP stop it the same way: the file is closed, marked incomplete and saying where it
     stopped, with one line and exit status 1. The recording itself is in SI (angle_rad,
-    voltage_V); the console and --json are in deg and mV (SI with --si).
+    voltage_V); the console and --json are in deg and mV (SI with --si). With --coil, the steps
+    are applied fields instead of tilts (a coil calibration, `magcilia calibrate FILE --model
+    physical`); a field beyond the sensor's range or flip field is refused before anything runs.
     """
     with signals_interrupt() as stop:
         try:
+            if coil_text is not None:
+                record_coil_command(source_spec, setup_arg, coil_text, CoilOptions(
+                    coil_output, coil_constant, coil_sense, coil_sense_constant), samples,
+                    settle, rate, set_reset, seed, out_path, force, as_json, quiet, si,
+                    angles=angles, duration=duration, dynamics=sim_dynamics)
+                return
+            if coil_output is not None:
+                raise fail("--coil-output", coil_output, "given with --coil SEQUENCE")
             _record(source_spec, setup_arg, angles, samples, settle, rate, duration, set_reset,
                     seed, out_path, force, as_json, quiet, si, sim_dynamics, temperature)
         except KeyboardInterrupt:  # the writer closed the file, noting where it stopped
@@ -143,13 +171,7 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool,
             sim_dynamics: bool = False, temperature: str | None = None) -> None:
     units = output_units(si)
-    if not out_path.lower().endswith(".tdms"):
-        raise fail("--record", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
-    if Path(out_path).is_dir():
-        raise MagciliaError(f"{out_path} is a folder, not a recording file; choose another "
-                            "--record")
-    if os.path.lexists(out_path) and not force:
-        raise MagciliaError(_exists_message(Path(out_path), "--record"))
+    check_record_path(out_path, force)
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
                               set_reset=set_reset, realtime=duration is not None,

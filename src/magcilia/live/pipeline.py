@@ -18,19 +18,15 @@ zero's σ added; every estimate carries the zero's TARE_UNDER_LOAD and ZERO_DRIF
 them — a number, a force vector (2,) or one per cilium (C, 2) per reading — to a
 :class:`History` that views read at their own pace: a stalled view never delays acquisition.
 
-**Latency** (sample in -> value out): a sample *arrives* when the source hands over the chunk that
-holds it (the reader thread stamps the chunk's wall-clock time), and its value is *out* when the
-window's estimate is in the History. That takes the wait for the rest of the read-out chunk
-(``batch``, 5 ms by default) plus the processing (≈ 0.1 ms for one output; an array's inverse
-≈ 2 ms per window for 16 cilia, ``benchmarks/bench_live_vectors.py``); every sample's
-``published − received`` is kept (:attr:`LiveSamples.latency`). Before a sample arrives it has
-spent up to one source chunk on the way (``batch`` for the simulation, a frame for a serial
-device) and its window up to ``1/rate``; after it, a view's refresh period and drawing add the
-rest (the dashboard measures that too).
+**Latency** (sample in -> value out): from the reader thread's wall-clock stamp of the chunk
+that holds a sample to its window's estimate in the History: the wait for the rest of the
+read-out chunk (``batch``, 5 ms by default) plus the processing (≈ 0.1 ms for one output, ≈ 2 ms
+per window for a 16-cilium array's inverse, ``benchmarks/bench_live_vectors.py``); kept per
+sample (:attr:`LiveSamples.latency`). Upstream a sample spends up to one source chunk and its
+window up to ``1/rate``; downstream a view's refresh and drawing add the rest.
 
-**Faults**: a source that stops sending or vanishes is closed and reopened every ``reconnect`` s
-(the status says so); the samples meanwhile are a gap, the recording stays open and notes the
-event; what the views show resumes when the source comes back.
+**Faults**: a source that stops or vanishes is reopened every ``reconnect`` s (the status says
+so); the samples meanwhile are a gap the recording notes, and the views resume with the source.
 """
 
 from __future__ import annotations
@@ -117,8 +113,9 @@ class LiveReadout:
         Seconds between attempts to reopen a disconnected source.
     record : str or Path, optional
         Record into this file from the first sample on (``magcilia live --record``; as
-        :meth:`start_recording`), so that the whole run can be replayed
-        (:mod:`magcilia.live.replay`).
+        :meth:`start_recording`), for :mod:`magcilia.live.replay`.
+    recalibration : LiveRecalibration, optional
+        Coil-pulse re-calibration (:mod:`magcilia.live.recalibrating`; pulses flagged COIL_PULSE).
 
     Examples
     --------
@@ -138,12 +135,12 @@ class LiveReadout:
                  tare_seconds: float = 0.5, tare_at_start: bool = False,
                  tracking: float | None = 30.0, band: float = 3.0,
                  demodulate: bool | None = None, stall: float = 2.0,
-                 reconnect: float = 1.0, record: str | Path | None = None) -> None:
+                 reconnect: float = 1.0, record: str | Path | None = None,
+                 recalibration: Any = None) -> None:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia acquisition Source")
         self.sensor: LiveSensor = live_sensor(readout)
-        self.source = source
-        self.readout = readout
+        self.source, self.readout, self.recalibration = source, readout, recalibration
         self.requested_rate = v.positive("rate", rate, "Hz", "frequency")
         self.channel = str(channel)
         self.history_seconds = v.positive("history", history, "s", "duration")
@@ -323,7 +320,8 @@ class LiveReadout:
             drift=self.zero.drift, noise=noise, recording=recording,
             latency_median=float(np.median(lat)) if lat.size else math.nan,
             latency_p99=float(np.quantile(lat, 0.99)) if lat.size else math.nan,
-            unit=self.sensor.channel_unit)
+            unit=self.sensor.channel_unit,
+            recalibration=self.recalibration.text() if self.recalibration else "")
 
     def limits(self) -> Limits:
         """The span, the usable range within it and the minimum detectable change at rest (kept
@@ -489,7 +487,8 @@ class LiveReadout:
         if replayed_tare(self.source, block):  # where the recorded run's tare began
             self.tare()
         t = block.time + self._offset
-        raw = self.sensor.samples(block, self.channel)
+        raw = recorded = self.sensor.samples(block, self.channel)
+        raw, pulsed = self.recalibration.process(block, raw) if self.recalibration else (raw, None)
         sr = block.setreset if self.demodulate is not False else None
         if self.demodulate and sr is None:
             raise MagciliaError(f"{self.source.name} does not mark set/reset samples; "
@@ -515,6 +514,8 @@ class LiveReadout:
             result = self.sensor.view.read(readings, noise=self._noise_used)
             value, sigma = np.asarray(result.value), np.asarray(result.sigma)
             flags = np.asarray(result.flags, dtype=FLAG_DTYPE)
+        if pulsed is not None:  # a coil pulse's readings: COIL_PULSE, no value; the rest scaled
+            value, flags = self.recalibration.flag(value, flags, pulsed, self.factor)
         saturated = np.where(w.beyond, FLAG_DTYPE(Flag.SATURATED), FLAG_DTYPE(0))
         flags = flags | saturated.reshape(-1, *(1 for _ in flags.shape[1:]))
         if self.sensor.kind == "scalar":  # any flag: no value (as the views always showed it)
@@ -534,7 +535,7 @@ class LiveReadout:
         self.history.append(columns)
         with self._lock:
             if self._writer is not None:
-                self._record(block, t, raw, columns)
+                self._record(block, t, recorded, columns)
 
     def _collect_tare(self, volts: F64, at: float) -> None:
         with self._lock:

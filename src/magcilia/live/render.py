@@ -36,7 +36,8 @@ F64 = NDArray[np.float64]
 SPARKS = "▁▂▃▄▅▆▇█"
 #: names of the flag bits as the view shows them
 FLAG_NAMES = view_flag_names(Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED,
-                             Flag.CLIPPED, Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT)
+                             Flag.CLIPPED, Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT,
+                             Flag.COIL_PULSE)
 #: the key help line
 KEYS = "t tare · r start/stop recording · q quit (Ctrl-C)"
 #: the key help line of an array's view
@@ -321,6 +322,8 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
                           "per reading"))
     else:
         lines.append(Text("tare: not tared (press t with the cilium unloaded)", style="yellow"))
+    if status.recalibration:
+        lines.append(Text(f"re-calibration: {status.recalibration}", style="cyan"))
     if status.recording:
         lines.append(Text(f"recording: {status.recording}", style="bold magenta"))
     else:

@@ -84,6 +84,9 @@ class LiveStatus(Display):
         Sample in -> value out over the last second, s (NaN before any output).
     unit : str
         The channels' unit: ``"V"`` (a sensor output) or ``"T"`` (field channels).
+    recalibration : str
+        The in-use re-calibration's last change, e.g. ``recal 12 s ago: S −1.8±0.1 %, offset
+        +0.30±0.01 mV`` ("" without one, :mod:`magcilia.live.recalibrating`).
     """
 
     state: str
@@ -100,6 +103,7 @@ class LiveStatus(Display):
     latency_median: float
     latency_p99: float
     unit: str = "V"
+    recalibration: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; the channel quantities keyed by their unit, e.g.
@@ -111,7 +115,8 @@ class LiveStatus(Display):
                 "samples": self.samples, "rate_Hz": self.rate, "tared": self.tared,
                 f"correction_{u}": _plain(self.correction), f"drift_{u}": _plain(self.drift),
                 f"noise_{u}": _plain(self.noise), "recording": self.recording,
-                "latency_median_s": self.latency_median, "latency_p99_s": self.latency_p99}
+                "latency_median_s": self.latency_median, "latency_p99_s": self.latency_p99,
+                "recalibration": self.recalibration}
 
     def _channel(self, value: Any) -> str:
         """A channel quantity as text: mV/µV for one output, the largest |value| in G else."""
@@ -128,6 +133,7 @@ class LiveStatus(Display):
             tare = (f"tared (correction {self._channel(self.correction)}, drift "
                     f"{self._channel(self.drift)})" if self.tared else "not tared")
         rec = f", recording {self.recording}" if self.recording else ""
+        rec += f", {self.recalibration}" if self.recalibration else ""
         msg = f" — {self.message}" if self.message else ""
         return (f"{self.state}: {self.samples} samples at {self.rate:g} Hz, {tare}; "
                 f"{self.counters.dropped} dropped, {self.overruns} overruns, latency "

@@ -24,6 +24,12 @@
   crosstalk, the inverse of all force vectors at once, n samples at once:
   :class:`ArrayEstimates`), :func:`field_for_loads` (:mod:`.array_model`), :func:`array_metrics`
   (against pitch); results in :mod:`.array_results`, checks in :mod:`.array_checks`;
+* :mod:`.recalibration`: in-use re-calibration: :class:`Recalibrator` re-estimates offset,
+  sensitivity, magnetization and stiffness from coil pulses (:class:`PulseWindow`), the strap
+  (:class:`StrapWindow`) and unloaded moments (:class:`RestWindow`) into a
+  :class:`Recalibration` (the windows in :mod:`.recalibration_windows`);
+  :mod:`.recalibration_stream` finds the pulses in a stream
+  (:class:`PulseTracker`, :func:`pulse_windows`);
 * :mod:`.branch`: :func:`~.branch.first_turn`, where a sweep's signal first turns back (a fold).
 
 What a design can resolve (``design_metrics``, ``DesignMetrics``, ``Metric``) and design
@@ -66,6 +72,9 @@ if TYPE_CHECKING:
         SensorReadout,
         flag_names,
     )
+    from magcilia.readout.recalibration import Recalibration, Recalibrator
+    from magcilia.readout.recalibration_stream import PulseTracker, pulse_windows
+    from magcilia.readout.recalibration_windows import PulseWindow, RestWindow, StrapWindow
     from magcilia.readout.tare import ChannelTare, Tare
     from magcilia.readout.thermal import ThermalReadout, ThermalResult
 
@@ -87,11 +96,17 @@ __all__ = [
     "Flag",
     "ForceFlag",
     "ForceVectorResult",
+    "PulseTracker",
+    "PulseWindow",
     "Readout",
     "ReadoutFlag",
     "ReadoutResult",
     "ReadoutValues",
+    "Recalibration",
+    "Recalibrator",
+    "RestWindow",
     "SensorReadout",
+    "StrapWindow",
     "Tare",
     "ThermalReadout",
     "ThermalResult",
@@ -100,6 +115,7 @@ __all__ = [
     "flag_names",
     "loaded_poses",
     "measure_coupling",
+    "pulse_windows",
 ]
 
 #: names that moved up to :mod:`magcilia.design` in this release: still reachable here, deprecated

@@ -90,6 +90,8 @@ class Flag(enum.IntFlag):
     #: the temperature lies outside the range seen at calibration and tare (the temperature
     #: compensation, :mod:`magcilia.readout.thermal`, extrapolates its coefficients there)
     TEMPERATURE_OUTSIDE = 16384
+    #: a coil pulse of the in-use re-calibration: the reading is no force (no value)
+    COIL_PULSE = 32768
     #: the array read-out's former name of ABOVE_SPAN
     BEYOND_SPAN = 64
 

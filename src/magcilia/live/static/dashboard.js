@@ -19,7 +19,8 @@
   // under load and a drift not tracked are warnings: the value stays, the badge says so
   const FLAGS = [[1, "OUTSIDE SPAN", "warn"], [2, "FOLD", "bad"], [4, "SATURATED", "bad"],
     [8, "EXTRAPOLATED", "warn"], [16, "CLIPPED", "warn"], [4096, "TARE UNDER LOAD", "bad"],
-    [8192, "ZERO DRIFT", "warn"]];
+    [8192, "ZERO DRIFT", "warn"], [16384, "TEMPERATURE OUTSIDE", "warn"],
+    [32768, "COIL PULSE", "warn"]];
   const BLUE = "#1f4e9c";
   const RED = "#b8261c";
   const GREY = "rgba(100, 110, 125, 0.9)";
@@ -358,7 +359,7 @@
     $("c-screen").textContent = st.screen_latency_median_s === null ? "—"
       : `${ms(st.screen_latency_median_s)} (p99 ${ms(st.screen_latency_p99_s)})`;
     $("c-clients").textContent = count(st.clients);
-    $("message").textContent = st.message || "";
+    $("message").textContent = [st.message, st.recalibration].filter(Boolean).join(" · ");
     $("tared").textContent = !st.tared ? "not tared" : st.correction_T !== undefined
       ? `tared: ${st.correction_T.length} channels, largest correction ${(Math.max(...st.correction_T.map(Math.abs)) * 1e4).toFixed(4)} G, drift ${(Math.max(...st.drift_T.map(Math.abs)) * 1e7).toFixed(3)} mG`
       : `tared: correction ${(st.correction_V * 1e3).toFixed(4)} mV, drift ${(st.drift_V * 1e6).toFixed(2)} µV`;
