@@ -47,9 +47,12 @@ if TYPE_CHECKING:
 
     # -- design: metrics and optimisation ----------------------------------------------------------
     from magcilia.design import (
+        CalibrationFreeError,
         DesignMetrics,
         DesignOptimum,
         Metric,
+        Tolerances,
+        calibration_free_error,
         design_metrics,
         optimise_design,
     )
@@ -147,6 +150,7 @@ __all__ = [
     "CiliaArray",
     "Cilium",
     "Crosstalk",
+    "CalibrationFreeError",
     "DesignMetrics",
     "DesignOptimum",
     "DynamicReadout",
@@ -186,6 +190,7 @@ __all__ = [
     "SpatialBentShape",
     "SpatialCentreline",
     "Tare",
+    "Tolerances",
     "TransientResponse",
     "__version__",
     "array_metrics",
@@ -193,6 +198,7 @@ __all__ = [
     "bend_sweep",
     "calibrate",
     "calibrate_batch",
+    "calibration_free_error",
     "design_metrics",
     "drag_coefficient",
     "exact_field",

@@ -151,3 +151,19 @@ def test_bad_tolerance_option_is_one_line(text: str, message: str, tmp_path: Pat
 def test_tolerance_needs_the_robust_objective(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["optimise", *FAST, "--tolerance", "height=5%"]) == 2
     assert "--tolerance must be given with --objective robust" in capsys.readouterr().err
+
+
+def test_the_command_prints_and_writes_the_error(capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    assert main(["optimise", "--objective", "robust", *FAST, "--tolerance",
+                 "placement=0.04,modulus=20%", "--no-tare", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["robust"]["tolerances"] == {"placement_m": 4e-5, "height": 0.05,
+                                           "base_radius": 0.05, "magnetization": 0.1,
+                                           "modulus": 0.2}
+    assert doc["robust"]["tare"] is False and doc["robust"]["samples"] == 4
+    best = doc["best"]
+    assert 0.0 < best["calibration_free_error"] < 1.0 and best["calibration_free_error_p95"] > 0
+    assert main(["optimise", "--objective", "robust", *FAST]) == 0
+    assert "calibration-free error, RMS of the range: reference" in capsys.readouterr().out

@@ -163,13 +163,12 @@ def command(setup_arg: str, objective: str, tolerance_text: str | None, samples:
         if objective != "robust":
             raise fail("--tolerance", tolerance_text, "given with --objective robust only")
         tolerances = parse_tolerances(tolerance_text)
-    robust = {"tolerances": tolerances, "samples": samples, "tare": tare} \
-        if objective == "robust" else {}
     result = optimise_design(
         setup, objective, min_force=min_force, speed=speed, constraints=constraints or None,
         bounds=bounds or None, sensors=sensors, n=designs, refine=refine, polish=polish, rng=seed,
         workers=workers, scheduler=scheduler, bandwidth=parse_bandwidth(bandwidth),
-        fluid=FLUIDS[fluid], progress=not quiet_requested(quiet), **robust)
+        fluid=FLUIDS[fluid], progress=not quiet_requested(quiet), tolerances=tolerances,
+        samples=samples, tare=tare)
     units = output_units(si)
     doc = optimise_doc(result, setup_label(setup_arg), units)
     files: dict[str, str | bytes] = {}  # every file computed first, then written together

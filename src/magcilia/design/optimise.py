@@ -1,7 +1,7 @@
 """Design optimisation: the cilium's geometry, material, placement and sensor for a named objective,
 with the Pareto front of range against resolution.
 
-Two objectives (:data:`OBJECTIVES`), each a pair of goals and a choice on the pair's front (the
+Three objectives (:data:`OBJECTIVES`), each a pair of goals and a choice on the pair's front (the
 objective's measurand, :mod:`magcilia.design.measurands`, holds what differs between them):
 
 * ``"force-range"``: maximise the tip-force range and minimise the minimum detectable force; the
@@ -11,6 +11,14 @@ objective's measurand, :mod:`magcilia.design.measurands`, holds what differs bet
   ``speed`` (the noise over the slope dB/dU there, i.e. the best flow sensitivity) and maximise
   the flow range; the chosen design has the finest resolution at ``speed`` among those whose
   range reaches ``speed``.
+* ``"robust"``: the tip force read *without a per-device calibration*: among the designs that
+  resolve ``min_force`` (as ``"force-range"``), the one with the smallest calibration-free
+  read-out error under fabrication and placement ``tolerances`` (a Monte Carlo of devices read
+  with the nominal model, tared at rest, through the exact forward model:
+  :mod:`magcilia.design.robust`). The screen cannot estimate that error: its candidates are the
+  feasible screened designs that meet the requirement, in the Sobol' sample's order (spread over
+  the bounds); the exact refinement measures each one's error, and the polishing rounds centre
+  on the smallest. The front is still range against resolution; single-axis sensor only.
 
 **Definitions** (the same as :func:`magcilia.design_metrics`, which the exact metrics reproduce
 for a single-axis sensor). The *minimum detectable* value is the field noise of one reading over
