@@ -126,7 +126,7 @@ def test_the_optimiser_chooses_the_smallest_error() -> None:
 
 
 FAST = ["--designs", "16", "--refine", "4", "--polish", "0", "--workers", "1", "--quiet",
-        "--samples", "4"]
+        "--devices", "4"]
 
 
 @pytest.mark.parametrize(("text", "message"), [

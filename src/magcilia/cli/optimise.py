@@ -62,10 +62,11 @@ def _defaults() -> str:
                    "placement=50um,height=5%,base_radius=5%,magnetization=10%,modulus=30% "
                    "(those defaults for any not given; placement in mm or with a unit, the "
                    "others in % or as fractions).")
-@click.option("--samples", type=click.IntRange(2, 100000), default=128, show_default=True,
+@click.option("--devices", "samples", type=click.IntRange(2, 100000), default=128,
+              show_default=True,
               help="Robust objective: devices drawn per design (the same for every design).")
-@click.option("--tare/--no-tare", default=True, show_default=True,
-              help="Robust objective: tare each device at rest before reading it.")
+@click.option("--no-tare", is_flag=True,
+              help="Robust objective: read each device's raw output (default: tared at rest).")
 @click.option("--min-force", type=Physical.of("force", "1uN"),
               help="Minimum detectable force the chosen design must reach, mN or with a unit "
                    "(1uN); default: the SETUP's own.")
@@ -120,7 +121,7 @@ def _defaults() -> str:
 @si_option
 @style_option
 def command(setup_arg: str, objective: str, tolerance_text: str | None, samples: int,
-            tare: bool, min_force: float | None, speed: float | None,
+            no_tare: bool, min_force: float | None, speed: float | None,
             min_range: str | None, max_field: float | None, bound_items: tuple[str, ...],
             sensor_text: str, designs: int, refine: int, polish: int, seed: int,
             workers: int | None, scheduler: str | None, fluid: str,
@@ -168,7 +169,7 @@ def command(setup_arg: str, objective: str, tolerance_text: str | None, samples:
         bounds=bounds or None, sensors=sensors, n=designs, refine=refine, polish=polish, rng=seed,
         workers=workers, scheduler=scheduler, bandwidth=parse_bandwidth(bandwidth),
         fluid=FLUIDS[fluid], progress=not quiet_requested(quiet), tolerances=tolerances,
-        samples=samples, tare=tare)
+        samples=samples, tare=not no_tare)
     units = output_units(si)
     doc = optimise_doc(result, setup_label(setup_arg), units)
     files: dict[str, str | bytes] = {}  # every file computed first, then written together
