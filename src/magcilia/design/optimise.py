@@ -12,13 +12,14 @@ objective's measurand, :mod:`magcilia.design.measurands`, holds what differs bet
   the flow range; the chosen design has the finest resolution at ``speed`` among those whose
   range reaches ``speed``.
 * ``"robust"``: the tip force read *without a per-device calibration*: among the designs that
-  resolve ``min_force`` (as ``"force-range"``), the one with the smallest calibration-free
-  read-out error under fabrication and placement ``tolerances`` (a Monte Carlo of devices read
-  with the nominal model, tared at rest, through the exact forward model:
-  :mod:`magcilia.design.robust`). The screen cannot estimate that error: its candidates are the
-  feasible screened designs that meet the requirement, in the Sobol' sample's order (spread over
-  the bounds); the exact refinement measures each one's error, and the polishing rounds centre
-  on the smallest. The front is still range against resolution; single-axis sensor only.
+  resolve ``min_force`` (as ``"force-range"``), the one with the smallest calibration-free read-out
+  error under fabrication and placement ``tolerances`` (a Monte Carlo of devices read with the
+  nominal model, tared at rest, through the exact forward model: :mod:`magcilia.design.robust`).
+  The screen cannot estimate that error: its candidates are the feasible screened designs that meet
+  the requirement, in the Sobol' sample's order (spread over the bounds), and the given setup's own
+  variables (within the bounds); the exact refinement measures each one's error, and the polishing
+  rounds centre on the smallest. The front is still range against resolution; single-axis sensor
+  only.
 
 **Definitions** (the same as :func:`magcilia.design_metrics`, which the exact metrics reproduce
 for a single-axis sensor). The *minimum detectable* value is the field noise of one reading over
@@ -368,8 +369,11 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     designs_from = setup if setup.layout != "given" else setup.replace(layout="converged")
     measure = _Measure(designs_from, measurand, fixed_c, (float(bandwidth[0]), float(bandwidth[1])),
                        fluid, points, workers, scheduler, progress, robust)
-    designs = measure([({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
-                       for i in chosen])
+    entries = [({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
+               for i in chosen]
+    if robust is not None and all(lo <= ref_params[k] <= hi for k, (lo, hi) in searched.items()):
+        entries.append((dict(ref_params), choices[0]))  # the error to beat is the reference's
+    designs = measure(entries)
     # polish: small exact Sobol' boxes around the chosen design, each half the last's size
     by_name = {c.name: c for c in choices}
     for level in range(polish):
