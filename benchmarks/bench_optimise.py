@@ -6,7 +6,11 @@ Times, on the README's example (the force-sensor preset, ``min_force`` 0.1 uN, s
   compliance, vectorised range) per design;
 * **anchor**: the exact force metric of one design (``bend_sweep`` over 151 forces and the field
   model: what ``design_metrics`` does for the force), per design;
-* the whole search in process (``workers=1``) for N designs screened and 64 refined.
+* the whole search in process (``workers=1``) for N designs screened and 64 refined;
+* **robust**: the calibration-free error of one design (64 devices × 33 forces through the
+  exact batched bend and field model, :mod:`magcilia.design.robust`) against the exact force
+  metric above, and the whole robust search (``--objective robust``, ``min_force`` twice the
+  preset's; 64 refined, 3 polish rounds; ``--quick``: 16 devices, 16 refined, 1 round).
 
 Run: python benchmarks/bench_optimise.py [--designs N] [--quick]
 """
@@ -27,6 +31,7 @@ import magcilia as mc
 from magcilia.design import FORCE, sensor_choices
 from magcilia.design.exact import ExactTask, evaluate
 from magcilia.design.optimise import _bounds, _sample
+from magcilia.design.robust import RobustSpec, calibration_free_error
 from magcilia.design.screen import screen as _screen
 
 
@@ -67,6 +72,25 @@ def main() -> None:
           f"{len(result.designs)} refined; chosen range "
           f"{'' if result.best.reached else '>= '}{result.best.range * 1e3:.4g} mN, "
           f"minimum {result.best.minimum * 1e3:.4g} mN)")
+    spec = RobustSpec(samples=64)
+    span = 1.2e-4  # N: the preset's range is >= 0.13 mN
+    calibration_free_error(setup, span, spec)
+    runs = []
+    for _ in range(3):
+        t = time.perf_counter()
+        calibration_free_error(setup, span, spec)
+        runs.append(time.perf_counter() - t)
+    print(f"robust: calibration-free error, 64 devices: {min(runs) * 1e3:.1f} ms per design "
+          f"({min(runs) / exact:.2f}x the exact force metric)")
+    quick = args.quick
+    t = time.perf_counter()
+    robust = mc.optimise_design(setup, "robust", min_force=2.4e-7, n=args.designs,
+                                refine=16 if quick else 64, polish=1 if quick else 3,
+                                samples=16 if quick else 64, rng=0, workers=1)
+    print(f"robust: whole search, in process: {time.perf_counter() - t:.2f} s "
+          f"({robust.screened} screened, {len(robust.designs)} refined; calibration-free error "
+          f"{robust.best.error * 100:.3g} % against the preset's "
+          f"{robust.reference.error * 100:.3g} % RMS of the range)")
 
 
 if __name__ == "__main__":

@@ -47,9 +47,12 @@ if TYPE_CHECKING:
 
     # -- design: metrics and optimisation ----------------------------------------------------------
     from magcilia.design import (
+        CalibrationFreeError,
         DesignMetrics,
         DesignOptimum,
         Metric,
+        Tolerances,
+        calibration_free_error,
         design_metrics,
         optimise_design,
     )
@@ -148,6 +151,7 @@ __all__ = [
     "BatchResult",
     "BentShape",
     "BiaxialReadout",
+    "CalibrationFreeError",
     "CalibrationResult",
     "Centreline",
     "CiliaArray",
@@ -198,6 +202,7 @@ __all__ = [
     "TemperatureProfile",
     "ThermalReadout",
     "ThermalResult",
+    "Tolerances",
     "TransientResponse",
     "__version__",
     "array_metrics",
@@ -205,6 +210,7 @@ __all__ = [
     "bend_sweep",
     "calibrate",
     "calibrate_batch",
+    "calibration_free_error",
     "design_metrics",
     "drag_coefficient",
     "exact_field",

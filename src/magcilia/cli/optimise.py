@@ -36,6 +36,7 @@ from magcilia.design import (
     optimise_design,
 )
 from magcilia.design.measurands import BY_OBJECTIVE
+from magcilia.design.robust import TOLERANCES, Tolerances
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits
@@ -53,7 +54,19 @@ def _defaults() -> str:
 @click.option("--objective", type=click.Choice(OBJECTIVES), default="force-range",
               show_default=True,
               help="force-range: the largest force range with a minimum detectable force <= "
-                   "--min-force; flow-sensitivity: the finest speed resolution at --speed.")
+                   "--min-force; flow-sensitivity: the finest speed resolution at --speed; "
+                   "robust: the smallest calibration-free read-out error under --tolerance with "
+                   "a minimum detectable force <= --min-force.")
+@click.option("--tolerance", "tolerance_text", default=None, metavar="NAME=VALUE,...",
+              help="Robust objective: 1-sigma fabrication and placement tolerances, e.g. "
+                   "placement=50um,height=5%,base_radius=5%,magnetization=10%,modulus=30% "
+                   "(those defaults for any not given; placement in mm or with a unit, the "
+                   "others in % or as fractions).")
+@click.option("--devices", "samples", type=click.IntRange(2, 100000), default=128,
+              show_default=True,
+              help="Robust objective: devices drawn per design (the same for every design).")
+@click.option("--no-tare", is_flag=True,
+              help="Robust objective: read each device's raw output (default: tared at rest).")
 @click.option("--min-force", type=Physical.of("force", "1uN"),
               help="Minimum detectable force the chosen design must reach, mN or with a unit "
                    "(1uN); default: the SETUP's own.")
@@ -107,7 +120,8 @@ def _defaults() -> str:
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
 @style_option
-def command(setup_arg: str, objective: str, min_force: float | None, speed: float | None,
+def command(setup_arg: str, objective: str, tolerance_text: str | None, samples: int,
+            no_tare: bool, min_force: float | None, speed: float | None,
             min_range: str | None, max_field: float | None, bound_items: tuple[str, ...],
             sensor_text: str, designs: int, refine: int, polish: int, seed: int,
             workers: int | None, scheduler: str | None, fluid: str,
@@ -117,9 +131,10 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
             quiet: bool, si: bool, style: str) -> None:
     """Search the cilium's height, base and tip radius (and, given bounds, magnetization scale or
     cobalt mass), its placement and the sensor for the largest force range at a minimum
-    detectable force (force-range) or the best flow sensitivity at a speed (flow-sensitivity);
-    print the chosen design against SETUP's own and the Pareto front of range against
-    resolution (mN and mm, SI with --si).
+    detectable force (force-range), the best flow sensitivity at a speed (flow-sensitivity) or
+    the smallest read-out error without a per-device calibration under fabrication and
+    placement tolerances (robust); print the chosen design against SETUP's own and the Pareto
+    front of range against resolution (mN and mm, SI with --si).
 
     SETUP (default: force-sensor, the paper's cilium with a 0.05 mm tip) supplies the material,
     the model and the sensor, and is the reference the result is compared with.
@@ -144,11 +159,17 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
     if not sensors:
         raise fail("--sensors", sensor_text, "one or more sensor names, e.g. HMC1021Z,MMC5983MA")
     bounds = parse_named_ranges("--bound", bound_items, VARIABLES)
+    tolerances = None
+    if tolerance_text is not None:
+        if objective != "robust":
+            raise fail("--tolerance", tolerance_text, "given with --objective robust only")
+        tolerances = parse_tolerances(tolerance_text)
     result = optimise_design(
         setup, objective, min_force=min_force, speed=speed, constraints=constraints or None,
         bounds=bounds or None, sensors=sensors, n=designs, refine=refine, polish=polish, rng=seed,
         workers=workers, scheduler=scheduler, bandwidth=parse_bandwidth(bandwidth),
-        fluid=FLUIDS[fluid], progress=not quiet_requested(quiet))
+        fluid=FLUIDS[fluid], progress=not quiet_requested(quiet), tolerances=tolerances,
+        samples=samples, tare=not no_tare)
     units = output_units(si)
     doc = optimise_doc(result, setup_label(setup_arg), units)
     files: dict[str, str | bytes] = {}  # every file computed first, then written together
@@ -173,6 +194,37 @@ def command(setup_arg: str, objective: str, min_force: float | None, speed: floa
     click.echo(optimise_text(doc, units))
 
 
+def parse_tolerances(text: str) -> Tolerances:
+    """``--tolerance``'s ``NAME=VALUE,...`` as :class:`Tolerances` (the issue's defaults for
+    the names not given): placement a length (mm, or with a unit: ``50um``), the others
+    relative (``5%`` or ``0.05``)."""
+    from magcilia.units import parse_value
+
+    example = "placement=50um,height=5%"
+    given: dict[str, float] = {}
+    for item in (t.strip() for t in text.split(",")):
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not value:
+            raise fail("--tolerance", item, f"NAME=VALUE items, e.g. {example}")
+        if name not in TOLERANCES:
+            raise fail("--tolerance name", name, "one of " + ", ".join(TOLERANCES))
+        if name in given:
+            raise fail("--tolerance", text, f"each name once ({name} is repeated)")
+        if name == "placement":
+            given[name] = parse_value(value, "length", "mm", "--tolerance placement", "50um")
+        else:
+            percent = value.endswith("%")
+            number = value[:-1].strip() if percent else value
+            try:
+                fraction = float(number) / (100.0 if percent else 1.0)
+            except ValueError:
+                raise fail(f"--tolerance {name}", value, "a percentage (5%) or a fraction "
+                           "(0.05)") from None
+            given[name] = fraction
+    return Tolerances(**given)
+
+
 def _row(d: Candidate, quantity: str, units: OutputUnits) -> dict[str, Any]:
     """A design's row in ``units``: the variables, the sensor, the metrics (keys with units)."""
     return {**units.named(dict(d.params)), "sensor": d.sensor,
@@ -181,6 +233,7 @@ def _row(d: Candidate, quantity: str, units: OutputUnits) -> dict[str, Any]:
             "range_reached": d.reached, "limited_by": d.limited_by,
             units.key("peak_field", "field"): units.value(d.peak_field, "field"),
             "bandwidth_Hz": d.bandwidth, "settling_time_s": d.settling_time,
+            "calibration_free_error": d.error, "calibration_free_error_p95": d.error_p95,
             "rank": d.rank, "eligible": d.eligible, "violated": d.violated}
 
 
@@ -203,6 +256,7 @@ def optimise_doc(result: DesignOptimum, label: str, units: OutputUnits) -> dict[
         "reference": _row(result.reference, q, units), "best": _row(result.best, q, units),
         "front": [_row(d, q, units) for d in result.front],
         "scale_note": result.best_setup.modulus.note(),
+        **({"robust": result.robust_dict()} if result.robust is not None else {}),
     }
 
 
@@ -239,10 +293,22 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
                      f"{show(r[k_min]):>14}  {r['sensor']}; {r['limited_by']}")
     best = doc["best"]
     skip = {"sensor", k_min, k_rng, "limited_by", "rank", "eligible", "violated",
-            "range_reached"}
+            "range_reached", "calibration_free_error", "calibration_free_error_p95"}
     lines.append("chosen design: " + ", ".join(f"{k} {v:.4g}" for k, v in best.items()
                                                if k not in skip and isinstance(v, float)))
     lines.append(f"compared with SETUP's: {doc['comparison']}")
+    if "robust" in doc:
+        r, tol = doc["robust"], doc["robust"]["tolerances"]
+
+        def err(row: dict[str, Any]) -> str:
+            return (f"{row['calibration_free_error'] * 100:.3g} % (95th percentile "
+                    f"{row['calibration_free_error_p95'] * 100:.3g} %)")
+
+        lines.append(f"calibration-free error, RMS of the range: reference {err(doc['reference'])}"
+                     f", best {err(best)}; {r['samples']} devices, "
+                     f"{'tared at rest' if r['tare'] else 'untared'}, under "
+                     + Tolerances(tol["placement_m"], tol["height"], tol["base_radius"],
+                                  tol["magnetization"], tol["modulus"]).report())
     lines.append(f"Pareto front ({k_min}, {k_rng}, sensor):")
     lines += [f"  {show(r[k_min]):>14} {show(r[k_rng], r['range_reached']):>14}  {r['sensor']}"
               for r in doc["front"]]

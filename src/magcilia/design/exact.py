@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from magcilia.design.measurands import Measurand
 from magcilia.design.ranges import read_range
+from magcilia.design.robust import RobustSpec, calibration_free_error
 from magcilia.design.sensors import SensorChoice
 from magcilia.device.setup import Setup
 from magcilia.mechanics import Fluid
@@ -33,8 +34,9 @@ F64 = NDArray[np.float64]
 class ExactTask:
     """What one exact evaluation needs (picklable): the design, its sensor, the measurand, the
     speed whose slope counts (m/s, flow), the noise band (Hz), the fluid, the sweep's points,
-    the rated range of |B| in force (T) and whether to measure the dynamics (the response's
-    bandwidth and settling time: :func:`dynamics`)."""
+    the rated range of |B| in force (T), whether to measure the dynamics (the response's
+    bandwidth and settling time: :func:`dynamics`) and, for the ``"robust"`` objective, how to
+    estimate the calibration-free error (:mod:`magcilia.design.robust`)."""
 
     setup: Setup
     choice: SensorChoice
@@ -45,6 +47,7 @@ class ExactTask:
     points: int
     total: float = math.inf
     dynamics: bool = True
+    robust: RobustSpec | None = None
 
 
 def information(slope: F64, sigma: F64) -> float:
@@ -56,7 +59,9 @@ def evaluate(task: ExactTask) -> dict[str, Any]:
     """The exact metrics of one design (a top-level function: runs in worker processes), its
     layout by the layout rule at the sensing element: ``sensitivity`` (T per unit), ``minimum``,
     ``range`` (SI), ``limited_by``, ``peak_field`` (T), ``reached`` and, when the task asks,
-    the dynamics: ``bandwidth`` (−3 dB, Hz) and ``settling_time`` (2 %, s); NaN otherwise."""
+    the dynamics: ``bandwidth`` (−3 dB, Hz) and ``settling_time`` (2 %, s); NaN otherwise;
+    with ``task.robust``, the calibration-free error over the range (``error``: RMS,
+    ``error_p95``; fractions of the range; NaN without a range)."""
     setup, choice = task.setup.resolve_layout(), task.choice
     sigma = choice.sigma(task.bandwidth)
     sweep = task.measurand.sweep(setup, task.fluid, task.points)
@@ -79,8 +84,12 @@ def evaluate(task: ExactTask) -> dict[str, Any]:
                                          choice.axes, sweep.end)
     peak = float(np.max(np.linalg.norm(b[:last + 1], axis=1)))
     band, settle = dynamics(task) if task.dynamics else (math.nan, math.nan)
-    return {"sensitivity": sensitivity, "minimum": minimum, "range": rng, "limited_by": why,
-            "peak_field": peak, "reached": reached, "bandwidth": band, "settling_time": settle}
+    out = {"sensitivity": sensitivity, "minimum": minimum, "range": rng, "limited_by": why,
+           "peak_field": peak, "reached": reached, "bandwidth": band, "settling_time": settle}
+    if task.robust is not None and rng > 0.0:
+        err = calibration_free_error(setup, rng, task.robust)
+        out.update(error=err.rms, error_p95=err.p95)
+    return out
 
 
 def dynamics(task: ExactTask) -> tuple[float, float]:

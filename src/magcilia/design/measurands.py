@@ -41,6 +41,9 @@ class _Design(Protocol):
     @property
     def range(self) -> float: ...
 
+    @property
+    def error(self) -> float: ...
+
 
 D = TypeVar("D", bound=_Design)
 
@@ -171,6 +174,11 @@ class Measurand(abc.ABC):
         :meth:`order`, then :meth:`tie`)."""
         return min(designs, key=lambda d: (self.order(d.minimum, d.range),
                                            self.tie(d.minimum, d.range)))
+
+    def candidate_count(self, refine: int) -> int:
+        """How many of the screen's :meth:`candidates` join the fronts' designs (of ``refine``
+        refined)."""
+        return max(4, refine // 4)
 
     def candidates(self, minimum: F64, range_: F64, ok: NDArray[np.bool_],
                    fixed: dict[str, float], count: int) -> list[int]:
@@ -331,11 +339,40 @@ class FlowMeasurand(Measurand):
         return f"the widest feasible range is {widest}"
 
 
+@dataclass(frozen=True)
+class RobustForceMeasurand(ForceMeasurand):
+    """The tip force read without calibration: among designs that resolve ``min_force``, the
+    smallest calibration-free read-out error under the tolerances
+    (:mod:`magcilia.design.robust`; the exact refinement measures it, the screen cannot), ties
+    broken by the finer resolution. The screen's candidates are the feasible designs that meet
+    the requirement (up to ``spread[1]`` times it: the proxy's error), taken in the Sobol'
+    sample's order, so that they spread over the bounds."""
+
+    def candidate_count(self, refine: int) -> int:
+        return refine
+
+    def candidates(self, minimum: F64, range_: F64, ok: NDArray[np.bool_],
+                   fixed: dict[str, float], count: int) -> list[int]:
+        idx = np.nonzero(ok & self.meets(minimum, range_,
+                                         self.spread[1] * fixed[self.requirement]))[0]
+        return [int(i) for i in idx[:count]]
+
+    def best(self, designs: Sequence[D]) -> D:
+        """The smallest calibration-free error (NaN: last), then the finest resolution."""
+        return min(designs, key=lambda d: (d.error if d.error == d.error else math.inf,
+                                           d.minimum))
+
+    def goal(self, fixed: dict[str, float]) -> str:  # noqa: ARG002 (Measurand's signature)
+        return "minimum detectable force; chosen by the calibration-free error"
+
+
 #: the tip force (objective "force-range")
 FORCE = ForceMeasurand("force", "force-range", "min_force", (0.5, 1.5))
+#: the tip force read without a per-device calibration (objective "robust")
+ROBUST = RobustForceMeasurand("force", "robust", "min_force", (0.5, 1.5))
 #: the flow speed (objective "flow-sensitivity")
 FLOW = FlowMeasurand("flow", "flow-sensitivity", "speed", (0.7, 1.5))
 #: the measurand of each objective, by its name (the edges' strings end here)
-BY_OBJECTIVE: dict[str, Measurand] = {m.objective: m for m in (FORCE, FLOW)}
+BY_OBJECTIVE: dict[str, Measurand] = {m.objective: m for m in (FORCE, FLOW, ROBUST)}
 #: the measurand by its registry name (``DesignOptimum.to_dict()``'s ``quantity``)
 BY_NAME: dict[str, Measurand] = {m.name: m for m in (FORCE, FLOW)}

@@ -1,7 +1,7 @@
 """Design optimisation: the cilium's geometry, material, placement and sensor for a named objective,
 with the Pareto front of range against resolution.
 
-Two objectives (:data:`OBJECTIVES`), each a pair of goals and a choice on the pair's front (the
+Three objectives (:data:`OBJECTIVES`), each a pair of goals and a choice on the pair's front (the
 objective's measurand, :mod:`magcilia.design.measurands`, holds what differs between them):
 
 * ``"force-range"``: maximise the tip-force range and minimise the minimum detectable force; the
@@ -11,6 +11,15 @@ objective's measurand, :mod:`magcilia.design.measurands`, holds what differs bet
   ``speed`` (the noise over the slope dB/dU there, i.e. the best flow sensitivity) and maximise
   the flow range; the chosen design has the finest resolution at ``speed`` among those whose
   range reaches ``speed``.
+* ``"robust"``: the tip force read *without a per-device calibration*: among the designs that
+  resolve ``min_force`` (as ``"force-range"``), the one with the smallest calibration-free read-out
+  error under fabrication and placement ``tolerances`` (a Monte Carlo of devices read with the
+  nominal model, tared at rest, through the exact forward model: :mod:`magcilia.design.robust`).
+  The screen cannot estimate that error: its candidates are the feasible screened designs that meet
+  the requirement, in the Sobol' sample's order (spread over the bounds), and the given setup's own
+  variables (within the bounds); the exact refinement measures each one's error, and the polishing
+  rounds centre on the smallest. The front is still range against resolution; single-axis sensor
+  only.
 
 **Definitions** (the same as :func:`magcilia.design_metrics`, which the exact metrics reproduce
 for a single-axis sensor). The *minimum detectable* value is the field noise of one reading over
@@ -88,6 +97,7 @@ from magcilia.design.exact import ExactTask, dynamics, evaluate_many
 from magcilia.design.measurands import BY_OBJECTIVE, Measurand
 from magcilia.design.pareto import pareto_ranks
 from magcilia.design.results import Candidate, DesignOptimum
+from magcilia.design.robust import RobustSpec, Tolerances
 from magcilia.design.screen import REASONS, SCREEN_CHUNK, Screen, screen, screen_chunk
 from magcilia.design.sensors import SINGLE_AXIS, SensorChoice, sensor_choices
 from magcilia.device.magnetometer import Magnetometer
@@ -203,7 +213,9 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
                     rng: int | np.random.Generator | None = None,
                     workers: int | None = None, scheduler: str | None = None,
                     bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH, fluid: Fluid = WATER,
-                    points: int = 151, progress: bool = False) -> DesignOptimum:
+                    points: int = 151, progress: bool = False,
+                    tolerances: Tolerances | None = None, samples: int = 128,
+                    tare: bool = True) -> DesignOptimum:
     """Search geometry, material, placement and sensor for an objective; return the Pareto
     front of range against resolution and the chosen design (module docstring).
 
@@ -213,10 +225,12 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         The starting design: material, model (n, k, ring), sensor and every variable not
         searched; also the reference the result compares against. Default: the paper's
         Table I cilium with a 0.05 mm tip radius and a converged model (``layout="converged"``).
-    objective : {"force-range", "flow-sensitivity"}
+    objective : {"force-range", "flow-sensitivity", "robust"}
+        ``"robust"``: the smallest calibration-free read-out error (:mod:`magcilia.design.robust`)
+        among the designs that resolve ``min_force`` (single-axis sensor only).
     min_force : float, optional
-        Force objective: the minimum detectable force the chosen design must reach, N (default:
-        the reference's own).
+        Force and robust objectives: the minimum detectable force the chosen design must reach,
+        N (default: the reference's own).
     speed : float, optional
         Flow objective (required there): the flow speed U, m/s, whose sensitivity counts.
     constraints : mapping, optional
@@ -256,6 +270,15 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         Sweep points of each exact metric (≥ 11; 151 as design_metrics).
     progress : bool
         Show the execution layer's progress bar.
+    tolerances : Tolerances, optional
+        Robust objective: the fabrication and placement tolerances (default: the issue's,
+        :class:`~magcilia.design.robust.Tolerances`).
+    samples : int
+        Robust objective: devices drawn per design (≥ 2; the same draws, seeded by ``rng``, for
+        every design).
+    tare : bool
+        Robust objective: each device tared at rest before it is read (the default, what a user
+        does).
 
     Returns
     -------
@@ -289,9 +312,10 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     choices = sensor_choices(sensors, setup)
     searched, fixed = _bounds(setup, bounds)
     gen = np.random.default_rng(rng)
+    robust = _robust_spec(measurand, choices, tolerances, samples, tare, gen)
 
     # the reference: the given setup with the first sensor choice
-    base = _task(setup, choices[0], measurand, fixed_c, bandwidth, fluid, points)
+    base = _task(setup, choices[0], measurand, fixed_c, bandwidth, fluid, points, robust)
     ref_metrics = evaluate_many([base])[0]
     # a measured profile's tip scales with its base radius: no tip_radius of its own
     shown = [k for k in VARIABLES if not (k == "tip_radius" and setup.cilium.profile is not None)]
@@ -335,7 +359,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     order = np.argsort(np.where(ranks >= 0, ranks, np.iinfo(np.int64).max), kind="stable")
     chosen = [int(i) for i in order[:refine] if ranks[i] >= 0]
     chosen += measurand.candidates(screened.minimum, screened.range, ok, fixed_c,
-                                   max(4, refine // 4))
+                                   measurand.candidate_count(refine))
     chosen = list(dict.fromkeys(chosen))
     logger.info("optimise: %d designs screened, %d feasible, %d refined", total,
                 int(ok.sum()), len(chosen))
@@ -344,9 +368,12 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     # layouts converge (each at its element, in the task) unless the paper's is asked for by name
     designs_from = setup if setup.layout != "given" else setup.replace(layout="converged")
     measure = _Measure(designs_from, measurand, fixed_c, (float(bandwidth[0]), float(bandwidth[1])),
-                       fluid, points, workers, scheduler, progress)
-    designs = measure([({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
-                       for i in chosen])
+                       fluid, points, workers, scheduler, progress, robust)
+    entries = [({k: float(values[k][i]) for k in shown}, choices[int(index[i])])
+               for i in chosen]
+    if robust is not None and all(lo <= ref_params[k] <= hi for k, (lo, hi) in searched.items()):
+        entries.append((dict(ref_params), choices[0]))  # the error to beat is the reference's
+    designs = measure(entries)
     # polish: small exact Sobol' boxes around the chosen design, each half the last's size
     by_name = {c.name: c for c in choices}
     for level in range(polish):
@@ -400,7 +427,24 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
         objective=objective, measurand=measurand, designs=tuple(designs), best=best,
         reference=reference, best_setup=best_setup, bounds=searched,
         fixed=fixed_c, screened=total, eliminated=eliminated,
-        seconds=time.perf_counter() - start)
+        seconds=time.perf_counter() - start, robust=robust)
+
+
+def _robust_spec(measurand: Measurand, choices: Sequence[SensorChoice],
+                 tolerances: Tolerances | None, samples: int, tare: bool,
+                 gen: np.random.Generator) -> RobustSpec | None:
+    """The robust objective's Monte Carlo (None for the others); its draws' seed comes from
+    ``gen`` (the search's ``rng``), so an int ``rng`` repeats them."""
+    if measurand.objective != "robust":
+        if tolerances is not None:
+            raise v.fail("tolerances", tolerances.report(), "None unless the objective is "
+                         "'robust' (the others do not use them)")
+        return None
+    if any(c.name != SINGLE_AXIS for c in choices):
+        raise v.fail("sensors", [c.name for c in choices], f"({SINGLE_AXIS!r},) for the robust "
+                     "objective (its read-out error is the single-axis sensor's)")
+    return RobustSpec(tolerances or Tolerances(), samples=samples,
+                      seed=int(gen.integers(2**31)), tare=tare)
 
 
 @dataclass(frozen=True)
@@ -417,6 +461,7 @@ class _Measure:
     workers: int | None
     scheduler: str | None
     progress: bool
+    robust: RobustSpec | None = None
 
     def __call__(self, entries: Sequence[tuple[dict[str, float], SensorChoice]]
                  ) -> list[Candidate]:
@@ -430,7 +475,7 @@ class _Measure:
         tasks: list[tuple[str, Any]] = []
         for k in range(0, len(setups), per):
             chunk = [_task(s, ch, self.measurand, self.fixed, self.bandwidth, self.fluid,
-                           self.points) for _, ch, s in setups[k:k + per]]
+                           self.points, self.robust) for _, ch, s in setups[k:k + per]]
             tasks.append((f"designs-{k:05d}", chunk))
         # a few designs (a polishing round; up to POOL_FROM by default) cost less in process
         # than starting a pool
@@ -457,11 +502,12 @@ def _qmc_sample(dims: int, log2: int, gen: np.random.Generator) -> F64:
 
 
 def _task(setup: Setup, choice: SensorChoice, measurand: Measurand, fixed: dict[str, float],
-          bandwidth: tuple[float, float], fluid: Fluid, points: int) -> ExactTask:
+          bandwidth: tuple[float, float], fluid: Fluid, points: int,
+          robust: RobustSpec | None = None) -> ExactTask:
     return ExactTask(setup, choice, measurand, fixed.get("speed", 0.0),
                  (float(bandwidth[0]), float(bandwidth[1])), fluid, points,
                  choice.total_limit(fixed.get("field")),
-                 dynamics="bandwidth" in fixed or "settling" in fixed)
+                 dynamics="bandwidth" in fixed or "settling" in fixed, robust=robust)
 
 
 def _dynamic(d: Candidate, base: Setup, measurand: Measurand, fixed: dict[str, float],
@@ -486,7 +532,9 @@ def _design(params: dict[str, float], sensor: str, m: dict[str, Any],
                      limited_by=str(m["limited_by"]), peak_field=float(m["peak_field"]),
                      violated=violated, reached=bool(m["reached"]),
                      bandwidth=float(m.get("bandwidth", math.nan)),
-                     settling_time=float(m.get("settling_time", math.nan)))
+                     settling_time=float(m.get("settling_time", math.nan)),
+                     error=float(m.get("error", math.nan)),
+                     error_p95=float(m.get("error_p95", math.nan)))
 
 
 def _violation(m: dict[str, Any], fixed: dict[str, float], choice: SensorChoice) -> str:

@@ -10,6 +10,7 @@ from typing import Any
 
 from magcilia._display import Display, Item, Table, dataframe, number, rows_table
 from magcilia.design.measurands import Measurand
+from magcilia.design.robust import RobustSpec
 from magcilia.device.parameters import PARAMETERS, Quantity
 from magcilia.device.setup import Setup
 from magcilia.units import ascii_unit
@@ -53,6 +54,10 @@ class Candidate(Display):
         not known).
     settling_time : float
         Time for a step of it to settle within 2 %, s.
+    error, error_p95 : float
+        The ``"robust"`` objective's calibration-free read-out error over the range: RMS and
+        95th percentile of ``|F_read − F|`` as fractions of the range
+        (:mod:`magcilia.design.robust`; NaN for the other objectives).
     """
 
     params: dict[str, float]
@@ -68,6 +73,8 @@ class Candidate(Display):
     reached: bool = True
     bandwidth: float = math.nan
     settling_time: float = math.nan
+    error: float = math.nan
+    error_p95: float = math.nan
 
     @property
     def feasible(self) -> bool:
@@ -90,6 +97,8 @@ class Candidate(Display):
         row["peak_field_T"] = self.peak_field
         row["bandwidth_Hz"] = self.bandwidth
         row["settling_time_s"] = self.settling_time
+        row["calibration_free_error"] = self.error
+        row["calibration_free_error_p95"] = self.error_p95
         row["rank"] = self.rank
         row["eligible"] = self.eligible
         row["violated"] = self.violated
@@ -102,7 +111,9 @@ class Candidate(Display):
                 "range": self.range, "range_reached": self.reached,
                 "limited_by": self.limited_by, "peak_field_T": self.peak_field,
                 "violated": self.violated, "rank": self.rank, "eligible": self.eligible,
-                "bandwidth_Hz": self.bandwidth, "settling_time_s": self.settling_time}
+                "bandwidth_Hz": self.bandwidth, "settling_time_s": self.settling_time,
+                "calibration_free_error": self.error,
+                "calibration_free_error_p95": self.error_p95}
 
     def report(self) -> str:
         """One line in display units."""
@@ -110,9 +121,10 @@ class Candidate(Display):
 
     def _display_items(self) -> list[Item]:
         items = [(n, PARAMETERS[n].text(val)) for n, val in self.params.items()]
+        error = [] if math.isnan(self.error) else [("error", f"{self.error * 100:.3g} %")]
         return [("minimum", number(self.minimum)),
                 ("range", ("" if self.reached else "≥ ") + number(self.range)),
-                ("sensor", self.sensor), *items]
+                *error, ("sensor", self.sensor), *items]
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -144,6 +156,8 @@ class DesignOptimum(Display):
         Screened designs removed by each constraint (the first each breaks).
     seconds : float
         Wall time of the search.
+    robust : RobustSpec or None
+        The ``"robust"`` objective's tolerances and Monte Carlo (None for the others).
     """
 
     objective: str
@@ -157,6 +171,7 @@ class DesignOptimum(Display):
     screened: int
     eliminated: dict[str, int]
     seconds: float
+    robust: RobustSpec | None = None
 
     @property
     def quantity(self) -> str:
@@ -237,7 +252,17 @@ class DesignOptimum(Display):
             "bounds": {k: list(b) for k, b in self.bounds.items()},
             "constraints": dict(self.fixed), "screened": self.screened,
             "eliminated": dict(self.eliminated), "seconds": self.seconds,
+            **({} if self.robust is None else {"robust": self.robust_dict()}),
         }
+
+    def robust_dict(self) -> dict[str, Any]:
+        """The robust objective's Monte Carlo (empty for the others): tolerances, devices,
+        seed, tare, forces per device."""
+        r = self.robust
+        if r is None:
+            return {}
+        return {"tolerances": r.tolerances.to_dict(), "samples": r.samples, "seed": r.seed,
+                "tare": r.tare, "points": r.points}
 
     def report(self) -> str:
         """Plain text in display units: the chosen design against the reference, then the
@@ -253,6 +278,12 @@ class DesignOptimum(Display):
         lines.append("best design: " + ", ".join(
             f"{n} {PARAMETERS[n].text(val, 4)}" for n, val in self.best.params.items()))
         lines.append(f"compared with the reference: {self.comparison}")
+        if self.robust is not None:
+            lines.append(f"calibration-free error (RMS, 95th percentile, of the range): "
+                         f"reference {_error_text(self.reference)}, best "
+                         f"{_error_text(self.best)}; {self.robust.samples} devices, "
+                         f"{'tared' if self.robust.tare else 'untared'}, under "
+                         f"{self.robust.tolerances.report()}")
         lines.append("front (minimum, range):")
         lines += [f"  {q.text(d.minimum, 4):>12} {_range_text(d, q):>12}  {d.sensor}"
                   for d in self.front]
@@ -268,6 +299,11 @@ class DesignOptimum(Display):
 
     def _display_table(self) -> Table | None:
         return rows_table(self.table())
+
+
+def _error_text(d: Candidate) -> str:
+    """A design's calibration-free error: ``"6.1 %, 13 %"``."""
+    return f"{d.error * 100:.3g} %, {d.error_p95 * 100:.3g} %"
 
 
 def _range_text(d: Candidate, q: Quantity) -> str:
