@@ -16,9 +16,9 @@ field_y              field_y_T         field        ``field_y_T``, B_y in tesla
 field_z              field_z_T         field        ``field_z_T``, B_z in tesla
 force                force_N           force        ``force_N``, known tip force in newtons
 flow                 flow_m_per_s      speed        ``flow_m_per_s``, known flow speed in m/s
-actuation_x          actuation_x_T     field        ``actuation_x_T``, applied (coil) field B_x in tesla
-actuation_y          actuation_y_T     field        ``actuation_y_T``, applied field B_y in tesla
-actuation_z          actuation_z_T     field        ``actuation_z_T``, applied field B_z in tesla
+actuation_x          actuation_x_T     field        ``actuation_x_T``, coil field B_x in tesla
+actuation_y          actuation_y_T     field        ``actuation_y_T``, coil field B_y in tesla
+actuation_z          actuation_z_T     field        ``actuation_z_T``, coil field B_z in tesla
 temperature          temperature_K     temperature  ``temperature_K``, the temperature in kelvin
 temperature_celsius  temperature_degC  celsius      ``temperature_K`` too, from °C (+273.15)
 ===================  ================  ===========  ===============================================
