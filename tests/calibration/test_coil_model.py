@@ -130,3 +130,23 @@ def test_with_tilt_and_load_experiments() -> None:
     q = p.copy()
     q[0, names.index("sensitivity")] *= 1.01  # the tilt outputs and the coil's both move
     assert np.abs(problem.residuals(q)[0, :a]).max() > 3.0
+
+
+def test_model_error_against_the_exact_body() -> None:
+    """The physical layout's coil model against the exact body (magpylib cylinders) of the same
+    bent shapes: after the offsets, within a few 1e-4 of the cilium's field change."""
+    from magcilia.calibration.layout import converged_layout
+    from magcilia.model.exact import exact_field
+
+    truth = _setup(magnetization_scale=0.8, youngs_modulus=6.69e5)
+    applied = 4.0 * FIELDS
+    cilium = np.array([exact_field(truth, mc.bend(truth, 0.0, actuation=mc.Actuation.uniform(b)),
+                                   400)[0] for b in applied])
+    lay = converged_layout(truth)
+    base = truth.replace(n_loops=lay.n_loops, dipoles_per_loop=lay.dipoles_per_loop,
+                         ring=lay.ring)
+    problem = Problem([experiment(_coil(applied, fields=cilium + applied))], base, NAMES, BOUNDS)
+    error = problem.residuals(_vector(truth, NAMES)[None, :])[0] * 1e-9  # T (s.e. 1 nT)
+    change = np.ptp(cilium, axis=0).max()
+    assert change > 1e-6
+    assert np.abs(error).max() < 5e-4 * change
