@@ -102,3 +102,51 @@ def test_invalid_sets_get_the_penalty() -> None:
     bad[1] = 1e-5  # base radius below the tip radius: no valid setup
     cost = problem.cost(np.stack([p, bad]))
     assert cost[0] < 1e-6 and cost[1] >= 1e29
+
+
+def test_with_tilt_and_load_experiments() -> None:
+    """Coil, tilt (output) and force data in one problem: the search's magnetization scale and
+    sensitivity reach the tilt outputs and the load fields too (model values from the loop)."""
+    truth = _setup(magnetization_scale=0.7, youngs_modulus=3e5, sensitivity=1.2e-3 / 1e-4)
+    base = _setup()
+    angles = np.radians(np.linspace(-30.0, 30.0, 7))
+    a = angles.size
+    common = (np.ones(a, np.int64), np.zeros(a, np.int64), np.zeros(a, np.int64))
+    tilt = Measurement(angles, truth.output(angles) + 0.01, np.full(a, 1e-6), *common)
+    forces = np.linspace(0.0, 2e-5, 5)
+    shapes = mc.bend_sweep(truth, forces)
+    load = Measurement(np.zeros(5), np.full(5, np.nan), np.full(5, np.nan),
+                       np.ones(5, np.int64), np.zeros(5, np.int64), np.zeros(5, np.int64),
+                       fields=truth.field(shapes), field_sem=np.full((5, 3), 1e-9),
+                       forces=forces)
+    coil = _coil(FIELDS, volts=truth.sensor.scale * (_loop(truth, FIELDS) + FIELDS)[:, 0])
+    names = (*NAMES, "sensitivity")
+    problem = Problem([experiment(tilt), experiment(load), experiment(coil)], base, names,
+                      BOUNDS)
+    assert problem.all_names == names
+    p = _vector(truth, names)[None, :]
+    r = problem.residuals(p)
+    assert np.abs(r).max() < 1e-3  # round-off of the bends, in units of the s.e.
+    q = p.copy()
+    q[0, names.index("sensitivity")] *= 1.01  # the tilt outputs and the coil's both move
+    assert np.abs(problem.residuals(q)[0, :a]).max() > 3.0
+
+
+def test_model_error_against_the_exact_body() -> None:
+    """The physical layout's coil model against the exact body (magpylib cylinders) of the same
+    bent shapes: after the offsets, within a few 1e-4 of the cilium's field change."""
+    from magcilia.calibration.layout import converged_layout
+    from magcilia.model.exact import exact_field
+
+    truth = _setup(magnetization_scale=0.8, youngs_modulus=6.69e5)
+    applied = 4.0 * FIELDS
+    cilium = np.array([exact_field(truth, mc.bend(truth, 0.0, actuation=mc.Actuation.uniform(b)),
+                                   400)[0] for b in applied])
+    lay = converged_layout(truth)
+    base = truth.replace(n_loops=lay.n_loops, dipoles_per_loop=lay.dipoles_per_loop,
+                         ring=lay.ring)
+    problem = Problem([experiment(_coil(applied, fields=cilium + applied))], base, NAMES, BOUNDS)
+    error = problem.residuals(_vector(truth, NAMES)[None, :])[0] * 1e-9  # T (s.e. 1 nT)
+    change = np.ptp(cilium, axis=0).max()
+    assert change > 1e-6
+    assert np.abs(error).max() < 5e-4 * change

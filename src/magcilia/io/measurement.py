@@ -335,7 +335,8 @@ class Measurement(Display):
     def _display_items(self) -> list[Item]:
         deg = np.degrees(self.angles)
         n = len(self)
-        items = [("", count(n, "load" if self.loads is not None else "angle"
+        items = [("", count(n, "applied field" if self.actuation is not None else "load"
+                            if self.loads is not None else "angle"
                             if self.single_azimuth else "condition"))]
         if not self.single_azimuth or (n and self.azimuths[0] != 0.0):
             items.append(("azimuths", ", ".join(f"{a:g}" for a in self._azimuths_deg())
@@ -346,6 +347,9 @@ class Measurement(Display):
             items.append(("forces" if self.forces is not None else f"speeds ({self.fluid})",
                           f"{number(loads.min() * 1e3)}…{number(loads.max() * 1e3)} {unit}"
                           if n else "-"))
+        elif self.actuation is not None:
+            b = np.linalg.norm(self.actuation, axis=1) / GAUSS
+            items.append(("|B| coil", f"{number(b.min())}…{number(b.max())} G" if n else "-"))
         else:
             items.append(("angles", f"{number(deg.min())}…{number(deg.max())} deg"
                           if n else "-"))
