@@ -37,7 +37,7 @@ SPARKS = "▁▂▃▄▅▆▇█"
 #: names of the flag bits as the view shows them
 FLAG_NAMES = view_flag_names(Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED,
                              Flag.CLIPPED, Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT,
-                             Flag.COIL_PULSE)
+                             Flag.TEMPERATURE_OUTSIDE, Flag.COIL_PULSE)
 #: the key help line
 KEYS = "t tare · r start/stop recording · q quit (Ctrl-C)"
 #: the key help line of an array's view
