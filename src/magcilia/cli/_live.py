@@ -27,6 +27,7 @@ from magcilia.acquire import (
 )
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
+from magcilia.cli._outputs import OUTPUT_FILE
 from magcilia.cli.array import DEFAULT_SPAN
 from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
 from magcilia.design import design_metrics
@@ -94,7 +95,7 @@ def live_options(command: Any) -> Any:
                           "stored setup, span, calibration, tares and zero tracking (as fast as "
                           "it goes when stdout is not a terminal, in real time otherwise; the "
                           "other read-out options are ignored)."),
-        click.option("--record", "record_path", default=None, type=click.Path(dir_okay=False),
+        click.option("--record", "record_path", default=None, type=OUTPUT_FILE,
                      help="Record from the first sample into this TDMS file (an existing one "
                           "only with --force): raw samples, read-out values, events, tares and "
                           "what a replay (--source FILE.tdms) needs."),

@@ -22,6 +22,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.io.array_file import MAX_LOAD_SETS, load_array, load_array_grid, read_loads
 from magcilia.readout.array import ArrayReadout, array_metrics, field_for_loads
 from magcilia.report.array import (
@@ -71,6 +72,7 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 
 
 @click.command()
+@writes_files
 @setup_option("The array: an array setup file ([[cilia]] and [[sensors]], or the [array] "
               "grid), or the array preset")
 @click.option("--span", "span_text", default=None,
@@ -92,19 +94,19 @@ def _csv(rows: list[dict[str, Any]]) -> str:
                    "a file with the [array] grid).")
 @click.option("--pitches", default=None,
               help="Pitches of --metrics, START:STOP:STEP in mm or with a unit (1.5:6:0.5mm).")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the array map (cilia, sensors, loads and field change of the first "
                    "load set; PNG/PDF/SVG by suffix).")
-@click.option("--crosstalk-plot", "crosstalk_path", type=click.Path(dir_okay=False),
+@click.option("--crosstalk-plot", "crosstalk_path", type=OUTPUT_FILE,
               help="Write the crosstalk image (sensor × cilium response).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+@click.option("--csv", "csv_path", type=OUTPUT_FILE,
               help="Write the forward map as CSV: per load set and sensor, the field (board "
                    "frame) and the noisy reading (sensor axes).")
-@click.option("--readout-csv", "readout_path", type=click.Path(dir_okay=False),
+@click.option("--readout-csv", "readout_path", type=OUTPUT_FILE,
               help="Write the read-out as CSV: per load set and cilium, truth, estimate, sigma, "
                    "error and flags.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the tables.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
 @si_option
 @style_option
 def command(setup_arg: str, span_text: str | None, loads_path: str | None,

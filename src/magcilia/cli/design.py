@@ -19,6 +19,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.design import DesignMetrics, design_metrics
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
@@ -26,6 +27,7 @@ from magcilia.units import OutputUnits, ascii_unit
 
 
 @click.command()
+@writes_files
 @setup_option()
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow metrics (20 °C, uniform flow).")
@@ -33,8 +35,8 @@ from magcilia.units import OutputUnits, ascii_unit
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (the table's units; SI with --si) instead of the table.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the figure (PNG/PDF/SVG by suffix).")
 @si_option
 @style_option

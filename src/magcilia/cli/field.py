@@ -19,6 +19,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import SensorFlag
 from magcilia.device.setup import Setup
@@ -49,14 +50,15 @@ def _warn_overload(label: str, setup: Setup, b: NDArray[np.float64],
 
 
 @click.command()
+@writes_files
 @setup_option("A setup to compare (several: one table and figure)", multiple=True, name="setups")
 @click.option("--angles", default="0:85:5", show_default=True,
               help="Tilt angles start:stop:step in degrees, or with a unit (0:85:5deg; stop "
                    "included).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False), help="Write the table as CSV.")
+@click.option("--csv", "csv_path", type=OUTPUT_FILE, help="Write the table as CSV.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the table.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write a figure (PNG/PDF/SVG by suffix).")
 @si_option
 @style_option

@@ -27,6 +27,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.design import (
     DEFAULT_BOUNDS,
     OBJECTIVES,
@@ -49,6 +50,7 @@ def _defaults() -> str:
 
 
 @click.command()
+@writes_files
 @setup_option(default="force-sensor")
 @click.option("--objective", type=click.Choice(OBJECTIVES), default="force-range",
               show_default=True,
@@ -96,13 +98,13 @@ def _defaults() -> str:
                    "unit (e.g. 20ms).")
 @bandwidth_option()
 @mechanics_options
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the Pareto figure (PNG/PDF/SVG by suffix).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+@click.option("--csv", "csv_path", type=OUTPUT_FILE,
               help="Write the Pareto front as CSV (columns carry their units).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the text.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--setup-out", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--setup-out", type=OUTPUT_FILE,
               help="Write the chosen design as a setup TOML file.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option

@@ -23,6 +23,7 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.cli._signals import signals_interrupt
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.setup_files import setup_to_dict
@@ -66,6 +67,7 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 
 
 @click.command()
+@writes_files
 @click.option("--source", "source_spec", default="sim", show_default=True,
               help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
 @setup_option("The sensor (the simulated one for --source sim; stored in the recording)",
@@ -91,7 +93,7 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
               help="sim: the simulated hair moves through its bending modes in air (rings after "
                    "each tilt; --settle drops the ringing) instead of sitting at each angle.")
 @click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
-              type=click.Path(dir_okay=False),
+              type=OUTPUT_FILE,
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
 @click.option("--force", is_flag=True,
               help="Replace an existing --record: only once the new recording holds its first "
