@@ -226,3 +226,30 @@ def setup_option(help_text: str = "The sensor setup", *, default: str | None = N
         return command
 
     return decorate
+
+
+# --- checked values: what reaches numpy is checked first (issue 30 item 6) ---------------------
+
+#: the largest ``--seed`` (numpy's legacy generators, used by some samplers, take 32 bits)
+MAX_SEED = 2**32 - 1
+
+
+class Seed(click.IntRange):
+    """``--seed``: a whole number from 0 to :data:`MAX_SEED`, checked before it reaches NumPy
+    (whose own check of ``-1`` is a traceback): one line naming the value and the range."""
+
+    name = "seed"
+
+    def __init__(self) -> None:
+        super().__init__(0, MAX_SEED)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter:
+            raise MagciliaError(f"--seed must be a whole number from 0 to {MAX_SEED}; got "
+                                f"{value!r}") from None
+
+
+#: the type of every ``--seed``
+SEED = Seed()

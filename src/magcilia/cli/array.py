@@ -22,6 +22,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._options import SEED
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.io.array_file import MAX_LOAD_SETS, load_array, load_array_grid, read_loads
 from magcilia.readout.array import ArrayReadout, array_metrics, field_for_loads
@@ -84,7 +85,7 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 @click.option("--random", "random_sets", type=click.IntRange(1, MAX_LOAD_SETS), default=None,
               help="N sets of random loads (uniform over the disc of 0.9 span) instead of "
                    "--loads.")
-@click.option("--seed", type=int, default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Seed of the random loads and of the sensors' noise.")
 @click.option("--crosstalk", "show_crosstalk", is_flag=True,
               help="Print the crosstalk table (each cilium's site, response, worst other sensor, "

@@ -23,6 +23,7 @@ from magcilia.cli._common import (
     suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.cli._options import SEED
 from magcilia.device.parameters import describe_bounds
 
 
@@ -44,7 +45,7 @@ def command() -> None:
               help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm); "
                    f"repeatable. Defaults: {describe_bounds()}.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
-@click.option("--seed", default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Random seed of every recording's global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches per recording, the best kept.")

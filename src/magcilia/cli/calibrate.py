@@ -23,6 +23,7 @@ from magcilia.cli._common import (
     suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.cli._options import SEED
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import FLUID_NAMES, read_measurements
 from magcilia.io.setup_files import load_priors
@@ -82,7 +83,8 @@ def _ringdown_priors(paths: tuple[str, ...]) -> dict[str, tuple[float, float]]:
               help="With --model physical: also sample the posterior of the geometry (emcee, "
                    "1000 effective samples, at most a minute): credible intervals in the report, "
                    "pairs.png.")
-@click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
                    "33-angle recording in > 99 % of cases; more make a miss rarer).")

@@ -27,6 +27,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._options import SEED
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.design import (
     DEFAULT_BOUNDS,
@@ -82,7 +83,8 @@ def _defaults() -> str:
 @click.option("--polish", type=click.IntRange(0, 10), default=2, show_default=True,
               help="Rounds of exact polishing: 16 designs around the chosen one, in a box of "
                    "±10 %% of each bound's width, halved each round.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the sample.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Seed of the sample.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
               help="Worker processes of the exact refinement (default: one per core from 256 "
                    "designs, else none; 1: none).")

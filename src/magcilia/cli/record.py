@@ -23,6 +23,7 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
+from magcilia.cli._options import SEED
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.cli._signals import signals_interrupt
 from magcilia.io.recording_file import recording_properties
@@ -62,8 +63,9 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
     deg, volt = units.unit("angle"), units.unit("voltage")
     angle, mean, sem = (units.value(point.angle, "angle"), units.value(point.mean, "voltage"),
                         units.value(point.sem, "voltage"))
-    return (f"{angle:8.4g} {deg}  {mean:+.6g} ± {sem:.5g} {volt}  ({point.samples} "
-            f"samples){flag}")
+    # fixed widths: the columns line up whatever the values (6 significant digits at most)
+    return (f"{angle:8.4g} {deg}  {mean:+12.6g} ± {sem:<11.5g} {volt}  {point.samples:>7} "
+            f"samples{flag}")
 
 
 @click.command()
@@ -88,7 +90,8 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
               help="Record continuously for this long instead of a sweep: s, or with a unit.")
 @click.option("--set-reset", "set_reset", default=None, type=int,
               help="Alternate set/reset pulses every N samples (sim), stored per sample.")
-@click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Seed of the simulated source.")
 @click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
               help="sim: the simulated hair moves through its bending modes in air (rings after "
                    "each tilt; --settle drops the ringing) instead of sitting at each angle.")
@@ -113,8 +116,9 @@ def command(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
     stopped. An existing file is refused without --force, and never lost: with --force it is
     replaced only once the new recording holds its first flushed chunk. Ctrl-C, SIGTERM or
     SIGHUP stop it the same way: the file is closed, marked incomplete and saying where it
-    stopped, with one line and exit status 1. The recording itself is in SI (angle_rad,
-    voltage_V); the console and --json are in deg and mV (SI with --si).
+    stopped, with one line and exit status 1. The recording holds the channels time_s,
+    voltage_V and angle_deg (a sweep; the names of a CSV recording); the console and --json are
+    in deg and mV (SI with --si).
     """
     with signals_interrupt() as stop:
         try:
