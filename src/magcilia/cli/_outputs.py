@@ -157,3 +157,9 @@ def writes_files(command: Any = None, *, extra: Extra | None = None) -> Any:
         return checked
 
     return decorate if command is None else decorate(command)
+
+
+def in_folder(folder: str | os.PathLike[str], name: str = "") -> str:
+    """``folder/name`` as a message shows it: one separator whatever the folder's spelling
+    (``fit/`` and ``fit`` give ``fit/result.json``, never ``fit//result.json``)."""
+    return os.path.join(str(Path(folder)), name)  # noqa: PTH118 (a Path drops the end's "/")

@@ -33,7 +33,7 @@ from magcilia.report.array import (
     readout_rows,
     rows_text,
 )
-from magcilia.report.units import output_units
+from magcilia.report.units import output_units, show
 from magcilia.units import parse_range, parse_value
 
 #: most pitches of a ``--pitches`` grid (each builds and checks a whole array)
@@ -250,14 +250,19 @@ def _text(doc: dict[str, Any], system: str, sets: int, crosstalk: bool) -> str:
     noise_key = next(k for k in s if k.startswith("median_sigma_force_noise_"))
     rest_key = next(k for k in s if k.startswith("rest_field_max_"))
     unit = span_key.removeprefix("span_")
+    units = output_units(system == "SI")
+
+    def force(value: float) -> str:  # in the unit of its magnitude (µN for a µN-scale force)
+        return show(value * units.factor("force"), "force", units, digits=3)
+
     lines = [(f"{doc['setup']}: {s['cilia']} cilia over {s['sensors']} sensors, span "
              f"{doc[span_key]:.4g} {unit}, loads: {doc['loads']} ({sets} set"
              f"{'s' if sets != 1 else ''}, seed {doc['seed']}); units: {system}"),
              (f"rest field up to {s[rest_key]:.4g} {rest_key.removeprefix('rest_field_max_')}; "
              f"{s['saturated_readings']} saturated readings; read-out: "
              f"{100 * s['within_2sigma']:.1f}% of Fx, Fy within 2 noise sigma, {s['flagged']} "
-             f"flagged, median sigma |F| {s[sigma_key]:.3g} {unit} (noise {s[noise_key]:.3g} "
-             f"{unit}), largest error {s['largest_error_per_sigma']:.3g} noise sigma"),
+             f"flagged, median sigma |F| {force(s[sigma_key])} (noise {force(s[noise_key])}), "
+             f"largest error {s['largest_error_per_sigma']:.3g} noise sigma"),
              (f"{doc['scale_note']}: in every sigma; the simulated truth shares the model's "
               "modulus, so errors are counted against the noise's sigma")]
     first = [r for r in doc["field"] if r["set"] == 1]

@@ -24,6 +24,7 @@ from magcilia.cli._common import (
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
 from magcilia.cli._options import SEED
+from magcilia.cli._outputs import in_folder
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import FLUID_NAMES, read_measurements
 from magcilia.io.setup_files import load_priors
@@ -172,6 +173,6 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
     click.echo(result.report(si))
     if comparison is not None:
         click.echo(comparison)
-    click.echo(f"wrote {out_dir}/" + ", ".join(calibration_files(result)))
+    click.echo(f"wrote {in_folder(out_dir)}" + ", ".join(calibration_files(result)))
 
 

@@ -23,7 +23,7 @@ from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import SensorFlag
 from magcilia.device.setup import Setup
-from magcilia.report.units import output_units
+from magcilia.report.units import exact_zeros, output_units
 
 #: the flag words of :class:`~magcilia.device.sensor.SensorFlag` bits, in the table's order
 FLAG_WORDS = ((SensorFlag.BEYOND_RANGE, "range"), (SensorFlag.TOTAL_BEYOND_RANGE, "total-range"),
@@ -88,7 +88,7 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     results = []
     for arg in setups:
         setup = load_setup_arg(arg).resolve_layout()  # the layout rule at the element
-        b = setup.field(theta)
+        b = exact_zeros(setup.field(theta))  # a zero by symmetry prints as 0, not -5.6e-16
         volts = setup.sensor.voltage(b[:, 0])
         ok = setup.sensor.in_range(b[:, 0])
         flags = setup.sensor.check(b)

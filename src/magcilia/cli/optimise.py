@@ -40,6 +40,7 @@ from magcilia.design import (
 from magcilia.design.measurands import BY_OBJECTIVE
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
+from magcilia.report.units import show as show_value
 from magcilia.units import OutputUnits
 
 
@@ -225,13 +226,12 @@ def front_csv(doc: dict[str, Any]) -> str:
 def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
     """What ``magcilia optimise`` prints, from :func:`optimise_doc`."""
     q = doc["quantity"]
-    unit = units.unit(q)
     k_min, k_rng = units.key("minimum", q), units.key("range", q)
 
     def show(value: float | None, reached: bool = True) -> str:
         if value is None or not math.isfinite(value):
-            return "-"
-        return ("" if reached else "≥ ") + f"{value:.4g} {unit}"
+            return "-"  # a force in the unit of its magnitude (µN for a µN-scale one)
+        return ("" if reached else "≥ ") + show_value(value * units.factor(q), q, units)
 
     what = "minimum detectable force" if q == "force" else "minimum detectable speed change"
     lines = [(f"{doc['objective']} from {doc['setup']}: {doc['screened']} designs screened, "
