@@ -271,7 +271,7 @@ class OutputUnits:
     >>> u.unit("length"), u.key("tip", "length"), u.value(0.0025, "length")
     ('mm', 'tip_mm', 2.5)
     >>> u.convert({"knots_rad": [0.0], "max_error_V": 0.002, "slopes_V_per_rad": [-1.0]})
-    {'knots_deg': [0.0], 'max_error_mV': 2.0, 'slopes_mV_per_deg': [-17.4532925199433]}
+    {'knots_deg': [0.0], 'max_error_mV': 2.0, 'slopes_mV_per_deg': [-17.453292519943297]}
     >>> OutputUnits(True, {}).convert({"at_mm": 2.5, "angle_deg": 90.0})
     {'at_m': 0.0025, 'angle_rad': 1.5707963267948966}
     """
@@ -382,21 +382,30 @@ class OutputUnits:
         return ascii_unit(unit) + ("2" if power == 2 else ""), scale
 
 
-#: significant digits a unit conversion keeps (:func:`converted`): a value typed as 0.07 mm,
-#: stored as 7e-05 m, comes back as 0.07, not 0.06999999999999999
+#: a unit conversion's result within its rounding (:data:`CONVERTED_DIGITS` significant digits)
+#: of a decimal of at most this many significant digits is that decimal (:func:`converted`)
+SHORT_DIGITS = 12
 CONVERTED_DIGITS = 15
 
 
 def converted(value: float, scale: float) -> float:
-    """``value * scale`` rounded to :data:`CONVERTED_DIGITS` significant digits: a unit
-    conversion's last-bit error is dropped, so numbers echoed from input round-trip as typed
-    (the conversion itself is not exact to more digits anyway).
+    """``value * scale``, and where that is within its last-bit rounding of a short decimal
+    (at most :data:`SHORT_DIGITS` significant digits), that decimal: numbers echoed from input
+    round-trip as typed (0.07 mm, stored as 7e-05 m, comes back as 0.07, not
+    0.06999999999999999), while other values keep every digit (90 deg is 1.5707963267948966
+    rad).
 
     >>> 0.1801e-3 * 1e3, converted(0.1801e-3, 1e3), converted(0.07e-3, 1e3)
     (0.18009999999999998, 0.1801, 0.07)
+    >>> converted(math.pi / 180, 90.0)
+    1.5707963267948966
     """
     out = float(value) * scale
-    return float(f"{out:.{CONVERTED_DIGITS}g}") if math.isfinite(out) else out
+    if not math.isfinite(out) or out == 0.0:
+        return out
+    text = f"{out:.{CONVERTED_DIGITS - 1}e}"  # d.ddd…e±xx: CONVERTED_DIGITS significant
+    mantissa = text.split("e", maxsplit=1)[0].replace("-", "").replace(".", "").rstrip("0")
+    return float(text) if len(mantissa) <= SHORT_DIGITS else out
 
 
 def _scale(value: object, scale: float) -> object:
