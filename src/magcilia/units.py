@@ -401,7 +401,7 @@ def converted(value: float, scale: float) -> float:
     1.5707963267948966
     """
     out = float(value) * scale
-    if not math.isfinite(out) or out == 0.0:
+    if scale == 1.0 or not math.isfinite(out) or out == 0.0:  # no conversion: every digit
         return out
     text = f"{out:.{CONVERTED_DIGITS - 1}e}"  # d.ddd…e±xx: CONVERTED_DIGITS significant
     mantissa = text.split("e", maxsplit=1)[0].replace("-", "").replace(".", "").rstrip("0")
