@@ -213,3 +213,26 @@ def test_unit_conversions_round_trip_short_decimals() -> None:
     assert u.value(0.1801e-3, "length") == 0.1801
     assert converted(math.pi / 180, 90.0) == math.pi / 2  # not a short decimal: every digit
     assert converted(0.1801e-3, 1.0) == 0.1801e-3  # no conversion, no rounding
+
+
+def test_the_readme_says_which_files_keep_fixed_names_and_their_units() -> None:
+    """Every CSV column and JSON key carries its unit, except the read-back formats the README
+    names; the batch table's units it lists are the table's own."""
+    from magcilia.batch.results import COLUMNS, UNITS
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    units = text[text.index("### Units"):text.index("### Calibration")]
+    for name in ("`results.csv`", "`result.json`", "`voltage_V`"):
+        assert name in units, name
+    start = text.index("**The table** (`results.csv`")
+    table = " ".join(text[start:text.index("\n\n", start)].split())
+    checked = 0
+    for name, unit in UNITS.items():
+        if unit not in ("V", "V^2", "m"):
+            continue
+        after = table[table.index(f"`{name}`"):]  # the first unit in parentheses after it
+        said = re.search(r"\(([^);]*)", after)
+        assert said is not None and said.group(1).strip().replace("²", "^2") == unit, name
+        assert name in COLUMNS
+        checked += 1
+    assert checked >= 10
