@@ -294,6 +294,10 @@ class OutputUnits:
             return what, self.dimensions.get(what, si_unit(what))
         raise KeyError(what)
 
+    def dimension(self, what: str) -> str | None:
+        """The dimension of a dimension or a named quantity (None for plain numbers)."""
+        return self._entry(what)[0]
+
     def unit(self, what: str) -> str:
         """The output unit of a dimension or a named quantity ("" for plain numbers)."""
         dimension, display = self._entry(what)

@@ -60,7 +60,7 @@ def unit_for(units: OutputUnits, what: str, magnitude: float) -> str:
     magnitude is below :data:`SMALL` of it. SI output (``--si``), zero, NaN and infinities keep
     the unit. The one rule of the console, the figures and CSV headers."""
     unit = units.unit(what)
-    dimension = units._entry(what)[0]
+    dimension = units.dimension(what)
     ladder = STEP_DOWN.get(dimension or "", ())
     magnitude = abs(float(magnitude))
     if units.si or unit not in ladder or not math.isfinite(magnitude) or magnitude == 0.0:
@@ -73,7 +73,7 @@ def unit_for(units: OutputUnits, what: str, magnitude: float) -> str:
 
 def in_unit(value: float, unit: str, what: str) -> float:
     """An SI ``value`` of the dimension of ``what`` in ``unit`` (a unit of :func:`unit_for`)."""
-    dimension = output_units()._entry(what)[0]
+    dimension = output_units().dimension(what)
     return float(value) / (UNITS[dimension][unit] if dimension else 1.0)
 
 
