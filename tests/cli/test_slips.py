@@ -236,3 +236,26 @@ def test_the_readme_says_which_files_keep_fixed_names_and_their_units() -> None:
         assert name in COLUMNS
         checked += 1
     assert checked >= 10
+
+
+def test_the_force_vector_figure_takes_the_unit_of_its_loads() -> None:
+    """A µN-scale biaxial read-out is drawn in µN (as the console says it), a mN one in mN."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import magcilia as mc
+    from magcilia.device.magnetometer import Magnetometer
+    from magcilia.report.biaxial import plot_force_vectors
+
+    setup = mc.Setup.paper(tip_radius=5e-5, youngs_modulus=2e6)
+    sensor = Magnetometer(field_range=1e-3, resolution=1e-9, noise=1.5e-9, rate=100.0)
+    for span, unit in ((5e-8, "µN"), (1e-4, "mN")):
+        r = mc.BiaxialReadout(setup, sensor, span=span, table_size=(9, 16))
+        phi = np.radians(np.arange(8) * 45.0)
+        truth = 0.5 * span * np.stack([np.cos(phi), np.sin(phi)], -1)
+        result = r.read(sensor.to_board(r.model(truth[:, 0], truth[:, 1])))
+        ax = plot_force_vectors(truth, result)
+        assert ax.get_xlabel() == f"$F_x$ ({unit})", span
+        reach = ax.get_xlim()[1]
+        factor = 1e-6 if unit == "µN" else 1e-3  # the data drawn in that unit
+        assert reach == pytest.approx(1.12 * max(0.5 * span, result.span) / factor)
