@@ -367,7 +367,7 @@ def test_field_writes_no_file_when_the_plot_fails(tmp_path: Path,
     (tmp_path / "file").write_text("x")
     csv_path.write_text("old")
     assert main(["field", "--setup", "paper", "--csv", str(csv_path), "--json-file", str(js),
-                 "--plot", str(tmp_path / "file" / "f.png")]) == 2
+                 "--plot", str(tmp_path / "file" / "f.png"), "--force"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "is a file, not a folder" in err
     assert csv_path.read_text() == "old" and not js.exists()

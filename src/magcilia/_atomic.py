@@ -490,8 +490,12 @@ def clear_output(folder: str | os.PathLike[str], names: Sequence[str],
             path.unlink()
 
 
-def _exists_message(out: Path, option: str = "--out") -> str:
-    return f"{out} exists; pass --force to replace it, or choose another {option}"
+def exists_message(out: str | os.PathLike[str], option: str = "--out") -> str:
+    """The one message of an existing output, file or folder, given without ``--force``."""
+    return f"{os.fspath(out)} exists; pass --force to replace it, or choose another {option}"
+
+
+_exists_message = exists_message  # the earlier private name
 
 
 def _check_target(out: Path, target: Path, force: bool, names: Collection[str],
@@ -509,7 +513,7 @@ def _check_target(out: Path, target: Path, force: bool, names: Collection[str],
         if not any(True for _ in it):
             return  # an empty folder is replaced without --force
     if not force:
-        raise MagciliaError(_exists_message(out))
+        raise MagciliaError(exists_message(out))
     check_own(target, names, folders, out=out)
 
 
@@ -524,7 +528,7 @@ def _publish(staging: Path, target: Path, out: Path, force: bool, names: Collect
         if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST):
             raise
         if not force:
-            raise MagciliaError(_exists_message(out)) from None
+            raise MagciliaError(exists_message(out)) from None
     else:
         return
     _check_target(out, target, force, names, folders)  # it may have changed during the work

@@ -336,6 +336,10 @@ class OutputUnits:
             return what, self.dimensions.get(what, si_unit(what))
         raise KeyError(what)
 
+    def dimension(self, what: str) -> str | None:
+        """The dimension of a dimension or a named quantity (None for plain numbers)."""
+        return self._entry(what)[0]
+
     def unit(self, what: str) -> str:
         """The output unit of a dimension or a named quantity ("" for plain numbers)."""
         dimension, display = self._entry(what)
@@ -424,6 +428,32 @@ class OutputUnits:
         return ascii_unit(unit) + ("2" if power == 2 else ""), scale
 
 
+#: a unit conversion's result within its rounding (:data:`CONVERTED_DIGITS` significant digits)
+#: of a decimal of at most this many significant digits is that decimal (:func:`converted`)
+SHORT_DIGITS = 12
+CONVERTED_DIGITS = 15
+
+
+def converted(value: float, scale: float) -> float:
+    """``value * scale``, and where that is within its last-bit rounding of a short decimal
+    (at most :data:`SHORT_DIGITS` significant digits), that decimal: numbers echoed from input
+    round-trip as typed (0.07 mm, stored as 7e-05 m, comes back as 0.07, not
+    0.06999999999999999), while other values keep every digit (90 deg is 1.5707963267948966
+    rad).
+
+    >>> 0.1801e-3 * 1e3, converted(0.1801e-3, 1e3), converted(0.07e-3, 1e3)
+    (0.18009999999999998, 0.1801, 0.07)
+    >>> converted(math.pi / 180, 90.0)
+    1.5707963267948966
+    """
+    out = float(value) * scale
+    if scale == 1.0 or not math.isfinite(out) or out == 0.0:  # no conversion: every digit
+        return out
+    text = f"{out:.{CONVERTED_DIGITS - 1}e}"  # d.ddd…e±xx: CONVERTED_DIGITS significant
+    mantissa = text.split("e", maxsplit=1)[0].replace("-", "").replace(".", "").rstrip("0")
+    return float(text) if len(mantissa) <= SHORT_DIGITS else out
+
+
 def _scale(value: object, scale: float) -> object:
     """Numbers (in nested lists and dicts) times ``scale``; None, bools and text unchanged."""
     if isinstance(value, dict):
@@ -432,4 +462,4 @@ def _scale(value: object, scale: float) -> object:
         return [_scale(v, scale) for v in value]
     if isinstance(value, bool) or not isinstance(value, int | float):
         return value
-    return value * scale
+    return converted(value, scale) if scale != 1.0 else value * scale

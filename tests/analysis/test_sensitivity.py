@@ -293,7 +293,7 @@ def test_report_files(tmp_path: Path, data: mc.Measurement) -> None:
     assert doc["sobol"]["n_evaluations"] == 64 * 9
     assert doc["sweeps"]["x"]["cost_V2"] is not None
     summary = (tmp_path / "summary.md").read_text()
-    assert "| base diameter d |" in summary and "x must be known to" in summary
+    assert "| base radius |" in summary and "x must be known to" in summary
 
 
 def test_offset_free_change_reproduces_the_papers_ranking() -> None:

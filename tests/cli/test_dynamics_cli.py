@@ -27,7 +27,7 @@ def test_readout_dynamic_writes_the_filtered_estimates(
     rec, out = tmp_path / "step.csv", tmp_path / "d.csv"
     _recording(rec, 10_000.0, 2000)
     args = ["readout", "--setup", "force-sensor", str(rec), "--quantity", "force", "--span",
-            "-0.04:0.04", "--tare", "400", "--csv", str(out)]
+            "-0.04:0.04", "--tare", "400", "--csv", str(out), "--force"]  # (written twice)
     assert main([*args, "--dynamic", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["dynamic"]["rate_Hz"] == pytest.approx(10_000.0)

@@ -217,7 +217,9 @@ def test_design_console_json_agree(capsys: pytest.CaptureFixture[str]) -> None:
     doc = run_json(capsys, ["design", "force-sensor", "--json"])
     force = doc["metrics"]["force"]
     row = next(line for line in out.splitlines() if line.startswith("force"))
-    numbers = [float(x) for x in re.findall(r"[-+]?\d[\d.]*(?:e[-+]?\d+)?", row)[:3]]
+    # each in the unit printed beside it (a µN-scale minimum in µN, issue 30): in mN here
+    found = re.findall(r"([-+]?\d[\d.]*(?:e[-+]?\d+)?) (\S+)", row)[:3]
+    numbers = [float(x) * (1e-3 if unit == "µN" else 1.0) for x, unit in found]
     assert numbers == pytest.approx([force["sensitivity_mV_per_mN"], force["minimum_mN"],
                                      force["range_mN"]], rel=1e-3)
     assert number_after(out, "noise") == pytest.approx(doc["noise_mV"], rel=1e-3)

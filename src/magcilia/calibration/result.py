@@ -31,6 +31,7 @@ from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
 from magcilia.io.results import read_json
 from magcilia.io.setup_files import load_setup, setup_to_dict
+from magcilia.units import converted
 
 if TYPE_CHECKING:
     from magcilia.calibration.posterior import Posterior
@@ -204,15 +205,16 @@ class CalibrationResult(Uncertain, Display):
                 continue
             p = REGISTRY[name]
             unit, factor = (p.unit, 1.0) if si else (p.display, p.display_factor)
-            row = {"parameter": name, "unit": unit, "initial": init[name] / factor,
-                   "fitted": self.values[name] / factor,
-                   "stderr": self.stderr.get(name, math.nan) / factor,
+            scale = 1.0 / factor  # (converted: 0.1801 mm echoes as 0.1801, not ...998)
+            row = {"parameter": name, "unit": unit, "initial": converted(init[name], scale),
+                   "fitted": converted(self.values[name], scale),
+                   "stderr": converted(self.stderr.get(name, math.nan), scale),
                    "fixed": name in self.fixed}
             if physical:
                 mu, sig = self.priors.get(name, (math.nan, math.nan))
-                row.update(prior=mu / factor, prior_sigma=sig / factor)
+                row.update(prior=converted(mu, scale), prior_sigma=converted(sig, scale))
             if self.truth is not None:
-                row["truth"] = self.truth.get(name, math.nan) / factor
+                row["truth"] = converted(self.truth.get(name, math.nan), scale)
             rows.append(row)
         return rows
 

@@ -27,6 +27,8 @@ from magcilia.acquire import (
 )
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import OUTPUT_FILE
 from magcilia.cli.array import DEFAULT_SPAN
 from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
 from magcilia.design import design_metrics
@@ -94,7 +96,7 @@ def live_options(command: Any) -> Any:
                           "stored setup, span, calibration, tares and zero tracking (as fast as "
                           "it goes when stdout is not a terminal, in real time otherwise; the "
                           "other read-out options are ignored)."),
-        click.option("--record", "record_path", default=None, type=click.Path(dir_okay=False),
+        click.option("--record", "record_path", default=None, type=OUTPUT_FILE,
                      help="Record from the first sample into this TDMS file (an existing one "
                           "only with --force): raw samples, read-out values, events, tares and "
                           "what a replay (--source FILE.tdms) needs."),
@@ -146,7 +148,8 @@ def live_options(command: Any) -> Any:
         click.option("--record-dir", default="recordings", show_default=True,
                      type=click.Path(file_okay=False),
                      help="Where recordings started from the view go (live-DATE-TIME.tdms)."),
-        click.option("--seed", default=0, show_default=True, help="Seed of the simulation."),
+        click.option("--seed", type=SEED, default=0, show_default=True,
+                     help="Seed of the simulation."),
         click.option("--dynamic", is_flag=True,
                      help="The dynamic read-out (a Kalman filter on the hair's bending modes, "
                           "magcilia.DynamicReadout): a step reads within about a period instead "

@@ -100,21 +100,38 @@ class RenamedOption(click.Option):
     still accepted for one release, each use warned once (:func:`warn_deprecated`): declare it as
     ``click.option("--tip-force", "force", cls=RenamedOption, old="--force", ...)``. The old
     spelling is not shown in the help; giving both spellings is an error (for a repeatable
-    option their values add up)."""
+    option their values add up).
 
-    def __init__(self, *args: Any, old: str | Sequence[str], **kwargs: Any) -> None:
+    With ``alone``, an old spelling given without a value (at the end, or before another
+    option) is a flag instead: it sets ``ctx.meta[alone]`` (``bend --force`` alone replaces
+    existing outputs, as everywhere; ``bend --force 0.2mN`` is the deprecated ``--tip-force``)."""
+
+    def __init__(self, *args: Any, old: str | Sequence[str], alone: str | None = None,
+                 **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         if self.is_flag or self.count:
             raise TypeError("RenamedOption takes an option with a value, not a flag")
         self.old_opts = [old] if isinstance(old, str) else list(old)
         self._old_dest = f"{self.name}__deprecated_spelling"
+        self.alone = alone
 
     def add_to_parser(self, parser: Any, ctx: click.Context) -> None:
         super().add_to_parser(parser, ctx)
-        parser.add_option(obj=self, opts=self.old_opts, dest=self._old_dest,
+        # the parser asks its ``obj`` whether the value may be left out
+        obj = _ValueOptional(self) if self.alone else self
+        parser.add_option(obj=obj, opts=self.old_opts, dest=self._old_dest,
                           action="append" if self.multiple else "store", nargs=self.nargs)
 
     def consume_value(self, ctx: click.Context, opts: Any) -> Any:
+        if self.alone and self._old_dest in opts:
+            given = opts[self._old_dest]
+            values = given if isinstance(given, list) else [given]
+            if not all(isinstance(v, str) for v in values):  # click's no-value sentinel
+                ctx.meta[self.alone] = True
+                values = [v for v in values if isinstance(v, str)]
+                opts = {k: v for k, v in opts.items() if k != self._old_dest}
+                if values:
+                    opts[self._old_dest] = values if self.multiple else values[-1]
         if self._old_dest in opts:
             new = max(self.opts, key=len)
             warn_deprecated(ctx, "/".join(self.old_opts), new)
@@ -127,6 +144,22 @@ class RenamedOption(click.Option):
                 given = [*opts[self.name], *given]
             opts = {**opts, self.name: given}
         return super().consume_value(ctx, opts)
+
+
+class _ValueOptional:
+    """What the parser sees of a :class:`RenamedOption` whose old spelling may come alone."""
+
+    _flag_needs_value = True
+
+    def __init__(self, option: RenamedOption) -> None:
+        self.option = option
+
+    # the parser records the order of options by this object: it stands for ``option``
+    def __eq__(self, other: object) -> bool:
+        return other is self or other is self.option
+
+    def __hash__(self) -> int:
+        return hash(self.option)
 
 
 class _LegacySetupArgument(click.Argument):
@@ -193,3 +226,30 @@ def setup_option(help_text: str = "The sensor setup", *, default: str | None = N
         return command
 
     return decorate
+
+
+# --- checked values: what reaches numpy is checked first (issue 30 item 6) ---------------------
+
+#: the largest ``--seed`` (numpy's legacy generators, used by some samplers, take 32 bits)
+MAX_SEED = 2**32 - 1
+
+
+class Seed(click.IntRange):
+    """``--seed``: a whole number from 0 to :data:`MAX_SEED`, checked before it reaches NumPy
+    (whose own check of ``-1`` is a traceback): one line naming the value and the range."""
+
+    name = "seed"
+
+    def __init__(self) -> None:
+        super().__init__(0, MAX_SEED)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter:
+            raise MagciliaError(f"--seed must be a whole number from 0 to {MAX_SEED}; got "
+                                f"{value!r}") from None
+
+
+#: the type of every ``--seed``
+SEED = Seed()

@@ -3,16 +3,12 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import click
 import numpy as np
 
-from magcilia._atomic import _exists_message
-from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.cli._common import echo_json, load_setup_arg, setup_label
 from magcilia.io.setup_files import setup_to_dict
@@ -33,15 +29,11 @@ class CoilOptions:
     sense_constant: str | None = None
 
 
-def check_record_path(out_path: str, force: bool) -> None:
-    """Refuse a --record that is no .tdms, a folder, or an existing file without --force."""
+def check_record_path(out_path: str) -> None:
+    """Refuse a --record that is no .tdms (an existing file, a folder: the output policy,
+    :func:`magcilia.cli._outputs.writes_files`)."""
     if not out_path.lower().endswith(".tdms"):
         raise fail("--record", out_path, "a .tdms file (crash-safe, read by magcilia calibrate)")
-    if Path(out_path).is_dir():
-        raise MagciliaError(f"{out_path} is a folder, not a recording file; choose another "
-                            "--record")
-    if os.path.lexists(out_path) and not force:
-        raise MagciliaError(_exists_message(Path(out_path), "--record"))
 
 
 def _per_axis(option: str, text: str | None) -> list[float]:
@@ -96,7 +88,7 @@ def record_coil_command(source_spec: str, setup_arg: str, coil_text: str,
             raise fail(option, value, "left out with --coil (the steps are fields)")
     if dynamics:
         raise fail("--sim-dynamics", True, "left out with --coil (the static hair)")
-    check_record_path(out_path, force)
+    check_record_path(out_path)
     setup = load_setup_arg(setup_arg)
     sequence = CoilSequence.from_text(coil_text)
     sequence.check(setup.sensor)  # before anything runs

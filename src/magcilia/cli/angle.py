@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import click
 
 from magcilia._validate import fail
 from magcilia.acquire.photo import TiltMeasurement, load_photo, measure_tilt, pick_points
 from magcilia.cli._common import echo_json, si_option, style_option
+from magcilia.cli._outputs import writes_files
 from magcilia.report.photo import annotate
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits
@@ -42,7 +44,17 @@ def tilt_text(m: TiltMeasurement, units: OutputUnits) -> str:
             f"line {m.length:.0f} px{fit})")
 
 
+def annotated_files(params: dict[str, Any]) -> list[tuple[str, str]]:
+    """The figures ``--annotate DIR`` writes: DIR/PHOTO-STEM_angle.png for each PHOTO."""
+    folder = params.get("annotate_dir")
+    if folder is None:
+        return []
+    return [("--annotate", str(Path(folder) / f"{Path(p).stem}_angle.png"))
+            for p in params.get("photos", ())]
+
+
 @click.command()
+@writes_files(extra=annotated_files)
 @click.argument("photos", metavar="PHOTO...", nargs=-1, required=True,
                 type=click.Path(dir_okay=False))
 @click.option("--reference", type=click.Choice(["vertical", "detect"]), default="vertical",
@@ -54,7 +66,8 @@ def tilt_text(m: TiltMeasurement, units: OutputUnits) -> str:
 @click.option("--line", "line_text", metavar="X0,Y0,X1,Y1",
               help="Two points on the tape, px of the upright photo (one PHOTO only).")
 @click.option("--annotate", "annotate_dir", type=click.Path(file_okay=False),
-              help="Write PHOTO-STEM_angle.png figures of what was measured into this folder.")
+              help="Write PHOTO-STEM_angle.png figures of what was measured into this folder "
+                   "(an existing one replaced only with --force).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print a JSON list, one object per photo (path, angle_deg, ...; angle_rad "
                    "with --si).")

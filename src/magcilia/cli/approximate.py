@@ -15,12 +15,14 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.io.firmware import to_c_header
 from magcilia.report.units import output_units
 from magcilia.units import OutputUnits, ascii_unit, parse_range
 
 
 @click.command()
+@writes_files
 @setup_option()
 @click.option("--corners", default=2, show_default=True,
               help="Interior corner points (the paper: 2; 0 = a straight line).")
@@ -30,12 +32,12 @@ from magcilia.units import OutputUnits, ascii_unit, parse_range
               help="Points of the dense fitting grid.")
 @click.option("--table-size", default=0, show_default=True,
               help="Also report a V->angle lookup table of this many entries and its error bound.")
-@click.option("--c-header", "c_header", type=click.Path(dir_okay=False),
+@click.option("--c-header", "c_header", type=OUTPUT_FILE,
               help="Write a C header with the approximation (and its inverse).")
 @click.option("--fixed-point", is_flag=True, help="Q-format int32 C functions instead of float.")
 @click.option("--name", default="magcilia_approx", show_default=True,
               help="C identifier prefix in the header.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (the table's units: deg, mV; SI with --si) instead of the table.")
 @si_option

@@ -22,6 +22,8 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.io.array_file import MAX_LOAD_SETS, load_array, load_array_grid, read_loads
 from magcilia.readout.array import ArrayReadout, array_metrics, field_for_loads
 from magcilia.report.array import (
@@ -31,7 +33,7 @@ from magcilia.report.array import (
     readout_rows,
     rows_text,
 )
-from magcilia.report.units import output_units
+from magcilia.report.units import output_units, show
 from magcilia.units import parse_range, parse_value
 
 #: most pitches of a ``--pitches`` grid (each builds and checks a whole array)
@@ -71,6 +73,7 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 
 
 @click.command()
+@writes_files
 @setup_option("The array: an array setup file ([[cilia]] and [[sensors]], or the [array] "
               "grid), or the array preset")
 @click.option("--span", "span_text", default=None,
@@ -82,7 +85,7 @@ def _csv(rows: list[dict[str, Any]]) -> str:
 @click.option("--random", "random_sets", type=click.IntRange(1, MAX_LOAD_SETS), default=None,
               help="N sets of random loads (uniform over the disc of 0.9 span) instead of "
                    "--loads.")
-@click.option("--seed", type=int, default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Seed of the random loads and of the sensors' noise.")
 @click.option("--crosstalk", "show_crosstalk", is_flag=True,
               help="Print the crosstalk table (each cilium's site, response, worst other sensor, "
@@ -92,19 +95,19 @@ def _csv(rows: list[dict[str, Any]]) -> str:
                    "a file with the [array] grid).")
 @click.option("--pitches", default=None,
               help="Pitches of --metrics, START:STOP:STEP in mm or with a unit (1.5:6:0.5mm).")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the array map (cilia, sensors, loads and field change of the first "
                    "load set; PNG/PDF/SVG by suffix).")
-@click.option("--crosstalk-plot", "crosstalk_path", type=click.Path(dir_okay=False),
+@click.option("--crosstalk-plot", "crosstalk_path", type=OUTPUT_FILE,
               help="Write the crosstalk image (sensor × cilium response).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+@click.option("--csv", "csv_path", type=OUTPUT_FILE,
               help="Write the forward map as CSV: per load set and sensor, the field (board "
                    "frame) and the noisy reading (sensor axes).")
-@click.option("--readout-csv", "readout_path", type=click.Path(dir_okay=False),
+@click.option("--readout-csv", "readout_path", type=OUTPUT_FILE,
               help="Write the read-out as CSV: per load set and cilium, truth, estimate, sigma, "
                    "error and flags.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the tables.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
 @si_option
 @style_option
 def command(setup_arg: str, span_text: str | None, loads_path: str | None,
@@ -247,14 +250,19 @@ def _text(doc: dict[str, Any], system: str, sets: int, crosstalk: bool) -> str:
     noise_key = next(k for k in s if k.startswith("median_sigma_force_noise_"))
     rest_key = next(k for k in s if k.startswith("rest_field_max_"))
     unit = span_key.removeprefix("span_")
+    units = output_units(system == "SI")
+
+    def force(value: float) -> str:  # in the unit of its magnitude (µN for a µN-scale force)
+        return show(value * units.factor("force"), "force", units, digits=3)
+
     lines = [(f"{doc['setup']}: {s['cilia']} cilia over {s['sensors']} sensors, span "
              f"{doc[span_key]:.4g} {unit}, loads: {doc['loads']} ({sets} set"
              f"{'s' if sets != 1 else ''}, seed {doc['seed']}); units: {system}"),
              (f"rest field up to {s[rest_key]:.4g} {rest_key.removeprefix('rest_field_max_')}; "
              f"{s['saturated_readings']} saturated readings; read-out: "
              f"{100 * s['within_2sigma']:.1f}% of Fx, Fy within 2 noise sigma, {s['flagged']} "
-             f"flagged, median sigma |F| {s[sigma_key]:.3g} {unit} (noise {s[noise_key]:.3g} "
-             f"{unit}), largest error {s['largest_error_per_sigma']:.3g} noise sigma"),
+             f"flagged, median sigma |F| {force(s[sigma_key])} (noise {force(s[noise_key])}), "
+             f"largest error {s['largest_error_per_sigma']:.3g} noise sigma"),
              (f"{doc['scale_note']}: in every sigma; the simulated truth shares the model's "
               "modulus, so errors are counted against the noise's sigma")]
     first = [r for r in doc["field"] if r["set"] == 1]

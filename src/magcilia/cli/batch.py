@@ -23,6 +23,8 @@ from magcilia.cli._common import (
     suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import in_folder
 from magcilia.device.parameters import describe_bounds
 
 
@@ -44,7 +46,7 @@ def command() -> None:
               help="Search bound, lengths in mm or with units (height=2.5:4, z=0mm:0.8mm); "
                    f"repeatable. Defaults: {describe_bounds()}.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE", help=FIX_HELP)
-@click.option("--seed", default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Random seed of every recording's global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches per recording, the best kept.")
@@ -111,13 +113,14 @@ def calibrate_command(patterns: tuple[str, ...], out_dir: str, setup_arg: str, f
         click.echo(result.report(si))
         tables = "results.csv" + (", results.parquet" if result.parquet else
                                   " (no results.parquet: it needs pyarrow, magcilia[cluster])")
-        click.echo(f"wrote {out_dir}/{tables}, summary.md and {len(result.computed)} report "
-                   "folder(s)")
+        click.echo(f"wrote {in_folder(out_dir, tables)}, summary.md and "
+                   f"{len(result.computed)} report folder(s)")
     if len(result.failed) == len(result.rows):  # nothing calibrated: an input error, exit 2
         first = next(r for r in result.rows if r["error"])
         raise MagciliaError(
             f"all {len(result.rows)} recordings failed, none calibrated (the first, "
-            f"{first['recording']}: {first['error']}); each error is in {out_dir}/results.csv")
+            f"{first['recording']}: {first['error']}); each error is in "
+            f"{in_folder(out_dir, 'results.csv')}")
     if result.failed:
         click.echo(f"magcilia: warning: {len(result.failed)} of {len(result.rows)} recordings "
                    "failed (their error in the table); run the command again to retry them",

@@ -24,6 +24,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import FORCE_KEY, OUTPUT_FILE, writes_files
 from magcilia.device.parameters import MEASURANDS
 from magcilia.mechanics import FLUIDS, BentShape, bend
 from magcilia.report.mechanics import (
@@ -38,8 +39,10 @@ from magcilia.report.units import output_units
 
 
 @click.command()
+@writes_files
 @setup_option()
-@click.option("--tip-force", "force", cls=RenamedOption, old="--force", default=None,
+@click.option("--tip-force", "force", cls=RenamedOption, old="--force", alone=FORCE_KEY,
+              default=None,
               type=Physical.of("force", "0.2mN"),
               help="Dead point force, at the tip unless --at: mN, or with a unit (e.g. 0.2mN, "
                    "200uN).")
@@ -72,8 +75,8 @@ from magcilia.report.units import output_units
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (the console's units: mm, deg, mN, mV, gauss; SI with --si).")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write a figure of the shape (PNG/PDF/SVG by suffix).")
 @si_option
 @style_option

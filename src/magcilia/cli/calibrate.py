@@ -23,6 +23,8 @@ from magcilia.cli._common import (
     suspect_option,
 )
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import in_folder
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import FLUID_NAMES, Measurement, read_measurements
 from magcilia.io.setup_files import load_priors
@@ -94,7 +96,8 @@ def refuse_undetermined_coil(result: CalibrationResult, measurements: list[Measu
               help="With --model physical: also sample the posterior of the geometry (emcee, "
                    "1000 effective samples, at most a minute): credible intervals in the report, "
                    "pairs.png.")
-@click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Random seed of the global search.")
 @click.option("--restarts", default=1, show_default=True,
               help="Independent global searches, the best kept (one finds the best fit of a "
                    "33-angle recording in > 99 % of cases; more make a miss rarer).")
@@ -183,6 +186,6 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
     click.echo(result.report(si))
     if comparison is not None:
         click.echo(comparison)
-    click.echo(f"wrote {out_dir}/" + ", ".join(calibration_files(result)))
+    click.echo(f"wrote {in_folder(out_dir)}" + ", ".join(calibration_files(result)))
 
 

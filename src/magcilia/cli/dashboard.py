@@ -11,10 +11,12 @@ from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
 from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._outputs import writes_files
 from magcilia.cli._signals import stop_signals
 
 
 @click.command()
+@writes_files
 @live_options
 @click.option("--host", default="127.0.0.1", show_default=True,
               help="Address to listen on. Anything but 127.0.0.1/localhost/::1 lets anyone on "

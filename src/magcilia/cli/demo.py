@@ -11,6 +11,7 @@ from magcilia._atomic import staged_directory
 from magcilia.calibration import PARAMETERS
 from magcilia.cli._common import calibrate_with_progress, style_option
 from magcilia.cli._fix import FIX_HELP, parse_fixed
+from magcilia.cli._options import SEED
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import example_path, read_measurements
 from magcilia.report.calibration import CALIBRATION_NAMES, write_calibration_files
@@ -25,7 +26,8 @@ from magcilia.report.figure_process import figure_writer
               help="Replace an existing --out folder (an earlier output of this command) whole.")
 @click.option("--fix", "fix_items", multiple=True, metavar="NAME=VALUE",
               help=FIX_HELP + " Try --fix height=3.2613 to see what a known height pins down.")
-@click.option("--seed", default=0, show_default=True, help="Random seed of the global search.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Random seed of the global search.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @style_option
 def command(out_dir: str, seed: int, quiet: bool, force: bool, fix_items: tuple[str, ...],

@@ -19,13 +19,16 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.design import DesignMetrics, design_metrics
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
+from magcilia.report.units import show as show_value
 from magcilia.units import OutputUnits, ascii_unit
 
 
 @click.command()
+@writes_files
 @setup_option()
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default="water", show_default=True,
               help="Fluid of the flow metrics (20 °C, uniform flow).")
@@ -33,8 +36,8 @@ from magcilia.units import OutputUnits, ascii_unit
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (the table's units; SI with --si) instead of the table.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the figure (PNG/PDF/SVG by suffix).")
 @si_option
 @style_option
@@ -99,11 +102,16 @@ def design_text(doc: dict[str, Any], units: OutputUnits) -> str:
         def show(value: float | None, text: str) -> str:
             return "-" if value is None or not math.isfinite(value) else f"{value:.4g} {text}"
 
+        def quantity(value: float | None, name: str = name) -> str:  # µN for a µN-scale force
+            if value is None or not math.isfinite(value):
+                return "-"
+            return show_value(value * units.factor(name), name, units)
+
         sens = show(entry[f"sensitivity_{ascii_unit(volt)}_per_{token}"], f"{volt}/{unit}")
-        rng = show(entry[f"range_{token}"], unit)
+        rng = quantity(entry[f"range_{token}"])
         if rng != "-" and not entry.get("range_reached", True):
             rng = f"≥ {rng}"  # the sweep ended before the read-out: a lower bound
-        lines.append(f"{name:<8} {sens:>24} {show(entry[f'minimum_{token}'], unit):>18} "
+        lines.append(f"{name:<8} {sens:>24} {quantity(entry[f'minimum_{token}']):>18} "
                      f"{rng:>14}  {entry['limited_by']}")
     lines.append(doc["scale_note"])
     return "\n".join(lines)

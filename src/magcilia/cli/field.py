@@ -19,10 +19,11 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.constants import GAUSS
 from magcilia.device.sensor import SensorFlag
 from magcilia.device.setup import Setup
-from magcilia.report.units import output_units
+from magcilia.report.units import exact_zeros, output_units
 
 #: the flag words of :class:`~magcilia.device.sensor.SensorFlag` bits, in the table's order
 FLAG_WORDS = ((SensorFlag.BEYOND_RANGE, "range"), (SensorFlag.TOTAL_BEYOND_RANGE, "total-range"),
@@ -49,14 +50,15 @@ def _warn_overload(label: str, setup: Setup, b: NDArray[np.float64],
 
 
 @click.command()
+@writes_files
 @setup_option("A setup to compare (several: one table and figure)", multiple=True, name="setups")
 @click.option("--angles", default="0:85:5", show_default=True,
               help="Tilt angles start:stop:step in degrees, or with a unit (0:85:5deg; stop "
                    "included).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False), help="Write the table as CSV.")
+@click.option("--csv", "csv_path", type=OUTPUT_FILE, help="Write the table as CSV.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the table.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write a figure (PNG/PDF/SVG by suffix).")
 @si_option
 @style_option
@@ -86,7 +88,7 @@ def command(setups: tuple[str, ...], angles: str, csv_path: str | None, as_json:
     results = []
     for arg in setups:
         setup = load_setup_arg(arg).resolve_layout()  # the layout rule at the element
-        b = setup.field(theta)
+        b = exact_zeros(setup.field(theta))  # a zero by symmetry prints as 0, not -5.6e-16
         volts = setup.sensor.voltage(b[:, 0])
         ok = setup.sensor.in_range(b[:, 0])
         flags = setup.sensor.check(b)

@@ -11,11 +11,13 @@ from magcilia._errors import MagciliaError, require
 from magcilia._validate import fail
 from magcilia.cli._common import Physical
 from magcilia.cli._live import LIVE_KEYS, build_live, live_options
+from magcilia.cli._outputs import writes_files
 from magcilia.cli._signals import stop_signals
 from magcilia.live.pipeline import LiveStatus
 
 
 @click.command()
+@writes_files
 @live_options
 @click.option("--json-lines", "json_lines", is_flag=True,
               help="Stream one JSON object per read-out sample to stdout instead of the view, "

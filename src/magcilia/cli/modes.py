@@ -15,6 +15,7 @@ from magcilia.cli._common import (
     setup_option,
     style_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.mechanics import FLUIDS, Modes, modes
 from magcilia.mechanics.modal import MAX_COUNT, MAX_ELEMENTS
 
@@ -25,6 +26,7 @@ def modes_record(result: Modes, label: str) -> dict[str, Any]:
 
 
 @click.command()
+@writes_files
 @setup_option()
 @click.option("--fluid", type=click.Choice(sorted(FLUIDS)), default=None,
               help="The surrounding fluid (20 °C): its added mass and viscous damping (Sader's "
@@ -39,8 +41,8 @@ def modes_record(result: Modes, label: str) -> dict[str, Any]:
 @mechanics_options
 @click.option("--json", "as_json", is_flag=True,
               help="Print JSON (SI: Hz, kg, N/m, N·s/m, m).")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write a figure of the mode shapes (PNG/PDF/SVG by suffix).")
 @style_option
 def command(setup_arg: str, fluid: str | None, gravity: bool, count: int,

@@ -27,6 +27,8 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.design import (
     DEFAULT_BOUNDS,
     OBJECTIVES,
@@ -39,6 +41,7 @@ from magcilia.design.measurands import BY_OBJECTIVE
 from magcilia.design.robust import TOLERANCES, Tolerances
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
+from magcilia.report.units import show as show_value
 from magcilia.units import OutputUnits
 
 
@@ -50,6 +53,7 @@ def _defaults() -> str:
 
 
 @click.command()
+@writes_files
 @setup_option(default="force-sensor")
 @click.option("--objective", type=click.Choice(OBJECTIVES), default="force-range",
               show_default=True,
@@ -93,7 +97,8 @@ def _defaults() -> str:
 @click.option("--polish", type=click.IntRange(0, 10), default=2, show_default=True,
               help="Rounds of exact polishing: 16 designs around the chosen one, in a box of "
                    "±10 %% of each bound's width, halved each round.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the sample.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Seed of the sample.")
 @click.option("--workers", type=click.IntRange(1, 1024), default=None,
               help="Worker processes of the exact refinement (default: one per core from 256 "
                    "designs, else none; 1: none).")
@@ -109,13 +114,13 @@ def _defaults() -> str:
                    "unit (e.g. 20ms).")
 @bandwidth_option()
 @mechanics_options
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@click.option("--plot", "plot_path", type=OUTPUT_FILE,
               help="Write the Pareto figure (PNG/PDF/SVG by suffix).")
-@click.option("--csv", "csv_path", type=click.Path(dir_okay=False),
+@click.option("--csv", "csv_path", type=OUTPUT_FILE,
               help="Write the Pareto front as CSV (columns carry their units).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of the text.")
-@click.option("--json-file", type=click.Path(dir_okay=False), help="Write the JSON to a file.")
-@click.option("--setup-out", type=click.Path(dir_okay=False),
+@click.option("--json-file", type=OUTPUT_FILE, help="Write the JSON to a file.")
+@click.option("--setup-out", type=OUTPUT_FILE,
               help="Write the chosen design as a setup TOML file.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @si_option
@@ -275,13 +280,12 @@ def front_csv(doc: dict[str, Any]) -> str:
 def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
     """What ``magcilia optimise`` prints, from :func:`optimise_doc`."""
     q = doc["quantity"]
-    unit = units.unit(q)
     k_min, k_rng = units.key("minimum", q), units.key("range", q)
 
     def show(value: float | None, reached: bool = True) -> str:
         if value is None or not math.isfinite(value):
-            return "-"
-        return ("" if reached else "≥ ") + f"{value:.4g} {unit}"
+            return "-"  # a force in the unit of its magnitude (µN for a µN-scale one)
+        return ("" if reached else "≥ ") + show_value(value * units.factor(q), q, units)
 
     what = "minimum detectable force" if q == "force" else "minimum detectable speed change"
     lines = [(f"{doc['objective']} from {doc['setup']}: {doc['screened']} designs screened, "

@@ -33,6 +33,7 @@ from magcilia.cli._common import (
     si_option,
     suspect_option,
 )
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.device.actuation import Actuation
 from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
 from magcilia.device.parameters import MEASURANDS, PARAMETERS
@@ -148,6 +149,7 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
 
 
 @click.command()
+@writes_files
 @setup_option("The sensor setup (optional for a recording of `magcilia live --record`, which "
               "stores its own)", optional=True)
 @click.argument("recording", type=click.Path(dir_okay=False))
@@ -169,7 +171,7 @@ def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.
               help="With --biaxial: RMS noise of one reading per axis, gauss or with a unit "
                    "(2mG, or 2mG,2mG,3mG); required for the MLX90393 and TLV493D presets.")
 @click.option("--csv", "out_path", cls=RenamedOption, old="--out", default=None,
-              type=click.Path(dir_okay=False),
+              type=OUTPUT_FILE,
               help="Output CSV (estimates, 1-sigma, flags), written atomically. Required.")
 @bandwidth_option("Noise band of each reading, F_LOW:F_HIGH in Hz, for the sensor model's noise "
                   "(with --tare or --tare-file the baseline's measured spread is used instead).")

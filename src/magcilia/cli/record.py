@@ -21,6 +21,8 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
+from magcilia.cli._options import SEED
+from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.cli._record_coil import CoilOptions, check_record_path, record_coil_command
 from magcilia.cli._signals import signals_interrupt
 from magcilia.cli._thermal import TEMPERATURE_HELP, setup_temperature, temperature_profile
@@ -61,11 +63,13 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
     deg, volt = units.unit("angle"), units.unit("voltage")
     angle, mean, sem = (units.value(point.angle, "angle"), units.value(point.mean, "voltage"),
                         units.value(point.sem, "voltage"))
-    return (f"{angle:8.4g} {deg}  {mean:+.6g} ± {sem:.5g} {volt}  ({point.samples} "
-            f"samples){flag}")
+    # fixed widths: the columns line up whatever the values (6 significant digits at most)
+    return (f"{angle:8.4g} {deg}  {mean:+12.6g} ± {sem:<11.5g} {volt}  {point.samples:>7} "
+            f"samples{flag}")
 
 
 @click.command()
+@writes_files
 @click.option("--source", "source_spec", default="sim", show_default=True,
               help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
 @setup_option("The sensor (the simulated one for --source sim; stored in the recording)",
@@ -103,13 +107,14 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
               help="Record continuously for this long instead of a sweep: s, or with a unit.")
 @click.option("--set-reset", "set_reset", default=None, type=int,
               help="Alternate set/reset pulses every N samples (sim), stored per sample.")
-@click.option("--seed", default=0, show_default=True, help="Seed of the simulated source.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Seed of the simulated source.")
 @click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
               help="sim: the simulated hair moves through its bending modes in air (rings after "
                    "each tilt; --settle drops the ringing) instead of sitting at each angle.")
 @click.option("--temperature", default=None, help=TEMPERATURE_HELP)
 @click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
-              type=click.Path(dir_okay=False),
+              type=OUTPUT_FILE,
               help="The recording (.tdms), written in flushed chunks (crash-safe).")
 @click.option("--force", is_flag=True,
               help="Replace an existing --record: only once the new recording holds its first "
@@ -131,10 +136,12 @@ def command(source_spec: str, setup_arg: str, angles: str | None, coil_text: str
     stopped. An existing file is refused without --force, and never lost: with --force it is
     replaced only once the new recording holds its first flushed chunk. Ctrl-C, SIGTERM or
     SIGHUP stop it the same way: the file is closed, marked incomplete and saying where it
-    stopped, with one line and exit status 1. The recording itself is in SI (angle_rad,
-    voltage_V); the console and --json are in deg and mV (SI with --si). With --coil, the steps
-    are applied fields instead of tilts (a coil calibration, `magcilia calibrate FILE --model
-    physical`); a field beyond the sensor's range or flip field is refused before anything runs.
+    stopped, with one line and exit status 1. The recording holds the channels time_s,
+    voltage_V and angle_deg (a sweep; the names of a CSV recording); the console and --json are
+    in deg and mV (SI with --si). With --coil, the steps are applied fields instead of tilts
+    (actuation_x_T, actuation_y_T, actuation_z_T in place of angle_deg: a coil calibration,
+    `magcilia calibrate FILE --model physical`); a field beyond the sensor's range or flip field
+    is refused before anything runs.
     """
     with signals_interrupt() as stop:
         try:
@@ -171,7 +178,7 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool,
             sim_dynamics: bool = False, temperature: str | None = None) -> None:
     units = output_units(si)
-    check_record_path(out_path, force)
+    check_record_path(out_path)
     setup = load_setup_arg(setup_arg)
     source = source_from_spec(source_spec, setup=setup, rate=rate, rng=seed,
                               set_reset=set_reset, realtime=duration is not None,

@@ -29,6 +29,7 @@ from magcilia.cli._common import (
     si_option,
     style_option,
 )
+from magcilia.cli._options import SEED
 from magcilia.device.parameters import describe_spans
 from magcilia.io.recordings import read_measurements
 from magcilia.report.sensitivity import (
@@ -71,7 +72,8 @@ SENSITIVITY_FILES = (*FIGURE_FILES.values(), "xy_map.png", "sobol.png", "sensiti
               show_default=True,
               help="Sobol output per sample: RMS change of the curve, the offset-free change, or "
                    "the calibration cost (needs --data).")
-@click.option("--seed", default=0, show_default=True, help="Random seed of the Sobol sampling.")
+@click.option("--seed", type=SEED, default=0, show_default=True,
+              help="Random seed of the Sobol sampling.")
 @click.option("--accuracy", default="1", show_default=True, type=Physical.of("angle", "1deg"),
               help="Target angle accuracy for the placement tolerance: degrees, or with a unit.")
 @bandwidth_option("Read-out band for the sensor noise, F_LOW:F_HIGH in Hz.")

@@ -178,6 +178,7 @@ from magcilia.io.reduction import (  # noqa: F401 (the reduction's public names:
     measurement_from_samples,
     reading,
 )
+from magcilia.io.sniff import looks_like_setup, swapped_setup
 from magcilia.io.tdmsfile import (  # noqa: F401 (nptdms_module, quiet_nptdms: kept here)
     nptdms_module,
     quiet_nptdms,
@@ -322,9 +323,17 @@ def _describe(exc: BaseException) -> str:
                                  if text else "")
 
 
+def _is_preset(name: str) -> bool:
+    from magcilia.io.presets import NAMES
+
+    return name in NAMES
+
+
 def _recording_path(path: str | Path) -> Path:
     """``path`` as a Path, checked to be an existing file of a format we read."""
     p = Path(path)
+    if looks_like_setup(p) or (not p.exists() and _is_preset(str(path))):
+        raise MagciliaError(swapped_setup(printable(str(p))))
     if p.suffix.lower() not in READERS:
         raise v.fail(f"{p}: file type", p.suffix or "(none)", "one of " + ", ".join(READERS))
     if not p.is_file():

@@ -84,6 +84,7 @@ from magcilia._atomic import write_text
 from magcilia.device.cilium import MAX_PROFILE_POINTS, Cilium
 from magcilia.device.parameters import PARAMETERS, Parameter
 from magcilia.device.setup import PAPER_OPTIMIZED, Setup
+from magcilia.io.sniff import recording_kind, swapped_recording
 from magcilia.units import format_quantity, parse_quantity
 
 #: table -> key -> the registry's parameter, or None for the keys that only files have: the
@@ -298,6 +299,8 @@ def _read_document(path: str | os.PathLike[str]) -> dict[str, Any]:
     """A setup file's TOML document, read within the limits."""
     p = Path(path)
     where = v.printable(str(p))
+    if p.is_file() and recording_kind(p) is not None:  # a recording given as the setup
+        raise v.MagciliaError(swapped_recording(where))
     with p.open("rb") as f:  # a missing file is an OSError, as for every file magcilia reads
         raw = f.read(MAX_SETUP_BYTES + 1)
     if len(raw) > MAX_SETUP_BYTES:

@@ -95,6 +95,10 @@ def check_singular(readout: Any) -> None:
                      f"at least as many readings as unknowns: {2 * c_n} (Fx, Fy of "
                      f"{c_n} cilia); add sensors")
     jw = readout.jacobian / arr.sigma.reshape(-1)[:, None] * np.repeat(readout.span, 2)[None, :]
+    if not np.isfinite(jw).all():  # a span so small that its finite differences underflow
+        raise v.fail("span", si(float(readout.span.min()), "N"),
+                     "a span the model resolves (its finite differences are not finite "
+                     "here), e.g. 2e-5 N")
     for c in range(c_n):
         sv = np.linalg.svd(jw[:, 2 * c:2 * c + 2], compute_uv=False)
         if sv[-1] < 1.0:

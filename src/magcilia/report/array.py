@@ -16,6 +16,7 @@ from magcilia.device.array import CiliaArray
 from magcilia.readout.array import ArrayEstimate, ArrayMetrics, Crosstalk
 from magcilia.report.figures import axes_or_new, new_figure
 from magcilia.report.style import number
+from magcilia.report.units import show
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -74,7 +75,7 @@ def plot_array_map(array: CiliaArray, field: ArrayLike | None = None,
             k = 0.5 * pitch / big
             ax.quiver(b[:, 0], b[:, 1], fo[:, 0] * k, fo[:, 1] * k, angles="xy",
                       scale_units="xy", scale=1.0, color="C3", width=0.006, zorder=5,
-                      label=f"load, longest {number(big, 3)} mN")
+                      label=f"load, longest {show(big * 1e-3, 'force', digits=3)}")
     if names if names is not None else len(array) <= 25:
         for (x, y, _), name in zip(b, array.names, strict=True):
             ax.annotate(name, (x, y), xytext=(0, -9), textcoords="offset points",

@@ -1,10 +1,10 @@
 """Figures of the biaxial read-out: estimated force vectors against the truth.
 
-:func:`force_vector_figure` draws, in the force plane (Fx, Fy in mN), the true loads, the
-estimates with their 2σ error ellipses (from each reading's noise covariance), and beside it the
-pulls (estimate − truth)/σ of magnitude and direction against the true direction, where an honest
-σ keeps ~95 % of them within ±2. Readings without an estimate or a direction (flags) are left
-out of the pulls and counted in the title.
+:func:`force_vector_figure` draws, in the force plane (Fx, Fy in mN; µN for µN-scale loads), the
+true loads, the estimates with their 2σ error ellipses (from each reading's noise covariance),
+and beside it the pulls (estimate − truth)/σ of magnitude and direction against the true
+direction, where an honest σ keeps ~95 % of them within ±2. Readings without an estimate or a
+direction (flags) are left out of the pulls and counted in the title.
 
 The ellipses and pulls use the noise's σ (:attr:`ForceVectorResult.covariance_noise`): the force
 scale's σ (the Young's modulus's uncertainty) is systematic, one error shared by every reading of
@@ -23,6 +23,8 @@ from numpy.typing import ArrayLike
 from magcilia import _validate as v
 from magcilia.readout.biaxial import ForceVectorResult, polar_sigmas
 from magcilia.report.readout import flag_names
+from magcilia.report.units import output_units, unit_for
+from magcilia.units import UNITS
 
 #: the ellipses' radius in σ (2σ: ~86 % of a 2-D normal's draws lie inside)
 ELLIPSE_SIGMAS = 2.0
@@ -77,9 +79,14 @@ def plot_force_vectors(truth: ArrayLike, result: ForceVectorResult, ax: Any = No
     from magcilia.report.style import number
 
     ax = axes_or_new(ax, size=(4.4, 4.4))
-    t = _truth(truth, result) * 1e3
-    est = result.vector.reshape(-1, 2) * 1e3
-    cov = result.covariance_noise.reshape(-1, 2, 2) * 1e6
+    si_truth = _truth(truth, result)
+    # the unit of the loads' magnitude (µN for a µN-scale span; report.units' one rule)
+    unit = unit_for(output_units(), "force",
+                    max(float(np.max(np.abs(si_truth), initial=0.0)), float(result.span)))
+    to_unit = 1.0 / UNITS["force"][unit]
+    t = si_truth * to_unit
+    est = result.vector.reshape(-1, 2) * to_unit
+    cov = result.covariance_noise.reshape(-1, 2, 2) * to_unit**2
     good = result.estimated.reshape(-1)
     scale = v.positive("ellipse_scale", ellipse_scale, "", "factor")
     ax.plot(t[:, 0], t[:, 1], "o", mfc="none", color="0.45", label="true load")
@@ -97,19 +104,19 @@ def plot_force_vectors(truth: ArrayLike, result: ForceVectorResult, ax: Any = No
             ax.add_patch(Ellipse(tuple(xy), wd, ht, angle=an, fill=False, edgecolor="C0",
                                  lw=0.8, label=label if k == 0 else None))
         ax.plot(est[good, 0], est[good, 1], ".", color="C1", label="estimate")
-    reach = max(float(np.max(np.abs(t))), result.span * 1e3) * 1.12
+    reach = max(float(np.max(np.abs(t))), result.span * to_unit) * 1.12
     ax.set_xlim(-reach, reach)
     ax.set_ylim(-reach, reach)
     ax.set_aspect("equal")
     ax.axhline(0.0, color="0.85", lw=0.6, zorder=0)
     ax.axvline(0.0, color="0.85", lw=0.6, zorder=0)
     circle = np.linspace(0.0, 2.0 * math.pi, 361)
-    ax.plot(result.span * 1e3 * np.cos(circle), result.span * 1e3 * np.sin(circle), ls=":",
+    ax.plot(result.span * to_unit * np.cos(circle), result.span * to_unit * np.sin(circle), ls=":",
             color="0.6", lw=0.8, label="span")
     ax.xaxis.set_major_locator(MaxNLocator(5, symmetric=True))
     ax.yaxis.set_major_locator(MaxNLocator(5, symmetric=True))
-    ax.set_xlabel("$F_x$ (mN)")
-    ax.set_ylabel("$F_y$ (mN)")
+    ax.set_xlabel(f"$F_x$ ({unit})")
+    ax.set_ylabel(f"$F_y$ ({unit})")
     if legend:
         ax.legend(loc="upper left", ncols=2, fontsize="small")
     return ax

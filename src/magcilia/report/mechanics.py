@@ -13,13 +13,14 @@ from magcilia.device.setup import Setup
 from magcilia.mechanics import BentShape, SpatialBentShape, bend
 from magcilia.model.centreline import SpatialCentreline
 from magcilia.readout.scale import per_ln_modulus
+from magcilia.report.units import exact_zeros, in_unit, output_units, show, unit_for
 from magcilia.units import OutputUnits
 
 
 def load_label(shape: BentShape) -> str:
     """The load of a shape in words: ``0.2 mN``, a flow's description, both or ``no load``."""
     load = shape.load
-    parts = [f"{load.force * 1e3:.4g} mN"] if load.force else []
+    parts = [show(load.force, "force")] if load.force else []  # µN for a µN-scale force
     if load.flow is not None:
         parts.append(load.flow.describe())
     return ", ".join(parts) or "no load"
@@ -44,7 +45,7 @@ def bend_scale(setup: Setup, shape: BentShape | SpatialBentShape) -> dict[str, A
         return np.append(bent.points[0, -1], setup.output(bent)[0])
 
     rate = np.abs(per_ln_modulus(tip_and_output, setup)) * rel
-    out["sigma_tip_m"] = rate[:3].tolist()
+    out["sigma_tip_m"] = exact_zeros(rate[:3]).tolist()
     out["sigma_output_V"] = float(rate[3])
     return out
 
@@ -176,7 +177,9 @@ def spatial_load_label(shape: BentShape | SpatialBentShape) -> str:
     vec = np.where(np.abs(vec) > 1e-9 * float(np.abs(vec).max(initial=0.0)), vec, 0.0)
     parts = []
     if np.any(vec != 0.0):
-        parts.append("F = (" + ", ".join(f"{c * 1e3:.3g}" for c in vec) + ") mN")
+        unit = unit_for(output_units(), "force", float(np.abs(vec).max()))  # one unit, by |F|
+        parts.append("F = (" + ", ".join(f"{in_unit(c, unit, 'force'):.3g}" for c in vec)
+                     + f") {unit}")
     if load.flow is not None:
         parts.append(load.flow.describe()
                      + (f" toward {math.degrees(load.flow.azimuth):.4g} deg"
@@ -184,6 +187,15 @@ def spatial_load_label(shape: BentShape | SpatialBentShape) -> str:
     if load.actuation is not None:
         parts.append(load.actuation.describe())
     return ", ".join(parts) or "no load"
+
+
+def _load_doc(shape: BentShape | SpatialBentShape) -> dict[str, Any]:
+    """The load's document, its force vector's zeros exact (cos 90° is 6e-17, not 0)."""
+    doc = shape.load.describe()
+    for key, value in doc.items():
+        if key.startswith("force") and isinstance(value, list) and value:
+            doc[key] = exact_zeros(value).tolist()
+    return doc
 
 
 def spatial_record(setup: Setup, shape: BentShape | SpatialBentShape, label: str,
@@ -197,18 +209,18 @@ def spatial_record(setup: Setup, shape: BentShape | SpatialBentShape, label: str
 
     spatial = shape if isinstance(shape, SpatialBentShape) else \
         SpatialCentreline.from_planar(shape)
-    pts = spatial.points[0]
+    pts = exact_zeros(spatial.points[0])  # what is zero by symmetry prints as 0
     tip = pts[-1]
     t = spatial.tangents[0, -1]
     act = shape.load.actuation
-    cilium = setup.field(shape)[0]
+    cilium = exact_zeros(setup.field(shape)[0])
     direct = np.asarray(act.field(np.zeros(3))) if act is not None else np.zeros(3)
-    total = cilium + direct
+    total = exact_zeros(cilium + direct)
     flags = int(setup.sensor.check(total))
     deflection = float(math.hypot(tip[0], tip[1]))
     record = {
         "setup": label,
-        "load": shape.load.describe(),
+        "load": _load_doc(shape),
         "tip_m": tip.tolist(),
         "tip_angle_rad": float(math.atan2(math.hypot(t[0], t[1]), t[2])),
         "tip_azimuth_rad": float(math.atan2(tip[1], tip[0])) if deflection > 0.0 else 0.0,

@@ -24,12 +24,10 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
 def display(parameter: str) -> tuple[str, str, float]:
-    """Label, unit and factor from SI of a parameter in these figures: the registry's display
-    unit, except that the base radius is shown as the base diameter, as the paper's fig. 12
-    does."""
+    """Label, unit and factor from SI of a parameter in these figures: the registry's label and
+    display unit, the same quantity as the CLI, JSON and API name (the base radius is the
+    radius, ``base_radius``, not the paper's fig. 12 diameter)."""
     p = PARAMETERS[parameter]
-    if parameter == "base_radius":
-        return "base diameter d", p.display, 2.0 / p.display_factor
     return p.label, p.display, 1.0 / p.display_factor
 
 
@@ -227,7 +225,7 @@ def markdown_summary(study: SensitivityStudy, sobol: SobolResult | None = None,
               "|---|---|---|---|" + ("---|" if study.data_source else "")]
     for r in study.table():
         name, unit, f = display(r["parameter"])
-        if u.si:  # the base diameter in m; the rest in SI
+        if u.si:  # SI: m, rad, ...
             unit, f = u.unit(r["parameter"]), f * PARAMETERS[r["parameter"]].display_factor
         span = f"{r['span'][0] * f:.4g}..{r['span'][1] * f:.4g} {unit}".strip()
         change = u.factor("voltage")
