@@ -26,7 +26,8 @@ def test_pulse_readings_are_flagged_and_have_no_value() -> None:
     readout = mc.Readout(SETUP, "force", span=SPAN)
     recal = LiveRecalibration(PulseTracker(Recalibrator(SETUP, span=SPAN, points=5)))
     with LiveReadout(source, readout, rate=100, recalibration=recal) as live:
-        samples = live.wait(300, timeout=60)
+        live.wait(300, timeout=60)
+        samples = live.history.since(0)[0].first(300)  # from the source's first window on
         status = live.status
     pulse = (samples.flags & Flag.COIL_PULSE) != 0
     t = samples.time - samples.time[0] + 0.0045  # each window's centre, in source time
