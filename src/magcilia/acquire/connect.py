@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from magcilia import _validate as v
+from magcilia.acquire.serial_formats import SerialFormat
 from magcilia.acquire.simulated import SimulatedSource
 from magcilia.acquire.source import Source
 from magcilia.device.setup import Setup
@@ -16,7 +17,8 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
                      rng: int | None = None, set_reset: int | None = None,
                      realtime: bool = False, dynamics: bool = False,
                      temperature: TemperatureProfile | None = None,
-                     thermal: TemperatureModel | None = None) -> Source:
+                     thermal: TemperatureModel | None = None,
+                     serial: SerialFormat | None = None) -> Source:
     """The source named by ``spec``.
 
     Parameters
@@ -42,8 +44,16 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
     temperature, thermal : TemperatureProfile, TemperatureModel, optional
         ``sim``: the temperature over time and the coefficients the output follows
         (:class:`SimulatedSource`'s).
+    serial : SerialFormat, optional
+        ``serial:PORT``: what the device sends (default magcilia's framed protocol; ASCII lines
+        or float32 frames are read by
+        :class:`~magcilia.acquire.serial_unverified.UnverifiedSerialSource` at ``rate``).
     """
     kind, _, target = spec.partition(":")
+    serial = SerialFormat() if serial is None else serial
+    if not serial.verified and not (kind == "serial" and target):
+        raise v.fail("--format", serial.format, "magcilia (the default) unless --source is "
+                     "serial:PORT")
     if kind == "sim" and not target:
         return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime,
                                dynamics=dynamics, fluid=AIR if dynamics else None,
@@ -54,6 +64,11 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
         raise v.fail("--temperature", temperature.describe(), "given with --source sim only (a "
                      "device's temperature comes from its own channel)")
     if kind == "serial" and target:
+        if not serial.verified:
+            from magcilia.acquire.serial_unverified import UnverifiedSerialSource
+
+            return UnverifiedSerialSource(target, format=serial.format, rate=rate,
+                                          fields=serial.fields, channels=serial.channels)
         from magcilia.acquire.serial import SerialSource
 
         return SerialSource(target)

@@ -106,13 +106,30 @@ class SerialSource(Source):
         return self._origin
 
     # -- Source ---------------------------------------------------------------------------------
-    def _open(self) -> None:
+    def _open_port(self) -> None:
+        """Open the port (one-line errors)."""
         serial = _pyserial()
         try:
             self._serial = serial.Serial(self.port, self.baudrate, timeout=min(_POLL, self.stall),
                                          exclusive=True)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise self._open_error(exc) from None
+
+    def _receive(self) -> bytes:
+        """What the port has (waiting at most ``_POLL`` s; b"" when nothing came)."""
+        ser = self._serial
+        if ser is None:
+            raise AcquisitionError(f"serial port {self.port} is closed")
+        serial = _pyserial()
+        try:
+            waiting = ser.in_waiting
+            data: bytes = ser.read(waiting if waiting else 1)
+        except (serial.SerialException, OSError) as exc:
+            raise self._vanished(exc) from None
+        return data
+
+    def _open(self) -> None:
+        self._open_port()
         self._parser = FrameParser(midstream=True)
         self._frames.clear()
         self._used = self._available = 0
@@ -195,15 +212,7 @@ class SerialSource(Source):
 
     def _fill(self) -> None:
         """Read what the port has (waiting at most ``_POLL`` s) and parse it."""
-        ser = self._serial
-        if ser is None:
-            raise AcquisitionError(f"serial port {self.port} is closed")
-        serial = _pyserial()
-        try:
-            waiting = ser.in_waiting
-            data = ser.read(waiting if waiting else 1)
-        except (serial.SerialException, OSError) as exc:
-            raise self._vanished(exc) from None
+        data = self._receive()
         now = time.monotonic()
         corrupt, implausible = self._parser.corrupt, self._parser.implausible
         frames = self._parser.feed(data) if data else []
