@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 import uuid
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -116,13 +118,14 @@ def test_lsl_consumer_receives_the_live_run() -> None:
     name = f"magcilia-test-{uuid.uuid4().hex[:8]}"
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     live = subprocess.Popen([sys.executable, "-m", "magcilia", "live", "--lsl", name,
-                             "--duration", "8", "--rate", "200", "--json-lines", "--every",
+                             "--duration", "60", "--rate", "200", "--json-lines", "--every",
                              "50"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env=env)
     try:
         got = _consumer(str(EXAMPLES / "lsl_consumer.py"), name, "--seconds", "1.5",
-                        "--timeout", "15", "--json")
-    finally:
+                        "--timeout", "30", "--json")
+    finally:  # SIGTERM ends the read-out the one clean way (exit 0), outlet closed first
+        live.send_signal(signal.SIGTERM)
         out, err = live.communicate(timeout=60)
     if got.returncode == 1 and "no LSL stream" in got.stderr:
         pytest.skip(f"LSL could not reach its own stream here (no multicast/sockets?): "
@@ -148,6 +151,9 @@ def test_websocket_consumer_reads_the_dashboard_with_its_token(tmp_path: Path) -
         live.wait(300)
         got = _consumer(str(EXAMPLES / "websocket_consumer.py"), server.url, "--frames", "4",
                         "--tare", "--json")
+        deadline = time.monotonic() + 20.0  # the tare the command started takes 0.5 s of data
+        while live.zero.tared_at is None and time.monotonic() < deadline:
+            live.history.wait(live.history.total, 0.1)
         tared_at = live.zero.tared_at
     assert got.returncode == 0, got.stderr
     summary = json.loads(got.stdout.strip().splitlines()[-1])

@@ -5,7 +5,7 @@ from __future__ import annotations
 from magcilia import _validate as v
 from magcilia.acquire.serial_formats import SerialFormat
 from magcilia.acquire.simulated import SimulatedSource
-from magcilia.acquire.source import Source
+from magcilia.acquire.source import Channel, Source
 from magcilia.device.setup import Setup
 from magcilia.device.temperature import TemperatureModel, TemperatureProfile
 from magcilia.mechanics.drag import AIR
@@ -18,7 +18,8 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
                      realtime: bool = False, dynamics: bool = False,
                      temperature: TemperatureProfile | None = None,
                      thermal: TemperatureModel | None = None,
-                     serial: SerialFormat | None = None) -> Source:
+                     serial: SerialFormat | None = None,
+                     names: tuple[Channel, ...] | None = None) -> Source:
     """The source named by ``spec``.
 
     Parameters
@@ -48,6 +49,10 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
         ``serial:PORT``: what the device sends (default magcilia's framed protocol; ASCII lines
         or float32 frames are read by
         :class:`~magcilia.acquire.serial_unverified.UnverifiedSerialSource` at ``rate``).
+    names : tuple of Channel, optional
+        ``serial:PORT``: what the device's channels are, in order (a 3-axis part's field
+        channels, :func:`~magcilia.acquire.simulated_loads.field_channels`); default
+        ``output``, ``ch1``, … in V.
     """
     kind, _, target = spec.partition(":")
     serial = SerialFormat() if serial is None else serial
@@ -68,10 +73,11 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
             from magcilia.acquire.serial_unverified import UnverifiedSerialSource
 
             return UnverifiedSerialSource(target, format=serial.format, rate=rate,
-                                          fields=serial.fields, channels=serial.channels)
+                                          fields=serial.fields, channels=serial.channels,
+                                          names=names)
         from magcilia.acquire.serial import SerialSource
 
-        return SerialSource(target)
+        return SerialSource(target, names=names)
     if kind == "nidaq" and target:
         from magcilia.acquire.nidaq import NidaqSource
 

@@ -13,6 +13,7 @@ frame as corrupt; a live status says "unverified (no checksum)".
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -22,6 +23,7 @@ from magcilia import _validate as v
 from magcilia._errors import AcquisitionError
 from magcilia.acquire.serial import SerialSource, _pyserial
 from magcilia.acquire.serial_formats import (
+    Field,
     FloatParser,
     LineParser,
     default_fields,
@@ -49,6 +51,9 @@ class UnverifiedSerialSource(SerialSource):
     channels : int, optional
         Values per float frame (``floats``; default: the number of ``fields``). With ``ascii``,
         the number of fields a line must have.
+    names : sequence of Channel, optional
+        The fields' names and SI units when ``fields`` is not given (what a read-out reads,
+        e.g. a 3-axis part's ``NAME.x`` in T); the values are taken in those units.
     baudrate, stall :
         As :class:`~magcilia.acquire.serial.SerialSource`.
 
@@ -63,7 +68,8 @@ class UnverifiedSerialSource(SerialSource):
 
     def __init__(self, port: str, *, format: str, rate: float,
                  fields: str | None = None, channels: int | None = None,
-                 baudrate: int = 115200, stall: float = 2.0) -> None:
+                 names: Sequence[Channel] | None = None, baudrate: int = 115200,
+                 stall: float = 2.0) -> None:
         super().__init__(port, baudrate=baudrate, stall=stall, rate=None)
         if format not in ("ascii", "floats"):
             raise v.fail("format", format, "ascii or floats (magcilia's framed protocol: "
@@ -71,6 +77,8 @@ class UnverifiedSerialSource(SerialSource):
         self.format = format
         self.rate = v.positive("rate", rate, "Hz", "frequency")
         self._fields = None if fields is None else parse_fields(fields)
+        if self._fields is None and names is not None:
+            self._fields = tuple(Field(c.name, c.unit) for c in names)
         if channels is not None:
             channels = v.integer("channels", channels, 1)
             if self._fields is not None and channels != len(self._fields):

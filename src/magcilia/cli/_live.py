@@ -27,6 +27,7 @@ from magcilia.acquire import (
     source_from_spec,
 )
 from magcilia.acquire.serial_formats import SerialFormat
+from magcilia.acquire.simulated_loads import field_channels
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
 from magcilia.cli._options import serial_format_options
@@ -330,7 +331,7 @@ def _field_source(spec: str, sensors: Any, field: Any, cilia: int, span: float,
                                     rate=source_rate, drift=SIM_DRIFT, bias=SIM_BIAS,
                                     realtime=True, rng=seed)
     return source_from_spec(spec, setup=setup, rate=source_rate or SOURCE_RATE, rng=seed,
-                            realtime=True, serial=serial)
+                            realtime=True, serial=serial, names=field_channels(sensors))
 
 
 def _vector(setup_arg: str, span_text: str | None, sensor_name: str, sensor_noise: str | None,
