@@ -5,7 +5,9 @@
 * :mod:`.simulated_loads`: a simulated 3-axis sensor or array driven by scripted tip forces
   (:class:`SimulatedFieldSource`, :class:`LoadScript`);
 * :mod:`.buffer`: a reader thread filling a bounded ring buffer (:class:`BackgroundReader`);
-* :mod:`.serial`: a microcontroller streaming magcilia's framed protocol (:class:`SerialSource`),
+* :mod:`.serial`: a microcontroller streaming magcilia's framed protocol (:class:`SerialSource`);
+  :mod:`.serial_unverified`: firmware printing ASCII lines or bare float32 frames without a
+  checksum (:class:`UnverifiedSerialSource`, the formats in :mod:`.serial_formats`);
   :mod:`.protocol` the frames, :mod:`.emulator` a device on a pseudo-terminal for tests;
 * :mod:`.replay`: a magcilia TDMS recording played back as a source (:class:`ReplaySource`);
 * :mod:`.nidaq`: the paper's NI DAQ through NI-DAQmx (:class:`NidaqSource`; untested on hardware);
@@ -36,6 +38,8 @@ if TYPE_CHECKING:
     from magcilia.acquire.photo import TiltMeasurement, measure_tilt, read_photo
     from magcilia.acquire.replay import ReplaySource
     from magcilia.acquire.serial import SerialSource
+    from magcilia.acquire.serial_formats import SerialFormat
+    from magcilia.acquire.serial_unverified import UnverifiedSerialSource
     from magcilia.acquire.simulated import Script, SimulatedSource
     from magcilia.acquire.simulated_coil import CoilPulses, Drifts, SimulatedCoilSource
     from magcilia.acquire.simulated_loads import LoadScript, SimulatedFieldSource, single_cilium
@@ -63,6 +67,7 @@ __all__ = [
     "ReplaySource",
     "RingBuffer",
     "Script",
+    "SerialFormat",
     "SerialSource",
     "SimulatedCoilSource",
     "SimulatedFieldSource",
@@ -72,6 +77,7 @@ __all__ = [
     "SweepPoint",
     "SweepResult",
     "TiltMeasurement",
+    "UnverifiedSerialSource",
     "measure_tilt",
     "read_photo",
     "record_coil",

@@ -273,7 +273,7 @@ class BackgroundReader:
     def counters(self) -> Counters:
         """The source's counters with this reader's overruns added to ``dropped``."""
         c = self.source.counters
-        return Counters(c.samples, c.dropped + self.buffer.overruns, c.corrupt)
+        return c + Counters(0, self.buffer.overruns)
 
     @property
     def overruns(self) -> int:

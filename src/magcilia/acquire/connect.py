@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from magcilia import _validate as v
+from magcilia.acquire.serial_formats import SerialFormat
 from magcilia.acquire.simulated import SimulatedSource
-from magcilia.acquire.source import Source
+from magcilia.acquire.source import Channel, Source
 from magcilia.device.setup import Setup
 from magcilia.device.temperature import TemperatureModel, TemperatureProfile
 from magcilia.mechanics.drag import AIR
@@ -16,7 +17,9 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
                      rng: int | None = None, set_reset: int | None = None,
                      realtime: bool = False, dynamics: bool = False,
                      temperature: TemperatureProfile | None = None,
-                     thermal: TemperatureModel | None = None) -> Source:
+                     thermal: TemperatureModel | None = None,
+                     serial: SerialFormat | None = None,
+                     names: tuple[Channel, ...] | None = None) -> Source:
     """The source named by ``spec``.
 
     Parameters
@@ -42,8 +45,20 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
     temperature, thermal : TemperatureProfile, TemperatureModel, optional
         ``sim``: the temperature over time and the coefficients the output follows
         (:class:`SimulatedSource`'s).
+    serial : SerialFormat, optional
+        ``serial:PORT``: what the device sends (default magcilia's framed protocol; ASCII lines
+        or float32 frames are read by
+        :class:`~magcilia.acquire.serial_unverified.UnverifiedSerialSource` at ``rate``).
+    names : tuple of Channel, optional
+        ``serial:PORT``: what the device's channels are, in order (a 3-axis part's field
+        channels, :func:`~magcilia.acquire.simulated_loads.field_channels`); default
+        ``output``, ``ch1``, … in V.
     """
     kind, _, target = spec.partition(":")
+    serial = SerialFormat() if serial is None else serial
+    if not serial.verified and not (kind == "serial" and target):
+        raise v.fail("--format", serial.format, "magcilia (the default) unless --source is "
+                     "serial:PORT")
     if kind == "sim" and not target:
         return SimulatedSource(setup, rate=rate, rng=rng, set_reset=set_reset, realtime=realtime,
                                dynamics=dynamics, fluid=AIR if dynamics else None,
@@ -54,9 +69,15 @@ def source_from_spec(spec: str, *, setup: Setup, rate: float = 1000.0,
         raise v.fail("--temperature", temperature.describe(), "given with --source sim only (a "
                      "device's temperature comes from its own channel)")
     if kind == "serial" and target:
+        if not serial.verified:
+            from magcilia.acquire.serial_unverified import UnverifiedSerialSource
+
+            return UnverifiedSerialSource(target, format=serial.format, rate=rate,
+                                          fields=serial.fields, channels=serial.channels,
+                                          names=names)
         from magcilia.acquire.serial import SerialSource
 
-        return SerialSource(target)
+        return SerialSource(target, names=names)
     if kind == "nidaq" and target:
         from magcilia.acquire.nidaq import NidaqSource
 

@@ -7,6 +7,11 @@ device, and a thread that writes frames of the :mod:`.protocol` to it, with samp
 :class:`~magcilia.acquire.simulated.SimulatedSource`), converted to int32 ADC counts. It paces
 the frames at the source's rate or sends them as fast as the reader takes them.
 
+It speaks magcilia's framed protocol (``format="magcilia"``) or one of the formats without a
+checksum that labs' firmware sends (:mod:`.serial_formats`): ``"ascii"`` (comma-separated text
+lines of the values in V, after an optional header line) or ``"floats"`` (bare little-endian
+float32 values per sample, ending in ``\r\n``, as ReSkin/AnySkin boards send).
+
 It injects the faults a real link has, deterministically through ``rng``: damaged frames (bytes
 flipped inside them), bursts of garbage between frames, a stall, and an unplugged cable. It
 remembers which frames it damaged (:attr:`DeviceEmulator.damaged`) so that tests can check the
@@ -30,6 +35,7 @@ import numpy as np
 from magcilia import _validate as v
 from magcilia._errors import AcquisitionError
 from magcilia.acquire.protocol import DELIMITER, _encode, _flags
+from magcilia.acquire.serial_formats import FLOAT_END, FORMATS
 from magcilia.acquire.source import Source
 
 #: the default ADC step: a 24-bit converter over ±2.048 V (ADS1220, internal reference, gain 1), V
@@ -76,6 +82,13 @@ class DeviceEmulator:
         Sequence number of the first frame.
     rng : int, Generator or None
         Randomness of the faults; an int repeats them exactly.
+    format : {"magcilia", "ascii", "floats"}
+        What goes on the wire: frames of the protocol, text lines (``%.9g`` V, comma-separated,
+        ``\r\n``), or float32 frames ending in ``\r\n``. A "frame" of the faults is then a
+        block of ``samples_per_frame`` lines or float frames.
+    header : str, optional
+        ``ascii``: a header line sent first (e.g. ``"output[mV]"``: the names and units a reader
+        learns; the values are sent in V whatever it says).
 
     Attributes
     ----------
@@ -111,9 +124,16 @@ class DeviceEmulator:
                  volts_per_count: float = VOLTS_PER_COUNT, realtime: bool = True,
                  corrupt: float = 0.0, garbage: float = 0.0, garbage_size: int = 64,
                  rate: float | None = None, first: int = 0, sequence: int = 0,
-                 rng: int | np.random.Generator | None = None) -> None:
+                 rng: int | np.random.Generator | None = None, format: str = "magcilia",
+                 header: str | None = None) -> None:
         if not isinstance(source, Source):
             raise v.fail("source", type(source).__name__, "a magcilia Source")
+        if format not in FORMATS:
+            raise v.fail("format", format, "one of " + ", ".join(FORMATS))
+        if header is not None and format != "ascii":
+            raise v.fail("header", header, "given with format='ascii' only")
+        self.format = format
+        self._header = None if header is None else header.encode("ascii") + b"\r\n"
         self.source = source
         self.samples_per_frame = v.integer("samples_per_frame", samples_per_frame, 1)
         self.volts_per_count = v.positive("volts_per_count", volts_per_count, "V", "step")
@@ -209,8 +229,11 @@ class DeviceEmulator:
         paced_from: tuple[float, int] | None = None  # (monotonic s, sample index) of the pace
         while not self._stop.is_set():
             block = self.source.read(self.samples_per_frame * _FRAMES_PER_READ)
-            counts = np.clip(np.rint(block.data.T / self.volts_per_count), -2**31, 2**31 - 1)
-            counts = counts.astype("<i4")
+            if self.format == "magcilia":
+                counts = np.clip(np.rint(block.data.T / self.volts_per_count), -2**31,
+                                 2**31 - 1).astype("<i4")
+            else:
+                counts = block.data.T
             for start, stop, sr in self._frames_of(len(block), block.setreset):
                 if self._sit_out_stall():
                     paced_from = None
@@ -243,12 +266,24 @@ class DeviceEmulator:
         return [(a, b, 0 if setreset is None else int(setreset[a]))
                 for a, b in itertools.pairwise(cuts)]
 
+    def _unverified(self, values: np.ndarray) -> bytes:
+        """Samples (n, c) in V as text lines or float32 frames; the header before the first."""
+        if self.format == "ascii":
+            text = "".join(",".join(f"{x:.9g}" for x in row) + "\r\n" for row in values)
+            header, self._header = self._header, None
+            return (header or b"") + text.encode("ascii")
+        packed = np.ascontiguousarray(values, dtype="<f4")
+        return b"".join(row.tobytes() + FLOAT_END for row in packed)
+
     def _wire(self, counts: np.ndarray, setreset: int) -> bytes:
         """One frame's bytes on the wire, faults included."""
         n, c = counts.shape
         rate = float(self.source.rate) if self.rate is None else self.rate
-        frame = _encode(counts.tobytes(), n, c, self._sequence, self._index, _flags(setreset),
-                        rate, self.volts_per_count)
+        if self.format != "magcilia":
+            frame = self._unverified(counts)
+        else:
+            frame = _encode(counts.tobytes(), n, c, self._sequence, self._index,
+                            _flags(setreset), rate, self.volts_per_count)
         gen = self._gen
         damaged = False
         if self.corrupt and gen.random() < self.corrupt:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import errno
 import time
 from collections import deque
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -64,6 +65,11 @@ class SerialSource(Source):
         against a reference), within the protocol's limits (:data:`~.protocol.MIN_RATE` to
         :data:`~.protocol.MAX_RATE`); it must agree with a reported rate within 1 %. None takes
         the device's rate; a device that reports 0 (unknown) needs it.
+    names : sequence of Channel, optional
+        What the frames' channels are, in order (names and units; the frames' scale per count is
+        then in that unit, e.g. T for a 3-axis part's ``NAME.x``, ``NAME.y``, ``NAME.z``);
+        default ``output``, ``ch1``, … in V. A device sending another number of channels is
+        refused with one line.
 
     Examples
     --------
@@ -73,7 +79,7 @@ class SerialSource(Source):
     """
 
     def __init__(self, port: str, *, baudrate: int = 115200, stall: float = 2.0,
-                 rate: float | None = None) -> None:
+                 rate: float | None = None, names: Sequence[Channel] | None = None) -> None:
         super().__init__()
         if not isinstance(port, str) or not port:
             raise v.fail("port", port, "a serial port name such as '/dev/ttyACM0' or 'COM3'")
@@ -84,6 +90,10 @@ class SerialSource(Source):
         if self._given_rate is not None and not MIN_RATE <= self._given_rate <= MAX_RATE:
             raise v.fail("rate", rate, f"a sample rate from {MIN_RATE:g} Hz to {MAX_RATE:g} Hz")
         self.rate = self._given_rate or 0.0
+        self._names = None if names is None else tuple(names)
+        if self._names is not None and not (
+                self._names and all(isinstance(c, Channel) for c in self._names)):
+            raise v.fail("names", names, "a sequence of Channel")
         self.channels = (Channel(OUTPUT, "V"),)
         self.realtime = True
         self.name = f"serial:{port}"
@@ -106,13 +116,30 @@ class SerialSource(Source):
         return self._origin
 
     # -- Source ---------------------------------------------------------------------------------
-    def _open(self) -> None:
+    def _open_port(self) -> None:
+        """Open the port (one-line errors)."""
         serial = _pyserial()
         try:
             self._serial = serial.Serial(self.port, self.baudrate, timeout=min(_POLL, self.stall),
                                          exclusive=True)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise self._open_error(exc) from None
+
+    def _receive(self) -> bytes:
+        """What the port has (waiting at most ``_POLL`` s; b"" when nothing came)."""
+        ser = self._serial
+        if ser is None:
+            raise AcquisitionError(f"serial port {self.port} is closed")
+        serial = _pyserial()
+        try:
+            waiting = ser.in_waiting
+            data: bytes = ser.read(waiting if waiting else 1)
+        except (serial.SerialException, OSError) as exc:
+            raise self._vanished(exc) from None
+        return data
+
+    def _open(self) -> None:
+        self._open_port()
         self._parser = FrameParser(midstream=True)
         self._frames.clear()
         self._used = self._available = 0
@@ -195,15 +222,7 @@ class SerialSource(Source):
 
     def _fill(self) -> None:
         """Read what the port has (waiting at most ``_POLL`` s) and parse it."""
-        ser = self._serial
-        if ser is None:
-            raise AcquisitionError(f"serial port {self.port} is closed")
-        serial = _pyserial()
-        try:
-            waiting = ser.in_waiting
-            data = ser.read(waiting if waiting else 1)
-        except (serial.SerialException, OSError) as exc:
-            raise self._vanished(exc) from None
+        data = self._receive()
         now = time.monotonic()
         corrupt, implausible = self._parser.corrupt, self._parser.implausible
         frames = self._parser.feed(data) if data else []
@@ -233,8 +252,12 @@ class SerialSource(Source):
         elif frame.rate > 0.0 and abs(self._given_rate / frame.rate - 1.0) > _RATE_TOLERANCE:
             raise AcquisitionError(f"serial port {self.port}: the device reports "
                                    f"{frame.rate:g} Hz but rate={self._given_rate:g} Hz was given")
-        self.channels = (Channel(OUTPUT, "V"),
-                         *(Channel(f"ch{i}", "V") for i in range(1, frame.channels)))
+        if self._names is not None and len(self._names) != frame.channels:
+            raise AcquisitionError(
+                f"serial port {self.port}: the device sends {frame.channels} channels, the "
+                f"read-out needs {len(self._names)} ({', '.join(c.name for c in self._names)})")
+        self.channels = self._names or (
+            Channel(OUTPUT, "V"), *(Channel(f"ch{i}", "V") for i in range(1, frame.channels)))
         self._origin = frame.index
 
     def _check(self, frame: Frame) -> None:

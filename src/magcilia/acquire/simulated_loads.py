@@ -172,6 +172,14 @@ def single_cilium(setup: Setup, sensor: Magnetometer) -> FieldModel:
     return field
 
 
+def field_channels(parts: Any) -> tuple[Channel, ...]:
+    """The field channels of 3-axis parts, in order: ``NAME.x``, ``NAME.y``, ``NAME.z`` per
+    part, T (what a force-vector or array read-out reads; a serial device's frames are named
+    so for it)."""
+    parts = parts if isinstance(parts, (list, tuple)) else [parts]
+    return tuple(Channel(f"{s.name}.{a}", "T") for s in parts for a in "xyz")
+
+
 class SimulatedFieldSource(Paced, Source):
     """A simulated 3-axis sensor or array (see the module docstring).
 
@@ -233,7 +241,7 @@ class SimulatedFieldSource(Paced, Source):
                                     (len(parts), 3)).copy()
         self.realtime = bool(realtime)
         self.speed = v.positive("speed", speed, "", "factor")
-        self.channels = tuple(Channel(f"{s.name}.{a}", "T") for s in parts for a in "xyz")
+        self.channels = field_channels(parts)
         self.name = "sim"
         self._seed = rng if isinstance(rng, int) else None
         self._gen = np.random.default_rng(rng)

@@ -50,17 +50,29 @@ class Counters:
         Samples per channel the device sent but that never arrived whole (sequence gaps, lost
         frames), or that a full buffer overwrote before anyone read them.
     corrupt : int
-        Frames that failed their check (bad length, framing or CRC) and were discarded.
+        Frames (or lines) that failed their check (bad length, framing or CRC; a malformed line
+        or float frame) and were discarded.
+    unverified : int
+        Of the delivered samples, those from a format without a checksum (ASCII lines, bare
+        floats: :mod:`magcilia.acquire.serial_formats`), which nothing could check.
     """
 
     samples: int = 0
     dropped: int = 0
     corrupt: int = 0
+    unverified: int = 0
+
+    def __add__(self, other: Counters) -> Counters:
+        """The counts of two spans summed (a read-out across reconnections)."""
+        return Counters(self.samples + other.samples, self.dropped + other.dropped,
+                        self.corrupt + other.corrupt, self.unverified + other.unverified)
 
     def report(self) -> str:
-        """One line: delivered, dropped and corrupt counts."""
+        """One line: delivered, dropped and corrupt counts (and the unverified ones)."""
+        unverified = (f", {self.unverified} unverified (no checksum)" if self.unverified
+                      else "")
         return (f"{self.samples} samples delivered, {self.dropped} dropped, "
-                f"{self.corrupt} corrupt frames discarded")
+                f"{self.corrupt} corrupt frames discarded{unverified}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,12 +164,16 @@ class Source(abc.ABC):
         Whether a clock paces the samples (a reader that falls behind loses samples).
     name : str
         What the source is, for messages and recordings' metadata (e.g. ``serial:/dev/ttyACM0``).
+    verified : bool
+        Whether each sample passed a check on its way (a CRC, a driver); False for formats
+        without one, whose samples the counters count as ``unverified``.
     """
 
     rate: float
     channels: tuple[Channel, ...]
     realtime: bool = True
     name: str = "source"
+    verified: bool = True
 
     def __init__(self) -> None:
         self._open_now = False
@@ -203,7 +219,8 @@ class Source(abc.ABC):
             self.open()
         block = self._read(n)
         c = self._counters
-        self._counters = Counters(c.samples + len(block), c.dropped, c.corrupt)
+        self._counters = Counters(c.samples + len(block), c.dropped, c.corrupt,
+                                  c.unverified + (0 if self.verified else len(block)))
         return block
 
     def discard(self) -> None:
@@ -217,8 +234,7 @@ class Source(abc.ABC):
         return self._counters
 
     def _count_loss(self, dropped: int = 0, corrupt: int = 0) -> None:
-        c = self._counters
-        self._counters = Counters(c.samples, c.dropped + dropped, c.corrupt + corrupt)
+        self._counters += Counters(0, dropped, corrupt)
 
     def metadata(self) -> dict[str, Any]:
         """What a recording should remember about the source (JSON-ready)."""

@@ -57,13 +57,16 @@ class StreamResult(Display):
         """JSON-ready content (SI)."""
         c = self.counters
         return {"path": self.path, "samples": self.samples, "elapsed_s": self.elapsed,
-                "overruns": self.overruns, "dropped": c.dropped, "corrupt": c.corrupt}
+                "overruns": self.overruns, "dropped": c.dropped, "corrupt": c.corrupt,
+                "unverified": c.unverified}
 
     def report(self) -> str:
         """One line."""
         return (f"{self.path}: {self.samples} samples in {self.elapsed:.3g} s "
                 f"({self.rate:.4g} samples/s), {self.overruns} overruns, "
-                f"{self.counters.dropped} dropped, {self.counters.corrupt} corrupt frames")
+                f"{self.counters.dropped} dropped, {self.counters.corrupt} corrupt frames"
+                + (f", {self.counters.unverified} unverified (no checksum)"
+                   if self.counters.unverified else ""))
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:

@@ -107,7 +107,8 @@ class SweepResult(Display):
         c = self.counters
         return {"path": self.path, "complete": self.complete, "stopped": self.stopped,
                 "elapsed_s": self.elapsed, "points": [p.to_dict() for p in self.points],
-                "samples": c.samples, "dropped": c.dropped, "corrupt": c.corrupt}
+                "samples": c.samples, "dropped": c.dropped, "corrupt": c.corrupt,
+                "unverified": c.unverified}
 
     def report(self) -> str:
         """The angles' readings and a closing line."""

@@ -7,6 +7,7 @@ import functools
 import logging
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +26,11 @@ from magcilia.acquire import (
     single_cilium,
     source_from_spec,
 )
+from magcilia.acquire.serial_formats import SerialFormat
+from magcilia.acquire.simulated_loads import field_channels
 from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
-from magcilia.cli._options import SEED
+from magcilia.cli._options import SEED, serial_format_options
 from magcilia.cli._outputs import OUTPUT_FILE
 from magcilia.cli.array import DEFAULT_SPAN
 from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
@@ -87,15 +90,17 @@ def live_span(setup: Setup, quantity: str, flow: Flow) -> tuple[float, float]:
 
 def live_options(command: Any) -> Any:
     """The options of a live read-out (source, setup, quantity, span, rates, tare)."""
-    options = [
+    options: list[Callable[[Any], Any]] = [
         click.option("--source", "source_spec", default="sim", show_default=True,
                      help="sim (a simulated sensor pushed in a repeating pattern; a 3-axis "
                           "sensor or an array by tip forces in changing directions), "
-                          "serial:PORT (magcilia's framed protocol), nidaq:DEV/aiN, or "
+                          "serial:PORT (magcilia's framed protocol; --format ascii|floats for "
+                          "firmware without it), nidaq:DEV/aiN, or "
                           "FILE.tdms: a recording of --record (any sensor), replayed with its "
                           "stored setup, span, calibration, tares and zero tracking (as fast as "
                           "it goes when stdout is not a terminal, in real time otherwise; the "
                           "other read-out options are ignored)."),
+        serial_format_options,
         click.option("--record", "record_path", default=None, type=OUTPUT_FILE,
                      help="Record from the first sample into this TDMS file (an existing one "
                           "only with --force): raw samples, read-out values, events, tares and "
@@ -178,7 +183,7 @@ def live_options(command: Any) -> Any:
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
              "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
-             "force", "dynamic", "sim_dynamics", "recalibrate")
+             "force", "dynamic", "sim_dynamics", "recalibrate", "serial")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
@@ -189,14 +194,20 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                record_path: str | None = None, force: bool = False,
                replay_realtime: bool | None = None, dynamic: bool = False,
                sim_dynamics: bool = False, recalibrate: float | None = None,
-               **_: Any) -> LiveReadout:
+               serial: SerialFormat | None = None, **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started): one output of a single-axis
     sensor; the force vector of a 3-axis sensor (``--sensor``); every cilium's force vector of an
     array (an array setup file or preset). A ``.tdms`` source is a replay, in real time with
     ``replay_realtime`` (None: when stdout is a terminal). ``dynamic``: the single output read
     by :class:`~magcilia.readout.dynamic.DynamicReadout` (and a simulated hair that moves);
-    ``sim_dynamics``: a simulated hair that moves (:class:`SimulatedSource`'s ``dynamics``)."""
+    ``sim_dynamics``: a simulated hair that moves (:class:`SimulatedSource`'s ``dynamics``);
+    ``serial``: what a ``serial:PORT`` device sends (ASCII lines and float frames at
+    ``source_rate``, which they do not carry)."""
     logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
+    serial = SerialFormat() if serial is None else serial
+    if not serial.verified and source_rate is None:
+        raise fail("--source-rate", None, f"the device's sample rate (Hz) with --format "
+                   f"{serial.format}: the format does not carry it")
     if source_spec.lower().endswith(".tdms"):
         return replay_live(source_spec, record_path, replay_realtime)
     if record_path is not None and os.path.lexists(record_path) and not force:
@@ -222,9 +233,9 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                            "its parts' field channels")
         field: tuple[ArrayReadout | BiaxialReadout, Source, float] = (
             _array(setup_arg, span_text, sensor_name, tip_radius, modulus, source_spec,
-                   source_rate, seed) if array else
+                   source_rate, seed, serial) if array else
             _vector(setup_arg, span_text, sensor_name or "", sensor_noise, tip_radius, modulus,
-                    source_spec, source_rate, seed))
+                    source_spec, source_rate, seed, serial))
         return LiveReadout(field[1], field[0], rate=field[2] if rate is None else rate,
                            tare_at_start=not no_tare, tracking=tracking or None,
                            record=record_path)
@@ -263,7 +274,7 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                                  dynamics=dynamic or sim_dynamics, fluid=hair_fluid)
     else:
         source = source_from_spec(source_spec, setup=setup, rate=source_rate, rng=seed,
-                                  set_reset=set_reset, realtime=True)
+                                  set_reset=set_reset, realtime=True, serial=serial)
     return LiveReadout(source, readout, rate=rate, channel=channel,
                        tare_at_start=not no_tare, tracking=tracking or None,
                        record=record_path)
@@ -313,7 +324,8 @@ def replay_live(path: str, record_path: str | None, realtime: bool | None) -> Li
 
 
 def _field_source(spec: str, sensors: Any, field: Any, cilia: int, span: float,
-                  source_rate: float | None, seed: int, setup: Setup) -> Source:
+                  source_rate: float | None, seed: int, setup: Setup,
+                  serial: SerialFormat | None = None) -> Source:
     """``--source`` of a 3-axis sensor or an array: the simulation pushes every cilium to 80 %
     of the span in changing directions (:meth:`LoadScript.demo`)."""
     if spec == "sim":
@@ -321,12 +333,12 @@ def _field_source(spec: str, sensors: Any, field: Any, cilia: int, span: float,
                                     rate=source_rate, drift=SIM_DRIFT, bias=SIM_BIAS,
                                     realtime=True, rng=seed)
     return source_from_spec(spec, setup=setup, rate=source_rate or SOURCE_RATE, rng=seed,
-                            realtime=True)
+                            realtime=True, serial=serial, names=field_channels(sensors))
 
 
 def _vector(setup_arg: str, span_text: str | None, sensor_name: str, sensor_noise: str | None,
             tip_radius: str | None, modulus: str | None, spec: str, source_rate: float | None,
-            seed: int) -> tuple[BiaxialReadout, Source, float]:
+            seed: int, serial: SerialFormat | None = None) -> tuple[BiaxialReadout, Source, float]:
     """The force-vector read-out of a 3-axis part at the element, its source and the part's
     rate (Hz)."""
     setup = load_mechanics_setup(setup_arg, tip_radius, modulus)
@@ -335,12 +347,12 @@ def _vector(setup_arg: str, span_text: str | None, sensor_name: str, sensor_nois
         live_span(setup, "force", Flow.uniform(1.0, FLUIDS["water"]))[1]
     readout = BiaxialReadout(setup, part, span)
     return readout, _field_source(spec, part, single_cilium(setup, part), 1, span, source_rate,
-                                  seed, setup), part.rate
+                                  seed, setup, serial), part.rate
 
 
 def _array(setup_arg: str, span_text: str | None, sensor_name: str | None,
            tip_radius: str | None, modulus: str | None, spec: str, source_rate: float | None,
-           seed: int) -> tuple[ArrayReadout, Source, float]:
+           seed: int, serial: SerialFormat | None = None) -> tuple[ArrayReadout, Source, float]:
     """The array read-out of an array setup file, its source and its slowest part's rate
     (Hz)."""
     for name, value in (("--sensor", sensor_name), ("--tip-radius", tip_radius),
@@ -352,5 +364,5 @@ def _array(setup_arg: str, span_text: str | None, sensor_name: str | None,
     span = magnitude_span(span_text, "an array") if span_text else DEFAULT_SPAN
     readout = ArrayReadout(array, span)
     source = _field_source(spec, array.sensors, functools.partial(field_for_loads, array),
-                           len(array), span, source_rate, seed, array.cilia[0])
+                           len(array), span, source_rate, seed, array.cilia[0], serial)
     return readout, source, min(ARRAY_RATE, *(s.rate for s in array.sensors))

@@ -253,3 +253,40 @@ class Seed(click.IntRange):
 
 #: the type of every ``--seed``
 SEED = Seed()
+
+
+# --- what a serial device sends (issue 30 item 3): the one definition of --format, --fields,
+# --channels, for every command that takes --source --------------------------------------------
+
+def serial_format_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """``--format magcilia|ascii|floats``, ``--fields NAME[unit],...`` and ``--channels N`` of a
+    command that takes ``--source serial:PORT``; the command receives them as one ``serial``
+    argument (:class:`~magcilia.acquire.serial_formats.SerialFormat`), checked first."""
+    from magcilia.acquire.serial_formats import SerialFormat
+
+    @functools.wraps(command)
+    def run(*args: Any, serial_format: str, fields: str | None, channels: int | None,
+            **kwargs: Any) -> Any:
+        return command(*args, serial=SerialFormat(serial_format, fields, channels), **kwargs)
+
+    options = [
+        click.option("--format", "serial_format", default="magcilia", show_default=True,
+                     type=click.Choice(["magcilia", "ascii", "floats"]),
+                     help="What --source serial:PORT sends: magcilia's framed protocol "
+                          "(COBS, sequence, CRC-32), ascii (comma- or space-separated text "
+                          "lines, an optional header line naming the fields: Arduino sketches) "
+                          "or floats (bare little-endian float32 values ending in \\r\\n: "
+                          "ReSkin/AnySkin). ascii and floats carry no checksum: their samples "
+                          "are counted as unverified, malformed lines/frames as corrupt, and "
+                          "the rate is --source-rate."),
+        click.option("--fields", default=None, metavar="NAME[unit],...",
+                     help="ascii/floats: each field of a line or frame in order, - to skip one "
+                          "(output[mV], or -,bx[uT],by[uT],bz[uT]); default: the header "
+                          "line's names, else output, ch1, ... in V."),
+        click.option("--channels", default=None, type=int,
+                     help="floats: values per frame (or give --fields); ascii: fields per "
+                          "line."),
+    ]
+    for option in reversed(options):
+        run = option(run)
+    return run

@@ -30,7 +30,14 @@ from magcilia.live.pipeline import LiveStatus
                    "Ctrl-C.")
 @click.option("--every", default=1, show_default=True, type=int,
               help="With --json-lines: write every N-th read-out sample.")
-def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any) -> None:
+@click.option("--lsl", "lsl_name", default=None, is_flag=False, flag_value="magcilia",
+              metavar="[NAME]",
+              help="Also publish every read-out sample as a Lab Streaming Layer stream named "
+                   "NAME (default magcilia; needs pylsl, the lsl extra): the values, their "
+                   "sigma and the flags as channels, SI units in the stream's description, "
+                   "nominal rate = --rate (docs/streams.md; examples/lsl_consumer.py).")
+def command(json_lines: bool, duration: float | None, every: int, lsl_name: str | None,
+            **kwargs: Any) -> None:
     """Watch a sensor live: the force, angle or flow speed ± σ, a sparkline of the last 10 s,
     the flags (outside the span, fold, saturated), the state and the drop counters. With
     --sensor (a 3-axis magnetometer at the element) the force vector: magnitude, direction and
@@ -52,6 +59,11 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
         terminal_view = not json_lines and sys.stdout.isatty()
         if terminal_view:  # the rich view: check for it before starting
             require("rich", package="rich", extra="live", purpose="The terminal view")
+        if lsl_name is not None:
+            from magcilia.live.lsl import LslPublisher, check_name, pylsl_module
+
+            pylsl_module()  # before anything opens
+            check_name(lsl_name)
         live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
         from magcilia.live import terminal
 
@@ -59,8 +71,13 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
             return
         status: LiveStatus | None = None
         recording = None
+        outlet = None
         try:
             live.start()
+            if lsl_name is not None:
+                outlet = LslPublisher(live, lsl_name).start()
+                click.echo(f"magcilia live: publishing the LSL stream {outlet.describe()}",
+                           err=True)
             if json_lines:
                 status = terminal.stream_json_lines(live, sys.stdout, seconds=duration,
                                                     every=every, stop=stop)
@@ -70,9 +87,13 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
             else:
                 status = terminal.run_lines(live, sys.stdout, seconds=duration, stop=stop)
         finally:  # the one way out (signals after the first are ignored: none cuts it short)
+            if outlet is not None:
+                outlet.stop()
             recording = live.recording
             live.stop()
     if recording is not None:
         click.echo(f"recording closed: {recording}")
+    if outlet is not None and outlet.error is not None:
+        click.echo(f"magcilia: warning: the LSL stream stopped early: {outlet.error}", err=True)
     if status is not None and status.state == "failed":
         raise MagciliaError(f"live read-out failed: {status.message}")

@@ -10,6 +10,7 @@ import click
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.acquire import record_stream, record_sweep, source_from_spec
+from magcilia.acquire.serial_formats import SerialFormat
 from magcilia.acquire.sweep import AskAngle, SweepPoint
 from magcilia.cli._common import (
     Physical,
@@ -21,7 +22,7 @@ from magcilia.cli._common import (
     setup_option,
     si_option,
 )
-from magcilia.cli._options import SEED
+from magcilia.cli._options import SEED, serial_format_options
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.cli._record_coil import CoilOptions, check_record_path, record_coil_command
 from magcilia.cli._signals import signals_interrupt
@@ -71,7 +72,9 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.command()
 @writes_files
 @click.option("--source", "source_spec", default="sim", show_default=True,
-              help="sim, serial:PORT (magcilia's framed protocol) or nidaq:DEV/aiN.")
+              help="sim, serial:PORT (magcilia's framed protocol; --format ascii|floats for "
+                   "firmware without it) or nidaq:DEV/aiN.")
+@serial_format_options
 @setup_option("The sensor (the simulated one for --source sim; stored in the recording)",
               default="paper", positional=False)
 @click.option("--angles", default=None,
@@ -101,8 +104,9 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
                    "with a unit (500ms).")
 @click.option("--source-rate", "rate", cls=RenamedOption, old="--rate", default="1000",
               show_default=True, type=Physical.of("frequency", "1kHz"),
-              help="Sample rate: Hz, or with a unit (1kHz) (sim and nidaq; a serial device "
-                   "sends its own).")
+              help="Sample rate: Hz, or with a unit (1kHz) (sim, nidaq, and a serial "
+                   "device with --format ascii|floats; one speaking magcilia's protocol sends "
+                   "its own).")
 @click.option("--duration", default=None, type=Physical.of("time", "60s"),
               help="Record continuously for this long instead of a sweep: s, or with a unit.")
 @click.option("--set-reset", "set_reset", default=None, type=int,
@@ -128,7 +132,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, coil_text: str
             coil_sense_constant: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
             sim_dynamics: bool, temperature: str | None, out_path: str, force: bool,
-            as_json: bool, quiet: bool, si: bool) -> None:
+            as_json: bool, quiet: bool, si: bool, serial: SerialFormat) -> None:
     """Record a calibration sweep: for each tilt angle, samples of the sensor output with the
     angle's mean ± standard error and a saturation flag; the recording ends in the --record
     file, which `magcilia calibrate FILE` fits as it is. With --duration, record continuously
@@ -146,6 +150,8 @@ def command(source_spec: str, setup_arg: str, angles: str | None, coil_text: str
     with signals_interrupt() as stop:
         try:
             if coil_text is not None:
+                if not serial.verified:
+                    raise fail("--format", serial.format, "magcilia with --coil")
                 record_coil_command(source_spec, setup_arg, coil_text, CoilOptions(
                     coil_output, coil_constant, coil_sense, coil_sense_constant), samples,
                     settle, rate, set_reset, seed, out_path, force, as_json, quiet, si,
@@ -154,7 +160,7 @@ def command(source_spec: str, setup_arg: str, angles: str | None, coil_text: str
             if coil_output is not None:
                 raise fail("--coil-output", coil_output, "given with --coil SEQUENCE")
             _record(source_spec, setup_arg, angles, samples, settle, rate, duration, set_reset,
-                    seed, out_path, force, as_json, quiet, si, sim_dynamics, temperature)
+                    seed, out_path, force, as_json, quiet, si, sim_dynamics, temperature, serial)
         except KeyboardInterrupt:  # the writer closed the file, noting where it stopped
             click.echo(f"magcilia: {stop.signal or 'SIGINT'} stopped the recording; "
                        f"{_kept(Path(out_path))}", err=True)
@@ -176,7 +182,8 @@ def _kept(path: Path) -> str:
 def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, settle: float,
             rate: float, duration: float | None, set_reset: int | None, seed: int,
             out_path: str, force: bool, as_json: bool, quiet: bool, si: bool,
-            sim_dynamics: bool = False, temperature: str | None = None) -> None:
+            sim_dynamics: bool = False, temperature: str | None = None,
+            serial: SerialFormat | None = None) -> None:
     units = output_units(si)
     check_record_path(out_path)
     setup = load_setup_arg(setup_arg)
@@ -184,7 +191,8 @@ def _record(source_spec: str, setup_arg: str, angles: str | None, samples: int, 
                               set_reset=set_reset, realtime=duration is not None,
                               dynamics=sim_dynamics,
                               temperature=temperature_profile(temperature, duration),
-                              thermal=None if temperature is None else setup_temperature(setup_arg))
+                              thermal=None if temperature is None else setup_temperature(setup_arg),
+                              serial=serial)
     metadata = {"setup_name": setup_label(setup_arg), "setup": setup_to_dict(setup)}
     if duration is not None:
         if angles is not None:

@@ -313,8 +313,7 @@ class LiveReadout:
             recording = str(self._writer.path) if self._writer is not None else None
         return LiveStatus(
             state=self._state, message=message,
-            counters=Counters(self._lost.samples + c.samples, self._lost.dropped + c.dropped,
-                              self._lost.corrupt + c.corrupt),
+            counters=self._lost + c,
             overruns=overruns, samples=self.history.total, rate=self.rate,
             tared=self.zero.tared_at is not None, correction=self.zero.correction,
             drift=self.zero.drift, noise=noise, recording=recording,
@@ -432,8 +431,7 @@ class LiveReadout:
         reader, self._reader = self._reader, None
         if reader is not None:
             c = reader.counters
-            self._lost = Counters(self._lost.samples + c.samples, self._lost.dropped + c.dropped,
-                                  self._lost.corrupt + c.corrupt)
+            self._lost += c
             self._lost_overruns += reader.overruns
             with contextlib.suppress(Exception):
                 reader.stop()

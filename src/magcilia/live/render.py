@@ -311,6 +311,8 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
     lines.append(Text(f"samples: {c.samples} delivered · {c.dropped} dropped ({status.overruns} "
                       f"by overruns) · {c.corrupt} corrupt · {status.samples} readings at "
                       f"{status.rate:g} Hz", style="red" if c.dropped or c.corrupt else ""))
+    if c.unverified:
+        lines.append(Text(status.unverified_text, style="yellow"))
     if status.tared and np.ndim(status.correction):
         lines.append(Text(f"tare: {np.size(status.correction)} channels · largest correction "
                           f"{np.max(np.abs(status.correction)) * 1e4:.4g} G · largest drift "

@@ -61,7 +61,8 @@ class LiveStatus(Display):
         One line for people: the last fault, a hint, or "".
     counters : Counters
         Samples delivered by the source, dropped (by the device and by buffer overruns, summed
-        over reconnections) and corrupt frames.
+        over reconnections), corrupt frames and unverified samples (from a serial format
+        without a checksum: the status says "unverified (no checksum)").
     overruns : int
         Samples the ring buffer overwrote because the read-out fell behind.
     samples : int
@@ -111,12 +112,23 @@ class LiveStatus(Display):
         c = self.counters
         u = self.unit
         return {"state": self.state, "message": self.message, "delivered": c.samples,
-                "dropped": c.dropped, "corrupt": c.corrupt, "overruns": self.overruns,
+                "dropped": c.dropped, "corrupt": c.corrupt, "unverified": c.unverified,
+                "overruns": self.overruns,
                 "samples": self.samples, "rate_Hz": self.rate, "tared": self.tared,
                 f"correction_{u}": _plain(self.correction), f"drift_{u}": _plain(self.drift),
                 f"noise_{u}": _plain(self.noise), "recording": self.recording,
                 "latency_median_s": self.latency_median, "latency_p99_s": self.latency_p99,
                 "recalibration": self.recalibration}
+
+    @property
+    def unverified_text(self) -> str:
+        """``"unverified (no checksum): N samples, M corrupt lines/frames skipped"``; "" when
+        every sample was checked."""
+        c = self.counters
+        if not c.unverified:
+            return ""
+        return (f"unverified (no checksum): {c.unverified} samples, {c.corrupt} malformed "
+                "skipped")
 
     def _channel(self, value: Any) -> str:
         """A channel quantity as text: mV/µV for one output, the largest |value| in G else."""
@@ -134,6 +146,7 @@ class LiveStatus(Display):
                     f"{self._channel(self.drift)})" if self.tared else "not tared")
         rec = f", recording {self.recording}" if self.recording else ""
         rec += f", {self.recalibration}" if self.recalibration else ""
+        rec += f", {self.unverified_text}" if self.counters.unverified else ""
         msg = f" — {self.message}" if self.message else ""
         return (f"{self.state}: {self.samples} samples at {self.rate:g} Hz, {tare}; "
                 f"{self.counters.dropped} dropped, {self.overruns} overruns, latency "
@@ -145,6 +158,8 @@ class LiveStatus(Display):
         items = [("", self.state), ("samples", str(self.samples)), ("rate", f"{self.rate:.4g} Hz"),
                  ("tared", "yes" if self.tared else "no"), ("noise", self._channel(self.noise)),
                  ("dropped", str(self.counters.dropped)), ("overruns", str(self.overruns))]
+        if self.counters.unverified:
+            items.append(("samples checked", self.unverified_text))
         if self.message:
             items.append(("message", self.message))
         if self.recording:
