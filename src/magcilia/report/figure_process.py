@@ -219,8 +219,11 @@ def _serve_side_by_side(connection: Any, workers: int) -> None:
     two CPUs, while the command itself waits). A worker that dies is a failed task. Told to
     stop, the tasks started are finished first; when the parent is gone (the pipe ends), the
     workers are killed."""
+    import signal
     from collections import deque
     from multiprocessing.connection import wait
+
+    from magcilia.execution import _parent_death_signal  # (imported here, not in each worker)
 
     queued: deque[tuple[int, Callable[..., object], tuple[Any, ...]]] = deque()
     running: dict[int, tuple[int, int, bytearray]] = {}  # read end -> (task number, pid, bytes)
@@ -231,7 +234,7 @@ def _serve_side_by_side(connection: Any, workers: int) -> None:
         while True:
             while queued and len(running) < workers:
                 number, task, args = queued.popleft()
-                fd, pid = _fork_worker(task, args, connection)
+                fd, pid = _fork_worker(task, args, connection, _parent_death_signal)
                 running[fd] = (number, pid, bytearray())
             while sent in replies:
                 connection.send(replies.pop(sent))
@@ -262,16 +265,19 @@ def _serve_side_by_side(connection: Any, workers: int) -> None:
     finally:
         for fd, (_, pid, _) in running.items():
             with contextlib.suppress(OSError):
-                os.kill(pid, 9)
+                os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
             with contextlib.suppress(OSError):
                 os.close(fd)
 
 
-def _fork_worker(task: Callable[..., object], args: tuple[Any, ...],
-                 connection: Any) -> tuple[int, int]:
+def _fork_worker(task: Callable[..., object], args: tuple[Any, ...], connection: Any,
+                 die_with_parent: Callable[[], object]) -> tuple[int, int]:
     """Fork a worker that runs ``task(*args)`` and writes its reply (``b"ok"``, or ``b"!"`` and
-    the one-line error) into a pipe of its own; the pipe's read end and the worker's pid."""
+    the one-line error) into a pipe of its own; the pipe's read end and the worker's pid. The
+    worker first calls ``die_with_parent`` (killed when the helper ends, on Linux; elsewhere it
+    finishes its one task and exits)."""
+    helper = os.getpid()
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # the worker: never back into the caller's loop
@@ -279,7 +285,9 @@ def _fork_worker(task: Callable[..., object], args: tuple[Any, ...],
         try:
             os.close(read)
             connection.close()  # (its copy: the parent sees the helper's end alone)
-            _die_with_parent()
+            die_with_parent()
+            if os.getppid() != helper:  # (the helper ended before the signal was set)
+                os._exit(1)
             reply = _run_task(task, args)
             data = b"ok" if reply is None else b"!" + reply.encode("utf-8", "replace")
             while data:
@@ -299,18 +307,6 @@ def _worker_reply(data: bytes, status: int) -> str | None:
         return data[1:].decode("utf-8", "replace")
     return (f"a figure worker ended without a reply (wait status {status}); rerun, or set "
             f"{ENVIRONMENT}=0 to draw the figures in the command's own process")
-
-
-def _die_with_parent() -> None:
-    """Ask Linux to kill this process when its parent (the helper) ends (elsewhere the worker
-    finishes its one figure and exits)."""
-    if not sys.platform.startswith("linux"):
-        return
-    import ctypes
-    import signal
-
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
 
 
 def _warm(style: str) -> None:
