@@ -231,3 +231,33 @@ def test_fits_agree_with_and_without_the_compiled_step(monkeypatch: pytest.Monke
     np.testing.assert_allclose(fast.x, ref.x, rtol=1e-8, atol=1e-10)
     np.testing.assert_array_equal(fast.converged, ref.converged)
     assert (fast.x[:, 0] <= 1.5).all() and np.isclose(fast.x[:, 0], 1.5).any()
+
+
+def test_the_kernels_see_c_ordered_arrays_whatever_the_start(monkeypatch: pytest.MonkeyPatch
+                                                             ) -> None:
+    """A start in Fortran order (a transposed sample, say) is copied to C order: the kernels,
+    typed by the arrays' layouts, then have one signature each, loaded from numba's cache once
+    per process (a first CLI command paid a second load of each)."""
+    from numba import typeof
+
+    fast = compiled.kernels()
+    assert fast is not None
+    layouts: set[str] = set()
+
+    def spy(kernel: object) -> object:
+        def call(*args: object) -> object:
+            layouts.update(typeof(a).layout for a in args if isinstance(a, np.ndarray))
+            return kernel(*args)  # type: ignore[operator]
+        return call
+
+    monkeypatch.setattr(compiled, "kernels",
+                        lambda: compiled.Kernels(spy(fast.propose), spy(fast.accept)))
+
+    def residuals(x: F, which: F) -> F:
+        return x[:, :1] * np.exp(-x[:, 1:] * T) - 2.0 * np.exp(-0.5 * T)
+
+    start = np.asfortranarray(np.tile([1.0, 1.0], (8, 1)))
+    assert not start.flags.c_contiguous
+    fit = fit_batch(residuals, start, [0.0, 0.0], [10.0, 10.0])
+    assert layouts == {"C"}
+    np.testing.assert_allclose(fit.x, [[2.0, 0.5]] * 8, rtol=1e-6)

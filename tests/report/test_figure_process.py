@@ -178,3 +178,113 @@ def _alive(pid: int, seconds: float) -> bool:
             return False
         time.sleep(0.05)
     return True
+
+
+_WORKERS = """
+import os, time
+import magcilia.report.figure_process as fp
+fp._cpus = lambda: {workers}
+from magcilia._errors import MagciliaError
+from magcilia.report.figure_process import figure_writer
+"""
+
+
+def _writer_code(workers: int, body: str) -> str:
+    """A script that opens a writer whose helper sees ``workers`` CPUs, then runs ``body``
+    (tasks defined in it pickle by name: the helper is forked after them)."""
+    return _WORKERS.format(workers=workers) + body
+
+
+_AFTER = """
+def after(other, mine, tries):
+    for _ in range(tries):  # (0.05 s each: a failure, not a hang, when run one after the other)
+        if os.path.exists(other):
+            os.mkdir(mine)
+            return
+        time.sleep(0.05)
+    raise RuntimeError("ran alone")
+"""
+
+
+@needs_fork
+@pytest.mark.parametrize("workers", [1, 2])
+def test_tasks_run_side_by_side_where_there_are_cpus(tmp_path: Path, workers: int) -> None:
+    """With two CPUs the tasks run at once (the first waits for a directory only the second
+    makes: one after the other, it gives up), and the failures come in the order of the tasks;
+    on one CPU they run one after the other in the helper itself (the first gives up after
+    0.5 s, never seeing the directory)."""
+    tries = 10 if workers == 1 else 1200
+    a, b, none = (str(tmp_path / name) for name in ("a", "b", "none"))
+    code = _writer_code(workers, _AFTER + f"""
+with figure_writer() as writer:
+    assert writer.forked
+    writer.submit(after, {b!r}, {a!r}, {tries})
+    writer.submit(os.mkdir, {b!r})
+    writer.submit(os.mkdir, {b!r})  # exists
+    writer.submit(os.rmdir, {none!r})  # fails too
+    try:
+        writer.wait()
+    except MagciliaError as exc:
+        print("error:", exc)
+""")
+    done = _run(code, **FORK)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""  # the helper and its workers print nothing
+    if workers == 1:
+        assert done.stdout.startswith("error: ran alone"), done.stdout
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["b"]
+    else:
+        assert done.stdout.startswith("error: [Errno 17] File exists"), done.stdout
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["a", "b"]
+
+
+@needs_fork
+def test_a_worker_that_dies_is_a_failed_task() -> None:
+    code = _writer_code(2, """
+import signal
+with figure_writer() as writer:
+    writer.submit(os.kill, 0, 0)  # (fine)
+    writer.submit(os.abort)
+    try:
+        writer.wait()
+    except MagciliaError as exc:
+        print("error:", exc)
+""")
+    done = _run(code, **FORK)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("error: a figure worker ended without a reply"), done.stdout
+    assert "MAGCILIA_FIGURE_PROCESS=0" in done.stdout
+
+
+@needs_fork
+@pytest.mark.parametrize("end", ["killed", "error"])
+def test_the_workers_end_with_the_command(tmp_path: Path, end: str) -> None:
+    """A command killed (SIGKILL) or ending in an error while a worker draws leaves no helper
+    and no worker behind."""
+    pid_file = tmp_path / "worker.pid"
+    finish = ("os.kill(os.getpid(), 9)" if end == "killed"
+              else "raise MagciliaError('stop')")
+    code = _writer_code(2, f"""
+def busy(path):
+    with open(path + ".tmp", "w") as f:
+        f.write(str(os.getpid()))
+    os.rename(path + ".tmp", path)
+    time.sleep(120)
+with figure_writer() as writer:
+    print(writer._process.pid, flush=True)
+    writer.submit(busy, {str(pid_file)!r})
+    for _ in range(1200):
+        if os.path.exists({str(pid_file)!r}):
+            break
+        time.sleep(0.05)
+    {finish}
+""")
+    environment = {**os.environ, **FORK, "PYTHONPATH": os.pathsep.join(
+        [str(SRC), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=environment)
+    out, err = proc.communicate(timeout=60)  # EOF only once the helper and workers let go
+    assert proc.returncode == (-9 if end == "killed" else 1), err
+    helper, worker = int(out.split()[0]), int(pid_file.read_text())
+    assert not _alive(helper, seconds=10.0)
+    assert not _alive(worker, seconds=10.0)

@@ -193,7 +193,8 @@ def fit_batch(
         ``converged`` is False for a problem that hit ``maxiter``, or whose cost or normal
         equations were never finite.
     """
-    x = np.array(x0, dtype=np.float64)
+    # (C order: the compiled step's kernels are typed, and loaded from numba's cache, once)
+    x = np.array(x0, dtype=np.float64, order="C")
     if x.ndim == 1:
         x = x[None, :]
     if x.ndim != 2:
