@@ -22,7 +22,13 @@ from numpy.typing import NDArray
 from magcilia._errors import require
 from magcilia.device.parameters import MEASURANDS
 from magcilia.live.history import COLUMNS, LiveSamples
-from magcilia.live.render_vector import trace_line, vector_fractions, vector_lines, view_flag_names
+from magcilia.live.render_vector import (
+    current_vectors,
+    trace_line,
+    vector_fractions,
+    vector_lines,
+    view_flag_names,
+)
 from magcilia.live.status import Event, Limits, LiveStatus
 from magcilia.readout.protocol import Flag
 
@@ -117,7 +123,7 @@ def current(samples: LiveSamples, window: float = 0.1, now: float | None = None)
 def flag_fractions(samples: LiveSamples) -> dict[str, float]:
     """Fraction of ``samples`` carrying each flag (by the names of :data:`FLAG_NAMES`; all 0
     without samples)."""
-    n = len(samples)
+    n = samples.flags.size  # every estimate: one per reading, or per cilium and reading
     return {name: float(np.count_nonzero(samples.flags & flag)) / n if n else 0.0
             for flag, name in FLAG_NAMES.items()}
 
@@ -207,11 +213,38 @@ def big_text(text: str) -> list[str]:
 def value_text(samples: LiveSamples, window: float = 0.1) -> str:
     """The current value ± σ in display units, one line (e.g. ``+0.2635 ± 0.0061 mN``)."""
     q = MEASURANDS[samples.quantity]
+    if samples.value.ndim > 1:  # force vectors: each cilium's |F| ± σ and its direction
+        return _vectors_text(samples, window)
     r = current(samples, window)
-    shown, sigma = format_value(q.to_display(r.value), q.to_display(r.sigma))
+    (shown, sigma), unit = _in_display(samples.quantity, r.value, r.sigma)
     if shown == "—":
         return f"— {q.display} (no good reading)"
-    return f"{shown} ± {sigma} {q.display}"
+    return f"{shown} ± {sigma} {unit}"
+
+
+def _in_display(quantity: str, value: float, sigma: float) -> tuple[tuple[str, str], str]:
+    """``value`` ± ``sigma`` (SI) as text in the display unit of their magnitude (µN for a
+    µN-scale force: :func:`magcilia.report.units.unit_for`, the console's one rule)."""
+    from magcilia.report.units import in_unit, output_units, unit_for
+
+    size = max(abs(value), sigma if math.isfinite(sigma) else 0.0)
+    unit = unit_for(output_units(), quantity, size if math.isfinite(size) else 0.0)
+    return format_value(in_unit(value, unit, quantity), in_unit(sigma, unit, quantity)), unit
+
+
+def _vectors_text(samples: LiveSamples, window: float) -> str:
+    """The current force vector (one cilium) or the largest of an array's, one line."""
+    q = MEASURANDS[samples.quantity]
+    r = current_vectors(samples, window)
+    if not np.isfinite(r.magnitude).any():
+        return f"— {q.display} (no good reading)"
+    k = int(np.nanargmax(r.magnitude))
+    (shown, sigma), unit = _in_display(samples.quantity, float(r.magnitude[k]),
+                                       float(r.sigma_magnitude[k]))
+    toward = (f" toward {math.degrees(r.direction[k]):+.1f}°" if math.isfinite(r.direction[k])
+              else " (direction —, near zero)")
+    which = f" (largest of {r.magnitude.size} cilia: #{k})" if r.magnitude.size > 1 else ""
+    return f"|F| {shown} ± {sigma} {unit}{toward}{which}"
 
 
 def summary_line(status: LiveStatus, samples: LiveSamples, limits: Limits,
