@@ -89,21 +89,27 @@ def _with(result: mc.CalibrationResult, *fits: ExperimentFit) -> mc.CalibrationR
     return dataclasses.replace(result, experiments=fits)
 
 
-def _pairs(fig: object) -> list[tuple[Axes, Axes]]:
-    """The (data, residual) axes pairs of the figure, in order."""
-    axes = [ax for ax in fig.axes if ax.get_visible()]  # type: ignore[attr-defined]
-    assert len(axes) % 2 == 0
-    data = [ax for ax in axes if ax.get_ylabel().startswith(("output", "B ", "cilium"))]
+def _pairs(fig: object) -> list[tuple[list[Axes], Axes]]:
+    """Per experiment, in order: its data axes (one, or one per field component, top to
+    bottom) and its residual axes right below them, all on one shared x axis."""
+    axes = list(fig.axes)  # type: ignore[attr-defined]
     residual = [ax for ax in axes if ax.get_ylabel().startswith("residual")]
-    assert len(data) + len(residual) == len(axes)
-    # a residual panel shares its data panel's x axis and lies right below it
+    data = [ax for ax in axes if ax not in residual]
     pairs = []
-    for top in data:
-        below = [ax for ax in residual if ax.get_shared_x_axes().joined(ax, top)]
-        assert len(below) == 1
-        assert below[0].get_position().y1 <= top.get_position().y0 + 1e-9
-        pairs.append((top, below[0]))
+    for bottom in residual:
+        tops = [ax for ax in data if ax.get_shared_x_axes().joined(ax, bottom)]
+        assert len(tops) in (1, 3)
+        heights = [ax.get_position().y0 for ax in [*tops, bottom]]
+        assert heights == sorted(heights, reverse=True)  # stacked, the residuals at the foot
+        pairs.append((tops, bottom))
+    assert sum(len(t) + 1 for t, _ in pairs) == len(axes)  # no other axes
     return pairs
+
+
+def _legend(ax: Axes) -> str:
+    """The legend's title and entries, one string."""
+    legend = ax.get_legend()
+    return " | ".join([legend.get_title().get_text(), *(t.get_text() for t in legend.texts)])
 
 
 def _bars(ax: Axes) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -127,11 +133,14 @@ def test_each_kind_has_data_and_residual_panels_with_error_bars(
         result: mc.CalibrationResult, kind: str, observable: str) -> None:
     e = _fit(kind, observable, seed=3, scale=result.setup.sensor.scale)
     fig = physical_fit_figure(_with(result, e))
-    [(top, bottom)] = _pairs(fig)
-    unit, res_unit = _unit(top), _unit(bottom)
+    [(tops, bottom)] = _pairs(fig)
     components = 1 if observable == "output" else 3
+    assert len(tops) == components  # a field's components each on their own scale
+    unit, res_unit = _unit(tops[0]), _unit(bottom)
+    assert {_unit(top) for top in tops} == {unit}
     series = 2 if kind == "tilt" else 1  # the tilts go toward two azimuths
-    data, residual = _bars(top), _bars(bottom)
+    data, residual = [b for top in tops for b in _bars(top)], _bars(bottom)
+    assert all(len(_bars(top)) == series for top in tops)
     assert len(data) == len(residual) == components * series
     # every value drawn once, with its standard error as the bar
     assert sum(x.size for x, _, _ in data) == sum(x.size for x, _, _ in residual) == 12 * components
@@ -143,21 +152,25 @@ def test_each_kind_has_data_and_residual_panels_with_error_bars(
     np.testing.assert_allclose(drawn, np.sort((e.measured - e.fitted).ravel() * res_unit),
                                rtol=1e-12, atol=1e-12 * res_unit)
     # the data panel: data − model (the lines or dashes drawn at the same x) = residual
-    model = [line for line in top.get_lines() if line.get_color() == "0.15"]
+    model = [line for top in tops for line in top.get_lines() if line.get_color() == "0.15"]
     assert len(model) == components * series
     differences = np.concatenate([d[1] - np.asarray(m.get_ydata()) for d, m in
                                   zip(data, model, strict=True)])
+    assert all(np.array_equal(d[0], m.get_xdata()) for d, m in zip(data, model, strict=True))
     np.testing.assert_allclose(np.sort(differences) / unit * res_unit, drawn,
                                rtol=1e-9, atol=1e-9 * res_unit)
     # the title names the experiment and its file, the axes their units
-    title = top.get_title()
+    title = tops[0].get_title()
     assert f"{kind}_{observable}.csv" in title
     assert {"tilt": "tilt path", "force": "tip forces", "flow": "flow", "coil": "coil"}[kind] \
         in title
     assert bottom.get_xlabel().endswith({"tilt": "(deg)", "force": "(mN)", "flow": "(m/s)",
                                          "coil": "(rank)"}[kind])
     # the paper-mode units: the data in mV or gauss, the residuals in µV or mG (2 µT: 20 mG)
-    assert top.get_ylabel().endswith("(mV)" if observable == "output" else "(gauss)")
+    for top, name in zip(tops, ["output"] if observable == "output" else ["B_x", "B_y", "B_z"],
+                         strict=True):
+        assert name in top.get_ylabel()
+        assert top.get_ylabel().endswith("(mV)" if observable == "output" else "(gauss)")
     assert bottom.get_ylabel() == ("residual (µV)" if observable == "output"
                                    else "residual (mG)")
 
@@ -167,25 +180,23 @@ def test_a_mix_has_one_pair_per_experiment_in_order(result: mc.CalibrationResult
     fig = physical_fit_figure(_with(result, *fits))
     pairs = _pairs(fig)
     assert len(pairs) == len(fits)
-    titles = sorted(top.get_title() for top, _ in pairs)
-    assert all(any(Path(e.source).name in t for t in titles) for e in fits)
-    for (top, bottom), e in zip(pairs, fits, strict=True):
-        assert Path(e.source).name in top.get_title()
+    for (tops, bottom), e in zip(pairs, fits, strict=True):
+        assert Path(e.source).name in tops[0].get_title()
+        assert len(tops) == (1 if e.observable == "output" else 3)
         drawn = np.sort(np.concatenate([y for _, y, _ in _bars(bottom)]))
         np.testing.assert_allclose(drawn, np.sort(e.residuals.ravel() * _unit(bottom)),
                                    rtol=1e-12, atol=1e-12)
     # six experiments wrap into two bands of three columns
-    assert len({round(top.get_position().x0, 6) for top, _ in pairs}) == 3
+    assert len({round(tops[0].get_position().x0, 6) for tops, _ in pairs}) == 3
 
 
 def test_bars_within_symbols_are_said(result: mc.CalibrationResult) -> None:
     small = physical_fit_figure(_with(result, _fit("tilt", "output", 1, sem=1e-9)))
     large = physical_fit_figure(_with(result, _fit("tilt", "output", 1, sem=2e-4)))
-    (top_small, _), = _pairs(small)
-    (top_large, _), = _pairs(large)
-    assert "bars within symbols" in top_small.get_legend().get_title().get_text()
-    assert "± 1 s.e." in top_large.get_legend().get_title().get_text()
-    assert "within" not in top_large.get_legend().get_title().get_text()
+    ([top_small], _), = _pairs(small)
+    ([top_large], _), = _pairs(large)
+    assert "± 1 s.e. (bars within symbols)" in _legend(top_small)
+    assert "± 1 s.e." in _legend(top_large) and "within" not in _legend(top_large)
 
 
 def test_a_quiet_sensor_steps_the_units_down(result: mc.CalibrationResult) -> None:
@@ -196,7 +207,7 @@ def test_a_quiet_sensor_steps_the_units_down(result: mc.CalibrationResult) -> No
     output = dataclasses.replace(output, measured=output.measured * 1e-3,
                                  fitted=output.fitted * 1e-3, residuals=output.residuals * 1e-3,
                                  offsets=output.offsets * 1e-3, sem=np.full(12, 2e-9))
-    (_, f_bottom), (o_top, o_bottom) = _pairs(physical_fit_figure(_with(result, field,
+    (_, f_bottom), ([o_top], o_bottom) = _pairs(physical_fit_figure(_with(result, field,
                                                                          output)))
     assert f_bottom.get_ylabel() == "residual (µG)"
     assert o_top.get_ylabel().endswith("(µV)") and o_bottom.get_ylabel() == "residual (nV)"
@@ -213,8 +224,8 @@ def test_a_result_without_standard_errors_says_so(result: mc.CalibrationResult) 
     fig = physical_fit_figure(result)
     pairs = _pairs(fig)
     assert len(pairs) == 2
-    for top, _ in pairs:
-        assert "s.e. not kept" in top.get_legend().get_title().get_text()
+    for tops, _ in pairs:
+        assert "s.e. not kept" in _legend(tops[0])
 
 
 def test_fit_figure_and_the_earlier_name_draw_it_in_both_styles(

@@ -22,6 +22,7 @@ the legend says so.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -40,8 +41,9 @@ if TYPE_CHECKING:
 
 F64 = NDArray[np.float64]
 
-#: experiments side by side in one band of the figure (more wrap into further bands)
-COLUMNS = 3
+#: experiments side by side in one band of the figure (more wrap into further bands): on screen,
+#: and on paper (two journal columns wide)
+COLUMNS = {"screen": 3, "paper": 2}
 #: markers of the azimuths of one experiment (the tilt directions)
 MARKERS = ("o", "s", "^", "D", "v", "P")
 #: the units a panel steps down through (name, SI per unit), largest first: an output's and a
@@ -69,7 +71,9 @@ class Panel:
         in the data panel's unit.
     residual, residual_sem : ndarray, shape (a, c)
         measured − fitted and the standard errors in the residual panel's unit.
-    ylabel, residual_label : str
+    ylabels : list of str, length c
+        The data panel's label per component (a field's components each get a panel).
+    residual_label : str
     names : list of str, length c
         The components' names.
     series : ndarray of int, shape (a,)
@@ -81,6 +85,8 @@ class Panel:
     known_sem : bool
         Whether the standard errors are known (a result read back from a ``result.json``
         written before they were kept has none: no bars).
+    measured_label : str
+        The data's legend entry (what was taken off them).
     """
 
     title: str
@@ -91,13 +97,14 @@ class Panel:
     sem: F64
     residual: F64
     residual_sem: F64
-    ylabel: str
+    ylabels: list[str]
     residual_label: str
     names: list[str]
     series: NDArray[np.intp]
     series_names: list[str]
     joined: bool = True
     known_sem: bool = True
+    measured_label: str = "measured"
 
 
 def panel_unit(values: F64, observable: str, start: int = 0) -> tuple[str, float]:
@@ -140,8 +147,9 @@ def experiment_panel(e: ExperimentFit, scale: float) -> Panel:
         shown_measured, shown_fitted = measured - applied - base, fitted - applied - base
         x, joined = rank, False
         xlabel = "applied field, by $B_x$, $B_y$, $B_z$ (rank)"
-        title = f"coil: {name}, {order.size} applied fields ≤ {top:.3g} G"
-        ylabel = "cilium's output − at rest" if output else "cilium's field − at rest"
+        title = f"coil: {name}, {order.size} fields ≤ {top:.3g} G"
+        labels = ["cilium's output"] if output else list(names)
+        measured_label = "cilium's part"
     else:
         phi = np.round(np.degrees(np.mod(e.azimuths, 2 * np.pi)), 6)
         azimuths, series = np.unique(phi, return_inverse=True)
@@ -156,7 +164,8 @@ def experiment_panel(e: ExperimentFit, scale: float) -> Panel:
             x, xlabel, kind = e.loads * 1e3, "tip force (mN)", "tip forces"
         else:
             x, xlabel, kind = np.asarray(e.loads), "flow speed (m/s)", "flow"
-        ylabel = "output − offset" if output else "B − offsets"
+        labels = ["output − offset"] if output else list(names)
+        measured_label = "measured" if output else "measured − offsets"
         what = "output" if output else "3-axis field"
         title = f"{kind}: {name} ({what}, {', '.join(s.split()[1] for s in series_names)})"
     unit, si = panel_unit(np.concatenate([shown_measured, shown_fitted]), e.observable)
@@ -167,80 +176,104 @@ def experiment_panel(e: ExperimentFit, scale: float) -> Panel:
         title=title, x=np.asarray(x, dtype=np.float64), xlabel=xlabel,
         data=shown_measured / si, model=shown_fitted / si, sem=sem / si,
         residual=residual / res_si, residual_sem=sem / res_si,
-        ylabel=f"{ylabel} ({unit})", residual_label=f"residual ({res_unit})",
+        ylabels=[f"{label} ({unit})" for label in labels],
+        residual_label=f"residual ({res_unit})",
         names=names, series=series, series_names=series_names, joined=joined,
-        known_sem=e.sem is not None)
+        known_sem=e.sem is not None, measured_label=measured_label)
 
 
-def _hidden(values: F64, sem: F64) -> bool:
-    """Whether every error bar is shorter than a marker (1.5 % of the data's spread)."""
-    spread = float(np.ptp(values)) if values.size else 0.0
-    return 2.0 * float(np.max(sem, initial=0.0)) < 0.015 * (spread or 1.0)
+def _hidden(values: F64, sem: F64, symbol: float) -> bool:
+    """Whether every error bar is shorter than a marker, ``symbol`` of its component's spread
+    (the paper-mode figure's 1.5 % on a full-height panel)."""
+    for c in range(values.shape[1]):
+        spread = float(np.ptp(values[:, c])) if values.shape[0] else 0.0
+        if 2.0 * float(np.max(sem[:, c], initial=0.0)) >= symbol * (spread or 1.0):
+            return False
+    return True
 
 
-def plot_panel(panel: Panel, ax: Axes, residual_ax: Axes) -> None:
-    """Draw ``panel``: data ± 1 s.e. (colours: the components of a field, or the azimuths of an
-    output on several; markers: the azimuths) and the fitted model (dark lines, or dashes at a
-    coil's conditions) on ``ax``, the residuals ± 1 s.e. on ``residual_ax``."""
+def plot_panel(panel: Panel, data_axes: Sequence[Axes], residual_ax: Axes) -> None:
+    """Draw ``panel``: data ± 1 s.e. and the fitted model (dark lines, or dashes at a coil's
+    conditions) on ``data_axes`` (one, or one per component: a field's components each on their
+    own scale, their labels in their colours), the residuals ± 1 s.e. on ``residual_ax``.
+    Colours are the components (or the azimuths of an output on several), markers the
+    azimuths; the legend (first data axes) names the azimuths and says what the bars are."""
     many = len(panel.series_names) > 1
-    model_label: str | None = "fitted model"
+    single = len(panel.names) == 1
+    note = ("(s.e. not kept in this result)" if not panel.known_sem
+            else "± 1 s.e." + (" (bars within symbols)"
+                               if _hidden(panel.data, panel.sem, 0.015 * len(data_axes))
+                               else ""))
+    labelled: set[int] = set()
     for s in range(max(len(panel.series_names), 1)):
         rows = np.flatnonzero(panel.series == s)
         rows = rows[np.argsort(panel.x[rows], kind="stable")]
-        for c, name in enumerate(panel.names):
-            k = s if len(panel.names) == 1 else c
-            if len(panel.names) > 1:
-                label = (f"{name}, {panel.series_names[s].split()[1]}" if many
-                         else name if s == 0 else None)
-            else:
-                label = panel.series_names[s] if many else "measured"
+        for c in range(len(panel.names)):
+            ax = data_axes[c if len(data_axes) > 1 else 0]
+            k = s if single else c
+            label = None
+            if c == 0:
+                label = panel.series_names[s] if many else f"{panel.measured_label} {note}"
             style = {"fmt": MARKERS[s % len(MARKERS)], "mfc": "white", "mew": 0.9,
                      "elinewidth": 0.9, "color": f"C{k}", "zorder": 3}
             ax.plot(panel.x[rows], panel.model[rows, c], "-" if panel.joined else "_",
-                    color="0.15", lw=0.9, ms=8.0, zorder=4, label=model_label)
-            model_label = None
+                    color="0.15", lw=0.9, ms=8.0, zorder=4,
+                    label=None if id(ax) in labelled else "fitted model")
+            labelled.add(id(ax))
             ax.errorbar(panel.x[rows], panel.data[rows, c], yerr=panel.sem[rows, c],
                         label=label, **style)  # type: ignore[arg-type]
             residual_ax.errorbar(panel.x[rows], panel.residual[rows, c],
                                  yerr=panel.residual_sem[rows, c], **style)  # type: ignore[arg-type]
-    note = ("data (s.e. not kept in this result)" if not panel.known_sem
-            else "data ± 1 s.e." + (", bars within symbols" if _hidden(panel.data, panel.sem)
-                                    else ""))
-    entries = 1 + len(panel.names) * (len(panel.series_names) if many else 1)
-    ax.legend(loc="best", ncols=2 if entries > 2 else 1, fontsize="small",
-              title_fontsize="small", title=note)
-    ax.set_title(panel.title)
-    ax.set_ylabel(panel.ylabel)
-    ax.margins(x=0.03, y=0.12)
-    ax.grid(alpha=0.3)
+    first = data_axes[0]
+    entries = 1 + (len(panel.series_names) if many else 1)
+    # side by side where the entries are short (the azimuths), one a line where they are long
+    ncols = 1 if entries == 1 or (single and not many) or not many else min(entries, 3)
+    if not single and not many:
+        ncols = 2 if len(panel.measured_label) + len(note) < 30 else 1
+    first.legend(loc="best", ncols=ncols, fontsize="small", title_fontsize="small",
+                 title=f"{panel.measured_label} {note}" if many else None)
+    first.set_title(panel.title)
+    for c, ax in enumerate(data_axes):
+        ax.set_ylabel(panel.ylabels[c])
+        if len(data_axes) > 1:
+            ax.yaxis.label.set_color(f"C{c}")
+        ax.margins(x=0.03, y=0.12)
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelbottom=False)
+    # room above the data for the legend (lines of it: a field's first panel is a third as tall)
+    lines = -(-entries // ncols) + (1 if many else 0)
+    low, high = first.get_ylim()
+    first.set_ylim(low, high + (high - low) * lines * (0.09 if len(data_axes) == 1 else 0.45))
     residual_ax.axhline(0.0, color="0.5", lw=0.8, zorder=1)
     residual_ax.set_xlabel(panel.xlabel)
     residual_ax.set_ylabel(panel.residual_label)
     residual_ax.margins(x=0.03, y=0.15)
     residual_ax.grid(alpha=0.3)
-    ax.tick_params(labelbottom=False)
 
 
 def physical_fit_figure(result: CalibrationResult) -> Figure:
     """``fit.png`` of a physical-model calibration: per experiment (a column; more than
-    :data:`COLUMNS` wrap into further bands) its data ± 1 s.e. and the fitted model, and the
-    residuals ± 1 s.e. below (see the module docstring for the units and what each kind
-    shows)."""
-    from magcilia.report.figures import new_figure
-    from magcilia.report.style import current, number
+    :data:`COLUMNS` wrap into further bands) its data ± 1 s.e. and the fitted model (a field's
+    three components each on a panel of their own), and the residuals ± 1 s.e. below, on a
+    shared x axis (see the module docstring for the units and what each kind shows)."""
+    from matplotlib.figure import Figure
+
+    from magcilia.report.style import current, figure_size, number
 
     panels = [experiment_panel(e, result.setup.sensor.scale) for e in result.experiments]
-    bands = -(-len(panels) // COLUMNS)
+    bands = -(-len(panels) // COLUMNS[current()])
     ncols = -(-len(panels) // bands)  # (four experiments: two bands of two)
-    fig, axes = new_figure(ncols=ncols, nrows=2 * bands, size=(4.6, 2.4),
-                           height_ratios=[2.3, 1.0] * bands)
+    fig = Figure(figsize=figure_size(ncols, bands, (4.6, 5.0)), layout="constrained")
+    grid = fig.add_gridspec(4 * bands, ncols, height_ratios=[1.0, 1.0, 1.0, 1.2] * bands)
     for i, panel in enumerate(panels):
-        top, bottom = axes[2 * (i // ncols), i % ncols], axes[2 * (i // ncols) + 1, i % ncols]
-        bottom.sharex(top)
-        plot_panel(panel, top, bottom)
-    for j in range(len(panels), bands * ncols):  # the last band's empty slots
-        axes[2 * (j // ncols), j % ncols].remove()
-        axes[2 * (j // ncols) + 1, j % ncols].remove()
+        row, col = 4 * (i // ncols), i % ncols
+        residual_ax = fig.add_subplot(grid[row + 3, col])
+        if len(panel.names) == 1:
+            data_axes = [fig.add_subplot(grid[row:row + 3, col], sharex=residual_ax)]
+        else:
+            data_axes = [fig.add_subplot(grid[row + c, col], sharex=residual_ax)
+                         for c in range(3)]
+        plot_panel(panel, data_axes, residual_ax)
     if current() == "screen":
         reduced = result.chi2 / result.dof if result.dof > 0 else float("nan")
         fig.suptitle(f"physical model: χ² {number(result.chi2)} for {result.dof} dof "
