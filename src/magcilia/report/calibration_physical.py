@@ -5,7 +5,8 @@ column per experiment, its data with 1 s.e. error bars and the fitted model abov
 Each experiment is shown in the units a lab reads it in (the edge: deg, mN, m/s, mV, gauss):
 
 * a tilt path: the output less its fitted offset (mV), or the three field components less theirs
-  (gauss), vs tilt angle (deg), one series per azimuth;
+  (gauss; each on a panel of its own scale, its label in its colour), vs tilt angle (deg), one
+  series (marker) per azimuth;
 * a load experiment: the same vs tip force (mN) or flow speed (m/s);
 * a coil experiment: the cilium's own part of each reading (the reading less the offsets and
   the applied field as the sensor sees it, relative to the fitted value at the weakest applied
