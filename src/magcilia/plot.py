@@ -7,7 +7,8 @@ magcilia result. matplotlib is imported when a function draws, not at ``import m
 Calibration (the paper's Fig. 8)
     :func:`plot_fit` (measured field with 1 s.e. error bars and the fitted model, gauss; the
     output in mV on the right-hand axis), :func:`plot_residuals`, :func:`plot_initial`;
-    :func:`fit_figure` builds the three as ``magcilia calibrate`` writes them.
+    :func:`fit_figure` builds the three as ``magcilia calibrate`` writes them (of a physical
+    fit: one column per experiment, data ± 1 s.e., model and residuals).
 Field model
     :func:`plot_field_vs_tilt` (B components, gauss), :func:`plot_output_vs_tilt` (mV),
     :func:`field_figure`.

@@ -44,6 +44,10 @@ class ExperimentFit(Display):
         Its loads: tip forces, N, or flow speeds, m/s (the angles are then 0).
     actuation : ndarray, shape (a, 3), or None
         A coil experiment's applied uniform fields, T (the angles are then 0).
+    sem : ndarray, shape of ``measured``, or None
+        The data's standard errors as recorded (V or T; before the fit's floors), the error
+        bars of ``fit.png``; None where unknown (a ``result.json`` written before they were
+        kept).
     """
 
     source: str
@@ -60,6 +64,7 @@ class ExperimentFit(Display):
     load_kind: str | None = None
     loads: F64 | None = None
     actuation: F64 | None = None
+    sem: F64 | None = None
 
     def unit(self) -> str:
         """The SI unit of the data ("V" or "T")."""
@@ -105,7 +110,8 @@ class ExperimentFit(Display):
                 **({} if self.loads is None else {
                     "force_N" if self.load_kind == "force" else "speed_m_per_s":
                         self.loads.tolist()}),
-                **({} if self.actuation is None else {"actuation_T": self.actuation.tolist()})}
+                **({} if self.actuation is None else {"actuation_T": self.actuation.tolist()}),
+                **({} if self.sem is None else {f"sem_{u}": self.sem.tolist()})}
 
     @classmethod
     def from_dict(cls, doc: Mapping[str, Any]) -> ExperimentFit:
@@ -125,4 +131,5 @@ class ExperimentFit(Display):
                    values=int(doc["values"]), load_kind=kind,
                    loads=None if loads is None else np.asarray(loads, dtype=np.float64),
                    actuation=(None if doc.get("actuation_T") is None
-                              else np.asarray(doc["actuation_T"], dtype=np.float64)))
+                              else np.asarray(doc["actuation_T"], dtype=np.float64)),
+                   sem=None if doc.get(f"sem_{u}") is None else arr(f"sem_{u}"))

@@ -234,7 +234,8 @@ def joint_result(problem: Problem, layout: PhysicalLayout, initial: Setup,
             chi2=float(weighted @ weighted), values=int(problem.y[rows].size),
             load_kind=e.load_kind,
             loads=None if e.loads is None else np.asarray(e.loads),
-            actuation=None if e.actuation is None else np.asarray(e.actuation)))
+            actuation=None if e.actuation is None else np.asarray(e.actuation),
+            sem=np.asarray(e.sem if e.field_sem is None else e.field_sem, dtype=np.float64)))
     notes: list[CalibrationWarning] = list(at_bound(
         {n: values[n] for n in problem.names}, {n: box[n] for n in problem.names},
         frozenset(n for w in found if w.kind == "undetermined" for n in w.parameters)))

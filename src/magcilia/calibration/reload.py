@@ -142,4 +142,4 @@ def path_fit(data: Measurement, residuals: np.ndarray, coef: np.ndarray) -> Expe
         azimuths=np.asarray(data.azimuths), measured=np.asarray(data.volts),
         fitted=np.asarray(data.volts) - r, residuals=r, offsets=coef[:1].copy(),
         rms=math.sqrt(float(np.mean(r ** 2))) if r.size else math.nan,
-        chi2=float(r @ r), values=int(r.size))
+        chi2=float(r @ r), values=int(r.size), sem=np.asarray(data.sem, dtype=np.float64))

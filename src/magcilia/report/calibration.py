@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
+from magcilia._errors import MagciliaError
 from magcilia.calibration import CalibrationResult
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
@@ -24,7 +25,6 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from magcilia.calibration.experiment_fit import ExperimentFit
     from magcilia.report.figure_process import FigureWriter
 
 
@@ -166,8 +166,12 @@ def plot_residuals(result: CalibrationResult, ax: Axes | None = None) -> Axes:
 def fit_figure(result: CalibrationResult) -> Figure:
     """``fit.png``: Fig. 8 (:func:`plot_fit`), the residuals with their error bars
     (:func:`plot_residuals`) and the initial model on its own panel (:func:`plot_initial`), one
-    above the other on a shared angle axis."""
+    above the other on a shared angle axis; of a physical fit :func:`joint_fit_figure` (one
+    column per experiment)."""
     from magcilia.report.figures import new_figure
+
+    if result.model != "paper":
+        return joint_fit_figure(result)
     from magcilia.report.style import current, number
 
     fig, axes = new_figure(nrows=3, size=(6.4, 2.3), sharex=True, height_ratios=(2.4, 1.0, 1.1))
@@ -338,11 +342,11 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
     figures (``report.md`` then links none). ``data``: the measurements fitted (what the
     readers said of them goes into ``result.json`` and ``report.md``; default a paper fit's
     tilt path); ``comparison``: the paper's model beside a physical fit
-    (:func:`model_comparison`); ``writer``: a paper fit's figures drawn by it (see
-    :func:`write_report`; call its ``wait()`` before publishing the folder)."""
+    (:func:`model_comparison`); ``writer``: the figures drawn by it (see :func:`write_report`;
+    call its ``wait()`` before publishing the folder)."""
     if result.model != "paper":
         _write_joint_files(result, directory, style, comparison, () if data is None else data,
-                           figures)
+                           figures, writer)
         return
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
@@ -372,79 +376,23 @@ def write_calibration(result: CalibrationResult, directory: str | Path, *,
 
 # --- joint calibration (model="physical", several experiments) -----------------------------------
 def joint_fit_figure(result: CalibrationResult) -> Figure:
-    """``fit.png`` of a joint calibration: one panel per experiment, the measured values (output in
-    mV less its offset; field components in µT less their offsets) and the fitted model vs tilt
-    angle (deg), tip force (mN) or flow speed (m/s); one curve per azimuth (line styles named in
-    the title)."""
-    from magcilia.report.figures import new_figure
+    """``fit.png`` of a joint calibration:
+    :func:`~magcilia.report.calibration_physical.physical_fit_figure` (one column per experiment,
+    data ± 1 s.e., the fitted model and the residuals)."""
+    from magcilia.report.calibration_physical import physical_fit_figure
 
-    fig, axes = new_figure(nrows=len(result.experiments), size=(6.4, 2.6))
-    for ax, e in zip(axes[:, 0], result.experiments, strict=True):
-        if e.actuation is not None:
-            _coil_panel(ax, e, result.setup.sensor.scale)
-            continue
-        if e.loads is None:
-            x, xlabel = np.degrees(e.angles), "tilt angle (deg)"
-        elif e.load_kind == "force":
-            x, xlabel = e.loads * 1e3, "tip force (mN)"
-        else:
-            x, xlabel = e.loads, "flow speed (m/s)"
-        if e.observable == "output":
-            measured = ((e.measured - e.offsets[0]) * 1e3)[:, None]
-            fitted = ((e.fitted - e.offsets[0]) * 1e3)[:, None]
-            names, ylabel = ["output"], "output − offset (mV)"
-        else:
-            measured = (e.measured - e.offsets) * 1e6
-            fitted = (e.fitted - e.offsets) * 1e6
-            names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "B − offset (µT)"
-        azimuths = np.unique(e.azimuths)
-        styles = ("solid", "dashed", "dotted", "dashdot")
-        for k, phi in enumerate(azimuths):  # one curve per tilt direction, never joined
-            rows = np.flatnonzero(e.azimuths == phi)
-            rows = rows[np.argsort(x[rows], kind="stable")]
-            for c, name in enumerate(names):
-                ax.plot(x[rows], measured[rows, c], "o", ms=3, color=f"C{c}",
-                        label=name if k == 0 else None)
-                ax.plot(x[rows], fitted[rows, c], ls=styles[k % 4], color=f"C{c}")
-        az = ", ".join(f"{np.degrees(phi):.3g}°" + (f" {styles[k % 4]}" if len(azimuths) > 1
-                                                     else "")
-                       for k, phi in enumerate(azimuths))
-        ax.set_title(f"{Path(e.source).name}: azimuth {az}", fontsize="small")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.margins(y=0.2)
-        ax.legend(fontsize="x-small", loc="best", ncols=len(names))
+    return physical_fit_figure(result)
+
+
+def pairs_figure(result: CalibrationResult) -> Figure:
+    """``pairs.png``: the posterior's corner plot (:func:`~magcilia.report.posterior.plot_pairs`)
+    of a physical fit sampled with ``posterior=True``."""
+    from magcilia.report.posterior import plot_pairs
+
+    if result.posterior is None:
+        raise MagciliaError("this calibration has no posterior: fit with posterior=True")
+    fig: Figure = plot_pairs(result.posterior)[0, 0].get_figure()
     return fig
-
-
-def _coil_panel(ax: Axes, e: ExperimentFit, scale: float) -> None:
-    """A coil experiment's panel: the change of the cilium's own part of each reading as it
-    bends (the measured and the fitted value less the offsets, the applied field as the sensor
-    sees it (``scale`` V/T times B_x for an output) and the fitted value at the weakest applied
-    field, the cilium at rest) per condition, conditions ordered by the applied field."""
-    assert e.actuation is not None
-    order = np.lexsort(e.actuation.T[::-1])
-    x = np.arange(order.size)
-    if e.observable == "output":
-        seen = (scale * e.actuation[:, 0])[:, None]
-        measured = (e.measured[:, None] - e.offsets[0] - seen) * 1e3
-        fitted = (e.fitted[:, None] - e.offsets[0] - seen) * 1e3
-        names, ylabel = ["output"], "cilium's output change (mV)"
-    else:
-        measured = (e.measured - e.offsets - e.actuation) * 1e6
-        fitted = (e.fitted - e.offsets - e.actuation) * 1e6
-        names, ylabel = ["$B_x$", "$B_y$", "$B_z$"], "cilium's field change (µT)"
-    rest = fitted[int(np.argmin(np.linalg.norm(e.actuation, axis=1)))]  # the weakest field's
-    for c, name in enumerate(names):
-        ax.plot(x, measured[order, c] - rest[c], "o", ms=3, color=f"C{c}", label=name)
-        ax.plot(x, fitted[order, c] - rest[c], "-", lw=0.8, color=f"C{c}")
-    top = float(np.max(np.linalg.norm(e.actuation, axis=1))) * 1e4
-    ax.set_title(f"{Path(e.source).name}: coil, {x.size} applied fields up to {top:.3g} G "
-                 "(points measured, lines fitted)", fontsize="small")
-    ax.set_xlabel("coil condition (ordered by applied B_x, B_y, B_z)")
-    ax.set_ylabel(ylabel)
-    ax.margins(y=0.2)
-    ax.legend(fontsize="x-small", loc="best", ncols=len(names))
 
 
 def model_comparison(paper: CalibrationResult, physical: CalibrationResult) -> str:
@@ -498,12 +446,11 @@ def write_joint_calibration_files(result: CalibrationResult, directory: str | Pa
 
 def _write_joint_files(result: CalibrationResult, directory: str | Path, style: str,
                        comparison: str | None, data: Sequence[Measurement],
-                       figures: bool) -> None:
+                       figures: bool, writer: FigureWriter | None = None) -> None:
     """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
     posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a physical fit into
-    ``directory``; with ``data`` (the measurements fitted) what the readers said of them."""
-    from magcilia.report import style as st
-
+    ``directory``; with ``data`` (the measurements fitted) what the readers said of them; the
+    figures drawn by ``writer`` when given (:func:`write_report`)."""
     folder = Path(directory)
     save_setup(result.setup, folder / "fitted_setup.toml")
     doc = result.to_dict()
@@ -511,16 +458,17 @@ def _write_joint_files(result: CalibrationResult, directory: str | Path, style: 
     if data:
         doc["data"] = data_doc(data)
     write_json(folder / "result.json", doc)
-    with st.use(style):
-        drawn = {"fit": joint_fit_figure(result)} if figures else {}
-        if result.posterior is not None and figures:
-            from magcilia.report.posterior import plot_pairs
-
-            drawn["pairs"] = plot_pairs(result.posterior)[0, 0].get_figure()
-        for name, fig in drawn.items():
-            save_figure(fig, folder / f"{name}.png", dpi=st.dpi())
-            if style == "paper":
-                save_figure(fig, folder / f"{name}.pdf")
+    builds: dict[str, Callable[[CalibrationResult], Figure]] = (
+        {"fit": joint_fit_figure} if figures else {})
+    if figures and result.posterior is not None:
+        builds["pairs"] = pairs_figure
+    for name, build in builds.items():
+        targets = [folder / f"{name}.png", *([folder / f"{name}.pdf"] if style == "paper"
+                                             else [])]
+        if writer is None:
+            draw_figure(build, result, targets, style)
+        else:
+            writer.submit(draw_figure, build, result, targets, style)
     write_text(folder / "report.md", joint_markdown_summary(result, comparison, data))
 
 
