@@ -391,7 +391,13 @@ class Measurement(Display):
         error) for the single-axis output, or ``field_x_T``, ``field_y_T``, ``field_z_T`` and
         ``sem_field_x_T``, ``sem_field_y_T``, ``sem_field_z_T`` for 3-axis field data, then
         ``count``, ``saturated``, ``nonfinite`` (samples per condition); a load experiment has
-        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``."""
+        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``, a coil experiment
+        ``actuation_x_T``, ``actuation_y_T``, ``actuation_z_T``."""
+        return dataframe(self.columns())
+
+    def columns(self) -> dict[str, Any]:
+        """The columns of :meth:`to_dataframe` and :meth:`to_xarray` by name (SI, the unit in
+        the name), each shape (a,)."""
         if self.fields is not None and self.field_sem is not None:
             values = {**{k: self.fields[:, j] for j, k in enumerate(FIELD_KEYS)},
                       **{f"sem_{k}": self.field_sem[:, j] for j, k in enumerate(FIELD_KEYS)}}
@@ -401,6 +407,15 @@ class Measurement(Display):
         loads.update({} if self.speeds is None else {"speed_m_per_s": self.speeds})
         if self.actuation is not None:
             loads.update({k: self.actuation[:, j] for j, k in enumerate(ACTUATION_KEYS)})
-        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
-                          "count": self.counts, "saturated": self.saturated,
-                          "nonfinite": self.nonfinite})
+        return {"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
+                "count": self.counts, "saturated": self.saturated, "nonfinite": self.nonfinite}
+
+    def to_xarray(self) -> Any:
+        """The reduced measurements as an ``xarray.Dataset`` along ``condition``: the columns of
+        :meth:`to_dataframe` as variables with ``units`` attributes (SI), the condition (angle,
+        azimuth, load or applied field) as coordinates, ``source``, ``set_reset``, the
+        :meth:`notes` (one per line) and the ``metadata`` (JSON) as attributes. Needs xarray
+        (the ``export`` extra; one line without it)."""
+        from magcilia.io.export_xarray import measurement_dataset
+
+        return measurement_dataset(self)

@@ -1,0 +1,51 @@
+"""``magcilia export``: a recording out to CSV, MATLAB, HDF5 or NetCDF."""
+
+from __future__ import annotations
+
+import click
+
+from magcilia.cli._common import RecordingArgs, echo_json, recording_options
+from magcilia.io.export import FORMATS, MAT_VERSIONS, export, export_format
+
+
+@click.command()
+@click.argument("recording", type=click.Path(dir_okay=False))
+@click.option("--to", "to", type=click.Choice(list(FORMATS)), default=None,
+              help="The format: csv, mat (MATLAB), h5 (HDF5) or nc (NetCDF) [default: from the "
+                   "suffix of --out: .csv, .mat, .h5/.hdf5, .nc].")
+@click.option("--out", "out", required=True, type=click.Path(dir_okay=False), metavar="FILE",
+              help="The file to write (an existing one only with --force).")
+@click.option("--force", is_flag=True, help="Replace an existing --out file.")
+@click.option("--mat-version", type=click.Choice(list(MAT_VERSIONS)), default=None,
+              help="MATLAB version: 5 (SciPy) or 7.3 (HDF5, needs h5py) [default: 5, 7.3 "
+                   "above v5's 2 GB].")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print what was written as JSON (file, format, samples, channels and units).")
+@recording_options
+def command(recording: str, to: str | None, out: str, force: bool, mat_version: str | None,
+            as_json: bool, reading: RecordingArgs) -> None:
+    """Export RECORDING (CSV, .mat, .tdms, .h5) to CSV, MATLAB, HDF5 or NetCDF for other tools.
+
+    Every channel with its unit (SI, as the readers return them: deg, V, s, T, N, m/s, K), the
+    stored setup, the notes on the file (a recording cut short) and a live recording's read-out
+    values and events. CSV: units in the header names, metadata in '#' JSON lines before the
+    header. MATLAB: one column vector per channel and the structs units, metadata (char
+    arrays), tables. HDF5: datasets with a units attribute, the metadata as attributes, a group
+    per further table. NetCDF (xarray, h5netcdf): variables along 'sample' with units, the
+    metadata as attributes. The file is written atomically.
+
+    Example: magcilia export run.tdms --out run.mat
+    """
+    kwargs = reading.kwargs()
+    data = export(recording, out, to, mat_version=mat_version, overwrite=force, **kwargs)
+    if as_json:
+        echo_json({"file": out, "format": export_format(out, to),
+                   "samples": data.samples, "units": data.units,
+                   "tables": {k: list(t) for k, t in data.tables.items()},
+                   "notes": data.metadata.get("notes", [])})
+        return
+    tables = f", tables {', '.join(data.tables)}" if data.tables else ""
+    click.echo(f"wrote {out} ({data.samples:,} samples; channels "
+               f"{', '.join(data.columns)}{tables})")
+    for note in data.metadata.get("notes", []):
+        click.echo(f"note: {note}")
