@@ -16,7 +16,8 @@ import magcilia as mc
 from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia.cli import main
 from magcilia.io import export_formats
-from magcilia.io.export import export, gather, matlab_names
+from magcilia.io.export import export, gather
+from magcilia.io.export_data import matlab_names
 from magcilia.io.recording_file import RecordingWriter
 from magcilia.io.recordings import read_recording
 from magcilia.io.setup_files import setup_to_dict
@@ -240,7 +241,7 @@ def test_a_failed_write_leaves_no_file(recording: Path, tmp_path: Path,
     writer = export_formats.WRITERS["h5"]
     monkeypatch.setitem(export_formats.WRITERS, "h5",
                         export_formats.Writer(broken, writer.check, hdf5=True))
-    with pytest.raises(MagciliaError, match="cannot write .*No space left"):
+    with pytest.raises(MagciliaError, match=r"cannot write .*No space left"):
         export(recording, old, overwrite=True)
     with pytest.raises(MagciliaError, match="cannot write"):
         export(recording, tmp_path / "new.h5")

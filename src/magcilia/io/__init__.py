@@ -31,7 +31,8 @@ if TYPE_CHECKING:
     from magcilia.io import presets
     from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
     from magcilia.io.columns import Columns
-    from magcilia.io.export import RecordingExport, export
+    from magcilia.io.export import export
+    from magcilia.io.export_data import RecordingExport
     from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
     from magcilia.io.quality import RecordingQuality
     from magcilia.io.recording_file import RecordingWriter, recording_properties

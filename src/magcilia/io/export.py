@@ -49,9 +49,7 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -62,7 +60,9 @@ from magcilia import _validate as v
 from magcilia._atomic import _exists_message, jsonable, partial_file
 from magcilia._errors import MagciliaError
 from magcilia._validate import printable
-from magcilia.io.columns import KEY_ROLE, ROLES, Columns
+from magcilia.io import export_formats
+from magcilia.io.columns import ROLES, Columns
+from magcilia.io.export_data import RecordingExport, unit_of
 from magcilia.io.recording_state import RecordingState
 from magcilia.io.recordings import MAX_SAMPLES, read_recording
 
@@ -73,84 +73,8 @@ FORMATS: dict[str, tuple[str, ...]] = {"csv": (".csv",), "mat": (".mat",),
                                        "h5": (".h5", ".hdf5"), "nc": (".nc",)}
 #: MATLAB versions :func:`export` writes
 MAT_VERSIONS = ("5", "7.3")
-#: the unit of a dimensionless channel (``setreset``), as CF conventions spell it
-DIMENSIONLESS = "1"
 #: TDMS groups that are not tables of the recording (the chunk checksums)
 _SKIPPED_GROUPS = ("checksums",)
-_MATLAB_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,62}$")
-
-
-@dataclass(frozen=True)
-class RecordingExport:
-    """What an export writes: a recording's samples, its further tables and its metadata.
-
-    Attributes
-    ----------
-    source : str
-        The recording file read.
-    columns : dict of str to ndarray, each shape (s,)
-        The samples by channel name (the readers' names: ``angle_deg``, ``voltage_V``, …, SI as
-        the names say).
-    units : dict of str to str
-        The unit of each channel of ``columns`` (``"1"``: dimensionless; ``""``: not known).
-    tables : dict of str to dict of str to ndarray
-        Further tables (a TDMS recording's groups other than ``recording``), each by channel,
-        each channel shape (m,) (the lengths may differ between tables).
-    table_units : dict of str to dict of str to str
-        The unit of each further table's channels (``""`` where the file names none).
-    metadata : dict
-        JSON-ready: ``source``, ``notes`` (list of one-line notes), ``state``
-        (:meth:`~magcilia.io.recording_state.RecordingState.to_dict`), ``properties`` (the
-        file's stored properties: ``setup`` among them for magcilia's recordings).
-    """
-
-    source: str
-    columns: dict[str, F64]
-    units: dict[str, str]
-    tables: dict[str, dict[str, F64]] = field(default_factory=dict)
-    table_units: dict[str, dict[str, str]] = field(default_factory=dict)
-    metadata: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def samples(self) -> int:
-        """Number of samples (rows of ``columns``)."""
-        return max((a.size for a in self.columns.values()), default=0)
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes of numbers the export holds (columns and tables)."""
-        return (sum(a.nbytes for a in self.columns.values())
-                + sum(a.nbytes for t in self.tables.values() for a in t.values()))
-
-    def setup(self) -> Any:
-        """The stored setup (a JSON-ready dict), or None where the file keeps none."""
-        return self.metadata.get("properties", {}).get("setup")
-
-    def attributes(self) -> dict[str, str]:
-        """The metadata as text attributes (HDF5, NetCDF, MATLAB char arrays): ``source``,
-        ``notes`` (one per line), ``state``, ``properties`` and ``setup`` (JSON text; ``setup``
-        only where stored), ``exported_by``."""
-        from magcilia._version import __version__
-
-        meta = self.metadata
-        out = {"source": self.source, "notes": "\n".join(meta.get("notes", [])),
-               "state": json.dumps(meta.get("state", {})),
-               "properties": json.dumps(meta.get("properties", {})),
-               "exported_by": f"magcilia {__version__}"}
-        if self.setup() is not None:
-            out["setup"] = json.dumps(self.setup())
-        if meta.get("renamed"):
-            out["renamed"] = json.dumps(meta["renamed"])
-        return out
-
-
-def unit_of(key: str) -> str:
-    """The unit of a reader's column (``voltage_V`` → ``"V"``; ``setreset`` → ``"1"``)."""
-    role = KEY_ROLE.get(key)
-    if role is None:
-        return ""
-    unit = ROLES[role][2]
-    return DIMENSIONLESS if unit is None else unit
 
 
 def _property(value: Any) -> Any:
@@ -271,25 +195,6 @@ def export_format(path: str | os.PathLike[str], to: str | None = None) -> str:
                  + ", or the format given (--to csv|mat|h5|nc)")
 
 
-def matlab_names(names: list[str] | tuple[str, ...]) -> dict[str, str]:
-    """Each name as a MATLAB variable or field name (letters, digits, ``_``, a letter first,
-    ≤ 63 characters), distinct: ``c1.x`` → ``c1_x``."""
-    out: dict[str, str] = {}
-    taken: set[str] = set()
-    for name in names:
-        new = name if _MATLAB_NAME.match(name) else re.sub(r"\W", "_", name, flags=re.ASCII)
-        if not new[:1].isalpha() or not new.isascii():
-            new = "x_" + new
-        new = new[:63]
-        base, k = new, 1
-        while new in taken:
-            k += 1
-            new = f"{base[:60]}_{k}"
-        taken.add(new)
-        out[name] = new
-    return out
-
-
 def export(recording: str | os.PathLike[str], path: str | os.PathLike[str],
            format: str | None = None, *, mat_version: str | None = None,
            overwrite: bool = False,
@@ -335,8 +240,6 @@ def export(recording: str | os.PathLike[str], path: str | os.PathLike[str],
     >>> mc.export(mc.example_path(), out).units["voltage_V"]
     'V'
     """
-    from magcilia.io import export_formats
-
     kind = export_format(path, format)
     version = None if mat_version is None else v.choice("mat_version", str(mat_version),
                                                         MAT_VERSIONS)

@@ -1,6 +1,6 @@
 """The writers of :func:`magcilia.io.export.export`: CSV, MATLAB v5 and v7.3, HDF5, NetCDF.
 
-Each takes a :class:`~magcilia.io.export.RecordingExport` and a path (the temporary file that
+Each takes a :class:`~magcilia.io.export_data.RecordingExport` and a path (the temporary file that
 :mod:`magcilia._atomic` renames into place); :data:`WRITERS` names them by format.
 
 MATLAB v7.3 is HDF5 behind a 512-byte user block that starts with MATLAB's text header
@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia._errors import require
-from magcilia.io.export import RecordingExport, matlab_names
+from magcilia.io.export_data import RecordingExport, matlab_names
 from magcilia.io.export_xarray import dataset, xarray_module
 
 F64 = NDArray[np.float64]

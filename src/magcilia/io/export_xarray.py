@@ -13,27 +13,13 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from magcilia._atomic import jsonable
 from magcilia._errors import require
-
-if TYPE_CHECKING:
-    from magcilia.io.measurement import Measurement
-
-#: the unit of each column of :meth:`Measurement.columns` (counts: dimensionless)
-MEASUREMENT_UNITS = {"angle_rad": "rad", "azimuth_rad": "rad", "force_N": "N",
-                     "speed_m_per_s": "m/s", "actuation_x_T": "T", "actuation_y_T": "T",
-                     "actuation_z_T": "T", "output_V": "V", "sem_V": "V", "field_x_T": "T",
-                     "field_y_T": "T", "field_z_T": "T", "sem_field_x_T": "T",
-                     "sem_field_y_T": "T", "sem_field_z_T": "T", "count": "1", "saturated": "1",
-                     "nonfinite": "1"}
-#: the columns of a measurement that say the condition (coordinates along ``condition``)
-CONDITION_COLUMNS = ("angle_rad", "azimuth_rad", "force_N", "speed_m_per_s", "actuation_x_T",
-                     "actuation_y_T", "actuation_z_T")
 
 
 def xarray_module(purpose: str = "An xarray view") -> Any:
@@ -89,9 +75,3 @@ def dataset(variables: Mapping[str, ArrayLike], units: Mapping[str, str], *,
                       coords={k: made[k] for k in coords if k in made},
                       attrs={k: attribute(x) for k, x in (attrs or {}).items()})
 
-
-def measurement_dataset(m: Measurement) -> Any:
-    """:meth:`Measurement.to_xarray`: the conditions along ``condition``."""
-    return dataset(m.columns(), MEASUREMENT_UNITS, dim="condition", coords=CONDITION_COLUMNS,
-                   attrs={"source": m.source, "set_reset": m.set_reset,
-                          "notes": "\n".join(m.notes()), "metadata": dict(m.metadata)})

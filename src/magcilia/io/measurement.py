@@ -24,6 +24,13 @@ from magcilia.io.columns import ACTUATION_KEYS, FIELD_KEYS
 from magcilia.io.quality import RecordingQuality
 
 F64 = NDArray[np.float64]
+#: the unit of each column of :meth:`Measurement.columns` (counts: dimensionless, ``"1"``)
+COLUMN_UNITS = {"angle_rad": "rad", "azimuth_rad": "rad", "force_N": "N", "speed_m_per_s": "m/s",
+                **dict.fromkeys(ACTUATION_KEYS, "T"), "output_V": "V", "sem_V": "V",
+                **dict.fromkeys(FIELD_KEYS, "T"), **{f"sem_{k}": "T" for k in FIELD_KEYS},
+                "count": "1", "saturated": "1", "nonfinite": "1"}
+#: the columns that say the condition (coordinates of :meth:`Measurement.to_xarray`)
+CONDITION_COLUMNS = ("angle_rad", "azimuth_rad", "force_N", "speed_m_per_s", *ACTUATION_KEYS)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -416,6 +423,8 @@ class Measurement(Display):
         azimuth, load or applied field) as coordinates, ``source``, ``set_reset``, the
         :meth:`notes` (one per line) and the ``metadata`` (JSON) as attributes. Needs xarray
         (the ``export`` extra; one line without it)."""
-        from magcilia.io.export_xarray import measurement_dataset
+        from magcilia.io.export_xarray import dataset
 
-        return measurement_dataset(self)
+        return dataset(self.columns(), COLUMN_UNITS, dim="condition", coords=CONDITION_COLUMNS,
+                       attrs={"source": self.source, "set_reset": self.set_reset,
+                              "notes": "\n".join(self.notes()), "metadata": dict(self.metadata)})
