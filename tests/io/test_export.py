@@ -169,12 +169,13 @@ def test_csv_names_units_in_the_header_and_keeps_the_metadata(recording: Path,
     lines = out.read_text(encoding="utf-8").splitlines()
     meta = json.loads(lines[0].removeprefix("# magcilia-export: "))
     table = json.loads(lines[1].removeprefix("# magcilia-table: "))
-    assert lines[2] == "angle_deg,voltage_V,time_s,setreset,temperature_K,c1.x"
-    assert lines[3].split(",")[3] == "1" and lines[4].split(",")[3] == "-1"
+    assert lines[2:4] == ["# events: 0.004,1.0", "# events: 0.02,2.0"]
+    assert lines[4] == "angle_deg,voltage_V,time_s,setreset,temperature_K,c1.x"
+    assert lines[5].split(",")[3] == "1" and lines[6].split(",")[3] == "-1"
     assert meta["units"]["voltage_V"] == "V"
     assert meta["properties"]["setup"]["sensor"]["preset"] == "HMC1021Z"
-    assert table == {"table": "events", "units": {"event_time_s": "s", "event_code": ""},
-                     "columns": {"event_time_s": [0.004, 0.02], "event_code": [1.0, 2.0]}}
+    assert table == {"table": "events", "columns": ["event_time_s", "event_code"], "rows": 2,
+                     "units": {"event_time_s": "s", "event_code": ""}}
 
 
 def test_other_formats_in_and_a_mapped_csv(tmp_path: Path) -> None:

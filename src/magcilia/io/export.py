@@ -22,9 +22,11 @@ Per format (:data:`FORMATS`; the format from the suffix unless given):
 
 - **CSV** (``.csv``): one header line of the readers' names (units in the names, as every CSV
   of the project: ``angle_deg,voltage_V,time_s``), one row per sample, numbers as the shortest
-  text that reads back as the same float; the metadata and further tables before the header as
-  ``#`` comment lines holding JSON (``# magcilia-export: {...}``), which every reader of the
-  project skips (so the file reads back with :func:`magcilia.io.read_samples`).
+  text that reads back as the same float; before the header, as ``#`` comment lines that every
+  reader of the project skips (so the file reads back with :func:`magcilia.io.read_samples`): the
+  metadata as one JSON line (``# magcilia-export: {...}``), and each further table as a JSON
+  line (``# magcilia-table: {"table": ..., "columns": [...], "rows": m, "units": {...}}``)
+  followed by its rows (``# readout: v1,v2,...``).
 - **MATLAB** (``.mat``): one column vector per channel (a name MATLAB does not take, such as
   ``c1.x``, becomes ``c1_x``; ``metadata.renamed`` says so), a struct ``units`` (channel → unit
   text), a struct ``metadata`` of char arrays (``source``, ``notes`` one per line, ``state``,

@@ -48,20 +48,26 @@ def _texts(values: F64, key: str) -> NDArray[np.str_]:
 
 
 def write_csv(data: RecordingExport, path: Path) -> None:
-    """The samples as CSV, metadata and further tables as ``#`` JSON lines before the header."""
+    """The samples as CSV; before the header, as ``#`` lines: the metadata (one JSON line), and
+    each further table as a JSON line naming its columns, rows and units followed by one line per
+    row (``# NAME: v1,v2,…``; every line stays short, within the readers' line limit)."""
     meta = {**data.metadata, "units": data.units,
             "exported_by": data.attributes()["exported_by"]}
     with path.open("w", encoding="utf-8", newline="\n") as fh:
         fh.write(f"# magcilia-export: {json.dumps(meta)}\n")
-        for name, table in data.tables.items():
-            doc = {"table": name, "units": data.table_units.get(name, {}),
-                   "columns": {k: a.tolist() for k, a in table.items()}}
+        for name, table in data.tables.items():  # a header, then one comment line per row
+            names = list(table)
+            m = max((a.size for a in table.values()), default=0)
+            doc = {"table": name, "columns": names, "rows": m,
+                   "units": data.table_units.get(name, {})}
             fh.write(f"# magcilia-table: {json.dumps(doc)}\n")
-        names = list(data.columns)
-        fh.write(",".join(names) + "\n")
-        n = data.samples
-        for start in range(0, n, CSV_BLOCK):
-            cols = [_texts(data.columns[k][start:start + CSV_BLOCK], k) for k in names]
+            cols = [_texts(np.pad(table[k], (0, m - table[k].size), constant_values=np.nan), k)
+                    for k in names]
+            fh.write("".join(f"# {name}: " + ",".join(row) + "\n"
+                             for row in zip(*cols, strict=True)))
+        fh.write(",".join(data.columns) + "\n")
+        for start in range(0, data.samples, CSV_BLOCK):
+            cols = [_texts(a[start:start + CSV_BLOCK], k) for k, a in data.columns.items()]
             fh.write("".join(",".join(row) + "\n" for row in zip(*cols, strict=True)))
 
 
