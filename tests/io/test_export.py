@@ -216,7 +216,10 @@ def test_existing_output_is_kept_byte_identical_without_force(
     assert err.count("\n") == 1 and "exists; pass --force to replace it" in err
     assert out.read_bytes() == b"a colleague's file"
     assert main(["export", str(recording), "--out", str(out), "--force"]) == 0
-    assert "wrote" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert printed.startswith(f"wrote {out} ({N} samples; channels angle_deg [deg], voltage_V "
+                              "[V], time_s [s], setreset [1], temperature_K [K], c1.x; tables "
+                              "events)\nnote: the recording is incomplete")
     assert _samples(out)["voltage_V"].tolist() == VOLTS.tolist()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mat", "run.tdms"]
 
@@ -282,7 +285,8 @@ def test_cli_json(recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["export", str(recording), "--out", str(tmp_path / "r.hdf5"), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["format"] == "h5" and doc["samples"] == N and doc["units"]["voltage_V"] == "V"
-    assert doc["tables"] == {"events": ["event_time_s", "event_code"]}
+    assert doc["tables"] == {"events": {"event_time_s": "s", "event_code": ""}}
+    assert doc["metadata"]["properties"]["setup"]["sensor"]["preset"] == "HMC1021Z"
 
 
 # -- xarray views ---------------------------------------------------------------------------------
@@ -309,20 +313,6 @@ def test_load_measurement_to_xarray_has_the_load_as_coordinate(tmp_path: Path) -
     ds = mc.read_measurements(src).to_xarray()
     assert "force_N" in ds.coords and ds["force_N"].attrs["units"] == "N"
     np.testing.assert_allclose(ds["force_N"].values, [0.0, 1e-4, 2e-4])
-
-
-def test_readout_result_to_xarray() -> None:
-    pytest.importorskip("xarray")
-    setup = mc.presets.load("paper")
-    readout = mc.Readout(setup, "angle", (-0.6, 0.6))
-    result = readout.read(np.array([0.0051, 0.0049, 0.0047]))
-    ds = result.to_xarray(time_s=[0.0, 0.1, 0.2])
-    assert "time_s" in ds.coords and ds["time_s"].attrs["units"] == "s"
-    np.testing.assert_array_equal(ds["angle_rad"].values, result.value)
-    assert ds["sigma_rad"].attrs["units"] == "rad" and ds.attrs["quantity"] == "angle"
-    np.testing.assert_array_equal(ds["flags"].values, result.flags)
-    with pytest.raises(MagciliaError, match="time_s must be one time per reading"):
-        result.to_xarray(time_s=[0.0])
 
 
 def test_without_xarray_one_line_names_the_extra(recording: Path, tmp_path: Path,

@@ -20,7 +20,8 @@ from magcilia.io.export import FORMATS, MAT_VERSIONS, export, export_format
               help="MATLAB version: 5 (SciPy) or 7.3 (HDF5, needs h5py) [default: 5, 7.3 "
                    "above v5's 2 GB].")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print what was written as JSON (file, format, samples, channels and units).")
+              help="Print what was written as JSON (file, format, samples, channels and their "
+                   "units, tables, metadata).")
 @recording_options
 def command(recording: str, to: str | None, out: str, force: bool, mat_version: str | None,
             as_json: bool, reading: RecordingArgs) -> None:
@@ -39,13 +40,8 @@ def command(recording: str, to: str | None, out: str, force: bool, mat_version: 
     kwargs = reading.kwargs()
     data = export(recording, out, to, mat_version=mat_version, overwrite=force, **kwargs)
     if as_json:
-        echo_json({"file": out, "format": export_format(out, to),
-                   "samples": data.samples, "units": data.units,
-                   "tables": {k: list(t) for k, t in data.tables.items()},
-                   "notes": data.metadata.get("notes", [])})
+        echo_json({"file": out, "format": export_format(out, to), **data.to_dict()})
         return
-    tables = f", tables {', '.join(data.tables)}" if data.tables else ""
-    click.echo(f"wrote {out} ({data.samples:,} samples; channels "
-               f"{', '.join(data.columns)}{tables})")
+    click.echo(f"wrote {out} ({data.report()})")
     for note in data.metadata.get("notes", []):
         click.echo(f"note: {note}")

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from magcilia._display import Display, Item, Table
 from magcilia.io.columns import KEY_ROLE, ROLES
 
 F64 = NDArray[np.float64]
@@ -20,8 +21,8 @@ DIMENSIONLESS = "1"
 _MATLAB_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,62}$")
 
 
-@dataclass(frozen=True)
-class RecordingExport:
+@dataclass(frozen=True, eq=False, repr=False)
+class RecordingExport(Display):
     """What an export writes: a recording's samples, its further tables and its metadata.
 
     Attributes
@@ -61,6 +62,27 @@ class RecordingExport:
         """Bytes of numbers the export holds (columns and tables)."""
         return (sum(a.nbytes for a in self.columns.values())
                 + sum(a.nbytes for t in self.tables.values() for a in t.values()))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (not the samples): ``source``, ``samples``, ``units`` (channel →
+        unit), ``tables`` (table → channel → unit), ``metadata``."""
+        return {"source": self.source, "samples": self.samples, "units": dict(self.units),
+                "tables": {k: {c: self.table_units.get(k, {}).get(c, "") for c in t}
+                           for k, t in self.tables.items()},
+                "metadata": self.metadata}
+
+    def report(self) -> str:
+        """One line: samples, channels (with units), further tables."""
+        channels = ", ".join(f"{k} [{u}]" if u else k for k, u in self.units.items())
+        tables = f"; tables {', '.join(self.tables)}" if self.tables else ""
+        return f"{self.samples:,} samples; channels {channels}{tables}"
+
+    def _display_items(self) -> list[Item]:
+        return [("samples", f"{self.samples:,}"), ("channels", str(len(self.columns))),
+                ("tables", ", ".join(self.tables) or "-"), ("source", self.source)]
+
+    def _display_table(self) -> Table:
+        return (("channel", "unit"), [(k, u or "-") for k, u in self.units.items()])
 
     def setup(self) -> Any:
         """The stored setup (a JSON-ready dict), or None where the file keeps none."""
