@@ -92,7 +92,7 @@ def _live() -> Any:
 
 
 def _gather_example() -> Any:
-    from magcilia.io.export import gather
+    from magcilia.io.export_recording import gather
     from magcilia.io.recordings import example_path
 
     return gather(example_path())

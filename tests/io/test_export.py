@@ -16,8 +16,8 @@ import magcilia as mc
 from magcilia._errors import MagciliaError, MissingDependencyError
 from magcilia.cli import main
 from magcilia.io import export_formats
-from magcilia.io.export import export, gather
 from magcilia.io.export_data import matlab_names
+from magcilia.io.export_recording import export, gather
 from magcilia.io.recording_file import RecordingWriter
 from magcilia.io.recordings import read_recording
 from magcilia.io.setup_files import setup_to_dict
@@ -251,6 +251,25 @@ def test_a_failed_write_leaves_no_file(recording: Path, tmp_path: Path,
         export(recording, tmp_path / "new.h5")
     assert old.read_bytes() == b"old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.h5", "run.tdms"]
+
+
+def test_an_unwritable_output_fails_before_the_recording_is_read(
+        recording: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import magcilia.io.export_recording as export_module
+
+    def no_read(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("the recording was read")
+
+    monkeypatch.setattr(export_module, "read_recording", no_read)
+    with pytest.raises(MagciliaError, match=r"run\.tdms is a file, not a folder"):
+        export(recording, tmp_path / "run.tdms" / "sub" / "x.csv")
+    (tmp_path / "old.csv").write_text("old")
+    with pytest.raises(MagciliaError, match="exists; pass --force"):
+        export(recording, tmp_path / "old.csv")
+    monkeypatch.setattr(export_module.os, "access", lambda *a: False)  # (root writes anywhere)
+    with pytest.raises(MagciliaError, match="Permission denied"):
+        export(recording, tmp_path / "new" / "x.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.csv", "run.tdms"]
 
 
 @pytest.mark.parametrize(("args", "message"), [

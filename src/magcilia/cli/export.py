@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from magcilia.cli._common import RecordingArgs, echo_json, recording_options
-from magcilia.io.export import FORMATS, MAT_VERSIONS, export, export_format
+from magcilia.io.export_recording import FORMATS, MAT_VERSIONS, export, export_format
 
 
 @click.command()

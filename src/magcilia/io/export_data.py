@@ -1,5 +1,5 @@
 """What an export writes (:class:`RecordingExport`), the units of the readers' columns and
-MATLAB's names: shared by :mod:`magcilia.io.export` and its writers
+MATLAB's names: shared by :mod:`magcilia.io.export_recording` and its writers
 (:mod:`magcilia.io.export_formats`)."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The writers of :func:`magcilia.io.export.export`: CSV, MATLAB v5 and v7.3, HDF5, NetCDF.
+"""The writers of :func:`magcilia.io.export_recording.export`: CSV, MATLAB v5 and v7.3, HDF5 and
+NetCDF.
 
 Each takes a :class:`~magcilia.io.export_data.RecordingExport` and a path (the temporary file that
 :mod:`magcilia._atomic` renames into place); :data:`WRITERS` names them by format.

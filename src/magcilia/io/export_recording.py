@@ -266,11 +266,19 @@ def export(recording: str | os.PathLike[str], path: str | os.PathLike[str],
 
 def check_output(recording: str | os.PathLike[str], path: str | os.PathLike[str],
                  overwrite: bool) -> Path:
-    """``path`` checked as a new export file: not a folder, not ``recording`` itself, and not
-    an existing file unless ``overwrite`` (the ``--force`` message)."""
+    """``path`` checked as a new export file before the recording is read: not a folder, not
+    ``recording`` itself, not an existing file unless ``overwrite`` (the ``--force`` message),
+    and in a folder that can be written (or made)."""
     out = Path(path)
     if out.is_dir():
         raise MagciliaError(f"{out} is a folder, not a file; choose another --out")
+    for folder in out.absolute().parents:  # the nearest that exists
+        if os.path.lexists(folder):
+            if not folder.is_dir():
+                raise MagciliaError(f"cannot write {out}: {folder} is a file, not a folder")
+            if not os.access(folder, os.W_OK | os.X_OK):
+                raise MagciliaError(f"cannot write {out}: {folder}: Permission denied")
+            break
     if out.exists():
         src = Path(recording)
         if src.exists() and src.samefile(out):
