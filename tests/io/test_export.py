@@ -192,6 +192,23 @@ def test_other_formats_in_and_a_mapped_csv(tmp_path: Path) -> None:
     np.testing.assert_allclose(_samples(tmp_path / "again.mat")["voltage_V"], VOLTS, rtol=1e-15)
 
 
+@pytest.mark.parametrize("suffix", [".mat", ".h5", ".csv"])
+def test_a_coil_recording_of_a_3_axis_sensor_round_trips(tmp_path: Path, suffix: str) -> None:
+    """The applied field (``actuation_*_T``) and the measured field (``field_*_T``), in T."""
+    keys = ("actuation_x_T", "actuation_y_T", "actuation_z_T", "field_x_T", "field_y_T",
+            "field_z_T")
+    values = np.column_stack([np.repeat([0.0, 1e-3], 6), np.zeros(12), np.repeat([0.0, -2e-3], 6),
+                              RNG.normal(0.0, 1e-6, (12, 3)) + [3e-5, 1e-5, 4e-5]])
+    src = tmp_path / "coil.csv"
+    src.write_text(",".join(keys) + "\n" + "".join(",".join(repr(float(x)) for x in row) + "\n"
+                                                   for row in values))
+    written = export(src, tmp_path / f"out{suffix}")
+    assert written.units == dict.fromkeys(keys, "T")
+    back = _samples(tmp_path / f"out{suffix}")
+    for j, key in enumerate(keys):
+        np.testing.assert_array_equal(back[key], values[:, j], err_msg=key)
+
+
 def test_large_numbers_go_to_mat_v73(recording: Path, tmp_path: Path,
                                      monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(export_formats, "MAT_V5_LIMIT", 100)  # bytes: this recording is above
