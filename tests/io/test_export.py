@@ -246,7 +246,7 @@ def test_the_recording_itself_is_never_the_output(recording: Path,
     before = recording.read_bytes()
     assert main(["export", str(recording), "--to", "h5", "--out", str(recording),
                  "--force"]) == 2
-    assert "is the recording itself" in capsys.readouterr().err
+    assert "is the input of RECORDING; an input is never replaced" in capsys.readouterr().err
     assert recording.read_bytes() == before
 
 

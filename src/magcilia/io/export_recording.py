@@ -282,7 +282,8 @@ def check_output(recording: str | os.PathLike[str], path: str | os.PathLike[str]
     if out.exists():
         src = Path(recording)
         if src.exists() and src.samefile(out):
-            raise MagciliaError(f"--out {out} is the recording itself; choose another --out")
+            raise MagciliaError(f"{out} is the input of RECORDING; an input is never replaced "
+                                "(--force neither): choose another --out")
         if not overwrite:
             raise MagciliaError(_exists_message(out))
     return out
