@@ -31,7 +31,9 @@ from magcilia.io.export_data import RecordingExport, matlab_names
 from magcilia.io.export_xarray import dataset, xarray_module
 
 F64 = NDArray[np.float64]
-#: the numbers above which a MATLAB export is written as v7.3 (v5 holds ≤ 2**31 bytes a variable)
+#: the numbers above which a MATLAB export is written as v7.3: v5/v7 files hold variables below
+#: 2 GB (MATLAB's ``save`` documentation: "-v7.3 ... variables larger than 2 GB"; the v5 format's
+#: element sizes are 32-bit), less a MiB for the structs beside them
 MAT_V5_LIMIT = 2**31 - 2**20
 #: rows per block of CSV text
 CSV_BLOCK = 100_000
