@@ -91,6 +91,13 @@ def _live() -> Any:
     return live
 
 
+def _gather_example() -> Any:
+    from magcilia.io.export_recording import gather
+    from magcilia.io.recordings import example_path
+
+    return gather(example_path())
+
+
 def _biaxial() -> Any:
     from magcilia.device.magnetometer import Magnetometer
 
@@ -258,6 +265,7 @@ FACTORIES.update({  # issue 29: temperature
     "ThermalResult": lambda: mc.ThermalReadout(
         mc.Readout(SETUP, span=(0.0, 0.5), table_size=17)).read(
         np.column_stack([SETUP.output([0.1, 0.2]), [293.15, 310.0]])),
+    "RecordingExport": _gather_example,  # issue 30: magcilia export
 })
 ROUND_TRIPS = ("Measurement", "ParameterCovariance", "PiecewiseLinear", "LookupTable",
                "Magnetometer", "ExperimentFit", "TemperatureModel")

@@ -77,6 +77,7 @@ if TYPE_CHECKING:
     # -- files -----------------------------------------------------------------------------------
     from magcilia.io import (
         Measurement,
+        export,
         load_array,
         load_setup,
         presets,
@@ -214,6 +215,7 @@ __all__ = [
     "design_metrics",
     "drag_coefficient",
     "exact_field",
+    "export",
     "field_for_loads",
     "frequency_response",
     "load_array",

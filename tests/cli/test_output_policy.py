@@ -21,6 +21,7 @@ BASE = {
     "array": ["array", "--setup", "array"],
     "bend": ["bend", "--setup", "force-sensor", "--tip-force", "0.02"],
     "design": ["design", "--setup", "force-sensor"],
+    "export": ["export", "rec.csv"],
     "field": ["field", "--setup", "paper", "--angles", "0:10:10"],
     "modes": ["modes", "--setup", "force-sensor"],
     "optimise": ["optimise", "--setup", "paper"],

@@ -72,6 +72,10 @@ COMMANDS: dict[str, str] = {
         "ratio"
     ),
     "ringdown": "Young's modulus and damping ratio from the ring-down of a flicked cilium.",
+    "export": (
+        "Export RECORDING (CSV, .mat, .tdms, .h5) to CSV, MATLAB, HDF5 or NetCDF for other "
+        "tools."
+    ),
 }
 
 

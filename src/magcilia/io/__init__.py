@@ -15,6 +15,9 @@
 * :mod:`.recording_file`: crash-safe TDMS recordings streamed in flushed chunks;
 * :mod:`.firmware`: C headers and JSON of read-out approximations;
 * :mod:`.results`: saved JSON results read back with one-line errors;
+* :mod:`.export_recording`: recordings out to CSV, MATLAB (v5, v7.3), HDF5 and NetCDF
+  (:func:`export`; the writers in :mod:`.export_formats`, the ``xarray.Dataset`` views in
+  :mod:`.export_xarray`);
 * :mod:`.presets`: the built-in setups by name (``paper``, ``paper-initial``, ``force-sensor``,
   ``array``), ``mc.presets``.
 """
@@ -29,6 +32,8 @@ if TYPE_CHECKING:
     from magcilia.io import presets
     from magcilia.io.array_file import array_from_dict, array_to_dict, load_array, save_array
     from magcilia.io.columns import Columns
+    from magcilia.io.export_data import RecordingExport
+    from magcilia.io.export_recording import export
     from magcilia.io.firmware import fixed_point_format, to_c_header, to_json
     from magcilia.io.quality import RecordingQuality
     from magcilia.io.recording_file import RecordingWriter, recording_properties
@@ -47,12 +52,14 @@ if TYPE_CHECKING:
 __all__ = [
     "Columns",
     "Measurement",
+    "RecordingExport",
     "RecordingQuality",
     "RecordingWriter",
     "array_from_dict",
     "array_to_dict",
     "check_quality",
     "example_path",
+    "export",
     "fixed_point_format",
     "load_array",
     "load_setup",

@@ -24,6 +24,13 @@ from magcilia.io.columns import ACTUATION_KEYS, FIELD_KEYS
 from magcilia.io.quality import RecordingQuality
 
 F64 = NDArray[np.float64]
+#: the unit of each column of :meth:`Measurement.columns` (counts: dimensionless, ``"1"``)
+COLUMN_UNITS = {"angle_rad": "rad", "azimuth_rad": "rad", "force_N": "N", "speed_m_per_s": "m/s",
+                **dict.fromkeys(ACTUATION_KEYS, "T"), "output_V": "V", "sem_V": "V",
+                **dict.fromkeys(FIELD_KEYS, "T"), **{f"sem_{k}": "T" for k in FIELD_KEYS},
+                "count": "1", "saturated": "1", "nonfinite": "1"}
+#: the columns that say the condition (coordinates of :meth:`Measurement.to_xarray`)
+CONDITION_COLUMNS = ("angle_rad", "azimuth_rad", "force_N", "speed_m_per_s", *ACTUATION_KEYS)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -391,7 +398,13 @@ class Measurement(Display):
         error) for the single-axis output, or ``field_x_T``, ``field_y_T``, ``field_z_T`` and
         ``sem_field_x_T``, ``sem_field_y_T``, ``sem_field_z_T`` for 3-axis field data, then
         ``count``, ``saturated``, ``nonfinite`` (samples per condition); a load experiment has
-        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``."""
+        ``force_N`` or ``speed_m_per_s`` after ``azimuth_rad``, a coil experiment
+        ``actuation_x_T``, ``actuation_y_T``, ``actuation_z_T``."""
+        return dataframe(self.columns())
+
+    def columns(self) -> dict[str, Any]:
+        """The columns of :meth:`to_dataframe` and :meth:`to_xarray` by name (SI, the unit in
+        the name), each shape (a,)."""
         if self.fields is not None and self.field_sem is not None:
             values = {**{k: self.fields[:, j] for j, k in enumerate(FIELD_KEYS)},
                       **{f"sem_{k}": self.field_sem[:, j] for j, k in enumerate(FIELD_KEYS)}}
@@ -401,6 +414,17 @@ class Measurement(Display):
         loads.update({} if self.speeds is None else {"speed_m_per_s": self.speeds})
         if self.actuation is not None:
             loads.update({k: self.actuation[:, j] for j, k in enumerate(ACTUATION_KEYS)})
-        return dataframe({"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
-                          "count": self.counts, "saturated": self.saturated,
-                          "nonfinite": self.nonfinite})
+        return {"angle_rad": self.angles, "azimuth_rad": self.azimuths, **loads, **values,
+                "count": self.counts, "saturated": self.saturated, "nonfinite": self.nonfinite}
+
+    def to_xarray(self) -> Any:
+        """The reduced measurements as an ``xarray.Dataset`` along ``condition``: the columns of
+        :meth:`to_dataframe` as variables with ``units`` attributes (SI), the condition (angle,
+        azimuth, load or applied field) as coordinates, ``source``, ``set_reset``, the
+        :meth:`notes` (one per line) and the ``metadata`` (JSON) as attributes. Needs xarray
+        (the ``export`` extra; one line without it)."""
+        from magcilia.io.export_xarray import dataset
+
+        return dataset(self.columns(), COLUMN_UNITS, dim="condition", coords=CONDITION_COLUMNS,
+                       attrs={"source": self.source, "set_reset": self.set_reset,
+                              "notes": "\n".join(self.notes()), "metadata": dict(self.metadata)})

@@ -178,6 +178,29 @@ class ForceVectorResult(Display):
     def to_dataframe(self) -> Any:
         """One row per reading, SI, unit-suffixed columns: ``fx_N``, ``fy_N``, ``magnitude_N``,
         ``direction_rad``, their ``sigma_*``, ``cov_xy_N2``, ``chi2`` and ``flags``."""
+        return dataframe(self._columns())
+
+    def to_xarray(self, time_s: Any = None) -> Any:
+        """The columns of :meth:`to_dataframe` as an ``xarray.Dataset`` along ``sample`` (one
+        per reading), each with its ``units`` attribute (SI; ``time_s``, s, the coordinate
+        where given, one per reading). Needs xarray (the ``export`` extra)."""
+        from magcilia import _validate as v
+        from magcilia.io.export_xarray import dataset
+
+        columns: dict[str, Any] = self._columns()
+        units = {k: k.rsplit("_", 1)[1].replace("N2", "N^2") for k in columns if "_" in k}
+        units["chi2"] = "1"
+        if time_s is not None:
+            times = np.asarray(time_s, dtype=np.float64).reshape(-1)
+            if times.size != self.flags.size:
+                raise v.fail("time_s", f"{times.size} times", f"one time per reading "
+                                                              f"({self.flags.size})")
+            columns["time_s"], units["time_s"] = times, "s"
+        return dataset(columns, units, dim="sample", coords=("time_s",),
+                       attrs={"scale_note": self.scale_note})
+
+    def _columns(self) -> dict[str, NDArray[Any]]:
+        """:meth:`to_dataframe`'s columns, each flattened to shape (n,)."""
         flat = {
             column("fx", "N"): self.fx, column("fy", "N"): self.fy,
             column("magnitude", "N"): self.magnitude,
@@ -187,7 +210,7 @@ class ForceVectorResult(Display):
             column("sigma_direction", "rad"): self.sigma_direction,
             column("cov_xy", "N2"): self.covariance[..., 0, 1],
             "chi2": self.chi2, "flags": self.flags}
-        return dataframe({k: np.asarray(a).reshape(-1) for k, a in flat.items()})
+        return {k: np.asarray(a).reshape(-1) for k, a in flat.items()}
 
     def _display_items(self) -> list[Item]:
         c = self.counts()

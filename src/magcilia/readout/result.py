@@ -166,14 +166,48 @@ class ReadoutResult(Display):
         unit) and ``flags``
         (:class:`~magcilia.readout.protocol.Flag` bits, 0 a good reading; NaN values where
         flagged)."""
-        return dataframe({
-            column(self.quantity, self.unit): self.value,
-            column("sigma", self.unit): self.sigma,
-            column("sigma_noise", self.unit): self.sigma_noise,
-            column("sigma_calibration", self.unit): self.sigma_calibration,
-            column("sigma_edge", self.unit): self.sigma_edge,
-            column("sigma_scale", self.unit): self.sigma_scale,
-            "flags": self.flags})
+        return dataframe({**self.columns(), "flags": self.flags})
+
+    def columns(self) -> dict[str, F64]:
+        """The estimates and their σ by column name (:meth:`to_dataframe`'s, without ``flags``;
+        SI, the unit in the name)."""
+        return {column(self.quantity, self.unit): self.value,
+                column("sigma", self.unit): self.sigma,
+                column("sigma_noise", self.unit): self.sigma_noise,
+                column("sigma_calibration", self.unit): self.sigma_calibration,
+                column("sigma_edge", self.unit): self.sigma_edge,
+                column("sigma_scale", self.unit): self.sigma_scale}
+
+    def to_xarray(self, time_s: Any = None) -> Any:
+        """The estimates as an ``xarray.Dataset``: the columns of :meth:`to_dataframe` as
+        variables along ``sample`` (several dimensions ``axis_0``, ``axis_1``, … for readings
+        of more than one), ``units`` attributes (``unit``; flags none), ``quantity``, ``unit``,
+        ``table_error`` and ``scale_note`` as attributes. Needs xarray (the ``export`` extra;
+        one line without it).
+
+        Parameters
+        ----------
+        time_s : array-like, shape (n,), optional
+            The readings' times, s: the coordinate ``time_s`` (1-D readings only).
+        """
+        from magcilia import _validate as v
+        from magcilia.io.export_xarray import dataset
+
+        frame = self.columns()
+        units = dict.fromkeys(frame, self.unit)
+        variables: dict[str, Any] = {**frame, "flags": self.flags}
+        shape = np.shape(self.value)
+        dims = ("sample",) if len(shape) == 1 else tuple(f"axis_{i}" for i in range(len(shape)))
+        if time_s is not None:
+            times = np.asarray(time_s, dtype=np.float64)
+            if len(shape) != 1 or times.shape != shape:
+                raise v.fail("time_s", f"shape {times.shape}",
+                             f"one time per reading, shape {shape} (1-D readings)")
+            variables["time_s"] = times
+            units["time_s"] = "s"
+        return dataset(variables, units, dim=dims, coords=("time_s",),
+                       attrs={"quantity": self.quantity, "unit": self.unit,
+                              "table_error": self.table_error, "scale_note": self.scale_note})
 
 
 def summary_line(result: ReadoutResult, unit: str, factor: float) -> str:

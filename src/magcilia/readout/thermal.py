@@ -293,6 +293,22 @@ class ThermalResult(Display):
                      ref.sigma_edge * factor, ref.sigma_scale * factor, self.flags)
         return ReadoutResult.of(self.quantity, self.unit, parts, ref.table_error, ref.scale_note)
 
+    def to_xarray(self, time_s: Any = None) -> Any:
+        """The estimates as an ``xarray.Dataset`` (:meth:`ReadoutResult.to_xarray` of
+        :meth:`as_readout_result`, ``time_s`` its coordinate where given) with
+        ``sigma_temperature_*``, ``temperature_K`` and ``load_factor`` beside them and the
+        calibrated range (K) as an attribute. Needs xarray (the ``export`` extra)."""
+        from magcilia._display import column
+
+        ds = self.as_readout_result().to_xarray(time_s)
+        dim = ds[column(self.quantity, self.unit)].dims
+        ds[column("sigma_temperature", self.unit)] = (dim, self.sigma_temperature,
+                                                      {"units": self.unit})
+        ds["temperature_K"] = (dim, self.temperature, {"units": "K"})
+        ds["load_factor"] = (dim, self.load_factor, {"units": "1"})
+        ds.attrs["calibrated_range_K"] = list(self.calibrated_range)
+        return ds
+
     @property
     def outside(self) -> int:
         """How many readings lie outside the calibrated range."""
