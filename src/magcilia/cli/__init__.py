@@ -71,6 +71,9 @@ COMMANDS: dict[str, str] = {
         "ratio"
     ),
     "ringdown": "Young's modulus and damping ratio from the ring-down of a flicked cilium.",
+    "show": (
+        "Draw SETUP (a setup TOML file or a preset) or an ARRAY file in 3-D: the cilium as its"
+    ),
 }
 
 
