@@ -68,10 +68,10 @@ def test_setup_show_draws_on_a_canvas() -> None:
 def test_png_and_html_are_written(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     pytest.importorskip("plotly", reason="the show extra: pip install 'magcilia[show]'")
     png, html = tmp_path / "paper.png", tmp_path / "paper.html"
-    code, out, err = _run(capsys, ["show", "paper", "--out", str(png), "--tilt", "30"])
+    code, out, err = _run(capsys, ["show", "--setup", "paper", "--out", str(png), "--tilt", "30"])
     assert code == 0 and not err and out.strip() == f"wrote {png}"
     assert png.read_bytes()[:8] == PNG and png.stat().st_size > 10_000
-    code, _, err = _run(capsys, ["show", "force-sensor", "--out", str(html)])
+    code, _, err = _run(capsys, ["show", "--setup", "force-sensor", "--out", str(html)])
     assert code == 0 and not err
     page = html.read_text(encoding="utf-8")
     assert page.count('"type":"mesh3d"') >= 2  # the body and the sensor
@@ -83,31 +83,46 @@ def test_png_and_html_are_written(capsys: pytest.CaptureFixture[str], tmp_path: 
 
 def test_an_array_is_drawn(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     out = tmp_path / "array.png"
-    code, _, err = _run(capsys, ["show", "array", "--out", str(out), "--no-field"])
+    code, _, err = _run(capsys, ["show", "--setup", "array", "--out", str(out), "--no-field"])
     assert code == 0 and not err and out.read_bytes()[:8] == PNG
 
 
 def test_bad_input_is_one_line_and_writes_nothing(capsys: pytest.CaptureFixture[str],
                                                   tmp_path: Path) -> None:
     bad = tmp_path / "paper.txt"
-    code, out, err = _run(capsys, ["show", "paper", "--out", str(bad)])
+    code, out, err = _run(capsys, ["show", "--setup", "paper", "--out", str(bad)])
     assert code == 2 and not out and not bad.exists()
     assert err.startswith("magcilia: error: --out must end in .png") and err.count("\n") == 1
     # an existing file is left byte-identical without --force, replaced with it
     old = tmp_path / "old.png"
     old.write_bytes(b"keep me")
-    code, _, err = _run(capsys, ["show", "paper", "--out", str(old)])
+    code, _, err = _run(capsys, ["show", "--setup", "paper", "--out", str(old)])
     assert code == 2 and old.read_bytes() == b"keep me"
     assert err == f"magcilia: error: {old} exists; pass --force to replace it, or choose " \
                   "another --out\n"
-    code, _, _ = _run(capsys, ["show", "paper", "--out", str(old), "--force", "--no-field"])
+    code, _, _ = _run(capsys, ["show", "--setup", "paper", "--out", str(old), "--force",
+                               "--no-field"])
     assert code == 0 and old.read_bytes()[:8] == PNG
-    code, _, err = _run(capsys, ["show", "array", "--out", str(tmp_path / "a.png"),
+    code, _, err = _run(capsys, ["show", "--setup", "array", "--out", str(tmp_path / "a.png"),
                                  "--tilt", "10"])
     assert code == 2 and "--tilt applies to one cilium" in err
-    code, _, err = _run(capsys, ["show", "papr", "--out", str(tmp_path / "b.png")])
+    code, _, err = _run(capsys, ["show", "--setup", "papr", "--out", str(tmp_path / "b.png")])
     assert code == 2 and "unknown preset 'papr'" in err and "paper" in err
+    code, _, err = _run(capsys, ["show", "--setup", "paper", "--out", str(tmp_path / "c.png"),
+                                 "--tilt", "inf"])
+    assert code == 2 and "--tilt" in err and err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.png"]
+
+
+def test_the_positional_setup_of_the_issue_works(capsys: pytest.CaptureFixture[str],
+                                                 tmp_path: Path) -> None:
+    """`magcilia show SETUP --out FILE` (issue 30's spelling) draws, with the one line that
+    names --setup, as every command's positional SETUP does; --tilt takes units."""
+    out = tmp_path / "p.png"
+    code, _, err = _run(capsys, ["show", "paper", "--out", str(out), "--tilt", "0.5rad",
+                                 "--no-field"])
+    assert code == 0 and out.read_bytes()[:8] == PNG
+    assert "--setup" in err and err.count("\n") == 1
 
 
 def test_html_without_plotly_names_the_extra(capsys: pytest.CaptureFixture[str],
@@ -115,6 +130,6 @@ def test_html_without_plotly_names_the_extra(capsys: pytest.CaptureFixture[str],
                                              monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "plotly", None)  # import plotly raises ImportError
     out = tmp_path / "view.html"
-    code, _, err = _run(capsys, ["show", "paper", "--out", str(out)])
+    code, _, err = _run(capsys, ["show", "--setup", "paper", "--out", str(out)])
     assert code != 0 and not out.exists()
     assert "pip install 'magcilia[show]'" in err and "plotly" in err and err.count("\n") == 1

@@ -8,24 +8,34 @@ from pathlib import Path
 import click
 
 from magcilia._errors import MagciliaError
-from magcilia.cli._options import array_file_arg, is_preset_name, load_setup_arg, setup_label
+from magcilia.cli._common import Physical
+from magcilia.cli._options import (
+    array_file_arg,
+    is_preset_name,
+    load_setup_arg,
+    setup_label,
+    setup_option,
+)
 from magcilia.io.array_file import is_array_file, load_array
 
 
 @click.command()
-@click.argument("setup_arg", metavar="SETUP|ARRAY")
+@setup_option("A setup (one cilium on its sensor) or an array file (or the array preset)")
 @click.option("--out", "out_path", required=True, type=click.Path(dir_okay=False),
               help="The file: .png/.pdf/.svg (a figure, matplotlib) or .html (an interactive "
                    "page, plotly).")
-@click.option("--tilt", "tilt_deg", default=0.0, show_default=True, type=float,
-              help="Rigid tilt of the cilium about y through its base, deg (a setup; an array "
-                   "is drawn upright).")
+@click.option("--tilt", default="0", show_default=True, type=Physical.of("angle", "30deg"),
+              help="Rigid tilt of the cilium about y through its base toward +x: degrees, or "
+                   "with a unit (a setup; an array is drawn upright).")
 @click.option("--no-field", "no_field", is_flag=True, help="Leave out the field slice.")
 @click.option("--force", is_flag=True, help="Replace an existing --out file.")
-def command(setup_arg: str, out_path: str, tilt_deg: float, no_field: bool, force: bool) -> None:
+def command(setup_arg: str, out_path: str, tilt: float, no_field: bool, force: bool) -> None:
     """Draw SETUP (a setup TOML file or a preset) or an ARRAY file in 3-D: the cilium as its
     exact body, the sensor with its sensitive axis and the field B on the x–z slice through the
     base, through magpylib's display backends (matplotlib for .png/.pdf/.svg, plotly for .html).
+
+    --out is the one file written (issue 30 names `magcilia show SETUP --out FILE.html|.png`):
+    an existing one is replaced only with --force.
     """
     from magcilia.report.show import backend_of, write_show
 
@@ -33,15 +43,13 @@ def command(setup_arg: str, out_path: str, tilt_deg: float, no_field: bool, forc
     backend_of(out)  # the suffix first: nothing is computed for a file that cannot be written
     if out.exists() and not force:
         raise MagciliaError(f"{out} exists; pass --force to replace it, or choose another --out")
-    if not math.isfinite(tilt_deg):
-        raise MagciliaError(f"--tilt must be a finite angle in degrees; got {tilt_deg}")
     if setup_arg == "array" or (not is_preset_name(setup_arg) and is_array_file(setup_arg)):
         target = load_array(array_file_arg(setup_arg))
-        if tilt_deg:
+        if tilt:
             raise MagciliaError("--tilt applies to one cilium; an array is drawn upright")
         write_show(target, out, field=not no_field, title=f"{setup_label(setup_arg)} (array)")
     else:
         setup = load_setup_arg(setup_arg)
-        write_show(setup, out, math.radians(tilt_deg), field=not no_field,
-                   title=f"{setup_label(setup_arg)}, tilt {tilt_deg:g} deg")
+        write_show(setup, out, tilt, field=not no_field,
+                   title=f"{setup_label(setup_arg)}, tilt {math.degrees(tilt):.4g} deg")
     click.echo(f"wrote {out}")
