@@ -131,5 +131,5 @@ def test_html_without_plotly_names_the_extra(capsys: pytest.CaptureFixture[str],
     monkeypatch.setitem(sys.modules, "plotly", None)  # import plotly raises ImportError
     out = tmp_path / "view.html"
     code, _, err = _run(capsys, ["show", "--setup", "paper", "--out", str(out)])
-    assert code != 0 and not out.exists()
+    assert code == 2 and not out.exists()
     assert "pip install 'magcilia[show]'" in err and "plotly" in err and err.count("\n") == 1
