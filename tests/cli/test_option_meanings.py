@@ -183,6 +183,8 @@ MEANINGS: dict[str, tuple[str, set[tuple[Any, ...]]]] = {
     "--timeout": ("seconds to reach a scheduler", {("float",)}),
     "--tip-force": ("a point force on the cilium (at the tip unless --at)",
                     {("physical", "force")}),
+    "--tilt": ("a rigid tilt angle", {("physical", "angle")}),
+    "--no-field": ("leave out the field (on/off)", {("flag",)}),
     "--tip-radius": ("tip radius override", {("text",)}),
     "--tracking": ("zero-tracking time constant", {("physical", "time")}),
     "--window": ("time shown on the plots", {("physical", "time")}),
@@ -195,6 +197,8 @@ MEANINGS: dict[str, tuple[str, set[tuple[Any, ...]]]] = {
 PUBLIC_MEANINGS: dict[tuple[str, str], tuple[str, set[tuple[Any, ...]]]] = {
     # issue 30: `magcilia export RECORDING --to FORMAT --out FILE`
     ("export", "--out"): ("the one file the export writes", {("file",)}),
+    # issue 30: `magcilia show SETUP --out FILE.html|.png`
+    ("show", "--out"): ("the one file the 3-D view draws", {("file",)}),
 }
 
 #: the deprecated spellings of this release: (command, old) -> new
@@ -209,8 +213,9 @@ DEPRECATED = {
 }
 #: the commands that still take the positional SETUP of earlier releases (deprecated)
 # (modes: issue 28 names its spelling `magcilia modes SETUP`; it works, with the same one line)
+# (show: issue 30 names `magcilia show SETUP`; likewise)
 POSITIONAL_SETUP = {"field", "bend", "readout", "design", "sensitivity", "approximate", "plan",
-                    "array", "optimise", "modes"}
+                    "array", "optimise", "modes", "show"}
 
 
 def shape(param: click.Option) -> tuple[Any, ...]:

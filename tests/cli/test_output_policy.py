@@ -22,6 +22,7 @@ BASE = {
     "bend": ["bend", "--setup", "force-sensor", "--tip-force", "0.02"],
     "design": ["design", "--setup", "force-sensor"],
     "export": ["export", "rec.csv"],
+    "show": ["show", "--setup", "paper"],
     "field": ["field", "--setup", "paper", "--angles", "0:10:10"],
     "modes": ["modes", "--setup", "force-sensor"],
     "optimise": ["optimise", "--setup", "paper"],
@@ -67,6 +68,8 @@ def test_every_output_file_option_is_an_output_file_and_checked_here() -> None:
 def _suffix(option: str, name: str) -> str:
     if name in ("record", "live", "dashboard"):
         return ".tdms"
+    if name == "show":
+        return ".png"
     return {"--plot": ".png", "--crosstalk-plot": ".png", "--c-header": ".h",
             "--setup-out": ".toml", "--json-file": ".json"}.get(option, ".csv")
 

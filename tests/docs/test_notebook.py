@@ -1,65 +1,80 @@
-"""The tutorial notebook (docs/tutorial.ipynb) runs green, start to end, in a fresh kernel.
+"""The tutorial notebook (docs/tutorial.ipynb) runs green, start to end, in a fresh kernel, and
+its committed outputs (what the docs site shows) are those of the run.
 
-The kernel is this interpreter (a kernelspec written into tmp_path, so no `jupyter kernelspec
-install` is needed and no other environment's `python3` kernel can be picked up), importing the
-same magcilia as the tests, with warnings turned into errors and its working directory in
-tmp_path. Figures render with matplotlib's inline backend (Agg underneath) as PNG outputs.
+scripts/execute_tutorial.py runs it (and, with --write, stores its outputs): the kernel is this
+interpreter (a kernelspec written into tmp_path, so no `jupyter kernelspec install` is needed and
+no other environment's `python3` kernel can be picked up), importing the same magcilia as the
+tests, with warnings turned into errors and its working directory in tmp_path. Figures render with
+matplotlib's inline backend (Agg underneath) as PNG outputs.
 """
 
 from __future__ import annotations
 
-import json
-import os
+import importlib.util
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import pytest
-
-import magcilia
 
 nbformat = pytest.importorskip("nbformat", reason="the docs extra: pip install -e '.[docs]'")
 nbclient = pytest.importorskip("nbclient", reason="the docs extra: pip install -e '.[docs]'")
 pytest.importorskip("ipykernel", reason="the docs extra: pip install -e '.[docs]'")
 
-NOTEBOOK = Path(__file__).resolve().parents[2] / "docs" / "tutorial.ipynb"
-#: seconds one cell may take (the live cell runs ~3 s of clock-paced samples; the first one
-#: may compile numba's kernels on a cold cache)
-CELL_TIMEOUT = 180
+ROOT = Path(__file__).resolve().parents[2]
+NOTEBOOK = ROOT / "docs" / "tutorial.ipynb"
 #: injected before the notebook's first cell: a warning in the tutorial fails the test, and the
 #: kernel says which interpreter it runs
 STRICT = "import sys, warnings\nwarnings.simplefilter('error')\nprint(sys.executable)"
 
 
-def kernel_manager_class(tmp_path: Path) -> type:
-    """An (async) KernelManager whose only kernelspec runs ipykernel on this interpreter."""
-    from jupyter_client.kernelspec import KernelSpecManager
-    from jupyter_client.manager import AsyncKernelManager
-    from traitlets import default
-
-    spec = tmp_path / "kernels" / "python3"
-    spec.mkdir(parents=True)
-    (spec / "kernel.json").write_text(json.dumps({
-        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
-        "display_name": "Python 3 (magcilia tests)",
-        "language": "python",
-    }), encoding="utf-8")
-
-    class Manager(AsyncKernelManager):
-        @default("kernel_spec_manager")
-        def _kernel_spec_manager_default(self) -> KernelSpecManager:
-            return KernelSpecManager(kernel_dirs=[str(spec.parent)])
-
-    return Manager
+def _script() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("execute_tutorial",
+                                                  ROOT / "scripts" / "execute_tutorial.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def test_notebook_is_committed_without_outputs() -> None:
+def test_notebook_is_committed_with_its_outputs() -> None:
+    """Every code cell ran, in order, and shows what it printed; four figures; no machine's
+    paths (scripts/execute_tutorial.py --write stores them)."""
     nb = nbformat.read(NOTEBOOK, as_version=4)
     nbformat.validate(nb)
-    for i, cell in enumerate(nb.cells):
-        if cell.cell_type == "code":
-            assert cell.outputs == [], f"cell {i} has outputs: strip them before committing"
-            assert cell.execution_count is None, f"cell {i} has an execution count"
+    script = _script()
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert [c.execution_count for c in code] == list(range(1, len(code) + 1))
+    for i, cell in enumerate(code, start=1):
+        assert cell.outputs, f"code cell {i}: run scripts/execute_tutorial.py --write"
+        assert not any(o.output_type == "error" for o in cell.outputs), i
+        assert "timing" not in cell.metadata.get("execution", {}), i
+    assert sum(script.figures(c) for c in code) == 4
+    text = "".join(script.printed(c) for c in code)
+    assert "height 3.2613 mm, base radius 0.1801 mm" in text
+    assert "magcilia/data/example_recording.csv" in text
+    assert str(ROOT) not in NOTEBOOK.read_text(encoding="utf-8")
     assert nb.metadata.kernelspec.name == "python3"
+
+
+def test_the_comparison_fails_on_a_stale_value() -> None:
+    """The currency check sees a changed printed number, a lost figure and a changed word."""
+    script = _script()
+    committed = nbformat.read(NOTEBOOK, as_version=4)
+    assert script.differences(committed, nbformat.read(NOTEBOOK, as_version=4)) == []
+    for change in ("number", "figure", "word"):
+        stale = nbformat.read(NOTEBOOK, as_version=4)
+        cell = next(c for c in stale.cells if c.cell_type == "code"
+                    and "height 3.2613 mm" in script.printed(c))
+        out = next(o for o in cell.outputs if o.output_type == "stream")
+        if change == "number":
+            out.text = out.text.replace("3.2613 mm", "3.2713 mm")
+        elif change == "word":
+            out.text = out.text.replace("height", "length")
+        else:
+            fig = next(c for c in stale.cells if c.cell_type == "code" and script.figures(c))
+            fig.outputs = [o for o in fig.outputs if "image/png" not in o.get("data", {})]
+        assert script.differences(committed, stale), change
 
 
 def test_notebook_uses_only_the_public_api() -> None:
@@ -71,24 +86,10 @@ def test_notebook_uses_only_the_public_api() -> None:
     assert not private, private
 
 
-def test_tutorial_notebook_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    nb = nbformat.read(NOTEBOOK, as_version=4)
-    nb.cells.insert(0, nbformat.v4.new_code_cell(STRICT, id="strict-warnings"))
-    work = tmp_path / "work"
-    work.mkdir()
-    # the kernel imports the magcilia under test (an editable install, or PYTHONPATH=src)
-    package_root = str(Path(magcilia.__file__).resolve().parents[1])
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
-        [package_root, *filter(None, [os.environ.get("PYTHONPATH")])]))
-    monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
-    monkeypatch.setenv("JUPYTER_PLATFORM_DIRS", "1")
-    monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
-    monkeypatch.setenv("MPLCONFIGDIR", str(tmp_path / "mpl"))
-    client = nbclient.NotebookClient(
-        nb, kernel_manager_class=kernel_manager_class(tmp_path), timeout=CELL_TIMEOUT,
-        allow_errors=False, kernel_name="python3",
-        resources={"metadata": {"path": str(work)}})
-    client.execute()
+def test_tutorial_notebook_runs(tmp_path: Path) -> None:
+    script = _script()
+    committed = nbformat.read(NOTEBOOK, as_version=4)
+    nb = script.execute(nbformat.read(NOTEBOOK, as_version=4), tmp_path, first=STRICT)
 
     assert nb.cells[0].outputs[0].text.strip() == sys.executable  # this interpreter's kernel
     problems = []
@@ -119,3 +120,6 @@ def test_tutorial_notebook_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch)
         assert abs(float(mean) - float(applied)) < 0.002, rows
     # nothing was written beside the notebook
     assert not list(NOTEBOOK.parent.glob("*.tdms"))
+    # the committed outputs are this run's: printed values within tolerances, the same figures
+    problems = script.differences(committed, script.tidied(nb))
+    assert not problems, "run scripts/execute_tutorial.py --write:\n" + "\n".join(problems)

@@ -2,7 +2,8 @@
 
 `mkdocs build --strict` (mkdocs.yml at the repository root) into tmp_path: the API reference
 pages (mkdocstrings, numpy docstrings), the tutorial notebook (mkdocs-jupyter, not executed here:
-tests/docs/test_notebook.py runs it) and the notes in docs/.
+its outputs are committed, and tests/docs/test_notebook.py runs it and checks them), the gallery
+(scripts/gallery.py) and the notes in docs/.
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_pages_exist(site: Path) -> None:
     for page in ("index.html", "tutorial/index.html", "api/magcilia/index.html",
                  "ARCHITECTURE/index.html", "convergence/index.html", "mechanics/index.html",
-                 "serial-protocol/index.html", "stiffness/index.html"):
+                 "serial-protocol/index.html", "stiffness/index.html", "gallery/index.html",
+                 "show/index.html"):
         assert (site / page).is_file(), page
     assert (site / "tutorial" / "tutorial.ipynb").is_file()  # the notebook, to download
 
@@ -112,3 +114,25 @@ def test_top_level_index_links_every_name(site: Path) -> None:
             assert f"<code>{name}</code>" in page or f'id="magcilia.{name}"' in page, name
     assert 'href="../magcilia.calibration/#magcilia.calibration.calibrate"' in page
     assert 'id="magcilia.MagciliaError"' in page  # documented here: no subpackage exports it
+
+
+def test_the_tutorial_page_shows_its_figures_and_printed_results(site: Path) -> None:
+    page = (site / "tutorial" / "index.html").read_text(encoding="utf-8")
+    figures = re.findall(r'<img [^>]*src="data:image/png;base64,', page)
+    assert len(figures) == 4  # the four figures, inline (the theme's own PNGs are CSS)
+    text = text_of(site / "tutorial" / "index.html")
+    for printed in ("height 3.2613 mm, base radius 0.1801 mm", "33 angles 0..85 deg",
+                    "cost ", "tip force read-out over", "tared", "applied (mN)"):
+        assert printed in text, printed
+
+
+def test_the_gallery_and_show_pages_show_their_images(site: Path) -> None:
+    page = (site / "gallery" / "index.html").read_text(encoding="utf-8")
+    images = re.findall(r'<img[^>]+src="\.\./images/gallery/([^"]+\.png)"', page)
+    committed = {p.name for p in (ROOT / "docs" / "images" / "gallery").iterdir()}
+    assert set(images) == committed and len(images) == len(committed)
+    for name in committed:
+        assert (site / "images" / "gallery" / name).is_file(), name
+    assert "magcilia sensitivity --setup paper" in text_of(site / "gallery" / "index.html")
+    show = (site / "show" / "index.html").read_text(encoding="utf-8")
+    assert 'src="../images/gallery/show-show.png"' in show

@@ -76,6 +76,9 @@ COMMANDS: dict[str, str] = {
         "Export RECORDING (CSV, .mat, .tdms, .h5) to CSV, MATLAB, HDF5 or NetCDF for other "
         "tools."
     ),
+    "show": (
+        "Draw SETUP (a setup TOML file or a preset) or an ARRAY file in 3-D: the cilium as its"
+    ),
 }
 
 

@@ -432,6 +432,16 @@ class CiliaArray(Display):
                                       style_label=s.name) for s in self.sensors]
         return magpy.Collection(*children, style_label="magcilia array")
 
+    def show(self, poses: Sequence[Pose] | None = None, *, field: bool = True,
+             backend: str = "auto", **kwargs: Any) -> Any:
+        """Draw the array in 3-D through magpylib's display backends: every cilium as its exact
+        body (upright, or one pose per cilium), the sensors with their axes and, with ``field``,
+        B on the x–z slice through the bases (:func:`magcilia.device.scene.scene`). ``backend``
+        and ``kwargs`` go to ``magpylib.show``; ``magcilia show`` writes a file."""
+        from magcilia.device.scene import show
+
+        return show(self, poses, field=field, backend=backend, **kwargs)
+
     # -- display ----------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         b = self.bases

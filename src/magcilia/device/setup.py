@@ -466,6 +466,17 @@ class Setup(Display):
                                          style_label=f"{self.sensor.name} (x: sensitive)"))
         return magpy.Collection(*children, style_label="magcilia cilium")
 
+    def show(self, pose: float | Centreline | SpatialCentreline = 0.0, *, field: bool = True,
+             backend: str = "auto", **kwargs: Any) -> Any:
+        """Draw the setup in 3-D through magpylib's display backends: the cilium as its exact
+        body in ``pose`` (a tilt angle in rad, or one bent centreline from :func:`magcilia.bend`),
+        the sensor with its sensitive axis (x) and, with ``field``, B on the x–z slice through
+        the base (:func:`magcilia.device.scene.scene`). ``backend`` and ``kwargs`` go to
+        ``magpylib.show`` (``canvas=ax``, ``return_fig=True``); ``magcilia show`` writes a file."""
+        from magcilia.device.scene import show
+
+        return show(self, pose, field=field, backend=backend, **kwargs)
+
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
         p, par = self.params(), PARAMETERS

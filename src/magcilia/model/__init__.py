@@ -24,7 +24,7 @@ from magcilia._lazy import attach
 if TYPE_CHECKING:
     from magcilia.model.batch import TiltBatch, tilt_field_batch, tilt_output_batch
     from magcilia.model.centreline import Centreline, SpatialCentreline
-    from magcilia.model.exact import exact_field, single_dipole_field
+    from magcilia.model.exact import exact_body, exact_field, single_dipole_field
     from magcilia.model.kernels import dipole_field, dipole_field_batch, pose_field, tilt_fields
     from magcilia.model.layout import pose_dipoles, ring_layout
     from magcilia.model.pose import Pose
@@ -40,6 +40,7 @@ __all__ = [
     "as_spec",
     "dipole_field",
     "dipole_field_batch",
+    "exact_body",
     "exact_field",
     "pose_dipoles",
     "pose_field",

@@ -12,6 +12,7 @@ of the dipole model.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia.constants import MU0
 from magcilia.model import body
-from magcilia.model.centreline import SpatialCentreline
+from magcilia.model.centreline import Centreline, SpatialCentreline
 from magcilia.model.pose import Pose, as_centreline, check_outside
 from magcilia.model.spec import ModelSpec, SupportsSpec, as_spec
 
@@ -59,20 +60,7 @@ def exact_field(
     centreline = as_centreline(spec, pose)
     if check:
         check_outside(spec, pts, centreline)
-    mean2, _ = body.slice_means(spec.knots, spec.radii, n)
-    r_eq = spec.base_radius * np.sqrt(mean2)  # same volume as each slice
-    s_mid = spec.height * (np.arange(n) + 0.5) / n
-    if isinstance(centreline, SpatialCentreline):  # the cylinders' axes along the tangents
-        centres, tangents, _ = centreline.frames(s_mid)
-        lean = np.arctan2(np.hypot(tangents[..., 0], tangents[..., 1]), tangents[..., 2])
-        axis = np.stack([-tangents[..., 1], tangents[..., 0], np.zeros_like(lean)], axis=-1)
-        norm = np.linalg.norm(axis, axis=-1, keepdims=True)
-        rotvec = np.where(norm > 0.0, axis / np.where(norm > 0.0, norm, 1.0), 0.0) \
-            * lean[..., None]
-    else:
-        centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
-        rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
-    centres = centres + spec.base_centre
+    centres, rotvec, r_eq = _slices(spec, centreline, n)
     a, o = centres.shape[0], pts.shape[0]
     j = MU0 * spec.magnetization
     # one instance per (pose, slice, observer)
@@ -91,6 +79,67 @@ def exact_field(
     )
     b = np.asarray(b).reshape(a, n, o, 3).sum(axis=1)
     return b[:, 0, :] if points is None else b
+
+
+def _slices(spec: ModelSpec, centreline: Centreline | SpatialCentreline,
+            n: int) -> tuple[F64, F64, F64]:
+    """The stack's cylinders for each pose: centres (a, n, 3) m in the sensor frame, rotation
+    vectors (a, n, 3) rad turning +z onto the local tangent, equal-volume radii (n,) m (each
+    ``spec.height / n`` long)."""
+    mean2, _ = body.slice_means(spec.knots, spec.radii, n)
+    r_eq = spec.base_radius * np.sqrt(mean2)  # same volume as each slice
+    s_mid = spec.height * (np.arange(n) + 0.5) / n
+    if isinstance(centreline, SpatialCentreline):  # the cylinders' axes along the tangents
+        centres, tangents, _ = centreline.frames(s_mid)
+        lean = np.arctan2(np.hypot(tangents[..., 0], tangents[..., 1]), tangents[..., 2])
+        axis = np.stack([-tangents[..., 1], tangents[..., 0], np.zeros_like(lean)], axis=-1)
+        norm = np.linalg.norm(axis, axis=-1, keepdims=True)
+        rotvec = np.where(norm > 0.0, axis / np.where(norm > 0.0, norm, 1.0), 0.0) \
+            * lean[..., None]
+    else:
+        centres, angles = centreline.frames(s_mid)  # (a, n, 3), (a, n)
+        rotvec = np.stack([np.zeros_like(angles), angles, np.zeros_like(angles)], axis=-1)
+    return centres + spec.base_centre, rotvec, r_eq
+
+
+def exact_body(setup: ModelSpec | SupportsSpec, pose: Pose = 0.0, n_slices: int = 40) -> Any:
+    """The cilium in one pose as the exact reference body (:func:`exact_field`'s stack of
+    magnetized cylinders) in a ``magpylib.Collection``, SI, to draw or compute with.
+
+    Parameters
+    ----------
+    setup : Setup or ModelSpec
+        Geometry, material and placement.
+    pose : float, Centreline or SpatialCentreline
+        One rigid tilt angle in rad, or one centreline (a single bent shape).
+    n_slices : int
+        Cylinders in the stack (each ``height / n_slices`` long, of the slice's volume).
+
+    Returns
+    -------
+    magpylib.Collection
+        ``n_slices`` ``magpylib.magnet.Cylinder`` (dimensions m, polarization T along each
+        cylinder's axis); its ``getB`` at a point is :func:`exact_field` with the same
+        ``n_slices``.
+    """
+    import magpylib as magpy
+    from scipy.spatial.transform import Rotation
+
+    spec = as_spec(setup)
+    n = v.integer("n_slices", n_slices, 1)
+    if isinstance(pose, (Centreline, SpatialCentreline)):
+        centreline = as_centreline(spec, pose)
+    else:
+        centreline = as_centreline(spec, np.array([v.real("pose", pose, "rad")]))
+    if len(centreline) != 1:
+        raise v.fail("pose", f"{len(centreline)} poses", "one pose")
+    centres, rotvec, r_eq = _slices(spec, centreline, n)
+    j = MU0 * spec.magnetization
+    cylinders = [magpy.magnet.Cylinder(position=c, orientation=Rotation.from_rotvec(r),
+                                       dimension=(2.0 * rad, spec.height / n),
+                                       polarization=(0.0, 0.0, j))
+                 for c, r, rad in zip(centres[0], rotvec[0], r_eq, strict=True)]
+    return magpy.Collection(*cylinders, style_label="cilium (exact body)")
 
 
 def single_dipole_field(setup: ModelSpec | SupportsSpec, pose: Pose) -> F64:
