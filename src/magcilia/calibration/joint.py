@@ -10,6 +10,10 @@ field and its own offsets, comparable to the cilium's ~40 µT); Gaussian priors 
 :class:`~magcilia.calibration.experiments.Prior` terms. Their sum is one
 :class:`~magcilia.calibration.problem.Problem`:
 
+* coil experiments (:class:`~magcilia.calibration.experiments.CoilExperiment`) add the
+  magnetization scale, the Young's modulus and (single-axis output) the sensitivity to the
+  search vector; a fit they leave undetermined says which combination (the ``undetermined``
+  warning, from the Fisher information: :mod:`.joint_result`);
 * ``model="physical"``: n and k held at a converged layout (the ``rms`` ring,
   :func:`~magcilia.calibration.layout.converged_layout`), so that height and base radius are the
   hair's real dimensions; only the continuous parameters height, base radius, x, y, z are fitted
@@ -298,7 +302,9 @@ def calibrate_joint(
     ----------
     data : Measurement, sequence of Measurement, or a sum of experiments
         The experiments: tilt recordings at any azimuth, output (V) or 3-axis field (T), load
-        recordings; or experiment objects and priors that add
+        recordings, coil recordings (applied uniform fields: the magnetization scale, the
+        Young's modulus and, with a single-axis output, the sensitivity are then searched too;
+        ``fit_scale`` is implied); or experiment objects and priors that add
         (``TiltPath(a) + FieldPath(b) + Prior("height", 3.2e-3, 0.15e-3)``, :mod:`.experiments`;
         a recording becomes :func:`~magcilia.calibration.experiments.experiment` of it).
     initial : Setup, optional

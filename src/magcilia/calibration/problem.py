@@ -5,7 +5,9 @@ are integers), the one cost of a non-finite model (:data:`NONFINITE_COST`), and 
 many parameter vectors at once (the batched Levenberg–Marquardt evaluates whole populations):
 every condition's model comes from one compiled batch call per tilt azimuth
 (:class:`~magcilia.model.TiltBatch`: the base centre turned by −φ, the field turned back by +φ,
-:mod:`magcilia.model.azimuth`), load experiments from the bent shapes.
+:mod:`magcilia.model.azimuth`), load experiments from the bent shapes, coil experiments from the
+shapes bent by each applied uniform field plus that field (:mod:`.coil_model`; their
+magnetization scale, modulus and sensitivity are search parameters, their Jacobian differenced).
 
 The linear parameters (each experiment's bias: offsets, a polynomial in the angle; the shared
 magnetization scale with ``fit_scale``) are projected out in closed form (variable projection):

@@ -36,8 +36,9 @@ from numpy.typing import ArrayLike, NDArray
 from magcilia import _validate as v
 from magcilia._errors import MagciliaError
 from magcilia.constants import GAUSS
-from magcilia.device.sensor import Sensor, SensorFlag
+from magcilia.device.sensor import Sensor
 from magcilia.device.sensor import beyond_range as saturated
+from magcilia.io.coil_samples import applied_fields, coil_flagged, coil_note
 from magcilia.io.columns import (
     ACTUATION_KEYS,
     ANGLE_DECIMALS,
@@ -65,11 +66,6 @@ MAX_LOAD = 1e6
 #: Largest |field component| of 3-axis data accepted, T (the strongest laboratory magnets make
 #: tens of T; a magnetometer saturates at mT): beyond it the column is in the wrong unit or garbage.
 MAX_FIELD_T = 100.0
-#: the sensor flags (:meth:`magcilia.device.sensor.Sensor.check`) that drop a coil recording's
-#: sample: its total field (applied + cilium + background) beyond the linear range, on the
-#: sensitive axis or in magnitude (the datasheet's range is for the total field), or beyond the
-#: field that may flip the AMR element
-COIL_DROP = SensorFlag.BEYOND_RANGE | SensorFlag.TOTAL_BEYOND_RANGE | SensorFlag.FLIPPED_RISK
 
 
 def beyond_range(volts: ArrayLike, sensor: Sensor) -> NDArray[np.bool_]:
@@ -272,7 +268,7 @@ class _Reduction:
                    else f"has setreset={sr[i]:g}, neither +1 (set) nor -1 (reset)")
                 + "; clean the file or pass nan_policy='omit' (CLI: --nan-policy omit)"))
         if applied is not None:  # a coil sample's total field, checked by the sensor's rules
-            sat = ~bad & self._coil_flagged(np.stack(applied), volt, sr, fields, bad)
+            sat = ~bad & coil_flagged(self.sensor, np.stack(applied), volt, sr, fields, bad)
         elif volt is not None and fields is None:  # (3-axis data are not range-checked here)
             out = volt
             sat = ~bad & beyond_range(out, self.sensor)
@@ -326,25 +322,6 @@ class _Reduction:
             stats, peak = flat.reshape(a, k), flat_peak.reshape(a, k).max(axis=1)
         self._merge(conds, counts, stats, peak)
 
-    def _coil_flagged(self, applied: F64, volt: F64 | None, sr: F64 | None,
-                      fields: tuple[F64, F64, F64] | None, bad: NDArray[np.bool_]
-                      ) -> NDArray[np.bool_]:
-        """Which coil samples (``applied`` (3, s), T) the sensor's checks drop
-        (:data:`COIL_DROP`): the total field at the element is the 3-axis reading itself, or for
-        a single-axis output the applied field with B_x replaced by the reading's
-        ((V − offset)/scale, times the set/reset polarity)."""
-        if fields is not None:
-            total = np.stack(fields)
-        else:
-            assert volt is not None
-            total = applied.copy()
-            with np.errstate(over="ignore", invalid="ignore"):
-                total[0] = (volt - self.sensor.offset) / self.sensor.scale * (
-                    1.0 if sr is None else np.where(sr < 0.0, -1.0, 1.0))
-        total = np.where(bad | ~np.isfinite(total).all(axis=0), 0.0, total)
-        flags = self.sensor.check(total.T)
-        return np.asarray(flags & np.uint8(COIL_DROP) != 0)
-
     def _merge(self, conds: NDArray[np.complex128], counts: NDArray[np.int64], block: Moments,
                peak: F64) -> None:
         """Merge a block's per-condition statistics (shapes (b,), (b, 2) and (b, w)) into ours."""
@@ -380,11 +357,7 @@ class _Reduction:
     def _applied(self) -> F64:
         """A coil recording's applied field of each condition, T, (c, 3)."""
         assert self.coil is not None
-        table = np.zeros((len(self.coil), 3))
-        for key, i in self.coil.items():
-            table[i] = key
-        return np.asarray(table[np.round(self.conds.imag).astype(np.intp)] * 1e-6,
-                          dtype=np.float64)
+        return applied_fields(self.coil, self.conds.imag)
 
     def _readings(self) -> tuple[F64, F64, NDArray[np.int64], F64 | None, F64 | None]:
         """Per condition: output and its standard error (V; NaN for field data), samples used,
@@ -470,11 +443,7 @@ class _Reduction:
         if self.coil is not None:
             applied = self._applied()[has]
             if self.flagged:
-                metadata["notes"] = [(
-                    f"{self.flagged} coil sample(s) dropped: the total field at the element "
-                    f"beyond the sensor's linear range (±{self.sensor.field_range / GAUSS:g} "
-                    f"gauss) or its flip field ({self.sensor.flip_field / GAUSS:g} gauss); lower "
-                    "the coil's field or pass the sensor that was used")]
+                metadata["notes"] = [coil_note(self.flagged, self.sensor)]
         return Measurement(
             angles=(np.radians(self.conds.imag[has]) if loads is None and applied is None
                     else np.zeros(int(has.sum()))), volts=volts[has], sem=sem[has],
