@@ -60,7 +60,8 @@ def figure_options() -> set[tuple[str, str]]:
             help_text = "".join(c.value for c in ast.walk(kw["help"])
                                 if isinstance(c, ast.Constant) and isinstance(c.value, str)) \
                 if "help" in kw else ""
-            is_path = "type" in kw and "Path" in ast.unparse(kw["type"])
+            is_path = "type" in kw and any(t in ast.unparse(kw["type"])
+                                           for t in ("Path", "OUTPUT_FILE"))
             writes = ".png" in help_text or (is_path and (
                 "figure" in help_text.lower() or any(n.endswith("plot") for n in names)))
             if names and writes:
