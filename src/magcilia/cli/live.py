@@ -50,7 +50,7 @@ def command(json_lines: bool, duration: float | None, every: int, **kwargs: Any)
         terminal_view = not json_lines and sys.stdout.isatty()
         if terminal_view:  # the rich view: check for it before starting
             require("rich", package="rich", extra="live", purpose="The terminal view")
-        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS}, duration=duration)
         from magcilia.live import terminal
 
         if stop.requested:  # during the setup: nothing was opened

@@ -37,7 +37,7 @@ SPARKS = "▁▂▃▄▅▆▇█"
 #: names of the flag bits as the view shows them
 FLAG_NAMES = view_flag_names(Flag.OUTSIDE_SPAN, Flag.FOLD, Flag.SATURATED, Flag.EXTRAPOLATED,
                              Flag.CLIPPED, Flag.TARE_UNDER_LOAD, Flag.ZERO_DRIFT,
-                             Flag.COIL_PULSE)
+                             Flag.COIL_PULSE, Flag.TEMPERATURE_OUTSIDE)
 #: the key help line
 KEYS = "t tare · r start/stop recording · q quit (Ctrl-C)"
 #: the key help line of an array's view
@@ -324,6 +324,9 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
         lines.append(Text("tare: not tared (press t with the cilium unloaded)", style="yellow"))
     if status.recalibration:
         lines.append(Text(f"re-calibration: {status.recalibration}", style="cyan"))
+    if status.temperature:
+        lines.append(Text(f"temperature: {status.temperature}", style="bold red" if "OUTSIDE"
+                          in status.temperature else ""))
     if status.recording:
         lines.append(Text(f"recording: {status.recording}", style="bold magenta"))
     else:
