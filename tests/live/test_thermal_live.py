@@ -4,6 +4,7 @@ ThermalReadout (modulus, σ, TEMPERATURE_OUTSIDE), the recording keeping the tem
 
 from __future__ import annotations
 
+import io
 import json
 import subprocess
 import sys
@@ -20,11 +21,19 @@ from magcilia.io.recordings import read_samples
 from magcilia.io.setup_files import save_setup
 from magcilia.live import LiveReadout
 from magcilia.live.readouts import live_sensor
+from magcilia.live.render import render
 from magcilia.readout.protocol import Flag
 
 OUTSIDE = int(Flag.TEMPERATURE_OUTSIDE)
 SPAN = (-4e-5, 4e-5)  # N
 RAMP = (293.15, 313.15, 4.0)  # K, K, s
+
+
+def text_of(renderable: object) -> str:
+    console = pytest.importorskip("rich.console").Console(record=True, width=100,
+                                                          file=io.StringIO(), color_system=None)
+    console.print(renderable)
+    return console.export_text()
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +54,15 @@ def _run(setup: mc.Setup, readout: object, record: Path | None = None) -> mc.liv
         live.wait(600)
         assert live.status.tared
         samples = live.wait(3000)
+        shown = text_of(render(live.status, live.history.last(10.0, live.rate),
+                               live.limits(), width=100))
     assert live.status.state == "stopped"
+    if isinstance(readout, mc.ThermalReadout):  # the view: the temperature and the flag
+        assert "temperature: " in shown and "— OUTSIDE the calibrated range" in shown
+        assert "TEMPERATURE OUTSIDE 100%" in shown
+        assert "temperature 3" in live.status.report()
+    else:
+        assert "temperature" not in shown
     return samples
 
 
