@@ -50,6 +50,9 @@ def test_the_range_is_over_the_samples_used(tmp_path: Path) -> None:
     plain = tmp_path / "plain.csv"
     plain.write_text("angle_deg,voltage_V\n0,0.003\n10,0.0031\n", encoding="utf-8")
     assert mc.read_measurements(plain).temperature_range is None
+    other = tmp_path / "other.csv"  # a temperature in units magcilia does not take: left alone
+    other.write_text("angle_deg,voltage_V,temp_F\n0,0.003,70\n10,0.0031,71\n", encoding="utf-8")
+    assert mc.read_measurements(other).temperature_range is None
 
 
 def test_several_recordings_join() -> None:

@@ -540,8 +540,8 @@ def read_measurements(
         for magcilia's own recordings ``recording`` (complete, planned and missing angles) and,
         for a recording with a temperature column (``temperature_K`` or ``temperature_degC``),
         ``temperature_K`` (lowest, highest and mean over the samples used:
-        :attr:`Measurement.temperature_range`; another column named like a temperature is then
-        an error, as :func:`read_samples` with ``temperature=True``).
+        :attr:`Measurement.temperature_range`; another column named like a temperature, in
+        units magcilia does not take, is left alone).
 
     Examples
     --------
@@ -567,7 +567,7 @@ def read_measurements(
     p = _recording_path(path)
     follow = _Following(start)  # a CSV file reduced as it is read (its blocks still in cache)
     how = _how(p, columns, delimiter, decimal, group, progress)
-    how = dataclasses.replace(how, blocks=follow, columns=how.columns.with_temperature())
+    how = dataclasses.replace(how, blocks=follow, columns=how.columns.with_temperature(False))
     raw = _read_recording(p, ("angle_deg", OBSERVABLE), how)
     return _measure(start, raw, policy, follow)
 
