@@ -107,13 +107,15 @@ def test_kelvin_and_celsius_together_are_refused(tmp_path: Path) -> None:
 
 
 def test_a_temperature_column_leaves_calibration_reading_alone(tmp_path: Path) -> None:
-    """(the calibration reads no temperature: a °C column beside a tilt recording is left alone)"""
+    """(a °C column beside a tilt recording leaves the readings alone; the calibration keeps
+    the range of its temperatures)"""
     angles = np.repeat([0.0, 10.0, 20.0], 10)
     volts = 3e-3 + 1e-5 * angles
     path = _csv(tmp_path / "c.csv", ["angle_deg", "voltage_V", "temperature_degC"],
                 [angles, volts, np.full(30, 20.0)])
     m = mc.read_measurements(path)
     np.testing.assert_allclose(m.volts, [3e-3, 3.1e-3, 3.2e-3])
+    assert m.temperature_range == pytest.approx((293.15, 293.15))
 
 
 def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:

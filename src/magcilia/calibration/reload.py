@@ -16,6 +16,7 @@ from magcilia.calibration.covariance import ParameterCovariance
 from magcilia.calibration.diagnostics import CalibrationWarning
 from magcilia.calibration.experiment_fit import ExperimentFit
 from magcilia.calibration.parameters import ParameterKey
+from magcilia.calibration.temperature import temperature_fields
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
 from magcilia.io.recordings import Measurement
@@ -112,7 +113,8 @@ def _rebuild(cls: Callable[..., R], doc: Mapping[str, Any], setup: Setup | None,
                                                 tuple(str(n) for n in w.get("parameters") or ()))
                              for w in doc.get("diagnostics") or []),
         "fixed": {str(k): float(x) for k, x in (doc.get("fixed") or {}).items()},
-        "model": model, "keys": {k: key for k, key in keys.items() if k in values}}
+        "model": model, "keys": {k: key for k, key in keys.items() if k in values},
+        **temperature_fields(doc.get("temperature_K"))}
     if model == "physical":
         return cls(**common, experiments=fits, chi2=float(doc["chi2"]), dof=int(doc["dof"]),
                    priors={str(k): (float(p[0]), float(p[1]))

@@ -25,6 +25,7 @@ from magcilia.calibration.experiment_fit import ExperimentFit
 from magcilia.calibration.parameters import FitParameter, ParameterKey
 from magcilia.calibration.problem import GEOMETRY, LOAD_PARAMETER, PARAMETERS
 from magcilia.calibration.reload import rebuild
+from magcilia.calibration.temperature import temperature_doc, temperature_lines
 from magcilia.calibration.truth import SIZES, truth_comparison
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.setup import Setup
@@ -115,6 +116,14 @@ class CalibrationResult(Uncertain, Display):
         Final cost of each restart of the paper's search, V².
     truth : dict of str to float or None
         Known true values (SI) of a synthetic recording (see :meth:`with_truth`).
+    temperature_range : (float, float) or None
+        The lowest and highest temperature of the samples fitted, K, where the recordings carry
+        a temperature column (:attr:`~magcilia.Measurement.temperature_range`; over all of
+        them), else None: the fitted parameters hold over this range, and a read-out flags
+        readings outside it (:mod:`magcilia.calibration.temperature`).
+    temperature_mean : float
+        The mean temperature of those samples, K (NaN without): the temperature the fitted
+        parameters are at, the reference of the temperature compensation.
     """
 
     setup: Setup
@@ -143,6 +152,8 @@ class CalibrationResult(Uncertain, Display):
     bias: str = "offset"
     restart_costs: tuple[float, ...] = field(default=())
     truth: dict[str, float] | None = None
+    temperature_range: tuple[float, float] | None = None
+    temperature_mean: float = math.nan
 
     # -- what both models have ----------------------------------------------------------------
     @property
@@ -239,10 +250,12 @@ class CalibrationResult(Uncertain, Display):
 
     # -- for people ---------------------------------------------------------------------------
     def report(self, si: bool = False) -> str:
-        """Plain text: the fit's quality, the parameter table (display units, SI with ``si``;
-        priors or the truth where known), each experiment's fit (physical model), what is
-        still undetermined, the warnings."""
-        return "\n".join(self._head(si) + self._table_lines(si) + self._tail())
+        """Plain text: the fit's quality, the temperatures of the samples fitted (where the
+        recordings carry one), the parameter table (display units, SI with ``si``; priors or
+        the truth where known), each experiment's fit (physical model), what is still
+        undetermined, the warnings."""
+        return "\n".join(self._head(si) + temperature_lines(self) + self._table_lines(si)
+                         + self._tail())
 
     def _head(self, si: bool) -> list[str]:
         if self.model == "paper":
@@ -305,7 +318,8 @@ class CalibrationResult(Uncertain, Display):
             "bounds": {k: list(b) for k, b in self.bounds.items()}, "fixed": dict(self.fixed),
             "table": self.table(), "evaluations": self.evaluations, "elapsed_s": self.elapsed,
             "parameters": [p.to_dict() for p in self.parameters],
-            "setup": setup_to_dict(self.setup), "initial": setup_to_dict(self.initial)}
+            "setup": setup_to_dict(self.setup), "initial": setup_to_dict(self.initial),
+            "temperature_K": temperature_doc(self)}
         if self.model == "paper":
             return {
                 "source": self.path.source, "cost_V2": self.cost, "rms_V": self.rms, **common,

@@ -59,6 +59,7 @@ from magcilia.calibration.problem import (
 )
 from magcilia.calibration.reload import path_fit
 from magcilia.calibration.result import CalibrationResult, ParameterCovariance
+from magcilia.calibration.temperature import with_temperature
 from magcilia.calibration.uncertainty import uncertainty
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.device.parameters import check_dipoles, check_ranges
@@ -299,7 +300,7 @@ def calibrate(
                                  posterior=posterior)
         if progress is not None:
             progress(1, 1)
-        return _with_sensor_field(result)
+        return with_temperature(_with_sensor_field(result), data)
     if posterior is not False:
         raise v.fail("posterior", posterior, "given with model='physical' (the posterior of the "
                                              "hair's geometry; the paper's model searches n, k)")
@@ -365,8 +366,9 @@ def calibrate(
         cost_best, x_best = min(candidates, key=lambda c: c[0])
     x_best = _y_sign_of(x_best, initial.position[1], box["y"])
     logger.info("best cost %.6g V^2 after %.3g s", cost_best, time.perf_counter() - t0)
-    return _with_alternatives(_result(problem, initial, data, box, x_best, bias, t0,
-                                      restart_costs), x_best, cost_best, candidates)
+    return with_temperature(_with_alternatives(_result(
+        problem, initial, data, box, x_best, bias, t0, restart_costs), x_best, cost_best,
+        candidates), data)
 
 
 def _with_alternatives(result: CalibrationResult, x: F64, cost: float,

@@ -32,11 +32,13 @@ from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
 from magcilia.cli._options import SEED, serial_format_options
 from magcilia.cli._outputs import OUTPUT_FILE
+from magcilia.cli._thermal import setup_temperature, temperature_option, temperature_profile
 from magcilia.cli.array import DEFAULT_SPAN
 from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
 from magcilia.design import design_metrics
 from magcilia.device.magnetometer import MAGNETOMETERS
 from magcilia.device.setup import Setup
+from magcilia.device.temperature import TemperatureProfile
 from magcilia.io import presets
 from magcilia.io.array_file import is_array_file, load_array
 from magcilia.live import LiveReadout
@@ -48,6 +50,7 @@ from magcilia.readout import (
     Readout,
     field_for_loads,
 )
+from magcilia.readout.thermal import ThermalReadout
 
 logger = logging.getLogger(__name__)
 
@@ -173,6 +176,7 @@ def live_options(command: Any) -> Any:
         click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
                      help="sim: the simulated hair moves through its bending modes (rings in "
                           "air, lags in water) instead of sitting at each load's equilibrium."),
+        temperature_option,
         mechanics_options,
     ]
     for option in reversed(options):
@@ -183,7 +187,7 @@ def live_options(command: Any) -> Any:
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
              "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
-             "force", "dynamic", "sim_dynamics", "recalibrate", "serial")
+             "force", "dynamic", "sim_dynamics", "recalibrate", "serial", "temperature")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
@@ -194,7 +198,8 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                record_path: str | None = None, force: bool = False,
                replay_realtime: bool | None = None, dynamic: bool = False,
                sim_dynamics: bool = False, recalibrate: float | None = None,
-               serial: SerialFormat | None = None, **_: Any) -> LiveReadout:
+               serial: SerialFormat | None = None, temperature: str | None = None,
+               duration: float | None = None, **_: Any) -> LiveReadout:
     """The live read-out the options describe (not started): one output of a single-axis
     sensor; the force vector of a 3-axis sensor (``--sensor``); every cilium's force vector of an
     array (an array setup file or preset). A ``.tdms`` source is a replay, in real time with
@@ -202,7 +207,9 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     by :class:`~magcilia.readout.dynamic.DynamicReadout` (and a simulated hair that moves);
     ``sim_dynamics``: a simulated hair that moves (:class:`SimulatedSource`'s ``dynamics``);
     ``serial``: what a ``serial:PORT`` device sends (ASCII lines and float frames at
-    ``source_rate``, which they do not carry)."""
+    ``source_rate``, which they do not carry); ``temperature``: the simulated sensor's
+    temperature (``--temperature``, a ramp over ``duration``), read by
+    :class:`~magcilia.ThermalReadout` with the setup's coefficients."""
     logger.info("setting up the live read-out: setup %s, source %s", setup_arg, source_spec)
     serial = SerialFormat() if serial is None else serial
     if not serial.verified and source_rate is None:
@@ -226,7 +233,8 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                                      ("--calibration", calibration_path, None),
                                      ("--set-reset", set_reset, None),
                                      ("--dynamic", dynamic, False),
-                                     ("--sim-dynamics", sim_dynamics, False)):
+                                     ("--sim-dynamics", sim_dynamics, False),
+                                     ("--temperature", temperature, None)):
             if value != default:
                 what = "an array" if array else "a 3-axis sensor (--sensor)"
                 raise fail(name, value, f"left out for {what}: it reads force vectors from "
@@ -245,7 +253,9 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
     covariance = ParameterCovariance.load(calibration_path) if calibration_path else None
     static = Readout(setup, quantity=quantity, span=span, calibration=covariance,
                      flow=flow if quantity == "flow" else None)
-    readout: Readout | DynamicReadout = static
+    readout: Readout | DynamicReadout | ThermalReadout = static
+    profile = _temperature(temperature, duration, source_spec, dynamic, recalibrate)
+    thermal = None if profile is None else setup_temperature(setup_arg)
     source: Source
     source_rate = SOURCE_RATE if source_rate is None else source_rate
     rate = RATE if rate is None else rate
@@ -271,13 +281,32 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                                  realtime=True, rng=seed, set_reset=set_reset, bias=3e-4,
                                  readout_noise=2e-5, drift=2e-7,
                                  flow=flow if quantity == "flow" else None,
-                                 dynamics=dynamic or sim_dynamics, fluid=hair_fluid)
+                                 dynamics=dynamic or sim_dynamics, fluid=hair_fluid,
+                                 temperature=profile, thermal=thermal)
+        readout = readout if thermal is None else ThermalReadout(static, thermal)
     else:
         source = source_from_spec(source_spec, setup=setup, rate=source_rate, rng=seed,
                                   set_reset=set_reset, realtime=True, serial=serial)
     return LiveReadout(source, readout, rate=rate, channel=channel,
                        tare_at_start=not no_tare, tracking=tracking or None,
                        record=record_path)
+
+
+def _temperature(text: str | None, duration: float | None, source_spec: str, dynamic: bool,
+                 recalibrate: float | None) -> TemperatureProfile | None:
+    """``--temperature``: the simulated sensor's temperature (None without), checked against
+    the options it cannot go with."""
+    profile = temperature_profile(text, duration)
+    if profile is None:
+        return None
+    if source_spec != "sim":
+        raise fail("--temperature", text, "given with --source sim only (a device's temperature "
+                                          "comes from its own channel)")
+    for name, value in (("--dynamic", dynamic), ("--recalibrate", recalibrate)):
+        if value:
+            raise fail("--temperature", text, f"left out with {name} (the temperature "
+                       "compensation reads one static output)")
+    return profile
 
 
 def _recalibrating(setup: Setup, quantity: str, span: tuple[float, float], spec: str,

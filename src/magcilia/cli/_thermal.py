@@ -1,11 +1,12 @@
-"""The commands' temperature: ``record --temperature`` (the simulated source's) and the
-compensation of ``magcilia readout`` where the recording has a temperature column
-(:class:`magcilia.ThermalReadout`)."""
+"""The commands' temperature: ``record --temperature`` and ``live --temperature`` (the simulated
+source's; one option) and the compensation of ``magcilia readout`` where the recording has a
+temperature column (:class:`magcilia.ThermalReadout`)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import click
 import numpy as np
 
 from magcilia._errors import MagciliaError
@@ -22,7 +23,15 @@ COLUMN = "temperature_K"
 #: what ``--temperature`` takes
 TEMPERATURE_HELP = ("sim: the temperature, K or with a unit (293K, 20degC), or a ramp START:END "
                     "over --duration (293K:313K); recorded as temperature_K, the simulated "
-                    "output following the setup's [temperature] coefficients.")
+                    "output following the setup's [temperature] coefficients (live: read "
+                    "compensated, flagged TEMPERATURE OUTSIDE beyond its calibrated_range and "
+                    "the tare's).")
+
+
+def temperature_option(command: Any) -> Any:
+    """``--temperature`` (:data:`TEMPERATURE_HELP`): ``record``'s and ``live``'s one option."""
+    return click.option("--temperature", default=None, metavar="T|START:END",
+                        help=TEMPERATURE_HELP)(command)
 
 
 def temperature_profile(text: str | None, duration: float | None) -> TemperatureProfile | None:

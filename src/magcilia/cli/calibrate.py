@@ -28,6 +28,7 @@ from magcilia.cli._outputs import in_folder
 from magcilia.device.parameters import describe_bounds
 from magcilia.io.recordings import FLUID_NAMES, Measurement, read_measurements
 from magcilia.io.setup_files import load_priors
+from magcilia.io.temperature_table import temperature_table
 from magcilia.report.calibration import (
     CALIBRATION_NAMES,
     calibration_files,
@@ -129,6 +130,12 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
     Before fitting, each recording's samples are checked (--suspect): what is flagged, and what
     a reader says of the file (a recording cut short and the planned angles it lacks, damage
     read past), is printed as note lines and kept in report.md and result.json ("data").
+
+    Recordings with a temperature column (temperature_K or temperature_degC) give the range of
+    temperatures over the samples fitted: printed ("temperature 293.2–296.8 K during
+    calibration"), kept in result.json and written into fitted_setup.toml's [temperature] table
+    (calibrated_range, and reference their mean), so that readout and live flag readings
+    outside it. Without one, the setup file's [temperature] table is written as given.
     """
     # the figures' helper process readies matplotlib while the recordings are read and fitted
     with staged_directory(out_dir, force=force, names=CALIBRATION_NAMES) as tmp, \
@@ -175,7 +182,8 @@ def command(data: tuple[str, ...], setup_arg: str, out_dir: str, bound_items: tu
                 fixed=parse_fixed(fix_items))
         refuse_undetermined_coil(result, measurements)
         write_calibration_files(result, tmp, style, comparison=comparison, data=measurements,
-                                writer=writer)
+                                writer=writer, temperature=temperature_table(setup_arg)
+                                if setup_arg.lower().endswith(".toml") else None)
         writer.wait()  # (the folder is published only with its figures)
     notes = [] if as_json else notes_lines(measurements)
     for line in notes:

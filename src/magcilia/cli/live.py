@@ -64,7 +64,7 @@ def command(json_lines: bool, duration: float | None, every: int, lsl_name: str 
 
             pylsl_module()  # before anything opens
             check_name(lsl_name)
-        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS})
+        live = build_live(**{k: kwargs[k] for k in LIVE_KEYS}, duration=duration)
         from magcilia.live import terminal
 
         if stop.requested:  # during the setup: nothing was opened

@@ -227,24 +227,28 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
     tolerance beyond the span are extrapolated or clipped; only rows without an estimate
     (outside_span, fold, saturated) have empty fields.
 
+    A recording with a temperature (temperature_K or temperature_degC) is read compensated with
+    the setup file's [temperature] coefficients (magcilia.ThermalReadout; their sigma in each
+    row's), flagged temperature_outside beyond its calibrated_range (magcilia calibrate writes
+    the range its recordings saw; without one the reference temperature) widened by the tare's.
+
     While actuating (--actuation-field, --actuation FILE or the setup file's [actuation]), the
-    read-out is compensated: its table includes the actuation's bending of the cilium and its
-    direct field at the element, so a constant actuation reads the external load alone.
+    table includes the actuation's bending of the cilium and its direct field at the element:
+    a constant actuation reads the external load alone.
 
     With --biaxial, RECORDING holds the three field components of a 3-axis sensor (--sensor)
     and each row gets the horizontal force vector: fx, fy, magnitude (mN), direction (deg from
     +x toward +y), their 1-sigma, chi2 and flags.
 
-    The recording's samples are checked first (--suspect: spikes, duplicated blocks, garbled
-    values); what is flagged, and what the reader says of the file (a recording cut short,
-    damage read past), is printed as note lines and kept in the --json summary.
+    The samples are checked first (--suspect: spikes, duplicated blocks, garbled values); what is
+    flagged, and what the reader says of the file (cut short, damage read past), is printed as
+    note lines and kept in the --json summary.
 
     A recording of `magcilia live --record` (or the views' Record button) is read as the view
     read it: its read-out readings (the windows' means) with the view's tare and zero tracking,
     the noise σ used, and the setup, quantity and span it stores — `magcilia readout FILE.tdms
     --csv OUT.csv` needs no --setup. Given, --setup, --quantity and --span replace the stored
-    ones,
-    and --tare or --tare-file replaces the view's corrections.
+    ones, and --tare or --tare-file replaces the view's corrections.
     """
     if dynamic and (biaxial or is_live_recording(recording)):
         raise fail("--dynamic", True, "given for a recording of one output's samples (not "

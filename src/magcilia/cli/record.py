@@ -26,7 +26,7 @@ from magcilia.cli._options import SEED, serial_format_options
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
 from magcilia.cli._record_coil import CoilOptions, check_record_path, record_coil_command
 from magcilia.cli._signals import signals_interrupt
-from magcilia.cli._thermal import TEMPERATURE_HELP, setup_temperature, temperature_profile
+from magcilia.cli._thermal import setup_temperature, temperature_option, temperature_profile
 from magcilia.io.recording_file import recording_properties
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.report.units import output_units
@@ -116,7 +116,7 @@ def point_text(point: SweepPoint, units: OutputUnits) -> str:
 @click.option("--sim-dynamics", "sim_dynamics", is_flag=True,
               help="sim: the simulated hair moves through its bending modes in air (rings after "
                    "each tilt; --settle drops the ringing) instead of sitting at each angle.")
-@click.option("--temperature", default=None, help=TEMPERATURE_HELP)
+@temperature_option
 @click.option("--record", "out_path", cls=RenamedOption, old="--out", required=True,
               type=OUTPUT_FILE,
               help="The recording (.tdms), written in flushed chunks (crash-safe).")

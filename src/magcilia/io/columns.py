@@ -229,6 +229,8 @@ class Columns:
     temperature_celsius: str = "temperature_degC"
     #: whether the temperature roles are read (:meth:`with_temperature`), not a role
     read_temperature: bool = False
+    #: whether another column named like a temperature is then an error, not a role
+    temperature_strict: bool = True
 
     def __post_init__(self) -> None:
         seen: dict[str, str] = {}
@@ -323,9 +325,11 @@ class Columns:
         """Whether every role has magcilia's own name."""
         return all(getattr(self, role) == getattr(_DEFAULT, role) for role in ROLES)
 
-    def with_temperature(self) -> Columns:
-        """This mapping, reading the temperature too (see the module docstring)."""
-        return dataclasses.replace(self, read_temperature=True)
+    def with_temperature(self, strict: bool = True) -> Columns:
+        """This mapping, reading the temperature too (see the module docstring); with ``strict``
+        False another column named like a temperature is left alone (the calibration's reading:
+        its temperature range is a by-product, a recording it took before stays readable)."""
+        return dataclasses.replace(self, read_temperature=True, temperature_strict=strict)
 
     def _roles(self) -> tuple[str, ...]:
         """The roles read: all, or all but the temperature's."""
@@ -489,7 +493,7 @@ class Columns:
                 f"({_short(names['temperature_degC'])}) temperature {kind}; keep one")
         taken = {i for i, _ in found.values()}
         for i, name in enumerate(stripped):
-            if i not in taken and _TEMPERATURE_LIKE.match(name):
+            if self.temperature_strict and i not in taken and _TEMPERATURE_LIKE.match(name):
                 raise MagciliaError(
                     f"{where}: {kind} {_short(name)!r} looks like a temperature in units magcilia "
                     f"does not take; name it temperature_K (kelvin) or temperature_degC (°C), or "

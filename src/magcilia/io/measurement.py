@@ -178,6 +178,13 @@ class Measurement(Display):
         return str(self.metadata.get("fluid", "water"))
 
     @property
+    def temperature_range(self) -> tuple[float, float] | None:
+        """The (lowest, highest) temperature of the samples used, K (a recording with a
+        temperature column, ``metadata["temperature_K"]``), else None."""
+        t = self.metadata.get("temperature_K")
+        return None if not t else (float(t["min"]), float(t["max"]))
+
+    @property
     def observable(self) -> str:
         """``"output"`` (the single-axis sensor's voltage) or ``"field"`` (3-axis data)."""
         return "output" if self.fields is None else "field"

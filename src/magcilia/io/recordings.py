@@ -545,8 +545,12 @@ def read_measurements(
         For a load recording (a ``force_N`` or ``flow_m_per_s`` column in place of
         ``angle_deg``): ``forces`` or ``speeds`` per condition (azimuth, load), angles 0.
         ``metadata`` holds ``quality`` (the checks' findings), ``notes`` (the reader's notes on
-        the file: damage read past, a recording cut short and the planned angles it lacks) and,
-        for magcilia's own recordings, ``recording`` (complete, planned and missing angles).
+        the file: damage read past, a recording cut short and the planned angles it lacks),
+        for magcilia's own recordings ``recording`` (complete, planned and missing angles) and,
+        for a recording with a temperature column (``temperature_K`` or ``temperature_degC``),
+        ``temperature_K`` (lowest, highest and mean over the samples used:
+        :attr:`Measurement.temperature_range`; another column named like a temperature, in
+        units magcilia does not take, is left alone).
 
     Examples
     --------
@@ -571,8 +575,8 @@ def read_measurements(
 
     p = _recording_path(path)
     follow = _Following(start)  # a CSV file reduced as it is read (its blocks still in cache)
-    how = dataclasses.replace(_how(p, columns, delimiter, decimal, group, progress),
-                              blocks=follow)
+    how = _how(p, columns, delimiter, decimal, group, progress)
+    how = dataclasses.replace(how, blocks=follow, columns=how.columns.with_temperature(False))
     raw = _read_recording(p, ("angle_deg", OBSERVABLE), how)
     return _measure(start, raw, policy, follow)
 

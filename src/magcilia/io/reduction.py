@@ -51,6 +51,7 @@ from magcilia.io.measurement import Measurement
 from magcilia.io.moments import Moments, by_value, group_moments, grow_rows, summarize
 from magcilia.io.quality import SUSPECT_POLICIES, screen
 from magcilia.io.recording_state import RawRecording
+from magcilia.units import ZERO_CELSIUS
 
 F64 = NDArray[np.float64]
 logger = logging.getLogger(__name__)
@@ -158,6 +159,8 @@ class _Reduction:
         self.coil: dict[tuple[float, float, float], int] | None = None
         self.flagged = 0  # coil samples dropped by the sensor's checks (COIL_DROP)
         self.fluid = "water"
+        #: the temperatures of the samples used (finite ones), K: lowest, highest, sum, count
+        self.temps = [math.inf, -math.inf, 0.0, 0]
         self.stats = Moments(np.zeros((0, 0), np.int64), *np.zeros((3, 0, 0)))  # shapes (c, w)
 
     def add_columns(self, cols: Mapping[str, F64]) -> None:
@@ -174,15 +177,20 @@ class _Reduction:
             applied = tuple(np.asarray(cols[k], dtype=np.float64) for k in ACTUATION_KEYS)
             condition = actuation_ids(applied, self.coil)
         assert condition is not None  # (the readers require an angle, a load or a coil field)
+        temps = cols.get("temperature_K")  # (a reader's block may still hold its °C column)
+        if temps is None and "temperature_degC" in cols:
+            temps = cols["temperature_degC"] + ZERO_CELSIUS
         self.add(condition, cols.get("voltage_V"), cols.get("setreset"),
-                 azimuth=cols.get("azimuth_deg"), fields=fields, applied=applied)
+                 azimuth=cols.get("azimuth_deg"), fields=fields, applied=applied,
+                 temperature=temps)
 
     def add(self, ang: F64, volt: F64 | None, sr: F64 | None = None, *,
             azimuth: F64 | None = None, fields: tuple[F64, F64, F64] | None = None,
-            applied: tuple[F64, ...] | None = None) -> None:
+            applied: tuple[F64, ...] | None = None, temperature: F64 | None = None) -> None:
         """Add samples (shapes (s,): angle in deg, output in V or None, +1/−1 set/reset or None,
-        azimuth in deg or None (0), the field components in T or None), in pieces of
-        :data:`REDUCE_SAMPLES`. Every block of a recording has the same kinds of columns."""
+        azimuth in deg or None (0), the field components in T or None, the temperature in K or
+        None), in pieces of :data:`REDUCE_SAMPLES`. Every block of a recording has the same kinds
+        of columns."""
         if not self.width:
             self.field, self.azimuth = fields is not None, azimuth is not None
             self.width = 3 if self.field else (1 if sr is None else 2)
@@ -195,15 +203,16 @@ class _Reduction:
                       None if azimuth is None else azimuth[part],
                       None if fields is None else (fields[0][part], fields[1][part],
                                                    fields[2][part]),
-                      None if applied is None else tuple(c[part] for c in applied))
+                      None if applied is None else tuple(c[part] for c in applied),
+                      None if temperature is None else temperature[part])
 
     def _note(self, kind: str, where: NDArray[np.bool_], message: Callable[[int], str]) -> None:
         if kind not in self.problems and where.any():
             self.problems[kind] = message(int(np.argmax(where)))
 
     def _add(self, ang: F64, volt: F64 | None, sr: F64 | None, az: F64 | None,
-             fields: tuple[F64, F64, F64] | None, applied: tuple[F64, ...] | None = None
-             ) -> None:
+             fields: tuple[F64, F64, F64] | None, applied: tuple[F64, ...] | None = None,
+             temperature: F64 | None = None) -> None:
         source, offset = self.source, self.samples
         self.samples += ang.size
         finite = np.isfinite(ang)
@@ -301,6 +310,13 @@ class _Reduction:
         use = ~bad & ~sat if self.saturation == "omit" or applied is not None else ~bad
         if applied is not None:
             self.flagged += int(sat[on].sum())
+        if temperature is not None:  # the range the samples used were taken over
+            t = temperature[use & finite]
+            t = t[np.isfinite(t)]
+            if t.size:
+                t_lo, t_hi, total, count_t = self.temps
+                self.temps = [min(t_lo, float(t.min())), max(t_hi, float(t.max())),
+                              total + float(t.sum()), count_t + t.size]
         if not use.all():
             keep = use & finite
             group = group[use[on]]
@@ -439,6 +455,10 @@ class _Reduction:
         loads = None if self.load is None else self.conds.imag[has] / LOAD_UNITS[self.load][1]
         if self.load == "flow":
             metadata["fluid"] = self.fluid
+        if self.temps[3]:
+            t_lo, t_hi, total, count_t = self.temps
+            metadata["temperature_K"] = {"min": t_lo, "max": t_hi, "mean": total / count_t,
+                                         "samples": int(count_t)}
         applied = None
         if self.coil is not None:
             applied = self._applied()[has]

@@ -74,6 +74,7 @@ from __future__ import annotations
 
 import os
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -349,8 +350,10 @@ def setup_to_dict(setup: Setup) -> dict[str, dict[str, Any]]:
     return doc
 
 
-def save_setup(setup: Setup, path: str | os.PathLike[str]) -> None:
-    """Write ``setup`` as a setup TOML file (atomically).
+def save_setup(setup: Setup, path: str | os.PathLike[str], *,
+               tables: Mapping[str, Mapping[str, Any]] | None = None) -> None:
+    """Write ``setup`` as a setup TOML file (atomically), with ``tables``: tables other readers
+    take (:data:`OTHER_TABLES`, e.g. ``{"temperature": {...}}``), written as given.
 
     The document is read back in memory first: a setup that :func:`load_setup` would refuse
     (a sensor name other than a preset; a placement whose rounding to 12 digits moves the element
@@ -358,6 +361,10 @@ def save_setup(setup: Setup, path: str | os.PathLike[str]) -> None:
     if not isinstance(setup, Setup):
         raise v.fail("setup", type(setup).__name__, "a magcilia Setup")
     doc = setup_to_dict(setup)
+    for name, table in (tables or {}).items():
+        if name not in OTHER_TABLES:
+            raise v.fail("save_setup table", name, "one of " + ", ".join(OTHER_TABLES))
+        doc[name] = dict(table)
     text = ("# magcilia setup file: every quantity carries its unit (SI prefixes allowed)\n"
             + tomli_w.dumps(doc))
     try:

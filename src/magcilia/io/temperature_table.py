@@ -21,7 +21,9 @@ kelvin.
 
 from __future__ import annotations
 
+import math
 import os
+from collections.abc import Mapping
 from typing import Any
 
 from magcilia import _validate as v
@@ -83,9 +85,46 @@ def temperature_from_dict(table: object, source: str = "setup") -> TemperatureMo
     return TemperatureModel(**args)
 
 
+def temperature_table(path: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The ``[temperature]`` table of a setup file as written (checked), None without one."""
+    doc = _read_document(path)
+    if not isinstance(doc, dict) or TEMPERATURE_TABLE not in doc:
+        return None
+    temperature_from_dict(doc[TEMPERATURE_TABLE], str(path))
+    return dict(doc[TEMPERATURE_TABLE])
+
+
 def load_temperature(path: str | os.PathLike[str]) -> TemperatureModel | None:
     """The ``[temperature]`` table of a setup file as a model, None without one."""
     doc = _read_document(path)
     if not isinstance(doc, dict) or TEMPERATURE_TABLE not in doc:
         return None
     return temperature_from_dict(doc[TEMPERATURE_TABLE], str(path))
+
+
+def fitted_temperature_table(table: Mapping[str, Any] | None,
+                             calibrated_range: tuple[float, float] | None,
+                             mean: float = math.nan) -> dict[str, Any] | None:
+    """The ``[temperature]`` table of a fitted setup (``magcilia calibrate``'s
+    ``fitted_setup.toml``): the initial setup file's ``table`` (its keys as written), with
+    ``calibrated_range`` the temperatures the calibration saw (K, rounded outward to 1 mK) and
+    ``reference`` their ``mean`` (K: the temperature the fitted parameters are at); the table as
+    given where the calibration saw no temperature (``calibrated_range`` None); None where there
+    is neither. The table is checked (:func:`temperature_from_dict`).
+
+    Examples
+    --------
+    >>> fitted_temperature_table(None, (293.2, 296.8), 295.0)
+    {'reference': '295.000 K', 'calibrated_range': '293.200 K:296.800 K'}
+    """
+    out = dict(table or {})
+    if calibrated_range is not None:
+        lo, hi = calibrated_range
+        if math.isfinite(mean):
+            out["reference"] = f"{mean:.3f} K"
+        out["calibrated_range"] = (f"{math.floor(lo * 1e3 + 1e-6) / 1e3:.3f} K:"
+                                   f"{math.ceil(hi * 1e3 - 1e-6) / 1e3:.3f} K")
+    if not out:
+        return None
+    temperature_from_dict(out, "fitted setup")
+    return out

@@ -8,11 +8,12 @@
                                               tare, read-out, record        each with a cursor
 
 The read-out thread takes the samples of the channels the read-out names (its ``inputs``: the
-output, or every part's ``NAME.x``, ``.y``, ``.z``) in chunks of ``batch`` seconds, averages each
-window of ``factor = source rate / output rate`` samples per channel
-(:mod:`magcilia.live.windows`, set/reset demodulated), adds the tare and zero-tracking correction
-per channel (:mod:`magcilia.live.zero`), flags windows in which any raw sample left its channel's
-range, and reads the chunk with one call of the read-out's ``read(samples, noise=)``: the noise
+output, or every part's ``NAME.x``, ``.y``, ``.z``) in chunks of ``batch`` seconds (an output
+with a temperature brought to the reference temperature first: :mod:`magcilia.live.thermal`),
+averages each window of ``factor = source rate / output rate`` samples per channel (set/reset
+demodulated), adds the tare and zero-tracking correction (:mod:`magcilia.live.zero`), flags
+windows in which any raw sample left its channel's range, and reads the chunk with one call of
+the read-out's ``read(samples, noise=)``: the noise
 measured at the tare (else the larger of the model's and the last second's spread) with the
 zero's σ added; every estimate carries the zero's TARE_UNDER_LOAD and ZERO_DRIFT. It appends
 them — a number, a force vector (2,) or one per cilium (C, 2) per reading — to a
@@ -36,7 +37,6 @@ import math
 import threading
 import time
 from pathlib import Path
-from types import TracebackType
 from typing import Any, Self
 
 import numpy as np
@@ -57,6 +57,7 @@ from magcilia.live.recorded import (
 )
 from magcilia.live.recording import new_recording_path, readout_group, sample_columns
 from magcilia.live.status import EVENTS, Event, Limits, LiveStatus, tare_text
+from magcilia.live.thermal import WARNING_FLAGS
 from magcilia.live.windows import Averager
 from magcilia.live.zero import Zero
 from magcilia.readout.protocol import FLAG_DTYPE, Flag
@@ -152,7 +153,7 @@ class LiveReadout:
         sensor = self.sensor
         scalar = sensor.kind == "scalar"
         #: the source channels read, in the read-out's order
-        self.inputs = (self.channel,) if scalar else sensor.inputs
+        self.inputs = (self.channel, *sensor.inputs[1:]) if scalar else sensor.inputs
         self.zero = Zero(float(sensor.rest[0]) if scalar else sensor.rest, tracking, band,
                          unit=sensor.channel_unit, names=() if scalar else sensor.inputs)
         self.factor = 1
@@ -247,8 +248,7 @@ class LiveReadout:
     def __enter__(self) -> Self:
         return self.start()
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
     @property
@@ -320,7 +320,8 @@ class LiveReadout:
             latency_median=float(np.median(lat)) if lat.size else math.nan,
             latency_p99=float(np.quantile(lat, 0.99)) if lat.size else math.nan,
             unit=self.sensor.channel_unit,
-            recalibration=self.recalibration.text() if self.recalibration else "")
+            recalibration=self.recalibration.text() if self.recalibration else "",
+            temperature=self.sensor.temperature_text())
 
     def limits(self) -> Limits:
         """The span, the usable range within it and the minimum detectable change at rest (kept
@@ -356,8 +357,7 @@ class LiveReadout:
         """
         with self._recording_lock:  # one start or stop at a time; each file its own name
             reserved = path is None
-            if path is None:
-                path = new_recording_path(Path(directory))
+            path = new_recording_path(Path(directory)) if path is None else path
             writer = RecordingWriter(path, metadata=recording_metadata(self), reserved=reserved,
                                      chunk=chunk_for(self.source.rate))
             try:
@@ -417,7 +417,7 @@ class LiveReadout:
         if missing:
             with contextlib.suppress(Exception):
                 reader.stop()
-            if self.sensor.kind == "scalar":
+            if missing == [self.channel]:
                 raise v.fail("channel", self.channel, f"a channel of {self.source.name} (it "
                              f"has {', '.join(names)}; choose one with --channel)")
             raise v.fail("source", self.source.name, f"a source of the read-out's channels "
@@ -492,7 +492,7 @@ class LiveReadout:
             raise MagciliaError(f"{self.source.name} does not mark set/reset samples; "
                                 "demodulation needs them")
         beyond = self.sensor.beyond(raw.reshape(raw.shape[0], -1))
-        w = self._averager.push(t, raw, beyond, sr)
+        w = self._averager.push(t, self.sensor.compensate(block, raw, self.zero), beyond, sr)
         zero = self.zero
         with self._lock:  # a tare asked for from now on begins with the next block
             collecting = self._tare_wanted
@@ -516,8 +516,8 @@ class LiveReadout:
             value, flags = self.recalibration.flag(value, flags, pulsed, self.factor)
         saturated = np.where(w.beyond, FLAG_DTYPE(Flag.SATURATED), FLAG_DTYPE(0))
         flags = flags | saturated.reshape(-1, *(1 for _ in flags.shape[1:]))
-        if self.sensor.kind == "scalar":  # any flag: no value (as the views always showed it)
-            bad = np.where(flags != 0, np.nan, 1.0)
+        if self.sensor.kind == "scalar":  # any flag but a warning: no value (as always shown)
+            bad = np.where(flags & ~WARNING_FLAGS != 0, np.nan, 1.0)
         else:  # a vector near zero or ambiguous in direction keeps its components
             bad = np.where(flags & FLAG_DTYPE(NO_ESTIMATE) != 0, np.nan, 1.0)[..., None]
         flags = flags | self.sensor.zero_flags(zero.channel_flags)  # TARE_UNDER_LOAD, ZERO_DRIFT

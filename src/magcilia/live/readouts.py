@@ -4,9 +4,11 @@
 :class:`~magcilia.readout.protocol.SensorReadout` (``inputs``, ``rest``, ``read(samples,
 noise=)``, ``tare``, ``baseline``): the single-axis :class:`~magcilia.Readout`, the force vector
 of a 3-axis sensor (:class:`~magcilia.BiaxialReadout`), every force vector of an array
-(:class:`~magcilia.ArrayReadout`). :func:`live_sensor` describes one for the live views
-(:class:`LiveSensor`): its kind, the channels it reads and their unit, the shape of one estimate,
-the channels' saturation rule and model noise, its limits, the setup to record.
+(:class:`~magcilia.ArrayReadout`), one output compensated for temperature
+(:class:`~magcilia.ThermalReadout`, :mod:`magcilia.live.thermal`). :func:`live_sensor`
+describes one for the live views (:class:`LiveSensor`): its kind, the channels it reads and their
+unit, the shape of one estimate, the channels' saturation rule and model noise, its limits, the
+setup to record.
 
 Every read-out passes through unchanged (:func:`protocol_view` checks that it follows the
 protocol): the pipeline calls its batched ``read`` once per chunk of readings.
@@ -17,7 +19,7 @@ Shape letters: ``n`` readings (windows), ``c`` channels, ``C`` cilia.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -29,11 +31,13 @@ from magcilia.io.array_file import array_to_dict
 from magcilia.io.recordings import beyond_range as output_beyond_range
 from magcilia.io.setup_files import setup_to_dict
 from magcilia.live.status import Limits
+from magcilia.live.thermal import LiveThermal
 from magcilia.readout.array import ArrayReadout
 from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import Readout
 from magcilia.readout.protocol import FLAG_DTYPE, Flag, SensorReadout
+from magcilia.readout.thermal import ThermalReadout
 
 F64 = NDArray[np.float64]
 
@@ -99,6 +103,9 @@ class LiveSensor:
     mode : str
         A dynamic read-out's few words (:meth:`DynamicReadout.mode
         <magcilia.readout.dynamic.DynamicReadout.mode>`); "" for a static one.
+    thermal : LiveThermal or None
+        A temperature-compensated read-out's view (:mod:`magcilia.live.thermal`; also
+        :attr:`view`): its samples are compensated before the averager (:meth:`compensate`).
     """
 
     readout: Any
@@ -118,6 +125,18 @@ class LiveSensor:
     setup: dict[str, Any] = field(default_factory=dict)
     informs: Any = None
     mode: str = ""
+    thermal: LiveThermal | None = None
+
+    def compensate(self, block: Any, raw: F64, zero: Any) -> F64:
+        """A block's samples of the read-out's channel (``raw``) as the averager takes them:
+        brought to the reference temperature by a temperature-compensated read-out
+        (:meth:`LiveThermal.compensate <magcilia.live.thermal.LiveThermal.compensate>`), else
+        as they are."""
+        return raw if self.thermal is None else self.thermal.compensate(block, raw, zero)
+
+    def temperature_text(self) -> str:
+        """The status's words on the temperature ("" without a temperature channel)."""
+        return "" if self.thermal is None else self.thermal.text()
 
     @property
     def channels(self) -> int:
@@ -220,6 +239,11 @@ def live_sensor(readout: Any) -> LiveSensor:
     MagciliaError
         If it is not a read-out the live views know.
     """
+    if isinstance(readout, ThermalReadout):  # one output read at the reference temperature
+        thermal = LiveThermal(readout)
+        inner = live_sensor(readout.readout)
+        return replace(inner, readout=readout.readout, view=thermal, inputs=readout.inputs,
+                       thermal=thermal)
     view = protocol_view(readout)
     rest = np.asarray(view.rest, dtype=np.float64).reshape(-1)
     inputs = tuple(view.inputs)
@@ -245,5 +269,5 @@ def live_sensor(readout: Any) -> LiveSensor:
                           np.zeros(rest.size), (c_n, 2), (c_n,), arr.names,
                           np.asarray(arr.bases[:, :2], dtype=np.float64),
                           float(np.max(readout.span)), array_to_dict(arr), informs)
-    raise v.fail("readout", type(readout).__name__, "a Readout, BiaxialReadout or ArrayReadout "
-                 "(the live views know one value, a force vector and an array)")
+    raise v.fail("readout", type(readout).__name__, "a Readout, BiaxialReadout, ArrayReadout or "
+                 "ThermalReadout (the live views know one value, a force vector and an array)")

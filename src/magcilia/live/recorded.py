@@ -40,6 +40,7 @@ from magcilia._errors import MagciliaError
 from magcilia.acquire.replay import ReplaySource
 from magcilia.acquire.source import Block, Source
 from magcilia.calibration import ParameterCovariance
+from magcilia.device.temperature import TemperatureModel
 from magcilia.io.array_file import array_from_dict
 from magcilia.io.setup_files import setup_from_dict
 from magcilia.mechanics import FLUIDS, Flow
@@ -48,6 +49,7 @@ from magcilia.readout.biaxial import BiaxialReadout
 from magcilia.readout.channel import Channel
 from magcilia.readout.dynamic import DynamicReadout
 from magcilia.readout.inverse import Readout
+from magcilia.readout.thermal import ThermalReadout
 
 F64 = NDArray[np.float64]
 
@@ -86,6 +88,9 @@ def readout_spec(readout: Any) -> dict[str, Any]:
                 "span": readout.span.tolist(), "table_size": readout.table_size,
                 "regularization": readout.regularization,
                 "max_iterations": readout.max_iterations, "tolerance": readout.tolerance}
+    if isinstance(readout, ThermalReadout):  # the read-out at the reference, and the model's
+        return {**readout_spec(readout.readout), "inputs": inputs, "temperature": {
+            "model": readout.model.to_dict(), "calibrated_range_K": list(readout.calibrated_range)}}
     if isinstance(readout, DynamicReadout):  # the static read-out's, and the filter's
         return {**readout_spec(readout.static), "dynamic": {
             "rate_Hz": readout.rate, "bandwidth_Hz": readout.bandwidth,
@@ -118,7 +123,8 @@ def recording_metadata(live: Any) -> dict[str, Any]:
     from magcilia.live.status import EVENTS
 
     s = live.sensor
-    metadata = {**live.source.metadata(), "live": True, "readout": s.view.to_dict(),
+    described = s.view if s.thermal is None else s.thermal.thermal  # (a ThermalReadout's view)
+    metadata = {**live.source.metadata(), "live": True, "readout": described.to_dict(),
                 "setup": s.setup, "output_rate_Hz": live.rate, "factor": live.factor,
                 "event_codes": EVENTS, "kind": s.kind, "inputs": list(live.inputs),
                 f"tare_correction_{s.channel_unit}": np.asarray(live.zero.correction).tolist(),
@@ -232,6 +238,10 @@ def recorded_readout(path: str | Path, *, setup: Any = None, quantity: str | Non
             return DynamicReadout(readout, float(filtered["rate_Hz"]),
                                   fluid=FLUIDS.get(name), averaged=bool(filtered["averaged"]),
                                   bandwidth=float(filtered["bandwidth_Hz"]))
+        warm = spec.get("temperature") if dynamic else None  # (a replay compensates again)
+        if isinstance(warm, dict):
+            return ThermalReadout(readout, TemperatureModel.from_dict(warm["model"]),
+                                  tuple(warm["calibrated_range_K"]))
     except MagciliaError as exc:
         what = "the stored read-out" if setup is None else "the read-out on the setup given"
         raise MagciliaError(f"{p}: {what}: {exc}") from None

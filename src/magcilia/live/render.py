@@ -359,6 +359,9 @@ def render(status: LiveStatus, samples: LiveSamples, limits: Limits,
         lines.append(Text("tare: not tared (press t with the cilium unloaded)", style="yellow"))
     if status.recalibration:
         lines.append(Text(f"re-calibration: {status.recalibration}", style="cyan"))
+    if status.temperature:
+        lines.append(Text(f"temperature: {status.temperature}", style="bold red" if "OUTSIDE"
+                          in status.temperature else ""))
     if status.recording:
         lines.append(Text(f"recording: {status.recording}", style="bold magenta"))
     else:

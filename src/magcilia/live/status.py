@@ -88,6 +88,10 @@ class LiveStatus(Display):
     recalibration : str
         The in-use re-calibration's last change, e.g. ``recal 12 s ago: S −1.8±0.1 %, offset
         +0.30±0.01 mV`` ("" without one, :mod:`magcilia.live.recalibrating`).
+    temperature : str
+        A temperature-compensated read-out's temperature and calibrated range, e.g. ``301.20 K
+        (calibrated 293.15…295.00 K, compensated) — OUTSIDE the calibrated range`` ("" without
+        a temperature channel, :mod:`magcilia.live.thermal`).
     """
 
     state: str
@@ -105,6 +109,7 @@ class LiveStatus(Display):
     latency_p99: float
     unit: str = "V"
     recalibration: str = ""
+    temperature: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (SI; the channel quantities keyed by their unit, e.g.
@@ -118,7 +123,7 @@ class LiveStatus(Display):
                 f"correction_{u}": _plain(self.correction), f"drift_{u}": _plain(self.drift),
                 f"noise_{u}": _plain(self.noise), "recording": self.recording,
                 "latency_median_s": self.latency_median, "latency_p99_s": self.latency_p99,
-                "recalibration": self.recalibration}
+                "recalibration": self.recalibration, "temperature": self.temperature}
 
     @property
     def unverified_text(self) -> str:
@@ -147,6 +152,7 @@ class LiveStatus(Display):
         rec = f", recording {self.recording}" if self.recording else ""
         rec += f", {self.recalibration}" if self.recalibration else ""
         rec += f", {self.unverified_text}" if self.counters.unverified else ""
+        rec += f", temperature {self.temperature}" if self.temperature else ""
         msg = f" — {self.message}" if self.message else ""
         return (f"{self.state}: {self.samples} samples at {self.rate:g} Hz, {tare}; "
                 f"{self.counters.dropped} dropped, {self.overruns} overruns, latency "

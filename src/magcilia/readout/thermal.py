@@ -155,12 +155,19 @@ class ThermalReadout(Display):
         signal = float(self.readout.rest[0]) - sensor.offset  # the model's rest signal at T_ref
         gain = m.sensitivity_factor(temps[good]) * m.magnetization_factor(temps[good])
         level = volts[good] - gain * signal - sensor.scale * m.offset_tempco * m.delta(temps[good])
-        new = copy.copy(self)
+        new = self.widened(lo, hi)
         object.__setattr__(new, "offset", float(level.mean()))
         ref, _ = m.to_reference(volts, temps, new.offset, sensor.scale)
         object.__setattr__(new, "readout", self.readout.tare(ref[good]))
+        return new
+
+    def widened(self, low: float, high: float) -> ThermalReadout:
+        """A copy whose calibrated range also covers ``low``…``high`` (K): the temperatures of a
+        tare (:meth:`tare`; the live read-out's, :mod:`magcilia.live.thermal`)."""
+        new = copy.copy(self)
         c_lo, c_hi = self.calibrated_range
-        object.__setattr__(new, "calibrated_range", (min(c_lo, lo), max(c_hi, hi)))
+        object.__setattr__(new, "calibrated_range", (min(c_lo, float(low)),
+                                                     max(c_hi, float(high))))
         return new
 
     def read(self, samples: ArrayLike, /, *, noise: ArrayLike | None = None,
@@ -178,9 +185,24 @@ class ThermalReadout(Display):
         x = np.asarray(volts, dtype=np.float64).reshape(-1)
         t = np.broadcast_to(np.asarray(temperature, dtype=np.float64), np.shape(volts))
         t = np.asarray(t, dtype=np.float64).reshape(-1)
+        ref, sigma_ref = self.model.to_reference(x, t, self.offset, self.readout.setup.sensor.scale)
+        inner = self.readout.read(ref, bandwidth=bandwidth, noise=noise)
+        return self.finish(inner, ref, sigma_ref, t, noise=noise, bandwidth=bandwidth)
+
+    def finish(self, inner: ReadoutResult, ref: ArrayLike, sigma_ref: ArrayLike,
+               temperature: ArrayLike, *, noise: ArrayLike | None = None,
+               bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH) -> ThermalResult:
+        """Steps 3–5 of the compensation (the module docstring) for ``inner``, the wrapped
+        read-out's reading of the outputs ``ref`` (V, (n,)) already brought to the reference
+        (:meth:`TemperatureModel.to_reference`, whose σ ``sigma_ref`` (V, (n,)) they carry) at
+        temperatures ``temperature`` (K, (n,)): the modulus's change, the temperature part of σ,
+        TEMPERATURE_OUTSIDE and MISSING. :meth:`read_at` is ``to_reference``, the wrapped
+        read-out's ``read`` and this; the live read-out (:mod:`magcilia.live.thermal`) brings
+        its samples to the reference before its zero and calls ``finish`` on their readings."""
         m, r = self.model, self.readout
-        ref, sigma_ref = m.to_reference(x, t, self.offset, r.setup.sensor.scale)
-        inner = r.read(ref, bandwidth=bandwidth, noise=noise)
+        ref = np.asarray(ref, dtype=np.float64).reshape(-1)
+        sigma_ref = np.asarray(sigma_ref, dtype=np.float64).reshape(-1)
+        t = np.asarray(temperature, dtype=np.float64).reshape(-1)
         slope = _slope(r, inner, ref, noise, bandwidth)
         factor = (np.ones_like(t) if r.quantity == "angle" else m.load_factor(t))
         rel = np.zeros_like(t) if r.quantity == "angle" else m.load_sigma(t)

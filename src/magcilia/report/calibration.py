@@ -4,7 +4,7 @@ parameter table and the warnings, as PNG figures and a markdown summary."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -14,10 +14,12 @@ from numpy.typing import NDArray
 from magcilia._atomic import save_figure, staged_directory, write_json, write_text
 from magcilia._errors import MagciliaError
 from magcilia.calibration import CalibrationResult
+from magcilia.calibration.temperature import temperature_doc, temperature_lines
 from magcilia.constants import GAUSS
 from magcilia.device.parameters import PARAMETERS as REGISTRY
 from magcilia.io.measurement import Measurement
 from magcilia.io.setup_files import save_setup
+from magcilia.io.temperature_table import TEMPERATURE_TABLE, fitted_temperature_table
 from magcilia.report.recording_notes import data_doc, data_markdown
 from magcilia.report.units import output_units
 
@@ -210,6 +212,7 @@ def markdown_summary(result: CalibrationResult, figures: dict[str, str]) -> str:
         f"- bias model: {result.bias}",
         f"- model evaluations: {result.evaluations}, time {result.elapsed:.2f} s",
         f"- restarts' final costs: {', '.join(f'{c:.4g}' for c in result.restart_costs)} V²",
+        *(f"- {line}" for line in temperature_lines(result)),
         "",
         "| parameter | unit | initial | fitted | standard error |"
         + (" truth |" if result.truth is not None else ""),
@@ -335,7 +338,8 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
                             style: str = "screen", *, figures: bool = True,
                             comparison: str | None = None,
                             data: Sequence[Measurement] | None = None,
-                            writer: FigureWriter | None = None) -> None:
+                            writer: FigureWriter | None = None,
+                            temperature: Mapping[str, Any] | None = None) -> None:
     """Write :func:`calibration_files` into the existing folder ``directory`` (each file atomic,
     the folder not: use :func:`write_calibration`, or a ``staged_directory`` of your own); the
     PDF figures only with ``style="paper"``; with ``figures=False`` the same files less the
@@ -343,13 +347,16 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
     readers said of them goes into ``result.json`` and ``report.md``; default a paper fit's
     tilt path); ``comparison``: the paper's model beside a physical fit
     (:func:`model_comparison`); ``writer``: the figures drawn by it (see :func:`write_report`;
-    call its ``wait()`` before publishing the folder)."""
+    call its ``wait()`` before publishing the folder); ``temperature``: the initial setup file's
+    ``[temperature]`` table, written into ``fitted_setup.toml`` with the temperatures the
+    calibration saw (:func:`fitted_setup_tables`)."""
     if result.model != "paper":
         _write_joint_files(result, directory, style, comparison, () if data is None else data,
-                           figures, writer)
+                           figures, writer, temperature)
         return
     folder = Path(directory)
-    save_setup(result.setup, folder / "fitted_setup.toml")
+    save_setup(result.setup, folder / "fitted_setup.toml",
+               tables=fitted_setup_tables(result, temperature))
     doc = result.to_dict()
     doc.setdefault("units", "SI")  # a format magcilia reads back: SI, whatever the CLI shows
     doc["data"] = data_doc([result.path] if data is None else data)
@@ -358,6 +365,17 @@ def write_calibration_files(result: CalibrationResult, directory: str | Path,
         write_report(result, folder, style, writer)
     else:
         write_text(folder / "report.md", markdown_summary(result, {}))
+
+
+def fitted_setup_tables(result: CalibrationResult, temperature: Mapping[str, Any] | None = None
+                        ) -> dict[str, dict[str, Any]]:
+    """The tables ``fitted_setup.toml`` holds beside the setup: ``[temperature]`` (the initial
+    setup file's ``temperature`` table with ``reference`` and ``calibrated_range`` the
+    temperatures the calibration saw, :func:`~magcilia.io.temperature_table.
+    fitted_temperature_table`), where there is one."""
+    table = fitted_temperature_table(temperature, result.temperature_range,
+                                     result.temperature_mean)
+    return {} if table is None else {TEMPERATURE_TABLE: table}
 
 
 def write_calibration(result: CalibrationResult, directory: str | Path, *,
@@ -446,13 +464,15 @@ def write_joint_calibration_files(result: CalibrationResult, directory: str | Pa
 
 def _write_joint_files(result: CalibrationResult, directory: str | Path, style: str,
                        comparison: str | None, data: Sequence[Measurement],
-                       figures: bool, writer: FigureWriter | None = None) -> None:
+                       figures: bool, writer: FigureWriter | None = None,
+                       temperature: Mapping[str, Any] | None = None) -> None:
     """Write ``fitted_setup.toml``, ``result.json`` (SI), ``report.md``, ``fit.png`` and, with a
     posterior, ``pairs.png`` (and their PDFs with ``style="paper"``) of a physical fit into
     ``directory``; with ``data`` (the measurements fitted) what the readers said of them; the
     figures drawn by ``writer`` when given (:func:`write_report`)."""
     folder = Path(directory)
-    save_setup(result.setup, folder / "fitted_setup.toml")
+    save_setup(result.setup, folder / "fitted_setup.toml",
+               tables=fitted_setup_tables(result, temperature))
     doc = result.to_dict()
     doc.setdefault("units", "SI")
     if data:
@@ -488,7 +508,7 @@ def joint_calibration_json(result: CalibrationResult, si: bool = False,
         "stderr": units.named({n: result.stderr.get(n, math.nan) for n in geometry}),
         "prior_values": units.named({k: float(p[0]) for k, p in result.priors.items()}),
         "prior_sigmas": units.named({k: float(p[1]) for k, p in result.priors.items()}),
-        "warnings": list(result.warnings)}
+        "warnings": list(result.warnings), "temperature_K": temperature_doc(result)}
     experiments = []
     for e in result.experiments:
         unit, factor = ((e.unit(), 1.0) if si else ("mV", 1e3) if e.observable == "output"
