@@ -301,7 +301,7 @@ def ringdown(recording: str | Path | ArrayLike, rate: float | None = None, *,
     periods = after * seg.frequency
     clipped = rf.clipped_samples(part)
     if clipped == 0 and setup is not None and key == "voltage_V":
-        from magcilia.io.reduction import beyond_range
+        from magcilia.io.readings import beyond_range
 
         clipped = int(np.sum(beyond_range(part, setup.sensor)))
     if clipped:

@@ -162,6 +162,7 @@ from magcilia.io.quality import (  # noqa: F401 (check_quality: kept here, io ex
     SUSPECT_POLICIES,
     check_quality,
 )
+from magcilia.io.readings import beyond_range, reading  # noqa: F401 (public here too)
 from magcilia.io.recording_state import RawRecording
 from magcilia.io.reduction import (  # noqa: F401 (the reduction's public names: kept here)
     MAX_ANGLE_DEG,
@@ -174,9 +175,7 @@ from magcilia.io.reduction import (  # noqa: F401 (the reduction's public names:
     _Following,
     _measure,
     _Reduction,
-    beyond_range,
     measurement_from_samples,
-    reading,
 )
 from magcilia.io.sniff import looks_like_setup, swapped_setup
 from magcilia.io.tdmsfile import (  # noqa: F401 (nptdms_module, quiet_nptdms: kept here)
