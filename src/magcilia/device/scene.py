@@ -142,3 +142,27 @@ def show(target: Target, pose: Pose | Sequence[Pose] | None = None, *,
     import magpylib as magpy
 
     return magpy.show(*scene(target, pose, field=field).children, backend=backend, **kwargs)
+
+
+def dipole_collection(setup: Target, pose: float | Centreline | SpatialCentreline,
+                      sensor: bool) -> Any:
+    """The model's dipoles in one pose as a ``magpylib.Collection`` (and the sensor last):
+    :meth:`Setup.to_magpylib <magcilia.Setup.to_magpylib>`."""
+    import magpylib as magpy
+
+    if isinstance(pose, (Centreline, SpatialCentreline)):
+        if len(pose) != 1:
+            raise v.fail("pose", f"{len(pose)} centrelines", "one centreline")
+        shape: Pose = pose
+    else:
+        shape = np.array([v.real("pose", pose, "rad")])
+    positions, moments = setup.dipoles(shape)
+    dipoles = [magpy.misc.Dipole(position=p, moment=m,
+                                 style_label=f"dipole {i // setup.dipoles_per_loop + 1}."
+                                             f"{i % setup.dipoles_per_loop + 1}")
+               for i, (p, m) in enumerate(zip(positions[0], moments[0], strict=True))]
+    children: list[Any] = list(dipoles)
+    if sensor:
+        children.append(magpy.Sensor(position=(0.0, 0.0, 0.0),
+                                     style_label=f"{setup.sensor.name} (x: sensitive)"))
+    return magpy.Collection(*children, style_label="magcilia cilium")

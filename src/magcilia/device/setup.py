@@ -172,8 +172,8 @@ class Setup(Display):
         The layout mode is kept, except that a new ``n_loops``, ``dipoles_per_loop`` or
         ``ring`` makes a converged layout ``"given"``, and a paper one too unless it is another
         of Table I's; ``layout="converged"`` converges it at the sensing element. A converged
-        setup keeps its n × k through other changes (``replace`` is cheap); the paths that
-        predict a field converge it again at their points (:meth:`resolve_layout`)."""
+        setup keeps its n × k through other changes (cheap); field paths converge it again
+        (:meth:`resolve_layout`)."""
         return _build(changes, base=self)
 
     # -- the layout rule --------------------------------------------------------------------------
@@ -447,35 +447,18 @@ class Setup(Display):
         >>> len(c.sources), len(c.sensors)
         (10, 1)
         """
-        import magpylib as magpy
+        from magcilia.device import scene
 
-        if isinstance(pose, (Centreline, SpatialCentreline)):
-            if len(pose) != 1:
-                raise v.fail("pose", f"{len(pose)} centrelines", "one centreline")
-            shape: Pose = pose
-        else:
-            shape = np.array([v.real("pose", pose, "rad")])
-        positions, moments = self.dipoles(shape)
-        dipoles = [magpy.misc.Dipole(position=p, moment=m,
-                                     style_label=f"dipole {i // self.dipoles_per_loop + 1}."
-                                                 f"{i % self.dipoles_per_loop + 1}")
-                   for i, (p, m) in enumerate(zip(positions[0], moments[0], strict=True))]
-        children: list[Any] = list(dipoles)
-        if sensor:
-            children.append(magpy.Sensor(position=(0.0, 0.0, 0.0),
-                                         style_label=f"{self.sensor.name} (x: sensitive)"))
-        return magpy.Collection(*children, style_label="magcilia cilium")
+        return scene.dipole_collection(self, pose, sensor)
 
     def show(self, pose: float | Centreline | SpatialCentreline = 0.0, *, field: bool = True,
              backend: str = "auto", **kwargs: Any) -> Any:
-        """Draw the setup in 3-D through magpylib's display backends: the cilium as its exact
-        body in ``pose`` (a tilt angle in rad, or one bent centreline from :func:`magcilia.bend`),
-        the sensor with its sensitive axis (x) and, with ``field``, B on the x–z slice through
-        the base (:func:`magcilia.device.scene.scene`). ``backend`` and ``kwargs`` go to
-        ``magpylib.show`` (``canvas=ax``, ``return_fig=True``); ``magcilia show`` writes a file."""
-        from magcilia.device.scene import show
+        """Draw the setup in 3-D (:func:`magcilia.device.scene.show`): the exact body in ``pose``
+        (a tilt, rad, or a bent centreline), the sensor's axis and, with ``field``, B on the x–z
+        slice; ``backend`` and ``kwargs`` go to ``magpylib.show`` (``magcilia show``: a file)."""
+        from magcilia.device import scene
 
-        return show(self, pose, field=field, backend=backend, **kwargs)
+        return scene.show(self, pose, field=field, backend=backend, **kwargs)
 
     # -- display --------------------------------------------------------------------------------
     def _display_items(self) -> list[Item]:
