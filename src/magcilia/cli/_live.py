@@ -32,9 +32,10 @@ from magcilia.calibration import ParameterCovariance
 from magcilia.cli._common import Physical, load_mechanics_setup, mechanics_options, setup_option
 from magcilia.cli._options import SEED, serial_format_options
 from magcilia.cli._outputs import OUTPUT_FILE
+from magcilia.cli._readout_inputs import parse_span
+from magcilia.cli._readout_vectors import element_magnetometer, magnitude_span
 from magcilia.cli._thermal import setup_temperature, temperature_option, temperature_profile
 from magcilia.cli.array import DEFAULT_SPAN
-from magcilia.cli.readout import element_magnetometer, magnitude_span, parse_span
 from magcilia.design import design_metrics
 from magcilia.device.magnetometer import MAGNETOMETERS
 from magcilia.device.setup import Setup

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -11,7 +10,6 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from magcilia._atomic import write_text
 from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.calibration import ParameterCovariance
@@ -26,7 +24,6 @@ from magcilia.cli._common import (
     make_actuation,
     mechanics_options,
     parse_bandwidth,
-    parse_vector,
     quiet_requested,
     recording_options,
     setup_option,
@@ -34,118 +31,25 @@ from magcilia.cli._common import (
     suspect_option,
 )
 from magcilia.cli._outputs import OUTPUT_FILE, writes_files
+from magcilia.cli._readout_inputs import (
+    parse_edge_tolerance,
+    parse_span,
+    read_recording,
+    tare_readings,
+)
 from magcilia.device.actuation import Actuation
-from magcilia.device.magnetometer import MAGNETOMETERS, Magnetometer
-from magcilia.device.parameters import MEASURANDS, PARAMETERS
+from magcilia.device.magnetometer import MAGNETOMETERS
 from magcilia.device.setup import Setup
-from magcilia.io import recordings
-from magcilia.io.columns import FIELD_KEYS
-from magcilia.io.quality import screen
 from magcilia.mechanics import FLUIDS, Flow, Fluid
 from magcilia.readout.inverse import EDGES, Readout, direct_field
 from magcilia.readout.protocol import Flag
 from magcilia.report.readout import readout_line, readout_summary, write_readout_csv
-from magcilia.units import parse_quantity, parse_value, parse_values
 
 if TYPE_CHECKING:
     from magcilia.readout.dynamic import DynamicReadout
 
 #: readings from which a read-out shows a progress bar (about a second of work)
 PROGRESS_READINGS = 2_000_000
-
-
-def parse_span(text: str, quantity: str) -> tuple[float, float]:
-    """``LO:HI`` in the display unit (deg, mN, m/s), or with units on each end or the last
-    (``0:0.2mN``, ``0mN:200uN``) -> SI."""
-    q = MEASURANDS[quantity]
-    lo, hi = parse_values(text, q.dimension, q.display, "--span", (2,), f"0:1{q.display}")
-    if hi <= lo:
-        raise fail("--span", text, "LO:HI with HI > LO")
-    return lo, hi
-
-
-def read_checked(path: str, reading: RecordingArgs, required: tuple[str, ...], *,
-                 quiet: bool, suspect: str) -> tuple[dict[str, np.ndarray], list[str],
-                                                     dict[str, object]]:
-    """A recording's columns after the quality checks (:func:`magcilia.io.quality.screen`: the
-    flagged samples kept, omitted or refused by ``suspect``), with the notes
-    to print (the reader's, an incomplete recording, the checks' findings) and the checks'
-    result (``RecordingQuality.to_dict``)."""
-    raw = reading.read(recordings.read_recording, path, quiet=quiet, required=required)
-    cols = raw.columns
-    notes = list(raw.notes)
-    incomplete = raw.state.incomplete_note()
-    if incomplete is not None:
-        notes.append(incomplete)
-    doc: dict[str, object] = {}
-    if cols and next(iter(cols.values())).size:
-        quality, kept = screen(cols, suspect, path)
-        cols = dict(kept)
-        doc = quality.to_dict()
-        if quality.found:
-            notes.append(quality.report())
-    return cols, [f"note: {path}: {n}" for n in notes], doc
-
-
-def read_recording(path: str, reading: RecordingArgs | None = None, option: str = "RECORDING",
-                   quiet: bool = False, suspect: str = "keep"
-                   ) -> tuple[np.ndarray, np.ndarray | None, list[str], dict[str, object],
-                              np.ndarray | None]:
-    """Voltages (V), optional times (s), the notes to print, the quality checks' result and the
-    optional temperatures (K) of a recording (CSV/.mat/.tdms/.h5 with ``voltage_V``, or the
-    columns that ``reading`` maps)."""
-    reading = reading or RecordingArgs()  # (with the temperature, compensated when there)
-    reading = dataclasses.replace(reading, columns=reading.columns.with_temperature())
-    cols, notes, quality = read_checked(path, reading, ("voltage_V",), quiet=quiet,
-                                        suspect=suspect)
-    if cols["voltage_V"].size == 0:
-        raise fail(option, path, "a recording with at least one reading")
-    return cols["voltage_V"], cols.get("time_s"), notes, quality, cols.get(thermal.COLUMN)
-
-
-def parse_edge_tolerance(text: str | None, quantity: str,
-                         span: tuple[float, float]) -> float | None:
-    """``--edge-tolerance``: a percentage of the span (``5%``), a value with a unit (``0.01mN``)
-    or a bare number in the display unit -> SI (None: the library's default)."""
-    if text is None:
-        return None
-    q = MEASURANDS[quantity]
-    allowed = f"a percentage of the span (5%) or a value in {q.display} (or with a unit)"
-    t = text.strip()
-    try:
-        value = (parse_value(t[:-1], None, "", "--edge-tolerance") / 100.0 * (span[1] - span[0])
-                 if t.endswith("%") else parse_value(t, q.dimension, q.display, "--edge-tolerance"))
-    except MagciliaError:
-        raise fail("--edge-tolerance", text, allowed) from None
-    if not value >= 0.0:
-        raise fail("--edge-tolerance", text, allowed.replace("a percentage", "a non-negative "
-                                                              "percentage"))
-    return value
-
-
-def tare_readings(spec: str, volts: np.ndarray, times: np.ndarray | None) -> np.ndarray:
-    """``--tare SPEC``: the first readings of the recording, a duration with a unit from its
-    start (``0.5s``, ``200ms``; needs ``time_s``) or a sample count (``500``)."""
-    allowed = "a duration from the start with a unit (0.5s) or a number of readings (500)"
-    t = spec.strip()
-    if t.isdigit():
-        count = int(t)
-    else:
-        try:
-            seconds = parse_quantity(t, "time", "--tare")
-        except MagciliaError:
-            raise fail("--tare", spec, allowed) from None
-        if not seconds > 0.0:
-            raise fail("--tare", spec, allowed)
-        if times is None:
-            raise fail("--tare", spec, "a number of readings (500): the recording has no "
-                       "time_s column")
-        count = int(np.count_nonzero(times - times[0] < seconds))
-    if count < 2:
-        raise fail("--tare", spec, f"{allowed}, covering at least 2 readings")
-    if count > volts.size:
-        raise fail("--tare", spec, f"at most the recording's {volts.size} readings")
-    return volts[:count]
 
 
 @click.command()
@@ -277,8 +181,10 @@ def command(setup_arg: str | None, recording: str, quantity: str | None, span_te
         if quantity not in (None, "force"):
             raise fail("--quantity", quantity, "force, or left out, with --biaxial (it reads a "
                                                "force vector)")
-        _biaxial(setup, recording, span_text, sensor_name, sensor_noise, out_path, tare_spec,
-                 tare_file, si, as_json, quiet, reading, actuation, suspect)
+        from magcilia.cli._readout_vectors import biaxial_readout
+
+        biaxial_readout(setup, recording, span_text, sensor_name, sensor_noise, out_path,
+                        tare_spec, tare_file, si, as_json, quiet, reading, actuation, suspect)
         return
     assert quantity is not None  # for mypy: checked above
     for name, value in (("--sensor", sensor_name), ("--sensor-noise", sensor_noise)):
@@ -386,144 +292,6 @@ def _compensation(setup: Setup, actuation: Actuation, flags: int,
                   f"direct_field_{fu}": [float(c) / ff for c in b],
                   f"direct_output_{vu}": volts / vf, "sensor_flags": flags,
                   "sensor_flag_names": flag_names(flags)}
-
-
-def element_magnetometer(name: str, noise: str | None) -> Magnetometer:
-    """``--sensor`` (a 3-axis magnetometer preset at the element, its axes along the board's)
-    with ``--sensor-noise`` (its RMS noise per axis, required where the preset does not know
-    it)."""
-    key = next((k for k in MAGNETOMETERS if k.lower() == name.lower()), None)
-    if key is None:
-        raise fail("--sensor", name, "a 3-axis magnetometer preset: one of "
-                   + ", ".join(sorted(MAGNETOMETERS)))
-    overrides = {} if noise is None else {"noise": _sensor_noise(noise)}
-    if noise is None and key in ("MLX90393", "TLV493D-A1B6"):
-        raise fail("--sensor-noise", None, f"the RMS noise per axis of the {key} at your "
-                   "settings, gauss or with a unit (e.g. 5mG or 5mG,5mG,8mG): magcilia does "
-                   "not guess it")
-    return Magnetometer.preset(key, **overrides)
-
-
-def magnitude_span(text: str, what: str) -> float:
-    """``--span`` of a force vector: HIGH or 0:HIGH (mN or with a unit) -> the largest
-    magnitude, N (``what`` names the mode in the message)."""
-    if ":" in text:
-        lo, hi = parse_span(text, "force")
-        if lo != 0.0:
-            raise fail("--span", text, f"0:HIGH or HIGH with {what} (the force magnitude's "
-                       "range starts at 0)")
-        return hi
-    q = MEASURANDS["force"]
-    hi = parse_value(text, q.dimension, q.display, "--span", "0.2mN")
-    if not hi > 0.0:
-        raise fail("--span", text, "a positive force magnitude, mN or with a unit (0.02mN)")
-    return hi
-
-
-def _sensor_noise(text: str) -> tuple[float, float, float]:
-    """``--sensor-noise``: one value or BX,BY,BZ, gauss or with units -> T (3,)."""
-    p = PARAMETERS["field_range"]
-    if "," in text:
-        noise = parse_vector(text, "field", p.display, "--sensor-noise", "2mG,2mG,3mG")
-    else:
-        one = parse_span_value(text, "--sensor-noise")
-        noise = (one, one, one)
-    if not all(n > 0.0 for n in noise):
-        raise fail("--sensor-noise", text, "a positive RMS noise per axis, gauss or with a unit")
-    return noise
-
-
-def parse_span_value(text: str, key: str) -> float:
-    """One field value, gauss or with a unit -> T."""
-    p = PARAMETERS["field_range"]
-    return parse_value(text, "field", p.display, key, "2mG")
-
-
-def _biaxial(setup: Setup, recording: str, span_text: str, sensor_name: str | None,
-             sensor_noise: str | None, out_path: str, tare_spec: str | None,
-             tare_file: str | None, si: bool, as_json: bool, quiet: bool,
-             reading: RecordingArgs, actuation: Actuation | None, suspect: str) -> None:
-    """``magcilia readout --biaxial``: force vectors from 3-axis field columns (compensating a
-    constant actuation: a uniform field along z keeps the default grid of 65 x 128; any other
-    field needs a 3-D bend per node, so the grid is 17 x 32, about half a minute)."""
-    from magcilia.readout.biaxial import BiaxialReadout
-    from magcilia.report.biaxial import vector_csv
-
-    if sensor_name is None:
-        raise fail("--sensor", None, "a 3-axis magnetometer preset with --biaxial: one of "
-                   + ", ".join(sorted(MAGNETOMETERS)))
-    sensor = element_magnetometer(sensor_name, sensor_noise)
-    hi = magnitude_span(span_text, "--biaxial")
-    quiet = quiet_requested(quiet)
-
-    checked: list[tuple[list[str], dict[str, object]]] = []
-
-    def fields_of(path: str, option: str) -> tuple[np.ndarray, np.ndarray | None]:
-        cols, notes, quality = read_checked(path, reading, FIELD_KEYS, quiet=quiet,
-                                            suspect=suspect)
-        checked.append((notes, quality))
-        b = np.stack([cols[k] for k in FIELD_KEYS], axis=-1)
-        if b.shape[0] == 0:
-            raise fail(option, path, "a recording with at least one reading")
-        return b, cols.get("time_s")
-
-    fields, times = fields_of(recording, "RECORDING")
-    axial = actuation is None or (actuation.is_uniform
-                                  and not np.any(actuation.uniform_field[:2]))
-    readout = BiaxialReadout(setup, sensor, hi, table_size=(65, 128) if axial else (17, 32),
-                             actuation=actuation)
-    if tare_spec is not None:
-        count = tare_readings(tare_spec, fields[:, 0], times).size
-        readout = readout.tare(fields[:count])
-    elif tare_file is not None:
-        readout = readout.tare(fields_of(tare_file, "--tare-file")[0])
-    tare = readout.baseline
-    if tare is not None and not tare.at_rest:
-        checked[0][0].append(f"note: {tare_spec or tare_file}: {tare.report()}")
-    result = readout.read(fields)
-    write_text(out_path, vector_csv(result, times, si))
-    c = result.counts()
-    unit, factor = ("N", 1.0) if si else ("mN", 1e-3)
-    good = result.estimated
-    mags = result.magnitude[good] / factor
-    median = float(np.median(result.sigma_magnitude[good])) / factor if good.any() else None
-    compensation = None
-    if actuation is not None:
-        fu, ff = ("T", 1.0) if si else ("gauss", 1e-4)
-        direct = [float(d) / ff for d in readout.direct]
-        compensation = {"kind": actuation.kind, "scale": actuation.scale,
-                        f"direct_{fu}": direct, "grid": [int(readout.forces.size),
-                                                         int(readout.azimuths.size)]}
-    if as_json:
-        echo_json({"quantity": "force vector", "units": "SI" if si else "display",
-                   **({} if compensation is None else {"actuation": compensation}),
-                   "sensor": sensor.name, f"span_{unit}": hi / factor,
-                   f"table_error_{unit}": readout.table_error / factor, **c,
-                   f"range_{unit}": [float(mags.min()), float(mags.max())] if mags.size
-                   else None, f"median_sigma_magnitude_{unit}": median,
-                   "scale_note": result.scale_note,
-                   "tared": readout.baseline is not None, "out": out_path,
-                   "notes": checked[0][0], "quality": checked[0][1]})
-        return
-    for line in checked[0][0]:
-        click.echo(line)
-    flagged = ", ".join(f"{c[k]} {k.replace('_', ' ')}" for k in
-                        ("outside_span", "undetermined", "ambiguous", "near_zero", "saturated",
-                         "missing", "extrapolated") if c[k])
-    text = (f"{c['estimated']}/{c['readings']} force vectors estimated from the {sensor.name}"
-            + (f" ({flagged})" if flagged else ""))
-    if mags.size:
-        text += (f"; |F| {mags.min():.4g}…{mags.max():.4g} {unit}, median 1-sigma {median:.3g} "
-                 f"{unit}")
-    text += f"; table error ≤ {readout.table_error / factor:.2g} {unit}"
-    if readout.baseline is not None:
-        text += f"; tared on {int(readout.baseline.count.min())} readings"
-    text += f"; {result.scale_note}"
-    if compensation is not None:
-        click.echo("compensating the actuation: its direct field on the sensor's axes ("
-                   + ", ".join(f"{d:.6g}" for d in direct) + f") {fu} and its bending of the "
-                   f"cilium, in a {readout.forces.size} x {readout.azimuths.size} grid")
-    click.echo(f"{Path(out_path).name}: {text}")
 
 
 def is_live_recording(path: str) -> bool:
