@@ -174,7 +174,7 @@ class SimulatedCoilSource(SimulatedSource):
     >>> with source:
     ...     source.set_field((2e-4, 0.0, 0.0))
     ...     block = source.read(10)
-    >>> block["actuation_x_T"][0]
+    >>> float(block["actuation_x_T"][0])
     0.0002
     """
 

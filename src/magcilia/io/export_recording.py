@@ -238,8 +238,9 @@ def export(recording: str | os.PathLike[str], path: str | os.PathLike[str],
     Examples
     --------
     >>> import magcilia as mc, tempfile, pathlib
+    >>> from magcilia.io.recordings import example_path
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "run.mat"
-    >>> mc.export(mc.example_path(), out).units["voltage_V"]
+    >>> mc.export(example_path(), out).units["voltage_V"]
     'V'
     """
     kind = export_format(path, format)
