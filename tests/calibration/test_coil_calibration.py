@@ -57,9 +57,9 @@ def _coverage(exact: tuple[mc.Setup, np.ndarray, np.ndarray], seeds: int) -> Non
     assert all(abs(z[0, ct.NAMES.index(n)]) < 2.0 for n in RECOVERED)
 
 
-def test_coverage_over_4_seeds(exact: tuple[mc.Setup, np.ndarray, np.ndarray]) -> None:
+def test_coverage_over_8_seeds(exact: tuple[mc.Setup, np.ndarray, np.ndarray]) -> None:
     """The default run's short form (~1 s a fit); the issue's ≥ 100 seeds: the slow test."""
-    _coverage(exact, 4)
+    _coverage(exact, 8)
 
 
 @pytest.mark.slow
