@@ -35,7 +35,8 @@ def _sigma(test: CoilSelfTest, prm: dict[str, np.ndarray], own: np.ndarray
            ) -> dict[str, np.ndarray]:
     """Each estimate's σ by linear propagation of every window's noise (one window at a time
     moved by its σ: strap, rest and the pulses' odd parts, as ``measure`` draws them)."""
-    clean = measure(SETUP, CoilSelfTest(test.level, test.window, noise=False), prm, own,
+    clean = measure(SETUP, CoilSelfTest(test.level, test.window, test.cycles, noise=False),
+                    prm, own,
                     np.random.default_rng(0))
     base = estimate(SETUP, test, clean)
     sigma = test.window_noise(SETUP)
@@ -105,7 +106,7 @@ def test_zero_tolerances_the_self_test_changes_nothing() -> None:
     err = calibration_free_error(SETUP, SPAN, spec)
     assert err.rms < 1e-9 and err.worst < 1e-9 and err.failed == 0
     assert err.self_test is spec.self_test and "coil self-test" in err.report()
-    assert err.to_dict()["self_test"]["duration_s"] == pytest.approx(WINDOWS * 0.25)
+    assert err.to_dict()["self_test"]["duration_s"] == pytest.approx(WINDOWS * 0.25 * 4)
     # with the sensor's noise: a small error, the noise's
     noisy = calibration_free_error(SETUP, SPAN, RobustSpec(NONE, samples=16, points=9,
                                                            self_test=CoilSelfTest()))
@@ -144,13 +145,26 @@ def test_the_command_reads_after_the_self_test(capsys: pytest.CaptureFixture[str
     assert main(["optimise", "--objective", "robust", *FAST, "--self-test", "coil",
                  "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert doc["robust"]["self_test"]["duration_s"] == pytest.approx(WINDOWS * 0.25)
+    assert doc["robust"]["self_test"]["duration_s"] == pytest.approx(WINDOWS * 0.25 * 4)
     assert 0.0 < doc["best"]["calibration_free_error"] < 1.0
     from magcilia.cli.optimise import optimise_text
     from magcilia.report.units import output_units
 
-    assert "read after a coil self-test (1.75 s)" in optimise_text(doc, output_units(False))
+    assert "read after a coil self-test (7 s)" in optimise_text(doc, output_units(False))
     assert main(["optimise", *FAST, "--self-test", "coil"]) == 2
     err = capsys.readouterr().err
     assert "--self-test must be given with --objective robust only" in err
     assert err.count("\n") == 1
+
+
+def test_a_self_test_that_cannot_separate_falls_back_to_the_nominal_model() -> None:
+    """On the hair's plane of symmetry (y = 0) a y pulse bends the hair without changing B_x:
+    the test cannot separate the sensitivity from m²/k, every device's self-test fails and it is
+    read with the nominal model, exactly as without the self-test."""
+    on_plane = SETUP.replace(y=0.0).resolve_layout()
+    spec = RobustSpec(MATERIAL, samples=8, seed=1, points=9)
+    without = calibration_free_error(on_plane, SPAN, spec)
+    tested = calibration_free_error(on_plane, SPAN, RobustSpec(
+        MATERIAL, samples=8, seed=1, points=9, self_test=CoilSelfTest(noise=False)))
+    assert tested.self_test_failed == 8 and without.rms > 0.05
+    assert tested.rms == pytest.approx(without.rms, rel=1e-9)

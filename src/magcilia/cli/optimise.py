@@ -75,8 +75,9 @@ def _defaults() -> str:
 @click.option("--self-test", "self_test", type=click.Choice(["none", "coil"]), default="none",
               show_default=True,
               help="Robust objective: read each device after a start-up coil self-test (±3 G "
-                   "pulses along x and y, a rest and a strap window, 0.25 s each: its "
-                   "sensitivity, magnetization and stiffness estimated; no rig, no known load).")
+                   "pulses along x and y, a rest and a strap window, 0.25 s each, 4 cycles: "
+                   "7 s; its sensitivity, magnetization and stiffness estimated; no rig, no "
+                   "known load).")
 @click.option("--min-force", type=Physical.of("force", "1uN"),
               help="Minimum detectable force the chosen design must reach, mN or with a unit "
                    "(1uN); default: the SETUP's own.")

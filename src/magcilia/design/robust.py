@@ -136,6 +136,7 @@ class RobustSpec:
     tare: bool = True
     points: int = 33
     self_test: CoilSelfTest | None = None
+    self_test_failed: int = 0
     draws: F64 = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -266,6 +267,8 @@ class CalibrationFreeError(Display):
     tolerances : Tolerances
     self_test : CoilSelfTest or None
         The start-up self-test each device was read with (None: none).
+    self_test_failed : int
+        Devices whose self-test failed (read with the nominal model instead).
     """
 
     rms: float
@@ -277,13 +280,15 @@ class CalibrationFreeError(Display):
     failed: int
     tolerances: Tolerances
     self_test: CoilSelfTest | None = None
+    self_test_failed: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (errors as fractions of the range; the range in N)."""
         return {"rms": self.rms, "p95": self.p95, "worst": self.worst, "span_N": self.span,
                 "tare": self.tare, "samples": self.samples, "failed": self.failed,
                 "tolerances": self.tolerances.to_dict(),
-                "self_test": None if self.self_test is None else self.self_test.to_dict()}
+                "self_test": None if self.self_test is None else self.self_test.to_dict(),
+                "self_test_failed": self.self_test_failed}
 
     def report(self) -> str:
         """One line: RMS, 95th percentile and worst, in % of the range."""
@@ -293,7 +298,8 @@ class CalibrationFreeError(Display):
                 f"({self.span * 1e3:.4g} mN; 95th percentile {self.p95 * 100:.3g} %, worst "
                 f"{self.worst * 100:.3g} %; {self.samples} devices, {tared}{failed}) under "
                 f"{self.tolerances.report()}"
-                + ("" if self.self_test is None else f"; read after a {self.self_test.report()}"))
+                + ("" if self.self_test is None else f"; read after a {self.self_test.report()}"
+                   f" ({self.self_test_failed} failed)"))
 
     def _display_items(self) -> list[Item]:
         return [("rms", f"{self.rms * 100:.3g} %"), ("p95", f"{self.p95 * 100:.3g} %"),
@@ -326,6 +332,7 @@ def calibration_free_error(setup: Setup, span: float,
     spec = spec or RobustSpec()
     setup = setup.resolve_layout()
     forces = np.linspace(0.0, span, spec.points)
+    self_failed = 0
     if spec.self_test is None:
         table = nominal_table(setup, span)
         devices = device_outputs(setup, forces, spec)[1]
@@ -335,7 +342,8 @@ def calibration_free_error(setup: Setup, span: float,
 
         prm, own = _devices(setup, spec)
         devices = _outputs(setup, forces, prm, own)
-        errors, table = self_tested_errors(setup, span, forces, spec, prm, own, devices)
+        errors, table, self_failed = self_tested_errors(setup, span, forces, spec, prm, own,
+                                                        devices)
     good = np.isfinite(errors).all(axis=1)
     failed = int(np.count_nonzero(~good))
     if not np.isfinite(table[1]).all() or good.sum() < 0.5 * spec.samples:
@@ -346,7 +354,7 @@ def calibration_free_error(setup: Setup, span: float,
         p95 = float(np.percentile(e, 95.0))
         worst = float(e.max())
     return CalibrationFreeError(rms, p95, worst, span, spec.tare, spec.samples, failed,
-                                spec.tolerances, spec.self_test)
+                                spec.tolerances, spec.self_test, self_failed)
 
 
 def tolerance_shares(setup: Setup, span: float, spec: RobustSpec | None = None

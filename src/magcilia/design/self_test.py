@@ -7,7 +7,8 @@ coil``).
 strap pulse (the bridge flips, its offset does not: the offset, as
 :class:`magcilia.readout.recalibration_windows.StrapWindow`), a rest window (the unloaded level),
 and four coil pulses of a uniform field ±B along the sensing axis x and ±B across it (y), each
-window averaged for ``window`` seconds: ``7 × window`` of coil and strap in all. ``B`` is
+window averaged for ``window`` seconds, the sequence repeated ``cycles`` times (the windows
+averaged over the cycles): ``7 × window × cycles`` of coil and strap in all. ``B`` is
 ``level`` times the sensor's linear range (default ½: 3 G on the HMC1021Z, far below its 20 G flip
 field and the cilium's; the hair's own ~0.5 G and the Earth's keep the total in range).
 
@@ -28,11 +29,15 @@ is taken for s, m, k — the self-test's residual error, which :func:`magcilia.d
 
 **The read-out with it** (:meth:`~magcilia.readout.recalibration.Recalibration.correct`'s rule):
 an output V becomes ``V' = V₀ + (V − V_rest)/(s·m)`` (tared; untared ``o₀ + (V − o)/(s·m)``),
-read through the nominal table and multiplied by k (the elastica depends on F/EI only).
+read through the nominal table and multiplied by k (the elastica depends on F/EI only). A
+self-test whose s, m or k comes out beyond ¼..4 (:data:`REACH`) has failed — the pulses could not
+separate them, e.g. an element on the hair's plane of symmetry where the y pulse is not seen —
+and the device is read with the nominal model (counted in
+:attr:`~magcilia.design.robust.CalibrationFreeError.self_test_failed`).
 
 **Noise**: each window's mean carries the sensor's noise (:meth:`magcilia.Sensor.noise_rms`
 between ``1/(2·total)`` and ``1/(2·window)`` Hz: the band of a window mean within the test, its
-1/f part included), drawn per device from the spec's seed.
+1/f part included, over √cycles), drawn per device from the spec's seed.
 SI units: T, V, s.
 """
 
@@ -63,13 +68,16 @@ class CoilSelfTest(Display):
     level : float
         Pulse field as a fraction of the sensor's linear range (0 < level < 1; default 0.5).
     window : float
-        Averaging time of each window, s (default 0.25: 1.75 s of test in all).
+        Averaging time of each window, s (default 0.25).
+    cycles : int
+        Repetitions of the sequence, averaged (default 4: 7 s of test in all).
     noise : bool
         Whether the sensor's noise enters the windows (default True).
     """
 
     level: float = 0.5
     window: float = 0.25
+    cycles: int = 4
     noise: bool = True
 
     def __post_init__(self) -> None:
@@ -78,23 +86,25 @@ class CoilSelfTest(Display):
             raise v.fail("self-test level", level, "a fraction of the sensor's range in (0, 1)")
         object.__setattr__(self, "level", level)
         object.__setattr__(self, "window", v.positive("self-test window", self.window, "s"))
+        object.__setattr__(self, "cycles", v.integer("self-test cycles", self.cycles, 1))
         if not isinstance(self.noise, bool):
             raise v.fail("self-test noise", self.noise, "True or False")
 
     @property
     def duration(self) -> float:
-        """The test's length, s: its windows' averaging times."""
-        return WINDOWS * self.window
+        """The test's length, s: its windows' averaging times over every cycle."""
+        return WINDOWS * self.window * self.cycles
 
     def pulse(self, setup: Setup) -> float:
         """The pulse field, T, for ``setup``'s sensor."""
         return self.level * float(setup.sensor.field_range)
 
     def window_noise(self, setup: Setup) -> float:
-        """The standard deviation of one window's mean, V (module docstring)."""
+        """The standard deviation of one window's mean over the cycles, V (module docstring):
+        the noise in the band of one window's mean, over √cycles."""
         sensor = setup.sensor
-        return float(sensor.scale) * float(sensor.noise_rms(1.0 / (2.0 * self.duration),
-                                                            1.0 / (2.0 * self.window)))
+        band = sensor.noise_rms(1.0 / (2.0 * self.duration), 1.0 / (2.0 * self.window))
+        return float(sensor.scale) * float(band) / float(np.sqrt(self.cycles))
 
     def fields(self, setup: Setup) -> F64:
         """The applied fields (5, 3), T: rest, +x, −x, +y, −y."""
@@ -104,18 +114,20 @@ class CoilSelfTest(Display):
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content."""
-        return {"level": self.level, "window_s": self.window, "duration_s": self.duration,
-                "noise": self.noise}
+        return {"level": self.level, "window_s": self.window, "cycles": self.cycles,
+                "duration_s": self.duration, "noise": self.noise}
 
     def report(self) -> str:
         """One line: the pulses and the time."""
         return (f"coil self-test: ±{self.level:.3g}× the sensor's range along x and y, "
-                f"{self.window:.3g} s per window, {self.duration:.3g} s in all"
+                f"{self.window:.3g} s per window, {self.cycles} cycles, {self.duration:.3g} s "
+                "in all"
                 f"{'' if self.noise else ', noise-free'}")
 
     def _display_items(self) -> list[Item]:
         return [("pulses", f"±{self.level:.3g}× the range along x, y"),
-                ("window", f"{self.window:.3g} s"), ("duration", f"{self.duration:.3g} s"),
+                ("window", f"{self.window:.3g} s"), ("cycles", str(self.cycles)),
+                ("duration", f"{self.duration:.3g} s"),
                 ("noise", str(self.noise))]
 
 
@@ -142,7 +154,8 @@ def estimate(setup: Setup, test: CoilSelfTest, observed: tuple[F64, F64, F64, F6
     """Each device's sensitivity, magnetization and stiffness scales (s, m, k; (N,) each,
     relative to ``setup``'s) and offset (V) from its self-test windows ``observed`` = (strap
     offset, rest level, x pulse, y pulse), V, each (N,) — the closed form of the module
-    docstring, the nominal ``setup``'s model for B₀, r_x and r_y."""
+    docstring, the nominal ``setup``'s model for B₀, r_x and r_y; NaN or ±inf where the
+    windows cannot determine them (r_y = 0: an element on the hair's plane of symmetry)."""
     from magcilia.design.robust import _nominal
 
     prm = {**_nominal(setup),
@@ -152,11 +165,12 @@ def estimate(setup: Setup, test: CoilSelfTest, observed: tuple[F64, F64, F64, F6
     b = test.pulse(setup)
     b0, rx, ry = rest0 / scale, x0 / scale - b, y0 / scale
     offset, level, x, y = observed
-    sq = y / (scale * ry)  # s·m²/k
-    s = (x / scale - rx * sq) / b
-    m = (level - offset) / (scale * s * b0)
-    q = sq / s
-    return {"offset": offset, "sensitivity": s, "magnetization": m, "stiffness": m * m / q}
+    with np.errstate(divide="ignore", invalid="ignore"):  # r_y = 0: undetermined (inf, NaN)
+        sq = y / (scale * ry)  # s·m²/k
+        s = (x / scale - rx * sq) / b
+        m = (level - offset) / (scale * s * b0)
+        k = m * m * s / sq
+    return {"offset": offset, "sensitivity": s, "magnetization": m, "stiffness": k}
 
 
 def measure(setup: Setup, test: CoilSelfTest, prm: dict[str, F64], own: F64,
@@ -179,24 +193,32 @@ def measure(setup: Setup, test: CoilSelfTest, prm: dict[str, F64], own: F64,
 
 
 #: the read-out table reaches beyond the range to the softest device's estimated range (a device
-#: less stiff than nominal maps the range onto nominal forces up to span/k), at most this far
+#: less stiff than nominal maps the range onto nominal forces up to span/k), at most this far; a
+#: self-test whose s, m or k is beyond 1/REACH .. REACH has failed (the device is read with the
+#: nominal model)
 REACH = 4.0
 
 
 def self_tested_errors(setup: Setup, span: float, forces: F64, spec: Any, prm: dict[str, F64],
-                       own: F64, devices: F64) -> tuple[F64, tuple[F64, F64]]:
+                       own: F64, devices: F64) -> tuple[F64, tuple[F64, F64], int]:
     """The relative reading errors (samples, a) of devices ``prm`` (moments ``own`` times the
     model's) with outputs ``devices`` (samples, a; V) at ``forces`` (a,; N), each read after
-    its self-test (``spec.self_test``; noise from ``spec.seed``), and the nominal table used
-    (forces, N; outputs, V): :class:`~magcilia.design.robust.RobustSpec`'s rule otherwise."""
+    its self-test (``spec.self_test``; noise from ``spec.seed``), the nominal table used
+    (forces, N; outputs, V), and the count of failed self-tests (an estimated scale beyond
+    ``1/REACH .. REACH``: read with the nominal model instead)."""
     from magcilia.design.robust import TABLE_SIZE, _nominal, _outputs, read_errors
 
     test: CoilSelfTest = spec.self_test
     gen = np.random.default_rng([spec.seed, 1])
     est = estimate(setup, test, measure(setup, test, prm, own, gen))
-    k = est["stiffness"]
-    gain = est["sensitivity"] * est["magnetization"]
-    bad = ~(np.isfinite(k) & np.isfinite(gain) & (k > 0.0) & (gain != 0.0))
+    scales = np.stack([est["sensitivity"], est["magnetization"], est["stiffness"]])
+    failed = ~np.all(np.isfinite(scales) & (scales >= 1.0 / REACH) & (scales <= REACH), axis=0)
+    # a failed self-test (a scale beyond 1/REACH..REACH, as a real instrument rejects it): the
+    # device is read with the nominal model, as without the self-test
+    scales[:, failed] = 1.0
+    k = scales[2]
+    gain = scales[0] * scales[1]
+    bad = ~np.isfinite(devices).all(axis=1)
     t_forces = np.linspace(0.0, span, TABLE_SIZE)
     soft = float(np.min(k[~bad])) if np.any(~bad) else 1.0
     if soft < 1.0:  # nodes over [0, span] kept: with zero tolerances nothing changes
@@ -214,4 +236,5 @@ def self_tested_errors(setup: Setup, span: float, forces: F64, spec: Any, prm: d
     corrected[bad] = np.nan
     table = (t_forces, t_volts)
     read = read_errors(forces, table, corrected, span, False) * span + forces[None, :]
-    return np.asarray((k[:, None] * read - forces[None, :]) / span, dtype=np.float64), table
+    errors = np.asarray((k[:, None] * read - forces[None, :]) / span, dtype=np.float64)
+    return errors, table, int(np.count_nonzero(failed & ~bad))
