@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item
-from magcilia.design.self_test import CoilSelfTest
+from magcilia.design.self_test import REACH, CoilSelfTest, estimate, measure
 from magcilia.device.setup import Setup
 
 F64 = NDArray[np.float64]
@@ -338,11 +338,9 @@ def calibration_free_error(setup: Setup, span: float,
         devices = device_outputs(setup, forces, spec)[1]
         errors = read_errors(forces, table, devices, span, spec.tare)
     else:
-        from magcilia.design.self_test import self_tested_errors
-
         prm, own = _devices(setup, spec)
         devices = _outputs(setup, forces, prm, own)
-        errors, table, self_failed = self_tested_errors(setup, span, forces, spec, prm, own,
+        errors, table, self_failed = _self_tested_errors(setup, span, forces, spec, prm, own,
                                                         devices)
     good = np.isfinite(errors).all(axis=1)
     failed = int(np.count_nonzero(~good))
@@ -355,6 +353,47 @@ def calibration_free_error(setup: Setup, span: float,
         worst = float(e.max())
     return CalibrationFreeError(rms, p95, worst, span, spec.tare, spec.samples, failed,
                                 spec.tolerances, spec.self_test, self_failed)
+
+
+def _self_tested_errors(setup: Setup, span: float, forces: F64, spec: RobustSpec,
+                        prm: dict[str, F64], own: F64, devices: F64
+                        ) -> tuple[F64, tuple[F64, F64], int]:
+    """The relative reading errors (samples, a) of devices ``prm`` (moments ``own`` times the
+    model's) with outputs ``devices`` (samples, a; V) at ``forces`` (a,; N), each read after
+    its self-test (``spec.self_test``; noise from ``spec.seed``), the nominal table used
+    (forces, N; outputs, V), and the count of failed self-tests (an estimated scale beyond
+    ``1/REACH .. REACH``: read with the nominal model instead)."""
+    test = spec.self_test
+    assert test is not None  # (the caller's branch)
+    gen = np.random.default_rng([spec.seed, 1])
+    est = estimate(setup, test, measure(setup, test, prm, own, gen))
+    scales = np.stack([est["sensitivity"], est["magnetization"], est["stiffness"]])
+    failed = ~np.all(np.isfinite(scales) & (scales >= 1.0 / REACH) & (scales <= REACH), axis=0)
+    # a failed self-test (a scale beyond 1/REACH..REACH, as a real instrument rejects it): the
+    # device is read with the nominal model, as without the self-test
+    scales[:, failed] = 1.0
+    k = scales[2]
+    gain = scales[0] * scales[1]
+    bad = ~np.isfinite(devices).all(axis=1)
+    t_forces = np.linspace(0.0, span, TABLE_SIZE)
+    soft = float(np.min(k[~bad])) if np.any(~bad) else 1.0
+    if soft < 1.0:  # nodes over [0, span] kept: with zero tolerances nothing changes
+        reach = min(1.02 / soft, REACH)
+        extra = span * np.linspace(1.0, reach, int(np.ceil(64 * (reach - 1.0))) + 2)[1:]
+        t_forces = np.concatenate([t_forces, extra])
+    t_volts = _outputs(setup, t_forces, _nominal(setup), np.ones(1))[0]
+    end = np.flatnonzero(~np.isfinite(t_volts))
+    if end.size and end[0] > TABLE_SIZE - 1:
+        t_forces, t_volts = t_forces[:end[0]], t_volts[:end[0]]
+    if spec.tare:
+        corrected = t_volts[0] + (devices - devices[:, :1]) / gain[:, None]
+    else:
+        corrected = float(setup.sensor.offset) + (devices - est["offset"][:, None]) / gain[:, None]
+    corrected[bad] = np.nan
+    table = (t_forces, t_volts)
+    read = read_errors(forces, table, corrected, span, False) * span + forces[None, :]
+    errors = np.asarray((k[:, None] * read - forces[None, :]) / span, dtype=np.float64)
+    return errors, table, int(np.count_nonzero(failed & ~bad))
 
 
 def tolerance_shares(setup: Setup, span: float, spec: RobustSpec | None = None

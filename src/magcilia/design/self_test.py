@@ -156,10 +156,11 @@ def estimate(setup: Setup, test: CoilSelfTest, observed: tuple[F64, F64, F64, F6
     offset, rest level, x pulse, y pulse), V, each (N,) — the closed form of the module
     docstring, the nominal ``setup``'s model for B₀, r_x and r_y; NaN or ±inf where the
     windows cannot determine them (r_y = 0: an element on the hair's plane of symmetry)."""
-    from magcilia.design.robust import _nominal
-
-    prm = {**_nominal(setup),
-           "magnetization_scale": np.array([float(setup.value("magnetization_scale"))])}
+    prm = {k: np.array([float(val)]) for k, val in (
+        ("height", setup.cilium.height), ("base_radius", setup.cilium.base_radius),
+        ("x", setup.value("x")), ("y", setup.value("y")), ("z", setup.value("z")),
+        ("youngs_modulus", setup.youngs_modulus),
+        ("magnetization_scale", setup.value("magnetization_scale")))}
     rest0, x0, y0 = (float(a[0]) for a in responses(setup, test, prm, np.ones(1)))
     scale = float(setup.sensor.scale)
     b = test.pulse(setup)
@@ -197,44 +198,3 @@ def measure(setup: Setup, test: CoilSelfTest, prm: dict[str, F64], own: F64,
 #: self-test whose s, m or k is beyond 1/REACH .. REACH has failed (the device is read with the
 #: nominal model)
 REACH = 4.0
-
-
-def self_tested_errors(setup: Setup, span: float, forces: F64, spec: Any, prm: dict[str, F64],
-                       own: F64, devices: F64) -> tuple[F64, tuple[F64, F64], int]:
-    """The relative reading errors (samples, a) of devices ``prm`` (moments ``own`` times the
-    model's) with outputs ``devices`` (samples, a; V) at ``forces`` (a,; N), each read after
-    its self-test (``spec.self_test``; noise from ``spec.seed``), the nominal table used
-    (forces, N; outputs, V), and the count of failed self-tests (an estimated scale beyond
-    ``1/REACH .. REACH``: read with the nominal model instead)."""
-    from magcilia.design.robust import TABLE_SIZE, _nominal, _outputs, read_errors
-
-    test: CoilSelfTest = spec.self_test
-    gen = np.random.default_rng([spec.seed, 1])
-    est = estimate(setup, test, measure(setup, test, prm, own, gen))
-    scales = np.stack([est["sensitivity"], est["magnetization"], est["stiffness"]])
-    failed = ~np.all(np.isfinite(scales) & (scales >= 1.0 / REACH) & (scales <= REACH), axis=0)
-    # a failed self-test (a scale beyond 1/REACH..REACH, as a real instrument rejects it): the
-    # device is read with the nominal model, as without the self-test
-    scales[:, failed] = 1.0
-    k = scales[2]
-    gain = scales[0] * scales[1]
-    bad = ~np.isfinite(devices).all(axis=1)
-    t_forces = np.linspace(0.0, span, TABLE_SIZE)
-    soft = float(np.min(k[~bad])) if np.any(~bad) else 1.0
-    if soft < 1.0:  # nodes over [0, span] kept: with zero tolerances nothing changes
-        reach = min(1.02 / soft, REACH)
-        extra = span * np.linspace(1.0, reach, int(np.ceil(64 * (reach - 1.0))) + 2)[1:]
-        t_forces = np.concatenate([t_forces, extra])
-    t_volts = _outputs(setup, t_forces, _nominal(setup), np.ones(1))[0]
-    end = np.flatnonzero(~np.isfinite(t_volts))
-    if end.size and end[0] > TABLE_SIZE - 1:
-        t_forces, t_volts = t_forces[:end[0]], t_volts[:end[0]]
-    if spec.tare:
-        corrected = t_volts[0] + (devices - devices[:, :1]) / gain[:, None]
-    else:
-        corrected = float(setup.sensor.offset) + (devices - est["offset"][:, None]) / gain[:, None]
-    corrected[bad] = np.nan
-    table = (t_forces, t_volts)
-    read = read_errors(forces, table, corrected, span, False) * span + forces[None, :]
-    errors = np.asarray((k[:, None] * read - forces[None, :]) / span, dtype=np.float64)
-    return errors, table, int(np.count_nonzero(failed & ~bad))
