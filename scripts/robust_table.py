@@ -35,7 +35,7 @@ from magcilia.design.robust import (
     calibration_free_error,
     tolerance_shares,
 )
-from magcilia.design.self_test import CoilSelfTest
+from magcilia.design.self_test import REACH, CoilSelfTest
 
 #: the independent check's devices and seed (the optimiser's are 64 from the search's rng)
 CHECK_DEVICES = 200
@@ -96,7 +96,8 @@ def independent_self_test_error(setup: mc.Setup, span: float, tol: Tolerances,
     fitted by the public ``mc.Recalibrator`` (nothing held; Gauss–Newton over the six windows),
     then read by the nominal design's ``Readout`` through ``Recalibration.read`` (tared at the
     corrected rest level; the read-out's span reaching the device's estimated range, a reading
-    beyond it at its end)."""
+    beyond it at its end; a fit whose s, m or k is beyond 1/REACH .. REACH has failed: the
+    device is read with the nominal model, the metric's rule)."""
     from magcilia.readout.recalibration_windows import PulseWindow, RestWindow, StrapWindow
 
     gen = np.random.default_rng(seed)
@@ -125,6 +126,9 @@ def independent_self_test_error(setup: mc.Setup, span: float, tol: Tolerances,
             windows.append(PulseWindow((field[0], field[1], field[2]), rest, sigma,
                                        output(field) + noise[3 + j], sigma))
         fit = recalibrator.update(windows)
+        scales = [fit.values[name] for name in ("sensitivity", "magnetization", "stiffness")]
+        if not all(1.0 / REACH <= x <= REACH for x in scales):  # a failed self-test: nominal
+            fit = recalibrator.start()
         k = fit.values["stiffness"]
         reach = round(min(max(1.0, 1.02 / k), 4.0), 1) if k > 0 else 1.0
         if reach not in readouts:

@@ -31,7 +31,8 @@ is taken for s, m, k — the self-test's residual error, which :func:`magcilia.d
 an output V becomes ``V' = V₀ + (V − V_rest)/(s·m)`` (tared; untared ``o₀ + (V − o)/(s·m)``),
 read through the nominal table and multiplied by k (the elastica depends on F/EI only). A
 self-test whose s, m or k comes out beyond ¼..4 (:data:`REACH`) has failed — the pulses could not
-separate them, e.g. an element on the hair's plane of symmetry where the y pulse is not seen —
+separate them, e.g. an element on a vertical plane of symmetry through the hair (x = 0 or
+y = 0), where a y pulse does not change B_x —
 and the device is read with the nominal model (counted in
 :attr:`~magcilia.design.robust.CalibrationFreeError.self_test_failed`).
 
@@ -155,7 +156,8 @@ def estimate(setup: Setup, test: CoilSelfTest, observed: tuple[F64, F64, F64, F6
     relative to ``setup``'s) and offset (V) from its self-test windows ``observed`` = (strap
     offset, rest level, x pulse, y pulse), V, each (N,) — the closed form of the module
     docstring, the nominal ``setup``'s model for B₀, r_x and r_y; NaN or ±inf where the
-    windows cannot determine them (r_y = 0: an element on the hair's plane of symmetry)."""
+    windows cannot determine them (r_y = 0: an element on a vertical plane of symmetry
+    through the hair, x = 0 or y = 0)."""
     prm = {k: np.array([float(val)]) for k, val in (
         ("height", setup.cilium.height), ("base_radius", setup.cilium.base_radius),
         ("x", setup.value("x")), ("y", setup.value("y")), ("z", setup.value("z")),
