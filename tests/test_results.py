@@ -132,6 +132,7 @@ FACTORIES: dict[str, Callable[[], Any]] = {
     "SobolResult": lambda: mc.sobol_indices(SETUP, n_base=16, angles=ANGLES, rng=0),
     "PlacementTolerance": lambda: mc.placement_tolerance(SETUP, angles=ANGLES),
     "Tolerances": mc.Tolerances,
+    "CoilSelfTest": mc.CoilSelfTest,
     "CalibrationFreeError": lambda: mc.calibration_free_error(TAPERED, 1e-5),
     "PiecewiseLinear": lambda: mc.piecewise_linear(SETUP, corners=1, grid=101),
     "LookupTable": lambda: mc.lookup_table(SETUP, 16),

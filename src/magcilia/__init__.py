@@ -48,6 +48,7 @@ if TYPE_CHECKING:
     # -- design: metrics and optimisation ----------------------------------------------------------
     from magcilia.design import (
         CalibrationFreeError,
+        CoilSelfTest,
         DesignMetrics,
         DesignOptimum,
         Metric,
@@ -157,6 +158,7 @@ __all__ = [
     "Centreline",
     "CiliaArray",
     "Cilium",
+    "CoilSelfTest",
     "Crosstalk",
     "DesignMetrics",
     "DesignOptimum",

@@ -148,6 +148,8 @@ MEANINGS: dict[str, tuple[str, set[tuple[Any, ...]]]] = {
     "--scheduler": ("a Dask scheduler", {("text",)}),
     "--second-mode": ("fit a second mode of a ring-down", {("flag",)}),
     "--seed": ("a random seed", {("int",)}),
+    "--self-test": ("the start-up self-test each device is read after",
+                    {("choice", frozenset({"none", "coil"}))}),
     "--sensor": ("a 3-axis magnetometer part (preset name)",
                  {("choice", frozenset(n.lower() for n in mc.MAGNETOMETERS))}),
     "--sensor-noise": ("RMS noise of a 3-axis sensor", {("text",)}),

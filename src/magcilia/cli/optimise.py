@@ -39,6 +39,7 @@ from magcilia.design import (
 )
 from magcilia.design.measurands import BY_OBJECTIVE
 from magcilia.design.robust import TOLERANCES, Tolerances
+from magcilia.design.self_test import CoilSelfTest
 from magcilia.mechanics import FLUIDS
 from magcilia.report.units import output_units
 from magcilia.report.units import show as show_value
@@ -71,6 +72,12 @@ def _defaults() -> str:
               help="Robust objective: devices drawn per design (the same for every design).")
 @click.option("--no-tare", is_flag=True,
               help="Robust objective: read each device's raw output (default: tared at rest).")
+@click.option("--self-test", "self_test", type=click.Choice(["none", "coil"]), default="none",
+              show_default=True,
+              help="Robust objective: read each device after a start-up coil self-test (±3 G "
+                   "pulses along x and y, a rest and a strap window, 0.25 s each, 4 cycles: "
+                   "7 s; its sensitivity, magnetization and stiffness estimated; no rig, no "
+                   "known load).")
 @click.option("--min-force", type=Physical.of("force", "1uN"),
               help="Minimum detectable force the chosen design must reach, mN or with a unit "
                    "(1uN); default: the SETUP's own.")
@@ -126,7 +133,7 @@ def _defaults() -> str:
 @si_option
 @style_option
 def command(setup_arg: str, objective: str, tolerance_text: str | None, samples: int,
-            no_tare: bool, min_force: float | None, speed: float | None,
+            no_tare: bool, self_test: str, min_force: float | None, speed: float | None,
             min_range: str | None, max_field: float | None, bound_items: tuple[str, ...],
             sensor_text: str, designs: int, refine: int, polish: int, seed: int,
             workers: int | None, scheduler: str | None, fluid: str,
@@ -169,12 +176,15 @@ def command(setup_arg: str, objective: str, tolerance_text: str | None, samples:
         if objective != "robust":
             raise fail("--tolerance", tolerance_text, "given with --objective robust only")
         tolerances = parse_tolerances(tolerance_text)
+    if self_test != "none" and objective != "robust":
+        raise fail("--self-test", self_test, "given with --objective robust only")
     result = optimise_design(
         setup, objective, min_force=min_force, speed=speed, constraints=constraints or None,
         bounds=bounds or None, sensors=sensors, n=designs, refine=refine, polish=polish, rng=seed,
         workers=workers, scheduler=scheduler, bandwidth=parse_bandwidth(bandwidth),
         fluid=FLUIDS[fluid], progress=not quiet_requested(quiet), tolerances=tolerances,
-        samples=samples, tare=not no_tare)
+        samples=samples, tare=not no_tare,
+        self_test=CoilSelfTest() if self_test == "coil" else None)
     units = output_units(si)
     doc = optimise_doc(result, setup_label(setup_arg), units)
     files: dict[str, str | bytes] = {}  # every file computed first, then written together
@@ -312,7 +322,9 @@ def optimise_text(doc: dict[str, Any], units: OutputUnits) -> str:
                      f", best {err(best)}; {r['samples']} devices, "
                      f"{'tared at rest' if r['tare'] else 'untared'}, under "
                      + Tolerances(tol["placement_m"], tol["height"], tol["base_radius"],
-                                  tol["magnetization"], tol["modulus"]).report())
+                                  tol["magnetization"], tol["modulus"]).report()
+                     + ("" if not r.get("self_test") else
+                        f"; read after a coil self-test ({r['self_test']['duration_s']:.3g} s)"))
     lines.append(f"Pareto front ({k_min}, {k_rng}, sensor):")
     lines += [f"  {show(r[k_min]):>14} {show(r[k_rng], r['range_reached']):>14}  {r['sensor']}"
               for r in doc["front"]]

@@ -7,7 +7,8 @@
   (:data:`OBJECTIVES`), the Pareto front of range against resolution (:func:`pareto_ranks`);
 * :mod:`.robust`: :func:`calibration_free_error` (:class:`CalibrationFreeError`): the read-out
   error of a design without per-device calibration under :class:`Tolerances`, by Monte Carlo
-  through the exact model (the ``"robust"`` objective's metric, :data:`ROBUST`);
+  through the exact model (the ``"robust"`` objective's metric, :data:`ROBUST`); with a
+  start-up coil self-test instead (:mod:`.self_test`, :class:`CoilSelfTest`);
 * what they share: :mod:`.ranges` (where a read range ends: the rated range or a fold,
   :func:`range_end`), :mod:`.sweeps` (how far a sweep goes, the fields along it),
   :mod:`.measurands` (:data:`FORCE`, :data:`FLOW`: what each objective measures),
@@ -44,6 +45,7 @@ if TYPE_CHECKING:
         calibration_free_error,
         tolerance_shares,
     )
+    from magcilia.design.self_test import CoilSelfTest
     from magcilia.design.sensors import SINGLE_AXIS, SensorChoice, sensor_choices
 
 __all__ = [
@@ -57,6 +59,7 @@ __all__ = [
     "VARIABLES",
     "CalibrationFreeError",
     "Candidate",
+    "CoilSelfTest",
     "DesignMetrics",
     "DesignOptimum",
     "Measurand",

@@ -99,6 +99,7 @@ from magcilia.design.pareto import pareto_ranks
 from magcilia.design.results import Candidate, DesignOptimum
 from magcilia.design.robust import RobustSpec, Tolerances
 from magcilia.design.screen import REASONS, SCREEN_CHUNK, Screen, screen, screen_chunk
+from magcilia.design.self_test import CoilSelfTest
 from magcilia.design.sensors import SINGLE_AXIS, SensorChoice, sensor_choices
 from magcilia.device.magnetometer import Magnetometer
 from magcilia.device.parameters import PARAMETERS
@@ -215,7 +216,8 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
                     bandwidth: tuple[float, float] = DEFAULT_BANDWIDTH, fluid: Fluid = WATER,
                     points: int = 151, progress: bool = False,
                     tolerances: Tolerances | None = None, samples: int = 128,
-                    tare: bool = True) -> DesignOptimum:
+                    tare: bool = True, self_test: CoilSelfTest | None = None
+                    ) -> DesignOptimum:
     """Search geometry, material, placement and sensor for an objective; return the Pareto
     front of range against resolution and the chosen design (module docstring).
 
@@ -279,6 +281,10 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     tare : bool
         Robust objective: each device tared at rest before it is read (the default, what a user
         does).
+    self_test : CoilSelfTest, optional
+        Robust objective: each device read after a start-up coil self-test that estimates its
+        sensitivity, magnetization and stiffness (:mod:`magcilia.design.self_test`; default
+        none: the nominal model as it is).
 
     Returns
     -------
@@ -312,7 +318,7 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
     choices = sensor_choices(sensors, setup)
     searched, fixed = _bounds(setup, bounds)
     gen = np.random.default_rng(rng)
-    robust = _robust_spec(measurand, choices, tolerances, samples, tare, gen)
+    robust = _robust_spec(measurand, choices, tolerances, samples, tare, gen, self_test)
 
     # the reference: the given setup with the first sensor choice
     base = _task(setup, choices[0], measurand, fixed_c, bandwidth, fluid, points, robust)
@@ -432,19 +438,23 @@ def optimise_design(setup: Setup | None = None, objective: str = "force-range", 
 
 def _robust_spec(measurand: Measurand, choices: Sequence[SensorChoice],
                  tolerances: Tolerances | None, samples: int, tare: bool,
-                 gen: np.random.Generator) -> RobustSpec | None:
+                 gen: np.random.Generator, self_test: CoilSelfTest | None = None
+                 ) -> RobustSpec | None:
     """The robust objective's Monte Carlo (None for the others); its draws' seed comes from
     ``gen`` (the search's ``rng``), so an int ``rng`` repeats them."""
     if measurand.objective != "robust":
         if tolerances is not None:
             raise v.fail("tolerances", tolerances.report(), "None unless the objective is "
                          "'robust' (the others do not use them)")
+        if self_test is not None:
+            raise v.fail("self_test", self_test.report(), "None unless the objective is "
+                         "'robust' (the others do not use it)")
         return None
     if any(c.name != SINGLE_AXIS for c in choices):
         raise v.fail("sensors", [c.name for c in choices], f"({SINGLE_AXIS!r},) for the robust "
                      "objective (its read-out error is the single-axis sensor's)")
     return RobustSpec(tolerances or Tolerances(), samples=samples,
-                      seed=int(gen.integers(2**31)), tare=tare)
+                      seed=int(gen.integers(2**31)), tare=tare, self_test=self_test)
 
 
 @dataclass(frozen=True)

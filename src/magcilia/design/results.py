@@ -262,7 +262,8 @@ class DesignOptimum(Display):
         if r is None:
             return {}
         return {"tolerances": r.tolerances.to_dict(), "samples": r.samples, "seed": r.seed,
-                "tare": r.tare, "points": r.points}
+                "tare": r.tare, "points": r.points,
+                "self_test": None if r.self_test is None else r.self_test.to_dict()}
 
     def report(self) -> str:
         """Plain text in display units: the chosen design against the reference, then the
@@ -283,7 +284,9 @@ class DesignOptimum(Display):
                          f"reference {_error_text(self.reference)}, best "
                          f"{_error_text(self.best)}; {self.robust.samples} devices, "
                          f"{'tared' if self.robust.tare else 'untared'}, under "
-                         f"{self.robust.tolerances.report()}")
+                         f"{self.robust.tolerances.report()}"
+                         + ("" if self.robust.self_test is None
+                            else f"; read after a {self.robust.self_test.report()}"))
         lines.append("front (minimum, range):")
         lines += [f"  {q.text(d.minimum, 4):>12} {_range_text(d, q):>12}  {d.sensor}"
                   for d in self.front]

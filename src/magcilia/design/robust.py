@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from magcilia import _validate as v
 from magcilia._display import Display, Item
+from magcilia.design.self_test import REACH, CoilSelfTest, estimate, measure
 from magcilia.device.setup import Setup
 
 F64 = NDArray[np.float64]
@@ -123,14 +124,19 @@ def _tolerance_text(name: str, value: float) -> str:
 class RobustSpec:
     """How the calibration-free error is estimated (picklable: it travels with each design's
     task): the tolerances, the devices drawn (``samples``, from ``seed``), whether each device
-    is tared at rest, and the forces per device (``points`` over the range). ``draws``
-    (samples, 7) are the truncated standard-normal draws, the same for every design."""
+    is tared at rest, the forces per device (``points`` over the range), and a start-up
+    ``self_test`` each device is read with (None: none, the nominal model as it is; a
+    :class:`magcilia.design.self_test.CoilSelfTest`: its estimated sensitivity, magnetization and
+    stiffness correct the read-out). ``draws`` (samples, 7) are the truncated standard-normal
+    draws, the same for every design."""
 
     tolerances: Tolerances = field(default_factory=Tolerances)
     samples: int = 128
     seed: int = 0
     tare: bool = True
     points: int = 33
+    self_test: CoilSelfTest | None = None
+    self_test_failed: int = 0
     draws: F64 = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -141,6 +147,9 @@ class RobustSpec:
         object.__setattr__(self, "points", v.integer("points", self.points, 3))
         if not isinstance(self.tare, bool):
             raise v.fail("tare", self.tare, "True or False")
+        if self.self_test is not None and not isinstance(self.self_test, CoilSelfTest):
+            raise v.fail("self_test", type(self.self_test).__name__,
+                         "None or a magcilia.design.self_test.CoilSelfTest")
         gen = np.random.default_rng(v.integer("seed", self.seed, 0))
         draws = np.clip(gen.standard_normal((self.samples, len(_COLUMNS))), -TRUNCATE, TRUNCATE)
         draws.setflags(write=False)
@@ -202,14 +211,19 @@ def device_outputs(setup: Setup, forces: F64, spec: RobustSpec) -> tuple[F64, F6
     ``forces`` (a,), N, along +x: the exact model (module docstring); NaN rows for devices the
     model refuses (the element inside the cilium, a bend that does not converge)."""
     forces = np.asarray(forces, dtype=np.float64)
-    dev = device_parameters(setup, spec)
+    prm, own = _devices(setup, spec)
     nominal = _nominal(setup)
-    prm = {k: np.concatenate([nominal[k], dev[k]]) for k in nominal}
-    # the model's moment is the setup's (its magnetization scale included): a device's own
-    # scale relative to it multiplies its field
-    own = dev["magnetization_scale"] / float(setup.value("magnetization_scale"))
-    volts = _outputs(setup, forces, prm, np.concatenate([[1.0], own]))
+    both = {k: np.concatenate([nominal[k], prm[k]]) for k in nominal}
+    volts = _outputs(setup, forces, both, np.concatenate([[1.0], own]))
     return volts[0], volts[1:]
+
+
+def _devices(setup: Setup, spec: RobustSpec) -> tuple[dict[str, F64], F64]:
+    """The drawn devices' geometry and modulus (as :func:`_nominal`'s, (samples,) each) and
+    their moments relative to the model's (the setup's, its magnetization scale included)."""
+    dev = device_parameters(setup, spec)
+    own = dev.pop("magnetization_scale") / float(setup.value("magnetization_scale"))
+    return dev, own
 
 
 def read_errors(forces: F64, table: tuple[F64, F64], devices: F64, span: float,
@@ -251,6 +265,10 @@ class CalibrationFreeError(Display):
     failed : int
         Devices the model refused (left out of the figures).
     tolerances : Tolerances
+    self_test : CoilSelfTest or None
+        The start-up self-test each device was read with (None: none).
+    self_test_failed : int
+        Devices whose self-test failed (read with the nominal model instead).
     """
 
     rms: float
@@ -261,12 +279,16 @@ class CalibrationFreeError(Display):
     samples: int
     failed: int
     tolerances: Tolerances
+    self_test: CoilSelfTest | None = None
+    self_test_failed: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (errors as fractions of the range; the range in N)."""
         return {"rms": self.rms, "p95": self.p95, "worst": self.worst, "span_N": self.span,
                 "tare": self.tare, "samples": self.samples, "failed": self.failed,
-                "tolerances": self.tolerances.to_dict()}
+                "tolerances": self.tolerances.to_dict(),
+                "self_test": None if self.self_test is None else self.self_test.to_dict(),
+                "self_test_failed": self.self_test_failed}
 
     def report(self) -> str:
         """One line: RMS, 95th percentile and worst, in % of the range."""
@@ -275,7 +297,9 @@ class CalibrationFreeError(Display):
         return (f"calibration-free error {self.rms * 100:.3g} % RMS of the range "
                 f"({self.span * 1e3:.4g} mN; 95th percentile {self.p95 * 100:.3g} %, worst "
                 f"{self.worst * 100:.3g} %; {self.samples} devices, {tared}{failed}) under "
-                f"{self.tolerances.report()}")
+                f"{self.tolerances.report()}"
+                + ("" if self.self_test is None else f"; read after a {self.self_test.report()}"
+                   f" ({self.self_test_failed} failed)"))
 
     def _display_items(self) -> list[Item]:
         return [("rms", f"{self.rms * 100:.3g} %"), ("p95", f"{self.p95 * 100:.3g} %"),
@@ -308,9 +332,16 @@ def calibration_free_error(setup: Setup, span: float,
     spec = spec or RobustSpec()
     setup = setup.resolve_layout()
     forces = np.linspace(0.0, span, spec.points)
-    table = nominal_table(setup, span)
-    devices = device_outputs(setup, forces, spec)[1]
-    errors = read_errors(forces, table, devices, span, spec.tare)
+    self_failed = 0
+    if spec.self_test is None:
+        table = nominal_table(setup, span)
+        devices = device_outputs(setup, forces, spec)[1]
+        errors = read_errors(forces, table, devices, span, spec.tare)
+    else:
+        prm, own = _devices(setup, spec)
+        devices = _outputs(setup, forces, prm, own)
+        errors, table, self_failed = _self_tested_errors(setup, span, forces, spec, prm, own,
+                                                        devices)
     good = np.isfinite(errors).all(axis=1)
     failed = int(np.count_nonzero(~good))
     if not np.isfinite(table[1]).all() or good.sum() < 0.5 * spec.samples:
@@ -321,7 +352,48 @@ def calibration_free_error(setup: Setup, span: float,
         p95 = float(np.percentile(e, 95.0))
         worst = float(e.max())
     return CalibrationFreeError(rms, p95, worst, span, spec.tare, spec.samples, failed,
-                                spec.tolerances)
+                                spec.tolerances, spec.self_test, self_failed)
+
+
+def _self_tested_errors(setup: Setup, span: float, forces: F64, spec: RobustSpec,
+                        prm: dict[str, F64], own: F64, devices: F64
+                        ) -> tuple[F64, tuple[F64, F64], int]:
+    """The relative reading errors (samples, a) of devices ``prm`` (moments ``own`` times the
+    model's) with outputs ``devices`` (samples, a; V) at ``forces`` (a,; N), each read after
+    its self-test (``spec.self_test``; noise from ``spec.seed``), the nominal table used
+    (forces, N; outputs, V), and the count of failed self-tests (an estimated scale beyond
+    ``1/REACH .. REACH``: read with the nominal model instead)."""
+    test = spec.self_test
+    assert test is not None  # (the caller's branch)
+    gen = np.random.default_rng([spec.seed, 1])
+    est = estimate(setup, test, measure(setup, test, prm, own, gen))
+    scales = np.stack([est["sensitivity"], est["magnetization"], est["stiffness"]])
+    failed = ~np.all(np.isfinite(scales) & (scales >= 1.0 / REACH) & (scales <= REACH), axis=0)
+    # a failed self-test (a scale beyond 1/REACH..REACH, as a real instrument rejects it): the
+    # device is read with the nominal model, as without the self-test
+    scales[:, failed] = 1.0
+    k = scales[2]
+    gain = scales[0] * scales[1]
+    bad = ~np.isfinite(devices).all(axis=1)
+    t_forces = np.linspace(0.0, span, TABLE_SIZE)
+    soft = float(np.min(k[~bad])) if np.any(~bad) else 1.0
+    if soft < 1.0:  # nodes over [0, span] kept: with zero tolerances nothing changes
+        reach = min(1.02 / soft, REACH)
+        extra = span * np.linspace(1.0, reach, int(np.ceil(64 * (reach - 1.0))) + 2)[1:]
+        t_forces = np.concatenate([t_forces, extra])
+    t_volts = _outputs(setup, t_forces, _nominal(setup), np.ones(1))[0]
+    end = np.flatnonzero(~np.isfinite(t_volts))
+    if end.size and end[0] > TABLE_SIZE - 1:
+        t_forces, t_volts = t_forces[:end[0]], t_volts[:end[0]]
+    if spec.tare:
+        corrected = t_volts[0] + (devices - devices[:, :1]) / gain[:, None]
+    else:
+        corrected = float(setup.sensor.offset) + (devices - est["offset"][:, None]) / gain[:, None]
+    corrected[bad] = np.nan
+    table = (t_forces, t_volts)
+    read = read_errors(forces, table, corrected, span, False) * span + forces[None, :]
+    errors = np.asarray((k[:, None] * read - forces[None, :]) / span, dtype=np.float64)
+    return errors, table, int(np.count_nonzero(failed & ~bad))
 
 
 def tolerance_shares(setup: Setup, span: float, spec: RobustSpec | None = None
