@@ -38,6 +38,7 @@ LAB = {
     "live (terminal)": ["rich"],
     "dashboard": ["starlette", "uvicorn", "websockets"],
     "angle (photos)": ["scikit-image", "pillow"],
+    "live --lsl (Lab Streaming Layer)": ["pylsl"],
 }
 
 requirements = pytest.importorskip("packaging.requirements")
