@@ -21,6 +21,7 @@ flip the AMR element's magnetization (``Sensor.flip_field``).
 from __future__ import annotations
 
 import csv
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,11 +35,11 @@ from magcilia import _validate as v
 from magcilia._display import Display, Item, count, si
 from magcilia._errors import MagciliaError
 from magcilia.acquire.simulated_coil import ACTUATION_COLUMNS, SimulatedCoilSource, field_text
-from magcilia.acquire.source import OUTPUT, Block, Counters, Source
-from magcilia.acquire.sweep import _pieces
+from magcilia.acquire.source import Block, Counters, Source
+from magcilia.acquire.sweep import record_step
 from magcilia.device.sensor import Sensor
 from magcilia.io.recording_file import RecordingWriter, chunk_for
-from magcilia.io.recordings import beyond_range, nptdms_module, reading
+from magcilia.io.recordings import nptdms_module
 from magcilia.units import parse_value
 
 F64 = NDArray[np.float64]
@@ -301,25 +302,16 @@ def record_coil(
                 for i, step in enumerate(sequence.steps):
                     where = f"at coil step {i + 1} ({field_text(step.field)})"
                     applied = _apply(source, driver, np.asarray(step.field, dtype=np.float64))
-                    source.discard()
-                    for n in _pieces(round(settle * source.rate), piece):
-                        source.read(n)
                     take = samples if step.dwell is None else max(2, round(step.dwell *
                                                                            source.rate))
-                    blocks = []
-                    for n in _pieces(take, piece):
-                        block = source.read(n)
-                        writer.write(block.time, block[OUTPUT], setreset=block.setreset,
-                                     extra=_columns(block, applied))
-                        blocks.append(block)
-                    block = Block.concatenate(blocks)
-                    volts = block[OUTPUT]
-                    mean, sem, n_read = reading(volts, block.setreset, where)
+                    block, mean, sem, n_read, saturated = record_step(
+                        source, writer, take, round(settle * source.rate), piece, where, sensor,
+                        functools.partial(_columns, applied))
                     recorded = (block.extra() or {})
                     shown = (tuple(float(np.mean(recorded[c])) for c in ACTUATION_COLUMNS)
                              if ACTUATION_COLUMNS[0] in recorded else tuple(applied.tolist()))
                     point = CoilPoint((shown[0], shown[1], shown[2]), mean, sem, n_read,
-                                      int(beyond_range(volts, sensor).sum()))
+                                      saturated)
                     points.append(point)
                     if on_point is not None:
                         on_point(point)
@@ -343,12 +335,11 @@ def _apply(source: Source, driver: CoilDriver | None, field: F64) -> F64:
     return field
 
 
-def _columns(block: Block, applied: F64) -> dict[str, F64]:
-    """The block's extra channels, with the applied field's columns added where the source has
-    none."""
+def _columns(applied: F64, block: Block) -> dict[str, Any]:
+    """A coil step's columns: the block's extra channels, with the applied field's columns added
+    where the source has none."""
     extra = dict(block.extra() or {})
     if ACTUATION_COLUMNS[0] not in extra:
         for name, b in zip(ACTUATION_COLUMNS, applied, strict=True):
             extra[name] = np.full(len(block), float(b))
-    return extra
-
+    return {"extra": extra}

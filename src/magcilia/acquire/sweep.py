@@ -13,6 +13,7 @@ it stopped.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -224,21 +225,10 @@ def record_sweep(
                 where = f"at angle {i + 1} ({math.degrees(angle):.4g} deg)"
                 if tilt is not None:
                     tilt(angle)
-                source.discard()
-                for n in _pieces(settle_samples, piece):
-                    source.read(n)
-                blocks = []
-                for n in _pieces(samples, piece):  # each piece reaches the file at once
-                    block = source.read(n)
-                    writer.write(block.time, block[OUTPUT],
-                                 angle_deg=np.full(n, math.degrees(angle)),
-                                 setreset=block.setreset, extra=block.extra())
-                    blocks.append(block)
-                block = Block.concatenate(blocks)
-                volts = block[OUTPUT]
-                mean, sem, count = reading(volts, block.setreset, where)
-                point = SweepPoint(angle, mean, sem, count,
-                                   int(beyond_range(volts, sensor).sum()))
+                _, mean, sem, count, saturated = record_step(
+                    source, writer, samples, settle_samples, piece, where, sensor,
+                    functools.partial(_angle_columns, math.degrees(angle)))
+                point = SweepPoint(angle, mean, sem, count, saturated)
                 points.append(point)
                 if on_point is not None:
                     on_point(point)
@@ -246,6 +236,33 @@ def record_sweep(
     writer.close(complete=True)
     return SweepResult(path=str(path), points=tuple(points), counters=source.counters,
                        elapsed=time.perf_counter() - t0)
+
+
+def record_step(source: Source, writer: RecordingWriter, take: int, settle: int, piece: int,
+                where: str, sensor: Sensor, columns: Callable[[Block], dict[str, Any]]
+                ) -> tuple[Block, float, float, int, int]:
+    """One step of a sweep (an angle, a coil field): drop what was received and ``settle``
+    samples, record ``take`` samples in reads of at most ``piece`` (each read reaches the file at
+    once, with the step's ``columns(block)`` as ``RecordingWriter.write`` keywords), and return
+    the step's samples, its reading (mean, s.e. in V, samples used; offset-free with set/reset)
+    and how many samples lie beyond ``sensor``'s range."""
+    source.discard()
+    for n in _pieces(settle, piece):
+        source.read(n)
+    blocks = []
+    for n in _pieces(take, piece):
+        block = source.read(n)
+        writer.write(block.time, block[OUTPUT], setreset=block.setreset, **columns(block))
+        blocks.append(block)
+    block = Block.concatenate(blocks)
+    volts = block[OUTPUT]
+    mean, sem, count = reading(volts, block.setreset, where)
+    return block, mean, sem, count, int(beyond_range(volts, sensor).sum())
+
+
+def _angle_columns(deg: float, block: Block) -> dict[str, Any]:
+    """A tilt step's columns: the angle (deg) of every sample, the source's extra channels."""
+    return {"angle_deg": np.full(len(block), deg), "extra": block.extra()}
 
 
 def _pieces(total: int, piece: int) -> Iterator[int]:
