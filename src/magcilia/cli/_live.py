@@ -6,7 +6,6 @@ from __future__ import annotations
 import functools
 import logging
 import math
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -14,8 +13,6 @@ from typing import Any
 import click
 import numpy as np
 
-from magcilia._atomic import _exists_message
-from magcilia._errors import MagciliaError
 from magcilia._validate import fail
 from magcilia.acquire import (
     LoadScript,
@@ -188,7 +185,7 @@ def live_options(command: Any) -> Any:
 LIVE_KEYS = ("source_spec", "setup_arg", "quantity", "span_text", "calibration_path", "fluid",
              "rate", "source_rate", "channel", "set_reset", "no_tare", "tracking", "record_dir",
              "seed", "tip_radius", "modulus", "sensor_name", "sensor_noise", "record_path",
-             "force", "dynamic", "sim_dynamics", "recalibrate", "serial", "temperature")
+             "dynamic", "sim_dynamics", "recalibrate", "serial", "temperature")
 
 
 def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: str | None,
@@ -196,8 +193,8 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                source_rate: float | None, channel: str, set_reset: int | None, no_tare: bool,
                tracking: float, seed: int, tip_radius: str | None, modulus: str | None,
                sensor_name: str | None = None, sensor_noise: str | None = None,
-               record_path: str | None = None, force: bool = False,
-               replay_realtime: bool | None = None, dynamic: bool = False,
+               record_path: str | None = None, replay_realtime: bool | None = None,
+               dynamic: bool = False,
                sim_dynamics: bool = False, recalibrate: float | None = None,
                serial: SerialFormat | None = None, temperature: str | None = None,
                duration: float | None = None, **_: Any) -> LiveReadout:
@@ -218,8 +215,6 @@ def build_live(*, source_spec: str, setup_arg: str, quantity: str, span_text: st
                    f"{serial.format}: the format does not carry it")
     if source_spec.lower().endswith(".tdms"):
         return replay_live(source_spec, record_path, replay_realtime)
-    if record_path is not None and os.path.lexists(record_path) and not force:
-        raise MagciliaError(_exists_message(Path(record_path), "--record"))
     if tracking < 0:
         raise fail("--tracking", tracking, "a time constant ≥ 0 s (0: off)")
     if sensor_noise is not None and sensor_name is None:
