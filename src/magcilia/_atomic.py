@@ -495,7 +495,6 @@ def exists_message(out: str | os.PathLike[str], option: str = "--out") -> str:
     return f"{os.fspath(out)} exists; pass --force to replace it, or choose another {option}"
 
 
-_exists_message = exists_message  # the earlier private name
 
 
 def _check_target(out: Path, target: Path, force: bool, names: Collection[str],

@@ -59,7 +59,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from magcilia import _validate as v
-from magcilia._atomic import _exists_message, jsonable, partial_file
+from magcilia._atomic import exists_message, jsonable, partial_file
 from magcilia._errors import MagciliaError
 from magcilia._validate import printable
 from magcilia.io import export_formats
@@ -286,5 +286,5 @@ def check_output(recording: str | os.PathLike[str], path: str | os.PathLike[str]
             raise MagciliaError(f"{out} is the input of RECORDING; an input is never replaced "
                                 "(--force neither): choose another --out")
         if not overwrite:
-            raise MagciliaError(_exists_message(out))
+            raise MagciliaError(exists_message(out))
     return out

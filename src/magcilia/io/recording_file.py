@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from magcilia import _validate as v
-from magcilia._atomic import PartialFile, _exists_message, jsonable, remove_leftovers
+from magcilia._atomic import PartialFile, exists_message, jsonable, remove_leftovers
 from magcilia._errors import AcquisitionError, MagciliaError
 from magcilia._validate import printable
 from magcilia.io import chunk_checksums
@@ -195,7 +195,7 @@ class RecordingWriter:
                     self._owns_path = True
                     return path.open("r+b", buffering=0)
                 if not self.overwrite:
-                    raise MagciliaError(_exists_message(path)) from None
+                    raise MagciliaError(exists_message(path)) from None
             else:
                 self._owns_path = True
                 return file
