@@ -27,8 +27,8 @@ BACKENDS = {".png": "matplotlib", ".pdf": "matplotlib", ".svg": "matplotlib", ".
 FIGSIZE = (6.4, 6.0)
 DPI = 120
 #: the static figure's key (magpylib's own legend lists every field pixel)
-CAPTION = ("blue: the cilium (exact body) · red arrow: the sensor's sensitive axis x · arrows: "
-           "B on the x–z slice, coloured by |B|")
+CAPTION = ("blue: the cilium (exact body) · at the origin: the sensor, its arrow the sensitive "
+           "axis x\narrows: B on the x–z slice, coloured by |B|")
 
 
 def backend_of(path: str | os.PathLike[str], option: str = "--out") -> str:
@@ -91,8 +91,8 @@ def write_show(target: Setup | CiliaArray, path: str | os.PathLike[str],
         legend = ax.get_legend()
         if legend is not None:  # one entry per field pixel: a caption says it instead
             legend.remove()
-        fig.text(0.5, 0.02, CAPTION if field else CAPTION.split(" · arrows", maxsplit=1)[0],
-                 ha="center", fontsize="small", wrap=True)
+        fig.text(0.5, 0.02, CAPTION if field else CAPTION.split("\n", maxsplit=1)[0],
+                 ha="center", fontsize="small")
         if title:
             ax.set_title(title)
         with atomic_path(out) as tmp:
